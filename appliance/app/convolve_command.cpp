@@ -1,0 +1,186 @@
+// `glint convolve`: environment map -> irradiance and reflection maps + report.json.
+//
+// Output files appear all together or not at all: every file is first written
+// and fsynced in a staging directory inside DIR, then renamed into place.
+#include <unistd.h>
+
+#include <chrono>
+#include <cmath>
+#include <mutex>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <nlohmann/json.hpp>
+#include <set>
+
+#include "appliance/app/cli_util.hpp"
+#include "appliance/app/commands.hpp"
+#include "appliance/convolution/convolution.hpp"
+#include "appliance/core/atomic_file.hpp"
+#include "appliance/core/errors.hpp"
+#include "appliance/core/exr_io.hpp"
+#include "appliance/core/progress.hpp"
+
+namespace glint::app {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct ConvolveArgs {
+    std::string input;
+    std::string out_dir;
+    bool irradiance = false;
+    std::string shininess;
+    std::string method = "auto";
+    double tolerance = 0.01;
+    std::string size;
+    int sh_order = 0;
+    int threads = 0;
+};
+
+nlohmann::json number_or_null(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); }
+
+nlohmann::json size_json(convolution::Size s) { return {s.width, s.height}; }
+
+int run_convolve(const ConvolveArgs& args) {
+    convolution::Options options;
+    const auto method = convolution::parse_method(args.method);
+    if (!method) throw InputError("--method: '" + args.method + "' is not one of auto, exact, cone, sh, mipmap");
+    options.method = *method;
+    options.tolerance = args.tolerance;
+    if (!(args.tolerance > 0 && args.tolerance < 1))
+        throw InputError("--tolerance: must be in (0, 1), e.g. 0.01 for 1 %");
+    if (!args.size.empty()) options.size = parse_size(args.size, "--size");
+    if (args.threads < 0) throw InputError("--threads: must be at least 1");
+    options.threads = args.threads;
+    if (args.sh_order < 0 || args.sh_order > 1024) throw InputError("--sh-order: must be in [1, 1024]");
+    options.sh_order = args.sh_order;
+
+    std::vector<convolution::MapRequest> maps;
+    if (args.irradiance) maps.push_back(convolution::MapRequest::make_irradiance());
+    if (!args.shininess.empty()) {
+        std::set<double> seen;
+        for (const std::string& item : split_list(args.shininess, "--shininess")) {
+            const double n = parse_number(item, "--shininess");
+            if (n < 0) throw InputError("--shininess: '" + item + "' is negative");
+            if (!seen.insert(n).second) throw InputError("--shininess: '" + item + "' is given twice");
+            maps.push_back(convolution::MapRequest::make_phong(n, item));
+        }
+    }
+    if (maps.empty()) throw InputError("nothing to compute: give --irradiance and/or --shininess");
+
+    const fs::path out_dir(args.out_dir);
+    ensure_writable_directory(out_dir);
+    const LoadedExr loaded = load_exr(args.input);
+    if (loaded.sanitised.total() > 0)
+        std::fprintf(stderr,
+                     "glint: warning: %s: sanitised %zu channel values (NaN %zu, +Inf %zu, -Inf %zu, "
+                     "negative %zu)\n",
+                     args.input.c_str(), loaded.sanitised.total(), loaded.sanitised.nan,
+                     loaded.sanitised.pos_inf, loaded.sanitised.neg_inf, loaded.sanitised.negative);
+
+    // The engine reports rows done and the total; draw from that.
+    std::mutex bar_mutex;
+    std::unique_ptr<ProgressBar> live;
+    long long live_done = 0;
+    options.progress = [&](long long done, long long total) {
+        std::lock_guard lock(bar_mutex);
+        if (!live) live = std::make_unique<ProgressBar>("convolving", total);
+        if (done > live_done) {  // workers may report out of order
+            live->advance(done - live_done);
+            live_done = done;
+        }
+    };
+    const auto start = std::chrono::steady_clock::now();
+    const std::vector<convolution::MapResult> results = convolution::convolve(loaded.image, maps, options);
+    const double total_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    if (live) live->finish();
+
+    nlohmann::json report;
+    report["input"] = {{"path", args.input},
+                       {"size", {loaded.image.width(), loaded.image.height()}},
+                       {"luminance_only", loaded.luminance_only},
+                       {"sanitised", {{"nan", loaded.sanitised.nan},
+                                      {"pos_inf", loaded.sanitised.pos_inf},
+                                      {"neg_inf", loaded.sanitised.neg_inf},
+                                      {"negative", loaded.sanitised.negative}}}};
+    report["tolerance"] = options.tolerance;
+    report["method"] = args.method;
+    report["threads"] = args.threads;
+    report["wall_seconds"] = total_seconds;
+    report["maps"] = nlohmann::json::array();
+    for (const auto& r : results) {
+        const auto& p = r.plan;
+        report["maps"].push_back({
+            {"map", r.request.label},
+            {"file", r.request.label + ".exr"},
+            {"shininess", r.request.shininess},
+            {"method", convolution::to_string(p.method)},
+            {"input_level", p.input_level},
+            {"input_size", size_json(p.input_size)},
+            {"output_size", size_json(p.output_size)},
+            {"cutoff_energy", p.cutoff_energy},
+            {"cutoff_cos", p.cutoff_cos},
+            {"bright_texels", p.bright_texels},
+            {"sh_order", p.sh_order},
+            {"predicted_error", number_or_null(p.predicted_error)},
+            {"predicted_cost", p.predicted_cost},
+            {"wall_seconds", r.seconds},
+            {"shares_with", p.shares_with.empty() ? nlohmann::json() : nlohmann::json(p.shares_with)},
+            {"refined_texels", r.refined_texels},
+            {"clamped_values", r.clamped_texels},
+        });
+    }
+
+    // Stage every file, then move them into place together.
+    const fs::path staging = out_dir / (".glint-staging-" + std::to_string(::getpid()));
+    std::error_code ec;
+    fs::remove_all(staging, ec);
+    if (!fs::create_directory(staging, ec))
+        throw RuntimeError("cannot create " + staging.string() + ": " + ec.message());
+    try {
+        for (const auto& r : results) save_exr(staging / (r.request.label + ".exr"), r.image);
+        write_text_atomically(staging / "report.json", report.dump(2) + "\n");
+        for (const auto& r : results)
+            fs::rename(staging / (r.request.label + ".exr"), out_dir / (r.request.label + ".exr"));
+        fs::rename(staging / "report.json", out_dir / "report.json");
+        fs::remove(staging);
+    } catch (...) {
+        fs::remove_all(staging, ec);
+        throw;
+    }
+
+    for (const auto& r : results) {
+        const auto& p = r.plan;
+        std::printf("%-16s %-6s level %d (%dx%d) -> %dx%d  predicted %.2g  %.3f s%s\n",
+                    r.request.label.c_str(), convolution::to_string(p.method).c_str(), p.input_level,
+                    p.input_size.width, p.input_size.height, p.output_size.width, p.output_size.height,
+                    std::isfinite(p.predicted_error) ? p.predicted_error : -1.0, r.seconds,
+                    p.shares_with.empty() ? "" : (" (same map as " + p.shares_with + ")").c_str());
+    }
+    std::printf("wrote %zu maps and report.json to %s in %.3f s\n", results.size(), out_dir.c_str(),
+                total_seconds);
+    return 0;
+}
+
+}  // namespace
+
+Command add_convolve_command(CLI::App& app) {
+    auto args = std::make_shared<ConvolveArgs>();
+    CLI::App* cmd = app.add_subcommand(
+        "convolve", "Environment map -> irradiance and Phong reflection maps (EXR) and report.json");
+    cmd->add_option("input", args->input, "Equirectangular HDR environment map (OpenEXR)")->required();
+    cmd->add_option("--out", args->out_dir, "Output directory (created if missing)")->required();
+    cmd->add_flag("--irradiance", args->irradiance, "Compute the irradiance map (irradiance.exr)");
+    cmd->add_option("--shininess", args->shininess,
+                    "Comma-separated Phong exponents n >= 0, e.g. 20,60,160 (phong_<n>.exr)");
+    cmd->add_option("--method", args->method, "auto | exact | cone | sh | mipmap (default auto)");
+    cmd->add_option("--tolerance", args->tolerance,
+                    "Target weighted relative RMS error against exact (default 0.01 = 1 %)");
+    cmd->add_option("--size", args->size, "Fix every output map's size, WxH (default: follows the lobe)");
+    cmd->add_option("--sh-order", args->sh_order, "SH bands for --method sh (default: from n and tolerance)");
+    cmd->add_option("--threads", args->threads, "Worker threads (default: all cores)");
+    return {cmd, [args] { return run_convolve(*args); }};
+}
+
+}  // namespace glint::app

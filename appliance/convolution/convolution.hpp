@@ -1,0 +1,75 @@
+// The radiance convolution engine: one API over every method (DESIGN.md,
+// "Radiance convolution"). Input: an equirect HDR map. Output: the irradiance
+// map E_d and the Phong reflection maps E_s^n of spec/conventions.md.
+#pragma once
+
+#include <functional>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "appliance/core/hdr_image.hpp"
+
+namespace glint::convolution {
+
+enum class Method { Auto, Exact, Cone, Sh, Mipmap };
+
+std::string to_string(Method m);
+std::optional<Method> parse_method(const std::string& name);
+
+// One wanted map. The irradiance map is, by the conventions, the n = 1 lobe
+// looked up with the normal; it is its own request so files are named for it.
+struct MapRequest {
+    bool irradiance = false;
+    double shininess = 1.0;  // n >= 0; 1 for the irradiance map
+    std::string label;       // "irradiance" or "phong_<n as given>", the file stem
+
+    static MapRequest make_irradiance();
+    static MapRequest make_phong(double n, const std::string& as_given);
+};
+
+struct Size {
+    int width = 0, height = 0;
+};
+
+struct Options {
+    Method method = Method::Auto;
+    double tolerance = 0.01;       // weighted relative RMS the planner aims at
+    std::optional<Size> size;      // fixes every output map's size
+    int sh_order = 0;              // 0: planner's choice (or the default for --method sh)
+    int threads = 0;               // 0: all hardware threads
+    // Called with (units done, units total) as work completes; may be called from
+    // worker threads. Units are output rows.
+    std::function<void(long long, long long)> progress;
+};
+
+// What was decided for one map, and why it is expected to be within tolerance.
+struct MapPlan {
+    Method method = Method::Exact;
+    int input_level = 0;             // pyramid level read (0 = the input map)
+    Size input_size;                 // size of that level
+    Size output_size;
+    double cutoff_energy = 0;        // lobe energy dropped outside the cone (cone)
+    double cutoff_cos = -1;          // cos of the cut-off angle, -1 = whole sphere
+    int bright_texels = 0;           // input texels summed exactly for every output (cone)
+    int sh_order = 0;                // bands 0..order-1 (sh)
+    double predicted_error = 0;      // predicted weighted relative RMS against exact
+    double predicted_cost = 0;       // predicted multiply-adds
+    std::string shares_with;         // label of an identical map computed once
+};
+
+struct MapResult {
+    MapRequest request;
+    MapPlan plan;
+    HdrImage image;
+    double seconds = 0;              // wall time for this map
+    long long refined_texels = 0;    // cone: texels recomputed with a wider cone
+    long long clamped_texels = 0;    // sh: negative channel values clamped to 0
+};
+
+// Computes every requested map. Throws InputError on an unusable request
+// (negative or non-finite shininess, empty map, bad size or tolerance).
+std::vector<MapResult> convolve(const HdrImage& environment, const std::vector<MapRequest>& maps,
+                                const Options& options);
+
+}  // namespace glint::convolution

@@ -1,0 +1,200 @@
+// convolve(): validates the request, builds what the plans share (prepared
+// levels, the bright split and its pyramid, SH coefficients) once, runs each
+// map's plan and times it.
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <map>
+#include <memory>
+#include <sstream>
+
+#include "appliance/convolution/convolution.hpp"
+#include "appliance/convolution/methods.hpp"
+#include "appliance/convolution/mipmap.hpp"
+#include "appliance/convolution/planner.hpp"
+#include "appliance/convolution/sh.hpp"
+#include "appliance/core/errors.hpp"
+#include "appliance/core/parallel.hpp"
+
+namespace glint::convolution {
+
+std::string to_string(Method m) {
+    switch (m) {
+        case Method::Auto: return "auto";
+        case Method::Exact: return "exact";
+        case Method::Cone: return "cone";
+        case Method::Sh: return "sh";
+        case Method::Mipmap: return "mipmap";
+    }
+    return "unknown";
+}
+
+std::optional<Method> parse_method(const std::string& name) {
+    for (Method m : {Method::Auto, Method::Exact, Method::Cone, Method::Sh, Method::Mipmap})
+        if (to_string(m) == name) return m;
+    return std::nullopt;
+}
+
+MapRequest MapRequest::make_irradiance() { return {true, 1.0, "irradiance"}; }
+
+MapRequest MapRequest::make_phong(double n, const std::string& as_given) {
+    return {false, n, "phong_" + as_given};
+}
+
+namespace {
+
+// Everything derived from the environment map that several maps may share.
+class SharedInputs {
+public:
+    SharedInputs(const HdrImage& env, const PlannerModel& model) : env_(env), model_(model) {}
+
+    const PreparedLevel& full_level() {
+        if (!full_) full_ = std::make_unique<PreparedLevel>(env_);
+        return *full_;
+    }
+    const BrightSplit& bright() {
+        if (!bright_)
+            bright_ = std::make_unique<BrightSplit>(
+                split_bright(env_, model_.bright_contrast, model_.max_bright_texels));
+        return *bright_;
+    }
+    const Pyramid& cone_pyramid() {
+        if (!cone_pyramid_) cone_pyramid_ = std::make_unique<Pyramid>(bright().remainder);
+        return *cone_pyramid_;
+    }
+    const PreparedLevel& cone_level(int k) {
+        auto& slot = cone_levels_[k];
+        if (!slot) slot = std::make_unique<PreparedLevel>(cone_pyramid().level(k));
+        return *slot;
+    }
+    const Pyramid& mip_pyramid() {
+        if (!mip_pyramid_) mip_pyramid_ = std::make_unique<Pyramid>(env_);
+        return *mip_pyramid_;
+    }
+    const ShCoefficients& sh(int order, int threads) {
+        if (!sh_ || sh_->order < order)
+            sh_ = std::make_unique<ShCoefficients>(sh_project(env_, order, threads));
+        return *sh_;
+    }
+    EnvironmentShape shape(bool need_cone, bool need_mip) {
+        EnvironmentShape s;
+        s.input = {env_.width(), env_.height()};
+        s.cone_levels.push_back(s.input);
+        if (need_cone) {
+            s.cone_levels.clear();
+            for (int k = 0; k < cone_pyramid().levels(); ++k)
+                s.cone_levels.push_back({cone_pyramid().level(k).width(), cone_pyramid().level(k).height()});
+        }
+        if (need_mip)
+            for (int k = 0; k < mip_pyramid().levels(); ++k)
+                s.mip_levels.push_back({mip_pyramid().level(k).width(), mip_pyramid().level(k).height()});
+        return s;
+    }
+
+private:
+    const HdrImage& env_;
+    const PlannerModel& model_;
+    std::unique_ptr<PreparedLevel> full_;
+    std::unique_ptr<BrightSplit> bright_;
+    std::unique_ptr<Pyramid> cone_pyramid_;
+    std::map<int, std::unique_ptr<PreparedLevel>> cone_levels_;
+    std::unique_ptr<Pyramid> mip_pyramid_;
+    std::unique_ptr<ShCoefficients> sh_;
+};
+
+void validate(const HdrImage& env, const std::vector<MapRequest>& maps, const Options& options) {
+    if (env.empty()) throw InputError("environment map is empty (0 texels)");
+    if (env.width() < 2 || env.height() < 2)
+        throw InputError("environment map " + std::to_string(env.width()) + "x" +
+                         std::to_string(env.height()) + " is too small (needs at least 2x2)");
+    if (maps.empty()) throw InputError("no maps requested (give --irradiance and/or --shininess)");
+    for (const MapRequest& m : maps)
+        if (!std::isfinite(m.shininess) || m.shininess < 0)
+            throw InputError("shininess of " + m.label + " must be a finite number >= 0");
+    if (!(options.tolerance > 0) || !(options.tolerance < 1))
+        throw InputError("--tolerance must be in (0, 1), e.g. 0.01 for 1 %");
+    if (options.size && (options.size->width < 2 || options.size->height < 2))
+        throw InputError("--size must be at least 2x2");
+    if (options.sh_order < 0 || options.sh_order > 1024)
+        throw InputError("--sh-order must be in [1, 1024]");
+}
+
+}  // namespace
+
+std::vector<MapResult> convolve(const HdrImage& env, const std::vector<MapRequest>& maps,
+                                const Options& options) {
+    validate(env, maps, options);
+    const int threads = options.threads > 0 ? options.threads : hardware_threads();
+    const PlannerModel model;
+    SharedInputs shared(env, model);
+    const bool need_cone = options.method == Method::Auto || options.method == Method::Cone;
+    const EnvironmentShape shape = shared.shape(need_cone, options.method == Method::Mipmap);
+
+    std::vector<MapResult> results;
+    for (const MapRequest& m : maps) results.push_back({m, plan_map(m, options, shape, model), {}, 0, 0, 0});
+
+    long long total_rows = 0;
+    for (const MapResult& r : results) total_rows += r.plan.output_size.height;
+    std::atomic<long long> done_rows{0};
+    const RowProgress progress = [&](long long rows) {
+        const long long d = done_rows.fetch_add(rows) + rows;
+        if (options.progress) options.progress(d, total_rows);
+    };
+
+    for (std::size_t k = 0; k < results.size(); ++k) {
+        MapResult& r = results[k];
+        // Identical lobe, size and plan (irradiance and phong_1): compute once.
+        for (std::size_t e = 0; e < k; ++e) {
+            const MapResult& prev = results[e];
+            if (prev.request.shininess == r.request.shininess && prev.plan.method == r.plan.method &&
+                prev.plan.output_size.width == r.plan.output_size.width &&
+                prev.plan.output_size.height == r.plan.output_size.height &&
+                prev.plan.sh_order == r.plan.sh_order) {
+                r.plan.shares_with = prev.request.label;
+                r.image = prev.image;
+                break;
+            }
+        }
+        if (!r.plan.shares_with.empty()) {
+            progress(r.plan.output_size.height);
+            continue;
+        }
+        const auto start = std::chrono::steady_clock::now();
+        const double n = r.request.shininess;
+        const Size out = r.plan.output_size;
+        switch (r.plan.method) {
+            case Method::Exact:
+                r.image = exact_convolve(shared.full_level(), n, out, threads, progress);
+                break;
+            case Method::Cone: {
+                ConeStats stats;
+                r.plan.bright_texels = int(shared.bright().texels.size());
+                r.image = cone_convolve(shared.cone_level(r.plan.input_level), shared.bright().texels,
+                                        n, out, cone_settings(options.tolerance, model), threads,
+                                        progress, &stats);
+                r.refined_texels = stats.refined_texels;
+                break;
+            }
+            case Method::Sh: {
+                const ShCoefficients& c = shared.sh(r.plan.sh_order, threads);
+                ShCoefficients truncated{r.plan.sh_order,
+                                         std::vector<double>(c.rgb.begin(),
+                                                             c.rgb.begin() + std::ptrdiff_t(r.plan.sh_order) * r.plan.sh_order * 3)};
+                r.image = sh_reconstruct(truncated, phong_sh_kernel(n, r.plan.sh_order), out.width,
+                                         out.height, threads, &r.clamped_texels);
+                progress(out.height);
+                break;
+            }
+            case Method::Mipmap:
+                r.image = mipmap_convolve(shared.mip_pyramid(), r.request.irradiance, n, out.width, out.height);
+                progress(out.height);
+                break;
+            case Method::Auto:
+                throw RuntimeError("internal: a plan must name a concrete method");
+        }
+        r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    }
+    return results;
+}
+
+}  // namespace glint::convolution

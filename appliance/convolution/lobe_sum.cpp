@@ -1,0 +1,237 @@
+// Row-pair kernel for the Phong lobe sums (see lobe_sum.hpp for the derivation).
+#include "appliance/convolution/lobe_sum.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+
+#include "appliance/core/equirect.hpp"
+
+namespace glint::convolution {
+namespace {
+
+// exp(x) is below the smallest normal double (2.2e-308) for x < -708.39.
+constexpr double kLogSmallestNormal = -708.39;
+
+}  // namespace
+
+PreparedLevel::PreparedLevel(const HdrImage& level)
+    : width_(level.width()), height_(level.height()), stride_(3 * std::size_t(level.width())) {
+    cos_t_.resize(std::size_t(height_));
+    sin_t_.resize(std::size_t(height_));
+    omega_ = row_solid_angles(width_, height_);
+    planes_.assign(std::size_t(height_) * 3 * stride_, 0.0f);
+    for (int j = 0; j < height_; ++j) {
+        const double t = row_theta(j, height_);
+        cos_t_[std::size_t(j)] = std::cos(t);
+        sin_t_[std::size_t(j)] = std::sin(t);
+        const float* src = level.row(j);
+        for (int c = 0; c < 3; ++c) {
+            float* dst = planes_.data() + (std::size_t(j) * 3 + std::size_t(c)) * stride_;
+            // [-W, 0) and [W, 2W) repeat the row: wrapped ranges read contiguously.
+            for (int i = 0; i < width_; ++i) {
+                const float v = src[3 * i + c];
+                dst[i] = v;
+                dst[i + width_] = v;
+                dst[i + 2 * width_] = v;
+                max_value_ = std::max(max_value_, v);
+            }
+        }
+    }
+}
+
+LobeSummer::LobeSummer(const PreparedLevel& level, int out_w, int out_h, double shininess)
+    : level_(level), out_w_(out_w), out_h_(out_h), n_(shininess) {
+    const int w = level.width();
+    const int g = std::gcd(w, out_w);
+    classes_ = out_w / g;
+    step_ = w / g;
+    per_class_ = g;
+    base_.resize(std::size_t(classes_));
+    frac_.resize(std::size_t(classes_));
+    for (int p = 0; p < classes_; ++p) {
+        // Output column centre in level column units (level centre i sits at x = i).
+        const double x = (p + 0.5) * double(w) / double(out_w) - 0.5;
+        const double b = std::floor(x);
+        base_[std::size_t(p)] = int(b);
+        frac_[std::size_t(p)] = x - b;
+    }
+    cos_offset_ = w / 2 + 2;
+    cos_stride_ = std::size_t(w) + 2 * std::size_t(cos_offset_);
+    cos_dphi_.resize(std::size_t(classes_) * cos_stride_);
+    for (int p = 0; p < classes_; ++p)
+        for (std::size_t k = 0; k < cos_stride_; ++k) {
+            const double d = double(k) - cos_offset_;
+            cos_dphi_[std::size_t(p) * cos_stride_ + k] = std::cos((d - frac_[std::size_t(p)]) * kTwoPi / w);
+        }
+    if (n_ == std::floor(n_) && n_ <= double(1LL << 40)) integer_n_ = (long long)n_;
+    out_cos_t_.resize(std::size_t(out_h));
+    out_sin_t_.resize(std::size_t(out_h));
+    for (int j = 0; j < out_h; ++j) {
+        out_cos_t_[std::size_t(j)] = std::cos(row_theta(j, out_h));
+        out_sin_t_[std::size_t(j)] = std::sin(row_theta(j, out_h));
+    }
+}
+
+LobeSums LobeSummer::make_sums() const {
+    LobeSums s;
+    s.out_w = out_w_;
+    s.out_h = out_h_;
+    s.classes = classes_;
+    s.num.assign(std::size_t(out_w_) * std::size_t(out_h_) * 3, 0.0);
+    s.den.assign(std::size_t(classes_) * std::size_t(out_h_), 0.0);
+    s.cmax.assign(std::size_t(classes_) * std::size_t(out_h_), 0.0);
+    return s;
+}
+
+double LobeSummer::cmax(int out_row, int cls) const {
+    const double f = frac_[std::size_t(cls)];
+    const double nearest = kTwoPi / level_.width() * std::min(f, 1.0 - f);
+    const double cn = std::cos(nearest);
+    const double ctr = out_cos_t_[std::size_t(out_row)];
+    const double str = out_sin_t_[std::size_t(out_row)];
+    double best = -1.0;
+    for (int j = 0; j < level_.height(); ++j)
+        best = std::max(best, str * level_.sin_theta(j) * cn + ctr * level_.cos_theta(j));
+    return best;
+}
+
+double LobeSummer::underflow_cos(double cmax_value) const {
+    if (n_ <= 0) return 0.0;
+    return cmax_value * std::exp(kLogSmallestNormal / n_);
+}
+
+void LobeSummer::weights(int cls, int d_lo, int count, double a, double b, double inv_cmax,
+                         double* w) const {
+    const double* cs = cos_dphi_.data() + std::size_t(cls) * cos_stride_ + std::size_t(d_lo + cos_offset_);
+    // Ratio to the largest cosine; conventions: only r.w > 0 counts, also for n = 0.
+    for (int d = 0; d < count; ++d) {
+        const double c = a * cs[d] + b;
+        w[d] = c > 0 ? c * inv_cmax : 0.0;
+    }
+    if (integer_n_ < 0) {
+        for (int d = 0; d < count; ++d) w[d] = w[d] > 0 ? std::pow(w[d], n_) : 0.0;
+        return;
+    }
+    if (integer_n_ == 0) {
+        for (int d = 0; d < count; ++d) w[d] = w[d] > 0 ? 1.0 : 0.0;
+        return;
+    }
+    // x^n by binary exponentiation, one pass per bit so each pass vectorises;
+    // relative error ~ 2 log2(n) ulp.
+    thread_local std::vector<double> base;
+    base.assign(w, w + count);
+    bool first = true;
+    for (long long e = integer_n_; e > 0; e >>= 1) {
+        if (e & 1) {
+            if (first) {
+                std::copy(base.begin(), base.end(), w);
+                first = false;
+            } else {
+                double* bp = base.data();
+#pragma omp simd
+                for (int d = 0; d < count; ++d) w[d] *= bp[d];
+            }
+        }
+        if (e > 1) {
+            double* bp = base.data();
+#pragma omp simd
+            for (int d = 0; d < count; ++d) bp[d] *= bp[d];
+        }
+    }
+}
+
+void LobeSummer::sum_row(int out_row, double c_min, LobeSums& sums) const {
+    const int w = level_.width();
+    const int h = level_.height();
+    const double ctr = out_cos_t_[std::size_t(out_row)];
+    const double str = out_sin_t_[std::size_t(out_row)];
+    const double theta_r = row_theta(out_row, out_h_);
+    const double col_per_rad = w / kTwoPi;
+    std::vector<double> wbuf(std::size_t(w) + 2);
+    std::vector<double> acc(std::size_t(per_class_) * 3);
+
+    for (int cls = 0; cls < classes_; ++cls) {
+        const double cm = cmax(out_row, cls);
+        const double inv_cm = 1.0 / cm;
+        const double lo = std::max(c_min, underflow_cos(cm));
+        const double f = frac_[std::size_t(cls)];
+        std::fill(acc.begin(), acc.end(), 0.0);
+        double den = 0;
+
+        // Rows whose best cosine cos(theta_r - theta_k) can reach `lo`.
+        const double reach = std::acos(std::clamp(lo, -1.0, 1.0));
+        const int j0 = std::max(0, int(std::floor((theta_r - reach) / kPi * h - 0.5)) - 1);
+        const int j1 = std::min(h - 1, int(std::ceil((theta_r + reach) / kPi * h - 0.5)) + 1);
+        for (int jk = j0; jk <= j1; ++jk) {
+            const double a = str * level_.sin_theta(jk);
+            const double b = ctr * level_.cos_theta(jk);
+            int d_lo, count;
+            const double q = a > 1e-300 ? (lo - b) / a : (b >= lo ? -2.0 : 2.0);
+            if (q > 1.0) continue;
+            if (q <= -1.0) {
+                d_lo = int(std::ceil(f - 0.5 * w));
+                count = w;
+            } else {
+                const double half = std::acos(q) * col_per_rad;
+                d_lo = int(std::ceil(f - half));
+                count = std::min(w, int(std::floor(f + half)) - d_lo + 1);
+                if (count <= 0) continue;
+            }
+            // Weights depend on the column offset only (shared by the class).
+            weights(cls, d_lo, count, a, b, inv_cm, wbuf.data());
+            double wsum = 0;
+            for (int d = 0; d < count; ++d) wsum += wbuf[std::size_t(d)];
+            if (wsum == 0) continue;
+            const double omega = level_.solid_angle(jk);
+            den += omega * wsum;
+            const float* pr = level_.plane(jk, 0);
+            const float* pg = level_.plane(jk, 1);
+            const float* pb = level_.plane(jk, 2);
+            const double* wt = wbuf.data();
+            for (int q_idx = 0; q_idx < per_class_; ++q_idx) {
+                int start = (base_[std::size_t(cls)] + q_idx * step_ + d_lo) % w;
+                if (start < 0) start += w;
+                const float* r = pr + start;
+                const float* g = pg + start;
+                const float* bb = pb + start;
+                double sr = 0, sg = 0, sb = 0;
+#pragma omp simd reduction(+ : sr, sg, sb)
+                for (int d = 0; d < count; ++d) {
+                    sr += wt[d] * double(r[d]);
+                    sg += wt[d] * double(g[d]);
+                    sb += wt[d] * double(bb[d]);
+                }
+                double* o = acc.data() + 3 * q_idx;
+                o[0] += omega * sr;
+                o[1] += omega * sg;
+                o[2] += omega * sb;
+            }
+        }
+        const std::size_t rc = std::size_t(out_row) * std::size_t(classes_) + std::size_t(cls);
+        sums.den[rc] = den;
+        sums.cmax[rc] = cm;
+        for (int q_idx = 0; q_idx < per_class_; ++q_idx) {
+            const int col = q_idx * classes_ + cls;
+            double* o = sums.num.data() + (std::size_t(out_row) * std::size_t(out_w_) + std::size_t(col)) * 3;
+            for (int c = 0; c < 3; ++c) o[c] = acc[3 * std::size_t(q_idx) + std::size_t(c)];
+        }
+    }
+}
+
+HdrImage finish_sums(const LobeSums& sums) {
+    HdrImage out(sums.out_w, sums.out_h);
+    for (int j = 0; j < sums.out_h; ++j) {
+        float* row = out.row(j);
+        for (int i = 0; i < sums.out_w; ++i) {
+            const double den = sums.den[std::size_t(j) * std::size_t(sums.classes) +
+                                        std::size_t(sums.class_of(i))];
+            const double* num = sums.num.data() + (std::size_t(j) * std::size_t(sums.out_w) + std::size_t(i)) * 3;
+            for (int c = 0; c < 3; ++c)
+                row[3 * i + c] = den > 0 ? float(std::max(0.0, num[c] / den)) : 0.0f;
+        }
+    }
+    return out;
+}
+
+}  // namespace glint::convolution

@@ -1,0 +1,106 @@
+// The shared inner loop of the exact and cone methods: for every output texel r
+// of an equirect grid, the sums of the conventions
+//
+//   num(r) = sum_k w_k(r) L_k dOmega_k,   den(r) = sum_k w_k(r) dOmega_k,
+//   w_k(r) = (max(0, r.w_k) / cmax(r))^n
+//
+// over the texels k of one input level whose cosine r.w_k is at least a cut-off
+// c_min (c_min = 0 keeps every non-zero term). Dividing by cmax(r), the largest
+// cosine between r and any texel centre of the level, makes the largest weight
+// ~1 so the weights never underflow to 0/0 (n = 20480 on an 8x4 map works).
+//
+// Why it is fast without approximation: on an equirect grid the cosine between
+// an output texel centre and an input texel centre is
+//     r.w = sin(tr) sin(tk) cos(phi_k - phi_r) + cos(tr) cos(tk),
+// which for a fixed (output row, input row) depends only on the column offset.
+// Output columns fall into C = W'/gcd(W, W') phase classes; within a class the
+// weight vector over column offsets is the same for every output column, so it
+// is computed once and the work left is pure multiply-adds. Rows are bounded by
+// the cut-off cone analytically (per input row, |dphi| <= acos((c_min - b)/a)),
+// which is exact at both poles (a -> 0) and across the seam (indices wrap).
+#pragma once
+
+#include <functional>
+#include <vector>
+
+#include "appliance/core/hdr_image.hpp"
+
+namespace glint::convolution {
+
+// An input level laid out for the kernel: channel planes padded by one period on
+// each side so that wrapped column ranges are contiguous.
+class PreparedLevel {
+public:
+    explicit PreparedLevel(const HdrImage& level);
+    int width() const { return width_; }
+    int height() const { return height_; }
+    double cos_theta(int j) const { return cos_t_[std::size_t(j)]; }
+    double sin_theta(int j) const { return sin_t_[std::size_t(j)]; }
+    double solid_angle(int j) const { return omega_[std::size_t(j)]; }
+    // Channel c of row j; valid for column indices in [-width, 2*width).
+    const float* plane(int j, int c) const {
+        return planes_.data() + (std::size_t(j) * 3 + std::size_t(c)) * stride_ + std::size_t(width_);
+    }
+    float max_value() const { return max_value_; }
+
+private:
+    int width_, height_;
+    std::size_t stride_;
+    std::vector<double> cos_t_, sin_t_, omega_;
+    std::vector<float> planes_;
+    float max_value_ = 0;
+};
+
+// Per-texel partial sums for an output grid of out_w x out_h.
+struct LobeSums {
+    int out_w = 0, out_h = 0, classes = 0;
+    std::vector<double> num;   // 3 per output texel
+    std::vector<double> den;   // per (output row, class)
+    std::vector<double> cmax;  // per (output row, class)
+    int class_of(int column) const { return column % classes; }
+};
+
+class LobeSummer {
+public:
+    LobeSummer(const PreparedLevel& level, int out_w, int out_h, double shininess);
+
+    // Fills sums for the given output rows; c_min(row) is the cosine cut-off for
+    // that output row (0 = every non-zero term). Thread-safe across rows.
+    void sum_row(int out_row, double c_min, LobeSums& sums) const;
+    LobeSums make_sums() const;
+
+    // Largest cosine between the direction of output texel (row, class) and any
+    // texel centre of the level.
+    double cmax(int out_row, int cls) const;
+    // Cosine below which a weight relative to the largest is under the smallest
+    // normal double (2.2e-308): such terms cannot change a double sum.
+    double underflow_cos(double cmax_value) const;
+
+    int classes() const { return classes_; }
+    double shininess() const { return n_; }
+
+private:
+    // Fills w[0..count) with the weights of cosines a * cos(dphi_d) + b, where
+    // dphi_d is the azimuth offset of column d_lo + d in class cls.
+    void weights(int cls, int d_lo, int count, double a, double b, double inv_cmax, double* w) const;
+
+    const PreparedLevel& level_;
+    int out_w_, out_h_;
+    double n_;
+    int classes_, step_, per_class_;
+    std::vector<int> base_;          // per class: level column at or left of the output centre
+    std::vector<double> frac_;       // per class: offset of the output centre from base, in columns
+    std::vector<double> out_cos_t_, out_sin_t_;
+    // cos(dphi) per class for column offsets d in [-offset_, width + offset_).
+    std::vector<double> cos_dphi_;
+    int cos_offset_ = 0;
+    std::size_t cos_stride_ = 0;
+    // n as an integer when it is one (weights by repeated squaring, which
+    // vectorises), else -1 (std::pow).
+    long long integer_n_ = -1;
+};
+
+// Output = num / den per texel (as float).
+HdrImage finish_sums(const LobeSums& sums);
+
+}  // namespace glint::convolution

@@ -1,0 +1,61 @@
+// The individual convolution methods behind convolve() (convolution.hpp).
+// Each computes one map; the planner (planner.hpp) decides which runs and how.
+#pragma once
+
+#include <functional>
+#include <memory>
+#include <vector>
+
+#include "appliance/convolution/convolution.hpp"
+#include "appliance/convolution/lobe_sum.hpp"
+#include "appliance/core/hdr_image.hpp"
+
+namespace glint::convolution {
+
+using RowProgress = std::function<void(long long rows)>;
+
+// `exact`: the sums of the conventions over every input texel (the paper's
+// method), double accumulation, all cores. Skips only terms that are zero
+// (r.w <= 0) or whose weight relative to the largest is below the smallest
+// normal double, which cannot change a double sum.
+HdrImage exact_convolve(const PreparedLevel& input, double shininess, Size out, int threads,
+                        const RowProgress& progress);
+
+// The few brightest input texels, taken out of the map and summed exactly at
+// full resolution for every output texel. Without this, a cut-off by lobe
+// energy alone cannot bound the error of a dark texel next to a sun, and a
+// coarse pyramid level would move the sun to the centre of its coarse texel.
+struct BrightTexel {
+    double x = 0, y = 0, z = 0;  // direction
+    double theta = 0, phi = 0;
+    double r = 0, g = 0, b = 0;  // radiance * solid angle
+};
+struct BrightSplit {
+    std::vector<BrightTexel> texels;
+    HdrImage remainder;          // the input with those texels set to 0
+    double threshold = 0;        // max channel above which a texel counted as bright
+};
+// Texels whose largest channel exceeds `contrast` times the solid-angle mean of
+// the map, brightest first, at most max_count of them.
+BrightSplit split_bright(const HdrImage& input, double contrast, int max_count);
+
+struct ConeSettings {
+    double cutoff_energy = 1e-2;  // lobe energy dropped outside the first cone
+    double texel_tolerance = 1e-2;  // bound on the cut-off error of each output texel
+    double bright_tolerance = 1e-4; // relative size of a bright texel's term that may be dropped
+};
+struct ConeStats {
+    long long refined_rows = 0;
+    long long refined_texels = 0;
+};
+
+// `cone`: the lobe sum restricted to the cut-off cone cos t = e^(1/(n+1)) on a
+// (solid-angle weighted) pyramid level of the remainder, plus the bright texels
+// exactly. After a first pass, each output row whose texels' error bound
+//   |E - E'| <= e * max(Lmax - E', E')   (e: lobe energy outside the cone)
+// exceeds texel_tolerance * E' is summed again with the cone that meets it.
+HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel>& bright,
+                       double shininess, Size out, const ConeSettings& settings, int threads,
+                       const RowProgress& progress, ConeStats* stats);
+
+}  // namespace glint::convolution

@@ -1,0 +1,42 @@
+// The thesis' MIP-mapping baseline (§4.2) on an equirect map, and the solid-angle pyramid it reads.
+#pragma once
+
+#include <vector>
+
+#include "appliance/core/hdr_image.hpp"
+
+namespace glint::convolution {
+
+// Solid-angle-weighted 2x2 box pyramid of an equirect map: a texel of level k+1
+// is sum(L * dOmega) / sum(dOmega) over its 4 children in level k, with dOmega
+// exact per row of level k. A coarse texel's solid angle is exactly the sum of
+// its children's, so every level holds the same total sum(L * dOmega) as the
+// input (a plain 2x2 average would not: it overweights the polar rows).
+// Halving stops when the width or the height of a level is odd (which includes
+// a height of 1): 300x200 -> 150x100 -> 75x50, 1024x512 -> ... -> 2x1.
+class Pyramid {
+public:
+    explicit Pyramid(HdrImage level0);  // throws InputError on an empty image
+    int levels() const { return int(levels_.size()); }
+    const HdrImage& level(int k) const;  // 0 = the input; throws std::out_of_range
+
+private:
+    std::vector<HdrImage> levels_;
+};
+
+// Thesis eq. 4.1-4.3 with the equirect height (the polar resolution) as N:
+//   l_max = log2(H), l_irrad = l_max - 2, l_rad(s) = l_max - log2(min(max(s/2, 4), H)),
+// i.e. the level whose height is min(max(s/2, 4), H) rows (4 rows for irradiance).
+// Returned unclamped and fractional; it is negative for the irradiance level of
+// maps less than 4 rows high.
+double mipmap_level(int input_height, bool irradiance, double shininess);
+
+// Reads the pyramid at mipmap_level(), clamped to the levels it has, at the
+// direction of each output texel centre with sample_bilinear(); a fractional
+// level blends the lookups of the two neighbouring levels linearly, as
+// textureLod with trilinear filtering does. Throws InputError for a negative or
+// NaN shininess (irradiance ignores it) or an empty output size.
+HdrImage mipmap_convolve(const Pyramid& pyramid, bool irradiance, double shininess, int out_width,
+                         int out_height);
+
+}  // namespace glint::convolution

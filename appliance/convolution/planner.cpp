@@ -1,0 +1,140 @@
+// Error and cost models behind `auto`, and the per-method plans.
+#include "appliance/convolution/planner.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+
+#include "appliance/convolution/sh.hpp"
+#include "appliance/core/equirect.hpp"
+
+namespace glint::convolution {
+namespace {
+
+
+double texel_spacing(Size s) { return kPi / s.height; }
+
+long long texels(Size s) { return (long long)s.width * s.height; }
+
+// Multiply-adds of a lobe sum: output texels x input texels inside the cone.
+double lobe_cost(Size out, Size level, double cut_cos) {
+    const double cap = kTwoPi * (1.0 - std::max(0.0, cut_cos));  // solid angle of the cone
+    const double per_texel = 4.0 * kPi / double(texels(level));
+    return double(texels(out)) * std::max(1.0, cap / per_texel);
+}
+
+}  // namespace
+
+double lobe_width(double n) { return n <= 1.0 ? 1.0 : 1.0 / std::sqrt(n); }
+
+Size lobe_output_size(double n, double tolerance, Size input, const PlannerModel& model) {
+    const double sigma = lobe_width(n);
+    const double h = sigma * std::sqrt(model.output_share * tolerance / model.output_error_coefficient);
+    int height = int(std::ceil(kPi / h));
+    height = std::clamp(height + (height & 1), 4, input.height);
+    return {std::min(2 * height, std::max(input.width, 2 * height)), height};
+}
+
+ConeSettings cone_settings(double tolerance, const PlannerModel& model) {
+    ConeSettings s;
+    s.cutoff_energy = model.first_cut_energy * tolerance;
+    s.texel_tolerance = model.texel_cut_share * tolerance;
+    s.bright_tolerance = 1e-3 * tolerance;
+    return s;
+}
+
+int sh_order_for(double n, double tolerance) {
+    const std::vector<double> k = phong_sh_kernel(n, kMaxShOrder);
+    // Smallest order after which every kernel coefficient stays below tau / 100.
+    int order = kMaxShOrder;
+    for (int l = kMaxShOrder - 1; l >= 0; --l) {
+        if (std::abs(k[std::size_t(l)]) >= tolerance * 1e-2) break;
+        order = l;
+    }
+    return std::max(order, 1);
+}
+
+MapPlan plan_map(const MapRequest& request, const Options& options, const EnvironmentShape& env,
+                 const PlannerModel& model) {
+    const double n = request.shininess;
+    const double tau = options.tolerance;
+    MapPlan plan;
+    plan.output_size = options.size ? *options.size : lobe_output_size(n, tau, env.input, model);
+    const Size out = plan.output_size;
+    // Error of bilinear lookups into a map sized by the lobe; a fixed size is
+    // the reference's own grid, so it adds nothing to the comparison.
+    double output_error = 0;
+    if (!options.size) {
+        const double h = texel_spacing(out);
+        output_error = model.output_error_coefficient * h * h * std::max(n, 1.0);
+    }
+    plan.predicted_error = output_error;
+
+    const auto plan_exact = [&] {
+        plan.method = Method::Exact;
+        plan.predicted_error = output_error;
+        plan.input_level = 0;
+        plan.input_size = env.input;
+        plan.cutoff_cos = 0.0;
+        plan.predicted_cost = lobe_cost(out, env.input, 0.0);
+    };
+    const ConeSettings cone = cone_settings(tau, model);
+    const double cut_cos = std::pow(cone.cutoff_energy, 1.0 / (n + 1.0));
+    const auto plan_cone = [&] {
+        // Coarsest level whose predicted error fits the level share of tau.
+        int level = 0;
+        double level_error = 0;
+        for (int k = 1; k < int(env.cone_levels.size()); ++k) {
+            const double h = texel_spacing(env.cone_levels[std::size_t(k)]);
+            const double e = model.level_error_coefficient * h * h * std::max(n, 1.0);
+            if (e > model.level_share * tau) break;
+            level = k;
+            level_error = e;
+        }
+        plan.method = Method::Cone;
+        plan.input_level = level;
+        plan.input_size = env.cone_levels[std::size_t(level)];
+        plan.cutoff_energy = cone.cutoff_energy;
+        plan.cutoff_cos = cut_cos;
+        plan.predicted_error = output_error + level_error + cone.cutoff_energy;
+        plan.predicted_cost = lobe_cost(out, plan.input_size, cut_cos);
+    };
+
+    switch (options.method) {
+        case Method::Exact:
+            plan_exact();
+            break;
+        case Method::Cone:
+            plan_cone();
+            break;
+        case Method::Mipmap: {
+            plan.method = Method::Mipmap;
+            plan.input_size = env.input;
+            plan.predicted_error = std::numeric_limits<double>::quiet_NaN();  // no error model
+            plan.predicted_cost = double(texels(out)) * 8.0;
+            break;
+        }
+        case Method::Sh: {
+            plan.method = Method::Sh;
+            plan.input_size = env.input;
+            plan.sh_order = options.sh_order > 0 ? options.sh_order : sh_order_for(n, tau);
+            const std::vector<double> k = phong_sh_kernel(n, plan.sh_order + 1);
+            plan.predicted_error += std::abs(k[std::size_t(plan.sh_order)]);  // first dropped band
+            const double order = plan.sh_order;
+            plan.predicted_cost = double(texels(env.input)) * order * 3.0 +
+                                  double(texels(out)) * order * 2.0 + order * order * out.height;
+            break;
+        }
+        case Method::Auto: {
+            plan_cone();
+            const MapPlan cone_plan = plan;
+            plan_exact();
+            // The exact sum wins only on maps too small for a pyramid to help.
+            if (cone_plan.predicted_cost < plan.predicted_cost) plan = cone_plan;
+            break;
+        }
+    }
+    return plan;
+}
+
+}  // namespace glint::convolution

@@ -1,0 +1,106 @@
+// Real spherical harmonics: basis, separable projection of an equirect map, Phong kernel, reconstruction.
+//
+// Angles are those of spec/conventions.md: theta = polar angle from +Y, phi = the equirect azimuth, so
+//   d = ( sin(theta) sin(phi), cos(theta), -sin(theta) cos(phi) ).
+// Real orthonormal SH, index l*(l+1)+m, no Condon-Shortley phase:
+//   Y_l0    =       \bar P_l0(cos theta)
+//   Y_lm    = sqrt2 \bar P_lm(cos theta) cos(m phi)      m > 0
+//   Y_l,-m  = sqrt2 \bar P_lm(cos theta) sin(m phi)      m > 0
+// with \bar P_lm = N_lm P_lm, N_lm = sqrt((2l+1)/(4 pi) (l-m)!/(l+m)!), P_lm = (1-x^2)^(m/2) d^m/dx^m P_l.
+// In this basis Y_1,-1 = sqrt(3/(4 pi)) x, Y_10 = sqrt(3/(4 pi)) y, Y_11 = -sqrt(3/(4 pi)) z.
+// "order" is the number of bands (l = 0..order-1), as in the thesis; order*order coefficients.
+#pragma once
+
+#include <span>
+#include <vector>
+
+#include "appliance/core/equirect.hpp"
+#include "appliance/core/hdr_image.hpp"
+
+namespace glint::convolution {
+
+// Largest order accepted (bands 0..kMaxShOrder-1); the recurrences are tested to order 512.
+inline constexpr int kMaxShOrder = 2048;
+
+// Row weights of the projection quadrature.
+//   TexelSolidAngle: the exact row solid angle of the conventions, the weights of the exact engine.
+//   Fejer: Fejer's first rule in x = cos(theta) at the row centres, exact for band-limited input.
+enum class ShQuadrature { TexelSolidAngle, Fejer };
+
+struct ShCoefficients {
+    int order = 0;
+    std::vector<double> rgb;  // order*order*3, index (l*(l+1)+m)*3 + channel
+
+    double& at(int l, int m, int channel) { return rgb[std::size_t((l * (l + 1) + m) * 3 + channel)]; }
+    double at(int l, int m, int channel) const { return rgb[std::size_t((l * (l + 1) + m) * 3 + channel)]; }
+};
+
+// Packed index of \bar P_lm (0 <= m <= l) in the output of ShLegendre::evaluate.
+inline int legendre_index(int l, int m) { return l * (l + 1) / 2 + m; }
+
+// Fully normalised associated Legendre functions \bar P_lm(cos theta) for 0 <= m <= l < order by the
+// standard stable recurrences (no factorials; Holmes & Featherstone 2002, J. Geodesy 76):
+//   \bar P_00     = 1 / sqrt(4 pi)
+//   \bar P_mm     = sqrt((2m+1)/(2m)) sin(theta) \bar P_m-1,m-1
+//   \bar P_m+1,m  = sqrt(2m+3) cos(theta) \bar P_mm
+//   \bar P_lm     = a_lm (cos(theta) \bar P_l-1,m - b_lm \bar P_l-2,m),
+//   a_lm = sqrt((4l^2-1)/(l^2-m^2)),  b_lm = sqrt(((l-1)^2-m^2)/(4(l-1)^2-1)).
+// The coefficients are computed once per order. A diagonal value that falls below kDiagonalFloor (only
+// near the poles, where sin^m underflows) is set to 0 with every higher m: those functions are below
+// 1e-120 there for l < 512, and subnormal arithmetic is avoided.
+class ShLegendre {
+public:
+    static constexpr double kDiagonalFloor = 1e-280;
+
+    explicit ShLegendre(int order);  // throws InputError unless 1 <= order <= kMaxShOrder
+    int order() const { return order_; }
+
+    // \bar P_mm(cos theta) for m in [0, order), given s = sin(theta) >= 0.
+    void diagonal(double s, double* out) const;
+    // Column m: out[l - m] = \bar P_lm(x) for l in [m, order), given x = cos(theta) and \bar P_mm.
+    void column(int m, double x, double pmm, double* out) const;
+    // All values, out[legendre_index(l, m)], order*(order+1)/2 of them.
+    void evaluate(double x, double s, double* out) const;
+
+private:
+    int order_;
+    std::vector<double> diag_;  // sqrt((2m+1)/(2m)) for m >= 1
+    std::vector<double> a_;     // a_lm at column_offset(m) + l - m, for l >= m + 2
+    std::vector<double> b_;
+    std::size_t column_offset(int m) const { return std::size_t(m) * std::size_t(order_) - std::size_t(m) * std::size_t(m - 1) / 2; }
+};
+
+// The order*order basis values Y_lm(d) at index l*(l+1)+m. d need not be normalised; throws InputError
+// if it is zero or not finite. The second form reuses the recurrence coefficients of legendre.order().
+void sh_basis(int order, const Vec3& d, double* out);
+void sh_basis(const ShLegendre& legendre, const Vec3& d, double* out);
+
+// Per-row weights of Fejer's first rule in x = cos(theta) at theta_j = (j + 0.5) pi / H; they sum to 2.
+std::vector<double> fejer_weights(int height);
+
+// Solid-angle weight of one texel of row j (all texels of a row share it) under quadrature q.
+std::vector<double> sh_row_weights(int width, int height, ShQuadrature q);
+
+// c_lm = sum_texels w_row L Y_lm, separably: per row the azimuthal Fourier sums, then the Legendre
+// recurrence. Rows are summed in row order with compensated sums, so the result does not depend on
+// `threads` (<= 0: all hardware threads). Throws InputError on an empty map or a bad order.
+ShCoefficients sh_project(const HdrImage& env, int order, int threads,
+                          ShQuadrature q = ShQuadrature::TexelSolidAngle);
+// The same for radiance in double, interleaved RGB, row 0 at the top (width*height*3 values).
+ShCoefficients sh_project(std::span<const double> rgb, int width, int height, int order, int threads,
+                          ShQuadrature q = ShQuadrature::TexelSolidAngle);
+
+// Per band l: Lambda_l rho_l of thesis eq. 2.33 for the normalised Phong lobe (n+1)/(2 pi) max(0, cos)^n,
+// i.e. (n+1) int_0^1 x^n P_l(x) dx. Throws InputError for n < 0, non-finite n or order < 1.
+std::vector<double> phong_sh_kernel(double n, int order);
+
+// E(r) = sum_lm kernel[l] c_lm Y_lm(r) at every texel centre of a width x height equirect map, in double,
+// interleaved RGB, not clamped. kernel needs c.order entries. threads <= 0: all hardware threads.
+std::vector<double> sh_evaluate(const ShCoefficients& c, const std::vector<double>& kernel, int width,
+                                int height, int threads);
+
+// sh_evaluate as an image: negative channel values are clamped to 0 and counted in *clamped.
+HdrImage sh_reconstruct(const ShCoefficients& c, const std::vector<double>& kernel, int width, int height,
+                        int threads, long long* clamped = nullptr);
+
+}  // namespace glint::convolution

@@ -1,0 +1,102 @@
+// OpenEXR I/O. Every OpenEXR exception becomes an InputError that names the file.
+#include "appliance/core/exr_io.hpp"
+
+#include <ImfChannelList.h>
+#include <ImfFrameBuffer.h>
+#include <ImfHeader.h>
+#include <ImfInputFile.h>
+#include <ImfOutputFile.h>
+#include <ImfThreading.h>
+
+#include <limits>
+#include <string>
+
+#include "appliance/core/atomic_file.hpp"
+#include "appliance/core/errors.hpp"
+
+namespace glint {
+namespace {
+
+// Guards against absurd headers before we allocate: 1 Gi texels is far beyond any
+// environment map the appliance will see.
+constexpr long long kMaxTexels = 1LL << 30;
+
+}  // namespace
+
+LoadedExr load_exr(const std::filesystem::path& path) {
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(path, ec))
+        throw InputError("input " + path.string() + " does not exist or is not a file");
+    LoadedExr out;
+    try {
+        Imf::InputFile file(path.c_str());
+        const Imath::Box2i dw = file.header().dataWindow();
+        const long long w = (long long)dw.max.x - dw.min.x + 1;
+        const long long h = (long long)dw.max.y - dw.min.y + 1;
+        if (w <= 0 || h <= 0 || w * h > kMaxTexels)
+            throw InputError("input " + path.string() + " has an unusable size " +
+                             std::to_string(w) + "x" + std::to_string(h));
+        const Imf::ChannelList& channels = file.header().channels();
+        const bool rgb = channels.findChannel("R") && channels.findChannel("G") &&
+                         channels.findChannel("B");
+        const bool y = channels.findChannel("Y") != nullptr;
+        if (!rgb && !y)
+            throw InputError("input " + path.string() +
+                             " has neither R, G, B nor Y channels");
+        out.luminance_only = !rgb;
+        out.image = HdrImage(int(w), int(h));
+        float* base = out.image.data().data();
+        // Slices address the data window from its origin; x/y strides in bytes.
+        const std::size_t xs = 3 * sizeof(float);
+        const std::size_t ys = xs * std::size_t(w);
+        char* origin = reinterpret_cast<char*>(base) - std::ptrdiff_t(dw.min.x) * std::ptrdiff_t(xs) -
+                       std::ptrdiff_t(dw.min.y) * std::ptrdiff_t(ys);
+        Imf::FrameBuffer fb;
+        const char* names[3] = {"R", "G", "B"};
+        // A frame buffer holds one slice per channel name, so Y is read into R
+        // and copied to G and B afterwards.
+        for (int c = 0; c < (rgb ? 3 : 1); ++c)
+            fb.insert(rgb ? names[c] : "Y",
+                      Imf::Slice(Imf::FLOAT, origin + c * sizeof(float), xs, ys, 1, 1, 0.0));
+        file.setFrameBuffer(fb);
+        if (!file.isComplete())
+            throw InputError("input " + path.string() + " is truncated (missing scanlines)");
+        file.readPixels(dw.min.y, dw.max.y);
+        if (!rgb)
+            for (std::size_t k = 0; k < out.image.data().size(); k += 3)
+                base[k + 1] = base[k + 2] = base[k];
+    } catch (const InputError&) {
+        throw;
+    } catch (const std::exception& e) {
+        throw InputError("input " + path.string() + " is not a readable OpenEXR file: " +
+                         e.what());
+    }
+    out.sanitised = sanitise(out.image);
+    return out;
+}
+
+void save_exr(const std::filesystem::path& path, const HdrImage& image) {
+    if (image.empty()) throw RuntimeError("refusing to save an empty image to " + path.string());
+    write_file_atomically(path, [&](const std::filesystem::path& tmp) {
+        try {
+            Imf::Header header(image.width(), image.height());
+            header.compression() = Imf::ZIP_COMPRESSION;
+            for (const char* name : {"R", "G", "B"})
+                header.channels().insert(name, Imf::Channel(Imf::FLOAT));
+            Imf::OutputFile file(tmp.c_str(), header);
+            Imf::FrameBuffer fb;
+            char* base = const_cast<char*>(reinterpret_cast<const char*>(image.data().data()));
+            const std::size_t xs = 3 * sizeof(float);
+            const std::size_t ys = xs * std::size_t(image.width());
+            const char* names[3] = {"R", "G", "B"};
+            for (int c = 0; c < 3; ++c)
+                fb.insert(names[c], Imf::Slice(Imf::FLOAT, base + c * sizeof(float), xs, ys));
+            file.setFrameBuffer(fb);
+            file.writePixels(image.height());
+        } catch (const std::exception& e) {
+            throw RuntimeError("cannot write " + path.string() + ": " + e.what());
+        }
+    });
+}
+
+}  // namespace glint

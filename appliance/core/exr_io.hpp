@@ -1,0 +1,25 @@
+// OpenEXR load and save in the conventions of spec/conventions.md.
+#pragma once
+
+#include <filesystem>
+
+#include "appliance/core/hdr_image.hpp"
+
+namespace glint {
+
+struct LoadedExr {
+    HdrImage image;
+    SanitiseCounts sanitised;  // what the loader changed (NaN, Inf, negatives)
+    bool luminance_only = false;  // the file had a Y channel and no R, G, B
+};
+
+// Loads R, G, B (HALF, FLOAT or UINT; any channel order) or, failing that, Y
+// copied to all three. Scanline or tiled files; the data window is the image.
+// Sanitises the texels and reports the counts. Throws InputError naming the
+// file on a missing, corrupt, truncated or channel-less file.
+LoadedExr load_exr(const std::filesystem::path& path);
+
+// Saves R, G, B as FLOAT with ZIP compression, atomically (temp, fsync, rename).
+void save_exr(const std::filesystem::path& path, const HdrImage& image);
+
+}  // namespace glint

@@ -1,0 +1,38 @@
+#!/usr/bin/env bash
+# Installs the Debian 12 packages Glint needs to build, test and benchmark.
+# Idempotent: it asks apt only for what is missing and runs `apt-get update`
+# only when something is missing. Run as root.
+set -euo pipefail
+
+packages=(
+  build-essential cmake pkg-config git
+  libopenexr-dev libimath-dev          # EXR load/save (appliance/core)
+  libcli11-dev                         # command line of `glint`
+  nlohmann-json3-dev                   # report.json
+  libgtest-dev googletest              # unit tests through CTest
+  libbenchmark-dev                     # tests/bench
+  blender-data                         # CC0 HDR maps used by tests and benchmarks
+  gnuplot-nox                          # speed-against-error plots in images/
+)
+
+missing=()
+for p in "${packages[@]}"; do
+  if ! dpkg-query -W -f='${Status}' "$p" 2>/dev/null | grep -q "install ok installed"; then
+    missing+=("$p")
+  fi
+done
+
+if [ ${#missing[@]} -eq 0 ]; then
+  echo "install-deps: all ${#packages[@]} packages present"
+  exit 0
+fi
+
+if [ "$(id -u)" -ne 0 ]; then
+  echo "install-deps: missing packages (${missing[*]}); run this script as root" >&2
+  exit 1
+fi
+
+echo "install-deps: installing ${missing[*]}"
+export DEBIAN_FRONTEND=noninteractive
+apt-get update -qq
+apt-get install -y -qq --no-install-recommends "${missing[@]}"

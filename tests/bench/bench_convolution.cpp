@@ -1,0 +1,373 @@
+// Speed against error of every convolution method (issue: foundation and the
+// CPU engine, part 4). For each map and each target (irradiance, n in the
+// list) at the reference size, every method runs once as a Google Benchmark
+// with manual time; its error is measured against `exact` at the same size.
+//
+// Exact reference images are cached (they take minutes); the exact whole set
+// of one map (--timing-map) is recomputed in every run so that the headline
+// ratio auto : exact is measured in one run on one machine.
+//
+// Writes <out>/convolution.csv, <out>/convolution.md and, with gnuplot, the plot
+// <images>/convolution_speed_error.png.
+#include <benchmark/benchmark.h>
+#include <sys/resource.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <cstring>
+#include <ctime>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "appliance/convolution/convolution.hpp"
+#include "appliance/core/equirect.hpp"
+#include "appliance/core/error_metrics.hpp"
+#include "appliance/core/exr_io.hpp"
+
+namespace fs = std::filesystem;
+using namespace glint;
+using namespace glint::convolution;
+
+namespace {
+
+struct Config {
+    fs::path worlds = "/usr/share/blender/datafiles/studiolights/world";
+    fs::path cache = "build/bench-cache";
+    fs::path out = "tests/bench/results";
+    fs::path images = "images";
+    std::string timing_map = "courtyard";
+    int threads = 2;
+    bool quick = false;  // fewer targets, for a smoke run
+};
+
+struct Target {
+    bool irradiance;
+    double n;
+    std::string label;
+    Size size;
+};
+
+// The reference output sizes of the issue: 128x64 for n <= 40, 256x128 for
+// n <= 320, 512x256 above.
+Size reference_size(double n) {
+    if (n <= 40) return {128, 64};
+    if (n <= 320) return {256, 128};
+    return {512, 256};
+}
+
+std::vector<Target> targets(bool quick) {
+    std::vector<Target> t;
+    t.push_back({true, 1, "irradiance", reference_size(1)});
+    const std::vector<double> ns = quick ? std::vector<double>{1, 40, 640, 20480}
+                                         : std::vector<double>{1, 10, 20, 40, 80, 160, 320, 640, 1280, 5120, 20480};
+    for (double n : ns) {
+        std::ostringstream label;
+        label << "phong_" << n;
+        t.push_back({false, n, label.str(), reference_size(n)});
+    }
+    return t;
+}
+
+struct EnvMap {
+    std::string name;
+    HdrImage image;
+};
+
+// The hard case of the issue at benchmark scale: one texel of 1e5 on a 1e-2
+// background, at a direction that is neither a pole nor the seam.
+HdrImage synthetic_sun() {
+    HdrImage im(1024, 512);
+    for (float& v : im.data()) v = 0.01f;
+    im.set(700, 150, {1e5f, 1e5f, 1e5f});
+    return im;
+}
+
+struct Row {
+    std::string map, target, method, param;
+    double n = 0;
+    Size size;
+    double seconds = 0;
+    MapError error;
+};
+
+std::vector<MapRequest> requests_for(const std::vector<Target>& ts) {
+    std::vector<MapRequest> r;
+    for (const Target& t : ts) {
+        if (t.irradiance) {
+            r.push_back(MapRequest::make_irradiance());
+        } else {
+            std::ostringstream s;
+            s << t.n;
+            r.push_back(MapRequest::make_phong(t.n, s.str()));
+        }
+    }
+    return r;
+}
+
+// Groups targets by reference size: one convolve() call per group, as the CLI
+// would be called with --size.
+std::map<int, std::vector<Target>> by_size(const std::vector<Target>& ts) {
+    std::map<int, std::vector<Target>> g;
+    for (const Target& t : ts) g[t.size.width].push_back(t);
+    return g;
+}
+
+fs::path cache_path(const Config& cfg, const std::string& map, const Target& t) {
+    return cfg.cache / (map + "_" + t.label + "_" + std::to_string(t.size.width) + "x" +
+                        std::to_string(t.size.height) + ".exr");
+}
+
+struct RunOutcome {
+    std::vector<MapResult> results;
+    double seconds = 0;  // wall time of the convolve() calls, including shared set-up
+};
+
+RunOutcome run_method(const HdrImage& env, const std::vector<Target>& ts, Method method, int sh_order,
+                      int threads) {
+    RunOutcome out;
+    for (const auto& [w, group] : by_size(ts)) {
+        Options o;
+        o.method = method;
+        o.size = group.front().size;
+        o.sh_order = sh_order;
+        o.threads = threads;
+        const auto t0 = std::chrono::steady_clock::now();
+        std::vector<MapResult> r = convolve(env, requests_for(group), o);
+        out.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+        for (auto& m : r) out.results.push_back(std::move(m));
+    }
+    return out;
+}
+
+// Peak resident memory of running `body` in a child process, in MiB.
+template <class F>
+double peak_memory_mib(F body) {
+    const pid_t pid = fork();
+    if (pid == 0) {
+        body();
+        _exit(0);
+    }
+    int status = 0;
+    struct rusage usage {};
+    wait4(pid, &status, 0, &usage);
+    return double(usage.ru_maxrss) / 1024.0;
+}
+
+std::string machine_description() {
+    std::ifstream cpu("/proc/cpuinfo");
+    std::string line, model = "unknown CPU";
+    while (std::getline(cpu, line))
+        if (line.rfind("model name", 0) == 0) {
+            model = line.substr(line.find(':') + 2);
+            break;
+        }
+    return model + ", " + std::to_string(sysconf(_SC_NPROCESSORS_ONLN)) + " cores";
+}
+
+std::string fmt(const char* f, double v) {
+    char b[64];
+    std::snprintf(b, sizeof b, f, v);
+    return b;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    Config cfg;
+    std::vector<char*> bench_args{argv[0]};
+    for (int i = 1; i < argc; ++i) {
+        const std::string a = argv[i];
+        auto value = [&](const char* flag) -> std::string {
+            if (i + 1 >= argc) {
+                std::fprintf(stderr, "bench: %s needs a value\n", flag);
+                std::exit(2);
+            }
+            return argv[++i];
+        };
+        if (a == "--help") {
+            std::printf(
+                "glint_bench_convolution [--worlds DIR] [--cache DIR] [--out DIR] [--images DIR]\n"
+                "                        [--timing-map NAME] [--threads N] [--quick] [google benchmark flags]\n"
+                "Speed against error of exact, auto, cone, sh (orders 35/64/128) and mipmap on\n"
+                "courtyard, studio, sunset (blender-data) and a synthetic sun map.\n");
+            return 0;
+        } else if (a == "--worlds") cfg.worlds = value("--worlds");
+        else if (a == "--cache") cfg.cache = value("--cache");
+        else if (a == "--out") cfg.out = value("--out");
+        else if (a == "--images") cfg.images = value("--images");
+        else if (a == "--timing-map") cfg.timing_map = value("--timing-map");
+        else if (a == "--threads") cfg.threads = std::atoi(value("--threads").c_str());
+        else if (a == "--quick") cfg.quick = true;
+        else bench_args.push_back(argv[i]);
+    }
+    int bargc = int(bench_args.size());
+    benchmark::Initialize(&bargc, bench_args.data());
+    fs::create_directories(cfg.cache);
+    fs::create_directories(cfg.out);
+    fs::create_directories(cfg.images);
+
+    std::vector<EnvMap> maps;
+    for (const char* name : {"courtyard", "studio", "sunset"})
+        maps.push_back({name, load_exr(cfg.worlds / (std::string(name) + ".exr")).image});
+    maps.push_back({"sun", synthetic_sun()});
+    const std::vector<Target> ts = targets(cfg.quick);
+
+    std::vector<Row> rows;
+    std::map<std::string, double> exact_whole_set_seconds, auto_whole_set_seconds;
+    std::map<std::string, std::vector<HdrImage>> references;
+
+    // Exact references: fresh for the timing map, cached for the others.
+    for (const EnvMap& m : maps) {
+        const bool timed = m.name == cfg.timing_map;
+        bool cached = !timed;
+        for (const Target& t : ts) cached = cached && fs::exists(cache_path(cfg, m.name, t));
+        if (cached) {
+            for (const Target& t : ts) references[m.name].push_back(load_exr(cache_path(cfg, m.name, t)).image);
+            continue;
+        }
+        std::fprintf(stderr, "bench: exact whole set of %s (minutes)...\n", m.name.c_str());
+        RunOutcome exact;
+        benchmark::RegisterBenchmark(("exact/" + m.name).c_str(), [&](benchmark::State& st) {
+            for (auto _ : st) {
+                exact = run_method(m.image, ts, Method::Exact, 0, cfg.threads);
+                st.SetIterationTime(exact.seconds);
+            }
+        })->Iterations(1)->UseManualTime()->Unit(benchmark::kSecond);
+        benchmark::RunSpecifiedBenchmarks();
+        benchmark::ClearRegisteredBenchmarks();
+        exact_whole_set_seconds[m.name] = exact.seconds;
+        for (std::size_t k = 0; k < ts.size(); ++k) {
+            save_exr(cache_path(cfg, m.name, ts[k]), exact.results[k].image);
+            references[m.name].push_back(exact.results[k].image);
+            rows.push_back({m.name, ts[k].label, "exact", "", ts[k].n, ts[k].size, exact.results[k].seconds, {}});
+        }
+    }
+
+    struct Variant {
+        Method method;
+        int sh_order;
+        std::string name, param;
+    };
+    std::vector<Variant> variants{{Method::Auto, 0, "auto", ""},
+                                  {Method::Cone, 0, "cone", ""},
+                                  {Method::Sh, 35, "sh", "35"},
+                                  {Method::Sh, 64, "sh", "64"},
+                                  {Method::Sh, 128, "sh", "128"},
+                                  {Method::Mipmap, 0, "mipmap", ""}};
+    for (const EnvMap& m : maps) {
+        for (const Variant& v : variants) {
+            RunOutcome run;
+            const std::string name = v.name + (v.param.empty() ? "" : "_" + v.param) + "/" + m.name;
+            benchmark::RegisterBenchmark(name.c_str(), [&](benchmark::State& st) {
+                for (auto _ : st) {
+                    run = run_method(m.image, ts, v.method, v.sh_order, cfg.threads);
+                    st.SetIterationTime(run.seconds);
+                }
+            })->Iterations(1)->UseManualTime()->Unit(benchmark::kMillisecond);
+            benchmark::RunSpecifiedBenchmarks();
+            benchmark::ClearRegisteredBenchmarks();
+            if (v.method == Method::Auto) auto_whole_set_seconds[m.name] = run.seconds;
+            for (std::size_t k = 0; k < ts.size(); ++k)
+                rows.push_back({m.name, ts[k].label, v.name, v.param, ts[k].n, ts[k].size,
+                                run.results[k].seconds,
+                                compare_maps(run.results[k].image, references[m.name][k])});
+        }
+    }
+
+    // Peak memory of the auto whole set (all three size groups) in a child process.
+    const double auto_peak_mib = peak_memory_mib([&] {
+        run_method(maps.front().image, ts, Method::Auto, 0, cfg.threads);
+    });
+
+    // ---- tables ----
+    std::ofstream csv(cfg.out / "convolution.csv");
+    csv << "map,target,n,width,height,method,param,seconds,weighted_rel_rms,worst_texel,mean_abs_pct,max_abs_pct\n";
+    for (const Row& r : rows)
+        csv << r.map << ',' << r.target << ',' << r.n << ',' << r.size.width << ',' << r.size.height << ','
+            << r.method << ',' << r.param << ',' << r.seconds << ',' << r.error.weighted_relative_rms << ','
+            << r.error.worst_texel << ',' << r.error.mean_abs_percent << ',' << r.error.max_abs_percent << '\n';
+
+    char date[64];
+    const std::time_t now = std::time(nullptr);
+    std::strftime(date, sizeof date, "%Y-%m-%d %H:%M UTC", std::gmtime(&now));
+    std::ofstream md(cfg.out / "convolution.md");
+    md << "# Convolution: speed against error\n\n"
+       << "Generated by `tests/bench/run_convolution_bench.sh` on " << date << ", " << machine_description()
+       << ", " << cfg.threads << " threads. Errors are against `exact` at the reference size "
+       << "(128x64 for n <= 40, 256x128 for n <= 320, 512x256 above); weighted relative RMS and worst texel "
+       << "per spec/conventions.md, mean/max absolute percentage as thesis eq. 6.1/6.2.\n\n";
+    const double exact_s = exact_whole_set_seconds.count(cfg.timing_map) ? exact_whole_set_seconds[cfg.timing_map] : NAN;
+    const double auto_s = auto_whole_set_seconds[cfg.timing_map];
+    md << "## Headline (" << cfg.timing_map << ", whole set: irradiance + " << ts.size() - 1
+       << " shininess values, reference sizes)\n\n"
+       << "| | wall time | ratio |\n|---|---|---|\n"
+       << "| exact | " << fmt("%.2f s", exact_s) << " | 1 |\n"
+       << "| auto (tau = 1 %) | " << fmt("%.3f s", auto_s) << " | " << fmt("%.0fx faster", exact_s / auto_s) << " |\n\n"
+       << "Peak resident memory of the auto whole set: " << fmt("%.0f MiB", auto_peak_mib) << ".\n\n";
+
+    for (const Variant& v : variants) {
+        md << "## " << v.name << (v.param.empty() ? "" : " order " + v.param) << "\n\n"
+           << "| target | size |";
+        for (const EnvMap& m : maps) md << ' ' << m.name << " time | rel RMS | mean % | max % |";
+        md << "\n|---|---|";
+        for (std::size_t k = 0; k < maps.size(); ++k) md << "---|---|---|---|";
+        md << '\n';
+        for (const Target& t : ts) {
+            md << "| " << t.label << " | " << t.size.width << 'x' << t.size.height << " |";
+            for (const EnvMap& m : maps)
+                for (const Row& r : rows)
+                    if (r.map == m.name && r.target == t.label && r.method == v.name && r.param == v.param)
+                        md << ' ' << fmt("%.4f s", r.seconds) << " | " << fmt("%.2e", r.error.weighted_relative_rms)
+                           << " | " << fmt("%.3f", r.error.mean_abs_percent) << " | "
+                           << fmt("%.2f", r.error.max_abs_percent) << " |";
+            md << '\n';
+        }
+        md << '\n';
+    }
+
+    // ---- plot: one point per (map, target, method); log time against log error ----
+    const fs::path dat = cfg.cache / "plot.dat";
+    {
+        std::ofstream d(dat);
+        for (const Variant& v : variants) {
+            d << "# " << v.name << v.param << '\n';
+            for (const Row& r : rows)
+                if (r.method == v.name && r.param == v.param)
+                    d << std::max(r.seconds, 1e-5) << ' ' << std::max(r.error.weighted_relative_rms, 1e-9) << '\n';
+            d << "\n\n";
+        }
+        d << "# exact\n";
+        for (const Row& r : rows)
+            if (r.method == "exact") d << r.seconds << ' ' << 1e-9 << '\n';
+    }
+    const fs::path gp = cfg.cache / "plot.gp";
+    {
+        std::ofstream g(gp);
+        g << "set terminal png size 1000,650 font ',11'\n"
+          << "set output '" << (cfg.images / "convolution_speed_error.png").string() << "'\n"
+          << "set logscale xy\nset format y '10^{%L}'\nset format x '10^{%L}'\n"
+          << "set xlabel 'wall time per map [s] (2 threads)'\nset ylabel 'weighted relative RMS error vs exact'\n"
+          << "set title 'Glint convolution: speed against error (" << date << ")'\n"
+          << "set key outside right\nset grid\n"
+          << "set arrow from graph 0, first 0.01 to graph 1, first 0.01 nohead dt 2 lc rgb 'gray'\n"
+          << "plot ";
+        int idx = 0;
+        for (const Variant& v : variants)
+            g << "'" << dat.string() << "' index " << idx++ << " with points pt 7 ps 0.8 title '" << v.name
+              << (v.param.empty() ? "" : " " + v.param) << "', ";
+        g << "'" << dat.string() << "' index " << idx << " with points pt 4 ps 1 title 'exact (error 0, drawn at 1e-9)'\n";
+    }
+    if (std::system(("gnuplot " + gp.string()).c_str()) != 0)
+        std::fprintf(stderr, "bench: gnuplot failed; the plot was not written\n");
+    std::fprintf(stderr, "bench: wrote %s, %s\n", (cfg.out / "convolution.md").c_str(),
+                 (cfg.out / "convolution.csv").c_str());
+    return 0;
+}
