@@ -26,15 +26,15 @@ HdrImage halve(const HdrImage& fine) {
         const float* a = fine.row(2 * j);
         const float* b = fine.row(2 * j + 1);
         float* out = coarse.row(j);
-        for (int k = 0; k < 3 * coarse.width(); ++k) {
-            // k = 3 * i + c; the children are columns 2i and 2i + 1, channel c.
-            const int i = k / 3;
-            const int c = k - 3 * i;
-            const std::size_t left = std::size_t(6 * i + c);
-            const std::size_t right = left + 3;
-            const double sum_a = double(a[left]) + double(a[right]);
-            const double sum_b = double(b[left]) + double(b[right]);
-            out[k] = float((oa * sum_a + ob * sum_b) * inv_total);
+        for (int i = 0; i < coarse.width(); ++i) {
+            // The children are columns 2i and 2i + 1: floats 6i..6i+2 and 6i+3..6i+5.
+            for (int c = 0; c < 3; ++c) {
+                const std::size_t left = std::size_t(6 * i + c);
+                const std::size_t right = left + 3;
+                const double sum_a = double(a[left]) + double(a[right]);
+                const double sum_b = double(b[left]) + double(b[right]);
+                out[3 * i + c] = float((oa * sum_a + ob * sum_b) * inv_total);
+            }
         }
     }
     return coarse;
