@@ -129,11 +129,27 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
     });
 
     const std::size_t texels = std::size_t(out.width) * std::size_t(out.height);
+    // Cut-off cosine used for each output row (rows may be refined below).
+    std::vector<double> row_cut(std::size_t(out.height), c0);
+    // The remainder's lobe weight outside the row's cone, from the continuous
+    // lobe: sum of (cos/cmax)^n dOmega over cos < c is 2pi c^(n+1) / ((n+1) cmax^n).
+    const auto outside_weight = [&](std::size_t row, double cmax) {
+        const double c = row_cut[row];
+        if (c <= 0) return 0.0;
+        return kTwoPi / (n + 1.0) * std::exp((n + 1.0) * std::log(c) - n * std::log(cmax));
+    };
+    // E = N_R / D_R + N_B / (D_R + D_out): the remainder outside the cone is
+    // taken at the inside's mean (its error is the bound above), while the bright
+    // terms, summed over the whole sphere, are divided by the whole lobe weight.
     const auto value = [&](std::size_t t, int c, const std::vector<double>& nb) {
         const std::size_t row = t / std::size_t(out.width);
         const int col = int(t % std::size_t(out.width));
-        const double den = sums.den[row * std::size_t(sums.classes) + std::size_t(sums.class_of(col))];
-        return den > 0 ? (sums.num[3 * t + std::size_t(c)] + nb[3 * t + std::size_t(c)]) / den : 0.0;
+        const std::size_t rc = row * std::size_t(sums.classes) + std::size_t(sums.class_of(col));
+        const double den = sums.den[rc];
+        if (!(den > 0)) return 0.0;
+        const double bright_part = nb[3 * t + std::size_t(c)];
+        const double remainder = sums.num[3 * t + std::size_t(c)] / den;
+        return bright_part == 0 ? remainder : remainder + bright_part / (den + outside_weight(row, sums.cmax[rc]));
     };
 
     std::vector<double> nb(3 * texels, 0.0);
@@ -177,6 +193,7 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
         }
         if (need < settings.cutoff_energy * 0.999) {
             row_energy[std::size_t(row)] = need;
+            row_cut[std::size_t(row)] = cut_cos(need);
             ++local.refined_rows;
             local.refined_texels += out.width;
         }
@@ -186,7 +203,7 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
         if (row_energy[std::size_t(row)] < settings.cutoff_energy) refine_rows.push_back(row);
     parallel_for(int(refine_rows.size()), threads, [&](int k) {
         const int row = refine_rows[std::size_t(k)];
-        summer.sum_row(row, cut_cos(row_energy[std::size_t(row)]), sums);
+        summer.sum_row(row, row_cut[std::size_t(row)], sums);
     });
     if (stats) *stats = local;
 

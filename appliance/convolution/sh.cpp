@@ -50,19 +50,16 @@ void column_angle(int m, int i, int width, double& c, double& s) {
 // Columns i and W-1-i have azimuths phi and -phi: cos(m phi) is shared and sin(m phi) changes sign, so
 // both paths work on the half = W/2 column pairs; for odd W the middle column has phi = 0 exactly.
 struct AzimuthTable {
-    int half = 0;
-    int order = 0;
-    bool column_major = false;  // true: index [m * half + i]; false: [i * order + m]
-    std::vector<double> cos_, sin_;
+    std::vector<double> cosines, sines;  // by_m: index [m * (W/2) + i]; otherwise [i * order + m]
 
-    AzimuthTable(int width, int order_, bool by_m) : half(width / 2), order(order_), column_major(by_m) {
-        cos_.resize(std::size_t(half) * std::size_t(order));
-        sin_.resize(cos_.size());
-        for (int i = 0; i < half; ++i)
-            for (int m = 0; m < order; ++m) {
-                const std::size_t k = by_m ? std::size_t(m) * std::size_t(half) + std::size_t(i)
-                                           : std::size_t(i) * std::size_t(order) + std::size_t(m);
-                column_angle(m, i, width, cos_[k], sin_[k]);
+    AzimuthTable(int width, int order, bool by_m) {
+        const std::size_t half = std::size_t(width / 2), n = std::size_t(order);
+        cosines.resize(half * n);
+        sines.resize(half * n);
+        for (std::size_t i = 0; i < half; ++i)
+            for (std::size_t m = 0; m < n; ++m) {
+                const std::size_t k = by_m ? m * half + i : i * n + m;
+                column_angle(int(m), int(i), width, cosines[k], sines[k]);
             }
     }
 };
@@ -74,7 +71,7 @@ void row_angles(int j, int height, double& x, double& s) {
     s = std::sin(theta);
 }
 
-// Radiance rows in double for the projection, from either input type.
+// The projection of rows read in double by read_row(j, out[3W]); shared by the float and double inputs.
 template <typename RowSource>
 ShCoefficients project_impl(int width, int height, int order, int threads, ShQuadrature q,
                             const RowSource& read_row) {
@@ -109,8 +106,8 @@ ShCoefficients project_impl(int width, int height, int order, int threads, ShQua
             const double* b = row.data() + 3 * std::size_t(width - 1 - i);
             const double s0 = a[0] + b[0], s1 = a[1] + b[1], s2 = a[2] + b[2];
             const double d0 = a[0] - b[0], d1 = a[1] - b[1], d2 = a[2] - b[2];
-            const double* cm = table.cos_.data() + std::size_t(i) * uorder;
-            const double* sm = table.sin_.data() + std::size_t(i) * uorder;
+            const double* cm = table.cosines.data() + std::size_t(i) * uorder;
+            const double* sm = table.sines.data() + std::size_t(i) * uorder;
             for (std::size_t m = 0; m < uorder; ++m) {  // independent lanes: vectorises
                 fr[m] += s0 * cm[m];
                 fg[m] += s1 * cm[m];
@@ -220,8 +217,8 @@ void evaluate_impl(const ShCoefficients& c, const std::vector<double>& kernel, i
         // i is A + B and column W-1-i is A - B.
         std::vector<double> ab(6 * uhalf, 0.0);
         for (std::size_t m = 0; m < uorder; ++m) {
-            const double* cm = table.cos_.data() + m * uhalf;
-            const double* sm = table.sin_.data() + m * uhalf;
+            const double* cm = table.cosines.data() + m * uhalf;
+            const double* sm = table.sines.data() + m * uhalf;
             for (std::size_t k = 0; k < 3; ++k) {
                 const double h = hk[k * uorder + m];
                 const double g = hk[(k + 3) * uorder + m];
@@ -393,7 +390,10 @@ std::vector<double> phong_sh_kernel(double n, int order) {
     // With I_l = int_0^1 x^n P_l(x) dx: I_0 = 1/(n+1), I_1 = 1/(n+2), and the closed form of I_l as a
     // ratio of Gamma functions gives I_l / I_{l-2} = (n - l + 2) / (n + l + 1). So k_0 = 1, k_1 = (n+1)/(n+2),
     // k_l = k_{l-2} (n - l + 2) / (n + l + 1): no factorials, any real n >= 0 (n = 1: 1, 2/3, 1/4, 0, ...).
-    check_order(order);
+    // The kernel needs no Legendre recurrence, so its length is not bound by kMaxShOrder.
+    if (order < 1 || order > kMaxKernelBands)
+        throw InputError("Phong kernel length " + std::to_string(order) + " is outside [1, " +
+                         std::to_string(kMaxKernelBands) + "]");
     if (!std::isfinite(n) || n < 0.0)
         throw InputError("Phong exponent " + std::to_string(n) + " must be finite and >= 0");
     std::vector<double> k(std::size_t(order), 0.0);

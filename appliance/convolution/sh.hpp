@@ -21,6 +21,8 @@ namespace glint::convolution {
 
 // Largest order accepted (bands 0..kMaxShOrder-1); the recurrences are tested to order 512.
 inline constexpr int kMaxShOrder = 2048;
+// Largest number of bands phong_sh_kernel returns (a plain O(bands) recurrence).
+inline constexpr int kMaxKernelBands = 1 << 20;
 
 // Row weights of the projection quadrature.
 //   TexelSolidAngle: the exact row solid angle of the conventions, the weights of the exact engine.
@@ -93,7 +95,8 @@ ShCoefficients sh_project(std::span<const double> rgb, int width, int height, in
                           ShQuadrature q = ShQuadrature::TexelSolidAngle);
 
 // Per band l: Lambda_l rho_l of thesis eq. 2.33 for the normalised Phong lobe (n+1)/(2 pi) max(0, cos)^n,
-// i.e. (n+1) int_0^1 x^n P_l(x) dx. Throws InputError for n < 0, non-finite n or order < 1.
+// i.e. (n+1) int_0^1 x^n P_l(x) dx, for l in [0, order). Throws InputError for n < 0, non-finite n or
+// order outside [1, kMaxKernelBands].
 std::vector<double> phong_sh_kernel(double n, int order);
 
 // E(r) = sum_lm kernel[l] c_lm Y_lm(r) at every texel centre of a width x height equirect map, in double,

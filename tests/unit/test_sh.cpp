@@ -497,6 +497,8 @@ TEST(ShErrors, RejectsUnusableInput) {
     EXPECT_THROW(sh_project(img, kMaxShOrder + 1, 1), InputError);
     EXPECT_THROW(phong_sh_kernel(-1.0, 4), InputError);
     EXPECT_THROW(phong_sh_kernel(std::nan(""), 4), InputError);
+    EXPECT_THROW(phong_sh_kernel(1.0, 0), InputError);
+    EXPECT_EQ(phong_sh_kernel(1.0, kMaxShOrder + 1).size(), std::size_t(kMaxShOrder + 1));
     const ShCoefficients c = sh_project(img, 4, 1);
     EXPECT_THROW(sh_evaluate(c, std::vector<double>(3, 1.0), 8, 4, 1), InputError);
     EXPECT_THROW(sh_reconstruct(c, std::vector<double>(4, 1.0), 0, 4, 1), InputError);
