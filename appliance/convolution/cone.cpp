@@ -67,44 +67,61 @@ BrightSplit split_bright(const HdrImage& input, double contrast, int max_count) 
 
 namespace {
 
+// x^n for x in [0, 1]: binary exponentiation when n is a small integer (the
+// common case, ~2 log2(n) multiplies), std::pow otherwise.
+double power(double x, double n) {
+    if (n == std::floor(n) && n < 1e6) {
+        double result = 1.0;
+        double base = x;
+        for (long long e = (long long)n; e > 0; e >>= 1) {
+            if (e & 1) result *= base;
+            base *= base;
+        }
+        return result;
+    }
+    return std::pow(x, n);
+}
+
 // Adds the bright texels' terms (relative to the output texel's cmax, like the
-// lobe sums) to nb for one output row.
+// lobe sums) to nb for one output row. cos_phi/sin_phi: output column azimuths.
 void scatter_bright_row(int row, const std::vector<BrightTexel>& bright,
                         const std::vector<double>& min_cos, const LobeSums& sums, double n,
+                        const std::vector<double>& cos_phi, const std::vector<double>& sin_phi,
                         std::vector<double>& nb) {
     const int ow = sums.out_w;
     const double theta_r = row_theta(row, sums.out_h);
     const double ct = std::cos(theta_r);
     const double st = std::sin(theta_r);
+    const double* cmax_row = sums.cmax.data() + std::size_t(row) * std::size_t(sums.classes);
+    double* nb_row = nb.data() + std::size_t(row) * std::size_t(ow) * 3;
     for (std::size_t k = 0; k < bright.size(); ++k) {
         const BrightTexel& b = bright[k];
         const double c_b = min_cos[k];
         if (c_b > 1.0) continue;
         if (std::cos(theta_r - b.theta) < c_b) continue;  // no column of this row reaches
         const double a = st * std::sin(b.theta);
-        const double bq = ct * std::cos(b.theta);
+        const double bq = ct * b.y;  // b.y = cos(theta_b)
         int first, count;
         const double q = a > 1e-300 ? (c_b - bq) / a : (bq >= c_b ? -2.0 : 2.0);
         if (q > 1.0) continue;
-        const double centre = (b.phi + kPi) / kTwoPi * ow - 0.5;  // output column units
         if (q <= -1.0) {
             first = 0;
             count = ow;
         } else {
+            const double centre = (b.phi + kPi) / kTwoPi * ow - 0.5;  // output column units
             const double half = std::acos(q) / kTwoPi * ow;
             first = int(std::floor(centre - half)) - 1;  // one column of margin: weights decide
             count = std::min(ow, int(std::ceil(centre + half)) + 1 - first + 1);
         }
+        const double cpb = std::cos(b.phi), spb = std::sin(b.phi);
         for (int t = 0; t < count; ++t) {
             int i = (first + t) % ow;
             if (i < 0) i += ow;
-            const Vec3 r = direction_from_angles(theta_r, column_phi(i, ow));
-            const double cosine = r.x * b.x + r.y * b.y + r.z * b.z;
+            const double cosine = a * (cos_phi[std::size_t(i)] * cpb + sin_phi[std::size_t(i)] * spb) + bq;
             if (!(cosine > 0)) continue;
-            const double cm =
-                sums.cmax[std::size_t(row) * std::size_t(sums.classes) + std::size_t(sums.class_of(i))];
-            const double wgt = n == 0 ? 1.0 : std::pow(cosine / cm, n);
-            double* o = nb.data() + (std::size_t(row) * std::size_t(ow) + std::size_t(i)) * 3;
+            const double cm = cmax_row[sums.class_of(i)];
+            const double wgt = n == 0 ? 1.0 : power(std::min(1.0, cosine / cm), n);
+            double* o = nb_row + 3 * std::size_t(i);
             o[0] += wgt * b.r;
             o[1] += wgt * b.g;
             o[2] += wgt * b.b;
@@ -172,8 +189,13 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
             // 0.999 allows for cmax < 1 on coarse grids.
             min_cos[k] = n == 0 ? 0.0 : (ratio >= 1.0 ? 2.0 : 0.999 * std::pow(ratio, 1.0 / n));
         }
+        std::vector<double> cos_phi(std::size_t(out.width)), sin_phi(std::size_t(out.width));
+        for (int i = 0; i < out.width; ++i) {
+            cos_phi[std::size_t(i)] = std::cos(column_phi(i, out.width));
+            sin_phi[std::size_t(i)] = std::sin(column_phi(i, out.width));
+        }
         parallel_for(out.height, threads, [&](int row) {
-            scatter_bright_row(row, bright, min_cos, sums, n, nb);
+            scatter_bright_row(row, bright, min_cos, sums, n, cos_phi, sin_phi, nb);
         });
     }
 

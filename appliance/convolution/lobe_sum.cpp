@@ -65,6 +65,17 @@ LobeSummer::LobeSummer(const PreparedLevel& level, int out_w, int out_h, double 
             cos_dphi_[std::size_t(p) * cos_stride_ + k] = std::cos((d - frac_[std::size_t(p)]) * kTwoPi / w);
         }
     if (n_ == std::floor(n_) && n_ <= double(1LL << 40)) integer_n_ = (long long)n_;
+    const std::size_t span = 2 * std::size_t(per_class_);
+    phases_.resize(std::size_t(level.height()) * 3 * std::size_t(step_) * span);
+    for (int j = 0; j < level.height(); ++j)
+        for (int c = 0; c < 3; ++c) {
+            const float* src = level.plane(j, c);
+            for (int ph = 0; ph < step_; ++ph) {
+                float* dst = phases_.data() + (phase(j, c, ph) - phases_.data());
+                for (std::size_t t = 0; t < span; ++t)
+                    dst[t] = src[(t * std::size_t(step_) + std::size_t(ph)) % std::size_t(w)];
+            }
+        }
     out_cos_t_.resize(std::size_t(out_h));
     out_sin_t_.resize(std::size_t(out_h));
     for (int j = 0; j < out_h; ++j) {
@@ -150,6 +161,9 @@ void LobeSummer::sum_row(int out_row, double c_min, LobeSums& sums) const {
     const double col_per_rad = w / kTwoPi;
     std::vector<double> wbuf(std::size_t(w) + 2);
     std::vector<double> acc(std::size_t(per_class_) * 3);
+    double* acc_r = acc.data();
+    double* acc_g = acc_r + per_class_;
+    double* acc_b = acc_g + per_class_;
 
     for (int cls = 0; cls < classes_; ++cls) {
         const double cm = cmax(out_row, cls);
@@ -185,27 +199,25 @@ void LobeSummer::sum_row(int out_row, double c_min, LobeSums& sums) const {
             if (wsum == 0) continue;
             const double omega = level_.solid_angle(jk);
             den += omega * wsum;
-            const float* pr = level_.plane(jk, 0);
-            const float* pg = level_.plane(jk, 1);
-            const float* pb = level_.plane(jk, 2);
-            const double* wt = wbuf.data();
-            for (int q_idx = 0; q_idx < per_class_; ++q_idx) {
-                int start = (base_[std::size_t(cls)] + q_idx * step_ + d_lo) % w;
-                if (start < 0) start += w;
-                const float* r = pr + start;
-                const float* g = pg + start;
-                const float* bb = pb + start;
-                double sr = 0, sg = 0, sb = 0;
-#pragma omp simd reduction(+ : sr, sg, sb)
-                for (int d = 0; d < count; ++d) {
-                    sr += wt[d] * double(r[d]);
-                    sg += wt[d] * double(g[d]);
-                    sb += wt[d] * double(bb[d]);
+            // One weight times a whole class of output columns: unit-stride
+            // multiply-adds over the class (vectorised).
+            const int g = per_class_;
+            for (int d = 0; d < count; ++d) {
+                const double wd = wbuf[std::size_t(d)] * omega;
+                if (wd == 0) continue;
+                int x = (base_[std::size_t(cls)] + d_lo + d) % w;
+                if (x < 0) x += w;
+                const int ph = x % step_;
+                const int off = x / step_;
+                const float* pr = phase(jk, 0, ph) + off;
+                const float* pg = phase(jk, 1, ph) + off;
+                const float* pb = phase(jk, 2, ph) + off;
+#pragma omp simd
+                for (int q_idx = 0; q_idx < g; ++q_idx) {
+                    acc_r[q_idx] += wd * double(pr[q_idx]);
+                    acc_g[q_idx] += wd * double(pg[q_idx]);
+                    acc_b[q_idx] += wd * double(pb[q_idx]);
                 }
-                double* o = acc.data() + 3 * q_idx;
-                o[0] += omega * sr;
-                o[1] += omega * sg;
-                o[2] += omega * sb;
             }
         }
         const std::size_t rc = std::size_t(out_row) * std::size_t(classes_) + std::size_t(cls);
@@ -214,7 +226,9 @@ void LobeSummer::sum_row(int out_row, double c_min, LobeSums& sums) const {
         for (int q_idx = 0; q_idx < per_class_; ++q_idx) {
             const int col = q_idx * classes_ + cls;
             double* o = sums.num.data() + (std::size_t(out_row) * std::size_t(out_w_) + std::size_t(col)) * 3;
-            for (int c = 0; c < 3; ++c) o[c] = acc[3 * std::size_t(q_idx) + std::size_t(c)];
+            o[0] = acc_r[q_idx];
+            o[1] = acc_g[q_idx];
+            o[2] = acc_b[q_idx];
         }
     }
 }

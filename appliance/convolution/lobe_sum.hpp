@@ -95,6 +95,15 @@ private:
     std::vector<double> cos_dphi_;
     int cos_offset_ = 0;
     std::size_t cos_stride_ = 0;
+    // The level's rows split by column phase for this output width: phase s of
+    // row j holds L[(t * step + s) mod W] for t in [0, 2 * per_class), so the
+    // texels that one weight multiplies across a whole class are contiguous.
+    std::vector<float> phases_;
+    const float* phase(int row, int channel, int s) const {
+        return phases_.data() +
+               ((std::size_t(row) * 3 + std::size_t(channel)) * std::size_t(step_) + std::size_t(s)) *
+                   (2 * std::size_t(per_class_));
+    }
     // n as an integer when it is one (weights by repeated squaring, which
     // vectorises), else -1 (std::pow).
     long long integer_n_ = -1;

@@ -31,8 +31,9 @@ Size lobe_output_size(double n, double tolerance, Size input, const PlannerModel
     const double sigma = lobe_width(n);
     const double h = sigma * std::sqrt(model.output_share * tolerance / model.output_error_coefficient);
     int height = int(std::ceil(kPi / h));
-    height = std::clamp(height + (height & 1), 4, input.height);
-    return {std::min(2 * height, std::max(input.width, 2 * height)), height};
+    (void)input;
+    height = std::clamp(height + (height & 1), 4, kMaxLobeOutputHeight);
+    return {2 * height, height};
 }
 
 ConeSettings cone_settings(double tolerance, const PlannerModel& model) {
@@ -86,10 +87,12 @@ MapPlan plan_map(const MapRequest& request, const Options& options, const Enviro
         double level_error = 0;
         for (int k = 1; k < int(env.cone_levels.size()); ++k) {
             const double h = texel_spacing(env.cone_levels[std::size_t(k)]);
-            const double e = model.level_error_coefficient * h * h * std::max(n, 1.0);
-            if (e > model.level_share * tau) break;
+            const double h2n = h * h * std::max(n, model.level_min_shininess);
+            if (model.level_worst_coefficient * h2n > model.level_worst_share * tau ||
+                model.level_rms_coefficient * h2n > model.level_share * tau)
+                break;
             level = k;
-            level_error = e;
+            level_error = model.level_rms_coefficient * h2n;
         }
         plan.method = Method::Cone;
         plan.input_level = level;

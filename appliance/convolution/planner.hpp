@@ -15,12 +15,17 @@ struct PlannerModel {
     // Reading a level whose texels are h rad apart instead of the input is a
     // midpoint rule over each coarse texel: for a lobe exp(-n a^2 / 2) its
     // relative error scales as h^2 n (second derivative over value; 1/24 for a
-    // smooth map). Edges inside a coarse texel and the kink of the clamped
-    // cosine at the horizon make it larger: measured worst texels on the test
-    // maps reach ~1.7 h^2 n and the weighted RMS ~0.1 h^2 n (docs/convolution.md).
-    // The coefficient bounds the worst texel, so the level share of tau holds
-    // for the RMS with a wide margin and the worst texel stays within a few tau.
-    double level_error_coefficient = 0.5;
+    // smooth map). Edges inside a coarse texel make it larger, and for n <= 5
+    // the kink of the clamped cosine at the horizon dominates, so n is taken
+    // as at least level_min_shininess. Measured on the test maps
+    // (docs/convolution.md): worst texel ~0.3 h^2 n, weighted RMS ~0.03 h^2 n.
+    double level_worst_coefficient = 0.3;
+    double level_rms_coefficient = 0.03;
+    double level_min_shininess = 5.0;
+    // The level's worst texel may use this multiple of tau (the target
+    // is a worst texel within 5 % when tau = 1 %; the cut-off bound takes
+    // another texel_cut_share of tau).
+    double level_worst_share = 3.5;
     // Bilinear lookup of an output map with texel spacing h: (h^2 / 8) * n.
     double output_error_coefficient = 1.0 / 8.0;
     // Shares of the tolerance.
@@ -41,7 +46,11 @@ struct EnvironmentShape {
 // Lobe width in radians of cos^n (about 1/sqrt(n)); the hemisphere for n <= 1.
 double lobe_width(double shininess);
 
-// Output size that follows the lobe when the user did not fix one.
+// Output size that follows the lobe when the user did not fix one. It may
+// exceed the input's size: a lobe narrower than the input's texels still needs
+// output texels that small to be looked up bilinearly within tolerance.
+// Capped at kMaxLobeOutputHeight rows.
+inline constexpr int kMaxLobeOutputHeight = 4096;
 Size lobe_output_size(double shininess, double tolerance, Size input, const PlannerModel& model);
 
 // The plan for one map under the given options.

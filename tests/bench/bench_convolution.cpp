@@ -224,7 +224,21 @@ int main(int argc, char** argv) {
     std::map<std::string, double> exact_whole_set_seconds, auto_whole_set_seconds;
     std::map<std::string, std::vector<HdrImage>> references;
 
-    // Exact references: fresh for the timing map, cached for the others.
+    struct Variant {
+        Method method;
+        int sh_order;
+        std::string name, param;
+    };
+    const std::vector<Variant> variants{{Method::Auto, 0, "auto", ""},
+                                        {Method::Cone, 0, "cone", ""},
+                                        {Method::Sh, 35, "sh", "35"},
+                                        {Method::Sh, 64, "sh", "64"},
+                                        {Method::Sh, 128, "sh", "128"},
+                                        {Method::Mipmap, 0, "mipmap", ""}};
+
+    // Every benchmark is registered first and run in one RunSpecifiedBenchmarks
+    // call, in registration order: the exact references before the methods
+    // that are compared against them.
     for (const EnvMap& m : maps) {
         const bool timed = m.name == cfg.timing_map;
         bool cached = !timed;
@@ -233,54 +247,39 @@ int main(int argc, char** argv) {
             for (const Target& t : ts) references[m.name].push_back(load_exr(cache_path(cfg, m.name, t)).image);
             continue;
         }
-        std::fprintf(stderr, "bench: exact whole set of %s (minutes)...\n", m.name.c_str());
-        RunOutcome exact;
-        benchmark::RegisterBenchmark(("exact/" + m.name).c_str(), [&](benchmark::State& st) {
+        benchmark::RegisterBenchmark(("exact/" + m.name).c_str(), [&, timed](benchmark::State& st) {
             for (auto _ : st) {
-                exact = run_method(m.image, ts, Method::Exact, 0, cfg.threads);
+                std::fprintf(stderr, "bench: exact whole set of %s (minutes)...\n", m.name.c_str());
+                const RunOutcome exact = run_method(m.image, ts, Method::Exact, 0, cfg.threads);
                 st.SetIterationTime(exact.seconds);
+                if (timed) exact_whole_set_seconds[m.name] = exact.seconds;
+                references[m.name].clear();
+                for (std::size_t k = 0; k < ts.size(); ++k) {
+                    save_exr(cache_path(cfg, m.name, ts[k]), exact.results[k].image);
+                    references[m.name].push_back(exact.results[k].image);
+                    rows.push_back({m.name, ts[k].label, "exact", "", ts[k].n, ts[k].size,
+                                    exact.results[k].seconds, {}});
+                }
             }
         })->Iterations(1)->UseManualTime()->Unit(benchmark::kSecond);
-        benchmark::RunSpecifiedBenchmarks();
-        benchmark::ClearRegisteredBenchmarks();
-        exact_whole_set_seconds[m.name] = exact.seconds;
-        for (std::size_t k = 0; k < ts.size(); ++k) {
-            save_exr(cache_path(cfg, m.name, ts[k]), exact.results[k].image);
-            references[m.name].push_back(exact.results[k].image);
-            rows.push_back({m.name, ts[k].label, "exact", "", ts[k].n, ts[k].size, exact.results[k].seconds, {}});
-        }
     }
-
-    struct Variant {
-        Method method;
-        int sh_order;
-        std::string name, param;
-    };
-    std::vector<Variant> variants{{Method::Auto, 0, "auto", ""},
-                                  {Method::Cone, 0, "cone", ""},
-                                  {Method::Sh, 35, "sh", "35"},
-                                  {Method::Sh, 64, "sh", "64"},
-                                  {Method::Sh, 128, "sh", "128"},
-                                  {Method::Mipmap, 0, "mipmap", ""}};
     for (const EnvMap& m : maps) {
         for (const Variant& v : variants) {
-            RunOutcome run;
             const std::string name = v.name + (v.param.empty() ? "" : "_" + v.param) + "/" + m.name;
-            benchmark::RegisterBenchmark(name.c_str(), [&](benchmark::State& st) {
+            benchmark::RegisterBenchmark(name.c_str(), [&, v](benchmark::State& st) {
                 for (auto _ : st) {
-                    run = run_method(m.image, ts, v.method, v.sh_order, cfg.threads);
+                    const RunOutcome run = run_method(m.image, ts, v.method, v.sh_order, cfg.threads);
                     st.SetIterationTime(run.seconds);
+                    if (v.method == Method::Auto) auto_whole_set_seconds[m.name] = run.seconds;
+                    for (std::size_t k = 0; k < ts.size(); ++k)
+                        rows.push_back({m.name, ts[k].label, v.name, v.param, ts[k].n, ts[k].size,
+                                        run.results[k].seconds,
+                                        compare_maps(run.results[k].image, references[m.name][k])});
                 }
             })->Iterations(1)->UseManualTime()->Unit(benchmark::kMillisecond);
-            benchmark::RunSpecifiedBenchmarks();
-            benchmark::ClearRegisteredBenchmarks();
-            if (v.method == Method::Auto) auto_whole_set_seconds[m.name] = run.seconds;
-            for (std::size_t k = 0; k < ts.size(); ++k)
-                rows.push_back({m.name, ts[k].label, v.name, v.param, ts[k].n, ts[k].size,
-                                run.results[k].seconds,
-                                compare_maps(run.results[k].image, references[m.name][k])});
         }
     }
+    benchmark::RunSpecifiedBenchmarks();
 
     // Peak memory of the auto whole set (all three size groups) in a child process.
     const double auto_peak_mib = peak_memory_mib([&] {

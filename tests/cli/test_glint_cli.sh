@@ -1,0 +1,185 @@
+#!/usr/bin/env bash
+# End-to-end checks of the glint binary's convolve and compare commands (DESIGN.md, Commands):
+# help, a small real run (files, report.json keys, compare against itself), and every kind of
+# bad input: exit code 2, exactly one line on stderr naming the file or flag, nothing written,
+# and no temp or staging files left behind.
+#
+# Usage: test_glint_cli.sh /path/to/glint
+# Prints one line per check; exits non-zero on the first failed check.
+set -euo pipefail
+
+if [[ $# -ne 1 ]]; then
+    echo "usage: $0 /path/to/glint" >&2
+    exit 2
+fi
+GLINT=$1
+[[ -x $GLINT ]] || { echo "FAIL - $GLINT is not an executable" >&2; exit 1; }
+
+WORLD=/usr/share/blender/datafiles/studiolights/world/studio.exr
+[[ -f $WORLD ]] || { echo "FAIL - $WORLD is missing (blender-data)" >&2; exit 1; }
+
+work=$(mktemp -d "${TMPDIR:-/tmp}/glint_cli.XXXXXX")
+trap 'rm -rf "$work"' EXIT
+
+checks=0
+pass() { checks=$((checks + 1)); echo "ok   - $*"; }
+fail() { echo "FAIL - $*"; exit 1; }
+
+# Runs glint with stdout/stderr captured in $work/stdout, $work/stderr; sets $rc.
+run() {
+    rc=0
+    "$GLINT" "$@" >"$work/stdout" 2>"$work/stderr" || rc=$?
+}
+stderr_lines() { awk 'END { print NR }' "$work/stderr"; }
+stderr_text() { tr '\n' ' ' <"$work/stderr"; }
+
+# No *.tmp* or .glint-staging* anywhere under a directory.
+expect_no_leftovers() {
+    local what=$1 dir=$2
+    [[ -e $dir ]] || return 0
+    local left
+    left=$(find "$dir" \( -name '*.tmp*' -o -name '.glint-staging*' \) -print)
+    [[ -z $left ]] || fail "$what: left behind in $dir: $left"
+}
+
+# expect_bad NAME NEEDLE DIR ARGS...: exit 2, one stderr line containing NEEDLE, DIR empty or absent.
+expect_bad() {
+    local name=$1 needle=$2 dir=$3
+    shift 3
+    run "$@"
+    [[ $rc -eq 2 ]] || fail "$name: exit code $rc, want 2 (stderr: $(stderr_text))"
+    local lines
+    lines=$(stderr_lines)
+    [[ $lines -eq 1 ]] || fail "$name: $lines lines on stderr, want exactly 1: $(stderr_text)"
+    grep -qF -- "$needle" "$work/stderr" || fail "$name: stderr does not name '$needle': $(stderr_text)"
+    expect_no_leftovers "$name" "$dir"
+    if [[ -e $dir ]]; then
+        [[ -d $dir ]] || fail "$name: $dir was created as something other than a directory"
+        local content
+        content=$(ls -A "$dir")
+        [[ -z $content ]] || fail "$name: $dir is not empty: $content"
+    fi
+    pass "$name: exit 2, $(head -n 1 "$work/stderr")"
+}
+
+cp "$WORLD" "$work/in.exr"
+
+# --- help -------------------------------------------------------------------------------------
+run --help
+[[ $rc -eq 0 ]] || fail "glint --help: exit code $rc, want 0"
+grep -q convolve "$work/stdout" || fail "glint --help does not list the convolve command"
+grep -q compare "$work/stdout" || fail "glint --help does not list the compare command"
+pass "glint --help exits 0 and lists convolve and compare"
+
+run convolve --help
+[[ $rc -eq 0 ]] || fail "glint convolve --help: exit code $rc, want 0"
+for flag in --shininess --irradiance --out --method --tolerance --size; do
+    grep -qF -- "$flag" "$work/stdout" || fail "glint convolve --help does not mention $flag"
+done
+pass "glint convolve --help exits 0 and mentions --shininess (and --irradiance, --out, --method, --tolerance, --size)"
+
+run compare --help
+[[ $rc -eq 0 ]] || fail "glint compare --help: exit code $rc, want 0"
+pass "glint compare --help exits 0"
+
+# --- a small real run ---------------------------------------------------------------------------
+out=$work/out
+run convolve "$work/in.exr" --out "$out" --irradiance --shininess 20 --size 32x16
+[[ $rc -eq 0 ]] || fail "convolve: exit code $rc, want 0 (stderr: $(stderr_text))"
+for f in irradiance.exr phong_20.exr report.json; do
+    [[ -s $out/$f ]] || fail "convolve did not write a non-empty $out/$f"
+done
+listing=$(ls -A "$out" | sort | tr '\n' ' ')
+[[ $listing == "irradiance.exr phong_20.exr report.json " ]] || fail "convolve wrote unexpected files: $listing"
+expect_no_leftovers "convolve" "$out"
+pass "convolve --irradiance --shininess 20 --size 32x16 writes irradiance.exr, phong_20.exr, report.json and nothing else"
+
+python3 - "$out/report.json" <<'EOF' || fail "report.json does not hold what it should (see above)"
+import json, math, sys
+report = json.load(open(sys.argv[1]))
+maps = report["maps"]
+names = [m["map"] for m in maps]
+assert names == ["irradiance", "phong_20"], f"maps are {names}"
+for m in maps:
+    for key in ("method", "input_level", "output_size", "cutoff_cos", "predicted_error", "wall_seconds"):
+        assert key in m, f"{m['map']}: no key {key}"
+    assert m["method"] in ("exact", "cone"), f"{m['map']}: method {m['method']} is not concrete"
+    assert m["output_size"] == [32, 16], f"{m['map']}: output_size {m['output_size']}"
+    assert isinstance(m["input_level"], int) and m["input_level"] >= 0, f"{m['map']}: input_level {m['input_level']}"
+    assert -1 <= m["cutoff_cos"] < 1, f"{m['map']}: cutoff_cos {m['cutoff_cos']}"
+    pe = m["predicted_error"]
+    assert pe is not None and math.isfinite(pe) and 0 <= pe <= report["tolerance"], f"{m['map']}: predicted_error {pe}"
+    assert m["wall_seconds"] >= 0, f"{m['map']}: wall_seconds {m['wall_seconds']}"
+    assert m["file"] == m["map"] + ".exr", f"{m['map']}: file {m['file']}"
+assert report["input"]["size"] == [1024, 512], f"input size {report['input']['size']}"
+EOF
+pass "report.json: maps irradiance and phong_20, each with method, input_level, output_size, cutoff_cos, predicted_error, wall_seconds"
+
+run compare "$out/irradiance.exr" "$out/irradiance.exr"
+[[ $rc -eq 0 ]] || fail "compare of a map with itself: exit code $rc (stderr: $(stderr_text))"
+rms=$(awk '$1 == "weighted_rel_rms" { print $2 }' "$work/stdout")
+[[ -n $rms ]] || fail "compare printed no weighted_rel_rms line: $(tr '\n' ' ' <"$work/stdout")"
+awk -v v="$rms" 'BEGIN { exit !(v + 0 == 0) }' || fail "compare of a map with itself: weighted_rel_rms $rms, want 0"
+pass "compare of irradiance.exr against itself prints weighted_rel_rms $rms"
+
+run compare "$out/phong_20.exr" "$out/irradiance.exr"
+[[ $rc -eq 0 ]] || fail "compare phong_20 irradiance: exit code $rc (stderr: $(stderr_text))"
+rms=$(awk '$1 == "weighted_rel_rms" { print $2 }' "$work/stdout")
+awk -v v="$rms" 'BEGIN { exit !(v + 0 > 0) }' || fail "compare of two different maps: weighted_rel_rms '$rms', want > 0"
+pass "compare of phong_20.exr against irradiance.exr prints weighted_rel_rms $rms > 0"
+
+# A second run into the same directory replaces the maps and leaves nothing behind.
+run convolve "$work/in.exr" --out "$out" --irradiance --shininess 20 --size 32x16 --method exact
+[[ $rc -eq 0 ]] || fail "convolve again into $out: exit code $rc (stderr: $(stderr_text))"
+listing=$(ls -A "$out" | sort | tr '\n' ' ')
+[[ $listing == "irradiance.exr phong_20.exr report.json " ]] || fail "second convolve left: $listing"
+expect_no_leftovers "second convolve" "$out"
+grep -q '"method": "exact"' "$out/report.json" || fail "second convolve did not replace report.json"
+pass "convolve again into the same directory replaces the files and leaves no temp or staging files"
+
+# --- bad input ----------------------------------------------------------------------------------
+head -c 1000 "$WORLD" >"$work/truncated.exr"
+head -c 4096 /dev/urandom >"$work/corrupt.exr"
+: >"$work/empty.exr"
+echo "a regular file" >"$work/afile"
+
+expect_bad "truncated EXR" "$work/truncated.exr" "$work/bad1" \
+    convolve "$work/truncated.exr" --out "$work/bad1" --irradiance --size 32x16
+expect_bad "corrupt EXR (random bytes)" "$work/corrupt.exr" "$work/bad2" \
+    convolve "$work/corrupt.exr" --out "$work/bad2" --irradiance --size 32x16
+expect_bad "empty file" "$work/empty.exr" "$work/bad3" \
+    convolve "$work/empty.exr" --out "$work/bad3" --irradiance --size 32x16
+expect_bad "missing file" "$work/missing.exr" "$work/bad4" \
+    convolve "$work/missing.exr" --out "$work/bad4" --irradiance --size 32x16
+expect_bad "--shininess -3" "--shininess" "$work/bad5" \
+    convolve "$work/in.exr" --out "$work/bad5" --shininess -3 --size 32x16
+expect_bad "--shininess nan" "--shininess" "$work/bad6" \
+    convolve "$work/in.exr" --out "$work/bad6" --shininess nan --size 32x16
+expect_bad "--shininess abc" "--shininess" "$work/bad7" \
+    convolve "$work/in.exr" --out "$work/bad7" --shininess abc --size 32x16
+expect_bad "--shininess 20,,40" "--shininess" "$work/bad8" \
+    convolve "$work/in.exr" --out "$work/bad8" --shininess 20,,40 --size 32x16
+expect_bad "--size 0x0" "--size" "$work/bad9" \
+    convolve "$work/in.exr" --out "$work/bad9" --irradiance --size 0x0
+expect_bad "--tolerance 0" "--tolerance" "$work/bad10" \
+    convolve "$work/in.exr" --out "$work/bad10" --irradiance --tolerance 0 --size 32x16
+expect_bad "--method foo" "--method" "$work/bad11" \
+    convolve "$work/in.exr" --out "$work/bad11" --irradiance --method foo --size 32x16
+expect_bad "unwritable output directory (under a regular file)" "$work/afile/out" "$work/afile/out" \
+    convolve "$work/in.exr" --out "$work/afile/out" --irradiance --size 32x16
+[[ -f $work/afile && $(cat "$work/afile") == "a regular file" ]] || fail "the regular file $work/afile was changed"
+pass "the regular file in the way of the output directory is untouched"
+expect_bad "no maps requested" "--shininess" "$work/bad12" \
+    convolve "$work/in.exr" --out "$work/bad12" --size 32x16
+expect_bad "compare with a missing map" "$work/missing.exr" "$work/bad13" \
+    compare "$work/missing.exr" "$out/irradiance.exr"
+expect_bad "compare with a corrupt reference" "$work/corrupt.exr" "$work/bad14" \
+    compare "$out/irradiance.exr" "$work/corrupt.exr"
+
+# The good output directory is still exactly what the good runs wrote.
+listing=$(ls -A "$out" | sort | tr '\n' ' ')
+[[ $listing == "irradiance.exr phong_20.exr report.json " ]] || fail "output directory changed: $listing"
+expect_no_leftovers "all runs" "$work"
+pass "no *.tmp* or .glint-staging* file anywhere in the work directory"
+
+echo "all $checks checks passed"
