@@ -39,6 +39,15 @@ struct BrightSplit {
 // the map, brightest first, at most max_count of them.
 BrightSplit split_bright(const HdrImage& input, double contrast, int max_count);
 
+// Adds to nb (3 per output texel) each bright texel's term (r.w_b / cmax)^n L_b
+// dOmega_b over the output texels where it is not negligible: below
+// `tolerance` times floor_value (the smallest output) it is dropped. cmax holds
+// one value per (output row, class), `classes` per row (column i is class
+// i % classes); pass ones for sums normalised to the largest weight 1.
+void scatter_bright(const std::vector<BrightTexel>& bright, double shininess, Size out,
+                    const std::vector<double>& cmax, int classes, double floor_value,
+                    double tolerance, int threads, std::vector<double>& nb);
+
 struct ConeSettings {
     double cutoff_energy = 1e-2;  // lobe energy dropped outside the first cone
     double texel_tolerance = 1e-2;  // bound on the cut-off error of each output texel

@@ -1,0 +1,151 @@
+// The bright-texel split shared by the cone and SH paths: the few brightest
+// input texels are taken out of the map and their terms are added exactly, at
+// full resolution, to every output texel whose weight for them matters.
+#include <algorithm>
+#include <cmath>
+
+#include "appliance/convolution/methods.hpp"
+#include "appliance/core/equirect.hpp"
+#include "appliance/core/parallel.hpp"
+
+namespace glint::convolution {
+
+BrightSplit split_bright(const HdrImage& input, double contrast, int max_count) {
+    const int w = input.width();
+    const int h = input.height();
+    const std::vector<double> omega = row_solid_angles(w, h);
+    double mean = 0;
+    for (int j = 0; j < h; ++j) {
+        const float* row = input.row(j);
+        double s = 0;
+        for (int i = 0; i < w; ++i) s += std::max({row[3 * i], row[3 * i + 1], row[3 * i + 2]});
+        mean += s * omega[std::size_t(j)];
+    }
+    mean /= 4.0 * kPi;
+
+    BrightSplit split;
+    split.remainder = input;
+    split.threshold = contrast * mean;
+    if (!(mean > 0) || max_count <= 0) return split;
+
+    struct Candidate {
+        float value;
+        int i, j;
+    };
+    std::vector<Candidate> candidates;
+    for (int j = 0; j < h; ++j) {
+        const float* row = input.row(j);
+        for (int i = 0; i < w; ++i) {
+            const float v = std::max({row[3 * i], row[3 * i + 1], row[3 * i + 2]});
+            if (double(v) > split.threshold) candidates.push_back({v, i, j});
+        }
+    }
+    std::sort(candidates.begin(), candidates.end(), [](const Candidate& a, const Candidate& b) {
+        return a.value > b.value || (a.value == b.value && (a.j < b.j || (a.j == b.j && a.i < b.i)));
+    });
+    if (int(candidates.size()) > max_count) candidates.resize(std::size_t(max_count));
+    for (const Candidate& c : candidates) {
+        const Rgb l = input.at(c.i, c.j);
+        const double om = omega[std::size_t(c.j)];
+        const double theta = row_theta(c.j, h);
+        const double phi = column_phi(c.i, w);
+        const Vec3 d = direction_from_angles(theta, phi);
+        split.texels.push_back({d.x, d.y, d.z, theta, phi, l.r * om, l.g * om, l.b * om});
+        split.remainder.set(c.i, c.j, {0, 0, 0});
+    }
+    return split;
+}
+
+namespace {
+
+// x^n for x in [0, 1]: binary exponentiation when n is a small integer (the
+// common case, ~2 log2(n) multiplies), std::pow otherwise.
+double power(double x, double n) {
+    if (n == std::floor(n) && n < 1e6) {
+        double result = 1.0;
+        double base = x;
+        for (long long e = (long long)n; e > 0; e >>= 1) {
+            if (e & 1) result *= base;
+            base *= base;
+        }
+        return result;
+    }
+    return std::pow(x, n);
+}
+
+// Adds the bright texels' terms (relative to the output texel's cmax, like the
+// lobe sums; cmax_row: per class of this row) to nb for one output row.
+// cos_phi/sin_phi: output column azimuths.
+void scatter_bright_row(int row, const std::vector<BrightTexel>& bright,
+                        const std::vector<double>& min_cos, Size out, const double* cmax_row,
+                        int classes, double n, const std::vector<double>& cos_phi,
+                        const std::vector<double>& sin_phi, std::vector<double>& nb) {
+    const int ow = out.width;
+    const double theta_r = row_theta(row, out.height);
+    const double ct = std::cos(theta_r);
+    const double st = std::sin(theta_r);
+    double* nb_row = nb.data() + std::size_t(row) * std::size_t(ow) * 3;
+    for (std::size_t k = 0; k < bright.size(); ++k) {
+        const BrightTexel& b = bright[k];
+        const double c_b = min_cos[k];
+        if (c_b > 1.0) continue;
+        if (std::cos(theta_r - b.theta) < c_b) continue;  // no column of this row reaches
+        const double a = st * std::sin(b.theta);
+        const double bq = ct * b.y;  // b.y = cos(theta_b)
+        int first, count;
+        const double q = a > 1e-300 ? (c_b - bq) / a : (bq >= c_b ? -2.0 : 2.0);
+        if (q > 1.0) continue;
+        if (q <= -1.0) {
+            first = 0;
+            count = ow;
+        } else {
+            const double centre = (b.phi + kPi) / kTwoPi * ow - 0.5;  // output column units
+            const double half = std::acos(q) / kTwoPi * ow;
+            first = int(std::floor(centre - half)) - 1;  // one column of margin: weights decide
+            count = std::min(ow, int(std::ceil(centre + half)) + 1 - first + 1);
+        }
+        const double cpb = std::cos(b.phi), spb = std::sin(b.phi);
+        for (int t = 0; t < count; ++t) {
+            int i = (first + t) % ow;
+            if (i < 0) i += ow;
+            const double cosine = a * (cos_phi[std::size_t(i)] * cpb + sin_phi[std::size_t(i)] * spb) + bq;
+            if (!(cosine > 0)) continue;
+            const double cm = cmax_row[i % classes];
+            const double wgt = n == 0 ? 1.0 : power(std::min(1.0, cosine / cm), n);
+            double* o = nb_row + 3 * std::size_t(i);
+            o[0] += wgt * b.r;
+            o[1] += wgt * b.g;
+            o[2] += wgt * b.b;
+        }
+    }
+}
+
+}  // namespace
+
+
+void scatter_bright(const std::vector<BrightTexel>& bright, double n, Size out,
+                    const std::vector<double>& cmax, int classes, double floor_value,
+                    double tolerance, int threads, std::vector<double>& nb) {
+    if (bright.empty()) return;
+    // A bright term below `tolerance` of the smallest output (and so of every
+    // output) may be dropped: as a weight ratio, then as a cosine. The 0.999
+    // allows for cmax < 1 on coarse grids.
+    const double lobe_den = kTwoPi / (n + 1.0);  // sum of weights, continuous, cmax ~ 1
+    std::vector<double> min_cos(bright.size());
+    for (std::size_t k = 0; k < bright.size(); ++k) {
+        const double peak = std::max({bright[k].r, bright[k].g, bright[k].b});
+        const double ratio = tolerance * floor_value * lobe_den / peak;
+        min_cos[k] = n == 0 ? 0.0 : (ratio >= 1.0 ? 2.0 : 0.999 * std::pow(ratio, 1.0 / n));
+    }
+    std::vector<double> cos_phi(std::size_t(out.width)), sin_phi(std::size_t(out.width));
+    for (int i = 0; i < out.width; ++i) {
+        cos_phi[std::size_t(i)] = std::cos(column_phi(i, out.width));
+        sin_phi[std::size_t(i)] = std::sin(column_phi(i, out.width));
+    }
+    parallel_for(out.height, threads, [&](int row) {
+        scatter_bright_row(row, bright, min_cos, out, cmax.data() + std::size_t(row) * std::size_t(classes),
+                           classes, n, cos_phi, sin_phi, nb);
+    });
+}
+
+}  // namespace glint::convolution
