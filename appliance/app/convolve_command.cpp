@@ -123,6 +123,8 @@ int run_convolve(const ConvolveArgs& args) {
             {"cutoff_cos", p.cutoff_cos},
             {"bright_texels", p.bright_texels},
             {"sh_order", p.sh_order},
+            {"bright_split", p.bright_split},
+            {"note", p.note.empty() ? nlohmann::json() : nlohmann::json(p.note)},
             {"predicted_error", number_or_null(p.predicted_error)},
             {"predicted_cost", p.predicted_cost},
             {"wall_seconds", r.seconds},

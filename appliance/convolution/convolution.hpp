@@ -51,11 +51,13 @@ struct MapPlan {
     Size output_size;
     double cutoff_energy = 0;        // lobe energy dropped outside the cone (cone)
     double cutoff_cos = -1;          // cos of the cut-off angle, -1 = whole sphere
-    int bright_texels = 0;           // input texels summed exactly for every output (cone)
+    int bright_texels = 0;           // input texels summed exactly for every output (cone, auto's sh)
     int sh_order = 0;                // bands 0..order-1 (sh)
+    bool bright_split = false;       // sh of the map without its bright texels, those added exactly
     double predicted_error = 0;      // predicted weighted relative RMS against exact
     double predicted_cost = 0;       // predicted multiply-adds
     std::string shares_with;         // label of an identical map computed once
+    std::string note;                // e.g. why a plan was replaced while it ran
 };
 
 struct MapResult {

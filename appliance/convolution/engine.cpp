@@ -2,7 +2,9 @@
 // levels, the bright split and its pyramid, SH coefficients) once, runs each
 // map's plan and times it.
 #include <atomic>
+#include <algorithm>
 #include <chrono>
+#include <limits>
 #include <cmath>
 #include <map>
 #include <memory>
@@ -13,6 +15,7 @@
 #include "appliance/convolution/mipmap.hpp"
 #include "appliance/convolution/planner.hpp"
 #include "appliance/convolution/sh.hpp"
+#include "appliance/core/equirect.hpp"
 #include "appliance/core/errors.hpp"
 #include "appliance/core/parallel.hpp"
 
@@ -71,6 +74,27 @@ public:
         if (!mip_pyramid_) mip_pyramid_ = std::make_unique<Pyramid>(env_);
         return *mip_pyramid_;
     }
+    // SH of pyramid level k of the remainder (bright texels removed), at least
+    // `order` bands; one projection serves every map of the call.
+    const ShCoefficients& remainder_sh(int k, int order, int threads) {
+        if (!remainder_sh_ || remainder_sh_level_ != k || remainder_sh_->order < order) {
+            remainder_sh_ = std::make_unique<ShCoefficients>(sh_project(cone_pyramid().level(k), order, threads));
+            remainder_sh_level_ = k;
+        }
+        return *remainder_sh_;
+    }
+    // Solid-angle mean of the largest channel of level k of the remainder.
+    double remainder_mean(int k) {
+        const HdrImage& im = cone_pyramid().level(k);
+        double total = 0;
+        for (int j = 0; j < im.height(); ++j) {
+            const float* row = im.row(j);
+            double s = 0;
+            for (int i = 0; i < im.width(); ++i) s += std::max({row[3 * i], row[3 * i + 1], row[3 * i + 2]});
+            total += s * row_solid_angle(j, im.width(), im.height());
+        }
+        return total / (4.0 * kPi);
+    }
     const ShCoefficients& sh(int order, int threads) {
         if (!sh_ || sh_->order < order)
             sh_ = std::make_unique<ShCoefficients>(sh_project(env_, order, threads));
@@ -100,7 +124,57 @@ private:
     std::map<int, std::unique_ptr<PreparedLevel>> cone_levels_;
     std::unique_ptr<Pyramid> mip_pyramid_;
     std::unique_ptr<ShCoefficients> sh_;
+    std::unique_ptr<ShCoefficients> remainder_sh_;
+    int remainder_sh_level_ = -1;
 };
+
+// Auto: moves maps from the cone to SH with the bright split where that is
+// predicted to be faster, counting the one shared projection. Greedy by saving.
+void choose_sh_split(std::vector<MapResult>& results, const Options& options, const EnvironmentShape& shape,
+                     const PlannerModel& model) {
+    struct Candidate {
+        std::size_t index;
+        ShSplitPlan sh;
+        double cone_s;
+    };
+    std::vector<Candidate> candidates;
+    for (std::size_t k = 0; k < results.size(); ++k) {
+        const MapPlan& p = results[k].plan;
+        const ShSplitPlan sh = plan_sh_split(results[k].request.shininess, options.tolerance, p.output_size, shape, model);
+        const double cone_s = cone_seconds(p, model);
+        if (sh.usable && sh.reconstruct_seconds < cone_s) candidates.push_back({k, sh, cone_s});
+    }
+    std::sort(candidates.begin(), candidates.end(), [](const Candidate& a, const Candidate& b) {
+        return a.cone_s - a.sh.reconstruct_seconds > b.cone_s - b.sh.reconstruct_seconds;
+    });
+    int level = std::numeric_limits<int>::max(), order = 0;
+    double projection = 0;
+    std::vector<const Candidate*> chosen;
+    for (const Candidate& c : candidates) {
+        const int new_level = std::min(level, c.sh.level);
+        const int new_order = std::max(order, c.sh.order);
+        const double new_projection =
+            sh_projection_seconds(shape.cone_levels[std::size_t(new_level)], new_order, model);
+        if (new_projection - projection + c.sh.reconstruct_seconds < c.cone_s) {
+            level = new_level;
+            order = new_order;
+            projection = new_projection;
+            chosen.push_back(&c);
+        }
+    }
+    for (const Candidate* c : chosen) {
+        MapPlan& p = results[c->index].plan;
+        p.method = Method::Sh;
+        p.bright_split = true;
+        p.sh_order = c->sh.order;
+        p.input_level = level;  // the shared projection's level (at least as fine as this map's)
+        p.input_size = shape.cone_levels[std::size_t(level)];
+        p.cutoff_cos = -1;
+        p.cutoff_energy = 0;
+        p.predicted_error = c->sh.predicted_error;
+        p.predicted_cost = c->sh.reconstruct_seconds / model.sh_step_seconds;
+    }
+}
 
 void validate(const HdrImage& env, const std::vector<MapRequest>& maps, const Options& options) {
     if (env.empty()) throw InputError("environment map is empty (0 texels)");
@@ -132,6 +206,12 @@ std::vector<MapResult> convolve(const HdrImage& env, const std::vector<MapReques
 
     std::vector<MapResult> results;
     for (const MapRequest& m : maps) results.push_back({m, plan_map(m, options, shape, model), {}, 0, 0, 0});
+    std::vector<MapPlan> cone_plans;  // auto's fallback when an SH bound fails while running
+    for (const MapResult& r : results) cone_plans.push_back(r.plan);
+    if (options.method == Method::Auto) choose_sh_split(results, options, shape, model);
+    int split_order = 0;
+    for (const MapResult& r : results)
+        if (r.plan.bright_split) split_order = std::max(split_order, r.plan.sh_order);
 
     long long total_rows = 0;
     for (const MapResult& r : results) total_rows += r.plan.output_size.height;
@@ -166,6 +246,45 @@ std::vector<MapResult> convolve(const HdrImage& env, const std::vector<MapReques
             case Method::Exact:
                 r.image = exact_convolve(shared.full_level(), n, out, threads, progress);
                 break;
+            case Method::Sh:
+                if (r.plan.bright_split) {
+                    const int k_level = r.plan.input_level;
+                    const ShSplitResult split = sh_split_convolve(
+                        shared.remainder_sh(k_level, split_order, threads), r.plan.input_size,
+                        shared.remainder_mean(k_level),
+                        shared.bright().texels, n, r.plan.sh_order, out, options.tolerance * model.texel_cut_share,
+                        1e-3 * options.tolerance, threads);
+                    r.plan.bright_texels = int(shared.bright().texels.size());
+                    if (split.failed_values == 0) {
+                        r.image = split.image;
+                        r.clamped_texels = split.clamped;
+                        progress(out.height);
+                        break;
+                    }
+                    // The truncation bound does not hold for some dark texels: the cone
+                    // bounds its error per texel, so it takes over this map.
+                    r.plan = cone_plans[k];
+                    r.plan.note = "sh truncation bound failed for " + std::to_string(split.failed_values) +
+                                  " channel values; computed by cone";
+                } else {
+                    const ShCoefficients& c = shared.sh(r.plan.sh_order, threads);
+                    ShCoefficients truncated{r.plan.sh_order,
+                                             std::vector<double>(c.rgb.begin(),
+                                                                 c.rgb.begin() + std::ptrdiff_t(r.plan.sh_order) * r.plan.sh_order * 3)};
+                    const std::vector<double> kernel = phong_sh_kernel(n, r.plan.sh_order);
+                    const std::vector<double> e = sh_evaluate(truncated, kernel, out.width, out.height, threads);
+                    const std::vector<double> norm =
+                        sh_lobe_normaliser({env.width(), env.height()}, r.plan.sh_order, kernel, out);
+                    r.image = HdrImage(out.width, out.height);
+                    for (std::size_t v = 0; v < e.size(); ++v) {
+                        const double x = e[v] / norm[v / (3 * std::size_t(out.width))];
+                        if (x < 0) ++r.clamped_texels;
+                        r.image.data()[v] = float(std::max(0.0, x));
+                    }
+                    progress(out.height);
+                    break;
+                }
+                [[fallthrough]];
             case Method::Cone: {
                 ConeStats stats;
                 r.plan.bright_texels = int(shared.bright().texels.size());
@@ -173,16 +292,6 @@ std::vector<MapResult> convolve(const HdrImage& env, const std::vector<MapReques
                                         n, out, cone_settings(options.tolerance, model), threads,
                                         progress, &stats);
                 r.refined_texels = stats.refined_texels;
-                break;
-            }
-            case Method::Sh: {
-                const ShCoefficients& c = shared.sh(r.plan.sh_order, threads);
-                ShCoefficients truncated{r.plan.sh_order,
-                                         std::vector<double>(c.rgb.begin(),
-                                                             c.rgb.begin() + std::ptrdiff_t(r.plan.sh_order) * r.plan.sh_order * 3)};
-                r.image = sh_reconstruct(truncated, phong_sh_kernel(n, r.plan.sh_order), out.width,
-                                         out.height, threads, &r.clamped_texels);
-                progress(out.height);
                 break;
             }
             case Method::Mipmap:

@@ -67,4 +67,28 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
                        double shininess, Size out, const ConeSettings& settings, int threads,
                        const RowProgress& progress, ConeStats* stats);
 
+struct ShCoefficients;
+
+// SH with the bright split (used by `auto`): `remainder` holds at least `order`
+// bands of the map without its bright texels (mean radiance remainder_mean).
+// failed_values counts channel values whose truncation bound
+// tail(order) * remainder_mean exceeds texel_tolerance times the value; the
+// caller falls back to another method when it is not 0.
+struct ShSplitResult {
+    HdrImage image;
+    long long failed_values = 0;
+    long long clamped = 0;
+};
+ShSplitResult sh_split_convolve(const ShCoefficients& remainder, Size remainder_size, double remainder_mean,
+                                const std::vector<BrightTexel>& bright, double shininess, int order,
+                                Size out, double texel_tolerance, double bright_tolerance, int threads);
+
+// Per output row: the SH result for the all-ones map projected from a map of
+// size `input` (texel solid angle quadrature) with this kernel and order. An SH
+// result divided by it has the conventions' discrete normalisation.
+std::vector<double> sh_lobe_normaliser(Size input, int order, const std::vector<double>& kernel, Size out);
+
+// sum_{l >= order} |k_l| (2l + 1) for the Phong kernel k_l of shininess n.
+double sh_truncation_tail(double shininess, int order);
+
 }  // namespace glint::convolution

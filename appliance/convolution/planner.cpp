@@ -31,8 +31,8 @@ Size lobe_output_size(double n, double tolerance, Size input, const PlannerModel
     const double sigma = lobe_width(n);
     const double h = sigma * std::sqrt(model.output_share * tolerance / model.output_error_coefficient);
     int height = int(std::ceil(kPi / h));
-    (void)input;
-    height = std::clamp(height + (height & 1), 4, kMaxLobeOutputHeight);
+    const int cap = std::min(kMaxLobeOutputHeight, std::max(64, kLobeOutputOversampling * input.height));
+    height = std::clamp(height + (height & 1), 4, cap);
     return {2 * height, height};
 }
 
@@ -137,6 +137,54 @@ MapPlan plan_map(const MapRequest& request, const Options& options, const Enviro
             break;
         }
     }
+    return plan;
+}
+
+double cone_seconds(const MapPlan& plan, const PlannerModel& model) {
+    return plan.predicted_cost * model.cone_term_seconds;
+}
+
+double sh_projection_seconds(Size size, int order, const PlannerModel& model) {
+    // Per row: an FFT (or direct sums) per channel, then order^2/2 Legendre
+    // values times 2 (cos, sin) times 3 channels.
+    const double rows = size.height;
+    const double fourier = double(size.width) * std::log2(std::max(2, size.width)) * 3.0 * 4.0;
+    return rows * (fourier + double(order) * order * 3.0) * model.sh_step_seconds;
+}
+
+ShSplitPlan plan_sh_split(double n, double tau, Size out, const EnvironmentShape& env,
+                          const PlannerModel& model) {
+    ShSplitPlan plan;
+    if (n <= 1.0) return plan;  // the clamped cosine's kernel decays too slowly for the bound
+    int order = 0;
+    for (int l = 4; l <= model.max_split_sh_order; l += 4)
+        if (sh_truncation_tail(n, l) <= model.sh_tail_share * tau) {
+            order = l;
+            break;
+        }
+    if (order == 0) return plan;
+    int level = -1;
+    double level_error = 0;
+    for (int k = 0; k < int(env.cone_levels.size()); ++k) {
+        const Size s = env.cone_levels[std::size_t(k)];
+        if (s.height < order || s.width < 2 * order) break;  // the grid must resolve the bands
+        const double h = texel_spacing(s);
+        const double h2n = h * h * std::max(n, model.level_min_shininess);
+        if (k > 0 && (model.level_worst_coefficient * h2n > model.level_worst_share * tau ||
+                      model.level_rms_coefficient * h2n > model.level_share * tau))
+            break;
+        level = k;
+        level_error = k > 0 ? model.level_rms_coefficient * h2n : 0.0;
+    }
+    if (level < 0) return plan;
+    plan.usable = true;
+    plan.order = order;
+    plan.level = level;
+    plan.predicted_error = level_error + model.sh_tail_share * tau;
+    plan.reconstruct_seconds =
+        (double(out.height) * (double(order) * order * 3.0 +
+                               double(out.width) * std::log2(std::max(2, out.width)) * 3.0 * 4.0)) *
+        model.sh_step_seconds;
     return plan;
 }
 

@@ -35,7 +35,34 @@ struct PlannerModel {
     double first_cut_energy = 0.3;  // first cone drops this fraction of tau of the lobe
     double bright_contrast = 16.0;  // texels brighter than this x mean are summed exactly
     int max_bright_texels = 1024;
+    // SH with the bright split: the order is the smallest whose truncation tail
+    // (sh_split.cpp) is below sh_tail_share * tau, so the per-texel check passes
+    // wherever E >= mean_R * sh_tail_share / texel_cut_share; at most this order.
+    double sh_tail_share = 1e-3;
+    int max_split_sh_order = 384;
+    // Seconds per unit of predicted cost on the reference machine (2 threads),
+    // measured with the benchmark: a cone term (3 multiply-adds, including the
+    // refinement passes) and one step of the SH Legendre sums.
+    double cone_term_seconds = 2.0e-9;
+    double sh_step_seconds = 0.6e-9;
 };
+
+struct EnvironmentShape;
+
+// The SH-with-bright-split alternative for one map (auto only).
+struct ShSplitPlan {
+    bool usable = false;
+    int order = 0;
+    int level = 0;                 // pyramid level of the remainder that is projected
+    double predicted_error = 0;
+    double reconstruct_seconds = 0;
+};
+ShSplitPlan plan_sh_split(double shininess, double tolerance, Size out, const EnvironmentShape& env,
+                          const PlannerModel& model);
+// Predicted seconds to project a level of `size` onto `order` bands.
+double sh_projection_seconds(Size size, int order, const PlannerModel& model);
+// Predicted seconds of a cone plan.
+double cone_seconds(const MapPlan& plan, const PlannerModel& model);
 
 struct EnvironmentShape {
     Size input;
@@ -48,8 +75,12 @@ double lobe_width(double shininess);
 
 // Output size that follows the lobe when the user did not fix one. It may
 // exceed the input's size: a lobe narrower than the input's texels still needs
-// output texels that small to be looked up bilinearly within tolerance.
-// Capped at kMaxLobeOutputHeight rows.
+// output texels that small to be looked up bilinearly within tolerance. It is
+// capped at kLobeOutputOversampling times the input's height (beyond that the
+// map only resolves the input's texel edges more finely) and at
+// kMaxLobeOutputHeight rows; a capped plan predicts its own larger error, and
+// `glint convolve` warns when that exceeds the tolerance.
+inline constexpr int kLobeOutputOversampling = 4;
 inline constexpr int kMaxLobeOutputHeight = 4096;
 Size lobe_output_size(double shininess, double tolerance, Size input, const PlannerModel& model);
 

@@ -18,6 +18,7 @@
 #include <vector>
 
 #include "appliance/convolution/convolution.hpp"
+#include "appliance/convolution/planner.hpp"
 #include "appliance/core/equirect.hpp"
 #include "appliance/core/error_metrics.hpp"
 #include "appliance/core/errors.hpp"
@@ -547,7 +548,8 @@ TEST_F(HardCases, IrradianceAndPhong1AreComputedOnce) {
 void expect_plan_filled(const MapResult& r, const HdrImage& env, double tolerance) {
     const MapPlan& p = r.plan;
     const std::string what = r.request.label;
-    EXPECT_TRUE(p.method == Method::Cone || p.method == Method::Exact) << what << ": " << to_string(p.method);
+    EXPECT_TRUE(p.method == Method::Cone || p.method == Method::Exact || (p.method == Method::Sh && p.bright_split))
+        << what << ": " << to_string(p.method);
     EXPECT_GE(p.input_level, 0) << what;
     EXPECT_GT(p.input_size.width, 0) << what;
     EXPECT_GT(p.input_size.height, 0) << what;
@@ -564,8 +566,14 @@ void expect_plan_filled(const MapResult& r, const HdrImage& env, double toleranc
     EXPECT_LT(p.cutoff_cos, 1.0) << what;
     EXPECT_TRUE(std::isfinite(p.predicted_error)) << what;
     EXPECT_GE(p.predicted_error, 0.0) << what;
-    EXPECT_LE(p.predicted_error, tolerance) << what << " (output " << p.output_size.width << "x"
+    // A plan may exceed the tolerance only where the lobe-sized output hit its cap.
+    const Size lobe = lobe_output_size(r.request.shininess, tolerance, {env.width(), env.height()}, PlannerModel{});
+    const bool capped = lobe.height == std::min(kMaxLobeOutputHeight,
+                                                std::max(64, kLobeOutputOversampling * env.height()));
+    if (!capped) {
+        EXPECT_LE(p.predicted_error, tolerance) << what << " (output " << p.output_size.width << "x"
                                             << p.output_size.height << ")";
+    }
     EXPECT_GT(p.predicted_cost, 0.0) << what;
     EXPECT_TRUE(std::isfinite(p.predicted_cost)) << what;
     EXPECT_GE(r.seconds, 0.0) << what;

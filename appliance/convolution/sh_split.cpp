@@ -1,0 +1,96 @@
+// SH with the bright split (used by `auto`): the remainder of the map (its
+// brightest texels taken out) is convolved in the SH domain, the bright texels
+// are added exactly, and the truncation is checked for every output texel.
+//
+// Truncation bound: the dropped bands contribute
+//   sum_{l >= L} k_l (2l+1)/(4 pi) sum_k L_k dOmega_k P_l(r.w_k),
+// and |P_l| <= 1, so |E - E_L| <= tail(L) * mean_R with
+//   tail(L) = sum_{l >= L} |k_l| (2l + 1),   mean_R = sum_k L_k dOmega_k / (4 pi).
+// The bright texels carry the map's dynamic range, so mean_R is modest, and a
+// texel passes when tail(L) mean_R <= texel_tolerance * E for every channel.
+//
+// Normalisation: the conventions divide by the discrete lobe weight
+// sum_k f_k dOmega_k, SH by the continuous 2 pi / (n+1). Dividing by the SH
+// response to the all-ones map under the same quadrature and truncation
+// restores the discrete ratio: a constant map gives the constant exactly.
+#include <algorithm>
+#include <cmath>
+
+#include "appliance/convolution/methods.hpp"
+#include "appliance/convolution/sh.hpp"
+#include "appliance/core/equirect.hpp"
+
+namespace glint::convolution {
+
+std::vector<double> sh_lobe_normaliser(Size input, int order, const std::vector<double>& kernel, Size out) {
+    // c_l0 of the all-ones map under the projection's own quadrature (the
+    // azimuthal sums vanish for m > 0), then its convolution per output row.
+    const ShLegendre legendre(order);
+    const std::vector<double> w = sh_row_weights(input.width, input.height, ShQuadrature::TexelSolidAngle);
+    std::vector<double> c(static_cast<std::size_t>(order), 0.0), p(static_cast<std::size_t>(order));
+    std::vector<double> diag(static_cast<std::size_t>(order));
+    for (int j = 0; j < input.height; ++j) {
+        const double t = row_theta(j, input.height);
+        legendre.diagonal(std::sin(t), diag.data());
+        legendre.column(0, std::cos(t), diag[0], p.data());
+        for (int l = 0; l < order; ++l) c[std::size_t(l)] += w[std::size_t(j)] * input.width * p[std::size_t(l)];
+    }
+    std::vector<double> norm(std::size_t(out.height));
+    for (int j = 0; j < out.height; ++j) {
+        const double t = row_theta(j, out.height);
+        legendre.diagonal(std::sin(t), diag.data());
+        legendre.column(0, std::cos(t), diag[0], p.data());
+        double e = 0;
+        for (int l = 0; l < order; ++l) e += kernel[std::size_t(l)] * c[std::size_t(l)] * p[std::size_t(l)];
+        norm[std::size_t(j)] = e;
+    }
+    return norm;
+}
+
+double sh_truncation_tail(double n, int order) {
+    // The kernel decays like exp(-l^2 / 2n) (and like l^-2 for n <= 1, whose
+    // tail this bound cannot make small); summing 4x past the order, or to
+    // where the terms are below 1e-300, covers it.
+    const int bands = std::min(kMaxKernelBands, std::max(4 * order, order + 64));
+    const std::vector<double> k = phong_sh_kernel(n, bands);
+    double tail = 0;
+    for (int l = order; l < bands; ++l) tail += std::abs(k[std::size_t(l)]) * (2.0 * l + 1.0);
+    return tail;
+}
+
+ShSplitResult sh_split_convolve(const ShCoefficients& remainder, Size remainder_size, double remainder_mean,
+                                const std::vector<BrightTexel>& bright, double n, int order,
+                                Size out, double texel_tolerance, double bright_tolerance,
+                                int threads) {
+    ShCoefficients truncated{order, std::vector<double>(remainder.rgb.begin(),
+                                                        remainder.rgb.begin() + std::ptrdiff_t(order) * order * 3)};
+    const std::vector<double> kernel = phong_sh_kernel(n, order);
+    const std::vector<double> e = sh_evaluate(truncated, kernel, out.width, out.height, threads);
+    const std::vector<double> norm = sh_lobe_normaliser(remainder_size, order, kernel, out);
+    const std::size_t texels = std::size_t(out.width) * std::size_t(out.height);
+
+    ShSplitResult result;
+    std::vector<double> nb(3 * texels, 0.0);
+    if (!bright.empty()) {
+        double floor_value = INFINITY;
+        for (double v : e)
+            if (v > 0) floor_value = std::min(floor_value, v);
+        // SH sums are normalised to the continuous lobe, i.e. cmax = 1.
+        const std::vector<double> ones(std::size_t(out.height), 1.0);
+        scatter_bright(bright, n, out, ones, 1, std::isfinite(floor_value) ? floor_value : 0.0,
+                       bright_tolerance, threads, nb);
+    }
+    const double lobe_den = kTwoPi / (n + 1.0);
+    const double error_bound = sh_truncation_tail(n, order) * remainder_mean;
+    result.image = HdrImage(out.width, out.height);
+    float* o = result.image.data().data();
+    for (std::size_t k = 0; k < 3 * texels; ++k) {
+        const double v = (e[k] + nb[k] / lobe_den) / norm[k / (3 * std::size_t(out.width))];
+        if (!(error_bound <= texel_tolerance * v)) ++result.failed_values;
+        if (v < 0) ++result.clamped;
+        o[k] = float(std::max(0.0, v));
+    }
+    return result;
+}
+
+}  // namespace glint::convolution
