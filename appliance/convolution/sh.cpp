@@ -1,11 +1,15 @@
-// Spherical harmonics: stable Legendre recurrences, separable projection and reconstruction, Phong kernel.
+// Spherical harmonics: stable Legendre recurrences, separable projection and reconstruction (azimuthal sums
+// by FFT or directly), Phong kernel.
 #include "appliance/convolution/sh.hpp"
 
 #include <algorithm>
 #include <cmath>
+#include <complex>
 #include <numbers>
+#include <optional>
 #include <string>
 
+#include "appliance/convolution/fft.hpp"
 #include "appliance/core/errors.hpp"
 #include "appliance/core/parallel.hpp"
 
@@ -64,6 +68,40 @@ struct AzimuthTable {
     }
 };
 
+// Lowest orders at which ShAzimuthal::Automatic takes the FFT for a power-of-two width. Three real
+// transforms per row cost about as much as the vectorised direct sums of this many frequencies (measured
+// for W = 64 to 4096 with 1 and 2 threads: the crossover barely moves with W, as log W grows slowly); the
+// synthesis also fills and folds a spectrum, so its crossover is higher. Fixed constants, not tuned at run
+// time, so a given call always takes the same path.
+constexpr int kFftMinOrderProject = 12;
+constexpr int kFftMinOrderEvaluate = 24;
+
+// Whether the azimuthal sums of a width-W row go through the FFT.
+bool fft_path(int width, int order, int min_order, ShAzimuthal azimuthal) {
+    const bool fits = is_fft_length(std::size_t(width));
+    if (azimuthal == ShAzimuthal::Fft && !fits)
+        throw InputError("FFT azimuthal sums need a power-of-two width, not " + std::to_string(width));
+    if (azimuthal == ShAzimuthal::Automatic) return fits && order >= min_order;
+    return azimuthal == ShAzimuthal::Fft;
+}
+
+// The FFT form of the azimuthal sums. With phi_i = phi_0 + 2 pi i / W,
+//   sum_i L_i e^(-i m phi_i) = e^(-i m phi_0) X_(m mod W),   X = the forward DFT of the row,
+// so a row's F_m - i G_m is its spectrum turned by the phase of column 0; the phases are reduced exactly
+// in integers like the direct sums' angles. Where m mod W > W/2, X is read by conjugate symmetry from
+// W - (m mod W), so any order works with any width.
+struct FftAzimuth {
+    RealFftPlan plan;
+    std::vector<double> phase_cos, phase_sin;  // cos(m phi_0), sin(m phi_0) for m < order
+
+    FftAzimuth(int width, int order) : plan(std::size_t(width)) {
+        phase_cos.resize(std::size_t(order));
+        phase_sin.resize(std::size_t(order));
+        for (int m = 0; m < order; ++m)
+            column_angle(m, 0, width, phase_cos[std::size_t(m)], phase_sin[std::size_t(m)]);
+    }
+};
+
 // Polar angle of a row centre: x = cos(theta), s = sin(theta) > 0.
 void row_angles(int j, int height, double& x, double& s) {
     const double theta = row_theta(j, height);
@@ -74,12 +112,19 @@ void row_angles(int j, int height, double& x, double& s) {
 // The projection of rows read in double by read_row(j, out[3W]); shared by the float and double inputs.
 template <typename RowSource>
 ShCoefficients project_impl(int width, int height, int order, int threads, ShQuadrature q,
-                            const RowSource& read_row) {
+                            ShAzimuthal azimuthal, const RowSource& read_row) {
     check_order(order);
     check_size(width, height, "input");
     threads = resolve_threads(threads);
     const ShLegendre legendre(order);
-    const AzimuthTable table(width, order, false);
+    const bool use_fft = fft_path(width, order, kFftMinOrderProject, azimuthal);
+    // Only the path taken builds its table: the direct one is O(W order) cosines.
+    std::optional<AzimuthTable> table;
+    std::optional<FftAzimuth> fft;
+    if (use_fft)
+        fft.emplace(width, order);
+    else
+        table.emplace(width, order, false);
     const std::vector<double> weights = sh_row_weights(width, height, q);
     const std::size_t uorder = std::size_t(order);
     const int half = width / 2;
@@ -87,7 +132,8 @@ ShCoefficients project_impl(int width, int height, int order, int threads, ShQua
 
     // Pass 1, per row j: weighted Fourier sums over the columns, 6 arrays of length order
     //   F_c[m] = w_j s_m sum_i L_c,i cos(m phi_i),  G_c[m] = w_j s_m sum_i L_c,i sin(m phi_i)
-    // (s_0 = 1, s_m = sqrt2), and the diagonal \bar P_mm(cos theta_j).
+    // (s_0 = 1, s_m = sqrt2), and the diagonal \bar P_mm(cos theta_j). The sums cost O(W log W) by FFT for a
+    // power-of-two width and O(W order) directly otherwise.
     std::vector<double> fourier(std::size_t(height) * 6 * uorder);
     std::vector<double> diagonal(std::size_t(height) * uorder);
     std::vector<double> xs(static_cast<std::size_t>(height));
@@ -101,28 +147,49 @@ ShCoefficients project_impl(int width, int height, int order, int threads, ShQua
         double* gr = f + 3 * uorder;
         double* gg = f + 4 * uorder;
         double* gb = f + 5 * uorder;
-        for (int i = 0; i < half; ++i) {
-            const double* a = row.data() + 3 * std::size_t(i);
-            const double* b = row.data() + 3 * std::size_t(width - 1 - i);
-            const double s0 = a[0] + b[0], s1 = a[1] + b[1], s2 = a[2] + b[2];
-            const double d0 = a[0] - b[0], d1 = a[1] - b[1], d2 = a[2] - b[2];
-            const double* cm = table.cosines.data() + std::size_t(i) * uorder;
-            const double* sm = table.sines.data() + std::size_t(i) * uorder;
-            for (std::size_t m = 0; m < uorder; ++m) {  // independent lanes: vectorises
-                fr[m] += s0 * cm[m];
-                fg[m] += s1 * cm[m];
-                fb[m] += s2 * cm[m];
-                gr[m] += d0 * sm[m];
-                gg[m] += d1 * sm[m];
-                gb[m] += d2 * sm[m];
+        if (use_fft) {
+            const std::size_t uwidth = std::size_t(width);
+            std::vector<double> channel(uwidth);
+            std::vector<std::complex<double>> spectrum(fft->plan.spectrum_size());
+            for (std::size_t ch = 0; ch < 3; ++ch) {
+                for (std::size_t i = 0; i < uwidth; ++i) channel[i] = row[3 * i + ch];
+                fft->plan.forward(channel.data(), spectrum.data());
+                double* fc = f + ch * uorder;
+                double* gc = f + (ch + 3) * uorder;
+                for (std::size_t m = 0; m < uorder; ++m) {
+                    const std::size_t k = m % uwidth;
+                    const bool mirrored = 2 * k > uwidth;  // X_k = conj X_(W-k)
+                    const std::complex<double> x = spectrum[mirrored ? uwidth - k : k];
+                    const double a = x.real(), b = mirrored ? -x.imag() : x.imag();
+                    const double c = fft->phase_cos[m], s = fft->phase_sin[m];
+                    fc[m] = c * a + s * b;  // (c - i s)(a + i b) = F - i G
+                    gc[m] = s * a - c * b;
+                }
             }
-        }
-        if (odd) {  // phi = 0: cos(m phi) = 1, sin(m phi) = 0
-            const double* c = row.data() + 3 * std::size_t(half);
-            for (std::size_t m = 0; m < uorder; ++m) {
-                fr[m] += c[0];
-                fg[m] += c[1];
-                fb[m] += c[2];
+        } else {
+            for (int i = 0; i < half; ++i) {
+                const double* a = row.data() + 3 * std::size_t(i);
+                const double* b = row.data() + 3 * std::size_t(width - 1 - i);
+                const double s0 = a[0] + b[0], s1 = a[1] + b[1], s2 = a[2] + b[2];
+                const double d0 = a[0] - b[0], d1 = a[1] - b[1], d2 = a[2] - b[2];
+                const double* cm = table->cosines.data() + std::size_t(i) * uorder;
+                const double* sm = table->sines.data() + std::size_t(i) * uorder;
+                for (std::size_t m = 0; m < uorder; ++m) {  // independent lanes: vectorises
+                    fr[m] += s0 * cm[m];
+                    fg[m] += s1 * cm[m];
+                    fb[m] += s2 * cm[m];
+                    gr[m] += d0 * sm[m];
+                    gg[m] += d1 * sm[m];
+                    gb[m] += d2 * sm[m];
+                }
+            }
+            if (odd) {  // phi = 0: cos(m phi) = 1, sin(m phi) = 0
+                const double* c = row.data() + 3 * std::size_t(half);
+                for (std::size_t m = 0; m < uorder; ++m) {
+                    fr[m] += c[0];
+                    fg[m] += c[1];
+                    fb[m] += c[2];
+                }
             }
         }
         const double w = weights[std::size_t(j)];
@@ -170,7 +237,7 @@ ShCoefficients project_impl(int width, int height, int order, int threads, ShQua
 // Evaluates sum_lm kernel[l] c_lm Y_lm at every texel centre; sink(j, row) receives each row's 3W values.
 template <typename RowSink>
 void evaluate_impl(const ShCoefficients& c, const std::vector<double>& kernel, int width, int height,
-                   int threads, const RowSink& sink) {
+                   int threads, ShAzimuthal azimuthal, const RowSink& sink) {
     check_order(c.order);
     check_size(width, height, "output");
     const int order = c.order;
@@ -184,7 +251,13 @@ void evaluate_impl(const ShCoefficients& c, const std::vector<double>& kernel, i
                          " bands, order " + std::to_string(order) + " needs " + std::to_string(order));
     threads = resolve_threads(threads);
     const ShLegendre legendre(order);
-    const AzimuthTable table(width, order, true);
+    const bool use_fft = fft_path(width, order, kFftMinOrderEvaluate, azimuthal);
+    std::optional<AzimuthTable> table;
+    std::optional<FftAzimuth> fft;
+    if (use_fft)
+        fft.emplace(width, order);
+    else
+        table.emplace(width, order, true);
     const int half = width / 2;
     const std::size_t uhalf = std::size_t(half);
     const bool odd = width % 2 != 0;
@@ -213,12 +286,44 @@ void evaluate_impl(const ShCoefficients& c, const std::vector<double>& kernel, i
         for (std::size_t k = 0; k < 6; ++k)
             for (std::size_t m = 1; m < uorder; ++m) hk[k * uorder + m] *= kSqrt2;
 
+        std::vector<double> row(std::size_t(width) * 3);
+        if (use_fft) {
+            // Column i is Re sum_m Y_m e^(2 pi i m i / W) with Y_m = (H_m - i K_m) e^(i m phi_0). Frequencies
+            // m and m + W are the same on W columns, and k and W - k carry conjugate parts of one real
+            // cosine, so each Y_m is folded onto k = m mod W and then, halved and conjugated, onto
+            // min(k, W - k): the spectrum of length W/2 + 1 whose real inverse is the row. The folding
+            // makes orders above W/2 exact too.
+            const std::size_t uwidth = std::size_t(width);
+            std::vector<double> channel(uwidth);
+            std::vector<std::complex<double>> spectrum(fft->plan.spectrum_size());
+            for (std::size_t ch = 0; ch < 3; ++ch) {
+                std::fill(spectrum.begin(), spectrum.end(), std::complex<double>(0.0, 0.0));
+                const double* h = hk.data() + ch * uorder;
+                const double* g = hk.data() + (ch + 3) * uorder;  // g[0] = 0: there is no c_l,-0
+                for (std::size_t m = 0; m < uorder; ++m) {
+                    const double cm = fft->phase_cos[m], sm = fft->phase_sin[m];
+                    const double yr = h[m] * cm + g[m] * sm, yi = h[m] * sm - g[m] * cm;
+                    const std::size_t k = m % uwidth;
+                    if (k == 0 || 2 * k == uwidth)
+                        spectrum[k] += yr;  // the inverse reads only the real part of these two
+                    else if (2 * k < uwidth)
+                        spectrum[k] += std::complex<double>(0.5 * yr, 0.5 * yi);
+                    else
+                        spectrum[uwidth - k] += std::complex<double>(0.5 * yr, -0.5 * yi);
+                }
+                fft->plan.inverse(spectrum.data(), channel.data());
+                for (std::size_t i = 0; i < uwidth; ++i) row[3 * i + ch] = channel[i];
+            }
+            sink(j, row.data());
+            return;
+        }
+
         // A_c[i] = sum_m H_c[m] cos(m phi_i), B_c[i] = sum_m K_c[m] sin(m phi_i) for i < W/2; column
         // i is A + B and column W-1-i is A - B.
         std::vector<double> ab(6 * uhalf, 0.0);
         for (std::size_t m = 0; m < uorder; ++m) {
-            const double* cm = table.cosines.data() + m * uhalf;
-            const double* sm = table.sines.data() + m * uhalf;
+            const double* cm = table->cosines.data() + m * uhalf;
+            const double* sm = table->sines.data() + m * uhalf;
             for (std::size_t k = 0; k < 3; ++k) {
                 const double h = hk[k * uorder + m];
                 const double g = hk[(k + 3) * uorder + m];
@@ -230,7 +335,6 @@ void evaluate_impl(const ShCoefficients& c, const std::vector<double>& kernel, i
                 }
             }
         }
-        std::vector<double> row(std::size_t(width) * 3);
         for (std::size_t i = 0; i < uhalf; ++i) {
             const std::size_t mirror = std::size_t(width) - 1 - i;
             for (std::size_t k = 0; k < 3; ++k) {
@@ -365,7 +469,8 @@ std::vector<double> sh_row_weights(int width, int height, ShQuadrature q) {
 
 ShCoefficients sh_project(const HdrImage& env, int order, int threads, ShQuadrature q) {
     if (env.empty()) throw InputError("spherical-harmonics projection of an empty map");
-    return project_impl(env.width(), env.height(), order, threads, q, [&](int j, double* out) {
+    return project_impl(env.width(), env.height(), order, threads, q, ShAzimuthal::Automatic,
+                        [&](int j, double* out) {
         const float* src = env.row(j);
         for (std::size_t k = 0; k < std::size_t(env.width()) * 3; ++k) out[k] = double(src[k]);
     });
@@ -373,12 +478,17 @@ ShCoefficients sh_project(const HdrImage& env, int order, int threads, ShQuadrat
 
 ShCoefficients sh_project(std::span<const double> rgb, int width, int height, int order, int threads,
                           ShQuadrature q) {
+    return detail::sh_project(rgb, width, height, order, threads, q, ShAzimuthal::Automatic);
+}
+
+ShCoefficients detail::sh_project(std::span<const double> rgb, int width, int height, int order, int threads,
+                                  ShQuadrature q, ShAzimuthal azimuthal) {
     check_size(width, height, "input");
     const std::size_t row_size = std::size_t(width) * 3;
     if (rgb.size() != row_size * std::size_t(height))
         throw InputError("spherical-harmonics projection: " + std::to_string(rgb.size()) +
                          " values for a " + std::to_string(width) + "x" + std::to_string(height) + " map");
-    return project_impl(width, height, order, threads, q, [&](int j, double* out) {
+    return project_impl(width, height, order, threads, q, azimuthal, [&](int j, double* out) {
         const double* src = rgb.data() + std::size_t(j) * row_size;
         for (std::size_t k = 0; k < row_size; ++k) out[k] = src[k];
     });
@@ -406,10 +516,15 @@ std::vector<double> phong_sh_kernel(double n, int order) {
 
 std::vector<double> sh_evaluate(const ShCoefficients& c, const std::vector<double>& kernel, int width,
                                 int height, int threads) {
+    return detail::sh_evaluate(c, kernel, width, height, threads, ShAzimuthal::Automatic);
+}
+
+std::vector<double> detail::sh_evaluate(const ShCoefficients& c, const std::vector<double>& kernel, int width,
+                                        int height, int threads, ShAzimuthal azimuthal) {
     check_size(width, height, "output");
     const std::size_t row_size = std::size_t(width) * 3;
     std::vector<double> out(row_size * std::size_t(height));
-    evaluate_impl(c, kernel, width, height, threads, [&](int j, const double* row) {
+    evaluate_impl(c, kernel, width, height, threads, azimuthal, [&](int j, const double* row) {
         double* dst = out.data() + std::size_t(j) * row_size;
         for (std::size_t k = 0; k < row_size; ++k) dst[k] = row[k];
     });
@@ -421,7 +536,7 @@ HdrImage sh_reconstruct(const ShCoefficients& c, const std::vector<double>& kern
     check_size(width, height, "output");
     HdrImage out(width, height);
     std::vector<long long> negatives(std::size_t(height), 0);
-    evaluate_impl(c, kernel, width, height, threads, [&](int j, const double* row) {
+    evaluate_impl(c, kernel, width, height, threads, ShAzimuthal::Automatic, [&](int j, const double* row) {
         float* dst = out.row(j);
         long long count = 0;
         for (std::size_t k = 0; k < std::size_t(width) * 3; ++k) {

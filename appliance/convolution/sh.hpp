@@ -85,9 +85,10 @@ std::vector<double> fejer_weights(int height);
 // Solid-angle weight of one texel of row j (all texels of a row share it) under quadrature q.
 std::vector<double> sh_row_weights(int width, int height, ShQuadrature q);
 
-// c_lm = sum_texels w_row L Y_lm, separably: per row the azimuthal Fourier sums, then the Legendre
-// recurrence. Rows are summed in row order with compensated sums, so the result does not depend on
-// `threads` (<= 0: all hardware threads). Throws InputError on an empty map or a bad order.
+// c_lm = sum_texels w_row L Y_lm, separably: per row the azimuthal Fourier sums (by FFT for a power-of-two
+// width, see ShAzimuthal), then the Legendre recurrence. Rows are summed in row order with compensated
+// sums, so the result does not depend on `threads` (<= 0: all hardware threads). Throws InputError on an
+// empty map or a bad order.
 ShCoefficients sh_project(const HdrImage& env, int order, int threads,
                           ShQuadrature q = ShQuadrature::TexelSolidAngle);
 // The same for radiance in double, interleaved RGB, row 0 at the top (width*height*3 values).
@@ -100,12 +101,28 @@ ShCoefficients sh_project(std::span<const double> rgb, int width, int height, in
 std::vector<double> phong_sh_kernel(double n, int order);
 
 // E(r) = sum_lm kernel[l] c_lm Y_lm(r) at every texel centre of a width x height equirect map, in double,
-// interleaved RGB, not clamped. kernel needs c.order entries. threads <= 0: all hardware threads.
+// interleaved RGB, not clamped. kernel needs c.order entries. threads <= 0: all hardware threads. Each row
+// is synthesised from its azimuthal series by an inverse FFT for a power-of-two width (see ShAzimuthal).
 std::vector<double> sh_evaluate(const ShCoefficients& c, const std::vector<double>& kernel, int width,
                                 int height, int threads);
 
 // sh_evaluate as an image: negative channel values are clamped to 0 and counted in *clamped.
 HdrImage sh_reconstruct(const ShCoefficients& c, const std::vector<double>& kernel, int width, int height,
                         int threads, long long* clamped = nullptr);
+
+// How the separable paths sum over the columns of a row: by a real FFT (fft.hpp), O(W log W) per row, or
+// directly, O(W order). Automatic takes the FFT when the width is a power of two and the order is high
+// enough for it to be faster (12 bands for sh_project, 24 for sh_evaluate), the direct sums otherwise;
+// the two agree to rounding (below 1e-14 relative). The forced forms below let tests compare the paths.
+enum class ShAzimuthal { Automatic, Direct, Fft };
+
+namespace detail {
+// sh_project and sh_evaluate with the azimuthal path forced; ShAzimuthal::Fft throws InputError unless
+// the width is a power of two.
+ShCoefficients sh_project(std::span<const double> rgb, int width, int height, int order, int threads,
+                          ShQuadrature q, ShAzimuthal azimuthal);
+std::vector<double> sh_evaluate(const ShCoefficients& c, const std::vector<double>& kernel, int width,
+                                int height, int threads, ShAzimuthal azimuthal);
+}  // namespace detail
 
 }  // namespace glint::convolution

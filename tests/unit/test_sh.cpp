@@ -7,6 +7,8 @@
 #include <cmath>
 #include <cstddef>
 #include <random>
+#include <tuple>
+#include <utility>
 #include <vector>
 
 #include "appliance/core/equirect.hpp"
@@ -260,7 +262,8 @@ TEST(ShBasis, OrthonormalOnFejerGrid) {
 }
 
 TEST(ShProject, SeparablePathMatchesBasis) {
-    for (int w : {48, 45}) {  // even and odd widths (an odd width has a column at phi = 0)
+    // Even and odd widths (an odd width has a column at phi = 0); 32 takes the FFT (order 12 is enough).
+    for (int w : {48, 45, 32}) {
         const HdrImage img = random_image(w, 24, 7u + unsigned(w));
         for (ShQuadrature q : {ShQuadrature::TexelSolidAngle, ShQuadrature::Fejer}) {
             const ShCoefficients fast = sh_project(img, 12, 2, q);
@@ -274,13 +277,93 @@ TEST(ShProject, SeparablePathMatchesBasis) {
     }
 }
 
+std::vector<double> random_values(std::size_t count, unsigned seed) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<double> u(0.0, 1.0);
+    std::vector<double> v(count);
+    for (double& x : v) x = u(rng);
+    return v;
+}
+
+ShCoefficients random_coefficients(int order, unsigned seed) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<double> u(-1.0, 1.0);
+    ShCoefficients c;
+    c.order = order;
+    c.rgb.resize(std::size_t(order * order * 3));
+    for (int l = 0; l < order; ++l)
+        for (int m = -l; m <= l; ++m)
+            for (int ch = 0; ch < 3; ++ch) c.at(l, m, ch) = u(rng) / (1.0 + 0.1 * l);
+    return c;
+}
+
+// Largest |a - b| relative to the largest |b|.
+double relative_difference(const std::vector<double>& a, const std::vector<double>& b) {
+    double worst = 0;
+    for (std::size_t k = 0; k < b.size(); ++k) worst = std::max(worst, std::abs(a[k] - b[k]));
+    return worst / max_abs(b);
+}
+
+TEST(ShProject, FftPathMatchesDirectSums) {
+    // 256x128 at order 64, and the aliased cases: order W/2 < 64 <= W and order > W, where the FFT path
+    // reads X_(m mod W) by conjugate symmetry.
+    for (auto [w, h, order] : {std::tuple{256, 128, 64}, std::tuple{64, 32, 64}, std::tuple{32, 16, 40},
+                               std::tuple{2, 4, 5}, std::tuple{1, 3, 4}}) {
+        const std::vector<double> map = random_values(std::size_t(w * h * 3), 31u + unsigned(w));
+        for (ShQuadrature q : {ShQuadrature::TexelSolidAngle, ShQuadrature::Fejer}) {
+            const ShCoefficients fft = detail::sh_project(map, w, h, order, 2, q, ShAzimuthal::Fft);
+            const ShCoefficients direct = detail::sh_project(map, w, h, order, 2, q, ShAzimuthal::Direct);
+            ASSERT_EQ(fft.rgb.size(), direct.rgb.size());
+            EXPECT_LT(relative_difference(fft.rgb, direct.rgb), 1e-12) << w << "x" << h << " order " << order;
+        }
+    }
+}
+
+TEST(ShReconstruct, FftPathMatchesDirectSums) {
+    // 128x64 at order 64 (order = W/2), and widths below the order, where the FFT path folds frequency m
+    // onto m mod W and W - (m mod W).
+    const ShCoefficients c = random_coefficients(64, 17u);
+    const std::vector<double> kernel = phong_sh_kernel(4.0, 64);
+    for (auto [w, h] : {std::pair{128, 64}, std::pair{64, 32}, std::pair{32, 16}, std::pair{16, 8},
+                        std::pair{2, 4}, std::pair{1, 3}}) {
+        const std::vector<double> fft = detail::sh_evaluate(c, kernel, w, h, 2, ShAzimuthal::Fft);
+        const std::vector<double> direct = detail::sh_evaluate(c, kernel, w, h, 2, ShAzimuthal::Direct);
+        ASSERT_EQ(fft.size(), direct.size());
+        EXPECT_LT(relative_difference(fft, direct), 1e-12) << w << "x" << h;
+    }
+}
+
+TEST(ShAzimuthal, AutomaticTakesTheFftForPowerOfTwoWidthsAndHighOrders) {
+    // The FFT from 12 bands in the projection and 24 in the synthesis; widths that are not powers of two
+    // always keep the direct sums, and forcing the FFT on them is an error.
+    const ShQuadrature q = ShQuadrature::TexelSolidAngle;
+    auto project = [&](const std::vector<double>& map, int w, int h, int order, ShAzimuthal a) {
+        return detail::sh_project(map, w, h, order, 2, q, a).rgb;
+    };
+    const std::vector<double> map = random_values(std::size_t(64 * 32 * 3), 5u);
+    EXPECT_EQ(sh_project(map, 64, 32, 12, 2).rgb, project(map, 64, 32, 12, ShAzimuthal::Fft));
+    EXPECT_EQ(sh_project(map, 64, 32, 11, 2).rgb, project(map, 64, 32, 11, ShAzimuthal::Direct));
+    const std::vector<double> odd_map = random_values(std::size_t(45 * 24 * 3), 9u);
+    EXPECT_EQ(sh_project(odd_map, 45, 24, 30, 2).rgb, project(odd_map, 45, 24, 30, ShAzimuthal::Direct));
+    EXPECT_THROW(project(odd_map, 45, 24, 30, ShAzimuthal::Fft), InputError);
+
+    const ShCoefficients c = random_coefficients(24, 3u);
+    const ShCoefficients low = random_coefficients(23, 4u);
+    const std::vector<double> k(24, 1.0);
+    EXPECT_EQ(sh_evaluate(c, k, 64, 32, 2), detail::sh_evaluate(c, k, 64, 32, 2, ShAzimuthal::Fft));
+    EXPECT_EQ(sh_evaluate(low, k, 64, 32, 2), detail::sh_evaluate(low, k, 64, 32, 2, ShAzimuthal::Direct));
+    EXPECT_EQ(sh_evaluate(c, k, 50, 25, 2), detail::sh_evaluate(c, k, 50, 25, 2, ShAzimuthal::Direct));
+    EXPECT_THROW(detail::sh_evaluate(c, k, 50, 25, 2, ShAzimuthal::Fft), InputError);
+}
+
 TEST(ShReconstruct, SeparablePathMatchesBasis) {
     const HdrImage img = random_image(64, 32, 11u);
     const ShCoefficients c = sh_project(img, 20, 2);
     const std::vector<double> ones(20, 1.0);
-    for (int w : {40, 41}) {
+    for (int w : {40, 41, 32, 16}) {  // 32 and 16 by FFT (forced: order 20 is below its crossover); 16 folds
         const int h = 20;
-        const std::vector<double> e = sh_evaluate(c, ones, w, h, 2);
+        const ShAzimuthal a = w % 16 == 0 ? ShAzimuthal::Fft : ShAzimuthal::Direct;
+        const std::vector<double> e = detail::sh_evaluate(c, ones, w, h, 2, a);
         for (auto [i, j] : {std::pair{0, 0}, std::pair{7, 3}, std::pair{w / 2, 10}, std::pair{w - 1, h - 1}}) {
             const Vec3 d = texel_direction(i, j, w, h);
             for (int ch = 0; ch < 3; ++ch) {
@@ -419,16 +502,20 @@ TEST(ShProject, ColumnRotationOnlyChangesAzimuthalPhases) {
 }
 
 TEST(ShProject, ResultDoesNotDependOnThreadCount) {
-    const HdrImage img = random_image(96, 48, 21u);
-    const ShCoefficients one = sh_project(img, 24, 1);
-    for (int threads : {2, 3, 7}) {
-        const ShCoefficients many = sh_project(img, 24, threads);
-        EXPECT_EQ(many.rgb, one.rgb) << threads << " threads";
+    for (int w : {96, 64}) {  // direct sums and FFT
+        const HdrImage img = random_image(w, 48, 21u);
+        const ShCoefficients one = sh_project(img, 24, 1);
+        for (int threads : {2, 3, 7}) {
+            const ShCoefficients many = sh_project(img, 24, threads);
+            EXPECT_EQ(many.rgb, one.rgb) << threads << " threads";
+        }
+        const std::vector<double> k = phong_sh_kernel(8.0, 24);
+        for (int out_w : {50, 64}) {
+            const HdrImage r1 = sh_reconstruct(one, k, out_w, 25, 1);
+            const HdrImage r3 = sh_reconstruct(one, k, out_w, 25, 3);
+            EXPECT_EQ(r1.data(), r3.data());
+        }
     }
-    const std::vector<double> k = phong_sh_kernel(8.0, 24);
-    const HdrImage r1 = sh_reconstruct(one, k, 50, 25, 1);
-    const HdrImage r3 = sh_reconstruct(one, k, 50, 25, 3);
-    EXPECT_EQ(r1.data(), r3.data());
 }
 
 TEST(ShConvolution, BrightSpotMatchesDirectSum) {

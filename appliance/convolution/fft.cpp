@@ -1,0 +1,159 @@
+// Radix-2 FFT plans: twiddles and bit reversal computed once, butterflies in real arithmetic.
+#include "appliance/convolution/fft.hpp"
+
+#include <bit>
+#include <cmath>
+#include <numbers>
+#include <string>
+#include <utility>
+
+#include "appliance/core/errors.hpp"
+
+namespace glint::convolution {
+
+namespace {
+
+std::size_t checked_length(std::size_t n) {
+    if (!is_fft_length(n) || n > FftPlan::kMaxLength)
+        throw InputError("FFT length " + std::to_string(n) + " is not a power of two in [1, 2^30]");
+    return n;
+}
+
+// e^(-2 pi i k / n). The angle is reduced to the first octant in integers and the result rebuilt by
+// exact symmetries, so roots that are symmetric images of each other are bitwise images too, and the
+// quarter turns are exactly 0 and +-1 (the real-input unpacking relies on w^(n/4) = -i).
+void unit_root(std::size_t k, std::size_t n, double& re, double& im) {
+    const unsigned long long t = k % n;
+    const unsigned long long quadrant = 4 * t / n;
+    unsigned long long rest = 4 * t - quadrant * n;  // angle within the quadrant, in units of (pi/2) / n
+    bool swapped = false;
+    if (2 * rest > n) {  // second octant of the quadrant: cos(a) = sin(pi/2 - a)
+        rest = n - rest;
+        swapped = true;
+    }
+    const double angle = (std::numbers::pi / 2) * static_cast<double>(rest) / static_cast<double>(n);
+    double c = std::cos(angle), s = std::sin(angle);
+    if (swapped) std::swap(c, s);
+    // Rotate by `quadrant` quarter turns: (c, s) -> (-s, c).
+    for (unsigned long long q = 0; q < quadrant; ++q) {
+        const double c_next = -s;
+        s = c;
+        c = c_next;
+    }
+    re = c;
+    im = -s;  // the forward kernel turns clockwise
+}
+
+}  // namespace
+
+bool is_fft_length(std::size_t n) { return std::has_single_bit(n); }
+
+FftPlan::FftPlan(std::size_t n) : n_(checked_length(n)) {
+    twiddle_re_.assign(n_, 0.0);
+    twiddle_im_.assign(n_, 0.0);
+    for (std::size_t h = 1; h < n_; h *= 2)
+        for (std::size_t k = 0; k < h; ++k) unit_root(k, 2 * h, twiddle_re_[h + k], twiddle_im_[h + k]);
+    reversed_.assign(n_, 0);
+    const int bits = std::countr_zero(n_);
+    for (std::size_t i = 1; i < n_; ++i)  // reverse(i) from reverse(i / 2), shifted, plus i's low bit on top
+        reversed_[i] = static_cast<std::uint32_t>((reversed_[i / 2] >> 1) | ((i & 1) << (bits - 1)));
+}
+
+void FftPlan::forward(std::complex<double>* data) const { transform(data, false); }
+
+void FftPlan::inverse(std::complex<double>* data) const { transform(data, true); }
+
+void FftPlan::transform(std::complex<double>* data, bool inverse) const {
+    const std::size_t n = n_;
+    for (std::size_t i = 0; i < n; ++i) {
+        const std::size_t r = reversed_[i];
+        if (i < r) std::swap(data[i], data[r]);
+    }
+    // [complex.numbers] allows an array of complex<double> to be read as interleaved doubles. The products
+    // are written out because std::complex's operator* checks for NaN and calls into libgcc.
+    double* d = reinterpret_cast<double*>(data);
+    const double sign = inverse ? -1.0 : 1.0;  // the inverse uses the conjugate twiddles
+    for (std::size_t h = 1; h < n; h *= 2) {
+        const double* wr = twiddle_re_.data() + h;
+        const double* wi = twiddle_im_.data() + h;
+        for (std::size_t start = 0; start < n; start += 2 * h) {
+            double* a = d + 2 * start;
+            double* b = d + 2 * (start + h);
+            for (std::size_t k = 0; k < h; ++k) {
+                const double c = wr[k], s = sign * wi[k];
+                const double br = b[2 * k], bi = b[2 * k + 1];
+                const double tr = br * c - bi * s;
+                const double ti = br * s + bi * c;
+                const double ar = a[2 * k], ai = a[2 * k + 1];
+                b[2 * k] = ar - tr;
+                b[2 * k + 1] = ai - ti;
+                a[2 * k] = ar + tr;
+                a[2 * k + 1] = ai + ti;
+            }
+        }
+    }
+}
+
+RealFftPlan::RealFftPlan(std::size_t n) : n_(checked_length(n)), half_(n_ > 1 ? n_ / 2 : 1) {
+    const std::size_t count = n_ / 4 + 1;
+    w_re_.assign(count, 0.0);
+    w_im_.assign(count, 0.0);
+    for (std::size_t k = 0; k < count; ++k) unit_root(k, n_, w_re_[k], w_im_[k]);
+}
+
+void RealFftPlan::forward(const double* x, std::complex<double>* spectrum) const {
+    if (n_ == 1) {
+        spectrum[0] = {x[0], 0.0};
+        return;
+    }
+    const std::size_t h = n_ / 2;
+    for (std::size_t j = 0; j < h; ++j) spectrum[j] = {x[2 * j], x[2 * j + 1]};
+    half_.forward(spectrum);
+    // Z = FFT_h(even + i odd) holds E = FFT_h(even) and O = FFT_h(odd):
+    //   E_k = (Z_k + conj Z_{h-k}) / 2,  O_k = (Z_k - conj Z_{h-k}) / 2i,  X_k = E_k + w^k O_k,
+    // and X_{h-k} = conj(E_k - w^k O_k). Pairs (k, h-k) are unpacked together, in place.
+    const double z0r = spectrum[0].real(), z0i = spectrum[0].imag();
+    spectrum[0] = {z0r + z0i, 0.0};
+    spectrum[h] = {z0r - z0i, 0.0};
+    for (std::size_t k = 1; 2 * k <= h; ++k) {
+        const std::size_t q = h - k;
+        const double pr = spectrum[k].real(), pi = spectrum[k].imag();
+        const double qr = spectrum[q].real(), qi = -spectrum[q].imag();  // conj Z_{h-k}
+        const double er = 0.5 * (pr + qr), ei = 0.5 * (pi + qi);
+        const double orr = 0.5 * (pi - qi), oi = -0.5 * (pr - qr);
+        const double wr = w_re_[k], wi = w_im_[k];
+        const double tr = wr * orr - wi * oi, ti = wr * oi + wi * orr;
+        spectrum[k] = {er + tr, ei + ti};
+        spectrum[q] = {er - tr, ti - ei};
+    }
+}
+
+void RealFftPlan::inverse(std::complex<double>* spectrum, double* x) const {
+    if (n_ == 1) {
+        x[0] = spectrum[0].real();
+        return;
+    }
+    const std::size_t h = n_ / 2;
+    // The reverse of forward's unpacking: with A = X_k, B = conj X_{h-k}, S = A + B, D = A - B,
+    //   Z_k = S + i D conj(w^k),  Z_{h-k} = conj S + i conj(D conj(w^k)),
+    // and the inverse of length h of Z gives x_{2j} + i x_{2j+1} (both sides unscaled).
+    const double a0 = spectrum[0].real(), ah = spectrum[h].real();
+    spectrum[0] = {a0 + ah, a0 - ah};
+    for (std::size_t k = 1; 2 * k <= h; ++k) {
+        const std::size_t q = h - k;
+        const double ar = spectrum[k].real(), ai = spectrum[k].imag();
+        const double br = spectrum[q].real(), bi = -spectrum[q].imag();
+        const double sr = ar + br, si = ai + bi, dr = ar - br, di = ai - bi;
+        const double wr = w_re_[k], wi = w_im_[k];
+        const double u = dr * wr + di * wi, v = di * wr - dr * wi;  // D conj(w^k) = u + i v
+        spectrum[k] = {sr - v, si + u};
+        spectrum[q] = {sr + v, u - si};
+    }
+    half_.inverse(spectrum);
+    for (std::size_t j = 0; j < h; ++j) {
+        x[2 * j] = spectrum[j].real();
+        x[2 * j + 1] = spectrum[j].imag();
+    }
+}
+
+}  // namespace glint::convolution

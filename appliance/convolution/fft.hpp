@@ -1,0 +1,62 @@
+// Fast Fourier transforms of power-of-two length in double precision: complex in place, and real input.
+#pragma once
+
+#include <complex>
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+namespace glint::convolution {
+
+// True for 1, 2, 4, 8, ...: the lengths FftPlan and RealFftPlan accept.
+bool is_fft_length(std::size_t n);
+
+// Iterative radix-2 transform of one length; the plan holds the twiddles and the bit-reversal permutation,
+// so one plan serves any number of transforms, from any number of threads at once (it is not modified).
+// Neither direction is scaled: inverse(forward(x)) = n x.
+class FftPlan {
+public:
+    // Largest length accepted (2^30): indices stay within 32 bits.
+    static constexpr std::size_t kMaxLength = std::size_t(1) << 30;
+
+    explicit FftPlan(std::size_t n);  // throws InputError unless is_fft_length(n) and n <= kMaxLength
+    std::size_t size() const { return n_; }
+
+    // data[k] <- sum_j data[j] e^(-2 pi i j k / n), in place.
+    void forward(std::complex<double>* data) const;
+    // data[j] <- sum_k data[k] e^(+2 pi i j k / n), in place.
+    void inverse(std::complex<double>* data) const;
+
+private:
+    std::size_t n_;
+    // Stage of span 2h (h = 1, 2, 4, ..., n/2) uses e^(-2 pi i k / 2h) for k < h, stored at [h + k]: each
+    // stage reads its twiddles contiguously.
+    std::vector<double> twiddle_re_, twiddle_im_;
+    std::vector<std::uint32_t> reversed_;  // bit-reversed index of each position
+    void transform(std::complex<double>* data, bool inverse) const;
+};
+
+// Transform of n real values through one complex transform of length n/2 (the even samples as real
+// parts, the odd ones as imaginary parts), unscaled like FftPlan. A real signal has a conjugate-symmetric
+// spectrum, X[n-k] = conj(X[k]), so only X[0..n/2] (n/2 + 1 values) are produced or consumed.
+class RealFftPlan {
+public:
+    explicit RealFftPlan(std::size_t n);  // throws InputError unless is_fft_length(n) and n <= 2^30
+    std::size_t size() const { return n_; }
+    // Number of spectrum values forward writes and inverse reads: n/2 + 1.
+    std::size_t spectrum_size() const { return n_ / 2 + 1; }
+
+    // spectrum[k] = sum_j x[j] e^(-2 pi i j k / n) for k in [0, n/2].
+    void forward(const double* x, std::complex<double>* spectrum) const;
+    // x[j] = sum_{k<n} X[k] e^(+2 pi i j k / n) with X[k] = spectrum[k] for k <= n/2 and conj(spectrum[n-k])
+    // above; the imaginary parts of spectrum[0] and spectrum[n/2] are ignored. spectrum is overwritten
+    // (it is the work space).
+    void inverse(std::complex<double>* spectrum, double* x) const;
+
+private:
+    std::size_t n_;
+    FftPlan half_;                      // length max(n/2, 1)
+    std::vector<double> w_re_, w_im_;   // e^(-2 pi i k / n) for k in [0, n/4]
+};
+
+}  // namespace glint::convolution
