@@ -125,7 +125,7 @@ void scatter_bright_row(int row, const std::vector<BrightTexel>& bright,
 
 void scatter_bright(const std::vector<BrightTexel>& bright, double n, Size out,
                     const std::vector<double>& cmax, int classes, double floor_value,
-                    double tolerance, int threads, std::vector<double>& nb) {
+                    double tolerance, int threads, std::vector<double>& nb, const std::vector<int>& rows) {
     if (bright.empty()) return;
     // A bright term below `tolerance` of the smallest output (and so of every
     // output) may be dropped: as a weight ratio, then as a cosine. The 0.999
@@ -142,7 +142,9 @@ void scatter_bright(const std::vector<BrightTexel>& bright, double n, Size out,
         cos_phi[std::size_t(i)] = std::cos(column_phi(i, out.width));
         sin_phi[std::size_t(i)] = std::sin(column_phi(i, out.width));
     }
-    parallel_for(out.height, threads, [&](int row) {
+    const int count = rows.empty() ? out.height : int(rows.size());
+    parallel_for(count, threads, [&](int k) {
+        const int row = rows.empty() ? k : rows[std::size_t(k)];
         scatter_bright_row(row, bright, min_cos, out, cmax.data() + std::size_t(row) * std::size_t(classes),
                            classes, n, cos_phi, sin_phi, nb);
     });

@@ -21,15 +21,19 @@ namespace glint::convolution {
 
 HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel>& bright,
                        double n, Size out, const ConeSettings& settings, int threads,
-                       const RowProgress& progress, ConeStats* stats) {
+                       const RowProgress& progress, ConeStats* stats, const std::vector<int>& only_rows) {
+    // The output rows computed: all, or only_rows (the others stay 0).
+    std::vector<int> rows = only_rows;
+    if (rows.empty())
+        for (int row = 0; row < out.height; ++row) rows.push_back(row);
     const LobeSummer summer(level, out.width, out.height, n);
     LobeSums sums = summer.make_sums();
     const auto cut_cos = [n](double energy) {
         return energy > 0 ? std::pow(std::min(1.0, energy), 1.0 / (n + 1.0)) : 0.0;
     };
     const double c0 = cut_cos(settings.cutoff_energy);
-    parallel_for(out.height, threads, [&](int row) {
-        summer.sum_row(row, c0, sums);
+    parallel_for(int(rows.size()), threads, [&](int k) {
+        summer.sum_row(rows[std::size_t(k)], c0, sums);
         if (progress) progress(1);
     });
 
@@ -71,14 +75,15 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
                 if (v > 0) floor_value = std::min(floor_value, v);
             }
         scatter_bright(bright, n, out, sums.cmax, sums.classes,
-                       std::isfinite(floor_value) ? floor_value : 0.0, settings.bright_tolerance, threads, nb);
+                       std::isfinite(floor_value) ? floor_value : 0.0, settings.bright_tolerance, threads, nb,
+                       rows);
     }
 
     // Per-row refinement where the cut-off bound is not met.
     const double lmax = level.max_value();
     ConeStats local;
     std::vector<double> row_energy(std::size_t(out.height), settings.cutoff_energy);
-    for (int row = 0; row < out.height; ++row) {
+    for (int row : rows) {
         double need = settings.cutoff_energy;
         for (int i = 0; i < out.width; ++i) {
             const std::size_t t = std::size_t(row) * std::size_t(out.width) + std::size_t(i);
@@ -96,7 +101,7 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
         }
     }
     std::vector<int> refine_rows;
-    for (int row = 0; row < out.height; ++row)
+    for (int row : rows)
         if (row_energy[std::size_t(row)] < settings.cutoff_energy) refine_rows.push_back(row);
     parallel_for(int(refine_rows.size()), threads, [&](int k) {
         const int row = refine_rows[std::size_t(k)];

@@ -255,17 +255,25 @@ std::vector<MapResult> convolve(const HdrImage& env, const std::vector<MapReques
                         shared.bright().texels, n, r.plan.sh_order, out, options.tolerance * model.texel_cut_share,
                         1e-3 * options.tolerance, threads);
                     r.plan.bright_texels = int(shared.bright().texels.size());
-                    if (split.failed_values == 0) {
-                        r.image = split.image;
-                        r.clamped_texels = split.clamped;
-                        progress(out.height);
-                        break;
+                    r.image = split.image;
+                    r.clamped_texels = split.clamped;
+                    if (!split.failed_rows.empty()) {
+                        // Where the truncation bound does not hold (dark texels), the
+                        // cone, which bounds its error per texel, computes those rows.
+                        const MapPlan& cone = cone_plans[k];
+                        ConeStats stats;
+                        const HdrImage rows = cone_convolve(shared.cone_level(cone.input_level), shared.bright().texels,
+                                                            n, out, cone_settings(options.tolerance, model), threads,
+                                                            nullptr, &stats, split.failed_rows);
+                        for (int row : split.failed_rows)
+                            std::copy(rows.row(row), rows.row(row) + 3 * out.width, r.image.row(row));
+                        r.refined_texels = stats.refined_texels;
+                        r.plan.note = "sh truncation bound not met for " + std::to_string(split.failed_values) +
+                                      " channel values; their " + std::to_string(split.failed_rows.size()) +
+                                      " rows computed by cone at level " + std::to_string(cone.input_level);
                     }
-                    // The truncation bound does not hold for some dark texels: the cone
-                    // bounds its error per texel, so it takes over this map.
-                    r.plan = cone_plans[k];
-                    r.plan.note = "sh truncation bound failed for " + std::to_string(split.failed_values) +
-                                  " channel values; computed by cone";
+                    progress(out.height);
+                    break;
                 } else {
                     const ShCoefficients& c = shared.sh(r.plan.sh_order, threads);
                     ShCoefficients truncated{r.plan.sh_order,
@@ -284,7 +292,6 @@ std::vector<MapResult> convolve(const HdrImage& env, const std::vector<MapReques
                     progress(out.height);
                     break;
                 }
-                [[fallthrough]];
             case Method::Cone: {
                 ConeStats stats;
                 r.plan.bright_texels = int(shared.bright().texels.size());

@@ -44,9 +44,11 @@ BrightSplit split_bright(const HdrImage& input, double contrast, int max_count);
 // `tolerance` times floor_value (the smallest output) it is dropped. cmax holds
 // one value per (output row, class), `classes` per row (column i is class
 // i % classes); pass ones for sums normalised to the largest weight 1.
+// Only the given output rows (all when empty).
 void scatter_bright(const std::vector<BrightTexel>& bright, double shininess, Size out,
                     const std::vector<double>& cmax, int classes, double floor_value,
-                    double tolerance, int threads, std::vector<double>& nb);
+                    double tolerance, int threads, std::vector<double>& nb,
+                    const std::vector<int>& rows = {});
 
 struct ConeSettings {
     double cutoff_energy = 1e-2;  // lobe energy dropped outside the first cone
@@ -63,19 +65,21 @@ struct ConeStats {
 // exactly. After a first pass, each output row whose texels' error bound
 //   |E - E'| <= e * max(Lmax - E', E')   (e: lobe energy outside the cone)
 // exceeds texel_tolerance * E' is summed again with the cone that meets it.
+// With only_rows, just those output rows are computed (the rest of the image is 0).
 HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel>& bright,
                        double shininess, Size out, const ConeSettings& settings, int threads,
-                       const RowProgress& progress, ConeStats* stats);
+                       const RowProgress& progress, ConeStats* stats, const std::vector<int>& only_rows = {});
 
 struct ShCoefficients;
 
 // SH with the bright split (used by `auto`): `remainder` holds at least `order`
 // bands of the map without its bright texels (mean radiance remainder_mean).
-// failed_values counts channel values whose truncation bound
-// tail(order) * remainder_mean exceeds texel_tolerance times the value; the
-// caller falls back to another method when it is not 0.
+// failed_rows lists the output rows holding a channel value whose truncation
+// bound tail(order) * remainder_mean exceeds texel_tolerance times the value;
+// the caller computes those rows with a method that bounds them (the cone).
 struct ShSplitResult {
     HdrImage image;
+    std::vector<int> failed_rows;
     long long failed_values = 0;
     long long clamped = 0;
 };

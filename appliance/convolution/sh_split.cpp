@@ -84,9 +84,14 @@ ShSplitResult sh_split_convolve(const ShCoefficients& remainder, Size remainder_
     const double error_bound = sh_truncation_tail(n, order) * remainder_mean;
     result.image = HdrImage(out.width, out.height);
     float* o = result.image.data().data();
+    const std::size_t row_values = 3 * std::size_t(out.width);
     for (std::size_t k = 0; k < 3 * texels; ++k) {
-        const double v = (e[k] + nb[k] / lobe_den) / norm[k / (3 * std::size_t(out.width))];
-        if (!(error_bound <= texel_tolerance * v)) ++result.failed_values;
+        const double v = (e[k] + nb[k] / lobe_den) / norm[k / row_values];
+        if (!(error_bound <= texel_tolerance * v)) {
+            ++result.failed_values;
+            const int row = int(k / row_values);
+            if (result.failed_rows.empty() || result.failed_rows.back() != row) result.failed_rows.push_back(row);
+        }
         if (v < 0) ++result.clamped;
         o[k] = float(std::max(0.0, v));
     }
