@@ -1,5 +1,7 @@
 // Tests of core/atomic_file: replacement, no leftover temp files, failure keeps the old file.
 #include <gtest/gtest.h>
+
+#include "tests/unit/test_support.hpp"
 #include <unistd.h>
 
 #include <algorithm>
@@ -18,26 +20,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-class AtomicFile : public ::testing::Test {
-protected:
-    void SetUp() override {
-        const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-        dir_ = fs::temp_directory_path() /
-               ("glint_atomic_" + std::to_string(::getpid()) + "_" + info->name());
-        fs::remove_all(dir_);
-        fs::create_directories(dir_);
-    }
-    void TearDown() override { fs::remove_all(dir_); }
-
-    std::vector<std::string> listing() const {
-        std::vector<std::string> names;
-        for (const auto& e : fs::directory_iterator(dir_)) names.push_back(e.path().filename());
-        std::sort(names.begin(), names.end());
-        return names;
-    }
-
-    fs::path dir_;
-};
+class AtomicFile : public glint::testing::TempDirTest {};
 
 std::string read_all(const fs::path& path) {
     std::ifstream in(path, std::ios::binary);

@@ -5,6 +5,8 @@
 // bad requests. The oracle is convolve() with Method::Exact; tau = 0.01 unless said otherwise.
 // Maps are small (64x32 .. 300x200) so the whole suite runs in seconds.
 #include <gtest/gtest.h>
+
+#include "tests/unit/test_support.hpp"
 #include <unistd.h>
 
 #include <algorithm>
@@ -35,12 +37,7 @@ constexpr double kTau = 0.01;
 // ---------------------------------------------------------------------------------------------
 // Maps
 
-HdrImage constant_map(int w, int h, Rgb c) {
-    HdrImage img(w, h);
-    for (int j = 0; j < h; ++j)
-        for (int i = 0; i < w; ++i) img.set(i, j, c);
-    return img;
-}
+using glint::testing::constant_map;
 
 // A smooth-ish, strictly positive map with a few low-frequency features, mild noise and
 // some bright texels (values 50..500), different in every channel.

@@ -1,5 +1,7 @@
 // Tests of core/exr_io: formats and channel layouts the loader accepts, sanitising, errors, atomic saves.
 #include <gtest/gtest.h>
+
+#include "tests/unit/test_support.hpp"
 #include <unistd.h>
 
 #include <ImfChannelList.h>
@@ -30,25 +32,7 @@ namespace {
 
 namespace fs = std::filesystem;
 
-class ExrIo : public ::testing::Test {
-protected:
-    void SetUp() override {
-        const auto* info = ::testing::UnitTest::GetInstance()->current_test_info();
-        dir_ = fs::temp_directory_path() /
-               ("glint_exr_" + std::to_string(::getpid()) + "_" + info->name());
-        fs::remove_all(dir_);
-        fs::create_directories(dir_);
-    }
-    void TearDown() override { fs::remove_all(dir_); }
-
-    std::vector<std::string> listing() const {
-        std::vector<std::string> names;
-        for (const auto& e : fs::directory_iterator(dir_)) names.push_back(e.path().filename());
-        return names;
-    }
-
-    fs::path dir_;
-};
+class ExrIo : public glint::testing::TempDirTest {};
 
 struct ChannelSpec {
     std::string name;

@@ -1,6 +1,8 @@
 // Tests of the solid-angle pyramid and the thesis' MIP-mapping baseline (convolution/mipmap).
 #include <gtest/gtest.h>
 
+#include "tests/unit/test_support.hpp"
+
 #include <algorithm>
 #include <array>
 #include <cmath>
@@ -16,12 +18,7 @@
 namespace glint::convolution {
 namespace {
 
-HdrImage constant(int w, int h, Rgb c) {
-    HdrImage img(w, h);
-    for (int j = 0; j < h; ++j)
-        for (int i = 0; i < w; ++i) img.set(i, j, c);
-    return img;
-}
+using glint::testing::constant_map;
 
 HdrImage noise(int w, int h, unsigned seed) {
     HdrImage img(w, h);
@@ -74,7 +71,7 @@ TEST(Pyramid, LevelSizesStopAtOddSizes) {
 TEST(Pyramid, ConstantStaysConstantAtEveryLevel) {
     const Rgb c{0.3f, 1.7f, 42.0f};
     for (const auto& [w, h] : {std::pair{64, 32}, std::pair{300, 200}, std::pair{8, 4}}) {
-        const Pyramid p(constant(w, h, c));
+        const Pyramid p(constant_map(w, h, c));
         for (int k = 0; k < p.levels(); ++k)
             for (int j = 0; j < p.level(k).height(); ++j)
                 for (int i = 0; i < p.level(k).width(); ++i) {
@@ -203,7 +200,7 @@ TEST(MipmapConvolve, MirrorLikeShininessReadsTheInput) {
 TEST(MipmapConvolve, ConstantGivesTheConstant) {
     const Rgb c{0.25f, 3.5f, 1000.0f};
     for (const auto& [w, h] : {std::pair{128, 64}, std::pair{300, 200}, std::pair{8, 4}}) {
-        const Pyramid p(constant(w, h, c));
+        const Pyramid p(constant_map(w, h, c));
         for (bool irradiance : {true, false})
             for (double s : {0.0, 1.0, 10.0, 24.0, 100.0, 20480.0})
                 for (const auto& [ow, oh] : {std::pair{32, 16}, std::pair{7, 3}}) {
@@ -239,7 +236,7 @@ TEST(MipmapConvolve, HigherShininessKeepsASmallLightSharper) {
 }
 
 TEST(MipmapConvolve, RejectsNegativeOrNaNShininess) {
-    const Pyramid p(constant(8, 4, {1, 1, 1}));
+    const Pyramid p(constant_map(8, 4, {1, 1, 1}));
     EXPECT_THROW(mipmap_convolve(p, false, -1.0, 8, 4), InputError);
     EXPECT_THROW(mipmap_convolve(p, false, std::numeric_limits<double>::quiet_NaN(), 8, 4),
                  InputError);
