@@ -103,7 +103,8 @@ assert names == ["irradiance", "phong_20"], f"maps are {names}"
 for m in maps:
     for key in ("method", "input_level", "output_size", "cutoff_cos", "predicted_error", "wall_seconds"):
         assert key in m, f"{m['map']}: no key {key}"
-    assert m["method"] in ("exact", "cone"), f"{m['map']}: method {m['method']} is not concrete"
+    assert m["method"] in ("exact", "cone", "sh"), f"{m['map']}: method {m['method']} is not a concrete method of auto"
+    assert m["method"] != "sh" or m["bright_split"], f"{m['map']}: auto chose sh without the bright split"
     assert m["output_size"] == [32, 16], f"{m['map']}: output_size {m['output_size']}"
     assert isinstance(m["input_level"], int) and m["input_level"] >= 0, f"{m['map']}: input_level {m['input_level']}"
     assert -1 <= m["cutoff_cos"] < 1, f"{m['map']}: cutoff_cos {m['cutoff_cos']}"
