@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "appliance/convolution/lobe_sum.hpp"
 #include "appliance/convolution/methods.hpp"
 #include "appliance/core/equirect.hpp"
 #include "appliance/core/parallel.hpp"
@@ -58,21 +59,6 @@ BrightSplit split_bright(const HdrImage& input, double contrast, int max_count) 
 
 namespace {
 
-// x^n for x in [0, 1]: binary exponentiation when n is a small integer (the
-// common case, ~2 log2(n) multiplies), std::pow otherwise.
-double power(double x, double n) {
-    if (n == std::floor(n) && n < 1e6) {
-        double result = 1.0;
-        double base = x;
-        for (long long e = (long long)n; e > 0; e >>= 1) {
-            if (e & 1) result *= base;
-            base *= base;
-        }
-        return result;
-    }
-    return std::pow(x, n);
-}
-
 // Adds the bright texels' terms (relative to the output texel's cmax, like the
 // lobe sums; cmax_row: per class of this row) to nb for one output row.
 // cos_phi/sin_phi: output column azimuths.
@@ -85,6 +71,8 @@ void scatter_bright_row(int row, const std::vector<BrightTexel>& bright,
     const double ct = std::cos(theta_r);
     const double st = std::sin(theta_r);
     double* nb_row = nb.data() + std::size_t(row) * std::size_t(ow) * 3;
+    thread_local std::vector<double> weights;
+    weights.resize(std::size_t(ow));
     for (std::size_t k = 0; k < bright.size(); ++k) {
         const BrightTexel& b = bright[k];
         const double c_b = min_cos[k];
@@ -105,17 +93,25 @@ void scatter_bright_row(int row, const std::vector<BrightTexel>& bright,
             count = std::min(ow, int(std::ceil(centre + half)) + 1 - first + 1);
         }
         const double cpb = std::cos(b.phi), spb = std::sin(b.phi);
-        for (int t = 0; t < count; ++t) {
-            int i = (first + t) % ow;
-            if (i < 0) i += ow;
-            const double cosine = a * (cos_phi[std::size_t(i)] * cpb + sin_phi[std::size_t(i)] * spb) + bq;
-            if (!(cosine > 0)) continue;
-            const double cm = cmax_row[i % classes];
-            const double wgt = n == 0 ? 1.0 : power(std::min(1.0, cosine / cm), n);
-            double* o = nb_row + 3 * std::size_t(i);
-            o[0] += wgt * b.r;
-            o[1] += wgt * b.g;
-            o[2] += wgt * b.b;
+        // The columns as at most two runs inside [0, ow) (the range may wrap).
+        first = ((first % ow) + ow) % ow;
+        const int runs[2][2] = {{first, std::min(ow, first + count)}, {0, std::max(0, first + count - ow)}};
+        for (const auto& run : runs) {
+            const int i0 = run[0], len = run[1] - run[0];
+            if (len <= 0) continue;
+            // Weights relative to each texel's cmax, as in the lobe sums.
+            for (int t = 0; t < len; ++t) {
+                const int i = i0 + t;
+                const double cosine = a * (cos_phi[std::size_t(i)] * cpb + sin_phi[std::size_t(i)] * spb) + bq;
+                weights[std::size_t(t)] = cosine > 0 ? std::min(1.0, cosine / cmax_row[i % classes]) : 0.0;
+            }
+            raise_to_power(weights.data(), len, n);
+            double* o = nb_row + 3 * std::size_t(i0);
+            for (int t = 0; t < len; ++t) {
+                o[3 * t] += weights[std::size_t(t)] * b.r;
+                o[3 * t + 1] += weights[std::size_t(t)] * b.g;
+                o[3 * t + 2] += weights[std::size_t(t)] * b.b;
+            }
         }
     }
 }

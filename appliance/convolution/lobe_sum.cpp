@@ -64,7 +64,6 @@ LobeSummer::LobeSummer(const PreparedLevel& level, int out_w, int out_h, double 
             const double d = double(k) - cos_offset_;
             cos_dphi_[std::size_t(p) * cos_stride_ + k] = std::cos((d - frac_[std::size_t(p)]) * kTwoPi / w);
         }
-    if (n_ == std::floor(n_) && n_ <= double(1LL << 40)) integer_n_ = (long long)n_;
     const std::size_t span = 2 * std::size_t(per_class_);
     phases_.resize(std::size_t(level.height()) * 3 * std::size_t(step_) * span);
     for (int j = 0; j < level.height(); ++j)
@@ -120,36 +119,7 @@ void LobeSummer::weights(int cls, int d_lo, int count, double a, double b, doubl
         const double c = a * cs[d] + b;
         w[d] = c > 0 ? c * inv_cmax : 0.0;
     }
-    if (integer_n_ < 0) {
-        for (int d = 0; d < count; ++d) w[d] = w[d] > 0 ? std::pow(w[d], n_) : 0.0;
-        return;
-    }
-    if (integer_n_ == 0) {
-        for (int d = 0; d < count; ++d) w[d] = w[d] > 0 ? 1.0 : 0.0;
-        return;
-    }
-    // x^n by binary exponentiation, one pass per bit so each pass vectorises;
-    // relative error ~ 2 log2(n) ulp.
-    thread_local std::vector<double> base;
-    base.assign(w, w + count);
-    bool first = true;
-    for (long long e = integer_n_; e > 0; e >>= 1) {
-        if (e & 1) {
-            if (first) {
-                std::copy(base.begin(), base.end(), w);
-                first = false;
-            } else {
-                double* bp = base.data();
-#pragma omp simd
-                for (int d = 0; d < count; ++d) w[d] *= bp[d];
-            }
-        }
-        if (e > 1) {
-            double* bp = base.data();
-#pragma omp simd
-            for (int d = 0; d < count; ++d) bp[d] *= bp[d];
-        }
-    }
+    raise_to_power(w, count, n_);
 }
 
 void LobeSummer::sum_row(int out_row, double c_min, LobeSums& sums) const {
@@ -229,6 +199,39 @@ void LobeSummer::sum_row(int out_row, double c_min, LobeSums& sums) const {
             o[0] = acc_r[q_idx];
             o[1] = acc_g[q_idx];
             o[2] = acc_b[q_idx];
+        }
+    }
+}
+
+void raise_to_power(double* x, int count, double n) {
+    if (n != std::floor(n) || n > double(1LL << 40)) {
+        for (int d = 0; d < count; ++d) x[d] = x[d] > 0 ? std::pow(x[d], n) : 0.0;
+        return;
+    }
+    if (n == 0) {
+        for (int d = 0; d < count; ++d) x[d] = x[d] > 0 ? 1.0 : 0.0;
+        return;
+    }
+    // x^n by binary exponentiation, one pass per bit so that each pass
+    // vectorises; relative error ~ 2 log2(n) ulp.
+    thread_local std::vector<double> base;
+    base.assign(x, x + count);
+    bool first = true;
+    for (long long e = (long long)n; e > 0; e >>= 1) {
+        if (e & 1) {
+            if (first) {
+                std::copy(base.begin(), base.end(), x);
+                first = false;
+            } else {
+                const double* bp = base.data();
+#pragma omp simd
+                for (int d = 0; d < count; ++d) x[d] *= bp[d];
+            }
+        }
+        if (e > 1) {
+            double* bp = base.data();
+#pragma omp simd
+            for (int d = 0; d < count; ++d) bp[d] *= bp[d];
         }
     }
 }

@@ -104,10 +104,11 @@ private:
                ((std::size_t(row) * 3 + std::size_t(channel)) * std::size_t(step_) + std::size_t(s)) *
                    (2 * std::size_t(per_class_));
     }
-    // n as an integer when it is one (weights by repeated squaring, which
-    // vectorises), else -1 (std::pow).
-    long long integer_n_ = -1;
 };
+
+// x[d] = x[d]^n for x[d] >= 0 (0 stays 0, also for n = 0: only r.w > 0 counts).
+// Integer n by binary exponentiation in vectorised passes, else std::pow.
+void raise_to_power(double* x, int count, double n);
 
 // Output = num / den per texel (as float).
 HdrImage finish_sums(const LobeSums& sums);
