@@ -19,6 +19,66 @@
 
 namespace glint::convolution {
 
+namespace {
+
+// Largest radiance (any channel) of a level over spherical caps, read from a
+// 2x2 max pyramid: an upper bound, since every texel that meets the cap counts.
+class CapMax {
+public:
+    explicit CapMax(const PreparedLevel& level) {
+        Grid g{level.width(), level.height(), {}};
+        g.v.resize(std::size_t(g.w) * std::size_t(g.h));
+        for (int j = 0; j < g.h; ++j)
+            for (int i = 0; i < g.w; ++i)
+                g.v[std::size_t(j) * std::size_t(g.w) + std::size_t(i)] =
+                    std::max({level.plane(j, 0)[i], level.plane(j, 1)[i], level.plane(j, 2)[i]});
+        grids_.push_back(std::move(g));
+        while (grids_.back().w % 2 == 0 && grids_.back().h % 2 == 0 && grids_.back().h >= 2) {
+            const Grid& f = grids_.back();
+            Grid c{f.w / 2, f.h / 2, {}};
+            c.v.resize(std::size_t(c.w) * std::size_t(c.h));
+            for (int j = 0; j < c.h; ++j)
+                for (int i = 0; i < c.w; ++i)
+                    c.v[std::size_t(j) * std::size_t(c.w) + std::size_t(i)] =
+                        std::max({f.at(2 * i, 2 * j), f.at(2 * i + 1, 2 * j), f.at(2 * i, 2 * j + 1),
+                                  f.at(2 * i + 1, 2 * j + 1)});
+            grids_.push_back(std::move(c));
+        }
+    }
+
+    // Maximum over the cap of angular radius `radius` around (theta, phi).
+    double query(double theta, double phi, double radius) const {
+        // Finest grid whose rows are at least `radius` tall: the cap meets few texels.
+        std::size_t m = 0;
+        while (m + 1 < grids_.size() && kPi / grids_[m].h < radius) ++m;
+        const Grid& g = grids_[m];
+        const int j0 = std::clamp(int(std::floor((theta - radius) / kPi * g.h)), 0, g.h - 1);
+        const int j1 = std::clamp(int(std::floor((theta + radius) / kPi * g.h)), 0, g.h - 1);
+        int i0 = 0, count = g.w;
+        if (theta - radius > 0 && theta + radius < kPi) {
+            // Widest azimuth of a cap that holds no pole.
+            const double half = std::asin(std::min(1.0, std::sin(radius) / std::sin(theta)));
+            i0 = int(std::floor((phi - half + kPi) / kTwoPi * g.w));
+            count = std::min(g.w, int(std::floor((phi + half + kPi) / kTwoPi * g.w)) - i0 + 1);
+        }
+        float best = 0;
+        for (int j = j0; j <= j1; ++j)
+            for (int t = 0; t < count; ++t)
+                best = std::max(best, g.at(((i0 + t) % g.w + g.w) % g.w, j));
+        return best;
+    }
+
+private:
+    struct Grid {
+        int w, h;
+        std::vector<float> v;
+        float at(int i, int j) const { return v[std::size_t(j) * std::size_t(w) + std::size_t(i)]; }
+    };
+    std::vector<Grid> grids_;
+};
+
+}  // namespace
+
 HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel>& bright,
                        double n, Size out, const ConeSettings& settings, int threads,
                        const RowProgress& progress, ConeStats* stats, const std::vector<int>& only_rows) {
@@ -38,24 +98,33 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
     });
 
     const std::size_t texels = std::size_t(out.width) * std::size_t(out.height);
-    // Cut-off cosine used for each output row (rows may be refined below).
-    std::vector<double> row_cut(std::size_t(out.height), c0);
+    // Texels whose cut-off bound fails are summed again, with the cone their row
+    // needs (wide_cut), into `wide`; `widened` marks them.
+    LobeSums wide;
+    std::vector<double> wide_cut(std::size_t(out.height), c0);
+    std::vector<char> widened(texels, 0);
     // Per (row, class): 1 / D_R and 1 / (D_R + D_out), where D_out is the
-    // remainder's lobe weight outside the row's cone, from the continuous lobe:
+    // remainder's lobe weight outside the cone, from the continuous lobe:
     // sum of (cos/cmax)^n dOmega over cos < c is 2pi c^(n+1) / ((n+1) cmax^n).
-    std::vector<double> inv_den(sums.den.size()), inv_full_den(sums.den.size());
-    const auto update_denominators = [&](int row) {
-        const double c = row_cut[std::size_t(row)];
-        for (int cls = 0; cls < sums.classes; ++cls) {
-            const std::size_t rc = std::size_t(row) * std::size_t(sums.classes) + std::size_t(cls);
-            const double den = sums.den[rc];
-            const double outside =
-                c > 0 ? kTwoPi / (n + 1.0) * std::exp((n + 1.0) * std::log(c) - n * std::log(sums.cmax[rc])) : 0.0;
-            inv_den[rc] = den > 0 ? 1.0 / den : 0.0;
-            inv_full_den[rc] = den > 0 ? 1.0 / (den + outside) : 0.0;
-        }
+    struct Denominators {
+        std::vector<double> inv, inv_full;
     };
-    for (int row = 0; row < out.height; ++row) update_denominators(row);
+    const auto denominators = [&](const LobeSums& src, const std::vector<double>& cut) {
+        Denominators d{std::vector<double>(src.den.size()), std::vector<double>(src.den.size())};
+        for (int row = 0; row < out.height; ++row)
+            for (int cls = 0; cls < src.classes; ++cls) {
+                const std::size_t rc = std::size_t(row) * std::size_t(src.classes) + std::size_t(cls);
+                const double c = cut[std::size_t(row)];
+                const double den = src.den[rc];
+                const double outside =
+                    c > 0 ? kTwoPi / (n + 1.0) * std::exp((n + 1.0) * std::log(c) - n * std::log(src.cmax[rc])) : 0.0;
+                d.inv[rc] = den > 0 ? 1.0 / den : 0.0;
+                d.inv_full[rc] = den > 0 ? 1.0 / (den + outside) : 0.0;
+            }
+        return d;
+    };
+    const Denominators narrow_den = denominators(sums, std::vector<double>(std::size_t(out.height), c0));
+    Denominators wide_den;
     // E = N_R / D_R + N_B / (D_R + D_out): the remainder outside the cone is
     // taken at the inside's mean (its error is the bound above), while the bright
     // terms, summed over the whole sphere, are divided by the whole lobe weight.
@@ -63,7 +132,10 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
         const std::size_t row = t / std::size_t(out.width);
         const int col = int(t % std::size_t(out.width));
         const std::size_t rc = row * std::size_t(sums.classes) + std::size_t(sums.class_of(col));
-        return sums.num[3 * t + std::size_t(c)] * inv_den[rc] + nb[3 * t + std::size_t(c)] * inv_full_den[rc];
+        const bool w = widened[t] != 0;
+        const LobeSums& src = w ? wide : sums;
+        const Denominators& d = w ? wide_den : narrow_den;
+        return src.num[3 * t + std::size_t(c)] * d.inv[rc] + nb[3 * t + std::size_t(c)] * d.inv_full[rc];
     };
 
     std::vector<double> nb(3 * texels, 0.0);
@@ -79,35 +151,88 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
                        rows);
     }
 
-    // Per-row refinement where the cut-off bound is not met.
-    const double lmax = level.max_value();
+    // Widen the cone of the texels whose cut-off bound is not met. Outside the
+    // cone but within angle R of a texel, the remainder is at most the cap
+    // maximum Lmax(R) (CapMax); beyond R every weight is below (cos R)^n, with R
+    // chosen so that all of that is under 0.1 tau_texel of the smallest output.
+    // A texel then needs  e max(Lmax(R) - E', E') <= 0.9 tau_texel E'  and
+    // gets, with the other failing texels of its row, the cone of the row's
+    // smallest such e (only their multiply-adds are done again).
     ConeStats local;
-    std::vector<double> row_energy(std::size_t(out.height), settings.cutoff_energy);
-    for (int row : rows) {
-        double need = settings.cutoff_energy;
+    double floor_value = INFINITY, power = 0;
+    for (int row : rows)
+        for (std::size_t t = std::size_t(row) * std::size_t(out.width); t < std::size_t(row + 1) * std::size_t(out.width); ++t)
+            for (int c = 0; c < 3; ++c) {
+                const double v = value(t, c, nb);
+                if (v > 0) floor_value = std::min(floor_value, v);
+            }
+    for (int j = 0; j < level.height(); ++j) {
+        double row_sum = 0;
+        for (int i = 0; i < level.width(); ++i)
+            row_sum += std::max({level.plane(j, 0)[i], level.plane(j, 1)[i], level.plane(j, 2)[i]});
+        power += row_sum * level.solid_angle(j);
+    }
+    double far_cos = 0;  // cos R; 0: the hemisphere
+    if (std::isfinite(floor_value) && power > 0 && n > 0) {
+        const double w_far = 0.1 * settings.texel_tolerance * floor_value * kTwoPi / ((n + 1.0) * power);
+        far_cos = w_far < 1 ? 0.999 * std::pow(w_far, 1.0 / n) : 1.0;
+    }
+    const double radius = std::acos(std::clamp(far_cos, -1.0, 1.0));
+    const CapMax cap_max(level);
+    const double global_max = level.max_value();
+    std::vector<double> row_need(std::size_t(out.height), settings.cutoff_energy);
+    parallel_for(int(rows.size()), threads, [&](int k) {
+        const int row = rows[std::size_t(k)];
+        const double theta = row_theta(row, out.height);
+        double need_row = settings.cutoff_energy;
         for (int i = 0; i < out.width; ++i) {
             const std::size_t t = std::size_t(row) * std::size_t(out.width) + std::size_t(i);
-            for (int c = 0; c < 3; ++c) {
-                const double e = value(t, c, nb);
-                const double spread = std::max(lmax - e, e);
-                if (spread > 0) need = std::min(need, settings.texel_tolerance * e / spread);
+            const auto need_for = [&](double lmax) {
+                double need = settings.cutoff_energy;
+                for (int c = 0; c < 3; ++c) {
+                    const double e = value(t, c, nb);
+                    const double spread = std::max(lmax - e, e);
+                    if (spread > 0) need = std::min(need, 0.9 * settings.texel_tolerance * e / spread);
+                }
+                return need;
+            };
+            // The global maximum is a cheap first test; the cap maximum a tighter one.
+            if (need_for(global_max) >= settings.cutoff_energy * 0.999) continue;
+            const double need = need_for(cap_max.query(theta, column_phi(i, out.width), radius));
+            if (need < settings.cutoff_energy * 0.999) {
+                widened[t] = 1;
+                need_row = std::min(need_row, need);
             }
         }
-        if (need < settings.cutoff_energy * 0.999) {
-            row_energy[std::size_t(row)] = need;
-            row_cut[std::size_t(row)] = cut_cos(need);
-            ++local.refined_rows;
-            local.refined_texels += out.width;
-        }
-    }
+        row_need[std::size_t(row)] = need_row;
+    });
     std::vector<int> refine_rows;
     for (int row : rows)
-        if (row_energy[std::size_t(row)] < settings.cutoff_energy) refine_rows.push_back(row);
-    parallel_for(int(refine_rows.size()), threads, [&](int k) {
-        const int row = refine_rows[std::size_t(k)];
-        summer.sum_row(row, row_cut[std::size_t(row)], sums);
-        update_denominators(row);
-    });
+        if (row_need[std::size_t(row)] < settings.cutoff_energy * 0.999) {
+            refine_rows.push_back(row);
+            wide_cut[std::size_t(row)] = cut_cos(row_need[std::size_t(row)]);
+        }
+    if (!refine_rows.empty()) {
+        wide = summer.make_sums();
+        parallel_for(int(refine_rows.size()), threads, [&](int k) {
+            const int row = refine_rows[std::size_t(k)];
+            LobeSummer::ColumnRuns runs;
+            const char* flags = widened.data() + std::size_t(row) * std::size_t(out.width);
+            for (int i = 0; i < out.width;) {
+                if (!flags[i]) {
+                    ++i;
+                    continue;
+                }
+                int end = i;
+                while (end < out.width && flags[end]) ++end;
+                runs.emplace_back(i, end);
+                i = end;
+            }
+            summer.sum_row(row, wide_cut[std::size_t(row)], wide, &runs);
+        });
+        wide_den = denominators(wide, wide_cut);
+    }
+    for (char f : widened) local.refined_texels += f;
     if (stats) *stats = local;
 
     HdrImage result(out.width, out.height);

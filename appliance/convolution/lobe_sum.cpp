@@ -122,7 +122,7 @@ void LobeSummer::weights(int cls, int d_lo, int count, double a, double b, doubl
     raise_to_power(w, count, n_);
 }
 
-void LobeSummer::sum_row(int out_row, double c_min, LobeSums& sums) const {
+void LobeSummer::sum_row(int out_row, double c_min, LobeSums& sums, const ColumnRuns* columns) const {
     const int w = level_.width();
     const int h = level_.height();
     const double ctr = out_cos_t_[std::size_t(out_row)];
@@ -142,6 +142,17 @@ void LobeSummer::sum_row(int out_row, double c_min, LobeSums& sums) const {
         const double f = frac_[std::size_t(cls)];
         std::fill(acc.begin(), acc.end(), 0.0);
         double den = 0;
+        // Runs of this class's column indices q (column = q * classes + cls).
+        ColumnRuns q_runs;
+        if (columns) {
+            for (const auto& [first, last] : *columns) {
+                const int q0 = std::max(0, (first - cls + classes_ - 1) / classes_);
+                const int q1 = std::min(per_class_, (last - cls + classes_ - 1) / classes_);
+                if (q1 > q0) q_runs.emplace_back(q0, q1);
+            }
+        } else {
+            q_runs.emplace_back(0, per_class_);
+        }
 
         // Rows whose best cosine cos(theta_r - theta_k) can reach `lo`.
         const double reach = std::acos(std::clamp(lo, -1.0, 1.0));
@@ -171,7 +182,6 @@ void LobeSummer::sum_row(int out_row, double c_min, LobeSums& sums) const {
             den += omega * wsum;
             // One weight times a whole class of output columns: unit-stride
             // multiply-adds over the class (vectorised).
-            const int g = per_class_;
             for (int d = 0; d < count; ++d) {
                 const double wd = wbuf[std::size_t(d)] * omega;
                 if (wd == 0) continue;
@@ -182,18 +192,21 @@ void LobeSummer::sum_row(int out_row, double c_min, LobeSums& sums) const {
                 const float* pr = phase(jk, 0, ph) + off;
                 const float* pg = phase(jk, 1, ph) + off;
                 const float* pb = phase(jk, 2, ph) + off;
+                for (const auto& [q0, q1] : q_runs) {
 #pragma omp simd
-                for (int q_idx = 0; q_idx < g; ++q_idx) {
-                    acc_r[q_idx] += wd * double(pr[q_idx]);
-                    acc_g[q_idx] += wd * double(pg[q_idx]);
-                    acc_b[q_idx] += wd * double(pb[q_idx]);
+                    for (int q_idx = q0; q_idx < q1; ++q_idx) {
+                        acc_r[q_idx] += wd * double(pr[q_idx]);
+                        acc_g[q_idx] += wd * double(pg[q_idx]);
+                        acc_b[q_idx] += wd * double(pb[q_idx]);
+                    }
                 }
             }
         }
         const std::size_t rc = std::size_t(out_row) * std::size_t(classes_) + std::size_t(cls);
         sums.den[rc] = den;
         sums.cmax[rc] = cm;
-        for (int q_idx = 0; q_idx < per_class_; ++q_idx) {
+        for (const auto& [q0, q1] : q_runs)
+        for (int q_idx = q0; q_idx < q1; ++q_idx) {
             const int col = q_idx * classes_ + cls;
             double* o = sums.num.data() + (std::size_t(out_row) * std::size_t(out_w_) + std::size_t(col)) * 3;
             o[0] = acc_r[q_idx];

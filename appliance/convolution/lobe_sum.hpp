@@ -21,6 +21,7 @@
 #pragma once
 
 #include <functional>
+#include <utility>
 #include <vector>
 
 #include "appliance/core/hdr_image.hpp"
@@ -64,9 +65,12 @@ class LobeSummer {
 public:
     LobeSummer(const PreparedLevel& level, int out_w, int out_h, double shininess);
 
-    // Fills sums for the given output rows; c_min(row) is the cosine cut-off for
-    // that output row (0 = every non-zero term). Thread-safe across rows.
-    void sum_row(int out_row, double c_min, LobeSums& sums) const;
+    // Fills sums for one output row with the cosine cut-off c_min (0 = every
+    // non-zero term). With `columns` (half-open [first, last) column runs), only
+    // those texels' numerators are summed (the row's denominators always are).
+    // Thread-safe across rows.
+    using ColumnRuns = std::vector<std::pair<int, int>>;
+    void sum_row(int out_row, double c_min, LobeSums& sums, const ColumnRuns* columns = nullptr) const;
     LobeSums make_sums() const;
 
     // Largest cosine between the direction of output texel (row, class) and any

@@ -56,15 +56,15 @@ struct ConeSettings {
     double bright_tolerance = 1e-4; // relative size of a bright texel's term that may be dropped
 };
 struct ConeStats {
-    long long refined_rows = 0;
-    long long refined_texels = 0;
+    long long refined_texels = 0;  // texels summed again with a wider cone
 };
 
 // `cone`: the lobe sum restricted to the cut-off cone cos t = e^(1/(n+1)) on a
 // (solid-angle weighted) pyramid level of the remainder, plus the bright texels
-// exactly. After a first pass, each output row whose texels' error bound
-//   |E - E'| <= e * max(Lmax - E', E')   (e: lobe energy outside the cone)
-// exceeds texel_tolerance * E' is summed again with the cone that meets it.
+// exactly. After a first pass, each output texel whose error bound
+//   |E - E'| <= e * max(Lmax - E', E')   (e: lobe energy outside the cone,
+//   Lmax: the largest remainder radiance near the texel, see cone.cpp)
+// exceeds texel_tolerance * E' is summed again with a cone that meets it.
 // With only_rows, just those output rows are computed (the rest of the image is 0).
 HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel>& bright,
                        double shininess, Size out, const ConeSettings& settings, int threads,
