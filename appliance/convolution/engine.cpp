@@ -176,6 +176,32 @@ void choose_sh_split(std::vector<MapResult>& results, const Options& options, co
     }
 }
 
+// Auto's SH with the bright split for one map; rows where its truncation bound
+// does not hold are computed by the map's cone plan, which bounds them.
+void run_sh_split(MapResult& r, const MapPlan& cone, SharedInputs& shared, int split_order, const Options& options,
+                  const PlannerModel& model, int threads) {
+    const double n = r.request.shininess;
+    const Size out = r.plan.output_size;
+    const ConeSettings settings = cone_settings(options.tolerance, model);
+    const int level = r.plan.input_level;
+    const ShSplitResult split =
+        sh_split_convolve(shared.remainder_sh(level, split_order, threads), r.plan.input_size,
+                          shared.remainder_mean(level), shared.bright().texels, n, r.plan.sh_order, out,
+                          settings.texel_tolerance, settings.bright_tolerance, threads);
+    r.plan.bright_texels = int(shared.bright().texels.size());
+    r.image = split.image;
+    r.clamped_texels = split.clamped;
+    if (split.failed_rows.empty()) return;
+    ConeStats stats;
+    const HdrImage rows = cone_convolve(shared.cone_level(cone.input_level), shared.bright().texels, n, out,
+                                        settings, threads, nullptr, &stats, split.failed_rows);
+    for (int row : split.failed_rows) std::copy(rows.row(row), rows.row(row) + 3 * out.width, r.image.row(row));
+    r.refined_texels = stats.refined_texels;
+    r.plan.note = "sh truncation bound not met for " + std::to_string(split.failed_values) + " channel values; their " +
+                  std::to_string(split.failed_rows.size()) + " rows computed by cone at level " +
+                  std::to_string(cone.input_level);
+}
+
 void validate(const HdrImage& env, const std::vector<MapRequest>& maps, const Options& options) {
     if (env.empty()) throw InputError("environment map is empty (0 texels)");
     if (env.width() < 2 || env.height() < 2)
@@ -247,51 +273,13 @@ std::vector<MapResult> convolve(const HdrImage& env, const std::vector<MapReques
                 r.image = exact_convolve(shared.full_level(), n, out, threads, progress);
                 break;
             case Method::Sh:
-                if (r.plan.bright_split) {
-                    const int k_level = r.plan.input_level;
-                    const ShSplitResult split = sh_split_convolve(
-                        shared.remainder_sh(k_level, split_order, threads), r.plan.input_size,
-                        shared.remainder_mean(k_level),
-                        shared.bright().texels, n, r.plan.sh_order, out, options.tolerance * model.texel_cut_share,
-                        1e-3 * options.tolerance, threads);
-                    r.plan.bright_texels = int(shared.bright().texels.size());
-                    r.image = split.image;
-                    r.clamped_texels = split.clamped;
-                    if (!split.failed_rows.empty()) {
-                        // Where the truncation bound does not hold (dark texels), the
-                        // cone, which bounds its error per texel, computes those rows.
-                        const MapPlan& cone = cone_plans[k];
-                        ConeStats stats;
-                        const HdrImage rows = cone_convolve(shared.cone_level(cone.input_level), shared.bright().texels,
-                                                            n, out, cone_settings(options.tolerance, model), threads,
-                                                            nullptr, &stats, split.failed_rows);
-                        for (int row : split.failed_rows)
-                            std::copy(rows.row(row), rows.row(row) + 3 * out.width, r.image.row(row));
-                        r.refined_texels = stats.refined_texels;
-                        r.plan.note = "sh truncation bound not met for " + std::to_string(split.failed_values) +
-                                      " channel values; their " + std::to_string(split.failed_rows.size()) +
-                                      " rows computed by cone at level " + std::to_string(cone.input_level);
-                    }
-                    progress(out.height);
-                    break;
-                } else {
-                    const ShCoefficients& c = shared.sh(r.plan.sh_order, threads);
-                    ShCoefficients truncated{r.plan.sh_order,
-                                             std::vector<double>(c.rgb.begin(),
-                                                                 c.rgb.begin() + std::ptrdiff_t(r.plan.sh_order) * r.plan.sh_order * 3)};
-                    const std::vector<double> kernel = phong_sh_kernel(n, r.plan.sh_order);
-                    const std::vector<double> e = sh_evaluate(truncated, kernel, out.width, out.height, threads);
-                    const std::vector<double> norm =
-                        sh_lobe_normaliser({env.width(), env.height()}, r.plan.sh_order, kernel, out);
-                    r.image = HdrImage(out.width, out.height);
-                    for (std::size_t v = 0; v < e.size(); ++v) {
-                        const double x = e[v] / norm[v / (3 * std::size_t(out.width))];
-                        if (x < 0) ++r.clamped_texels;
-                        r.image.data()[v] = float(std::max(0.0, x));
-                    }
-                    progress(out.height);
-                    break;
-                }
+                if (r.plan.bright_split)
+                    run_sh_split(r, cone_plans[k], shared, split_order, options, model, threads);
+                else
+                    r.image = sh_convolve(shared.sh(r.plan.sh_order, threads), {env.width(), env.height()}, n,
+                                          r.plan.sh_order, out, threads, &r.clamped_texels);
+                progress(out.height);
+                break;
             case Method::Cone: {
                 ConeStats stats;
                 r.plan.bright_texels = int(shared.bright().texels.size());

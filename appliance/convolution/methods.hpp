@@ -72,6 +72,13 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
 
 struct ShCoefficients;
 
+// `sh`: the first `order` bands of `coefficients` (projected from a map of size
+// `input`) convolved with the Phong kernel of shininess n, divided by the
+// all-ones response (sh_lobe_normaliser); negative values clamped to 0 and
+// counted in *clamped.
+HdrImage sh_convolve(const ShCoefficients& coefficients, Size input, double shininess, int order, Size out,
+                     int threads, long long* clamped);
+
 // SH with the bright split (used by `auto`): `remainder` holds at least `order`
 // bands of the map without its bright texels (mean radiance remainder_mean).
 // failed_rows lists the output rows holding a channel value whose truncation

@@ -1,4 +1,5 @@
-// SH with the bright split (used by `auto`): the remainder of the map (its
+// The SH methods: `sh` (thesis §4.3, with the discrete normalisation below)
+// and SH with the bright split (used by `auto`): the remainder of the map (its
 // brightest texels taken out) is convolved in the SH domain, the bright texels
 // are added exactly, and the truncation is checked for every output texel.
 //
@@ -58,14 +59,34 @@ double sh_truncation_tail(double n, int order) {
     return tail;
 }
 
+namespace {
+
+ShCoefficients truncated(const ShCoefficients& c, int order) {
+    return {order, std::vector<double>(c.rgb.begin(), c.rgb.begin() + std::ptrdiff_t(order) * order * 3)};
+}
+
+}  // namespace
+
+HdrImage sh_convolve(const ShCoefficients& coefficients, Size input, double n, int order, Size out, int threads,
+                     long long* clamped) {
+    const std::vector<double> kernel = phong_sh_kernel(n, order);
+    const std::vector<double> e = sh_evaluate(truncated(coefficients, order), kernel, out.width, out.height, threads);
+    const std::vector<double> norm = sh_lobe_normaliser(input, order, kernel, out);
+    HdrImage image(out.width, out.height);
+    for (std::size_t v = 0; v < e.size(); ++v) {
+        const double x = e[v] / norm[v / (3 * std::size_t(out.width))];
+        if (x < 0 && clamped) ++*clamped;
+        image.data()[v] = float(std::max(0.0, x));
+    }
+    return image;
+}
+
 ShSplitResult sh_split_convolve(const ShCoefficients& remainder, Size remainder_size, double remainder_mean,
                                 const std::vector<BrightTexel>& bright, double n, int order,
                                 Size out, double texel_tolerance, double bright_tolerance,
                                 int threads) {
-    ShCoefficients truncated{order, std::vector<double>(remainder.rgb.begin(),
-                                                        remainder.rgb.begin() + std::ptrdiff_t(order) * order * 3)};
     const std::vector<double> kernel = phong_sh_kernel(n, order);
-    const std::vector<double> e = sh_evaluate(truncated, kernel, out.width, out.height, threads);
+    const std::vector<double> e = sh_evaluate(truncated(remainder, order), kernel, out.width, out.height, threads);
     const std::vector<double> norm = sh_lobe_normaliser(remainder_size, order, kernel, out);
     const std::size_t texels = std::size_t(out.width) * std::size_t(out.height);
 
