@@ -36,7 +36,7 @@ struct PlannerModel {
     double bright_contrast = 16.0;  // texels brighter than this x mean are summed exactly
     int max_bright_texels = 1024;
     // SH with the bright split: the order is the smallest whose truncation tail
-    // (sh_split.cpp) is below sh_tail_share * tau, so the per-texel check passes
+    // (sh_methods.cpp) is below sh_tail_share * tau, so the per-texel check passes
     // wherever E >= mean_R * sh_tail_share / texel_cut_share; at most this order.
     double sh_tail_share = 1e-3;
     int max_split_sh_order = 384;
