@@ -86,9 +86,9 @@ std::vector<double> fejer_weights(int height);
 std::vector<double> sh_row_weights(int width, int height, ShQuadrature q);
 
 // c_lm = sum_texels w_row L Y_lm, separably: per row the azimuthal Fourier sums (by FFT for a power-of-two
-// width, see ShAzimuthal), then the Legendre recurrence. Rows are summed in row order with compensated
-// sums, so the result does not depend on `threads` (<= 0: all hardware threads). Throws InputError on an
-// empty map or a bad order.
+// width, see ShAzimuthal), then the Legendre recurrence, once per pair of rows mirrored in the equator.
+// The rows are summed in a fixed order with compensated sums, so the result does not depend on `threads`
+// (<= 0: all hardware threads). Throws InputError on an empty map or a bad order.
 ShCoefficients sh_project(const HdrImage& env, int order, int threads,
                           ShQuadrature q = ShQuadrature::TexelSolidAngle);
 // The same for radiance in double, interleaved RGB, row 0 at the top (width*height*3 values).

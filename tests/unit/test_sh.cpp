@@ -356,6 +356,160 @@ TEST(ShAzimuthal, AutomaticTakesTheFftForPowerOfTwoWidthsAndHighOrders) {
     EXPECT_THROW(detail::sh_evaluate(c, k, 50, 25, 2, ShAzimuthal::Fft), InputError);
 }
 
+// Straightforward separable references for the paired-row paths of sh_project and sh_evaluate: row by
+// row in long double, every row with its own x = cos(theta) (no mirror pairs, no blocks of rows), the
+// Legendre values from ShLegendre::evaluate and the azimuthal sums over the columns with cos(m phi_i) and
+// sin(m phi_i) directly (no FFT).
+struct ReferenceAzimuths {
+    int width;
+    std::vector<long double> cosines, sines;  // [m * width + i]
+
+    ReferenceAzimuths(int order, int w) : width(w) {
+        const long double pi = 3.141592653589793238462643383279502884L;
+        for (int m = 0; m < order; ++m)
+            for (int i = 0; i < w; ++i) {
+                const long double phi = 2 * pi * (i + 0.5L) / w - pi;
+                cosines.push_back(std::cos(m * phi));
+                sines.push_back(std::sin(m * phi));
+            }
+    }
+    long double c(int m, int i) const { return cosines[std::size_t(m * width + i)]; }
+    long double s(int m, int i) const { return sines[std::size_t(m * width + i)]; }
+};
+
+std::vector<double> reference_projection(const std::vector<double>& map, int w, int h, int order,
+                                         ShQuadrature q) {
+    const std::vector<double> weights = sh_row_weights(w, h, q);
+    const ShLegendre legendre(order);
+    const ReferenceAzimuths az(order, w);
+    std::vector<long double> c(std::size_t(order * order * 3), 0.0L);
+    std::vector<double> p(std::size_t(order * (order + 1) / 2));
+    std::vector<long double> f(std::size_t(order * 3)), g(std::size_t(order * 3));
+    for (int j = 0; j < h; ++j) {
+        const double theta = row_theta(j, h);
+        legendre.evaluate(std::cos(theta), std::sin(theta), p.data());
+        for (int m = 0; m < order; ++m)
+            for (int ch = 0; ch < 3; ++ch) {
+                long double fs = 0, gs = 0;
+                for (int i = 0; i < w; ++i) {
+                    const long double v = map[std::size_t((j * w + i) * 3 + ch)];
+                    fs += v * az.c(m, i);
+                    gs += v * az.s(m, i);
+                }
+                f[std::size_t(m * 3 + ch)] = fs;
+                g[std::size_t(m * 3 + ch)] = gs;
+            }
+        for (int l = 0; l < order; ++l)
+            for (int m = 0; m <= l; ++m) {
+                const long double y = weights[std::size_t(j)] * (m == 0 ? 1.0L : std::sqrt(2.0L)) *
+                                      p[std::size_t(legendre_index(l, m))];
+                for (int ch = 0; ch < 3; ++ch) {
+                    c[idx(l, m) * 3 + std::size_t(ch)] += y * f[std::size_t(m * 3 + ch)];
+                    if (m > 0) c[idx(l, -m) * 3 + std::size_t(ch)] += y * g[std::size_t(m * 3 + ch)];
+                }
+            }
+    }
+    return std::vector<double>(c.begin(), c.end());
+}
+
+std::vector<double> reference_evaluation(const ShCoefficients& c, const std::vector<double>& kernel, int w,
+                                         int h) {
+    const int order = c.order;
+    const ShLegendre legendre(order);
+    const ReferenceAzimuths az(order, w);
+    std::vector<double> out(std::size_t(w * h * 3));
+    std::vector<double> p(std::size_t(order * (order + 1) / 2));
+    std::vector<long double> hs(std::size_t(order * 3)), ks(std::size_t(order * 3));
+    for (int j = 0; j < h; ++j) {
+        const double theta = row_theta(j, h);
+        legendre.evaluate(std::cos(theta), std::sin(theta), p.data());
+        std::fill(hs.begin(), hs.end(), 0.0L);
+        std::fill(ks.begin(), ks.end(), 0.0L);
+        for (int l = 0; l < order; ++l)
+            for (int m = 0; m <= l; ++m) {
+                const long double y = kernel[std::size_t(l)] * (m == 0 ? 1.0L : std::sqrt(2.0L)) *
+                                      p[std::size_t(legendre_index(l, m))];
+                for (int ch = 0; ch < 3; ++ch) {
+                    hs[std::size_t(m * 3 + ch)] += y * c.at(l, m, ch);
+                    if (m > 0) ks[std::size_t(m * 3 + ch)] += y * c.at(l, -m, ch);
+                }
+            }
+        for (int i = 0; i < w; ++i)
+            for (int ch = 0; ch < 3; ++ch) {
+                long double e = 0;
+                for (int m = 0; m < order; ++m)
+                    e += hs[std::size_t(m * 3 + ch)] * az.c(m, i) + ks[std::size_t(m * 3 + ch)] * az.s(m, i);
+                out[std::size_t((j * w + i) * 3 + ch)] = double(e);
+            }
+    }
+    return out;
+}
+
+TEST(ShPairedRows, ProjectionMatchesRowByRowReference) {
+    // Odd heights (a middle row without a mirror) and even ones; power-of-two widths take the FFT, 50 the
+    // direct sums; order 200 on 31 to 33 rows leaves most of the degrees above the rows' resolution and
+    // flushes the diagonals of the polar rows; 64 and 200 fold frequencies above W/2 on 64 columns.
+    for (auto [w, h] : {std::pair{64, 31}, std::pair{64, 32}, std::pair{256, 128}, std::pair{50, 33}}) {
+        const std::vector<double> map = random_values(std::size_t(w * h * 3), 41u + unsigned(w + h));
+        for (int order : {16, 64, 200}) {
+            const std::vector<ShQuadrature> rules =
+                w == 64 ? std::vector{ShQuadrature::TexelSolidAngle, ShQuadrature::Fejer}
+                        : std::vector{ShQuadrature::TexelSolidAngle};
+            for (ShQuadrature q : rules) {
+                const ShCoefficients got = sh_project(map, w, h, order, 2, q);
+                const std::vector<double> want = reference_projection(map, w, h, order, q);
+                ASSERT_EQ(got.rgb.size(), want.size());
+                EXPECT_LT(relative_difference(got.rgb, want), 1e-12) << w << "x" << h << " order " << order;
+            }
+        }
+    }
+}
+
+TEST(ShPairedRows, EvaluationMatchesRowByRowReference) {
+    // As above; order 16 stays below the synthesis' FFT crossover, so 64 and 256 columns take both paths.
+    for (auto [w, h] : {std::pair{64, 31}, std::pair{64, 32}, std::pair{256, 128}, std::pair{50, 33}}) {
+        for (int order : {16, 64, 200}) {
+            const ShCoefficients c = random_coefficients(order, 53u + unsigned(order));
+            const std::vector<double> kernel = phong_sh_kernel(6.0, order);
+            const std::vector<double> got = sh_evaluate(c, kernel, w, h, 2);
+            const std::vector<double> want = reference_evaluation(c, kernel, w, h);
+            ASSERT_EQ(got.size(), want.size());
+            EXPECT_LT(relative_difference(got, want), 1e-12) << w << "x" << h << " order " << order;
+        }
+    }
+}
+
+TEST(ShPairedRows, SmallMapsAndOrdersMatchReference) {
+    // One row (the middle row alone), two rows (one pair), three, and fewer pairs than one block of rows;
+    // order 1 has no recurrence step at all.
+    for (auto [w, h] : {std::pair{8, 1}, std::pair{8, 2}, std::pair{7, 3}, std::pair{16, 17}, std::pair{1, 5}}) {
+        const std::vector<double> map = random_values(std::size_t(w * h * 3), 61u + unsigned(w * h));
+        for (int order : {1, 2, 5, 40}) {
+            const ShCoefficients got = sh_project(map, w, h, order, 2, ShQuadrature::TexelSolidAngle);
+            const std::vector<double> want =
+                reference_projection(map, w, h, order, ShQuadrature::TexelSolidAngle);
+            EXPECT_LT(relative_difference(got.rgb, want), 1e-12) << w << "x" << h << " order " << order;
+            const std::vector<double> kernel = phong_sh_kernel(2.0, order);
+            const std::vector<double> e = sh_evaluate(got, kernel, w, h, 2);
+            EXPECT_LT(relative_difference(e, reference_evaluation(got, kernel, w, h)), 1e-12)
+                << w << "x" << h << " order " << order;
+        }
+    }
+}
+
+TEST(ShPairedRows, OddHeightsDoNotDependOnThreadCount) {
+    for (auto [w, h] : {std::pair{64, 33}, std::pair{45, 31}}) {  // FFT and direct sums
+        const std::vector<double> map = random_values(std::size_t(w * h * 3), 71u);
+        const ShCoefficients one = sh_project(map, w, h, 40, 1);
+        const std::vector<double> k = phong_sh_kernel(3.0, 40);
+        const std::vector<double> e1 = sh_evaluate(one, k, w, h, 1);
+        for (int threads : {2, 3, 5}) {
+            EXPECT_EQ(sh_project(map, w, h, 40, threads).rgb, one.rgb) << threads << " threads";
+            EXPECT_EQ(sh_evaluate(one, k, w, h, threads), e1) << threads << " threads";
+        }
+    }
+}
+
 TEST(ShReconstruct, SeparablePathMatchesBasis) {
     const HdrImage img = random_image(64, 32, 11u);
     const ShCoefficients c = sh_project(img, 20, 2);
