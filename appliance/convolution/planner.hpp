@@ -44,7 +44,7 @@ struct PlannerModel {
     // measured with the benchmark: a cone term (3 multiply-adds, including the
     // refinement passes) and one step of the SH Legendre sums.
     double cone_term_seconds = 2.0e-9;
-    double sh_step_seconds = 0.6e-9;
+    double sh_step_seconds = 0.07e-9;
 };
 
 struct EnvironmentShape;
