@@ -159,19 +159,14 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
     // gets, with the other failing texels of its row, the cone of the row's
     // smallest such e (only their multiply-adds are done again).
     ConeStats local;
-    double floor_value = INFINITY, power = 0;
+    double floor_value = INFINITY;
+    const double power = level.power();
     for (int row : rows)
         for (std::size_t t = std::size_t(row) * std::size_t(out.width); t < std::size_t(row + 1) * std::size_t(out.width); ++t)
             for (int c = 0; c < 3; ++c) {
                 const double v = value(t, c, nb);
                 if (v > 0) floor_value = std::min(floor_value, v);
             }
-    for (int j = 0; j < level.height(); ++j) {
-        double row_sum = 0;
-        for (int i = 0; i < level.width(); ++i)
-            row_sum += std::max({level.plane(j, 0)[i], level.plane(j, 1)[i], level.plane(j, 2)[i]});
-        power += row_sum * level.solid_angle(j);
-    }
     double far_cos = 0;  // cos R; 0: the hemisphere
     if (std::isfinite(floor_value) && power > 0 && n > 0) {
         const double w_far = 0.1 * settings.texel_tolerance * floor_value * kTwoPi / ((n + 1.0) * power);

@@ -26,6 +26,9 @@ PreparedLevel::PreparedLevel(const HdrImage& level)
         cos_t_[std::size_t(j)] = std::cos(t);
         sin_t_[std::size_t(j)] = std::sin(t);
         const float* src = level.row(j);
+        double row_power = 0;
+        for (int i = 0; i < width_; ++i) row_power += std::max({src[3 * i], src[3 * i + 1], src[3 * i + 2]});
+        power_ += row_power * omega_[std::size_t(j)];
         for (int c = 0; c < 3; ++c) {
             float* dst = planes_.data() + (std::size_t(j) * 3 + std::size_t(c)) * stride_;
             // [-W, 0) and [W, 2W) repeat the row: wrapped ranges read contiguously.
@@ -41,12 +44,12 @@ PreparedLevel::PreparedLevel(const HdrImage& level)
 }
 
 LobeSummer::LobeSummer(const PreparedLevel& level, int out_w, int out_h, double shininess)
-    : level_(level), out_w_(out_w), out_h_(out_h), n_(shininess) {
+    : level_(level), out_w_(out_w), out_h_(out_h), n_(shininess),
+      classes_(out_w / std::gcd(level.width(), out_w)),
+      step_(level.width() / std::gcd(level.width(), out_w)),
+      per_class_(std::gcd(level.width(), out_w)),
+      phases_(level.phases(step_, per_class_)) {
     const int w = level.width();
-    const int g = std::gcd(w, out_w);
-    classes_ = out_w / g;
-    step_ = w / g;
-    per_class_ = g;
     base_.resize(std::size_t(classes_));
     frac_.resize(std::size_t(classes_));
     for (int p = 0; p < classes_; ++p) {
@@ -64,23 +67,30 @@ LobeSummer::LobeSummer(const PreparedLevel& level, int out_w, int out_h, double 
             const double d = double(k) - cos_offset_;
             cos_dphi_[std::size_t(p) * cos_stride_ + k] = std::cos((d - frac_[std::size_t(p)]) * kTwoPi / w);
         }
-    const std::size_t span = 2 * std::size_t(per_class_);
-    phases_.resize(std::size_t(level.height()) * 3 * std::size_t(step_) * span);
-    for (int j = 0; j < level.height(); ++j)
-        for (int c = 0; c < 3; ++c) {
-            const float* src = level.plane(j, c);
-            for (int ph = 0; ph < step_; ++ph) {
-                float* dst = phases_.data() + (phase(j, c, ph) - phases_.data());
-                for (std::size_t t = 0; t < span; ++t)
-                    dst[t] = src[(t * std::size_t(step_) + std::size_t(ph)) % std::size_t(w)];
-            }
-        }
     out_cos_t_.resize(std::size_t(out_h));
     out_sin_t_.resize(std::size_t(out_h));
     for (int j = 0; j < out_h; ++j) {
         out_cos_t_[std::size_t(j)] = std::cos(row_theta(j, out_h));
         out_sin_t_[std::size_t(j)] = std::sin(row_theta(j, out_h));
     }
+}
+
+const std::vector<float>& PreparedLevel::phases(int step, int per_class) const {
+    std::lock_guard lock(phases_mutex_);
+    std::vector<float>& p = phases_[{step, per_class}];
+    if (!p.empty()) return p;
+    const std::size_t span = 2 * std::size_t(per_class);
+    p.resize(std::size_t(height_) * 3 * std::size_t(step) * span);
+    for (int j = 0; j < height_; ++j)
+        for (int c = 0; c < 3; ++c) {
+            const float* src = plane(j, c);
+            for (int ph = 0; ph < step; ++ph) {
+                float* dst = p.data() + ((std::size_t(j) * 3 + std::size_t(c)) * std::size_t(step) + std::size_t(ph)) * span;
+                for (std::size_t t = 0; t < span; ++t)
+                    dst[t] = src[(t * std::size_t(step) + std::size_t(ph)) % std::size_t(width_)];
+            }
+        }
+    return p;
 }
 
 LobeSums LobeSummer::make_sums() const {

@@ -21,6 +21,8 @@
 #pragma once
 
 #include <functional>
+#include <map>
+#include <mutex>
 #include <utility>
 #include <vector>
 
@@ -43,6 +45,13 @@ public:
         return planes_.data() + (std::size_t(j) * 3 + std::size_t(c)) * stride_ + std::size_t(width_);
     }
     float max_value() const { return max_value_; }
+    // sum over texels of max(R, G, B) * dOmega: an upper bound on every channel's power.
+    double power() const { return power_; }
+
+    // The rows split by column phase for `step` (see LobeSummer): phase s of row
+    // j holds L[(t * step + s) mod W] for t in [0, 2 * per_class). Built on first
+    // use and kept, since every map of one output width needs the same layout.
+    const std::vector<float>& phases(int step, int per_class) const;
 
 private:
     int width_, height_;
@@ -50,6 +59,9 @@ private:
     std::vector<double> cos_t_, sin_t_, omega_;
     std::vector<float> planes_;
     float max_value_ = 0;
+    double power_ = 0;
+    mutable std::mutex phases_mutex_;
+    mutable std::map<std::pair<int, int>, std::vector<float>> phases_;
 };
 
 // Per-texel partial sums for an output grid of out_w x out_h.
@@ -99,10 +111,10 @@ private:
     std::vector<double> cos_dphi_;
     int cos_offset_ = 0;
     std::size_t cos_stride_ = 0;
-    // The level's rows split by column phase for this output width: phase s of
-    // row j holds L[(t * step + s) mod W] for t in [0, 2 * per_class), so the
-    // texels that one weight multiplies across a whole class are contiguous.
-    std::vector<float> phases_;
+    // The level's rows split by column phase for this output width
+    // (PreparedLevel::phases): the texels that one weight multiplies across a
+    // whole class are contiguous.
+    const std::vector<float>& phases_;
     const float* phase(int row, int channel, int s) const {
         return phases_.data() +
                ((std::size_t(row) * 3 + std::size_t(channel)) * std::size_t(step_) + std::size_t(s)) *
