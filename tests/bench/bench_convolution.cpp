@@ -436,12 +436,11 @@ int main(int argc, char** argv) {
         g << "set terminal png size 1000,650 font ',11'\n"
           << "set output '" << (cfg.images / "convolution_speed_error.png").string() << "'\n"
           << "set logscale xy\nset format y '10^{%L}'\nset format x '10^{%L}'\n"
-          << "set xlabel 'wall time for the whole set: irradiance + " << ts.size() - 1
-          << " reflection maps at reference sizes [s] (2 threads)'\n"
+          << "set xlabel 'wall time, whole set (irradiance + " << ts.size() - 1
+          << " reflection maps, reference sizes) [s], 2 threads'\n"
           << "set ylabel 'worst weighted relative RMS error vs exact'\n"
-          << "set title 'Glint convolution on courtyard, studio, sunset, sun: speed against error (" << date
-          << ")'\n"
-          << "set key outside right\nset grid\nset yrange [5e-10:100]\n"
+          << "set title 'Glint convolution, courtyard / studio / sunset / sun map (" << date << ")'\n"
+          << "set key bottom left box opaque\nset grid\nset yrange [5e-10:100]\nset xrange [0.01:100]\n"
           << "set arrow from graph 0, first 0.01 to graph 1, first 0.01 nohead dt 2 lc rgb 'gray'\n"
           << "set label 'tolerance 1 %' at graph 0.02, first 0.013 tc rgb 'gray'\n"
           << "plot ";
