@@ -532,14 +532,7 @@ TEST(ShProject, BandLimitedFunctionRoundTripsAtOrder64) {
     // Bands 0..63 on a 256x128 grid: products of two such functions have band <= 126 < H and azimuthal
     // degree <= 126 < W, so Fejer's rule recovers the coefficients exactly up to rounding.
     const int order = 64, w = 256, h = 128;
-    std::mt19937 rng(5u);
-    std::uniform_real_distribution<double> u(-1.0, 1.0);
-    ShCoefficients c;
-    c.order = order;
-    c.rgb.resize(std::size_t(order * order * 3));
-    for (int l = 0; l < order; ++l)
-        for (int m = -l; m <= l; ++m)
-            for (int ch = 0; ch < 3; ++ch) c.at(l, m, ch) = u(rng) / (1.0 + 0.1 * l);
+    const ShCoefficients c = random_coefficients(order, 5u);
     const std::vector<double> ones(std::size_t(order), 1.0);
 
     // In double (sh_evaluate and the span overload): 1e-9 relative to the largest coefficient.
