@@ -16,11 +16,11 @@ constexpr double kLogSmallestNormal = -708.39;
 }  // namespace
 
 PreparedLevel::PreparedLevel(const HdrImage& level)
-    : width_(level.width()), height_(level.height()), stride_(3 * std::size_t(level.width())) {
+    : width_(level.width()), height_(level.height()) {
     cos_t_.resize(std::size_t(height_));
     sin_t_.resize(std::size_t(height_));
     omega_ = row_solid_angles(width_, height_);
-    planes_.assign(std::size_t(height_) * 3 * stride_, 0.0f);
+    planes_.resize(std::size_t(height_) * 3 * std::size_t(width_));
     for (int j = 0; j < height_; ++j) {
         const double t = row_theta(j, height_);
         cos_t_[std::size_t(j)] = std::cos(t);
@@ -30,14 +30,10 @@ PreparedLevel::PreparedLevel(const HdrImage& level)
         for (int i = 0; i < width_; ++i) row_power += std::max({src[3 * i], src[3 * i + 1], src[3 * i + 2]});
         power_ += row_power * omega_[std::size_t(j)];
         for (int c = 0; c < 3; ++c) {
-            float* dst = planes_.data() + (std::size_t(j) * 3 + std::size_t(c)) * stride_;
-            // [-W, 0) and [W, 2W) repeat the row: wrapped ranges read contiguously.
+            float* dst = planes_.data() + (std::size_t(j) * 3 + std::size_t(c)) * std::size_t(width_);
             for (int i = 0; i < width_; ++i) {
-                const float v = src[3 * i + c];
-                dst[i] = v;
-                dst[i + width_] = v;
-                dst[i + 2 * width_] = v;
-                max_value_ = std::max(max_value_, v);
+                dst[i] = src[3 * i + c];
+                max_value_ = std::max(max_value_, dst[i]);
             }
         }
     }

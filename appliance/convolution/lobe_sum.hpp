@@ -30,8 +30,8 @@
 
 namespace glint::convolution {
 
-// An input level laid out for the kernel: channel planes padded by one period on
-// each side so that wrapped column ranges are contiguous.
+// An input level laid out for the kernel: one plane per channel and row, the
+// row's geometry, and (on demand) the phase-split layout of LobeSummer.
 class PreparedLevel {
 public:
     explicit PreparedLevel(const HdrImage& level);
@@ -40,9 +40,9 @@ public:
     double cos_theta(int j) const { return cos_t_[std::size_t(j)]; }
     double sin_theta(int j) const { return sin_t_[std::size_t(j)]; }
     double solid_angle(int j) const { return omega_[std::size_t(j)]; }
-    // Channel c of row j; valid for column indices in [-width, 2*width).
+    // Channel c of row j, columns [0, width).
     const float* plane(int j, int c) const {
-        return planes_.data() + (std::size_t(j) * 3 + std::size_t(c)) * stride_ + std::size_t(width_);
+        return planes_.data() + (std::size_t(j) * 3 + std::size_t(c)) * std::size_t(width_);
     }
     float max_value() const { return max_value_; }
     // sum over texels of max(R, G, B) * dOmega: an upper bound on every channel's power.
@@ -55,7 +55,6 @@ public:
 
 private:
     int width_, height_;
-    std::size_t stride_;
     std::vector<double> cos_t_, sin_t_, omega_;
     std::vector<float> planes_;
     float max_value_ = 0;
