@@ -19,65 +19,6 @@
 
 namespace glint::convolution {
 
-namespace {
-
-// Largest radiance (any channel) of a level over spherical caps, read from a
-// 2x2 max pyramid: an upper bound, since every texel that meets the cap counts.
-class CapMax {
-public:
-    explicit CapMax(const PreparedLevel& level) {
-        Grid g{level.width(), level.height(), {}};
-        g.v.resize(std::size_t(g.w) * std::size_t(g.h));
-        for (int j = 0; j < g.h; ++j)
-            for (int i = 0; i < g.w; ++i)
-                g.v[std::size_t(j) * std::size_t(g.w) + std::size_t(i)] =
-                    std::max({level.plane(j, 0)[i], level.plane(j, 1)[i], level.plane(j, 2)[i]});
-        grids_.push_back(std::move(g));
-        while (grids_.back().w % 2 == 0 && grids_.back().h % 2 == 0 && grids_.back().h >= 2) {
-            const Grid& f = grids_.back();
-            Grid c{f.w / 2, f.h / 2, {}};
-            c.v.resize(std::size_t(c.w) * std::size_t(c.h));
-            for (int j = 0; j < c.h; ++j)
-                for (int i = 0; i < c.w; ++i)
-                    c.v[std::size_t(j) * std::size_t(c.w) + std::size_t(i)] =
-                        std::max({f.at(2 * i, 2 * j), f.at(2 * i + 1, 2 * j), f.at(2 * i, 2 * j + 1),
-                                  f.at(2 * i + 1, 2 * j + 1)});
-            grids_.push_back(std::move(c));
-        }
-    }
-
-    // Maximum over the cap of angular radius `radius` around (theta, phi).
-    double query(double theta, double phi, double radius) const {
-        // Finest grid whose rows are at least `radius` tall: the cap meets few texels.
-        std::size_t m = 0;
-        while (m + 1 < grids_.size() && kPi / grids_[m].h < radius) ++m;
-        const Grid& g = grids_[m];
-        const int j0 = std::clamp(int(std::floor((theta - radius) / kPi * g.h)), 0, g.h - 1);
-        const int j1 = std::clamp(int(std::floor((theta + radius) / kPi * g.h)), 0, g.h - 1);
-        int i0 = 0, count = g.w;
-        if (theta - radius > 0 && theta + radius < kPi) {
-            // Widest azimuth of a cap that holds no pole.
-            const double half = std::asin(std::min(1.0, std::sin(radius) / std::sin(theta)));
-            i0 = int(std::floor((phi - half + kPi) / kTwoPi * g.w));
-            count = std::min(g.w, int(std::floor((phi + half + kPi) / kTwoPi * g.w)) - i0 + 1);
-        }
-        float best = 0;
-        for (int j = j0; j <= j1; ++j)
-            for (int t = 0; t < count; ++t)
-                best = std::max(best, g.at(((i0 + t) % g.w + g.w) % g.w, j));
-        return best;
-    }
-
-private:
-    struct Grid {
-        int w, h;
-        std::vector<float> v;
-        float at(int i, int j) const { return v[std::size_t(j) * std::size_t(w) + std::size_t(i)]; }
-    };
-    std::vector<Grid> grids_;
-};
-
-}  // namespace
 
 HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel>& bright,
                        double n, Size out, const ConeSettings& settings, int threads,
@@ -173,7 +114,7 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
         far_cos = w_far < 1 ? 0.999 * std::pow(w_far, 1.0 / n) : 1.0;
     }
     const double radius = std::acos(std::clamp(far_cos, -1.0, 1.0));
-    const CapMax cap_max(level);
+    const CapMax& cap_max = level.cap_max();
     const double global_max = level.max_value();
     std::vector<double> row_need(std::size_t(out.height), settings.cutoff_energy);
     parallel_for(int(rows.size()), threads, [&](int k) {

@@ -89,6 +89,54 @@ const std::vector<float>& PreparedLevel::phases(int step, int per_class) const {
     return p;
 }
 
+CapMax::CapMax(const PreparedLevel& level) {
+        Grid g{level.width(), level.height(), {}};
+        g.v.resize(std::size_t(g.w) * std::size_t(g.h));
+        for (int j = 0; j < g.h; ++j)
+            for (int i = 0; i < g.w; ++i)
+                g.v[std::size_t(j) * std::size_t(g.w) + std::size_t(i)] =
+                    std::max({level.plane(j, 0)[i], level.plane(j, 1)[i], level.plane(j, 2)[i]});
+        grids_.push_back(std::move(g));
+        while (grids_.back().w % 2 == 0 && grids_.back().h % 2 == 0 && grids_.back().h >= 2) {
+            const Grid& f = grids_.back();
+            Grid c{f.w / 2, f.h / 2, {}};
+            c.v.resize(std::size_t(c.w) * std::size_t(c.h));
+            for (int j = 0; j < c.h; ++j)
+                for (int i = 0; i < c.w; ++i)
+                    c.v[std::size_t(j) * std::size_t(c.w) + std::size_t(i)] =
+                        std::max({f.at(2 * i, 2 * j), f.at(2 * i + 1, 2 * j), f.at(2 * i, 2 * j + 1),
+                                  f.at(2 * i + 1, 2 * j + 1)});
+            grids_.push_back(std::move(c));
+        }
+}
+
+double CapMax::query(double theta, double phi, double radius) const {
+        // Finest grid whose rows are at least `radius` tall: the cap meets few texels.
+        std::size_t m = 0;
+        while (m + 1 < grids_.size() && kPi / grids_[m].h < radius) ++m;
+        const Grid& g = grids_[m];
+        const int j0 = std::clamp(int(std::floor((theta - radius) / kPi * g.h)), 0, g.h - 1);
+        const int j1 = std::clamp(int(std::floor((theta + radius) / kPi * g.h)), 0, g.h - 1);
+        int i0 = 0, count = g.w;
+        if (theta - radius > 0 && theta + radius < kPi) {
+            // Widest azimuth of a cap that holds no pole.
+            const double half = std::asin(std::min(1.0, std::sin(radius) / std::sin(theta)));
+            i0 = int(std::floor((phi - half + kPi) / kTwoPi * g.w));
+            count = std::min(g.w, int(std::floor((phi + half + kPi) / kTwoPi * g.w)) - i0 + 1);
+        }
+        float best = 0;
+        for (int j = j0; j <= j1; ++j)
+            for (int t = 0; t < count; ++t)
+                best = std::max(best, g.at(((i0 + t) % g.w + g.w) % g.w, j));
+        return best;
+}
+
+const CapMax& PreparedLevel::cap_max() const {
+    std::lock_guard lock(phases_mutex_);
+    if (!cap_max_) cap_max_ = std::make_unique<CapMax>(*this);
+    return *cap_max_;
+}
+
 LobeSums LobeSummer::make_sums() const {
     LobeSums s;
     s.out_w = out_w_;

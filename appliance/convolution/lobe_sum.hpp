@@ -22,6 +22,7 @@
 
 #include <functional>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <utility>
 #include <vector>
@@ -29,6 +30,26 @@
 #include "appliance/core/hdr_image.hpp"
 
 namespace glint::convolution {
+
+class PreparedLevel;
+
+// Largest radiance (any channel) of a level over spherical caps, read from a
+// 2x2 max pyramid: an upper bound, since every texel that meets the cap counts.
+class CapMax {
+public:
+    explicit CapMax(const PreparedLevel& level);
+
+    // Maximum over the cap of angular radius `radius` around (theta, phi).
+    double query(double theta, double phi, double radius) const;
+
+private:
+    struct Grid {
+        int w, h;
+        std::vector<float> v;
+        float at(int i, int j) const { return v[std::size_t(j) * std::size_t(w) + std::size_t(i)]; }
+    };
+    std::vector<Grid> grids_;
+};
 
 // An input level laid out for the kernel: one plane per channel and row, the
 // row's geometry, and (on demand) the phase-split layout of LobeSummer.
@@ -52,6 +73,8 @@ public:
     // j holds L[(t * step + s) mod W] for t in [0, 2 * per_class). Built on first
     // use and kept, since every map of one output width needs the same layout.
     const std::vector<float>& phases(int step, int per_class) const;
+    // Max pyramid of the level for cap queries (cone's per-texel bound); built on first use.
+    const CapMax& cap_max() const;
 
 private:
     int width_, height_;
@@ -59,8 +82,9 @@ private:
     std::vector<float> planes_;
     float max_value_ = 0;
     double power_ = 0;
-    mutable std::mutex phases_mutex_;
+    mutable std::mutex phases_mutex_;  // guards the lazily built layouts below
     mutable std::map<std::pair<int, int>, std::vector<float>> phases_;
+    mutable std::unique_ptr<CapMax> cap_max_;
 };
 
 // Per-texel partial sums for an output grid of out_w x out_h.
