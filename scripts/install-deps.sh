@@ -13,6 +13,7 @@ packages=(
   libbenchmark-dev                     # tests/bench
   blender-data                         # CC0 HDR maps used by tests and benchmarks
   gnuplot-nox                          # speed-against-error plots in images/
+  python3                              # JSON checks in tests/cli
 )
 
 missing=()
