@@ -82,8 +82,10 @@ const std::vector<float>& PreparedLevel::phases(int step, int per_class) const {
             const float* src = plane(j, c);
             for (int ph = 0; ph < step; ++ph) {
                 float* dst = p.data() + ((std::size_t(j) * 3 + std::size_t(c)) * std::size_t(step) + std::size_t(ph)) * span;
-                for (std::size_t t = 0; t < span; ++t)
-                    dst[t] = src[(t * std::size_t(step) + std::size_t(ph)) % std::size_t(width_)];
+                // t * step + ph < 2 W: one wrap at most (no division per texel).
+                std::size_t idx = std::size_t(ph);
+                for (std::size_t t = 0; t < span; ++t, idx += std::size_t(step))
+                    dst[t] = src[idx < std::size_t(width_) ? idx : idx - std::size_t(width_)];
             }
         }
     return p;

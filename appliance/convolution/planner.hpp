@@ -38,7 +38,7 @@ struct PlannerModel {
     // SH with the bright split: the order is the smallest whose truncation tail
     // (sh_methods.cpp) is below sh_tail_share * tau, so the per-texel check passes
     // wherever E >= mean_R * sh_tail_share / texel_cut_share; at most this order.
-    double sh_tail_share = 1e-3;
+    double sh_tail_share = 1e-4;
     int max_split_sh_order = 384;
     // Seconds per unit of predicted cost on the reference machine (2 threads),
     // measured with the benchmark: a cone term (3 multiply-adds, including the
