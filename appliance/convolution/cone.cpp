@@ -114,7 +114,7 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
         far_cos = w_far < 1 ? 0.999 * std::pow(w_far, 1.0 / n) : 1.0;
     }
     const double radius = std::acos(std::clamp(far_cos, -1.0, 1.0));
-    const CapMax& cap_max = level.cap_max();
+    const CapMax cap_max(level, radius);
     const double global_max = level.max_value();
     std::vector<double> row_need(std::size_t(out.height), settings.cutoff_energy);
     parallel_for(int(rows.size()), threads, [&](int k) {
@@ -134,7 +134,7 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
             };
             // The global maximum is a cheap first test; the cap maximum a tighter one.
             if (need_for(global_max) >= settings.cutoff_energy * 0.999) continue;
-            const double need = need_for(cap_max.query(theta, column_phi(i, out.width), radius));
+            const double need = need_for(cap_max.query(theta, column_phi(i, out.width)));
             if (need < settings.cutoff_energy * 0.999) {
                 widened[t] = 1;
                 need_row = std::min(need_row, need);

@@ -91,52 +91,52 @@ const std::vector<float>& PreparedLevel::phases(int step, int per_class) const {
     return p;
 }
 
-CapMax::CapMax(const PreparedLevel& level) {
-        Grid g{level.width(), level.height(), {}};
-        g.v.resize(std::size_t(g.w) * std::size_t(g.h));
-        for (int j = 0; j < g.h; ++j)
-            for (int i = 0; i < g.w; ++i)
-                g.v[std::size_t(j) * std::size_t(g.w) + std::size_t(i)] =
-                    std::max({level.plane(j, 0)[i], level.plane(j, 1)[i], level.plane(j, 2)[i]});
-        grids_.push_back(std::move(g));
-        while (grids_.back().w % 2 == 0 && grids_.back().h % 2 == 0 && grids_.back().h >= 2) {
-            const Grid& f = grids_.back();
-            Grid c{f.w / 2, f.h / 2, {}};
-            c.v.resize(std::size_t(c.w) * std::size_t(c.h));
-            for (int j = 0; j < c.h; ++j)
-                for (int i = 0; i < c.w; ++i)
-                    c.v[std::size_t(j) * std::size_t(c.w) + std::size_t(i)] =
-                        std::max({f.at(2 * i, 2 * j), f.at(2 * i + 1, 2 * j), f.at(2 * i, 2 * j + 1),
-                                  f.at(2 * i + 1, 2 * j + 1)});
-            grids_.push_back(std::move(c));
+CapMax::CapMax(const PreparedLevel& level, double radius)
+    : width_(level.width()), height_(level.height()), radius_(radius) {
+    const double row_height = kPi / height_;
+    block_rows_ = std::clamp(int(radius / row_height), 1, height_);
+    blocks_ = (height_ + block_rows_ - 1) / block_rows_;
+    levels_ = 1;
+    while ((1 << levels_) <= width_) ++levels_;
+    table_.assign(std::size_t(levels_) * std::size_t(blocks_) * std::size_t(width_), 0.0f);
+    for (int j = 0; j < height_; ++j) {
+        float* block = table_.data() + std::size_t(j / block_rows_) * std::size_t(width_);
+        for (int i = 0; i < width_; ++i)
+            block[i] = std::max({block[i], level.plane(j, 0)[i], level.plane(j, 1)[i], level.plane(j, 2)[i]});
+    }
+    for (int k = 1; k < levels_; ++k)
+        for (int b = 0; b < blocks_; ++b) {
+            const float* prev =
+                table_.data() + (std::size_t(k - 1) * std::size_t(blocks_) + std::size_t(b)) * std::size_t(width_);
+            float* cur = table_.data() + (std::size_t(k) * std::size_t(blocks_) + std::size_t(b)) * std::size_t(width_);
+            const int half = 1 << (k - 1);
+            for (int i = 0; i < width_; ++i) cur[i] = std::max(prev[i], prev[(i + half) % width_]);
         }
 }
 
-double CapMax::query(double theta, double phi, double radius) const {
-        // Finest grid whose rows are at least `radius` tall: the cap meets few texels.
-        std::size_t m = 0;
-        while (m + 1 < grids_.size() && kPi / grids_[m].h < radius) ++m;
-        const Grid& g = grids_[m];
-        const int j0 = std::clamp(int(std::floor((theta - radius) / kPi * g.h)), 0, g.h - 1);
-        const int j1 = std::clamp(int(std::floor((theta + radius) / kPi * g.h)), 0, g.h - 1);
-        int i0 = 0, count = g.w;
-        if (theta - radius > 0 && theta + radius < kPi) {
-            // Widest azimuth of a cap that holds no pole.
-            const double half = std::asin(std::min(1.0, std::sin(radius) / std::sin(theta)));
-            i0 = int(std::floor((phi - half + kPi) / kTwoPi * g.w));
-            count = std::min(g.w, int(std::floor((phi + half + kPi) / kTwoPi * g.w)) - i0 + 1);
-        }
-        float best = 0;
-        for (int j = j0; j <= j1; ++j)
-            for (int t = 0; t < count; ++t)
-                best = std::max(best, g.at(((i0 + t) % g.w + g.w) % g.w, j));
-        return best;
+float CapMax::range_max(int block, int first, int count) const {
+    int k = 0;
+    while ((2 << k) <= count) ++k;  // largest 2^k <= count: two windows cover the range
+    const float* t =
+        table_.data() + (std::size_t(k) * std::size_t(blocks_) + std::size_t(block)) * std::size_t(width_);
+    const int start = ((first % width_) + width_) % width_;
+    const int last_start = ((first + count - (1 << k)) % width_ + width_) % width_;
+    return std::max(t[start], t[last_start]);
 }
 
-const CapMax& PreparedLevel::cap_max() const {
-    std::lock_guard lock(phases_mutex_);
-    if (!cap_max_) cap_max_ = std::make_unique<CapMax>(*this);
-    return *cap_max_;
+double CapMax::query(double theta, double phi) const {
+    const int j0 = std::clamp(int(std::floor((theta - radius_) / kPi * height_)), 0, height_ - 1);
+    const int j1 = std::clamp(int(std::floor((theta + radius_) / kPi * height_)), 0, height_ - 1);
+    int first = 0, count = width_;
+    if (theta - radius_ > 0 && theta + radius_ < kPi) {
+        // Widest azimuth of a cap that holds no pole.
+        const double half = std::asin(std::min(1.0, std::sin(radius_) / std::sin(theta)));
+        first = int(std::floor((phi - half + kPi) / kTwoPi * width_));
+        count = std::min(width_, int(std::floor((phi + half + kPi) / kTwoPi * width_)) - first + 1);
+    }
+    float best = 0;
+    for (int b = j0 / block_rows_; b <= j1 / block_rows_; ++b) best = std::max(best, range_max(b, first, count));
+    return best;
 }
 
 LobeSums LobeSummer::make_sums() const {

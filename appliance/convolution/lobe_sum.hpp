@@ -22,7 +22,6 @@
 
 #include <functional>
 #include <map>
-#include <memory>
 #include <mutex>
 #include <utility>
 #include <vector>
@@ -33,22 +32,26 @@ namespace glint::convolution {
 
 class PreparedLevel;
 
-// Largest radiance (any channel) of a level over spherical caps, read from a
-// 2x2 max pyramid: an upper bound, since every texel that meets the cap counts.
+// Largest radiance (any channel) of a level over spherical caps of one radius:
+// an upper bound, since every texel that meets the cap counts. Rows are grouped
+// in fixed blocks of about the radius (aligned in theta only); within a block,
+// column ranges are answered exactly by a cyclic sparse table, so the answer
+// does not depend on where the columns start: rotating the map by whole
+// columns rotates the answers (the cone's results stay rotation-equivariant).
 class CapMax {
 public:
-    explicit CapMax(const PreparedLevel& level);
+    CapMax(const PreparedLevel& level, double radius);
 
-    // Maximum over the cap of angular radius `radius` around (theta, phi).
-    double query(double theta, double phi, double radius) const;
+    // Maximum over the cap of the radius around (theta, phi).
+    double query(double theta, double phi) const;
 
 private:
-    struct Grid {
-        int w, h;
-        std::vector<float> v;
-        float at(int i, int j) const { return v[std::size_t(j) * std::size_t(w) + std::size_t(i)]; }
-    };
-    std::vector<Grid> grids_;
+    int width_, height_, block_rows_, blocks_, levels_;
+    double radius_;
+    // table_[(k * blocks_ + b) * width_ + i]: max over the rows of block b and
+    // the columns i, i+1, ..., i + 2^k - 1 (cyclic).
+    std::vector<float> table_;
+    float range_max(int block, int first, int count) const;
 };
 
 // An input level laid out for the kernel: one plane per channel and row, the
@@ -73,8 +76,6 @@ public:
     // j holds L[(t * step + s) mod W] for t in [0, 2 * per_class). Built on first
     // use and kept, since every map of one output width needs the same layout.
     const std::vector<float>& phases(int step, int per_class) const;
-    // Max pyramid of the level for cap queries (cone's per-texel bound); built on first use.
-    const CapMax& cap_max() const;
 
 private:
     int width_, height_;
@@ -84,7 +85,6 @@ private:
     double power_ = 0;
     mutable std::mutex phases_mutex_;  // guards the lazily built layouts below
     mutable std::map<std::pair<int, int>, std::vector<float>> phases_;
-    mutable std::unique_ptr<CapMax> cap_max_;
 };
 
 // Per-texel partial sums for an output grid of out_w x out_h.
