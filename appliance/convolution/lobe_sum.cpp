@@ -178,6 +178,50 @@ void LobeSummer::weights(int cls, int d_lo, int count, double a, double b, doubl
     raise_to_power(w, count, n_);
 }
 
+void LobeSummer::flush_terms(const std::vector<Term>& terms, const ColumnRuns& q_runs, double* acc_r,
+                             double* acc_g, double* acc_b) const {
+    // Register blocking: kBlock output columns of all three channels stay in
+    // registers while every term is applied; each term costs three unit-stride
+    // loads of kBlock texels. Without it, every term would load and store the
+    // whole accumulator row (measured ~1.2 multiply-adds per cycle).
+    constexpr int kBlock = 16;
+    const std::size_t channel_stride = std::size_t(step_) * 2 * std::size_t(per_class_);
+    for (const auto& [q0, q1] : q_runs) {
+        int q = q0;
+        for (; q + kBlock <= q1; q += kBlock) {
+            double ar[kBlock], ag[kBlock], ab[kBlock];
+            for (int t = 0; t < kBlock; ++t) {
+                ar[t] = acc_r[q + t];
+                ag[t] = acc_g[q + t];
+                ab[t] = acc_b[q + t];
+            }
+            for (const Term& term : terms) {
+                const float* pr = term.texels + q;
+                const float* pg = pr + channel_stride;
+                const float* pb = pg + channel_stride;
+                const double wt = term.weight;
+#pragma omp simd
+                for (int t = 0; t < kBlock; ++t) {
+                    ar[t] += wt * double(pr[t]);
+                    ag[t] += wt * double(pg[t]);
+                    ab[t] += wt * double(pb[t]);
+                }
+            }
+            for (int t = 0; t < kBlock; ++t) {
+                acc_r[q + t] = ar[t];
+                acc_g[q + t] = ag[t];
+                acc_b[q + t] = ab[t];
+            }
+        }
+        for (; q < q1; ++q)
+            for (const Term& term : terms) {
+                acc_r[q] += term.weight * double(term.texels[q]);
+                acc_g[q] += term.weight * double(term.texels[q + channel_stride]);
+                acc_b[q] += term.weight * double(term.texels[q + 2 * channel_stride]);
+            }
+    }
+}
+
 void LobeSummer::sum_row(int out_row, double c_min, LobeSums& sums, const ColumnRuns* columns) const {
     const int w = level_.width();
     const int h = level_.height();
@@ -186,6 +230,8 @@ void LobeSummer::sum_row(int out_row, double c_min, LobeSums& sums, const Column
     const double theta_r = row_theta(out_row, out_h_);
     const double col_per_rad = w / kTwoPi;
     std::vector<double> wbuf(std::size_t(w) + 2);
+    std::vector<Term> terms;
+    terms.reserve(kTermChunk);
     std::vector<double> acc(std::size_t(per_class_) * 3);
     double* acc_r = acc.data();
     double* acc_g = acc_r + per_class_;
@@ -236,28 +282,22 @@ void LobeSummer::sum_row(int out_row, double c_min, LobeSums& sums, const Column
             if (wsum == 0) continue;
             const double omega = level_.solid_angle(jk);
             den += omega * wsum;
-            // One weight times a whole class of output columns: unit-stride
-            // multiply-adds over the class (vectorised).
+            // One weight times a whole class of output columns: the (weight, texel
+            // run) pairs are collected and applied in blocks (flush_terms).
             for (int d = 0; d < count; ++d) {
                 const double wd = wbuf[std::size_t(d)] * omega;
                 if (wd == 0) continue;
                 int x = (base_[std::size_t(cls)] + d_lo + d) % w;
                 if (x < 0) x += w;
-                const int ph = x % step_;
-                const int off = x / step_;
-                const float* pr = phase(jk, 0, ph) + off;
-                const float* pg = phase(jk, 1, ph) + off;
-                const float* pb = phase(jk, 2, ph) + off;
-                for (const auto& [q0, q1] : q_runs) {
-#pragma omp simd
-                    for (int q_idx = q0; q_idx < q1; ++q_idx) {
-                        acc_r[q_idx] += wd * double(pr[q_idx]);
-                        acc_g[q_idx] += wd * double(pg[q_idx]);
-                        acc_b[q_idx] += wd * double(pb[q_idx]);
-                    }
+                terms.push_back({wd, phase(jk, 0, x % step_) + x / step_});
+                if (terms.size() == kTermChunk) {
+                    flush_terms(terms, q_runs, acc_r, acc_g, acc_b);
+                    terms.clear();
                 }
             }
         }
+        flush_terms(terms, q_runs, acc_r, acc_g, acc_b);
+        terms.clear();
         const std::size_t rc = std::size_t(out_row) * std::size_t(classes_) + std::size_t(cls);
         sums.den[rc] = den;
         sums.cmax[rc] = cm;

@@ -119,6 +119,15 @@ public:
     double shininess() const { return n_; }
 
 private:
+    // One weight and the red texel run it multiplies (green and blue follow at
+    // fixed strides in the phase layout).
+    struct Term {
+        double weight;
+        const float* texels;
+    };
+    static constexpr std::size_t kTermChunk = 2048;  // terms applied per pass (fit in L1/L2)
+    void flush_terms(const std::vector<Term>& terms, const ColumnRuns& q_runs, double* acc_r, double* acc_g,
+                     double* acc_b) const;
     // Fills w[0..count) with the weights of cosines a * cos(dphi_d) + b, where
     // dphi_d is the azimuth offset of column d_lo + d in class cls.
     void weights(int cls, int d_lo, int count, double a, double b, double inv_cmax, double* w) const;
