@@ -15,14 +15,7 @@ BrightSplit split_bright(const HdrImage& input, double contrast, int max_count) 
     const int w = input.width();
     const int h = input.height();
     const std::vector<double> omega = row_solid_angles(w, h);
-    double mean = 0;
-    for (int j = 0; j < h; ++j) {
-        const float* row = input.row(j);
-        double s = 0;
-        for (int i = 0; i < w; ++i) s += std::max({row[3 * i], row[3 * i + 1], row[3 * i + 2]});
-        mean += s * omega[std::size_t(j)];
-    }
-    mean /= 4.0 * kPi;
+    const double mean = max_channel_power(input) / (4.0 * kPi);
 
     BrightSplit split;
     split.remainder = input;

@@ -84,23 +84,13 @@ public:
         return *remainder_sh_;
     }
     // Solid-angle mean of the largest channel of level k of the remainder.
-    double remainder_mean(int k) {
-        const HdrImage& im = cone_pyramid().level(k);
-        double total = 0;
-        for (int j = 0; j < im.height(); ++j) {
-            const float* row = im.row(j);
-            double s = 0;
-            for (int i = 0; i < im.width(); ++i) s += std::max({row[3 * i], row[3 * i + 1], row[3 * i + 2]});
-            total += s * row_solid_angle(j, im.width(), im.height());
-        }
-        return total / (4.0 * kPi);
-    }
+    double remainder_mean(int k) { return max_channel_power(cone_pyramid().level(k)) / (4.0 * kPi); }
     const ShCoefficients& sh(int order, int threads) {
         if (!sh_ || sh_->order < order)
             sh_ = std::make_unique<ShCoefficients>(sh_project(env_, order, threads));
         return *sh_;
     }
-    EnvironmentShape shape(bool need_cone, bool need_mip) {
+    EnvironmentShape shape(bool need_cone) {
         EnvironmentShape s;
         s.input = {env_.width(), env_.height()};
         s.cone_levels.push_back(s.input);
@@ -109,9 +99,6 @@ public:
             for (int k = 0; k < cone_pyramid().levels(); ++k)
                 s.cone_levels.push_back({cone_pyramid().level(k).width(), cone_pyramid().level(k).height()});
         }
-        if (need_mip)
-            for (int k = 0; k < mip_pyramid().levels(); ++k)
-                s.mip_levels.push_back({mip_pyramid().level(k).width(), mip_pyramid().level(k).height()});
         return s;
     }
 
@@ -228,7 +215,7 @@ std::vector<MapResult> convolve(const HdrImage& env, const std::vector<MapReques
     const PlannerModel model;
     SharedInputs shared(env, model);
     const bool need_cone = options.method == Method::Auto || options.method == Method::Cone;
-    const EnvironmentShape shape = shared.shape(need_cone, options.method == Method::Mipmap);
+    const EnvironmentShape shape = shared.shape(need_cone);
 
     std::vector<MapResult> results;
     for (const MapRequest& m : maps) results.push_back({m, plan_map(m, options, shape, model), {}, 0, 0, 0});

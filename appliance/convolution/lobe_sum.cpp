@@ -15,8 +15,19 @@ constexpr double kLogSmallestNormal = -708.39;
 
 }  // namespace
 
+double max_channel_power(const HdrImage& image) {
+    double power = 0;
+    for (int j = 0; j < image.height(); ++j) {
+        const float* row = image.row(j);
+        double s = 0;
+        for (int i = 0; i < image.width(); ++i) s += std::max({row[3 * i], row[3 * i + 1], row[3 * i + 2]});
+        power += s * row_solid_angle(j, image.width(), image.height());
+    }
+    return power;
+}
+
 PreparedLevel::PreparedLevel(const HdrImage& level)
-    : width_(level.width()), height_(level.height()) {
+    : width_(level.width()), height_(level.height()), power_(max_channel_power(level)) {
     cos_t_.resize(std::size_t(height_));
     sin_t_.resize(std::size_t(height_));
     omega_ = row_solid_angles(width_, height_);
@@ -26,9 +37,6 @@ PreparedLevel::PreparedLevel(const HdrImage& level)
         cos_t_[std::size_t(j)] = std::cos(t);
         sin_t_[std::size_t(j)] = std::sin(t);
         const float* src = level.row(j);
-        double row_power = 0;
-        for (int i = 0; i < width_; ++i) row_power += std::max({src[3 * i], src[3 * i + 1], src[3 * i + 2]});
-        power_ += row_power * omega_[std::size_t(j)];
         for (int c = 0; c < 3; ++c) {
             float* dst = planes_.data() + (std::size_t(j) * 3 + std::size_t(c)) * std::size_t(width_);
             for (int i = 0; i < width_; ++i) {

@@ -32,6 +32,10 @@ namespace glint::convolution {
 
 class PreparedLevel;
 
+// sum over texels of max(R, G, B) * dOmega: an upper bound on every channel's
+// radiant power (its solid-angle mean is this / 4 pi).
+double max_channel_power(const HdrImage& image);
+
 // Largest radiance (any channel) of a level over spherical caps of one radius:
 // an upper bound, since every texel that meets the cap counts. Rows are grouped
 // in fixed blocks of about the radius (aligned in theta only); within a block,

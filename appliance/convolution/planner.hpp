@@ -67,7 +67,6 @@ double cone_seconds(const MapPlan& plan, const PlannerModel& model);
 struct EnvironmentShape {
     Size input;
     std::vector<Size> cone_levels;  // pyramid of the remainder after the bright split
-    std::vector<Size> mip_levels;   // pyramid of the full map (mipmap baseline)
 };
 
 // Lobe width in radians of cos^n (about 1/sqrt(n)); the hemisphere for n <= 1.

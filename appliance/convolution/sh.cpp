@@ -249,6 +249,21 @@ struct FftAzimuth {
     }
 };
 
+// The azimuthal sums of one call: by FFT, or by a table of direct cosines and
+// sines (only the path taken builds its table: the direct one is O(W order)).
+struct Azimuth {
+    std::optional<AzimuthTable> table;
+    std::optional<FftAzimuth> fft;
+};
+Azimuth choose_azimuth(int width, int order, int min_fft_order, ShAzimuthal azimuthal, bool synthesis) {
+    Azimuth a;
+    if (fft_path(width, order, min_fft_order, azimuthal))
+        a.fft.emplace(width, order);
+    else
+        a.table.emplace(width, order, synthesis);
+    return a;
+}
+
 // Polar angle of a row centre: x = cos(theta), s = sin(theta) > 0.
 void row_angles(int j, int height, double& x, double& s) {
     const double theta = row_theta(j, height);
@@ -265,14 +280,8 @@ ShCoefficients project_impl(int width, int height, int order, int threads, ShQua
     check_size(width, height, "input");
     threads = resolve_threads(threads);
     const std::vector<double> diag = diagonal_factors(order);
-    const bool use_fft = fft_path(width, order, kFftMinOrderProject, azimuthal);
-    // Only the path taken builds its table: the direct one is O(W order) cosines.
-    std::optional<AzimuthTable> table;
-    std::optional<FftAzimuth> fft;
-    if (use_fft)
-        fft.emplace(width, order);
-    else
-        table.emplace(width, order, false);
+    const auto [table, fft] = choose_azimuth(width, order, kFftMinOrderProject, azimuthal, false);
+    const bool use_fft = fft.has_value();
     const std::vector<double> weights = sh_row_weights(width, height, q);
     const std::size_t uorder = std::size_t(order);
     const int half = width / 2;
@@ -497,13 +506,8 @@ void evaluate_impl(const ShCoefficients& c, const std::vector<double>& kernel, i
                          " bands, order " + std::to_string(order) + " needs " + std::to_string(order));
     threads = resolve_threads(threads);
     const std::vector<double> diag = diagonal_factors(order);
-    const bool use_fft = fft_path(width, order, kFftMinOrderEvaluate, azimuthal);
-    std::optional<AzimuthTable> table;
-    std::optional<FftAzimuth> fft;
-    if (use_fft)
-        fft.emplace(width, order);
-    else
-        table.emplace(width, order, true);
+    const auto [table, fft] = choose_azimuth(width, order, kFftMinOrderEvaluate, azimuthal, true);
+    const bool use_fft = fft.has_value();
     const int half = width / 2;
     const std::size_t uhalf = std::size_t(half);
     const bool odd = width % 2 != 0;
