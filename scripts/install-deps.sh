@@ -14,6 +14,10 @@ packages=(
   blender-data                         # CC0 HDR maps used by tests and benchmarks
   gnuplot-nox                          # speed-against-error plots in images/
   python3                              # JSON checks in tests/cli
+  libmodbus-dev                        # Modbus pan/tilt head (firmware_bridge/host)
+  libgpiod-dev                         # buttons and lamps, libgpiod 1.6 C++ API (firmware_bridge/host)
+  libegl-dev libgles-dev libgbm-dev libdrm-dev   # EGL/GLES3 platform, KMS (appliance/render)
+  libegl-mesa0 libgl1-mesa-dri         # Mesa llvmpipe: the GPU of tests and CI
 )
 
 missing=()
