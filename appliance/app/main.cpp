@@ -7,9 +7,11 @@
 #include <vector>
 
 #include "appliance/app/commands.hpp"
+#include "appliance/core/memory.hpp"
 #include "appliance/core/errors.hpp"
 
 int main(int argc, char** argv) {
+    glint::keep_freed_memory();
     CLI::App app{"Glint: lights virtual objects with the captured light of the room."};
     app.require_subcommand(1);
     const std::vector<glint::app::Command> commands{glint::app::add_convolve_command(app),

@@ -27,7 +27,7 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
     std::vector<int> rows = only_rows;
     if (rows.empty())
         for (int row = 0; row < out.height; ++row) rows.push_back(row);
-    const LobeSummer summer(level, out.width, out.height, n);
+    const LobeSummer summer(level, out.width, out.height, n, Accumulation::FloatRuns);
     LobeSums sums = summer.make_sums();
     const auto cut_cos = [n](double energy) {
         return energy > 0 ? std::pow(std::min(1.0, energy), 1.0 / (n + 1.0)) : 0.0;
@@ -79,14 +79,29 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
         return src.num[3 * t + std::size_t(c)] * d.inv[rc] + nb[3 * t + std::size_t(c)] * d.inv_full[rc];
     };
 
+    // Smallest positive value over the given output rows (parallel by row).
+    const auto smallest_value = [&](const std::vector<int>& over, const std::vector<double>& nb_now) {
+        std::vector<double> row_floor(over.size(), INFINITY);
+        parallel_for(int(over.size()), threads, [&](int k) {
+            const std::size_t first = std::size_t(over[std::size_t(k)]) * std::size_t(out.width);
+            double f = INFINITY;
+            for (std::size_t t = first; t < first + std::size_t(out.width); ++t)
+                for (int c = 0; c < 3; ++c) {
+                    const double v = value(t, c, nb_now);
+                    if (v > 0) f = std::min(f, v);
+                }
+            row_floor[std::size_t(k)] = f;
+        });
+        double f = INFINITY;
+        for (double v : row_floor) f = std::min(f, v);
+        return f;
+    };
+    std::vector<int> all_rows(std::size_t(out.height));
+    for (int row = 0; row < out.height; ++row) all_rows[std::size_t(row)] = row;
+
     std::vector<double> nb(3 * texels, 0.0);
     if (!bright.empty()) {
-        double floor_value = INFINITY;
-        for (std::size_t t = 0; t < texels; ++t)
-            for (int c = 0; c < 3; ++c) {
-                const double v = value(t, c, nb);
-                if (v > 0) floor_value = std::min(floor_value, v);
-            }
+        const double floor_value = smallest_value(all_rows, nb);
         scatter_bright(bright, n, out, sums.cmax, sums.classes,
                        std::isfinite(floor_value) ? floor_value : 0.0, settings.bright_tolerance, threads, nb,
                        rows);
@@ -100,14 +115,8 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
     // gets, with the other failing texels of its row, the cone of the row's
     // smallest such e (only their multiply-adds are done again).
     ConeStats local;
-    double floor_value = INFINITY;
+    const double floor_value = smallest_value(rows, nb);
     const double power = level.power();
-    for (int row : rows)
-        for (std::size_t t = std::size_t(row) * std::size_t(out.width); t < std::size_t(row + 1) * std::size_t(out.width); ++t)
-            for (int c = 0; c < 3; ++c) {
-                const double v = value(t, c, nb);
-                if (v > 0) floor_value = std::min(floor_value, v);
-            }
     double far_cos = 0;  // cos R; 0: the hemisphere
     if (std::isfinite(floor_value) && power > 0 && n > 0) {
         const double w_far = 0.1 * settings.texel_tolerance * floor_value * kTwoPi / ((n + 1.0) * power);
@@ -119,7 +128,7 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
     std::vector<double> row_need(std::size_t(out.height), settings.cutoff_energy);
     parallel_for(int(rows.size()), threads, [&](int k) {
         const int row = rows[std::size_t(k)];
-        const double theta = row_theta(row, out.height);
+        const CapMax::Band band = cap_max.band(row_theta(row, out.height));
         double need_row = settings.cutoff_energy;
         for (int i = 0; i < out.width; ++i) {
             const std::size_t t = std::size_t(row) * std::size_t(out.width) + std::size_t(i);
@@ -134,7 +143,7 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
             };
             // The global maximum is a cheap first test; the cap maximum a tighter one.
             if (need_for(global_max) >= settings.cutoff_energy * 0.999) continue;
-            const double need = need_for(cap_max.query(theta, column_phi(i, out.width)));
+            const double need = need_for(cap_max.query(band, column_phi(i, out.width)));
             if (need < settings.cutoff_energy * 0.999) {
                 widened[t] = 1;
                 need_row = std::min(need_row, need);
@@ -172,10 +181,13 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
     if (stats) *stats = local;
 
     HdrImage result(out.width, out.height);
-    for (std::size_t t = 0; t < texels; ++t) {
-        float* o = result.data().data() + 3 * t;
-        for (int c = 0; c < 3; ++c) o[c] = float(std::max(0.0, value(t, c, nb)));
-    }
+    parallel_for(out.height, threads, [&](int row) {
+        const std::size_t first = std::size_t(row) * std::size_t(out.width);
+        for (std::size_t t = first; t < first + std::size_t(out.width); ++t) {
+            float* o = result.data().data() + 3 * t;
+            for (int c = 0; c < 3; ++c) o[c] = float(std::max(0.0, value(t, c, nb)));
+        }
+    });
     return result;
 }
 

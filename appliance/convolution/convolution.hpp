@@ -17,19 +17,20 @@ enum class Method { Auto, Exact, Cone, Sh, Mipmap };
 std::string to_string(Method m);
 std::optional<Method> parse_method(const std::string& name);
 
+struct Size {
+    int width = 0, height = 0;
+};
+
 // One wanted map. The irradiance map is, by the conventions, the n = 1 lobe
 // looked up with the normal; it is its own request so files are named for it.
 struct MapRequest {
     bool irradiance = false;
     double shininess = 1.0;  // n >= 0; 1 for the irradiance map
     std::string label;       // "irradiance" or "phong_<n as given>", the file stem
+    std::optional<Size> size;  // fixes this map's output size (before Options::size)
 
     static MapRequest make_irradiance();
     static MapRequest make_phong(double n, const std::string& as_given);
-};
-
-struct Size {
-    int width = 0, height = 0;
 };
 
 struct Options {

@@ -38,10 +38,10 @@ std::optional<Method> parse_method(const std::string& name) {
     return std::nullopt;
 }
 
-MapRequest MapRequest::make_irradiance() { return {true, 1.0, "irradiance"}; }
+MapRequest MapRequest::make_irradiance() { return {true, 1.0, "irradiance", std::nullopt}; }
 
 MapRequest MapRequest::make_phong(double n, const std::string& as_given) {
-    return {false, n, "phong_" + as_given};
+    return {false, n, "phong_" + as_given, std::nullopt};
 }
 
 namespace {
@@ -49,10 +49,11 @@ namespace {
 // Everything derived from the environment map that several maps may share.
 class SharedInputs {
 public:
-    SharedInputs(const HdrImage& env, const PlannerModel& model) : env_(env), model_(model) {}
+    SharedInputs(const HdrImage& env, const PlannerModel& model, int threads)
+        : env_(env), model_(model), threads_(threads) {}
 
     const PreparedLevel& full_level() {
-        if (!full_) full_ = std::make_unique<PreparedLevel>(env_);
+        if (!full_) full_ = std::make_unique<PreparedLevel>(env_, threads_);
         return *full_;
     }
     const BrightSplit& bright() {
@@ -67,7 +68,7 @@ public:
     }
     const PreparedLevel& cone_level(int k) {
         auto& slot = cone_levels_[k];
-        if (!slot) slot = std::make_unique<PreparedLevel>(cone_pyramid().level(k));
+        if (!slot) slot = std::make_unique<PreparedLevel>(cone_pyramid().level(k), threads_);
         return *slot;
     }
     const Pyramid& mip_pyramid() {
@@ -83,8 +84,21 @@ public:
         }
         return *remainder_sh_;
     }
+    // The all-ones projection of level k's grid, at least `order` bands.
+    const std::vector<double>& remainder_ones(int k, int order) {
+        std::vector<double>& ones = remainder_ones_[k];
+        if (int(ones.size()) < order) {
+            const HdrImage& level = cone_pyramid().level(k);
+            ones = sh_ones_projection({level.width(), level.height()}, order);
+        }
+        return ones;
+    }
     // Solid-angle mean of the largest channel of level k of the remainder.
-    double remainder_mean(int k) { return max_channel_power(cone_pyramid().level(k)) / (4.0 * kPi); }
+    double remainder_mean(int k) {
+        auto [it, inserted] = remainder_means_.try_emplace(k, 0.0);
+        if (inserted) it->second = max_channel_power(cone_pyramid().level(k)) / (4.0 * kPi);
+        return it->second;
+    }
     const ShCoefficients& sh(int order, int threads) {
         if (!sh_ || sh_->order < order)
             sh_ = std::make_unique<ShCoefficients>(sh_project(env_, order, threads));
@@ -105,6 +119,7 @@ public:
 private:
     const HdrImage& env_;
     const PlannerModel& model_;
+    int threads_;
     std::unique_ptr<PreparedLevel> full_;
     std::unique_ptr<BrightSplit> bright_;
     std::unique_ptr<Pyramid> cone_pyramid_;
@@ -112,6 +127,8 @@ private:
     std::unique_ptr<Pyramid> mip_pyramid_;
     std::unique_ptr<ShCoefficients> sh_;
     std::unique_ptr<ShCoefficients> remainder_sh_;
+    std::map<int, double> remainder_means_;
+    std::map<int, std::vector<double>> remainder_ones_;
     int remainder_sh_level_ = -1;
 };
 
@@ -172,7 +189,7 @@ void run_sh_split(MapResult& r, const MapPlan& cone, SharedInputs& shared, int s
     const ConeSettings settings = cone_settings(options.tolerance, model);
     const int level = r.plan.input_level;
     const ShSplitResult split =
-        sh_split_convolve(shared.remainder_sh(level, split_order, threads), r.plan.input_size,
+        sh_split_convolve(shared.remainder_sh(level, split_order, threads), shared.remainder_ones(level, split_order),
                           shared.remainder_mean(level), shared.bright().texels, n, r.plan.sh_order, out,
                           settings.texel_tolerance, settings.bright_tolerance, threads);
     r.plan.bright_texels = int(shared.bright().texels.size());
@@ -195,9 +212,12 @@ void validate(const HdrImage& env, const std::vector<MapRequest>& maps, const Op
         throw InputError("environment map " + std::to_string(env.width()) + "x" +
                          std::to_string(env.height()) + " is too small (needs at least 2x2)");
     if (maps.empty()) throw InputError("no maps requested (give --irradiance and/or --shininess)");
-    for (const MapRequest& m : maps)
+    for (const MapRequest& m : maps) {
         if (!std::isfinite(m.shininess) || m.shininess < 0)
             throw InputError("shininess of " + m.label + " must be a finite number >= 0");
+        if (m.size && (m.size->width < 2 || m.size->height < 2))
+            throw InputError("output size of " + m.label + " must be at least 2x2");
+    }
     if (!(options.tolerance > 0) || !(options.tolerance < 1))
         throw InputError("--tolerance must be in (0, 1), e.g. 0.01 for 1 %");
     if (options.size && (options.size->width < 2 || options.size->height < 2))
@@ -213,7 +233,7 @@ std::vector<MapResult> convolve(const HdrImage& env, const std::vector<MapReques
     validate(env, maps, options);
     const int threads = options.threads > 0 ? options.threads : hardware_threads();
     const PlannerModel model;
-    SharedInputs shared(env, model);
+    SharedInputs shared(env, model, threads);
     const bool need_cone = options.method == Method::Auto || options.method == Method::Cone;
     const EnvironmentShape shape = shared.shape(need_cone);
 

@@ -46,8 +46,17 @@ class CapMax {
 public:
     CapMax(const PreparedLevel& level, double radius);
 
-    // Maximum over the cap of the radius around (theta, phi).
-    double query(double theta, double phi) const;
+    // The rows and azimuth half-width of the caps centred at polar angle theta
+    // (one per output row: the asin is not repeated per texel).
+    struct Band {
+        int first_block = 0, last_block = 0;
+        bool whole_rows = true;     // the cap holds a pole: every column counts
+        double half_width = 0;      // azimuth half-width of the cap, rad
+    };
+    Band band(double theta) const;
+    // Maximum over the cap of the radius around (theta, phi) of band(theta).
+    double query(const Band& band, double phi) const;
+    double query(double theta, double phi) const { return query(band(theta), phi); }
 
 private:
     int width_, height_, block_rows_, blocks_, levels_;
@@ -62,7 +71,8 @@ private:
 // row's geometry, and (on demand) the phase-split layout of LobeSummer.
 class PreparedLevel {
 public:
-    explicit PreparedLevel(const HdrImage& level);
+    // threads: for the layout work here and in phases().
+    explicit PreparedLevel(const HdrImage& level, int threads = 1);
     int width() const { return width_; }
     int height() const { return height_; }
     double cos_theta(int j) const { return cos_t_[std::size_t(j)]; }
@@ -77,12 +87,18 @@ public:
     double power() const { return power_; }
 
     // The rows split by column phase for `step` (see LobeSummer): phase s of row
-    // j holds L[(t * step + s) mod W] for t in [0, 2 * per_class). Built on first
-    // use and kept, since every map of one output width needs the same layout.
+    // j holds L[(t * step + s) mod W] for t in [0, 2 * per_class), and phase rows
+    // are phase_stride(per_class) floats apart. Built on first use and kept,
+    // since every map of one output width needs the same layout.
     const std::vector<float>& phases(int step, int per_class) const;
+    // 2 * per_class plus one cache line: a narrow lobe's terms all read the same
+    // columns of ~20 rows x 3 channels; with a stride of a multiple of 4 KiB those
+    // reads fall into the same few L1 sets and evict each other (measured: 2x
+    // slower cone sums at 512 output columns).
+    static std::size_t phase_stride(int per_class) { return 2 * std::size_t(per_class) + 16; }
 
 private:
-    int width_, height_;
+    int width_, height_, threads_;
     std::vector<double> cos_t_, sin_t_, omega_;
     std::vector<float> planes_;
     float max_value_ = 0;
@@ -100,13 +116,20 @@ struct LobeSums {
     int class_of(int column) const { return column % classes; }
 };
 
+// How the multiply-adds are accumulated. Double: every one in double (the
+// exact method). FloatRuns: runs of 32 terms in float, each run's sum added to
+// double accumulators (the cone method; lobe_sum.cpp has the error bound).
+enum class Accumulation { Double, FloatRuns };
+
 class LobeSummer {
 public:
-    LobeSummer(const PreparedLevel& level, int out_w, int out_h, double shininess);
+    LobeSummer(const PreparedLevel& level, int out_w, int out_h, double shininess,
+               Accumulation accumulation = Accumulation::Double);
 
     // Fills sums for one output row with the cosine cut-off c_min (0 = every
     // non-zero term). With `columns` (half-open [first, last) column runs), only
-    // those texels' numerators are summed (the row's denominators always are).
+    // those texels' numerators are summed (the row's denominators always are);
+    // numerators of nearby columns may be written too.
     // Thread-safe across rows.
     using ColumnRuns = std::vector<std::pair<int, int>>;
     void sum_row(int out_row, double c_min, LobeSums& sums, const ColumnRuns* columns = nullptr) const;
@@ -139,6 +162,7 @@ private:
     const PreparedLevel& level_;
     int out_w_, out_h_;
     double n_;
+    Accumulation accumulation_;
     int classes_, step_, per_class_;
     std::vector<int> base_;          // per class: level column at or left of the output centre
     std::vector<double> frac_;       // per class: offset of the output centre from base, in columns
@@ -154,7 +178,7 @@ private:
     const float* phase(int row, int channel, int s) const {
         return phases_.data() +
                ((std::size_t(row) * 3 + std::size_t(channel)) * std::size_t(step_) + std::size_t(s)) *
-                   (2 * std::size_t(per_class_));
+                   PreparedLevel::phase_stride(per_class_);
     }
 };
 

@@ -80,7 +80,8 @@ HdrImage sh_convolve(const ShCoefficients& coefficients, Size input, double shin
                      int threads, long long* clamped);
 
 // SH with the bright split (used by `auto`): `remainder` holds at least `order`
-// bands of the map without its bright texels (mean radiance remainder_mean).
+// bands of the map without its bright texels (mean radiance remainder_mean),
+// remainder_ones the all-ones projection of its grid (sh_ones_projection).
 // failed_rows lists the output rows holding a channel value whose truncation
 // bound tail(order) * remainder_mean exceeds texel_tolerance times the value;
 // the caller computes those rows with a method that bounds them (the cone).
@@ -90,14 +91,21 @@ struct ShSplitResult {
     long long failed_values = 0;
     long long clamped = 0;
 };
-ShSplitResult sh_split_convolve(const ShCoefficients& remainder, Size remainder_size, double remainder_mean,
+ShSplitResult sh_split_convolve(const ShCoefficients& remainder, const std::vector<double>& remainder_ones,
+                                double remainder_mean,
                                 const std::vector<BrightTexel>& bright, double shininess, int order,
                                 Size out, double texel_tolerance, double bright_tolerance, int threads);
 
-// Per output row: the SH result for the all-ones map projected from a map of
-// size `input` (texel solid angle quadrature) with this kernel and order. An SH
+// The zonal coefficients c_l0, l < order, of the all-ones map projected from a
+// map of size `input` (texel solid angle quadrature; the m > 0 sums vanish).
+// One per input size serves every map: the normaliser below reads its first
+// `order` entries.
+std::vector<double> sh_ones_projection(Size input, int order);
+// Per output row: the SH result for the all-ones map (ones from
+// sh_ones_projection, at least `order` long) with this kernel and order. An SH
 // result divided by it has the conventions' discrete normalisation.
-std::vector<double> sh_lobe_normaliser(Size input, int order, const std::vector<double>& kernel, Size out);
+std::vector<double> sh_lobe_normaliser(const std::vector<double>& ones, int order, const std::vector<double>& kernel,
+                                       Size out);
 
 // sum_{l >= order} |k_l| (2l + 1) for the Phong kernel k_l of shininess n.
 double sh_truncation_tail(double shininess, int order);

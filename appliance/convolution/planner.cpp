@@ -60,12 +60,13 @@ MapPlan plan_map(const MapRequest& request, const Options& options, const Enviro
     const double n = request.shininess;
     const double tau = options.tolerance;
     MapPlan plan;
-    plan.output_size = options.size ? *options.size : lobe_output_size(n, tau, env.input, model);
+    const std::optional<Size> fixed = request.size ? request.size : options.size;
+    plan.output_size = fixed ? *fixed : lobe_output_size(n, tau, env.input, model);
     const Size out = plan.output_size;
     // Error of bilinear lookups into a map sized by the lobe; a fixed size is
     // the reference's own grid, so it adds nothing to the comparison.
     double output_error = 0;
-    if (!options.size) {
+    if (!fixed) {
         const double h = texel_spacing(out);
         output_error = model.output_error_coefficient * h * h * std::max(n, 1.0);
     }

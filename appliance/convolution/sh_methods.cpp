@@ -20,12 +20,11 @@
 #include "appliance/convolution/methods.hpp"
 #include "appliance/convolution/sh.hpp"
 #include "appliance/core/equirect.hpp"
+#include "appliance/core/parallel.hpp"
 
 namespace glint::convolution {
 
-std::vector<double> sh_lobe_normaliser(Size input, int order, const std::vector<double>& kernel, Size out) {
-    // c_l0 of the all-ones map under the projection's own quadrature (the
-    // azimuthal sums vanish for m > 0), then its convolution per output row.
+std::vector<double> sh_ones_projection(Size input, int order) {
     const ShLegendre legendre(order);
     const std::vector<double> w = sh_row_weights(input.width, input.height, ShQuadrature::TexelSolidAngle);
     std::vector<double> c(static_cast<std::size_t>(order), 0.0), p(static_cast<std::size_t>(order));
@@ -36,13 +35,21 @@ std::vector<double> sh_lobe_normaliser(Size input, int order, const std::vector<
         legendre.column(0, std::cos(t), diag[0], p.data());
         for (int l = 0; l < order; ++l) c[std::size_t(l)] += w[std::size_t(j)] * input.width * p[std::size_t(l)];
     }
+    return c;
+}
+
+std::vector<double> sh_lobe_normaliser(const std::vector<double>& ones, int order, const std::vector<double>& kernel,
+                                       Size out) {
+    // The convolution of the all-ones projection, per output row.
+    const ShLegendre legendre(order);
+    std::vector<double> p(static_cast<std::size_t>(order)), diag(static_cast<std::size_t>(order));
     std::vector<double> norm(std::size_t(out.height));
     for (int j = 0; j < out.height; ++j) {
         const double t = row_theta(j, out.height);
         legendre.diagonal(std::sin(t), diag.data());
         legendre.column(0, std::cos(t), diag[0], p.data());
         double e = 0;
-        for (int l = 0; l < order; ++l) e += kernel[std::size_t(l)] * c[std::size_t(l)] * p[std::size_t(l)];
+        for (int l = 0; l < order; ++l) e += kernel[std::size_t(l)] * ones[std::size_t(l)] * p[std::size_t(l)];
         norm[std::size_t(j)] = e;
     }
     return norm;
@@ -71,7 +78,7 @@ HdrImage sh_convolve(const ShCoefficients& coefficients, Size input, double n, i
                      long long* clamped) {
     const std::vector<double> kernel = phong_sh_kernel(n, order);
     const std::vector<double> e = sh_evaluate(truncated(coefficients, order), kernel, out.width, out.height, threads);
-    const std::vector<double> norm = sh_lobe_normaliser(input, order, kernel, out);
+    const std::vector<double> norm = sh_lobe_normaliser(sh_ones_projection(input, order), order, kernel, out);
     HdrImage image(out.width, out.height);
     for (std::size_t v = 0; v < e.size(); ++v) {
         const double x = e[v] / norm[v / (3 * std::size_t(out.width))];
@@ -81,13 +88,14 @@ HdrImage sh_convolve(const ShCoefficients& coefficients, Size input, double n, i
     return image;
 }
 
-ShSplitResult sh_split_convolve(const ShCoefficients& remainder, Size remainder_size, double remainder_mean,
+ShSplitResult sh_split_convolve(const ShCoefficients& remainder, const std::vector<double>& remainder_ones,
+                                double remainder_mean,
                                 const std::vector<BrightTexel>& bright, double n, int order,
                                 Size out, double texel_tolerance, double bright_tolerance,
                                 int threads) {
     const std::vector<double> kernel = phong_sh_kernel(n, order);
     const std::vector<double> e = sh_evaluate(truncated(remainder, order), kernel, out.width, out.height, threads);
-    const std::vector<double> norm = sh_lobe_normaliser(remainder_size, order, kernel, out);
+    const std::vector<double> norm = sh_lobe_normaliser(remainder_ones, order, kernel, out);
     const std::size_t texels = std::size_t(out.width) * std::size_t(out.height);
 
     ShSplitResult result;
@@ -106,15 +114,21 @@ ShSplitResult sh_split_convolve(const ShCoefficients& remainder, Size remainder_
     result.image = HdrImage(out.width, out.height);
     float* o = result.image.data().data();
     const std::size_t row_values = 3 * std::size_t(out.width);
-    for (std::size_t k = 0; k < 3 * texels; ++k) {
-        const double v = (e[k] + nb[k] / lobe_den) / norm[k / row_values];
-        if (!(error_bound <= texel_tolerance * v)) {
-            ++result.failed_values;
-            const int row = int(k / row_values);
-            if (result.failed_rows.empty() || result.failed_rows.back() != row) result.failed_rows.push_back(row);
+    std::vector<long long> failed(std::size_t(out.height), 0), clamped(std::size_t(out.height), 0);
+    parallel_for(out.height, threads, [&](int row) {
+        const std::size_t first = std::size_t(row) * row_values;
+        const double inv_norm = 1.0 / norm[std::size_t(row)];
+        for (std::size_t k = first; k < first + row_values; ++k) {
+            const double v = (e[k] + nb[k] / lobe_den) * inv_norm;
+            if (!(error_bound <= texel_tolerance * v)) ++failed[std::size_t(row)];
+            if (v < 0) ++clamped[std::size_t(row)];
+            o[k] = float(std::max(0.0, v));
         }
-        if (v < 0) ++result.clamped;
-        o[k] = float(std::max(0.0, v));
+    });
+    for (int row = 0; row < out.height; ++row) {
+        result.failed_values += failed[std::size_t(row)];
+        result.clamped += clamped[std::size_t(row)];
+        if (failed[std::size_t(row)] > 0) result.failed_rows.push_back(row);
     }
     return result;
 }
