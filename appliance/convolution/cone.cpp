@@ -69,27 +69,28 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
     // E = N_R / D_R + N_B / (D_R + D_out): the remainder outside the cone is
     // taken at the inside's mean (its error is the bound above), while the bright
     // terms, summed over the whole sphere, are divided by the whole lobe weight.
-    const auto value = [&](std::size_t t, int c, const std::vector<double>& nb) {
-        const std::size_t row = t / std::size_t(out.width);
-        const int col = int(t % std::size_t(out.width));
-        const std::size_t rc = row * std::size_t(sums.classes) + std::size_t(sums.class_of(col));
+    // The three channel values of output texel (row, col).
+    const auto values = [&](int row, int col, const std::vector<double>& nb, double* v) {
+        const std::size_t t = std::size_t(row) * std::size_t(out.width) + std::size_t(col);
+        const std::size_t rc = std::size_t(row) * std::size_t(sums.classes) +
+                               std::size_t(sums.classes == 1 ? 0 : sums.class_of(col));
         const bool w = widened[t] != 0;
         const LobeSums& src = w ? wide : sums;
         const Denominators& d = w ? wide_den : narrow_den;
-        return src.num[3 * t + std::size_t(c)] * d.inv[rc] + nb[3 * t + std::size_t(c)] * d.inv_full[rc];
+        for (std::size_t c = 0; c < 3; ++c)
+            v[c] = src.num[3 * t + c] * d.inv[rc] + nb[3 * t + c] * d.inv_full[rc];
     };
 
     // Smallest positive value over the given output rows (parallel by row).
     const auto smallest_value = [&](const std::vector<int>& over, const std::vector<double>& nb_now) {
         std::vector<double> row_floor(over.size(), INFINITY);
         parallel_for(int(over.size()), threads, [&](int k) {
-            const std::size_t first = std::size_t(over[std::size_t(k)]) * std::size_t(out.width);
-            double f = INFINITY;
-            for (std::size_t t = first; t < first + std::size_t(out.width); ++t)
-                for (int c = 0; c < 3; ++c) {
-                    const double v = value(t, c, nb_now);
-                    if (v > 0) f = std::min(f, v);
-                }
+            double f = INFINITY, v[3];
+            for (int col = 0; col < out.width; ++col) {
+                values(over[std::size_t(k)], col, nb_now, v);
+                for (double x : v)
+                    if (x > 0) f = std::min(f, x);
+            }
             row_floor[std::size_t(k)] = f;
         });
         double f = INFINITY;
@@ -123,29 +124,33 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
         far_cos = w_far < 1 ? 0.999 * std::pow(w_far, 1.0 / n) : 1.0;
     }
     const double radius = std::acos(std::clamp(far_cos, -1.0, 1.0));
-    const CapMax cap_max(level, radius);
+    const CapMax cap_max(level, radius, threads);
     const double global_max = level.max_value();
     std::vector<double> row_need(std::size_t(out.height), settings.cutoff_energy);
     parallel_for(int(rows.size()), threads, [&](int k) {
         const int row = rows[std::size_t(k)];
         const CapMax::Band band = cap_max.band(row_theta(row, out.height));
         double need_row = settings.cutoff_energy;
+        const double target = 0.999 * settings.cutoff_energy;
+        const double share = 0.9 * settings.texel_tolerance;
         for (int i = 0; i < out.width; ++i) {
-            const std::size_t t = std::size_t(row) * std::size_t(out.width) + std::size_t(i);
+            double v[3];
+            values(row, i, nb, v);
+            // The cut-off fraction this texel allows if the remainder outside the
+            // cone is at most lmax: share * E / max(lmax - E, E), least over channels.
             const auto need_for = [&](double lmax) {
                 double need = settings.cutoff_energy;
-                for (int c = 0; c < 3; ++c) {
-                    const double e = value(t, c, nb);
+                for (double e : v) {
                     const double spread = std::max(lmax - e, e);
-                    if (spread > 0) need = std::min(need, 0.9 * settings.texel_tolerance * e / spread);
+                    if (spread > 0 && share * e < need * spread) need = share * e / spread;
                 }
                 return need;
             };
             // The global maximum is a cheap first test; the cap maximum a tighter one.
-            if (need_for(global_max) >= settings.cutoff_energy * 0.999) continue;
+            if (need_for(global_max) >= target) continue;
             const double need = need_for(cap_max.query(band, column_phi(i, out.width)));
-            if (need < settings.cutoff_energy * 0.999) {
-                widened[t] = 1;
+            if (need < target) {
+                widened[std::size_t(row) * std::size_t(out.width) + std::size_t(i)] = 1;
                 need_row = std::min(need_row, need);
             }
         }
@@ -173,7 +178,17 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
                 runs.emplace_back(i, end);
                 i = end;
             }
-            summer.sum_row(row, wide_cut[std::size_t(row)], wide, &runs);
+            // Only the annulus between the first cone and the wider one is summed;
+            // the first pass's sums complete it.
+            summer.sum_row(row, wide_cut[std::size_t(row)], wide, &runs, c0);
+            for (int cls = 0; cls < wide.classes; ++cls) {
+                const std::size_t rc = std::size_t(row) * std::size_t(wide.classes) + std::size_t(cls);
+                wide.den[rc] += sums.den[rc];
+            }
+            const std::size_t first = std::size_t(row) * std::size_t(out.width);
+            for (std::size_t t = first; t < first + std::size_t(out.width); ++t)
+                if (widened[t])
+                    for (std::size_t c = 0; c < 3; ++c) wide.num[3 * t + c] += sums.num[3 * t + c];
         });
         wide_den = denominators(wide, wide_cut);
     }
@@ -182,10 +197,11 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
 
     HdrImage result(out.width, out.height);
     parallel_for(out.height, threads, [&](int row) {
-        const std::size_t first = std::size_t(row) * std::size_t(out.width);
-        for (std::size_t t = first; t < first + std::size_t(out.width); ++t) {
-            float* o = result.data().data() + 3 * t;
-            for (int c = 0; c < 3; ++c) o[c] = float(std::max(0.0, value(t, c, nb)));
+        float* o = result.row(row);
+        double v[3];
+        for (int col = 0; col < out.width; ++col) {
+            values(row, col, nb, v);
+            for (int c = 0; c < 3; ++c) o[3 * col + c] = float(std::max(0.0, v[c]));
         }
     });
     return result;

@@ -118,27 +118,28 @@ const std::vector<float>& PreparedLevel::phases(int step, int per_class) const {
     return p;
 }
 
-CapMax::CapMax(const PreparedLevel& level, double radius)
+CapMax::CapMax(const PreparedLevel& level, double radius, int threads)
     : width_(level.width()), height_(level.height()), radius_(radius) {
     const double row_height = kPi / height_;
     block_rows_ = std::clamp(int(radius / row_height), 1, height_);
     blocks_ = (height_ + block_rows_ - 1) / block_rows_;
     levels_ = 1;
     while ((1 << levels_) <= width_) ++levels_;
-    table_.assign(std::size_t(levels_) * std::size_t(blocks_) * std::size_t(width_), 0.0f);
-    for (int j = 0; j < height_; ++j) {
-        float* block = table_.data() + std::size_t(j / block_rows_) * std::size_t(width_);
-        for (int i = 0; i < width_; ++i)
-            block[i] = std::max({block[i], level.plane(j, 0)[i], level.plane(j, 1)[i], level.plane(j, 2)[i]});
-    }
-    for (int k = 1; k < levels_; ++k)
-        for (int b = 0; b < blocks_; ++b) {
+    table_.resize(std::size_t(levels_) * std::size_t(blocks_) * std::size_t(width_));
+    parallel_for(blocks_, threads, [&](int b) {
+        float* block = table_.data() + std::size_t(b) * std::size_t(width_);
+        std::fill(block, block + width_, 0.0f);
+        for (int j = b * block_rows_; j < std::min(height_, (b + 1) * block_rows_); ++j)
+            for (int i = 0; i < width_; ++i)
+                block[i] = std::max({block[i], level.plane(j, 0)[i], level.plane(j, 1)[i], level.plane(j, 2)[i]});
+        for (int k = 1; k < levels_; ++k) {
             const float* prev =
                 table_.data() + (std::size_t(k - 1) * std::size_t(blocks_) + std::size_t(b)) * std::size_t(width_);
             float* cur = table_.data() + (std::size_t(k) * std::size_t(blocks_) + std::size_t(b)) * std::size_t(width_);
             const int half = 1 << (k - 1);
-            for (int i = 0; i < width_; ++i) cur[i] = std::max(prev[i], prev[(i + half) % width_]);
+            for (int i = 0; i < width_; ++i) cur[i] = std::max(prev[i], prev[i + half < width_ ? i + half : i + half - width_]);
         }
+    });
 }
 
 float CapMax::range_max(int block, int first, int count) const {
@@ -146,8 +147,10 @@ float CapMax::range_max(int block, int first, int count) const {
     while ((2 << k) <= count) ++k;  // largest 2^k <= count: two windows cover the range
     const float* t =
         table_.data() + (std::size_t(k) * std::size_t(blocks_) + std::size_t(block)) * std::size_t(width_);
-    const int start = ((first % width_) + width_) % width_;
-    const int last_start = ((first + count - (1 << k)) % width_ + width_) % width_;
+    // first is in [-width, width) and count <= width (see query): wrap without a division.
+    int start = first < 0 ? first + width_ : first;
+    int last_start = start + count - (1 << k);
+    if (last_start >= width_) last_start -= width_;
     return std::max(t[start], t[last_start]);
 }
 
@@ -171,6 +174,8 @@ double CapMax::query(const Band& band, double phi) const {
         first = int(std::floor((phi - band.half_width + kPi) / kTwoPi * width_));
         count = std::min(width_, int(std::floor((phi + band.half_width + kPi) / kTwoPi * width_)) - first + 1);
     }
+    // phi in [-pi, pi) and half_width <= pi/2 keep first in [-width, width).
+    first = std::clamp(first, -width_, width_ - 1);
     float best = 0;
     for (int b = band.first_block; b <= band.last_block; ++b) best = std::max(best, range_max(b, first, count));
     return best;
@@ -322,7 +327,8 @@ void LobeSummer::flush_terms(const std::vector<Term>& terms, const ColumnRuns& q
     }
 }
 
-void LobeSummer::sum_row(int out_row, double c_min, LobeSums& sums, const ColumnRuns* columns) const {
+void LobeSummer::sum_row(int out_row, double c_min, LobeSums& sums, const ColumnRuns* columns,
+                         double c_inner) const {
     const int w = level_.width();
     const int h = level_.height();
     const double ctr = out_cos_t_[std::size_t(out_row)];
@@ -364,30 +370,30 @@ void LobeSummer::sum_row(int out_row, double c_min, LobeSums& sums, const Column
             q_runs.emplace_back(0, per_class_);
         }
 
-        // Rows whose best cosine cos(theta_r - theta_k) can reach `lo`.
-        const double reach = std::acos(std::clamp(lo, -1.0, 1.0));
-        const int j0 = std::max(0, int(std::floor((theta_r - reach) / kPi * h - 0.5)) - 1);
-        const int j1 = std::min(h - 1, int(std::ceil((theta_r + reach) / kPi * h - 0.5)) + 1);
-        for (int jk = j0; jk <= j1; ++jk) {
-            const double a = str * level_.sin_theta(jk);
-            const double b = ctr * level_.cos_theta(jk);
-            int d_lo, count;
-            const double q = a > 1e-300 ? (lo - b) / a : (b >= lo ? -2.0 : 2.0);
-            if (q > 1.0) continue;
+        // Columns [d_lo, d_lo + count) of input row jk whose cosine with this
+        // class's texels is at least `bound` (count 0: none). The inner cone of an
+        // annulus uses the same arithmetic, so its columns are exactly those of
+        // the pass that summed it.
+        const auto columns_above = [&](double bound, double a, double b, int& d_lo, int& count) {
+            const double q = a > 1e-300 ? (bound - b) / a : (b >= bound ? -2.0 : 2.0);
+            count = 0;
+            if (q > 1.0) return;
             if (q <= -1.0) {
                 d_lo = int(std::ceil(f - 0.5 * w));
                 count = w;
             } else {
                 const double half = std::acos(q) * col_per_rad;
                 d_lo = int(std::ceil(f - half));
-                count = std::min(w, int(std::floor(f + half)) - d_lo + 1);
-                if (count <= 0) continue;
+                count = std::max(0, std::min(w, int(std::floor(f + half)) - d_lo + 1));
             }
+        };
+        const auto add_columns = [&](int jk, double a, double b, int d_lo, int count) {
+            if (count <= 0) return;
             // Weights depend on the column offset only (shared by the class).
             weights(cls, d_lo, count, a, b, inv_cm, wbuf.data());
             double wsum = 0;
             for (int d = 0; d < count; ++d) wsum += wbuf[std::size_t(d)];
-            if (wsum == 0) continue;
+            if (wsum == 0) return;
             const double omega = level_.solid_angle(jk);
             den += omega * wsum;
             // One weight times a whole class of output columns: the (weight, texel
@@ -402,6 +408,27 @@ void LobeSummer::sum_row(int out_row, double c_min, LobeSums& sums, const Column
                     flush_terms(terms, q_runs, acc_r, acc_g, acc_b);
                     terms.clear();
                 }
+            }
+        };
+        const double lo_inner = c_inner <= 1.0 ? std::max(c_inner, underflow_cos(cm)) : 2.0;
+
+        // Rows whose best cosine cos(theta_r - theta_k) can reach `lo`.
+        const double reach = std::acos(std::clamp(lo, -1.0, 1.0));
+        const int j0 = std::max(0, int(std::floor((theta_r - reach) / kPi * h - 0.5)) - 1);
+        const int j1 = std::min(h - 1, int(std::ceil((theta_r + reach) / kPi * h - 0.5)) + 1);
+        for (int jk = j0; jk <= j1; ++jk) {
+            const double a = str * level_.sin_theta(jk);
+            const double b = ctr * level_.cos_theta(jk);
+            int d_lo = 0, count = 0;
+            columns_above(lo, a, b, d_lo, count);
+            if (count == 0) continue;
+            int in_lo = 0, in_count = 0;
+            if (lo_inner <= 1.0) columns_above(lo_inner, a, b, in_lo, in_count);
+            if (in_count == 0) {
+                add_columns(jk, a, b, d_lo, count);
+            } else {  // the annulus: the columns left and right of the inner cone
+                add_columns(jk, a, b, d_lo, in_lo - d_lo);
+                add_columns(jk, a, b, in_lo + in_count, d_lo + count - (in_lo + in_count));
             }
         }
         flush_terms(terms, q_runs, acc_r, acc_g, acc_b);

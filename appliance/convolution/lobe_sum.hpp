@@ -44,7 +44,7 @@ double max_channel_power(const HdrImage& image);
 // columns rotates the answers (the cone's results stay rotation-equivariant).
 class CapMax {
 public:
-    CapMax(const PreparedLevel& level, double radius);
+    CapMax(const PreparedLevel& level, double radius, int threads = 1);
 
     // The rows and azimuth half-width of the caps centred at polar angle theta
     // (one per output row: the asin is not repeated per texel).
@@ -132,7 +132,11 @@ public:
     // numerators of nearby columns may be written too.
     // Thread-safe across rows.
     using ColumnRuns = std::vector<std::pair<int, int>>;
-    void sum_row(int out_row, double c_min, LobeSums& sums, const ColumnRuns* columns = nullptr) const;
+    // With c_inner <= 1, the terms whose cosine reaches max(c_inner, the
+    // underflow cosine) are left out: the annulus between two cut-offs, added
+    // by the caller to the sums of a pass with c_min = c_inner.
+    void sum_row(int out_row, double c_min, LobeSums& sums, const ColumnRuns* columns = nullptr,
+                 double c_inner = 2.0) const;
     LobeSums make_sums() const;
 
     // Largest cosine between the direction of output texel (row, class) and any

@@ -32,7 +32,7 @@ struct PlannerModel {
     double level_share = 0.5;
     double output_share = 0.25;
     double texel_cut_share = 0.5;   // per-texel bound on the cut-off error
-    double first_cut_energy = 0.01;  // first cone drops this fraction of tau of the lobe
+    double first_cut_energy = 0.1;  // first cone drops this fraction of tau of the lobe
     double bright_contrast = 64.0;  // texels brighter than this x mean are summed exactly
     int max_bright_texels = 1024;
     // SH with the bright split: the order is the smallest whose truncation tail
