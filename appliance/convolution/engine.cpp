@@ -79,7 +79,8 @@ public:
     // `order` bands; one projection serves every map of the call.
     const ShCoefficients& remainder_sh(int k, int order, int threads) {
         if (!remainder_sh_ || remainder_sh_level_ != k || remainder_sh_->order < order) {
-            remainder_sh_ = std::make_unique<ShCoefficients>(sh_project(cone_pyramid().level(k), order, threads));
+            remainder_sh_ = std::make_unique<ShCoefficients>(sh_project(
+                cone_pyramid().level(k), order, threads, ShQuadrature::TexelSolidAngle, ShSummation::Plain));
             remainder_sh_level_ = k;
         }
         return *remainder_sh_;

@@ -273,7 +273,16 @@ void row_angles(int j, int height, double& x, double& s) {
 
 // The projection of rows read in double by read_row(j, out[3W]), channel by channel (out[c * W + i]: the
 // transforms take each channel contiguous); shared by the float and double inputs.
-template <typename RowSource>
+// Adds v to sum, with the rounding error into comp when Compensated.
+template <bool Compensated>
+inline void accumulate(double& sum, double& comp, double v) {
+    if constexpr (Compensated)
+        two_sum_add(sum, comp, v);
+    else
+        sum += v;
+}
+
+template <bool Compensated, typename RowSource>
 ShCoefficients project_impl(int width, int height, int order, int threads, ShQuadrature q,
                             ShAzimuthal azimuthal, const RowSource& read_row) {
     check_order(order);
@@ -401,7 +410,7 @@ ShCoefficients project_impl(int width, int height, int order, int threads, ShQua
             for (std::size_t k = 0; k < (m == 0 ? 3u : 6u); ++k) {
                 double total = 0.0, error = 0.0;
                 for (std::size_t lane = 0; lane < kLanes; ++lane) {
-                    two_sum_add(total, error, sum[k][lane]);
+                    accumulate<Compensated>(total, error, sum[k][lane]);
                     error += comp[k][lane];
                 }
                 if (k < 3)
@@ -420,7 +429,7 @@ ShCoefficients project_impl(int width, int height, int order, int threads, ShQua
                 for (std::size_t k = 0; k < 6; ++k)
 #pragma omp simd
                     for (std::size_t lane = 0; lane < kLanes; ++lane)
-                        two_sum_add(sum[k][lane], comp[k][lane], pm[lane] * pl[k * stride + lane]);
+                        accumulate<Compensated>(sum[k][lane], comp[k][lane], pm[lane] * pl[k * stride + lane]);
             }
             std::copy_n(pmm, padded, last.begin());
             finish(0, sum, comp);
@@ -447,10 +456,10 @@ ShCoefficients project_impl(int width, int height, int order, int threads, ShQua
                 for (std::size_t lane = 0; lane < kLanes; ++lane) {
                     const double po = a1 * (xb[lane] * p1[lane] - b1 * p2[lane]);
                     for (std::size_t k = 0; k < 6; ++k)
-                        two_sum_add(sum_odd[k][lane], comp_odd[k][lane], po * mi[k * stride + lane]);
+                        accumulate<Compensated>(sum_odd[k][lane], comp_odd[k][lane], po * mi[k * stride + lane]);
                     const double pe = a2 * (xb[lane] * po - b2 * p1[lane]);
                     for (std::size_t k = 0; k < 6; ++k)
-                        two_sum_add(sum_even[k][lane], comp_even[k][lane], pe * pl[k * stride + lane]);
+                        accumulate<Compensated>(sum_even[k][lane], comp_even[k][lane], pe * pl[k * stride + lane]);
                     p2[lane] = po;
                     p1[lane] = pe;
                 }
@@ -778,15 +787,17 @@ std::vector<double> sh_row_weights(int width, int height, ShQuadrature q) {
     return w;
 }
 
-ShCoefficients sh_project(const HdrImage& env, int order, int threads, ShQuadrature q) {
+ShCoefficients sh_project(const HdrImage& env, int order, int threads, ShQuadrature q, ShSummation summation) {
     if (env.empty()) throw InputError("spherical-harmonics projection of an empty map");
     const std::size_t width = std::size_t(env.width());
-    return project_impl(env.width(), env.height(), order, threads, q, ShAzimuthal::Automatic,
-                        [&](int j, double* out) {
+    const auto read_row = [&](int j, double* out) {
         const float* src = env.row(j);
         for (std::size_t i = 0; i < width; ++i)
             for (std::size_t ch = 0; ch < 3; ++ch) out[ch * width + i] = double(src[3 * i + ch]);
-    });
+    };
+    if (summation == ShSummation::Plain)
+        return project_impl<false>(env.width(), env.height(), order, threads, q, ShAzimuthal::Automatic, read_row);
+    return project_impl<true>(env.width(), env.height(), order, threads, q, ShAzimuthal::Automatic, read_row);
 }
 
 ShCoefficients sh_project(std::span<const double> rgb, int width, int height, int order, int threads,
@@ -802,7 +813,7 @@ ShCoefficients detail::sh_project(std::span<const double> rgb, int width, int he
         throw InputError("spherical-harmonics projection: " + std::to_string(rgb.size()) +
                          " values for a " + std::to_string(width) + "x" + std::to_string(height) + " map");
     const std::size_t uwidth = std::size_t(width);
-    return project_impl(width, height, order, threads, q, azimuthal, [&](int j, double* out) {
+    return project_impl<true>(width, height, order, threads, q, azimuthal, [&](int j, double* out) {
         const double* src = rgb.data() + std::size_t(j) * row_size;
         for (std::size_t i = 0; i < uwidth; ++i)
             for (std::size_t ch = 0; ch < 3; ++ch) out[ch * uwidth + i] = src[3 * i + ch];

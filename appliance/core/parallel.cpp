@@ -1,43 +1,129 @@
-// Fork-join parallel loop with dynamic scheduling and exception propagation.
+// Fork-join parallel loop over a persistent worker pool, with dynamic
+// scheduling and exception propagation.
 #include "appliance/core/parallel.hpp"
 
 #include <algorithm>
 #include <atomic>
+#include <condition_variable>
 #include <exception>
+#include <memory>
 #include <mutex>
 #include <thread>
 #include <vector>
 
 namespace glint {
+namespace {
+
+thread_local bool in_parallel_body = false;
+
+// One loop handed to the workers.
+struct Job {
+    int count = 0;
+    const std::function<void(int)>* body = nullptr;
+    std::atomic<int> next{0};
+    std::exception_ptr failure;
+    std::mutex failure_mutex;
+
+    void work() {
+        in_parallel_body = true;
+        for (;;) {
+            const int i = next.fetch_add(1, std::memory_order_relaxed);
+            if (i >= count) break;
+            try {
+                (*body)(i);
+            } catch (...) {
+                std::lock_guard lock(failure_mutex);
+                if (!failure) failure = std::current_exception();
+                next.store(count);  // stop handing out work
+                break;
+            }
+        }
+        in_parallel_body = false;
+    }
+};
+
+class Pool {
+public:
+    ~Pool() {
+        {
+            std::lock_guard lock(mutex_);
+            stopping_ = true;
+        }
+        wake_.notify_all();
+        for (std::thread& t : workers_) t.join();
+    }
+
+    void run(Job& job, int helpers) {
+        std::lock_guard turn(submit_mutex_);  // one loop at a time
+        {
+            std::unique_lock lock(mutex_);
+            while (int(workers_.size()) < helpers) {
+                const std::size_t id = workers_.size();
+                workers_.emplace_back([this, id] { worker_loop(id); });
+            }
+            job_ = &job;
+            wanted_ = std::size_t(helpers);
+            pending_ = helpers;
+            ++generation_;
+        }
+        wake_.notify_all();
+        job.work();
+        std::unique_lock lock(mutex_);
+        done_.wait(lock, [&] { return pending_ == 0; });
+        job_ = nullptr;
+    }
+
+private:
+    void worker_loop(std::size_t id) {
+        unsigned long seen = 0;
+        std::unique_lock lock(mutex_);
+        for (;;) {
+            wake_.wait(lock, [&] { return stopping_ || generation_ != seen; });
+            if (stopping_) return;
+            seen = generation_;
+            if (id >= wanted_) continue;  // this loop asked for fewer threads
+            Job* job = job_;
+            lock.unlock();
+            job->work();
+            lock.lock();
+            if (--pending_ == 0) done_.notify_one();
+        }
+    }
+
+    std::mutex submit_mutex_;
+    std::mutex mutex_;
+    std::condition_variable wake_, done_;
+    std::vector<std::thread> workers_;
+    Job* job_ = nullptr;
+    std::size_t wanted_ = 0;
+    int pending_ = 0;
+    unsigned long generation_ = 0;
+    bool stopping_ = false;
+};
+
+Pool& pool() {
+    static Pool instance;
+    return instance;
+}
+
+}  // namespace
 
 int hardware_threads() { return std::max(1, int(std::thread::hardware_concurrency())); }
 
 void parallel_for(int count, int threads, const std::function<void(int)>& body) {
     if (count <= 0) return;
     threads = std::clamp(threads, 1, count);
-    std::atomic<int> next{0};
-    std::exception_ptr failure;
-    std::mutex failure_mutex;
-    auto worker = [&] {
-        for (;;) {
-            const int i = next.fetch_add(1, std::memory_order_relaxed);
-            if (i >= count) return;
-            try {
-                body(i);
-            } catch (...) {
-                std::lock_guard lock(failure_mutex);
-                if (!failure) failure = std::current_exception();
-                next.store(count);  // stop handing out work
-                return;
-            }
-        }
-    };
-    std::vector<std::thread> pool;
-    pool.reserve(std::size_t(threads - 1));
-    for (int t = 1; t < threads; ++t) pool.emplace_back(worker);
-    worker();
-    for (auto& t : pool) t.join();
-    if (failure) std::rethrow_exception(failure);
+    Job job;
+    job.count = count;
+    job.body = &body;
+    if (threads == 1 || in_parallel_body) {
+        const bool outer = in_parallel_body;
+        job.work();
+        in_parallel_body = outer;
+    } else {
+        pool().run(job, threads - 1);
+    }
+    if (job.failure) std::rethrow_exception(job.failure);
 }
 
 }  // namespace glint
