@@ -109,5 +109,7 @@ std::vector<double> sh_lobe_normaliser(const std::vector<double>& ones, int orde
 
 // sum_{l >= order} |k_l| (2l + 1) for the Phong kernel k_l of shininess n.
 double sh_truncation_tail(double shininess, int order);
+// The same for every order in [0, max_order], from one kernel (index = order).
+std::vector<double> sh_truncation_tails(double shininess, int max_order);
 
 }  // namespace glint::convolution

@@ -158,8 +158,9 @@ ShSplitPlan plan_sh_split(double n, double tau, Size out, const EnvironmentShape
     ShSplitPlan plan;
     if (n <= 1.0) return plan;  // the clamped cosine's kernel decays too slowly for the bound
     int order = 0;
+    const std::vector<double> tails = sh_truncation_tails(n, model.max_split_sh_order);
     for (int l = 4; l <= model.max_split_sh_order; l += 4)
-        if (sh_truncation_tail(n, l) <= model.sh_tail_share * tau) {
+        if (tails[std::size_t(l)] <= model.sh_tail_share * tau) {
             order = l;
             break;
         }

@@ -55,16 +55,22 @@ std::vector<double> sh_lobe_normaliser(const std::vector<double>& ones, int orde
     return norm;
 }
 
-double sh_truncation_tail(double n, int order) {
+std::vector<double> sh_truncation_tails(double n, int max_order) {
     // The kernel decays like exp(-l^2 / 2n) (and like l^-2 for n <= 1, whose
     // tail this bound cannot make small); summing 4x past the order, or to
     // where the terms are below 1e-300, covers it.
-    const int bands = std::min(kMaxKernelBands, std::max(4 * order, order + 64));
+    const int bands = std::min(kMaxKernelBands, std::max(4 * max_order, max_order + 64));
     const std::vector<double> k = phong_sh_kernel(n, bands);
+    std::vector<double> tails(std::size_t(max_order) + 1, 0.0);
     double tail = 0;
-    for (int l = order; l < bands; ++l) tail += std::abs(k[std::size_t(l)]) * (2.0 * l + 1.0);
-    return tail;
+    for (int l = bands - 1; l >= 0; --l) {
+        tail += std::abs(k[std::size_t(l)]) * (2.0 * l + 1.0);
+        if (l <= max_order) tails[std::size_t(l)] = tail;
+    }
+    return tails;
 }
+
+double sh_truncation_tail(double n, int order) { return sh_truncation_tails(n, order)[std::size_t(order)]; }
 
 namespace {
 
