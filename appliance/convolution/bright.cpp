@@ -11,29 +11,43 @@
 
 namespace glint::convolution {
 
-BrightSplit split_bright(const HdrImage& input, double contrast, int max_count) {
+BrightSplit split_bright(const HdrImage& input, double contrast, int max_count, int threads) {
     const int w = input.width();
     const int h = input.height();
     const std::vector<double> omega = row_solid_angles(w, h);
-    const double mean = max_channel_power(input) / (4.0 * kPi);
-
-    BrightSplit split;
-    split.remainder = input;
-    split.threshold = contrast * mean;
-    if (!(mean > 0) || max_count <= 0) return split;
-
     struct Candidate {
         float value;
         int i, j;
     };
-    std::vector<Candidate> candidates;
-    for (int j = 0; j < h; ++j) {
+    // Per row: the largest channel's power, and (in a second pass, once the
+    // threshold is known) the texels above it; rows in parallel, merged in order.
+    std::vector<double> row_power(std::size_t(h), 0.0);
+    parallel_for(h, threads, [&](int j) {
         const float* row = input.row(j);
+        double s = 0;
+        for (int i = 0; i < w; ++i) s += std::max({row[3 * i], row[3 * i + 1], row[3 * i + 2]});
+        row_power[std::size_t(j)] = s * omega[std::size_t(j)];
+    });
+    double power = 0;
+    for (double p : row_power) power += p;
+    const double mean = power / (4.0 * kPi);
+
+    BrightSplit split;
+    split.threshold = contrast * mean;
+    split.remainder = HdrImage(w, h);
+    std::vector<std::vector<Candidate>> row_candidates(static_cast<std::size_t>(h));
+    parallel_for(h, threads, [&](int j) {
+        const float* row = input.row(j);
+        std::copy(row, row + 3 * std::size_t(w), split.remainder.row(j));
+        if (!(mean > 0) || max_count <= 0) return;
         for (int i = 0; i < w; ++i) {
             const float v = std::max({row[3 * i], row[3 * i + 1], row[3 * i + 2]});
-            if (double(v) > split.threshold) candidates.push_back({v, i, j});
+            if (double(v) > split.threshold) row_candidates[std::size_t(j)].push_back({v, i, j});
         }
-    }
+    });
+    if (!(mean > 0) || max_count <= 0) return split;
+    std::vector<Candidate> candidates;
+    for (const auto& rc : row_candidates) candidates.insert(candidates.end(), rc.begin(), rc.end());
     std::sort(candidates.begin(), candidates.end(), [](const Candidate& a, const Candidate& b) {
         return a.value > b.value || (a.value == b.value && (a.j < b.j || (a.j == b.j && a.i < b.i)));
     });

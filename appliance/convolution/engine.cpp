@@ -59,11 +59,15 @@ public:
     const BrightSplit& bright() {
         if (!bright_)
             bright_ = std::make_unique<BrightSplit>(
-                split_bright(env_, model_.bright_contrast, model_.max_bright_texels));
+                split_bright(env_, model_.bright_contrast, model_.max_bright_texels, threads_));
         return *bright_;
     }
     const Pyramid& cone_pyramid() {
-        if (!cone_pyramid_) cone_pyramid_ = std::make_unique<Pyramid>(bright().remainder);
+        // The pyramid takes the remainder over (its level 0 is the remainder).
+        if (!cone_pyramid_) {
+            bright();
+            cone_pyramid_ = std::make_unique<Pyramid>(std::move(bright_->remainder), threads_);
+        }
         return *cone_pyramid_;
     }
     const PreparedLevel& cone_level(int k) {
@@ -72,7 +76,7 @@ public:
         return *slot;
     }
     const Pyramid& mip_pyramid() {
-        if (!mip_pyramid_) mip_pyramid_ = std::make_unique<Pyramid>(env_);
+        if (!mip_pyramid_) mip_pyramid_ = std::make_unique<Pyramid>(env_, threads_);
         return *mip_pyramid_;
     }
     // SH of pyramid level k of the remainder (bright texels removed), at least

@@ -37,7 +37,7 @@ struct BrightSplit {
 };
 // Texels whose largest channel exceeds `contrast` times the solid-angle mean of
 // the map, brightest first, at most max_count of them.
-BrightSplit split_bright(const HdrImage& input, double contrast, int max_count);
+BrightSplit split_bright(const HdrImage& input, double contrast, int max_count, int threads = 1);
 
 // Adds to nb (3 per output texel) each bright texel's term (r.w_b / cmax)^n L_b
 // dOmega_b over the output texels where it is not negligible: below

@@ -8,17 +8,18 @@
 #include <utility>
 
 #include "appliance/core/equirect.hpp"
+#include "appliance/core/parallel.hpp"
 #include "appliance/core/errors.hpp"
 
 namespace glint::convolution {
 namespace {
 
-HdrImage halve(const HdrImage& fine) {
+HdrImage halve(const HdrImage& fine, int threads) {
     const int fw = fine.width();
     const int fh = fine.height();
     const std::vector<double> omega = row_solid_angles(fw, fh);
     HdrImage coarse(fw / 2, fh / 2);
-    for (int j = 0; j < coarse.height(); ++j) {
+    parallel_for(coarse.height(), threads, [&](int j) {
         const double oa = omega[std::size_t(2 * j)];
         const double ob = omega[std::size_t(2 * j + 1)];
         // Each child row contributes two texels of its own solid angle.
@@ -36,19 +37,19 @@ HdrImage halve(const HdrImage& fine) {
                 out[3 * i + c] = float((oa * sum_a + ob * sum_b) * inv_total);
             }
         }
-    }
+    });
     return coarse;
 }
 
 }  // namespace
 
-Pyramid::Pyramid(HdrImage level0) {
+Pyramid::Pyramid(HdrImage level0, int threads) {
     if (level0.empty()) throw InputError("cannot build a pyramid of an empty map");
     levels_.push_back(std::move(level0));
     for (;;) {
         const HdrImage& last = levels_.back();
         if (last.width() % 2 != 0 || last.height() % 2 != 0) break;
-        HdrImage next = halve(last);  // separate statement: push_back may move `last`
+        HdrImage next = halve(last, threads);  // separate statement: push_back may move `last`
         levels_.push_back(std::move(next));
     }
 }

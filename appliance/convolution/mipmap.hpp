@@ -16,7 +16,8 @@ namespace glint::convolution {
 // a height of 1): 300x200 -> 150x100 -> 75x50, 1024x512 -> ... -> 2x1.
 class Pyramid {
 public:
-    explicit Pyramid(HdrImage level0);  // throws InputError on an empty image
+    // Throws InputError on an empty image; threads: for the halving.
+    explicit Pyramid(HdrImage level0, int threads = 1);
     int levels() const { return int(levels_.size()); }
     const HdrImage& level(int k) const;  // 0 = the input; throws std::out_of_range
 
