@@ -286,20 +286,24 @@ inline FloatBlock load_block(const float* p) {
 template <typename Term>
 void apply_terms_float(const std::vector<Term>& terms, int q0, int q1, std::size_t channel_stride,
                        double* acc_r, double* acc_g, double* acc_b) {
+    // The weights as float once per chunk, not once per block.
+    thread_local std::vector<float> weights;
+    weights.resize(terms.size());
+    for (std::size_t k = 0; k < terms.size(); ++k) weights[k] = float(terms[k].weight);
     int q = q0;
     for (; q + kBlock <= q1; q += kBlock) {
         for (std::size_t first = 0; first < terms.size(); first += kFloatRun) {
-            const Term* end = terms.data() + std::min(terms.size(), first + kFloatRun);
+            const std::size_t end = std::min(terms.size(), first + kFloatRun);
             // Two sets of accumulators (even and odd terms): a multiply-add waits
             // ~4 cycles for the previous one into the same register, so one set
             // would leave the FMA units idle half of the time.
             FloatBlock fr = {}, fg = {}, fb = {}, fr2 = {}, fg2 = {}, fb2 = {};
-            const Term* term = terms.data() + first;
-            for (; term + 1 < end; term += 2) {
-                const float* pr = term[0].texels + q;
-                const float* pr2 = term[1].texels + q;
-                const float wt = float(term[0].weight);
-                const float wt2 = float(term[1].weight);
+            std::size_t k = first;
+            for (; k + 1 < end; k += 2) {
+                const float* pr = terms[k].texels + q;
+                const float* pr2 = terms[k + 1].texels + q;
+                const float wt = weights[k];
+                const float wt2 = weights[k + 1];
                 fr += wt * load_block(pr);
                 fr2 += wt2 * load_block(pr2);
                 fg += wt * load_block(pr + channel_stride);
@@ -307,9 +311,9 @@ void apply_terms_float(const std::vector<Term>& terms, int q0, int q1, std::size
                 fb += wt * load_block(pr + 2 * channel_stride);
                 fb2 += wt2 * load_block(pr2 + 2 * channel_stride);
             }
-            if (term != end) {
-                const float* pr = term->texels + q;
-                const float wt = float(term->weight);
+            if (k < end) {
+                const float* pr = terms[k].texels + q;
+                const float wt = weights[k];
                 fr += wt * load_block(pr);
                 fg += wt * load_block(pr + channel_stride);
                 fb += wt * load_block(pr + 2 * channel_stride);
