@@ -64,25 +64,37 @@ BrightSplit split_bright(const HdrImage& input, double contrast, int max_count, 
     return split;
 }
 
-namespace {
+BrightScatter::BrightScatter(const std::vector<BrightTexel>& bright, double n, Size out, double floor_value,
+                             double tolerance)
+    : bright_(bright), n_(n), out_(out) {
+    // A bright term below `tolerance` of the smallest output (and so of every
+    // output) may be dropped: as a weight ratio, then as a cosine. The 0.999
+    // allows for cmax < 1 on coarse grids.
+    const double lobe_den = kTwoPi / (n + 1.0);  // sum of weights, continuous, cmax ~ 1
+    min_cos_.resize(bright.size());
+    for (std::size_t k = 0; k < bright.size(); ++k) {
+        const double peak = std::max({bright[k].r, bright[k].g, bright[k].b});
+        const double ratio = tolerance * floor_value * lobe_den / peak;
+        min_cos_[k] = n == 0 ? 0.0 : (ratio >= 1.0 ? 2.0 : 0.999 * std::pow(ratio, 1.0 / n));
+    }
+    cos_phi_.resize(std::size_t(out.width));
+    sin_phi_.resize(std::size_t(out.width));
+    for (int i = 0; i < out.width; ++i) {
+        cos_phi_[std::size_t(i)] = std::cos(column_phi(i, out.width));
+        sin_phi_[std::size_t(i)] = std::sin(column_phi(i, out.width));
+    }
+}
 
-// Adds the bright texels' terms (relative to the output texel's cmax, like the
-// lobe sums; cmax_row: per class of this row) to nb for one output row.
-// cos_phi/sin_phi: output column azimuths.
-void scatter_bright_row(int row, const std::vector<BrightTexel>& bright,
-                        const std::vector<double>& min_cos, Size out, const double* cmax_row,
-                        int classes, double n, const std::vector<double>& cos_phi,
-                        const std::vector<double>& sin_phi, std::vector<double>& nb) {
-    const int ow = out.width;
-    const double theta_r = row_theta(row, out.height);
+void BrightScatter::add_row(int row, const double* cmax_row, int classes, double* nb_row) const {
+    const int ow = out_.width;
+    const double theta_r = row_theta(row, out_.height);
     const double ct = std::cos(theta_r);
     const double st = std::sin(theta_r);
-    double* nb_row = nb.data() + std::size_t(row) * std::size_t(ow) * 3;
     thread_local std::vector<double> weights;
     weights.resize(std::size_t(ow));
-    for (std::size_t k = 0; k < bright.size(); ++k) {
-        const BrightTexel& b = bright[k];
-        const double c_b = min_cos[k];
+    for (std::size_t k = 0; k < bright_.size(); ++k) {
+        const BrightTexel& b = bright_[k];
+        const double c_b = min_cos_[k];
         if (c_b > 1.0) continue;
         if (std::cos(theta_r - b.theta) < c_b) continue;  // no column of this row reaches
         const double a = st * std::sin(b.theta);
@@ -109,10 +121,10 @@ void scatter_bright_row(int row, const std::vector<BrightTexel>& bright,
             // Weights relative to each texel's cmax, as in the lobe sums.
             for (int t = 0; t < len; ++t) {
                 const int i = i0 + t;
-                const double cosine = a * (cos_phi[std::size_t(i)] * cpb + sin_phi[std::size_t(i)] * spb) + bq;
+                const double cosine = a * (cos_phi_[std::size_t(i)] * cpb + sin_phi_[std::size_t(i)] * spb) + bq;
                 weights[std::size_t(t)] = cosine > 0 ? std::min(1.0, cosine / cmax_row[i % classes]) : 0.0;
             }
-            raise_to_power(weights.data(), len, n);
+            raise_to_power(weights.data(), len, n_);
             double* o = nb_row + 3 * std::size_t(i0);
             for (int t = 0; t < len; ++t) {
                 o[3 * t] += weights[std::size_t(t)] * b.r;
@@ -123,33 +135,16 @@ void scatter_bright_row(int row, const std::vector<BrightTexel>& bright,
     }
 }
 
-}  // namespace
-
-
 void scatter_bright(const std::vector<BrightTexel>& bright, double n, Size out,
                     const std::vector<double>& cmax, int classes, double floor_value,
                     double tolerance, int threads, std::vector<double>& nb, const std::vector<int>& rows) {
     if (bright.empty()) return;
-    // A bright term below `tolerance` of the smallest output (and so of every
-    // output) may be dropped: as a weight ratio, then as a cosine. The 0.999
-    // allows for cmax < 1 on coarse grids.
-    const double lobe_den = kTwoPi / (n + 1.0);  // sum of weights, continuous, cmax ~ 1
-    std::vector<double> min_cos(bright.size());
-    for (std::size_t k = 0; k < bright.size(); ++k) {
-        const double peak = std::max({bright[k].r, bright[k].g, bright[k].b});
-        const double ratio = tolerance * floor_value * lobe_den / peak;
-        min_cos[k] = n == 0 ? 0.0 : (ratio >= 1.0 ? 2.0 : 0.999 * std::pow(ratio, 1.0 / n));
-    }
-    std::vector<double> cos_phi(std::size_t(out.width)), sin_phi(std::size_t(out.width));
-    for (int i = 0; i < out.width; ++i) {
-        cos_phi[std::size_t(i)] = std::cos(column_phi(i, out.width));
-        sin_phi[std::size_t(i)] = std::sin(column_phi(i, out.width));
-    }
+    const BrightScatter scatter(bright, n, out, floor_value, tolerance);
     const int count = rows.empty() ? out.height : int(rows.size());
     parallel_for(count, threads, [&](int k) {
         const int row = rows.empty() ? k : rows[std::size_t(k)];
-        scatter_bright_row(row, bright, min_cos, out, cmax.data() + std::size_t(row) * std::size_t(classes),
-                           classes, n, cos_phi, sin_phi, nb);
+        scatter.add_row(row, cmax.data() + std::size_t(row) * std::size_t(classes), classes,
+                        nb.data() + std::size_t(row) * std::size_t(out.width) * 3);
     });
 }
 

@@ -39,12 +39,28 @@ struct BrightSplit {
 // the map, brightest first, at most max_count of them.
 BrightSplit split_bright(const HdrImage& input, double contrast, int max_count, int threads = 1);
 
-// Adds to nb (3 per output texel) each bright texel's term (r.w_b / cmax)^n L_b
-// dOmega_b over the output texels where it is not negligible: below
-// `tolerance` times floor_value (the smallest output) it is dropped. cmax holds
-// one value per (output row, class), `classes` per row (column i is class
-// i % classes); pass ones for sums normalised to the largest weight 1.
-// Only the given output rows (all when empty).
+// The bright texels' terms (r.w_b / cmax)^n L_b dOmega_b for the output texels
+// of an out-sized grid where they are not negligible: a term below `tolerance`
+// times floor_value (the smallest output) is dropped.
+class BrightScatter {
+public:
+    BrightScatter(const std::vector<BrightTexel>& bright, double shininess, Size out, double floor_value,
+                  double tolerance);
+    // Adds the terms of output row `row` to nb_row (3 per texel); cmax_row holds
+    // `classes` values (column i is class i % classes), ones for sums
+    // normalised to the largest weight 1. Thread-safe across rows.
+    void add_row(int row, const double* cmax_row, int classes, double* nb_row) const;
+
+private:
+    const std::vector<BrightTexel>& bright_;
+    double n_;
+    Size out_;
+    std::vector<double> min_cos_, cos_phi_, sin_phi_;
+};
+
+// Adds to nb (3 per output texel) each bright texel's term (BrightScatter)
+// for the given output rows (all when empty); cmax holds one value per
+// (output row, class), `classes` per row.
 void scatter_bright(const std::vector<BrightTexel>& bright, double shininess, Size out,
                     const std::vector<double>& cmax, int classes, double floor_value,
                     double tolerance, int threads, std::vector<double>& nb,

@@ -499,17 +499,17 @@ ShCoefficients project_impl(int width, int height, int order, int threads, ShQua
 }
 
 // Evaluates sum_lm kernel[l] c_lm Y_lm at every texel centre; sink(j, row) receives each row's 3W values.
+// Only the first `order` bands of c are read (order <= c.order).
 template <typename RowSink>
-void evaluate_impl(const ShCoefficients& c, const std::vector<double>& kernel, int width, int height,
+void evaluate_impl(const ShCoefficients& c, int order, const std::vector<double>& kernel, int width, int height,
                    int threads, ShAzimuthal azimuthal, const RowSink& sink) {
-    check_order(c.order);
+    check_order(order);
     check_size(width, height, "output");
-    const int order = c.order;
     const std::size_t uorder = std::size_t(order);
-    if (c.rgb.size() != uorder * uorder * 3)
+    if (order > c.order || c.rgb.size() != std::size_t(c.order) * std::size_t(c.order) * 3)
         throw InputError("spherical-harmonics coefficients hold " + std::to_string(c.rgb.size()) +
-                         " values, order " + std::to_string(order) + " needs " +
-                         std::to_string(uorder * uorder * 3));
+                         " values of order " + std::to_string(c.order) + "; order " + std::to_string(order) +
+                         " needs " + std::to_string(uorder * uorder * 3));
     if (kernel.size() < uorder)
         throw InputError("spherical-harmonics kernel has " + std::to_string(kernel.size()) +
                          " bands, order " + std::to_string(order) + " needs " + std::to_string(order));
@@ -845,12 +845,17 @@ std::vector<double> sh_evaluate(const ShCoefficients& c, const std::vector<doubl
     return detail::sh_evaluate(c, kernel, width, height, threads, ShAzimuthal::Automatic);
 }
 
+void sh_evaluate_rows(const ShCoefficients& c, int order, const std::vector<double>& kernel, int width, int height,
+                      int threads, const std::function<void(int, const double*)>& sink) {
+    evaluate_impl(c, order, kernel, width, height, threads, ShAzimuthal::Automatic, sink);
+}
+
 std::vector<double> detail::sh_evaluate(const ShCoefficients& c, const std::vector<double>& kernel, int width,
                                         int height, int threads, ShAzimuthal azimuthal) {
     check_size(width, height, "output");
     const std::size_t row_size = std::size_t(width) * 3;
     std::vector<double> out(row_size * std::size_t(height));
-    evaluate_impl(c, kernel, width, height, threads, azimuthal, [&](int j, const double* row) {
+    evaluate_impl(c, c.order, kernel, width, height, threads, azimuthal, [&](int j, const double* row) {
         double* dst = out.data() + std::size_t(j) * row_size;
         for (std::size_t k = 0; k < row_size; ++k) dst[k] = row[k];
     });
@@ -862,7 +867,7 @@ HdrImage sh_reconstruct(const ShCoefficients& c, const std::vector<double>& kern
     check_size(width, height, "output");
     HdrImage out(width, height);
     std::vector<long long> negatives(std::size_t(height), 0);
-    evaluate_impl(c, kernel, width, height, threads, ShAzimuthal::Automatic, [&](int j, const double* row) {
+    evaluate_impl(c, c.order, kernel, width, height, threads, ShAzimuthal::Automatic, [&](int j, const double* row) {
         float* dst = out.row(j);
         long long count = 0;
         for (std::size_t k = 0; k < std::size_t(width) * 3; ++k) {

@@ -11,6 +11,7 @@
 // "order" is the number of bands (l = 0..order-1), as in the thesis; order*order coefficients.
 #pragma once
 
+#include <functional>
 #include <span>
 #include <vector>
 
@@ -110,6 +111,11 @@ std::vector<double> phong_sh_kernel(double n, int order);
 // is synthesised from its azimuthal series by an inverse FFT for a power-of-two width (see ShAzimuthal).
 std::vector<double> sh_evaluate(const ShCoefficients& c, const std::vector<double>& kernel, int width,
                                 int height, int threads);
+
+// sh_evaluate of the first `order` bands of c (order <= c.order), row by row: sink(j, values) gets the
+// 3 * width interleaved values of row j, from worker threads, rows in any order.
+void sh_evaluate_rows(const ShCoefficients& c, int order, const std::vector<double>& kernel, int width, int height,
+                      int threads, const std::function<void(int, const double*)>& sink);
 
 // sh_evaluate as an image: negative channel values are clamped to 0 and counted in *clamped.
 HdrImage sh_reconstruct(const ShCoefficients& c, const std::vector<double>& kernel, int width, int height,

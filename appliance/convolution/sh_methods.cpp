@@ -19,6 +19,7 @@
 
 #include "appliance/convolution/methods.hpp"
 #include "appliance/convolution/sh.hpp"
+#include "appliance/core/buffer.hpp"
 #include "appliance/core/equirect.hpp"
 #include "appliance/core/parallel.hpp"
 
@@ -72,18 +73,14 @@ std::vector<double> sh_truncation_tails(double n, int max_order) {
 
 double sh_truncation_tail(double n, int order) { return sh_truncation_tails(n, order)[std::size_t(order)]; }
 
-namespace {
-
-ShCoefficients truncated(const ShCoefficients& c, int order) {
-    return {order, std::vector<double>(c.rgb.begin(), c.rgb.begin() + std::ptrdiff_t(order) * order * 3)};
-}
-
-}  // namespace
 
 HdrImage sh_convolve(const ShCoefficients& coefficients, Size input, double n, int order, Size out, int threads,
                      long long* clamped) {
     const std::vector<double> kernel = phong_sh_kernel(n, order);
-    const std::vector<double> e = sh_evaluate(truncated(coefficients, order), kernel, out.width, out.height, threads);
+    std::vector<double> e(3 * std::size_t(out.width) * std::size_t(out.height));
+    sh_evaluate_rows(coefficients, order, kernel, out.width, out.height, threads, [&](int j, const double* row) {
+        std::copy(row, row + 3 * std::size_t(out.width), e.data() + 3 * std::size_t(j) * std::size_t(out.width));
+    });
     const std::vector<double> norm = sh_lobe_normaliser(sh_ones_projection(input, order), order, kernel, out);
     HdrImage image(out.width, out.height);
     for (std::size_t v = 0; v < e.size(); ++v) {
@@ -100,35 +97,45 @@ ShSplitResult sh_split_convolve(const ShCoefficients& remainder, const std::vect
                                 Size out, double texel_tolerance, double bright_tolerance,
                                 int threads) {
     const std::vector<double> kernel = phong_sh_kernel(n, order);
-    const std::vector<double> e = sh_evaluate(truncated(remainder, order), kernel, out.width, out.height, threads);
     const std::vector<double> norm = sh_lobe_normaliser(remainder_ones, order, kernel, out);
-    const std::size_t texels = std::size_t(out.width) * std::size_t(out.height);
+    const std::size_t row_values = 3 * std::size_t(out.width);
 
-    ShSplitResult result;
-    std::vector<double> nb(3 * texels, 0.0);
-    if (!bright.empty()) {
-        double floor_value = INFINITY;
-        for (double v : e)
-            if (v > 0) floor_value = std::min(floor_value, v);
-        // SH sums are normalised to the continuous lobe, i.e. cmax = 1.
-        const std::vector<double> ones(std::size_t(out.height), 1.0);
-        scatter_bright(bright, n, out, ones, 1, std::isfinite(floor_value) ? floor_value : 0.0,
-                       bright_tolerance, threads, nb);
-    }
+    // The SH part row by row (every value written), with each row's smallest
+    // positive value for the bright terms' cut-off below.
+    UninitVector<double> e(row_values * std::size_t(out.height));
+    std::vector<double> row_floor(std::size_t(out.height), INFINITY);
+    sh_evaluate_rows(remainder, order, kernel, out.width, out.height, threads, [&](int j, const double* row) {
+        double* dst = e.data() + std::size_t(j) * row_values;
+        double f = INFINITY;
+        for (std::size_t k = 0; k < row_values; ++k) {
+            dst[k] = row[k];
+            if (row[k] > 0) f = std::min(f, row[k]);
+        }
+        row_floor[std::size_t(j)] = f;
+    });
+    double floor_value = INFINITY;
+    for (double f : row_floor) floor_value = std::min(floor_value, f);
+    // SH sums are normalised to the continuous lobe, i.e. cmax = 1.
+    const BrightScatter scatter(bright, n, out, std::isfinite(floor_value) ? floor_value : 0.0, bright_tolerance);
+    const double one = 1.0;
+
     const double lobe_den = kTwoPi / (n + 1.0);
     const double error_bound = sh_truncation_tail(n, order) * remainder_mean;
+    ShSplitResult result;
     result.image = HdrImage(out.width, out.height);
     float* o = result.image.data().data();
-    const std::size_t row_values = 3 * std::size_t(out.width);
     std::vector<long long> failed(std::size_t(out.height), 0), clamped(std::size_t(out.height), 0);
     parallel_for(out.height, threads, [&](int row) {
+        thread_local std::vector<double> nb;
+        nb.assign(row_values, 0.0);
+        if (!bright.empty()) scatter.add_row(row, &one, 1, nb.data());
         const std::size_t first = std::size_t(row) * row_values;
         const double inv_norm = 1.0 / norm[std::size_t(row)];
-        for (std::size_t k = first; k < first + row_values; ++k) {
-            const double v = (e[k] + nb[k] / lobe_den) * inv_norm;
+        for (std::size_t k = 0; k < row_values; ++k) {
+            const double v = (e[first + k] + nb[k] / lobe_den) * inv_norm;
             if (!(error_bound <= texel_tolerance * v)) ++failed[std::size_t(row)];
             if (v < 0) ++clamped[std::size_t(row)];
-            o[k] = float(std::max(0.0, v));
+            o[first + k] = float(std::max(0.0, v));
         }
     });
     for (int row = 0; row < out.height; ++row) {
