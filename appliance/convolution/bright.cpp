@@ -135,17 +135,4 @@ void BrightScatter::add_row(int row, const double* cmax_row, int classes, double
     }
 }
 
-void scatter_bright(const std::vector<BrightTexel>& bright, double n, Size out,
-                    const std::vector<double>& cmax, int classes, double floor_value,
-                    double tolerance, int threads, std::vector<double>& nb, const std::vector<int>& rows) {
-    if (bright.empty()) return;
-    const BrightScatter scatter(bright, n, out, floor_value, tolerance);
-    const int count = rows.empty() ? out.height : int(rows.size());
-    parallel_for(count, threads, [&](int k) {
-        const int row = rows.empty() ? k : rows[std::size_t(k)];
-        scatter.add_row(row, cmax.data() + std::size_t(row) * std::size_t(classes), classes,
-                        nb.data() + std::size_t(row) * std::size_t(out.width) * 3);
-    });
-}
-
 }  // namespace glint::convolution

@@ -70,7 +70,7 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
     // taken at the inside's mean (its error is the bound above), while the bright
     // terms, summed over the whole sphere, are divided by the whole lobe weight.
     // The three channel values of output texel (row, col).
-    const auto values = [&](int row, int col, const std::vector<double>& nb, double* v) {
+    const auto values = [&](int row, int col, const UninitVector<double>& nb, double* v) {
         const std::size_t t = std::size_t(row) * std::size_t(out.width) + std::size_t(col);
         const std::size_t rc = std::size_t(row) * std::size_t(sums.classes) +
                                std::size_t(sums.classes == 1 ? 0 : sums.class_of(col));
@@ -78,11 +78,11 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
         const LobeSums& src = w ? wide : sums;
         const Denominators& d = w ? wide_den : narrow_den;
         for (std::size_t c = 0; c < 3; ++c)
-            v[c] = src.num[3 * t + c] * d.inv[rc] + nb[3 * t + c] * d.inv_full[rc];
+            v[c] = src.num[3 * t + c] * d.inv[rc] + (nb.empty() ? 0.0 : nb[3 * t + c] * d.inv_full[rc]);
     };
 
     // Smallest positive value over the given output rows (parallel by row).
-    const auto smallest_value = [&](const std::vector<int>& over, const std::vector<double>& nb_now) {
+    const auto smallest_value = [&](const std::vector<int>& over, const UninitVector<double>& nb_now) {
         std::vector<double> row_floor(over.size(), INFINITY);
         parallel_for(int(over.size()), threads, [&](int k) {
             double f = INFINITY, v[3];
@@ -97,15 +97,21 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
         for (double v : row_floor) f = std::min(f, v);
         return f;
     };
-    std::vector<int> all_rows(std::size_t(out.height));
-    for (int row = 0; row < out.height; ++row) all_rows[std::size_t(row)] = row;
-
-    std::vector<double> nb(3 * texels, 0.0);
+    // The bright terms (nb stays empty without bright texels; the rows not
+    // computed are never read).
+    UninitVector<double> nb;
     if (!bright.empty()) {
-        const double floor_value = smallest_value(all_rows, nb);
-        scatter_bright(bright, n, out, sums.cmax, sums.classes,
-                       std::isfinite(floor_value) ? floor_value : 0.0, settings.bright_tolerance, threads, nb,
-                       rows);
+        const double floor_value = smallest_value(rows, nb);
+        const BrightScatter scatter(bright, n, out, std::isfinite(floor_value) ? floor_value : 0.0,
+                                    settings.bright_tolerance);
+        nb.resize(3 * texels);
+        parallel_for(int(rows.size()), threads, [&](int k) {
+            const int row = rows[std::size_t(k)];
+            double* nb_row = nb.data() + std::size_t(row) * std::size_t(out.width) * 3;
+            std::fill(nb_row, nb_row + std::size_t(out.width) * 3, 0.0);
+            scatter.add_row(row, sums.cmax.data() + std::size_t(row) * std::size_t(sums.classes), sums.classes,
+                            nb_row);
+        });
     }
 
     // Widen the cone of the texels whose cut-off bound is not met. Outside the
@@ -196,7 +202,8 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
     if (stats) *stats = local;
 
     HdrImage result(out.width, out.height);
-    parallel_for(out.height, threads, [&](int row) {
+    parallel_for(int(rows.size()), threads, [&](int k) {
+        const int row = rows[std::size_t(k)];
         float* o = result.row(row);
         double v[3];
         for (int col = 0; col < out.width; ++col) {

@@ -186,7 +186,7 @@ LobeSums LobeSummer::make_sums() const {
     s.out_w = out_w_;
     s.out_h = out_h_;
     s.classes = classes_;
-    s.num.assign(std::size_t(out_w_) * std::size_t(out_h_) * 3, 0.0);
+    s.num.resize(std::size_t(out_w_) * std::size_t(out_h_) * 3);
     s.den.assign(std::size_t(classes_) * std::size_t(out_h_), 0.0);
     s.cmax.assign(std::size_t(classes_) * std::size_t(out_h_), 0.0);
     return s;

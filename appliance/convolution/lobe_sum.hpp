@@ -26,6 +26,7 @@
 #include <utility>
 #include <vector>
 
+#include "appliance/core/buffer.hpp"
 #include "appliance/core/hdr_image.hpp"
 
 namespace glint::convolution {
@@ -110,7 +111,9 @@ private:
 // Per-texel partial sums for an output grid of out_w x out_h.
 struct LobeSums {
     int out_w = 0, out_h = 0, classes = 0;
-    std::vector<double> num;   // 3 per output texel
+    // 3 per output texel; not zeroed: sum_row writes the texels it sums, and
+    // only those may be read.
+    UninitVector<double> num;
     std::vector<double> den;   // per (output row, class)
     std::vector<double> cmax;  // per (output row, class)
     int class_of(int column) const { return column % classes; }

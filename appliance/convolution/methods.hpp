@@ -58,14 +58,6 @@ private:
     std::vector<double> min_cos_, cos_phi_, sin_phi_;
 };
 
-// Adds to nb (3 per output texel) each bright texel's term (BrightScatter)
-// for the given output rows (all when empty); cmax holds one value per
-// (output row, class), `classes` per row.
-void scatter_bright(const std::vector<BrightTexel>& bright, double shininess, Size out,
-                    const std::vector<double>& cmax, int classes, double floor_value,
-                    double tolerance, int threads, std::vector<double>& nb,
-                    const std::vector<int>& rows = {});
-
 struct ConeSettings {
     double cutoff_energy = 1e-2;  // lobe energy dropped outside the first cone
     double texel_tolerance = 1e-2;  // bound on the cut-off error of each output texel
