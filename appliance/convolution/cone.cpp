@@ -136,6 +136,7 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
     parallel_for(int(rows.size()), threads, [&](int k) {
         const int row = rows[std::size_t(k)];
         const CapMax::Band band = cap_max.band(row_theta(row, out.height));
+        const double band_max = cap_max.band_max(band);
         double need_row = settings.cutoff_energy;
         const double target = 0.999 * settings.cutoff_energy;
         const double share = 0.9 * settings.texel_tolerance;
@@ -152,8 +153,9 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
                 }
                 return need;
             };
-            // The global maximum is a cheap first test; the cap maximum a tighter one.
-            if (need_for(global_max) >= target) continue;
+            // The global maximum and the band's maximum are cheap first tests; the
+            // cap maximum a tighter one.
+            if (need_for(global_max) >= target || need_for(band_max) >= target) continue;
             const double need = need_for(cap_max.query(band, column_phi(i, out.width)));
             if (need < target) {
                 widened[std::size_t(row) * std::size_t(out.width) + std::size_t(i)] = 1;

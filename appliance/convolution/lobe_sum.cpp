@@ -2,6 +2,7 @@
 #include "appliance/convolution/lobe_sum.hpp"
 
 #include <algorithm>
+#include <bit>
 #include <cmath>
 #include <cstring>
 #include <numeric>
@@ -140,11 +141,21 @@ CapMax::CapMax(const PreparedLevel& level, double radius, int threads)
             for (int i = 0; i < width_; ++i) cur[i] = std::max(prev[i], prev[i + half < width_ ? i + half : i + half - width_]);
         }
     });
+    block_max_.resize(std::size_t(blocks_));
+    for (int b = 0; b < blocks_; ++b) {
+        const float* row = table_.data() + std::size_t(b) * std::size_t(width_);
+        block_max_[std::size_t(b)] = *std::max_element(row, row + width_);
+    }
+}
+
+double CapMax::band_max(const Band& band) const {
+    float best = 0;
+    for (int b = band.first_block; b <= band.last_block; ++b) best = std::max(best, block_max_[std::size_t(b)]);
+    return best;
 }
 
 float CapMax::range_max(int block, int first, int count) const {
-    int k = 0;
-    while ((2 << k) <= count) ++k;  // largest 2^k <= count: two windows cover the range
+    const int k = std::bit_width(unsigned(count)) - 1;  // largest 2^k <= count: two windows cover the range
     const float* t =
         table_.data() + (std::size_t(k) * std::size_t(blocks_) + std::size_t(block)) * std::size_t(width_);
     // first is in [-width, width) and count <= width (see query): wrap without a division.

@@ -58,6 +58,8 @@ public:
     // Maximum over the cap of the radius around (theta, phi) of band(theta).
     double query(const Band& band, double phi) const;
     double query(double theta, double phi) const { return query(band(theta), phi); }
+    // Largest radiance over the whole rows of a band: a bound on every query of it.
+    double band_max(const Band& band) const;
 
 private:
     int width_, height_, block_rows_, blocks_, levels_;
@@ -65,6 +67,7 @@ private:
     // table_[(k * blocks_ + b) * width_ + i]: max over the rows of block b and
     // the columns i, i+1, ..., i + 2^k - 1 (cyclic).
     std::vector<float> table_;
+    std::vector<float> block_max_;  // per block: the largest value of its rows
     float range_max(int block, int first, int count) const;
 };
 
