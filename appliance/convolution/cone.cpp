@@ -27,7 +27,7 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
     std::vector<int> rows = only_rows;
     if (rows.empty())
         for (int row = 0; row < out.height; ++row) rows.push_back(row);
-    const LobeSummer summer(level, out.width, out.height, n, Accumulation::FloatRuns);
+    const LobeSummer summer(level, out.width, out.height, n, Accumulation::FloatRuns, settings.max_texel_arc);
     LobeSums sums = summer.make_sums();
     const auto cut_cos = [n](double energy) {
         return energy > 0 ? std::pow(std::min(1.0, energy), 1.0 / (n + 1.0)) : 0.0;

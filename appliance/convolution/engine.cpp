@@ -191,7 +191,7 @@ void run_sh_split(MapResult& r, const MapPlan& cone, SharedInputs& shared, int s
                   const PlannerModel& model, int threads) {
     const double n = r.request.shininess;
     const Size out = r.plan.output_size;
-    const ConeSettings settings = cone_settings(options.tolerance, model);
+    const ConeSettings settings = cone_settings(options.tolerance, n, model);
     const int level = r.plan.input_level;
     const ShSplitResult split =
         sh_split_convolve(shared.remainder_sh(level, split_order, threads), shared.remainder_ones(level, split_order),
@@ -296,7 +296,7 @@ std::vector<MapResult> convolve(const HdrImage& env, const std::vector<MapReques
                 ConeStats stats;
                 r.plan.bright_texels = int(shared.bright().texels.size());
                 r.image = cone_convolve(shared.cone_level(r.plan.input_level), shared.bright().texels,
-                                        n, out, cone_settings(options.tolerance, model), threads,
+                                        n, out, cone_settings(options.tolerance, n, model), threads,
                                         progress, &stats);
                 r.refined_texels = stats.refined_texels;
                 break;

@@ -64,37 +64,91 @@ PreparedLevel::PreparedLevel(const HdrImage& level, int threads)
     }
 }
 
-LobeSummer::LobeSummer(const PreparedLevel& level, int out_w, int out_h, double shininess,
-                       Accumulation accumulation)
-    : level_(level), out_w_(out_w), out_h_(out_h), n_(shininess), accumulation_(accumulation),
-      classes_(out_w / std::gcd(level.width(), out_w)),
-      step_(level.width() / std::gcd(level.width(), out_w)),
-      per_class_(std::gcd(level.width(), out_w)),
-      phases_(level.phases(step_, per_class_)) {
-    const int w = level.width();
-    base_.resize(std::size_t(classes_));
-    frac_.resize(std::size_t(classes_));
+LobeSummer::Geometry LobeSummer::make_geometry(const PreparedLevel& level) const {
+    Geometry g;
+    g.level = &level;
+    g.width = level.width();
+    const int w = g.width;
+    g.step = w / std::gcd(w, out_w_);
+    g.base.resize(std::size_t(classes_));
+    g.frac.resize(std::size_t(classes_));
     for (int p = 0; p < classes_; ++p) {
         // Output column centre in level column units (level centre i sits at x = i).
-        const double x = (p + 0.5) * double(w) / double(out_w) - 0.5;
+        const double x = (p + 0.5) * double(w) / double(out_w_) - 0.5;
         const double b = std::floor(x);
-        base_[std::size_t(p)] = int(b);
-        frac_[std::size_t(p)] = x - b;
+        g.base[std::size_t(p)] = int(b);
+        g.frac[std::size_t(p)] = x - b;
     }
-    cos_offset_ = w / 2 + 2;
-    cos_stride_ = std::size_t(w) + 2 * std::size_t(cos_offset_);
-    cos_dphi_.resize(std::size_t(classes_) * cos_stride_);
+    g.cos_offset = w / 2 + 2;
+    g.cos_stride = std::size_t(w) + 2 * std::size_t(g.cos_offset);
+    g.cos_dphi.resize(std::size_t(classes_) * g.cos_stride);
     for (int p = 0; p < classes_; ++p)
-        for (std::size_t k = 0; k < cos_stride_; ++k) {
-            const double d = double(k) - cos_offset_;
-            cos_dphi_[std::size_t(p) * cos_stride_ + k] = std::cos((d - frac_[std::size_t(p)]) * kTwoPi / w);
+        for (std::size_t k = 0; k < g.cos_stride; ++k) {
+            const double d = double(k) - g.cos_offset;
+            g.cos_dphi[std::size_t(p) * g.cos_stride + k] = std::cos((d - g.frac[std::size_t(p)]) * kTwoPi / w);
         }
+    g.phases = &level.phases(g.step, per_class_);
+    return g;
+}
+
+int polar_merge_factor(int row, int level_width, int level_height, int out_width, double max_arc) {
+    if (!(max_arc > 0)) return 1;
+    // The polar angle of the row's texels nearest the equator.
+    const double edge = std::clamp(kPi / 2, row * kPi / level_height, (row + 1) * kPi / level_height);
+    const double arc = std::sin(edge) * kTwoPi / level_width;  // one column
+    const int g = std::gcd(level_width, out_width);
+    int best = 1;
+    for (int m = 2; m <= 64; m *= 2) {
+        if (level_width % m != 0 || level_width / m < 8 || std::gcd(level_width / m, out_width) != g) break;
+        if (m * arc <= max_arc) best = m;
+    }
+    return best;
+}
+
+LobeSummer::LobeSummer(const PreparedLevel& level, int out_w, int out_h, double shininess,
+                       Accumulation accumulation, double max_merged_arc)
+    : level_(level), out_w_(out_w), out_h_(out_h), n_(shininess), accumulation_(accumulation),
+      classes_(out_w / std::gcd(level.width(), out_w)),
+      per_class_(std::gcd(level.width(), out_w)) {
+    const int w = level.width();
+    const int h = level.height();
+    geometries_.push_back(make_geometry(level));
+    row_geometry_.assign(std::size_t(h), 0);
+    std::map<int, int> geometry_of;  // merge factor -> index in geometries_
+    geometry_of[1] = 0;
+    for (int j = 0; j < h; ++j) {
+        const int m = polar_merge_factor(j, w, h, out_w, max_merged_arc);
+        auto [it, inserted] = geometry_of.try_emplace(m, int(geometries_.size()));
+        if (inserted) geometries_.push_back(make_geometry(level.merged_columns(m)));
+        row_geometry_[std::size_t(j)] = it->second;
+    }
     out_cos_t_.resize(std::size_t(out_h));
     out_sin_t_.resize(std::size_t(out_h));
     for (int j = 0; j < out_h; ++j) {
         out_cos_t_[std::size_t(j)] = std::cos(row_theta(j, out_h));
         out_sin_t_[std::size_t(j)] = std::sin(row_theta(j, out_h));
     }
+}
+
+const PreparedLevel& PreparedLevel::merged_columns(int m) const {
+    std::lock_guard lock(merged_mutex_);
+    std::unique_ptr<PreparedLevel>& slot = merged_[m];
+    if (slot) return *slot;
+    const int mw = width_ / m;
+    HdrImage merged(mw, height_);
+    parallel_for(height_, threads_, [&](int j) {
+        float* dst = merged.row(j);
+        for (int c = 0; c < 3; ++c) {
+            const float* src = plane(j, c);
+            for (int i = 0; i < mw; ++i) {
+                double sum = 0;
+                for (int k = 0; k < m; ++k) sum += double(src[i * m + k]);
+                dst[3 * i + c] = float(sum / m);
+            }
+        }
+    });
+    slot = std::make_unique<PreparedLevel>(merged, threads_);
+    return *slot;
 }
 
 const std::vector<float>& PreparedLevel::phases(int step, int per_class) const {
@@ -204,14 +258,18 @@ LobeSums LobeSummer::make_sums() const {
 }
 
 double LobeSummer::cmax(int out_row, int cls) const {
-    const double f = frac_[std::size_t(cls)];
-    const double nearest = kTwoPi / level_.width() * std::min(f, 1.0 - f);
-    const double cn = std::cos(nearest);
+    // Per geometry, the azimuth to the nearest texel centre of this class.
+    double cn[8];
+    const std::size_t count = std::min<std::size_t>(geometries_.size(), 8);
+    for (std::size_t k = 0; k < count; ++k) {
+        const double f = geometries_[k].frac[std::size_t(cls)];
+        cn[k] = std::cos(kTwoPi / geometries_[k].width * std::min(f, 1.0 - f));
+    }
     const double ctr = out_cos_t_[std::size_t(out_row)];
     const double str = out_sin_t_[std::size_t(out_row)];
     double best = -1.0;
     for (int j = 0; j < level_.height(); ++j)
-        best = std::max(best, str * level_.sin_theta(j) * cn + ctr * level_.cos_theta(j));
+        best = std::max(best, str * level_.sin_theta(j) * cn[row_geometry_[std::size_t(j)]] + ctr * level_.cos_theta(j));
     return best;
 }
 
@@ -220,9 +278,9 @@ double LobeSummer::underflow_cos(double cmax_value) const {
     return cmax_value * std::exp(kLogSmallestNormal / n_);
 }
 
-void LobeSummer::weights(int cls, int d_lo, int count, double a, double b, double inv_cmax,
+void LobeSummer::weights(const Geometry& g, int cls, int d_lo, int count, double a, double b, double inv_cmax,
                          double* w) const {
-    const double* cs = cos_dphi_.data() + std::size_t(cls) * cos_stride_ + std::size_t(d_lo + cos_offset_);
+    const double* cs = g.cos_dphi.data() + std::size_t(cls) * g.cos_stride + std::size_t(d_lo + g.cos_offset);
     // Ratio to the largest cosine; conventions: only r.w > 0 counts, also for n = 0.
     for (int d = 0; d < count; ++d) {
         const double c = a * cs[d] + b;
@@ -350,9 +408,8 @@ void apply_terms_float(const std::vector<Term>& terms, int q0, int q1, std::size
 
 }  // namespace
 
-void LobeSummer::flush_terms(const std::vector<Term>& terms, const ColumnRuns& q_runs, double* acc_r,
-                             double* acc_g, double* acc_b) const {
-    const std::size_t channel_stride = std::size_t(step_) * PreparedLevel::phase_stride(per_class_);
+void LobeSummer::flush_terms(const std::vector<Term>& terms, const ColumnRuns& q_runs, std::size_t channel_stride,
+                             double* acc_r, double* acc_g, double* acc_b) const {
     for (const auto& [q0, q1] : q_runs) {
         if (accumulation_ == Accumulation::Double)
             apply_terms_double(terms, q0, q1, channel_stride, acc_r, acc_g, acc_b);
@@ -363,15 +420,17 @@ void LobeSummer::flush_terms(const std::vector<Term>& terms, const ColumnRuns& q
 
 void LobeSummer::sum_row(int out_row, double c_min, LobeSums& sums, const ColumnRuns* columns,
                          double c_inner) const {
-    const int w = level_.width();
     const int h = level_.height();
     const double ctr = out_cos_t_[std::size_t(out_row)];
     const double str = out_sin_t_[std::size_t(out_row)];
     const double theta_r = row_theta(out_row, out_h_);
-    const double col_per_rad = w / kTwoPi;
-    std::vector<double> wbuf(std::size_t(w) + 2);
-    std::vector<Term> terms;
-    terms.reserve(kTermChunk);
+    std::vector<double> wbuf(std::size_t(level_.width()) + 2);
+    // One list of terms per geometry: their texel runs have different strides.
+    std::vector<std::vector<Term>> terms(geometries_.size());
+    for (auto& t : terms) t.reserve(kTermChunk);
+    const auto channel_stride = [&](std::size_t k) {
+        return std::size_t(geometries_[k].step) * PreparedLevel::phase_stride(per_class_);
+    };
     std::vector<double> acc(std::size_t(per_class_) * 3);
     double* acc_r = acc.data();
     double* acc_g = acc_r + per_class_;
@@ -381,7 +440,6 @@ void LobeSummer::sum_row(int out_row, double c_min, LobeSums& sums, const Column
         const double cm = cmax(out_row, cls);
         const double inv_cm = 1.0 / cm;
         const double lo = std::max(c_min, underflow_cos(cm));
-        const double f = frac_[std::size_t(cls)];
         std::fill(acc.begin(), acc.end(), 0.0);
         double den = 0;
         // Runs of this class's column indices q (column = q * classes + cls).
@@ -408,7 +466,10 @@ void LobeSummer::sum_row(int out_row, double c_min, LobeSums& sums, const Column
         // class's texels is at least `bound` (count 0: none). The inner cone of an
         // annulus uses the same arithmetic, so its columns are exactly those of
         // the pass that summed it.
-        const auto columns_above = [&](double bound, double a, double b, int& d_lo, int& count) {
+        const auto columns_above = [&](const Geometry& g, double bound, double a, double b, int& d_lo,
+                                       int& count) {
+            const int w = g.width;
+            const double f = g.frac[std::size_t(cls)];
             const double q = a > 1e-300 ? (bound - b) / a : (b >= bound ? -2.0 : 2.0);
             count = 0;
             if (q > 1.0) return;
@@ -416,31 +477,34 @@ void LobeSummer::sum_row(int out_row, double c_min, LobeSums& sums, const Column
                 d_lo = int(std::ceil(f - 0.5 * w));
                 count = w;
             } else {
-                const double half = std::acos(q) * col_per_rad;
+                const double half = std::acos(q) * (w / kTwoPi);
                 d_lo = int(std::ceil(f - half));
                 count = std::max(0, std::min(w, int(std::floor(f + half)) - d_lo + 1));
             }
         };
-        const auto add_columns = [&](int jk, double a, double b, int d_lo, int count) {
+        const auto add_columns = [&](std::size_t gi, int jk, double a, double b, int d_lo, int count) {
             if (count <= 0) return;
+            const Geometry& g = geometries_[gi];
+            const int w = g.width;
+            std::vector<Term>& list = terms[gi];
             // Weights depend on the column offset only (shared by the class).
-            weights(cls, d_lo, count, a, b, inv_cm, wbuf.data());
+            weights(g, cls, d_lo, count, a, b, inv_cm, wbuf.data());
             double wsum = 0;
             for (int d = 0; d < count; ++d) wsum += wbuf[std::size_t(d)];
             if (wsum == 0) return;
-            const double omega = level_.solid_angle(jk);
+            const double omega = g.level->solid_angle(jk);  // of this geometry's texels
             den += omega * wsum;
             // One weight times a whole class of output columns: the (weight, texel
             // run) pairs are collected and applied in blocks (flush_terms).
             for (int d = 0; d < count; ++d) {
                 const double wd = wbuf[std::size_t(d)] * omega;
                 if (wd == 0) continue;
-                int x = (base_[std::size_t(cls)] + d_lo + d) % w;
+                int x = (g.base[std::size_t(cls)] + d_lo + d) % w;
                 if (x < 0) x += w;
-                terms.push_back({wd, phase(jk, 0, x % step_) + x / step_});
-                if (terms.size() == kTermChunk) {
-                    flush_terms(terms, q_runs, acc_r, acc_g, acc_b);
-                    terms.clear();
+                list.push_back({wd, phase(g, jk, x % g.step) + x / g.step});
+                if (list.size() == kTermChunk) {
+                    flush_terms(list, q_runs, channel_stride(gi), acc_r, acc_g, acc_b);
+                    list.clear();
                 }
             }
         };
@@ -453,20 +517,24 @@ void LobeSummer::sum_row(int out_row, double c_min, LobeSums& sums, const Column
         for (int jk = j0; jk <= j1; ++jk) {
             const double a = str * level_.sin_theta(jk);
             const double b = ctr * level_.cos_theta(jk);
+            const std::size_t gi = std::size_t(row_geometry_[std::size_t(jk)]);
+            const Geometry& g = geometries_[gi];
             int d_lo = 0, count = 0;
-            columns_above(lo, a, b, d_lo, count);
+            columns_above(g, lo, a, b, d_lo, count);
             if (count == 0) continue;
             int in_lo = 0, in_count = 0;
-            if (lo_inner <= 1.0) columns_above(lo_inner, a, b, in_lo, in_count);
+            if (lo_inner <= 1.0) columns_above(g, lo_inner, a, b, in_lo, in_count);
             if (in_count == 0) {
-                add_columns(jk, a, b, d_lo, count);
+                add_columns(gi, jk, a, b, d_lo, count);
             } else {  // the annulus: the columns left and right of the inner cone
-                add_columns(jk, a, b, d_lo, in_lo - d_lo);
-                add_columns(jk, a, b, in_lo + in_count, d_lo + count - (in_lo + in_count));
+                add_columns(gi, jk, a, b, d_lo, in_lo - d_lo);
+                add_columns(gi, jk, a, b, in_lo + in_count, d_lo + count - (in_lo + in_count));
             }
         }
-        flush_terms(terms, q_runs, acc_r, acc_g, acc_b);
-        terms.clear();
+        for (std::size_t gi = 0; gi < terms.size(); ++gi) {
+            flush_terms(terms[gi], q_runs, channel_stride(gi), acc_r, acc_g, acc_b);
+            terms[gi].clear();
+        }
         const std::size_t rc = std::size_t(out_row) * std::size_t(classes_) + std::size_t(cls);
         sums.den[rc] = den;
         sums.cmax[rc] = cm;

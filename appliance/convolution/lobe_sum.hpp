@@ -22,6 +22,7 @@
 
 #include <functional>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <utility>
 #include <vector>
@@ -95,10 +96,13 @@ public:
     // are phase_stride(per_class) floats apart. Built on first use and kept,
     // since every map of one output width needs the same layout.
     const std::vector<float>& phases(int step, int per_class) const;
+    // The level with every m adjacent columns averaged (m divides the width):
+    // texels of one row share a solid angle, so the average is energy
+    // preserving. Built on first use and kept.
+    const PreparedLevel& merged_columns(int m) const;
     // 2 * per_class plus one cache line: a narrow lobe's terms all read the same
-    // columns of ~20 rows x 3 channels; with a stride of a multiple of 4 KiB those
-    // reads fall into the same few L1 sets and evict each other (measured: 2x
-    // slower cone sums at 512 output columns).
+    // columns of ~20 rows x 3 channels, and a stride of a multiple of 4 KiB would
+    // put all of those reads into the same few L1 sets.
     static std::size_t phase_stride(int per_class) { return 2 * std::size_t(per_class) + 16; }
 
 private:
@@ -109,6 +113,8 @@ private:
     double power_ = 0;
     mutable std::mutex phases_mutex_;  // guards the lazily built layouts below
     mutable std::map<std::pair<int, int>, std::vector<float>> phases_;
+    mutable std::mutex merged_mutex_;
+    mutable std::map<int, std::unique_ptr<PreparedLevel>> merged_;
 };
 
 // Per-texel partial sums for an output grid of out_w x out_h.
@@ -127,10 +133,25 @@ struct LobeSums {
 // double accumulators (the cone method; lobe_sum.cpp has the error bound).
 enum class Accumulation { Double, FloatRuns };
 
+// Rows near the poles may read the level with merged columns. Near a pole an
+// equirect row's texels are narrow in azimuth (sin(theta) 2 pi / W of arc),
+// and a lobe there covers many more of them than at the equator: with the
+// output rows evenly spaced in theta, three quarters of a narrow lobe's terms
+// fall in the rows with sin(theta) < 1/2. Merging m columns of such a row is
+// a coarser level in azimuth only; the planner allows it up to the arc its
+// level error model accepts for the lobe (merged_arc_budget in planner.hpp).
+// The merge factor of level row j: the largest power of two m <= 64 whose
+// merged texels, at the row's edge nearer the equator, span at most max_arc
+// radians of arc, that divides the width and keeps the output's column classes
+// (gcd(W / m, out_w) = gcd(W, out_w)); 1 when none.
+int polar_merge_factor(int row, int level_width, int level_height, int out_width, double max_arc);
+
 class LobeSummer {
 public:
+    // max_merged_arc > 0: rows near the poles read merged columns (above); 0
+    // for `exact`.
     LobeSummer(const PreparedLevel& level, int out_w, int out_h, double shininess,
-               Accumulation accumulation = Accumulation::Double);
+               Accumulation accumulation = Accumulation::Double, double max_merged_arc = 0);
 
     // Fills sums for one output row with the cosine cut-off c_min (0 = every
     // non-zero term). With `columns` (half-open [first, last) column runs), only
@@ -163,33 +184,43 @@ private:
         const float* texels;
     };
     static constexpr std::size_t kTermChunk = 2048;  // terms applied per pass (fit in L1/L2)
-    void flush_terms(const std::vector<Term>& terms, const ColumnRuns& q_runs, double* acc_r, double* acc_g,
-                     double* acc_b) const;
+    // How the output columns meet the columns of one version of the level (the
+    // level itself, or it with merged columns): every version has the same
+    // classes and per_class, so their terms add into the same accumulators.
+    struct Geometry {
+        const PreparedLevel* level = nullptr;
+        int width = 0, step = 0;
+        std::vector<int> base;     // per class: level column at or left of the output centre
+        std::vector<double> frac;  // per class: offset of the output centre from base, in columns
+        // cos(dphi) per class for column offsets d in [-cos_offset, width + cos_offset).
+        std::vector<double> cos_dphi;
+        int cos_offset = 0;
+        std::size_t cos_stride = 0;
+        // The rows split by column phase for this output width
+        // (PreparedLevel::phases): the texels that one weight multiplies across a
+        // whole class are contiguous.
+        const std::vector<float>* phases = nullptr;
+    };
+    Geometry make_geometry(const PreparedLevel& level) const;
+    const float* phase(const Geometry& g, int row, int s) const {
+        return g.phases->data() +
+               (std::size_t(row) * 3 * std::size_t(g.step) + std::size_t(s)) * PreparedLevel::phase_stride(per_class_);
+    }
+    void flush_terms(const std::vector<Term>& terms, const ColumnRuns& q_runs, std::size_t channel_stride,
+                     double* acc_r, double* acc_g, double* acc_b) const;
     // Fills w[0..count) with the weights of cosines a * cos(dphi_d) + b, where
-    // dphi_d is the azimuth offset of column d_lo + d in class cls.
-    void weights(int cls, int d_lo, int count, double a, double b, double inv_cmax, double* w) const;
+    // dphi_d is the azimuth offset of column d_lo + d of geometry g in class cls.
+    void weights(const Geometry& g, int cls, int d_lo, int count, double a, double b, double inv_cmax,
+                 double* w) const;
 
     const PreparedLevel& level_;
     int out_w_, out_h_;
     double n_;
     Accumulation accumulation_;
-    int classes_, step_, per_class_;
-    std::vector<int> base_;          // per class: level column at or left of the output centre
-    std::vector<double> frac_;       // per class: offset of the output centre from base, in columns
+    int classes_, per_class_;
     std::vector<double> out_cos_t_, out_sin_t_;
-    // cos(dphi) per class for column offsets d in [-offset_, width + offset_).
-    std::vector<double> cos_dphi_;
-    int cos_offset_ = 0;
-    std::size_t cos_stride_ = 0;
-    // The level's rows split by column phase for this output width
-    // (PreparedLevel::phases): the texels that one weight multiplies across a
-    // whole class are contiguous.
-    const std::vector<float>& phases_;
-    const float* phase(int row, int channel, int s) const {
-        return phases_.data() +
-               ((std::size_t(row) * 3 + std::size_t(channel)) * std::size_t(step_) + std::size_t(s)) *
-                   PreparedLevel::phase_stride(per_class_);
-    }
+    std::vector<Geometry> geometries_;  // [0]: the level; then merged versions
+    std::vector<int> row_geometry_;     // per level row: the geometry it is read with
 };
 
 // x[d] = x[d]^n for x[d] >= 0 (0 stays 0, also for n = 0: only r.w > 0 counts).

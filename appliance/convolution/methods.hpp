@@ -62,6 +62,9 @@ struct ConeSettings {
     double cutoff_energy = 1e-2;  // lobe energy dropped outside the first cone
     double texel_tolerance = 1e-2;  // bound on the cut-off error of each output texel
     double bright_tolerance = 1e-4; // relative size of a bright texel's term that may be dropped
+    // Rows near the poles may read merged columns whose azimuthal arc stays
+    // within this many radians (0: never; see PolarColumns in lobe_sum.hpp).
+    double max_texel_arc = 0;
 };
 struct ConeStats {
     long long refined_texels = 0;  // texels summed again with a wider cone

@@ -5,6 +5,7 @@
 #include <cmath>
 #include <limits>
 
+#include "appliance/convolution/lobe_sum.hpp"
 #include "appliance/convolution/sh.hpp"
 #include "appliance/core/equirect.hpp"
 
@@ -36,8 +37,16 @@ Size lobe_output_size(double n, double tolerance, Size input, const PlannerModel
     return {2 * height, height};
 }
 
-ConeSettings cone_settings(double tolerance, const PlannerModel& model) {
+double merged_arc_budget(double n, double tolerance, const PlannerModel& model) {
+    const double n_eff = std::max(n, model.level_min_shininess);
+    const double worst = model.level_worst_share * tolerance / (model.level_worst_coefficient * n_eff);
+    const double rms = model.level_share * tolerance / (model.level_rms_coefficient * n_eff);
+    return std::sqrt(std::min(worst, rms));
+}
+
+ConeSettings cone_settings(double tolerance, double n, const PlannerModel& model) {
     ConeSettings s;
+    s.max_texel_arc = merged_arc_budget(n, tolerance, model);
     s.cutoff_energy = model.first_cut_energy * tolerance;
     s.texel_tolerance = model.texel_cut_share * tolerance;
     s.bright_tolerance = 1e-3 * tolerance;
@@ -80,7 +89,7 @@ MapPlan plan_map(const MapRequest& request, const Options& options, const Enviro
         plan.cutoff_cos = 0.0;
         plan.predicted_cost = lobe_cost(out, env.input, 0.0);
     };
-    const ConeSettings cone = cone_settings(tau, model);
+    const ConeSettings cone = cone_settings(tau, n, model);
     const double cut_cos = std::pow(cone.cutoff_energy, 1.0 / (n + 1.0));
     const auto plan_cone = [&] {
         // Coarsest level whose predicted error fits the level share of tau.
@@ -95,6 +104,20 @@ MapPlan plan_map(const MapRequest& request, const Options& options, const Enviro
             level = k;
             level_error = model.level_rms_coefficient * h2n;
         }
+        // Rows near the poles that read merged columns: a texel as wide as the
+        // widest merged one, by the same model.
+        const Size ls = env.cone_levels[std::size_t(level)];
+        double widest = 0;
+        for (int j = 0; j < ls.height; ++j) {
+            const int m = polar_merge_factor(j, ls.width, ls.height, out.width, cone.max_texel_arc);
+            if (m > 1) {
+                const double edge = std::clamp(kPi / 2, j * kPi / ls.height, (j + 1) * kPi / ls.height);
+                widest = std::max(widest, m * std::sin(edge) * kTwoPi / ls.width);
+            }
+        }
+        const double h_level = level > 0 ? texel_spacing(ls) : 0.0;
+        if (widest > h_level)
+            level_error = model.level_rms_coefficient * widest * widest * std::max(n, model.level_min_shininess);
         plan.method = Method::Cone;
         plan.input_level = level;
         plan.input_size = env.cone_levels[std::size_t(level)];

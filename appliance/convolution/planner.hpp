@@ -87,8 +87,13 @@ Size lobe_output_size(double shininess, double tolerance, Size input, const Plan
 MapPlan plan_map(const MapRequest& request, const Options& options, const EnvironmentShape& env,
                  const PlannerModel& model);
 
-// ConeSettings that realise a cone plan.
-ConeSettings cone_settings(double tolerance, const PlannerModel& model);
+// The widest texel (radians of arc) that the level error model accepts for
+// a lobe of shininess n: the arc up to which rows near the poles may read
+// merged columns.
+double merged_arc_budget(double shininess, double tolerance, const PlannerModel& model);
+
+// ConeSettings that realise a cone plan for shininess n.
+ConeSettings cone_settings(double tolerance, double shininess, const PlannerModel& model);
 
 // SH order for shininess n whose kernel tail is negligible against tolerance.
 int sh_order_for(double shininess, double tolerance);
