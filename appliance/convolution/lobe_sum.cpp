@@ -151,22 +151,23 @@ const PreparedLevel& PreparedLevel::merged_columns(int m) const {
     return *slot;
 }
 
-const std::vector<float>& PreparedLevel::phases(int step, int per_class) const {
+const UninitVector<float>& PreparedLevel::phases(int step, int per_class) const {
     std::lock_guard lock(phases_mutex_);
-    std::vector<float>& p = phases_[{step, per_class}];
+    UninitVector<float>& p = phases_[{step, per_class}];
     if (!p.empty()) return p;
     const std::size_t span = 2 * std::size_t(per_class);
     const std::size_t stride = phase_stride(per_class);
-    p.assign(std::size_t(height_) * 3 * std::size_t(step) * stride, 0.0f);
+    const std::size_t w = std::size_t(width_), st = std::size_t(step);
+    p.resize(std::size_t(height_) * 3 * st * stride);
     parallel_for(height_, threads_, [&](int j) {
         for (int c = 0; c < 3; ++c) {
             const float* src = plane(j, c);
-            for (int ph = 0; ph < step; ++ph) {
-                float* dst = p.data() + ((std::size_t(j) * 3 + std::size_t(c)) * std::size_t(step) + std::size_t(ph)) * stride;
-                // t * step + ph < 2 W: one wrap at most (no division per texel).
-                std::size_t idx = std::size_t(ph);
-                for (std::size_t t = 0; t < span; ++t, idx += std::size_t(step))
-                    dst[t] = src[idx < std::size_t(width_) ? idx : idx - std::size_t(width_)];
+            for (std::size_t ph = 0; ph < st; ++ph) {
+                float* dst = p.data() + ((std::size_t(j) * 3 + std::size_t(c)) * st + ph) * stride;
+                // t * step + ph < 2 W wraps once, at t = wrap: two plain strided loops.
+                const std::size_t wrap = std::min(span, (w - ph + st - 1) / st);
+                for (std::size_t t = 0; t < wrap; ++t) dst[t] = src[t * st + ph];
+                for (std::size_t t = wrap; t < span; ++t) dst[t] = src[t * st + ph - w];
             }
         }
     });
@@ -180,7 +181,7 @@ CapMax::CapMax(const PreparedLevel& level, double radius, int threads)
     blocks_ = (height_ + block_rows_ - 1) / block_rows_;
     levels_ = 1;
     while ((1 << levels_) <= width_) ++levels_;
-    table_.resize(std::size_t(levels_) * std::size_t(blocks_) * std::size_t(width_));
+    table_.resize(std::size_t(levels_) * std::size_t(blocks_) * std::size_t(width_));  // all written below
     parallel_for(blocks_, threads, [&](int b) {
         float* block = table_.data() + std::size_t(b) * std::size_t(width_);
         std::fill(block, block + width_, 0.0f);

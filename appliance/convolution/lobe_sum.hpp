@@ -67,7 +67,7 @@ private:
     double radius_;
     // table_[(k * blocks_ + b) * width_ + i]: max over the rows of block b and
     // the columns i, i+1, ..., i + 2^k - 1 (cyclic).
-    std::vector<float> table_;
+    UninitVector<float> table_;  // every value written by the constructor
     std::vector<float> block_max_;  // per block: the largest value of its rows
     float range_max(int block, int first, int count) const;
 };
@@ -95,7 +95,7 @@ public:
     // j holds L[(t * step + s) mod W] for t in [0, 2 * per_class), and phase rows
     // are phase_stride(per_class) floats apart. Built on first use and kept,
     // since every map of one output width needs the same layout.
-    const std::vector<float>& phases(int step, int per_class) const;
+    const UninitVector<float>& phases(int step, int per_class) const;
     // The level with every m adjacent columns averaged (m divides the width):
     // texels of one row share a solid angle, so the average is energy
     // preserving. Built on first use and kept.
@@ -108,11 +108,12 @@ public:
 private:
     int width_, height_, threads_;
     std::vector<double> cos_t_, sin_t_, omega_;
-    std::vector<float> planes_;
+    UninitVector<float> planes_;  // every value written by the constructor
     float max_value_ = 0;
     double power_ = 0;
     mutable std::mutex phases_mutex_;  // guards the lazily built layouts below
-    mutable std::map<std::pair<int, int>, std::vector<float>> phases_;
+    // The padding past each phase row's 2 * per_class values is never read.
+    mutable std::map<std::pair<int, int>, UninitVector<float>> phases_;
     mutable std::mutex merged_mutex_;
     mutable std::map<int, std::unique_ptr<PreparedLevel>> merged_;
 };
@@ -199,7 +200,7 @@ private:
         // The rows split by column phase for this output width
         // (PreparedLevel::phases): the texels that one weight multiplies across a
         // whole class are contiguous.
-        const std::vector<float>* phases = nullptr;
+        const UninitVector<float>* phases = nullptr;
     };
     Geometry make_geometry(const PreparedLevel& level) const;
     const float* phase(const Geometry& g, int row, int s) const {
