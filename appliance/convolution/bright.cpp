@@ -23,10 +23,7 @@ BrightSplit split_bright(const HdrImage& input, double contrast, int max_count, 
     // threshold is known) the texels above it; rows in parallel, merged in order.
     std::vector<double> row_power(std::size_t(h), 0.0);
     parallel_for(h, threads, [&](int j) {
-        const float* row = input.row(j);
-        double s = 0;
-        for (int i = 0; i < w; ++i) s += std::max({row[3 * i], row[3 * i + 1], row[3 * i + 2]});
-        row_power[std::size_t(j)] = s * omega[std::size_t(j)];
+        row_power[std::size_t(j)] = max_channel_row_sum(input.row(j), w) * omega[std::size_t(j)];
     });
     double power = 0;
     for (double p : row_power) power += p;

@@ -37,6 +37,8 @@ class PreparedLevel;
 // sum over texels of max(R, G, B) * dOmega: an upper bound on every channel's
 // radiant power (its solid-angle mean is this / 4 pi).
 double max_channel_power(const HdrImage& image);
+// sum over the texels of one interleaved RGB row of max(R, G, B).
+double max_channel_row_sum(const float* rgb, int width);
 
 // Largest radiance (any channel) of a level over spherical caps of one radius:
 // an upper bound, since every texel that meets the cap counts. Rows are grouped
