@@ -162,20 +162,30 @@ const UninitVector<float>& PreparedLevel::phases(int step, int per_class) const 
     std::lock_guard lock(phases_mutex_);
     UninitVector<float>& p = phases_[{step, per_class}];
     if (!p.empty()) return p;
-    const std::size_t span = 2 * std::size_t(per_class);
+    // step * per_class = width, so the first per_class values of a phase row
+    // never wrap and the second per_class values repeat them.
+    const std::size_t half = std::size_t(per_class);
     const std::size_t stride = phase_stride(per_class);
-    const std::size_t w = std::size_t(width_), st = std::size_t(step);
+    const std::size_t st = std::size_t(step);
     p.resize(std::size_t(height_) * 3 * st * stride);
     parallel_for(height_, threads_, [&](int j) {
-        for (int c = 0; c < 3; ++c) {
-            const float* src = plane(j, c);
-            for (std::size_t ph = 0; ph < st; ++ph) {
-                float* dst = p.data() + ((std::size_t(j) * 3 + std::size_t(c)) * st + ph) * stride;
-                // t * step + ph < 2 W wraps once, at t = wrap: two plain strided loops.
-                const std::size_t wrap = std::min(span, (w - ph + st - 1) / st);
-                for (std::size_t t = 0; t < wrap; ++t) dst[t] = src[t * st + ph];
-                for (std::size_t t = wrap; t < span; ++t) dst[t] = src[t * st + ph - w];
+        for (std::size_t c = 0; c < 3; ++c) {
+            const float* src = plane(j, int(c));
+            float* row = p.data() + (std::size_t(j) * 3 + c) * st * stride;  // phase 0 of this channel
+            if (st == 1) {
+                std::copy_n(src, half, row);
+            } else if (st == 2) {  // one pass for both phases (a deinterleave)
+                float* even = row;
+                float* odd = row + stride;
+                for (std::size_t t = 0; t < half; ++t) {
+                    even[t] = src[2 * t];
+                    odd[t] = src[2 * t + 1];
+                }
+            } else {
+                for (std::size_t ph = 0; ph < st; ++ph)
+                    for (std::size_t t = 0; t < half; ++t) row[ph * stride + t] = src[t * st + ph];
             }
+            for (std::size_t ph = 0; ph < st; ++ph) std::copy_n(row + ph * stride, half, row + ph * stride + half);
         }
     });
     return p;
