@@ -89,12 +89,18 @@ public:
         }
         return *remainder_sh_;
     }
+    // Normalised Legendre recurrences for at least `order` bands (one table
+    // serves every order up to its own).
+    const ShLegendre& legendre(int order) {
+        if (!legendre_ || legendre_->order() < order) legendre_ = std::make_unique<ShLegendre>(order);
+        return *legendre_;
+    }
     // The all-ones projection of level k's grid, at least `order` bands.
     const std::vector<double>& remainder_ones(int k, int order) {
         std::vector<double>& ones = remainder_ones_[k];
         if (int(ones.size()) < order) {
             const HdrImage& level = cone_pyramid().level(k);
-            ones = sh_ones_projection({level.width(), level.height()}, order);
+            ones = sh_ones_projection({level.width(), level.height()}, order, legendre(order));
         }
         return ones;
     }
@@ -134,6 +140,7 @@ private:
     std::unique_ptr<ShCoefficients> remainder_sh_;
     std::map<int, double> remainder_means_;
     std::map<int, std::vector<double>> remainder_ones_;
+    std::unique_ptr<ShLegendre> legendre_;
     int remainder_sh_level_ = -1;
 };
 
@@ -195,6 +202,7 @@ void run_sh_split(MapResult& r, const MapPlan& cone, SharedInputs& shared, int s
     const int level = r.plan.input_level;
     const ShSplitResult split =
         sh_split_convolve(shared.remainder_sh(level, split_order, threads), shared.remainder_ones(level, split_order),
+                          shared.legendre(split_order),
                           shared.remainder_mean(level), shared.bright().texels, n, r.plan.sh_order, out,
                           settings.texel_tolerance, settings.bright_tolerance, threads);
     r.plan.bright_texels = int(shared.bright().texels.size());

@@ -82,6 +82,7 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
                        const RowProgress& progress, ConeStats* stats, const std::vector<int>& only_rows = {});
 
 struct ShCoefficients;
+class ShLegendre;
 
 // `sh`: the first `order` bands of `coefficients` (projected from a map of size
 // `input`) convolved with the Phong kernel of shininess n, divided by the
@@ -103,20 +104,21 @@ struct ShSplitResult {
     long long clamped = 0;
 };
 ShSplitResult sh_split_convolve(const ShCoefficients& remainder, const std::vector<double>& remainder_ones,
-                                double remainder_mean,
+                                const ShLegendre& legendre, double remainder_mean,
                                 const std::vector<BrightTexel>& bright, double shininess, int order,
                                 Size out, double texel_tolerance, double bright_tolerance, int threads);
 
 // The zonal coefficients c_l0, l < order, of the all-ones map projected from a
 // map of size `input` (texel solid angle quadrature; the m > 0 sums vanish).
 // One per input size serves every map: the normaliser below reads its first
-// `order` entries.
-std::vector<double> sh_ones_projection(Size input, int order);
+// `order` entries. legendre: any table of at least `order` bands (the
+// recurrence coefficients do not depend on its order, so one serves all maps).
+std::vector<double> sh_ones_projection(Size input, int order, const ShLegendre& legendre);
 // Per output row: the SH result for the all-ones map (ones from
 // sh_ones_projection, at least `order` long) with this kernel and order. An SH
 // result divided by it has the conventions' discrete normalisation.
 std::vector<double> sh_lobe_normaliser(const std::vector<double>& ones, int order, const std::vector<double>& kernel,
-                                       Size out);
+                                       Size out, const ShLegendre& legendre);
 
 // sum_{l >= order} |k_l| (2l + 1) for the Phong kernel k_l of shininess n.
 double sh_truncation_tail(double shininess, int order);

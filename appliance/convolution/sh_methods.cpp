@@ -25,11 +25,12 @@
 
 namespace glint::convolution {
 
-std::vector<double> sh_ones_projection(Size input, int order) {
-    const ShLegendre legendre(order);
+std::vector<double> sh_ones_projection(Size input, int order, const ShLegendre& legendre) {
+    // Only column m = 0: \bar P_l0 for l < legendre.order() (the recurrence
+    // coefficients do not depend on the order, so a longer table serves).
+    const std::size_t table = std::size_t(legendre.order());
     const std::vector<double> w = sh_row_weights(input.width, input.height, ShQuadrature::TexelSolidAngle);
-    std::vector<double> c(static_cast<std::size_t>(order), 0.0), p(static_cast<std::size_t>(order));
-    std::vector<double> diag(static_cast<std::size_t>(order));
+    std::vector<double> c(static_cast<std::size_t>(order), 0.0), p(table), diag(table);
     for (int j = 0; j < input.height; ++j) {
         const double t = row_theta(j, input.height);
         legendre.diagonal(std::sin(t), diag.data());
@@ -40,10 +41,10 @@ std::vector<double> sh_ones_projection(Size input, int order) {
 }
 
 std::vector<double> sh_lobe_normaliser(const std::vector<double>& ones, int order, const std::vector<double>& kernel,
-                                       Size out) {
+                                       Size out, const ShLegendre& legendre) {
     // The convolution of the all-ones projection, per output row.
-    const ShLegendre legendre(order);
-    std::vector<double> p(static_cast<std::size_t>(order)), diag(static_cast<std::size_t>(order));
+    const std::size_t table = std::size_t(legendre.order());
+    std::vector<double> p(table), diag(table);
     std::vector<double> norm(std::size_t(out.height));
     for (int j = 0; j < out.height; ++j) {
         const double t = row_theta(j, out.height);
@@ -81,7 +82,9 @@ HdrImage sh_convolve(const ShCoefficients& coefficients, Size input, double n, i
     sh_evaluate_rows(coefficients, order, kernel, out.width, out.height, threads, [&](int j, const double* row) {
         std::copy(row, row + 3 * std::size_t(out.width), e.data() + 3 * std::size_t(j) * std::size_t(out.width));
     });
-    const std::vector<double> norm = sh_lobe_normaliser(sh_ones_projection(input, order), order, kernel, out);
+    const ShLegendre legendre(order);
+    const std::vector<double> norm =
+        sh_lobe_normaliser(sh_ones_projection(input, order, legendre), order, kernel, out, legendre);
     HdrImage image(out.width, out.height);
     for (std::size_t v = 0; v < e.size(); ++v) {
         const double x = e[v] / norm[v / (3 * std::size_t(out.width))];
@@ -92,12 +95,12 @@ HdrImage sh_convolve(const ShCoefficients& coefficients, Size input, double n, i
 }
 
 ShSplitResult sh_split_convolve(const ShCoefficients& remainder, const std::vector<double>& remainder_ones,
-                                double remainder_mean,
+                                const ShLegendre& legendre, double remainder_mean,
                                 const std::vector<BrightTexel>& bright, double n, int order,
                                 Size out, double texel_tolerance, double bright_tolerance,
                                 int threads) {
     const std::vector<double> kernel = phong_sh_kernel(n, order);
-    const std::vector<double> norm = sh_lobe_normaliser(remainder_ones, order, kernel, out);
+    const std::vector<double> norm = sh_lobe_normaliser(remainder_ones, order, kernel, out, legendre);
     const std::size_t row_values = 3 * std::size_t(out.width);
 
     // The SH part row by row (every value written), with each row's smallest
