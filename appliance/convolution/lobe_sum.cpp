@@ -137,24 +137,33 @@ LobeSummer::LobeSummer(const PreparedLevel& level, int out_w, int out_h, double 
     }
 }
 
+PreparedLevel::PreparedLevel(const PreparedLevel& parent, int m)
+    : width_(parent.width_ / m), height_(parent.height_), threads_(parent.threads_),
+      cos_t_(parent.cos_t_), sin_t_(parent.sin_t_), omega_(row_solid_angles(width_, height_)),
+      max_value_(0), power_(parent.power_) {  // an upper bound: averaging cannot raise max(R, G, B) power
+    planes_.resize(std::size_t(height_) * 3 * std::size_t(width_));
+    std::vector<float> row_max(std::size_t(height_), 0.0f);
+    parallel_for(height_, threads_, [&](int j) {
+        float m_row = 0.0f;
+        for (int c = 0; c < 3; ++c) {
+            const float* src = parent.plane(j, c);
+            float* dst = planes_.data() + (std::size_t(j) * 3 + std::size_t(c)) * std::size_t(width_);
+            for (int i = 0; i < width_; ++i) {
+                double sum = 0;
+                for (int k = 0; k < m; ++k) sum += double(src[i * m + k]);
+                dst[i] = float(sum / m);
+                m_row = std::max(m_row, dst[i]);
+            }
+        }
+        row_max[std::size_t(j)] = m_row;
+    });
+    for (float v : row_max) max_value_ = std::max(max_value_, v);
+}
+
 const PreparedLevel& PreparedLevel::merged_columns(int m) const {
     std::lock_guard lock(merged_mutex_);
     std::unique_ptr<PreparedLevel>& slot = merged_[m];
-    if (slot) return *slot;
-    const int mw = width_ / m;
-    HdrImage merged(mw, height_);
-    parallel_for(height_, threads_, [&](int j) {
-        float* dst = merged.row(j);
-        for (int c = 0; c < 3; ++c) {
-            const float* src = plane(j, c);
-            for (int i = 0; i < mw; ++i) {
-                double sum = 0;
-                for (int k = 0; k < m; ++k) sum += double(src[i * m + k]);
-                dst[3 * i + c] = float(sum / m);
-            }
-        }
-    });
-    slot = std::make_unique<PreparedLevel>(merged, threads_);
+    if (!slot) slot = std::make_unique<PreparedLevel>(*this, m);
     return *slot;
 }
 

@@ -80,6 +80,8 @@ class PreparedLevel {
 public:
     // threads: for the layout work here and in phases().
     explicit PreparedLevel(const HdrImage& level, int threads = 1);
+    // `parent` with every m adjacent columns averaged (see merged_columns).
+    PreparedLevel(const PreparedLevel& parent, int m);
     int width() const { return width_; }
     int height() const { return height_; }
     double cos_theta(int j) const { return cos_t_[std::size_t(j)]; }
