@@ -12,6 +12,7 @@
 //   E - E' = W_out (L_out - E') / (W_in + W_out)  =>  |E - E'| <= e max(Lmax - E', E').
 #include <algorithm>
 #include <cmath>
+#include <memory>
 
 #include "appliance/convolution/methods.hpp"
 #include "appliance/core/equirect.hpp"
@@ -20,23 +21,68 @@
 namespace glint::convolution {
 
 
+namespace {
+
+// The cone's sums on the CPU: LobeSummer with float runs and merged polar columns.
+class CpuConeSums final : public ConeSumsBackend {
+public:
+    CpuConeSums(const PreparedLevel& level, Size out, double n, const ConeSettings& settings, int threads)
+        : summer_(level, out.width, out.height, n, Accumulation::FloatRuns, settings.max_texel_arc),
+          threads_(threads) {}
+
+    LobeSums first_pass(const std::vector<int>& rows, double c0, const RowProgress& progress) override {
+        LobeSums sums = summer_.make_sums();
+        parallel_for(int(rows.size()), threads_, [&](int k) {
+            summer_.sum_row(rows[std::size_t(k)], c0, sums);
+            if (progress) progress(1);
+        });
+        return sums;
+    }
+    LobeSums annulus(const std::vector<int>& rows, const std::vector<LobeSummer::ColumnRuns>& runs,
+                     const std::vector<double>& cut, double c_inner) override {
+        LobeSums sums = summer_.make_sums();
+        parallel_for(int(rows.size()), threads_, [&](int k) {
+            summer_.sum_row(rows[std::size_t(k)], cut[std::size_t(k)], sums, &runs[std::size_t(k)], c_inner);
+        });
+        return sums;
+    }
+    void bright(const BrightScatter& scatter, const LobeSums& sums, const std::vector<int>& rows,
+                UninitVector<double>& nb) override {
+        const std::size_t row_values = std::size_t(sums.out_w) * 3;
+        parallel_for(int(rows.size()), threads_, [&](int k) {
+            const int row = rows[std::size_t(k)];
+            double* nb_row = nb.data() + std::size_t(row) * row_values;
+            std::fill(nb_row, nb_row + row_values, 0.0);
+            scatter.add_row(row, sums.cmax.data() + std::size_t(row) * std::size_t(sums.classes), sums.classes,
+                            nb_row);
+        });
+    }
+
+private:
+    LobeSummer summer_;
+    int threads_;
+};
+
+}  // namespace
+
 HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel>& bright,
                        double n, Size out, const ConeSettings& settings, int threads,
-                       const RowProgress& progress, ConeStats* stats, const std::vector<int>& only_rows) {
+                       const RowProgress& progress, ConeStats* stats, const std::vector<int>& only_rows,
+                       ConeSumsBackend* backend) {
     // The output rows computed: all, or only_rows (the others stay 0).
     std::vector<int> rows = only_rows;
     if (rows.empty())
         for (int row = 0; row < out.height; ++row) rows.push_back(row);
-    const LobeSummer summer(level, out.width, out.height, n, Accumulation::FloatRuns, settings.max_texel_arc);
-    LobeSums sums = summer.make_sums();
+    std::unique_ptr<CpuConeSums> cpu;
+    if (!backend) {
+        cpu = std::make_unique<CpuConeSums>(level, out, n, settings, threads);
+        backend = cpu.get();
+    }
     const auto cut_cos = [n](double energy) {
         return energy > 0 ? std::pow(std::min(1.0, energy), 1.0 / (n + 1.0)) : 0.0;
     };
     const double c0 = cut_cos(settings.cutoff_energy);
-    parallel_for(int(rows.size()), threads, [&](int k) {
-        summer.sum_row(rows[std::size_t(k)], c0, sums);
-        if (progress) progress(1);
-    });
+    LobeSums sums = backend->first_pass(rows, c0, progress);
 
     const std::size_t texels = std::size_t(out.width) * std::size_t(out.height);
     // Texels whose cut-off bound fails are summed again, with the cone their row
@@ -105,13 +151,7 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
         const BrightScatter scatter(bright, n, out, std::isfinite(floor_value) ? floor_value : 0.0,
                                     settings.bright_tolerance);
         nb.resize(3 * texels);
-        parallel_for(int(rows.size()), threads, [&](int k) {
-            const int row = rows[std::size_t(k)];
-            double* nb_row = nb.data() + std::size_t(row) * std::size_t(out.width) * 3;
-            std::fill(nb_row, nb_row + std::size_t(out.width) * 3, 0.0);
-            scatter.add_row(row, sums.cmax.data() + std::size_t(row) * std::size_t(sums.classes), sums.classes,
-                            nb_row);
-        });
+        backend->bright(scatter, sums, rows, nb);
     }
 
     // Widen the cone of the texels whose cut-off bound is not met. Outside the
@@ -171,10 +211,11 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
             wide_cut[std::size_t(row)] = cut_cos(row_need[std::size_t(row)]);
         }
     if (!refine_rows.empty()) {
-        wide = summer.make_sums();
-        parallel_for(int(refine_rows.size()), threads, [&](int k) {
-            const int row = refine_rows[std::size_t(k)];
-            LobeSummer::ColumnRuns runs;
+        std::vector<LobeSummer::ColumnRuns> runs(refine_rows.size());
+        std::vector<double> cuts(refine_rows.size());
+        for (std::size_t k = 0; k < refine_rows.size(); ++k) {
+            const int row = refine_rows[k];
+            cuts[k] = wide_cut[std::size_t(row)];
             const char* flags = widened.data() + std::size_t(row) * std::size_t(out.width);
             for (int i = 0; i < out.width;) {
                 if (!flags[i]) {
@@ -183,12 +224,15 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
                 }
                 int end = i;
                 while (end < out.width && flags[end]) ++end;
-                runs.emplace_back(i, end);
+                runs[k].emplace_back(i, end);
                 i = end;
             }
-            // Only the annulus between the first cone and the wider one is summed;
-            // the first pass's sums complete it.
-            summer.sum_row(row, wide_cut[std::size_t(row)], wide, &runs, c0);
+        }
+        // Only the annulus between the first cone and the wider one is summed;
+        // the first pass's sums complete it.
+        wide = backend->annulus(refine_rows, runs, cuts, c0);
+        parallel_for(int(refine_rows.size()), threads, [&](int k) {
+            const int row = refine_rows[std::size_t(k)];
             for (int cls = 0; cls < wide.classes; ++cls) {
                 const std::size_t rc = std::size_t(row) * std::size_t(wide.classes) + std::size_t(cls);
                 wide.den[rc] += sums.den[rc];

@@ -50,6 +50,10 @@ public:
     // `classes` values (column i is class i % classes), ones for sums
     // normalised to the largest weight 1. Thread-safe across rows.
     void add_row(int row, const double* cmax_row, int classes, double* nb_row) const;
+    const std::vector<BrightTexel>& texels() const { return bright_; }
+    // Per bright texel: the cosine below which its term is dropped (> 1: never used).
+    const std::vector<double>& min_cos() const { return min_cos_; }
+    double shininess() const { return n_; }
 
 private:
     const std::vector<BrightTexel>& bright_;
@@ -77,9 +81,29 @@ struct ConeStats {
 //   Lmax: the largest remainder radiance near the texel, see cone.cpp)
 // exceeds texel_tolerance * E' is summed again with a cone that meets it.
 // With only_rows, just those output rows are computed (the rest of the image is 0).
+// Where the cone's sums are computed: the CPU (the default, LobeSummer) or
+// the GPU engine (gpu/). The cone's logic around them (bright cut-offs, the
+// per-texel bound, widening, normalisation) is the same for both.
+class ConeSumsBackend {
+public:
+    virtual ~ConeSumsBackend() = default;
+    // The lobe sums of `rows` inside the cone cos >= c0 (numerators for every
+    // texel of those rows; denominators and cmax per row and class).
+    virtual LobeSums first_pass(const std::vector<int>& rows, double c0, const RowProgress& progress) = 0;
+    // For rows[k]: the sums of the texels in runs[k] over the annulus
+    // cut[k] <= cos < c_inner (the first pass's cone, with its arithmetic).
+    virtual LobeSums annulus(const std::vector<int>& rows, const std::vector<LobeSummer::ColumnRuns>& runs,
+                             const std::vector<double>& cut, double c_inner) = 0;
+    // Writes the bright terms of `rows` into nb (3 per texel; the rows'
+    // values are overwritten), relative to the first pass's cmax.
+    virtual void bright(const BrightScatter& scatter, const LobeSums& sums, const std::vector<int>& rows,
+                        UninitVector<double>& nb) = 0;
+};
+
 HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel>& bright,
                        double shininess, Size out, const ConeSettings& settings, int threads,
-                       const RowProgress& progress, ConeStats* stats, const std::vector<int>& only_rows = {});
+                       const RowProgress& progress, ConeStats* stats, const std::vector<int>& only_rows = {},
+                       ConeSumsBackend* backend = nullptr);
 
 struct ShCoefficients;
 class ShLegendre;

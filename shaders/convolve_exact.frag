@@ -1,0 +1,81 @@
+#version 300 es
+// `exact` on the GPU: every input texel for every output texel, for up to 8
+// maps of one output size at once (one render target each). Weights relative
+// to the largest cosine, in log space (spec/conventions.md: never 0/0).
+// Float accumulation in two levels (per input row, then rows), so the sums
+// keep ~1e-6 relative accuracy on a 1024x512 input.
+precision highp float;
+precision highp int;
+#include "equirect.glsl"
+
+uniform highp sampler2D u_input;  // RGBA32F, the input map (RGB used)
+uniform ivec2 u_out_size;
+uniform int u_maps;               // 1 .. 8
+uniform float u_n[8];             // shininess of each map (1 for irradiance)
+
+layout(location = 0) out vec4 o_map0;
+layout(location = 1) out vec4 o_map1;
+layout(location = 2) out vec4 o_map2;
+layout(location = 3) out vec4 o_map3;
+layout(location = 4) out vec4 o_map4;
+layout(location = 5) out vec4 o_map5;
+layout(location = 6) out vec4 o_map6;
+layout(location = 7) out vec4 o_map7;
+
+void main() {
+    ivec2 in_size = textureSize(u_input, 0);
+    int col = int(gl_FragCoord.x), row = int(gl_FragCoord.y);
+    float tr = row_theta(row, u_out_size.y);
+    float pr = column_phi(col, u_out_size.x);
+    float str = sin(tr);
+    // The largest cosine to any input texel centre: the nearest column offset
+    // on every row (as LobeSummer::cmax).
+    float x = (float(col) + 0.5) * float(in_size.x) / float(u_out_size.x) - 0.5;
+    float f = fract(x);
+    float s_near = sin(0.5 * TWO_PI / float(in_size.x) * min(f, 1.0 - f));
+    float x_min = 2.0;
+    for (int j = 0; j < in_size.y; ++j) {
+        float tk = row_theta(j, in_size.y);
+        x_min = min(x_min, one_minus_cos(sin(0.5 * (tr - tk)), str, sin(tk), s_near));
+    }
+    float log_cmax = log1m(x_min);
+
+    vec3 num[8];
+    float den[8];
+    for (int k = 0; k < 8; ++k) { num[k] = vec3(0.0); den[k] = 0.0; }
+    float half_dphi = 0.5 * PI / float(in_size.y);
+    for (int j = 0; j < in_size.y; ++j) {
+        float tk = row_theta(j, in_size.y);
+        float sdt = sin(0.5 * (tr - tk)), stk = sin(tk);
+        // dOmega_j = (2 pi / W) (cos(pi j / H) - cos(pi (j + 1) / H)), without cancellation.
+        float omega = TWO_PI / float(in_size.x) * 2.0 * sin(tk) * sin(half_dphi);
+        vec3 row_num[8];
+        float row_den[8];
+        for (int k = 0; k < 8; ++k) { row_num[k] = vec3(0.0); row_den[k] = 0.0; }
+        for (int i = 0; i < in_size.x; ++i) {
+            float xk = one_minus_cos(sdt, str, stk, sin(0.5 * (column_phi(i, in_size.x) - pr)));
+            if (xk >= 1.0) continue;  // only texels above the horizon count, also for n = 0
+            vec3 radiance = texelFetch(u_input, ivec2(i, j), 0).rgb;
+            float lw = log1m(xk) - log_cmax;
+            for (int k = 0; k < u_maps; ++k) {
+                float w = exp(u_n[k] * lw);
+                row_num[k] += w * radiance;
+                row_den[k] += w;
+            }
+        }
+        for (int k = 0; k < u_maps; ++k) {
+            num[k] += omega * row_num[k];
+            den[k] += omega * row_den[k];
+        }
+    }
+    vec4 result[8];
+    for (int k = 0; k < 8; ++k) result[k] = den[k] > 0.0 ? vec4(num[k] / den[k], 1.0) : vec4(0.0, 0.0, 0.0, 1.0);
+    o_map0 = result[0];
+    o_map1 = result[1];
+    o_map2 = result[2];
+    o_map3 = result[3];
+    o_map4 = result[4];
+    o_map5 = result[5];
+    o_map6 = result[6];
+    o_map7 = result[7];
+}
