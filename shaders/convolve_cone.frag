@@ -16,6 +16,7 @@ uniform highp isampler2D u_row_merge;  // R32I, level height x 1: merge factor m
 uniform ivec2 u_level_size;            // width and height of the level (unmerged)
 uniform int u_merge_offset[8];         // atlas x offset of the version with m = 2^k
 uniform ivec2 u_out_size;
+uniform int u_classes;                 // output columns col and col + u_classes share their offsets
 uniform float u_n;
 uniform highp sampler2D u_row_x_outer; // R32F, output height x 1: x_outer of each output row
 uniform float u_x_inner;               // terms with x <= x_inner are left out (-1: none)
@@ -36,15 +37,20 @@ void main() {
     }
     int W = u_level_size.x, H = u_level_size.y;
     float tr = row_theta(row, u_out_size.y);
-    float pr = column_phi(col, u_out_size.x);
     float str = sin(tr);
+
+    // Column offsets from this texel's class, so that every texel of a class
+    // computes the same weights bit for bit (the CPU keeps one denominator per
+    // row and class): the centre of column col is at q * step + x_cls.
+    int cls = col % u_classes, q = col / u_classes;
+    int per_class = u_out_size.x / u_classes;
 
     // Largest cosine to any texel centre the sums may read (each row in its own grid).
     float x_min = 2.0;
     for (int j = 0; j < H; ++j) {
         int wm = W / texelFetch(u_row_merge, ivec2(j, 0), 0).r;
-        float xm = (float(col) + 0.5) * float(wm) / float(u_out_size.x) - 0.5;
-        float f = fract(xm);
+        float x_cls = (float(cls) + 0.5) * float(wm) / float(u_out_size.x) - 0.5;
+        float f = x_cls - floor(x_cls);
         float tk = row_theta(j, H);
         x_min = min(x_min, one_minus_cos(sin(0.5 * (tr - tk)), str, sin(tk),
                                          sin(0.5 * TWO_PI / float(wm) * min(f, 1.0 - f))));
@@ -71,8 +77,9 @@ void main() {
         float s = str * stk;
         float half_cols = s > 1e-30 ? 2.0 * asin(min(1.0, sqrt(rest / (2.0 * s)))) * float(wm) / TWO_PI
                                     : float(wm);
-        float xm = (float(col) + 0.5) * float(wm) / float(u_out_size.x) - 0.5;
-        float base = floor(xm), f = xm - base;
+        float x_cls = (float(cls) + 0.5) * float(wm) / float(u_out_size.x) - 0.5;
+        float f = x_cls - floor(x_cls);
+        int base = q * (wm / per_class) + int(floor(x_cls));
         int d0 = int(ceil(f - half_cols)) - 1;
         int d1 = int(floor(f + half_cols)) + 1;
         if (d1 - d0 + 1 > wm) { d0 = int(ceil(f - 0.5 * float(wm))); d1 = d0 + wm - 1; }
@@ -80,9 +87,9 @@ void main() {
         vec3 row_num = vec3(0.0);
         float row_den = 0.0;
         for (int d = d0; d <= d1; ++d) {
-            int c = int(base) + d;
+            int c = base + d;
             c = c - wm * int(floor(float(c) / float(wm)));
-            float xk = one_minus_cos(sdt, str, stk, sin(0.5 * (column_phi(c, wm) - pr)));
+            float xk = one_minus_cos(sdt, str, stk, sin(0.5 * TWO_PI / float(wm) * (float(d) - f)));
             if (xk > x_outer || xk <= u_x_inner || xk >= 1.0) continue;
             float w = exp(u_n * (log1m(xk) - log_cmax));
             row_num += w * texelFetch(u_atlas, ivec2(offset + c, j), 0).rgb;

@@ -10,6 +10,7 @@ precision highp int;
 
 uniform highp sampler2D u_input;  // RGBA32F, the input map (RGB used)
 uniform ivec2 u_out_size;
+uniform int u_classes;            // output columns col and col + u_classes share their offsets
 uniform int u_maps;               // 1 .. 8
 uniform float u_n[8];             // shininess of each map (1 for irradiance)
 
@@ -26,12 +27,16 @@ void main() {
     ivec2 in_size = textureSize(u_input, 0);
     int col = int(gl_FragCoord.x), row = int(gl_FragCoord.y);
     float tr = row_theta(row, u_out_size.y);
-    float pr = column_phi(col, u_out_size.x);
     float str = sin(tr);
+    // Column offsets from the texel's class (see convolve_cone.frag), so the
+    // weights of a class are the same bit for bit.
+    int cls = col % u_classes, q = col / u_classes;
+    int step = in_size.x / (u_out_size.x / u_classes);
+    float x_cls = (float(cls) + 0.5) * float(in_size.x) / float(u_out_size.x) - 0.5;
+    float f = x_cls - floor(x_cls);
+    int base = q * step + int(floor(x_cls));
     // The largest cosine to any input texel centre: the nearest column offset
     // on every row (as LobeSummer::cmax).
-    float x = (float(col) + 0.5) * float(in_size.x) / float(u_out_size.x) - 0.5;
-    float f = fract(x);
     float s_near = sin(0.5 * TWO_PI / float(in_size.x) * min(f, 1.0 - f));
     float x_min = 2.0;
     for (int j = 0; j < in_size.y; ++j) {
@@ -52,9 +57,13 @@ void main() {
         vec3 row_num[8];
         float row_den[8];
         for (int k = 0; k < 8; ++k) { row_num[k] = vec3(0.0); row_den[k] = 0.0; }
-        for (int i = 0; i < in_size.x; ++i) {
-            float xk = one_minus_cos(sdt, str, stk, sin(0.5 * (column_phi(i, in_size.x) - pr)));
+        // Every column, as offsets d from the class's base column.
+        int d0 = -(in_size.x / 2);
+        for (int d = d0; d < d0 + in_size.x; ++d) {
+            float xk = one_minus_cos(sdt, str, stk, sin(0.5 * TWO_PI / float(in_size.x) * (float(d) - f)));
             if (xk >= 1.0) continue;  // only texels above the horizon count, also for n = 0
+            int i = base + d;
+            i = i - in_size.x * int(floor(float(i) / float(in_size.x)));
             vec3 radiance = texelFetch(u_input, ivec2(i, j), 0).rgb;
             float lw = log1m(xk) - log_cmax;
             for (int k = 0; k < u_maps; ++k) {

@@ -33,6 +33,8 @@ struct MapRequest {
     static MapRequest make_phong(double n, const std::string& as_given);
 };
 
+class MethodExecutor;  // methods.hpp: where the sums run (the GPU engine, gpu/gpu_engine.hpp)
+
 struct Options {
     Method method = Method::Auto;
     double tolerance = 0.01;       // weighted relative RMS the planner aims at
@@ -42,6 +44,9 @@ struct Options {
     // Called with (units done, units total) as work completes; may be called from
     // worker threads. Units are output rows.
     std::function<void(long long, long long)> progress;
+    // Runs `exact`, the cone's sums and `mipmap` elsewhere (the GPU engine);
+    // null: on the CPU. Planning and everything else stay the same.
+    MethodExecutor* executor = nullptr;
 };
 
 // What was decided for one map, and why it is expected to be within tolerance.

@@ -7,6 +7,8 @@
 #include <limits>
 #include <cmath>
 #include <map>
+#include <optional>
+#include <tuple>
 #include <memory>
 #include <sstream>
 
@@ -52,6 +54,7 @@ public:
     SharedInputs(const HdrImage& env, const PlannerModel& model, int threads)
         : env_(env), model_(model), threads_(threads) {}
 
+    const HdrImage& full_image() const { return env_; }
     const PreparedLevel& full_level() {
         if (!full_) full_ = std::make_unique<PreparedLevel>(env_, threads_);
         return *full_;
@@ -219,6 +222,44 @@ void run_sh_split(MapResult& r, const MapPlan& cone, SharedInputs& shared, int s
                   std::to_string(cone.input_level);
 }
 
+// `exact` and `mipmap` maps on the executor, grouped by method and output size
+// into passes of up to max_batch() maps; each map's time is its pass's share.
+void run_batches(std::vector<MapResult>& results, SharedInputs& shared, MethodExecutor& executor,
+                 std::vector<std::optional<HdrImage>>& batched, const RowProgress& progress) {
+    std::map<std::tuple<int, int, int>, std::vector<std::size_t>> groups;
+    for (std::size_t k = 0; k < results.size(); ++k) {
+        const MapPlan& p = results[k].plan;
+        if (p.method == Method::Exact || p.method == Method::Mipmap)
+            groups[{int(p.method), p.output_size.width, p.output_size.height}].push_back(k);
+    }
+    for (const auto& [key, members] : groups) {
+        const Size out{std::get<1>(key), std::get<2>(key)};
+        const bool exact = std::get<0>(key) == int(Method::Exact);
+        const std::size_t batch = std::size_t(std::max(1, executor.max_batch()));
+        for (std::size_t first = 0; first < members.size(); first += batch) {
+            const std::vector<std::size_t> part(members.begin() + std::ptrdiff_t(first),
+                                                members.begin() + std::ptrdiff_t(std::min(members.size(), first + batch)));
+            const auto start = std::chrono::steady_clock::now();
+            std::vector<HdrImage> images;
+            if (exact) {
+                std::vector<double> ns;
+                for (std::size_t k : part) ns.push_back(results[k].request.shininess);
+                images = executor.exact(shared.full_image(), ns, out);
+            } else {
+                std::vector<std::pair<bool, double>> maps;
+                for (std::size_t k : part) maps.emplace_back(results[k].request.irradiance, results[k].request.shininess);
+                images = executor.mipmap(shared.mip_pyramid(), maps, out);
+            }
+            const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+            for (std::size_t m = 0; m < part.size(); ++m) {
+                batched[part[m]] = std::move(images[m]);
+                results[part[m]].seconds = seconds / double(part.size());
+                progress(out.height);
+            }
+        }
+    }
+}
+
 void validate(const HdrImage& env, const std::vector<MapRequest>& maps, const Options& options) {
     if (env.empty()) throw InputError("environment map is empty (0 texels)");
     if (env.width() < 2 || env.height() < 2)
@@ -267,8 +308,16 @@ std::vector<MapResult> convolve(const HdrImage& env, const std::vector<MapReques
         if (options.progress) options.progress(d, total_rows);
     };
 
+    // With an executor, `exact` and `mipmap` maps of one output size share passes.
+    std::vector<std::optional<HdrImage>> batched(results.size());
+    if (options.executor) run_batches(results, shared, *options.executor, batched, progress);
+
     for (std::size_t k = 0; k < results.size(); ++k) {
         MapResult& r = results[k];
+        if (batched[k]) {
+            r.image = std::move(*batched[k]);
+            continue;
+        }
         // Identical lobe, size and plan (irradiance and phong_1): compute once.
         for (std::size_t e = 0; e < k; ++e) {
             const MapResult& prev = results[e];
@@ -303,9 +352,12 @@ std::vector<MapResult> convolve(const HdrImage& env, const std::vector<MapReques
             case Method::Cone: {
                 ConeStats stats;
                 r.plan.bright_texels = int(shared.bright().texels.size());
-                r.image = cone_convolve(shared.cone_level(r.plan.input_level), shared.bright().texels,
-                                        n, out, cone_settings(options.tolerance, n, model), threads,
-                                        progress, &stats);
+                const ConeSettings settings = cone_settings(options.tolerance, n, model);
+                const PreparedLevel& level = shared.cone_level(r.plan.input_level);
+                std::unique_ptr<ConeSumsBackend> backend;
+                if (options.executor) backend = options.executor->cone_sums(level, out, n, settings);
+                r.image = cone_convolve(level, shared.bright().texels, n, out, settings, threads, progress, &stats,
+                                        {}, backend.get());
                 r.refined_texels = stats.refined_texels;
                 break;
             }

@@ -100,6 +100,23 @@ public:
                         UninitVector<double>& nb) = 0;
 };
 
+class Pyramid;
+
+// The methods' heavy sums on another device (the GPU engine): `exact` and
+// `mipmap` for several maps of one output size per pass, and the cone's sums.
+class MethodExecutor {
+public:
+    virtual ~MethodExecutor() = default;
+    // Maps per pass (render targets).
+    virtual int max_batch() const = 0;
+    virtual std::vector<HdrImage> exact(const HdrImage& input, const std::vector<double>& shininess, Size out) = 0;
+    // (irradiance, shininess) per map.
+    virtual std::vector<HdrImage> mipmap(const Pyramid& pyramid, const std::vector<std::pair<bool, double>>& maps,
+                                         Size out) = 0;
+    virtual std::unique_ptr<ConeSumsBackend> cone_sums(const PreparedLevel& level, Size out, double shininess,
+                                                       const ConeSettings& settings) = 0;
+};
+
 HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel>& bright,
                        double shininess, Size out, const ConeSettings& settings, int threads,
                        const RowProgress& progress, ConeStats* stats, const std::vector<int>& only_rows = {},

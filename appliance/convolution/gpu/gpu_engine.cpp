@@ -1,0 +1,404 @@
+#include "appliance/convolution/gpu/gpu_engine.hpp"
+
+#include <GLES3/gl3.h>
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <map>
+#include <numeric>
+#include <set>
+
+#include "appliance/convolution/lobe_sum.hpp"
+#include "appliance/convolution/mipmap.hpp"
+#include "appliance/core/errors.hpp"
+
+namespace glint::convolution::gpu {
+
+render::GlTexture make_float_texture(int width, int height, const float* rgba) {
+    render::GlTexture t = render::GlTexture::create();
+    glBindTexture(GL_TEXTURE_2D, t.id());
+    glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA32F, width, height, 0, GL_RGBA, GL_FLOAT, rgba);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+    render::check_gl("creating an RGBA32F texture");
+    return t;
+}
+
+render::GlTexture upload_image(const HdrImage& image) {
+    std::vector<float> rgba(std::size_t(image.width()) * std::size_t(image.height()) * 4);
+    for (int j = 0; j < image.height(); ++j) {
+        const float* src = image.row(j);
+        float* dst = rgba.data() + std::size_t(j) * std::size_t(image.width()) * 4;
+        for (int i = 0; i < image.width(); ++i) {
+            dst[4 * i] = src[3 * i];
+            dst[4 * i + 1] = src[3 * i + 1];
+            dst[4 * i + 2] = src[3 * i + 2];
+            dst[4 * i + 3] = 1.0f;
+        }
+    }
+    return make_float_texture(image.width(), image.height(), rgba.data());
+}
+
+namespace {
+
+// A single-channel texture of one row (per-row parameters of a pass).
+render::GlTexture make_row_texture(const std::vector<float>& values) {
+    render::GlTexture t = render::GlTexture::create();
+    glBindTexture(GL_TEXTURE_2D, t.id());
+    glTexImage2D(GL_TEXTURE_2D, 0, GL_R32F, GLsizei(values.size()), 1, 0, GL_RED, GL_FLOAT, values.data());
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+    render::check_gl("creating an R32F texture");
+    return t;
+}
+
+render::GlTexture make_int_row_texture(const std::vector<int>& values) {
+    render::GlTexture t = render::GlTexture::create();
+    glBindTexture(GL_TEXTURE_2D, t.id());
+    glTexImage2D(GL_TEXTURE_2D, 0, GL_R32I, GLsizei(values.size()), 1, 0, GL_RED_INTEGER, GL_INT, values.data());
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+    render::check_gl("creating an R32I texture");
+    return t;
+}
+
+render::GlTexture make_mask_texture(int width, int height, const std::vector<float>& mask) {
+    render::GlTexture t = render::GlTexture::create();
+    glBindTexture(GL_TEXTURE_2D, t.id());
+    glTexImage2D(GL_TEXTURE_2D, 0, GL_R32F, width, height, 0, GL_RED, GL_FLOAT, mask.data());
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+    render::check_gl("creating a mask texture");
+    return t;
+}
+
+void bind_texture(int unit, GLuint texture) {
+    glActiveTexture(GLenum(GL_TEXTURE0 + unit));
+    glBindTexture(GL_TEXTURE_2D, texture);
+}
+
+HdrImage rgb_of(const std::vector<float>& rgba, int width, int height) {
+    HdrImage image(width, height);
+    for (int j = 0; j < height; ++j) {
+        float* dst = image.row(j);
+        const float* src = rgba.data() + std::size_t(j) * std::size_t(width) * 4;
+        for (int i = 0; i < width; ++i) {
+            dst[3 * i] = src[4 * i];
+            dst[3 * i + 1] = src[4 * i + 1];
+            dst[3 * i + 2] = src[4 * i + 2];
+        }
+    }
+    return image;
+}
+
+// The cone's sums as GPU passes (shaders/convolve_cone.frag, convolve_bright.frag).
+class GpuConeSums final : public ConeSumsBackend {
+public:
+    GpuConeSums(GpuEngine& engine, const PreparedLevel& level, Size out, double n, const ConeSettings& settings)
+        : engine_(engine), out_(out), n_(n), width_(level.width()), height_(level.height()),
+          classes_(out.width / std::gcd(level.width(), out.width)) {
+        // The level and the merged versions its rows read, side by side in one atlas.
+        std::vector<int> merge(static_cast<std::size_t>(height_));
+        std::set<int> factors{1};
+        for (int j = 0; j < height_; ++j) {
+            merge[std::size_t(j)] = polar_merge_factor(j, width_, height_, out.width, settings.max_texel_arc);
+            factors.insert(merge[std::size_t(j)]);
+        }
+        int atlas_width = 0;
+        std::vector<std::pair<int, const PreparedLevel*>> versions;
+        for (int m : factors) {
+            const PreparedLevel* v = m == 1 ? &level : &level.merged_columns(m);
+            int k = 0;
+            while ((1 << k) < m) ++k;
+            merge_offset_[std::size_t(k)] = atlas_width;
+            versions.emplace_back(atlas_width, v);
+            atlas_width += v->width();
+        }
+        std::vector<float> atlas(std::size_t(atlas_width) * std::size_t(height_) * 4, 0.0f);
+        for (const auto& [offset, v] : versions)
+            for (int j = 0; j < height_; ++j)
+                for (int c = 0; c < 3; ++c) {
+                    const float* plane = v->plane(j, c);
+                    for (int i = 0; i < v->width(); ++i)
+                        atlas[(std::size_t(j) * std::size_t(atlas_width) + std::size_t(offset + i)) * 4 + std::size_t(c)] =
+                            plane[i];
+                }
+        atlas_ = make_float_texture(atlas_width, height_, atlas.data());
+        row_merge_ = make_int_row_texture(merge);
+    }
+
+    LobeSums first_pass(const std::vector<int>& rows, double c0, const RowProgress& progress) override {
+        std::vector<float> x_outer(std::size_t(out_.height), -1.0f);
+        for (int row : rows) x_outer[std::size_t(row)] = float(1.0 - c0);
+        first_ = std::make_unique<RenderTargets>(out_.width, out_.height, 2);
+        run_cone(*first_, x_outer, -1.0f, nullptr);
+        const std::vector<float> sums = first_->read(0);
+        const std::vector<float> log_cmax = first_->read(1);
+        LobeSums s = make_sums();
+        for (int row : rows) fill_row(s, row, sums, log_cmax, nullptr);
+        if (progress) progress((long long)rows.size());
+        return s;
+    }
+
+    LobeSums annulus(const std::vector<int>& rows, const std::vector<LobeSummer::ColumnRuns>& runs,
+                     const std::vector<double>& cut, double c_inner) override {
+        std::vector<float> x_outer(std::size_t(out_.height), -1.0f);
+        std::vector<float> mask(std::size_t(out_.width) * std::size_t(out_.height), 0.0f);
+        for (std::size_t k = 0; k < rows.size(); ++k) {
+            x_outer[std::size_t(rows[k])] = float(1.0 - cut[k]);
+            for (const auto& [a, b] : runs[k])
+                for (int i = a; i < b; ++i) mask[std::size_t(rows[k]) * std::size_t(out_.width) + std::size_t(i)] = 1.0f;
+        }
+        const render::GlTexture mask_texture = make_mask_texture(out_.width, out_.height, mask);
+        RenderTargets targets(out_.width, out_.height, 2);
+        run_cone(targets, x_outer, float(1.0 - c_inner), &mask_texture);
+        const std::vector<float> sums = targets.read(0);
+        const std::vector<float> log_cmax = targets.read(1);
+        LobeSums s = make_sums();
+        for (int row : rows) fill_row(s, row, sums, log_cmax, &mask);
+        return s;
+    }
+
+    void bright(const BrightScatter& scatter, const LobeSums&, const std::vector<int>& rows,
+                UninitVector<double>& nb) override {
+        const auto& texels = scatter.texels();
+        std::vector<float> data(texels.size() * 8);
+        for (std::size_t b = 0; b < texels.size(); ++b) {
+            // Row b of a 2-wide texture: (direction, min cosine), (L dOmega, 0).
+            float* d = data.data() + b * 8;
+            d[0] = float(texels[b].x);
+            d[1] = float(texels[b].y);
+            d[2] = float(texels[b].z);
+            d[3] = float(std::min(2.0, scatter.min_cos()[b]));
+            d[4] = float(texels[b].r);
+            d[5] = float(texels[b].g);
+            d[6] = float(texels[b].b);
+            d[7] = 0.0f;
+        }
+        const render::GlTexture bright = make_float_texture(2, int(texels.size()), data.data());
+        RenderTargets targets(out_.width, out_.height, 1);
+        const render::GlProgram& p = engine_.program("convolve_bright.frag");
+        engine_.draw_tiled(p, targets, [&] {
+            bind_texture(0, bright.id());
+            bind_texture(1, first_->texture(1));
+            glUniform1i(p.uniform("u_bright"), 0);
+            glUniform1i(p.uniform("u_log_cmax"), 1);
+            glUniform1i(p.uniform("u_count"), GLint(texels.size()));
+            glUniform1f(p.uniform("u_n"), float(n_));
+            glUniform2i(p.uniform("u_out_size"), out_.width, out_.height);
+        });
+        const std::vector<float> values = targets.read(0);
+        for (int row : rows)
+            for (int i = 0; i < out_.width; ++i) {
+                const std::size_t t = std::size_t(row) * std::size_t(out_.width) + std::size_t(i);
+                for (std::size_t c = 0; c < 3; ++c) nb[3 * t + c] = double(values[4 * t + c]);
+            }
+    }
+
+private:
+    LobeSums make_sums() const {
+        LobeSums s;
+        s.out_w = out_.width;
+        s.out_h = out_.height;
+        s.classes = classes_;
+        s.num.resize(std::size_t(out_.width) * std::size_t(out_.height) * 3);
+        s.den.assign(std::size_t(classes_) * std::size_t(out_.height), 0.0);
+        s.cmax.assign(std::size_t(classes_) * std::size_t(out_.height), 0.0);
+        return s;
+    }
+
+    // One output row of the targets into sums: numerators of every texel (of
+    // the masked ones where a mask is given; the others 0), and per class the
+    // denominator and cmax (the same for every texel of a class).
+    void fill_row(LobeSums& s, int row, const std::vector<float>& sums, const std::vector<float>& log_cmax,
+                  const std::vector<float>* mask) const {
+        for (int i = 0; i < out_.width; ++i) {
+            const std::size_t t = std::size_t(row) * std::size_t(out_.width) + std::size_t(i);
+            const bool on = !mask || (*mask)[t] > 0.5f;
+            for (std::size_t c = 0; c < 3; ++c) s.num[3 * t + c] = on ? double(sums[4 * t + c]) : 0.0;
+            if (!on) continue;
+            const std::size_t rc = std::size_t(row) * std::size_t(classes_) + std::size_t(i % classes_);
+            s.den[rc] = double(sums[4 * t + 3]);
+            s.cmax[rc] = std::exp(double(log_cmax[4 * t]));
+        }
+    }
+
+    void run_cone(const RenderTargets& targets, const std::vector<float>& x_outer, float x_inner,
+                  const render::GlTexture* mask) {
+        const render::GlTexture rows = make_row_texture(x_outer);
+        const render::GlProgram& p = engine_.program("convolve_cone.frag");
+        engine_.draw_tiled(p, targets, [&] {
+            bind_texture(0, atlas_.id());
+            bind_texture(1, row_merge_.id());
+            bind_texture(2, rows.id());
+            bind_texture(3, mask ? mask->id() : rows.id());
+            glUniform1i(p.uniform("u_atlas"), 0);
+            glUniform1i(p.uniform("u_row_merge"), 1);
+            glUniform1i(p.uniform("u_row_x_outer"), 2);
+            glUniform1i(p.uniform("u_mask"), 3);
+            glUniform1i(p.uniform("u_use_mask"), mask ? 1 : 0);
+            glUniform2i(p.uniform("u_level_size"), width_, height_);
+            glUniform1iv(p.uniform("u_merge_offset"), 8, merge_offset_.data());
+            glUniform2i(p.uniform("u_out_size"), out_.width, out_.height);
+            glUniform1i(p.uniform("u_classes"), classes_);
+            glUniform1f(p.uniform("u_n"), float(n_));
+            glUniform1f(p.uniform("u_x_inner"), x_inner);
+        });
+    }
+
+    GpuEngine& engine_;
+    Size out_;
+    double n_;
+    int width_, height_, classes_;
+    std::array<GLint, 8> merge_offset_{};
+    render::GlTexture atlas_, row_merge_;
+    std::unique_ptr<RenderTargets> first_;  // the first pass: sums and log cmax (read by the bright pass)
+};
+
+}  // namespace
+
+RenderTargets::RenderTargets(int width, int height, int count)
+    : width_(width), height_(height), framebuffer_(render::GlFramebuffer::create()) {
+    glBindFramebuffer(GL_FRAMEBUFFER, framebuffer_.id());
+    std::vector<GLenum> buffers;
+    for (int k = 0; k < count; ++k) {
+        textures_.push_back(make_float_texture(width, height, nullptr));
+        glFramebufferTexture2D(GL_FRAMEBUFFER, GLenum(GL_COLOR_ATTACHMENT0 + k), GL_TEXTURE_2D,
+                               textures_.back().id(), 0);
+        buffers.push_back(GLenum(GL_COLOR_ATTACHMENT0 + k));
+    }
+    glDrawBuffers(GLsizei(buffers.size()), buffers.data());
+    const GLenum status = glCheckFramebufferStatus(GL_FRAMEBUFFER);
+    if (status != GL_FRAMEBUFFER_COMPLETE)
+        throw RuntimeError("GPU engine: " + std::to_string(count) + " RGBA32F render targets of " +
+                           std::to_string(width) + "x" + std::to_string(height) + " are not complete (status 0x" +
+                           std::to_string(status) + ")");
+    render::check_gl("creating render targets");
+}
+
+void RenderTargets::bind() const {
+    glBindFramebuffer(GL_FRAMEBUFFER, framebuffer_.id());
+    glViewport(0, 0, width_, height_);
+}
+
+std::vector<float> RenderTargets::read(int k) const {
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, framebuffer_.id());
+    glReadBuffer(GLenum(GL_COLOR_ATTACHMENT0 + k));
+    std::vector<float> rgba(std::size_t(width_) * std::size_t(height_) * 4);
+    glReadPixels(0, 0, width_, height_, GL_RGBA, GL_FLOAT, rgba.data());
+    render::check_gl("reading a render target back");
+    return rgba;
+}
+
+GpuEngine::GpuEngine(const render::GlContext& context, TileGate& gate, double hard_cap_ms)
+    : context_(context), gate_(gate), hard_cap_ms_(hard_cap_ms),
+      batch_(std::min(8, context.caps().max_draw_buffers)), vao_(render::GlVertexArray::create()) {
+    if (!context.caps().float_color_buffer)
+        throw RuntimeError("GPU engine: this GL context lacks GL_EXT_color_buffer_float (float render targets, "
+                           "needed to accumulate in 32-bit float); use the CPU engine");
+}
+
+const render::GlProgram& GpuEngine::program(const std::string& fragment) {
+    for (const auto& [name, p] : programs_)
+        if (name == fragment) return *p;
+    programs_.emplace_back(fragment, std::make_unique<render::GlProgram>("fullscreen.vert", fragment));
+    return *programs_.back().second;
+}
+
+void GpuEngine::draw_tiled(const render::GlProgram& program, const RenderTargets& targets,
+                           const std::function<void()>& set_uniforms) {
+    targets.bind();
+    program.use();
+    glBindVertexArray(vao_.id());
+    set_uniforms();
+    render::check_gl(("setting up the pass " + program.label()).c_str());
+    TileRunner runner(context_.caps(), gate_, hard_cap_ms_);
+    runner.run(
+        targets.width(), targets.height(), [](const TileRect&) { glDrawArrays(GL_TRIANGLES, 0, 3); },
+        [&](const TileRect& tile) {
+            if (on_tile_) on_tile_(tile, targets.texture(0));
+        });
+    render::check_gl(("drawing the pass " + program.label()).c_str());
+    stats_.tiles += runner.stats().tiles;
+    stats_.gpu_ms += runner.stats().gpu_ms;
+    stats_.largest_ms = std::max(stats_.largest_ms, runner.stats().largest_ms);
+}
+
+std::vector<HdrImage> GpuEngine::exact(const HdrImage& input, const std::vector<double>& shininess, Size out) {
+    if (shininess.empty() || int(shininess.size()) > batch_)
+        throw RuntimeError("GPU engine: an exact pass takes 1 to " + std::to_string(batch_) + " maps");
+    const render::GlTexture texture = upload_image(input);
+    RenderTargets targets(out.width, out.height, int(shininess.size()));
+    const render::GlProgram& p = program("convolve_exact.frag");
+    std::array<float, 8> n{};
+    for (std::size_t k = 0; k < shininess.size(); ++k) n[k] = float(shininess[k]);
+    draw_tiled(p, targets, [&] {
+        bind_texture(0, texture.id());
+        glUniform1i(p.uniform("u_input"), 0);
+        glUniform2i(p.uniform("u_out_size"), out.width, out.height);
+        glUniform1i(p.uniform("u_classes"), out.width / std::gcd(input.width(), out.width));
+        glUniform1i(p.uniform("u_maps"), GLint(shininess.size()));
+        glUniform1fv(p.uniform("u_n"), 8, n.data());
+    });
+    std::vector<HdrImage> images;
+    for (int k = 0; k < int(shininess.size()); ++k) images.push_back(rgb_of(targets.read(k), out.width, out.height));
+    return images;
+}
+
+std::vector<HdrImage> GpuEngine::mipmap(const Pyramid& pyramid, const std::vector<std::pair<bool, double>>& maps,
+                                        Size out) {
+    if (maps.empty() || int(maps.size()) > batch_)
+        throw RuntimeError("GPU engine: a mipmap pass takes 1 to " + std::to_string(batch_) + " maps");
+    std::map<int, render::GlTexture> levels;
+    const auto level_texture = [&](int k) {
+        auto it = levels.find(k);
+        if (it == levels.end()) it = levels.emplace(k, upload_image(pyramid.level(k))).first;
+        return it->second.id();
+    };
+    struct Lookup {
+        GLuint fine, coarse;
+        float blend;
+    };
+    std::vector<Lookup> lookups;
+    for (const auto& [irradiance, n] : maps) {
+        // As mipmap_convolve: the level clamped to the chain, blended between its neighbours.
+        const double level = std::clamp(mipmap_level(pyramid.level(0).height(), irradiance, n), 0.0,
+                                        double(pyramid.levels() - 1));
+        const int k0 = int(std::floor(level));
+        const int k1 = std::min(k0 + 1, pyramid.levels() - 1);
+        const double t = level - double(k0);
+        lookups.push_back({level_texture(k0), level_texture(k1), (t > 0 && k1 != k0) ? float(t) : 0.0f});
+    }
+    RenderTargets targets(out.width, out.height, int(maps.size()));
+    const render::GlProgram& p = program("convolve_mipmap.frag");
+    draw_tiled(p, targets, [&] {
+        std::array<GLint, 8> fine{}, coarse{};
+        std::array<float, 8> blend{};
+        for (int k = 0; k < 8; ++k) {
+            const Lookup& l = lookups[std::size_t(std::min<std::size_t>(std::size_t(k), lookups.size() - 1))];
+            bind_texture(2 * k, l.fine);
+            bind_texture(2 * k + 1, l.coarse);
+            fine[std::size_t(k)] = 2 * k;
+            coarse[std::size_t(k)] = 2 * k + 1;
+            blend[std::size_t(k)] = l.blend;
+        }
+        glUniform1iv(p.uniform("u_fine"), 8, fine.data());
+        glUniform1iv(p.uniform("u_coarse"), 8, coarse.data());
+        glUniform1fv(p.uniform("u_blend"), 8, blend.data());
+        glUniform1i(p.uniform("u_maps"), GLint(maps.size()));
+        glUniform2i(p.uniform("u_out_size"), out.width, out.height);
+    });
+    std::vector<HdrImage> images;
+    for (int k = 0; k < int(maps.size()); ++k) images.push_back(rgb_of(targets.read(k), out.width, out.height));
+    return images;
+}
+
+std::unique_ptr<ConeSumsBackend> GpuEngine::cone_sums(const PreparedLevel& level, Size out, double shininess,
+                                                      const ConeSettings& settings) {
+    return std::make_unique<GpuConeSums>(*this, level, out, shininess, settings);
+}
+
+}  // namespace glint::convolution::gpu

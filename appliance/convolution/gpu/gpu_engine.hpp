@@ -1,0 +1,79 @@
+// The GPU engine: the same plans as the CPU engine (planner, SharedInputs,
+// cone logic) with the heavy sums as fragment shaders over the output texels,
+// in tiles (tile_runner.hpp). `exact` and `mipmap` share a pass between up to
+// 8 maps of one output size (one RGBA32F render target each); the cone's
+// first pass, its annuli and its bright texels run as passes of one map, and
+// the CPU does the cone's bound and normalisation between them. SH plans run
+// on the CPU (not built on the GPU yet: docs/gpu.md).
+#pragma once
+
+#include <functional>
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "appliance/convolution/gpu/tile_runner.hpp"
+#include "appliance/convolution/methods.hpp"
+#include "appliance/render/gl_context.hpp"
+#include "appliance/render/gl_objects.hpp"
+#include "appliance/render/gl_program.hpp"
+
+namespace glint::convolution::gpu {
+
+// An RGBA32F texture with nearest filtering and clamped edges.
+render::GlTexture make_float_texture(int width, int height, const float* rgba);
+// The RGB of an image as an RGBA32F texture.
+render::GlTexture upload_image(const HdrImage& image);
+
+// A framebuffer drawing into `targets` (RGBA32F textures of one size).
+class RenderTargets {
+public:
+    RenderTargets(int width, int height, int count);
+    void bind() const;
+    GLuint texture(int k) const { return textures_[std::size_t(k)].id(); }
+    // Reads target k back, RGBA per texel, row 0 first.
+    std::vector<float> read(int k) const;
+    int width() const { return width_; }
+    int height() const { return height_; }
+
+private:
+    int width_, height_;
+    std::vector<render::GlTexture> textures_;
+    render::GlFramebuffer framebuffer_;
+};
+
+class GpuEngine final : public MethodExecutor {
+public:
+    // Throws RuntimeError naming GL_EXT_color_buffer_float when the context
+    // cannot render into float targets (the caller then uses the CPU engine).
+    GpuEngine(const render::GlContext& context, TileGate& gate, double hard_cap_ms = 50.0);
+
+    int max_batch() const override { return batch_; }
+    std::vector<HdrImage> exact(const HdrImage& input, const std::vector<double>& shininess, Size out) override;
+    std::vector<HdrImage> mipmap(const Pyramid& pyramid, const std::vector<std::pair<bool, double>>& maps,
+                                 Size out) override;
+    std::unique_ptr<ConeSumsBackend> cone_sums(const PreparedLevel& level, Size out, double shininess,
+                                               const ConeSettings& settings) override;
+
+    // Called after every finished tile with the tile and the texture it was
+    // drawn into (already flushed): a progress view can show the maps filling in.
+    void on_tile(std::function<void(const TileRect&, GLuint)> callback) { on_tile_ = std::move(callback); }
+    const TileStats& stats() const { return stats_; }
+
+    // Draws `program` over every texel of `targets` in tiles. Used by the passes.
+    void draw_tiled(const render::GlProgram& program, const RenderTargets& targets,
+                    const std::function<void()>& set_uniforms);
+    const render::GlProgram& program(const std::string& fragment);
+
+private:
+    const render::GlContext& context_;
+    TileGate& gate_;
+    double hard_cap_ms_;
+    int batch_;
+    render::GlVertexArray vao_;
+    std::vector<std::pair<std::string, std::unique_ptr<render::GlProgram>>> programs_;
+    std::function<void(const TileRect&, GLuint)> on_tile_;
+    TileStats stats_;
+};
+
+}  // namespace glint::convolution::gpu

@@ -1,0 +1,81 @@
+// The GL platform: a context with what the engines need, every shader of
+// shaders/ compiling and linking, clear errors for bad shaders.
+#include <gtest/gtest.h>
+
+#include <string>
+
+#include "appliance/core/errors.hpp"
+#include "appliance/render/gl_objects.hpp"
+#include "appliance/render/gl_program.hpp"
+#include "appliance/render/shader_sources.hpp"
+#include "gpu_fixture.hpp"
+
+namespace glint::render {
+namespace {
+
+using test::GpuTest;
+
+TEST_F(GpuTest, ContextIsOpenGlEs3WithFloatTargetsAndEightDrawBuffers) {
+    const GlCapabilities& caps = context().caps();
+    EXPECT_EQ(caps.major, 3);
+    EXPECT_GE(caps.minor, 0);
+    EXPECT_TRUE(caps.float_color_buffer) << context().describe();
+    EXPECT_GE(caps.max_draw_buffers, 8);
+    EXPECT_NE(context().describe().find("float colour buffers yes"), std::string::npos);
+}
+
+// Every fragment shader links with its own vertex shader (same name) or, for
+// the full-screen passes, with fullscreen.vert: a syntax error fails CI here.
+TEST_F(GpuTest, EveryShaderCompilesAndLinks) {
+    int fragments = 0;
+    for (const ShaderSource& s : shader_sources()) {
+        const std::string name(s.name);
+        if (name.size() < 5 || name.substr(name.size() - 5) != ".frag") continue;
+        const std::string stem = name.substr(0, name.size() - 5);
+        std::string vertex = "fullscreen.vert";
+        for (const ShaderSource& v : shader_sources())
+            if (v.name == stem + ".vert") vertex = stem + ".vert";
+        EXPECT_NO_THROW({ GlProgram p(vertex, name); }) << name;
+        ++fragments;
+    }
+    EXPECT_GE(fragments, 4);
+}
+
+TEST_F(GpuTest, EveryVertexShaderExpands) {
+    for (const ShaderSource& s : shader_sources()) {
+        const std::string name(s.name);
+        if (name.size() < 5 || name.substr(name.size() - 5) != ".vert") continue;
+        EXPECT_NO_THROW((void)shader_text(name)) << name;
+    }
+}
+
+TEST_F(GpuTest, UnknownShaderAndIncludeErrorsNameTheFile) {
+    try {
+        GlProgram p("fullscreen.vert", "no_such_shader.frag");
+        FAIL() << "expected an error";
+    } catch (const RuntimeError& e) {
+        EXPECT_NE(std::string(e.what()).find("no_such_shader.frag"), std::string::npos) << e.what();
+    }
+}
+
+TEST_F(GpuTest, DefinesAreInsertedAfterTheVersionLine) {
+    const std::string text = shader_text("fullscreen.vert", {"GLINT_TEST 1"});
+    ASSERT_EQ(text.rfind("#version 300 es\n#define GLINT_TEST 1\n", 0), 0u) << text.substr(0, 60);
+}
+
+TEST_F(GpuTest, RaiiReleasesNames) {
+    GLuint id = 0;
+    {
+        GlTexture t = GlTexture::create();
+        id = t.id();
+        glBindTexture(GL_TEXTURE_2D, id);
+        EXPECT_TRUE(glIsTexture(id));
+        GlTexture moved = std::move(t);
+        EXPECT_EQ(t.id(), 0u);
+        EXPECT_EQ(moved.id(), id);
+    }
+    EXPECT_FALSE(glIsTexture(id));
+}
+
+}  // namespace
+}  // namespace glint::render
