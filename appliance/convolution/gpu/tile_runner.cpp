@@ -34,6 +34,10 @@ TileRunner::TileRunner(const render::GlCapabilities& caps, TileGate& gate, doubl
 double TileRunner::measure(const TileRect& tile, const std::function<void(const TileRect&)>& draw) {
     glEnable(GL_SCISSOR_TEST);
     glScissor(tile.x, tile.y, tile.width, tile.height);
+    const auto start = std::chrono::steady_clock::now();
+    const auto cpu_ms = [&] {
+        return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    };
     if (timer_query_) {
         render::GlQuery query = render::GlQuery::create();
         glBeginQuery(GL_TIME_ELAPSED_EXT, query.id());
@@ -43,17 +47,18 @@ double TileRunner::measure(const TileRect& tile, const std::function<void(const 
         timer_query().get_u64(query.id(), GL_QUERY_RESULT, &ns);  // waits for the result
         GLint disjoint = 0;
         glGetIntegerv(GL_GPU_DISJOINT_EXT, &disjoint);
-        if (!disjoint) {
-            glDisable(GL_SCISSOR_TEST);
-            return double(ns) * 1e-6;
-        }
-        // A disjoint event (e.g. a clock change) spoils the query: fall through to CPU time for this tile.
+        glDisable(GL_SCISSOR_TEST);
+        const double gpu = double(ns) * 1e-6, wall = cpu_ms();
+        // The GPU's time lies inside the wall time we waited for it; a result
+        // outside it (a disjoint event, or the first query of a context on
+        // llvmpipe: 1e7 ms, measured) is not believed.
+        if (!disjoint && gpu <= 1.5 * wall + 1.0) return gpu;
+        return wall;
     }
-    const auto start = std::chrono::steady_clock::now();
     draw(tile);
     render::GlFence::insert().wait();
     glDisable(GL_SCISSOR_TEST);
-    return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
+    return cpu_ms();
 }
 
 void TileRunner::run(int width, int height, const std::function<void(const TileRect&)>& draw,
