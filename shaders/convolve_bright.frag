@@ -9,7 +9,8 @@ precision highp int;
 uniform highp sampler2D u_bright;    // RGBA32F, 2 x count: (direction, min cosine), (L dOmega, 0)
 uniform int u_count;
 uniform float u_n;
-uniform highp sampler2D u_log_cmax;  // RGBA32F, output size: log of each texel's largest cosine
+uniform highp sampler2D u_log_cmax;  // R32F, classes x output height: log of the largest cosine
+uniform int u_classes;
 uniform ivec2 u_out_size;
 
 layout(location = 0) out vec4 o_bright;
@@ -19,7 +20,7 @@ void main() {
     float tr = row_theta(row, u_out_size.y);
     float pr = column_phi(col, u_out_size.x);
     vec3 r = vec3(sin(tr) * sin(pr), cos(tr), -sin(tr) * cos(pr));
-    float log_cmax = texelFetch(u_log_cmax, ivec2(col, row), 0).r;
+    float log_cmax = texelFetch(u_log_cmax, ivec2(col % u_classes, row), 0).r;
     vec3 sum = vec3(0.0);
     for (int b = 0; b < u_count; ++b) {
         vec4 dir = texelFetch(u_bright, ivec2(0, b), 0);

@@ -4,8 +4,11 @@
 // (second pass). Terms are chosen by x = 1 - cos: x_inner < x <= x_outer(row).
 // Rows near the poles read merged columns (docs/convolution.md): the level and
 // its merged versions sit side by side in one atlas, row j of version m at
-// x offset u_merge_offset[log2 m]. Output: (numerator RGB, denominator) and
-// the log of the largest cosine, relative to which the weights are taken;
+// x offset u_merge_offset[log2 m]. One draw sums the level rows
+// [u_row_begin, u_row_end) and writes the unnormalised (numerator RGB,
+// denominator); bands add up by float blending (see convolve_exact.frag).
+// The weights are relative to the largest cosine of the texel's row and
+// class, which the CPU computes (LobeSummer::cmax) and passes in u_log_cmax;
 // the CPU finishes the map (bright texels, bound, normalisation).
 precision highp float;
 precision highp int;
@@ -22,9 +25,11 @@ uniform highp sampler2D u_row_x_outer; // R32F, output height x 1: x_outer of ea
 uniform float u_x_inner;               // terms with x <= x_inner are left out (-1: none)
 uniform bool u_use_mask;
 uniform highp sampler2D u_mask;        // R32F, output size: texels to compute (> 0.5)
+uniform highp sampler2D u_log_cmax;    // R32F, classes x output height: log of the largest cosine
+uniform int u_row_begin;               // the band of level rows this draw sums
+uniform int u_row_end;
 
 layout(location = 0) out vec4 o_sums;
-layout(location = 1) out vec4 o_log_cmax;
 
 int log2i(int m) { int k = 0; while ((1 << k) < m) ++k; return k; }
 
@@ -32,7 +37,6 @@ void main() {
     int col = int(gl_FragCoord.x), row = int(gl_FragCoord.y);
     if (u_use_mask && texelFetch(u_mask, ivec2(col, row), 0).r < 0.5) {
         o_sums = vec4(0.0);
-        o_log_cmax = vec4(0.0);
         return;
     }
     int W = u_level_size.x, H = u_level_size.y;
@@ -45,23 +49,13 @@ void main() {
     int cls = col % u_classes, q = col / u_classes;
     int per_class = u_out_size.x / u_classes;
 
-    // Largest cosine to any texel centre the sums may read (each row in its own grid).
-    float x_min = 2.0;
-    for (int j = 0; j < H; ++j) {
-        int wm = W / texelFetch(u_row_merge, ivec2(j, 0), 0).r;
-        float x_cls = (float(cls) + 0.5) * float(wm) / float(u_out_size.x) - 0.5;
-        float f = x_cls - floor(x_cls);
-        float tk = row_theta(j, H);
-        x_min = min(x_min, one_minus_cos(sin(0.5 * (tr - tk)), str, sin(tk),
-                                         sin(0.5 * TWO_PI / float(wm) * min(f, 1.0 - f))));
-    }
-    float log_cmax = log1m(x_min);
+    float log_cmax = texelFetch(u_log_cmax, ivec2(cls, row), 0).r;
 
     float x_outer = texelFetch(u_row_x_outer, ivec2(row, 0), 0).r;
     // Rows within reach: 2 sin^2(dt / 2) <= x_outer.
     float reach = 2.0 * asin(min(1.0, sqrt(0.5 * x_outer)));
-    int j0 = max(0, int(floor((tr - reach) / PI * float(H) - 0.5)) - 1);
-    int j1 = min(H - 1, int(ceil((tr + reach) / PI * float(H) - 0.5)) + 1);
+    int j0 = max(u_row_begin, int(floor((tr - reach) / PI * float(H) - 0.5)) - 1);
+    int j1 = min(u_row_end - 1, int(ceil((tr + reach) / PI * float(H) - 0.5)) + 1);
     float half_dt = 0.5 * PI / float(H);
     vec3 num = vec3(0.0);
     float den = 0.0;
@@ -99,5 +93,4 @@ void main() {
         den += omega * row_den;
     }
     o_sums = vec4(num, den);
-    o_log_cmax = vec4(log_cmax, 0.0, 0.0, 0.0);
 }

@@ -2,8 +2,12 @@
 // `exact` on the GPU: every input texel for every output texel, for up to 8
 // maps of one output size at once (one render target each). Weights relative
 // to the largest cosine, in log space (spec/conventions.md: never 0/0).
-// Float accumulation in two levels (per input row, then rows), so the sums
-// keep ~1e-6 relative accuracy on a 1024x512 input.
+// One draw sums the input rows [u_row_begin, u_row_end) and writes the
+// unnormalised (numerator RGB, denominator); draws over bands of rows add up
+// in the targets by float blending, and the CPU divides. Bands keep each
+// draw's loop short: llvmpipe stops a loop after 65535 iterations, and a
+// bounded draw is what the tile scheduler needs. Float accumulation in two
+// levels (per input row, then rows) keeps ~1e-6 relative accuracy.
 precision highp float;
 precision highp int;
 #include "equirect.glsl"
@@ -12,6 +16,8 @@ uniform highp sampler2D u_input;  // RGBA32F, the input map (RGB used)
 uniform ivec2 u_out_size;
 uniform int u_classes;            // output columns col and col + u_classes share their offsets
 uniform int u_maps;               // 1 .. 8
+uniform int u_row_begin;          // the band of input rows this draw sums
+uniform int u_row_end;
 uniform float u_n[8];             // shininess of each map (1 for irradiance)
 
 layout(location = 0) out vec4 o_map0;
@@ -49,7 +55,7 @@ void main() {
     float den[8];
     for (int k = 0; k < 8; ++k) { num[k] = vec3(0.0); den[k] = 0.0; }
     float half_dphi = 0.5 * PI / float(in_size.y);
-    for (int j = 0; j < in_size.y; ++j) {
+    for (int j = u_row_begin; j < u_row_end; ++j) {
         float tk = row_theta(j, in_size.y);
         float sdt = sin(0.5 * (tr - tk)), stk = sin(tk);
         // dOmega_j = (2 pi / W) (cos(pi j / H) - cos(pi (j + 1) / H)), without cancellation.
@@ -78,7 +84,7 @@ void main() {
         }
     }
     vec4 result[8];
-    for (int k = 0; k < 8; ++k) result[k] = den[k] > 0.0 ? vec4(num[k] / den[k], 1.0) : vec4(0.0, 0.0, 0.0, 1.0);
+    for (int k = 0; k < 8; ++k) result[k] = vec4(num[k], den[k]);
     o_map0 = result[0];
     o_map1 = result[1];
     o_map2 = result[2];

@@ -16,6 +16,8 @@
 #include "appliance/app/cli_util.hpp"
 #include "appliance/app/commands.hpp"
 #include "appliance/convolution/convolution.hpp"
+#include "appliance/convolution/gpu/gpu_engine.hpp"
+#include "appliance/render/gl_context.hpp"
 #include "appliance/core/atomic_file.hpp"
 #include "appliance/core/errors.hpp"
 #include "appliance/core/exr_io.hpp"
@@ -36,7 +38,32 @@ struct ConvolveArgs {
     std::string size;
     int sh_order = 0;
     int threads = 0;
+    std::string engine = "cpu";
+    double tile_cap_ms = 50.0;
 };
+
+// The GPU engine on a surfaceless EGL context, or why not (then the CPU runs).
+struct GpuSetup {
+    std::unique_ptr<render::EglDisplay> display;
+    std::unique_ptr<render::GlContext> context;
+    std::unique_ptr<convolution::gpu::UnlimitedGate> gate;
+    std::unique_ptr<convolution::gpu::GpuEngine> engine;
+};
+
+GpuSetup start_gpu(double cap_ms) {
+    GpuSetup g;
+    try {
+        g.display = std::make_unique<render::EglDisplay>(render::EglDisplay::surfaceless());
+        g.context = std::make_unique<render::GlContext>(*g.display);
+        std::fprintf(stderr, "glint: GL: %s\n", g.context->describe().c_str());
+        g.gate = std::make_unique<convolution::gpu::UnlimitedGate>(cap_ms);
+        g.engine = std::make_unique<convolution::gpu::GpuEngine>(*g.context, *g.gate, cap_ms);
+    } catch (const RuntimeError& e) {
+        std::fprintf(stderr, "glint: warning: GPU engine unavailable (%s); using the CPU engine\n", e.what());
+        g = GpuSetup{};
+    }
+    return g;
+}
 
 nlohmann::json number_or_null(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); }
 
@@ -55,6 +82,8 @@ int run_convolve(const ConvolveArgs& args) {
     options.threads = args.threads;
     if (args.sh_order < 0 || args.sh_order > 1024) throw InputError("--sh-order: must be in [1, 1024]");
     options.sh_order = args.sh_order;
+    if (args.engine != "cpu" && args.engine != "gpu") throw InputError("--engine: '" + args.engine + "' is not cpu or gpu");
+    if (!(args.tile_cap_ms > 0)) throw InputError("--tile-cap-ms: must be > 0");
 
     std::vector<convolution::MapRequest> maps;
     if (args.irradiance) maps.push_back(convolution::MapRequest::make_irradiance());
@@ -91,6 +120,9 @@ int run_convolve(const ConvolveArgs& args) {
             live_done = done;
         }
     };
+    GpuSetup gpu;
+    if (args.engine == "gpu") gpu = start_gpu(args.tile_cap_ms);
+    options.executor = gpu.engine.get();
     const auto start = std::chrono::steady_clock::now();
     const std::vector<convolution::MapResult> results = convolution::convolve(loaded.image, maps, options);
     const double total_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -107,6 +139,15 @@ int run_convolve(const ConvolveArgs& args) {
     report["tolerance"] = options.tolerance;
     report["method"] = args.method;
     report["threads"] = args.threads;
+    report["engine"] = gpu.engine ? "gpu" : "cpu";
+    if (gpu.engine) {
+        report["gpu"] = {{"renderer", gpu.context->caps().renderer},
+                         {"version", gpu.context->caps().version},
+                         {"tiles", gpu.engine->stats().tiles},
+                         {"gpu_ms", gpu.engine->stats().gpu_ms},
+                         {"largest_tile_ms", gpu.engine->stats().largest_ms},
+                         {"tile_cap_ms", args.tile_cap_ms}};
+    }
     report["wall_seconds"] = total_seconds;
     report["maps"] = nlohmann::json::array();
     for (const auto& r : results) {
@@ -187,6 +228,10 @@ Command add_convolve_command(CLI::App& app) {
     cmd->add_option("--size", args->size, "Fix every output map's size, WxH (default: follows the lobe)");
     cmd->add_option("--sh-order", args->sh_order, "SH bands for --method sh (default: from n and tolerance)");
     cmd->add_option("--threads", args->threads, "Worker threads (default: all cores)");
+    cmd->add_option("--engine", args->engine,
+                    "cpu | gpu (default cpu). gpu: the same plans with the sums as GLES3 shaders on an EGL "
+                    "context; without float render targets it says so and uses the CPU");
+    cmd->add_option("--tile-cap-ms", args->tile_cap_ms, "GPU engine: longest single draw in ms (default 50)");
     return {cmd, [args] { return run_convolve(*args); }};
 }
 

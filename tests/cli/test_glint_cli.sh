@@ -177,6 +177,28 @@ expect_bad "compare with a missing map" "$work/missing.exr" "$work/bad13" \
 expect_bad "compare with a corrupt reference" "$work/corrupt.exr" "$work/bad14" \
     compare "$out/irradiance.exr" "$work/corrupt.exr"
 
+expect_bad "--engine foo" "--engine" "$work/bad15" \
+    convolve "$work/in.exr" --out "$work/bad15" --irradiance --engine foo --size 32x16
+
+# The GPU engine (Mesa llvmpipe here) writes the same files, and says which engine ran.
+gpu_out="$work/gpu"
+run convolve "$work/in.exr" --out "$gpu_out" --irradiance --shininess 20 --size 32x16 --method exact --engine gpu
+[[ $rc -eq 0 ]] || fail "convolve --engine gpu exited $rc: $(stderr_text)"
+[[ -f $gpu_out/irradiance.exr && -f $gpu_out/phong_20.exr ]] || fail "convolve --engine gpu: maps missing"
+python3 - "$gpu_out/report.json" <<'PY' || fail "report.json of the GPU run"
+import json, sys
+r = json.load(open(sys.argv[1]))
+assert r["engine"] == "gpu", r["engine"]
+assert r["gpu"]["tiles"] >= 1 and r["gpu"]["largest_tile_ms"] > 0, r["gpu"]
+assert "llvmpipe" in r["gpu"]["renderer"] or r["gpu"]["renderer"], r["gpu"]
+PY
+pass "convolve --engine gpu writes the maps and report.json (engine gpu)"
+run compare "$gpu_out/phong_20.exr" "$out/phong_20.exr"
+rms=$(awk '/weighted_rel_rms/ { print $2 }' "$work/stdout")
+python3 -c "import sys; sys.exit(0 if float('$rms') <= 1e-4 else 1)" || fail "GPU exact differs from CPU exact: $rms"
+pass "GPU exact phong_20 within 1e-4 of the CPU's ($rms)"
+rm -rf "$gpu_out"
+
 # The good output directory is still exactly what the good runs wrote.
 listing=$(ls -A "$out" | sort | tr '\n' ' ')
 [[ $listing == "irradiance.exr phong_20.exr report.json " ]] || fail "output directory changed: $listing"

@@ -105,6 +105,14 @@ TEST_F(GpuEngineTest, AutoMatchesTheCpuOnCourtyard) {
     expect_parity(pyramid.level(2), requests(true, {10, 160, 5120, 20480}, {128, 64}), Method::Auto, "auto courtyard");
 }
 
+// A 1024x512 input: more texels than one shader loop may run on llvmpipe
+// (65535 iterations), so the passes must split the input rows into bands.
+TEST_F(GpuEngineTest, FullSizeInputSumsEveryRow) {
+    const HdrImage env = load_exr(std::filesystem::path(GLINT_BLENDER_WORLDS) / "courtyard.exr").image;
+    expect_parity(env, requests(true, {20}, {16, 8}), Method::Exact, "exact courtyard 1024x512");
+    expect_parity(env, requests(false, {5120}, {64, 32}), Method::Cone, "cone courtyard 1024x512");
+}
+
 TEST_F(GpuEngineTest, BrightTexelAtThePoleTheSeamAndInsideMatchesTheCpu) {
     const struct {
         const char* name;

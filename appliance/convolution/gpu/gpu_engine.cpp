@@ -128,17 +128,32 @@ public:
                 }
         atlas_ = make_float_texture(atlas_width, height_, atlas.data());
         row_merge_ = make_int_row_texture(merge);
+        // The largest cosine of every output row and class, as the CPU's sums take it.
+        const LobeSummer summer(level, out.width, out.height, n, Accumulation::FloatRuns, settings.max_texel_arc);
+        cmax_.resize(std::size_t(classes_) * std::size_t(out.height));
+        std::vector<float> log_cmax(cmax_.size());
+        for (int row = 0; row < out.height; ++row)
+            for (int cls = 0; cls < classes_; ++cls) {
+                const std::size_t rc = std::size_t(row) * std::size_t(classes_) + std::size_t(cls);
+                cmax_[rc] = summer.cmax(row, cls);
+                log_cmax[rc] = float(std::log(cmax_[rc]));
+            }
+        log_cmax_ = render::GlTexture::create();
+        glBindTexture(GL_TEXTURE_2D, log_cmax_.id());
+        glTexImage2D(GL_TEXTURE_2D, 0, GL_R32F, classes_, out.height, 0, GL_RED, GL_FLOAT, log_cmax.data());
+        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+        render::check_gl("uploading the largest cosines");
     }
 
     LobeSums first_pass(const std::vector<int>& rows, double c0, const RowProgress& progress) override {
         std::vector<float> x_outer(std::size_t(out_.height), -1.0f);
         for (int row : rows) x_outer[std::size_t(row)] = float(1.0 - c0);
-        first_ = std::make_unique<RenderTargets>(out_.width, out_.height, 2);
-        run_cone(*first_, x_outer, -1.0f, nullptr);
-        const std::vector<float> sums = first_->read(0);
-        const std::vector<float> log_cmax = first_->read(1);
+        RenderTargets targets(out_.width, out_.height, 1);
+        run_cone(targets, x_outer, -1.0f, nullptr);
+        const std::vector<float> sums = targets.read(0);
         LobeSums s = make_sums();
-        for (int row : rows) fill_row(s, row, sums, log_cmax, nullptr);
+        for (int row : rows) fill_row(s, row, sums, nullptr);
         if (progress) progress((long long)rows.size());
         return s;
     }
@@ -153,12 +168,11 @@ public:
                 for (int i = a; i < b; ++i) mask[std::size_t(rows[k]) * std::size_t(out_.width) + std::size_t(i)] = 1.0f;
         }
         const render::GlTexture mask_texture = make_mask_texture(out_.width, out_.height, mask);
-        RenderTargets targets(out_.width, out_.height, 2);
+        RenderTargets targets(out_.width, out_.height, 1);
         run_cone(targets, x_outer, float(1.0 - c_inner), &mask_texture);
         const std::vector<float> sums = targets.read(0);
-        const std::vector<float> log_cmax = targets.read(1);
         LobeSums s = make_sums();
-        for (int row : rows) fill_row(s, row, sums, log_cmax, &mask);
+        for (int row : rows) fill_row(s, row, sums, &mask);
         return s;
     }
 
@@ -183,9 +197,10 @@ public:
         const render::GlProgram& p = engine_.program("convolve_bright.frag");
         engine_.draw_tiled(p, targets, [&] {
             bind_texture(0, bright.id());
-            bind_texture(1, first_->texture(1));
+            bind_texture(1, log_cmax_.id());
             glUniform1i(p.uniform("u_bright"), 0);
             glUniform1i(p.uniform("u_log_cmax"), 1);
+            glUniform1i(p.uniform("u_classes"), classes_);
             glUniform1i(p.uniform("u_count"), GLint(texels.size()));
             glUniform1f(p.uniform("u_n"), float(n_));
             glUniform2i(p.uniform("u_out_size"), out_.width, out_.height);
@@ -212,17 +227,15 @@ private:
 
     // One output row of the targets into sums: numerators of every texel (of
     // the masked ones where a mask is given; the others 0), and per class the
-    // denominator and cmax (the same for every texel of a class).
-    void fill_row(LobeSums& s, int row, const std::vector<float>& sums, const std::vector<float>& log_cmax,
-                  const std::vector<float>* mask) const {
+    // denominator (the same for every texel of a class) and cmax.
+    void fill_row(LobeSums& s, int row, const std::vector<float>& sums, const std::vector<float>* mask) const {
         for (int i = 0; i < out_.width; ++i) {
             const std::size_t t = std::size_t(row) * std::size_t(out_.width) + std::size_t(i);
             const bool on = !mask || (*mask)[t] > 0.5f;
             for (std::size_t c = 0; c < 3; ++c) s.num[3 * t + c] = on ? double(sums[4 * t + c]) : 0.0;
-            if (!on) continue;
             const std::size_t rc = std::size_t(row) * std::size_t(classes_) + std::size_t(i % classes_);
-            s.den[rc] = double(sums[4 * t + 3]);
-            s.cmax[rc] = std::exp(double(log_cmax[4 * t]));
+            s.cmax[rc] = cmax_[rc];
+            if (on) s.den[rc] = double(sums[4 * t + 3]);
         }
     }
 
@@ -230,23 +243,35 @@ private:
                   const render::GlTexture* mask) {
         const render::GlTexture rows = make_row_texture(x_outer);
         const render::GlProgram& p = engine_.program("convolve_cone.frag");
-        engine_.draw_tiled(p, targets, [&] {
-            bind_texture(0, atlas_.id());
-            bind_texture(1, row_merge_.id());
-            bind_texture(2, rows.id());
-            bind_texture(3, mask ? mask->id() : rows.id());
-            glUniform1i(p.uniform("u_atlas"), 0);
-            glUniform1i(p.uniform("u_row_merge"), 1);
-            glUniform1i(p.uniform("u_row_x_outer"), 2);
-            glUniform1i(p.uniform("u_mask"), 3);
-            glUniform1i(p.uniform("u_use_mask"), mask ? 1 : 0);
-            glUniform2i(p.uniform("u_level_size"), width_, height_);
-            glUniform1iv(p.uniform("u_merge_offset"), 8, merge_offset_.data());
-            glUniform2i(p.uniform("u_out_size"), out_.width, out_.height);
-            glUniform1i(p.uniform("u_classes"), classes_);
-            glUniform1f(p.uniform("u_n"), float(n_));
-            glUniform1f(p.uniform("u_x_inner"), x_inner);
-        });
+        // Bands of level rows, added up by float blending (see exact()).
+        const int band = engine_.band_rows(width_, height_);
+        targets.bind();
+        glClearColor(0, 0, 0, 0);
+        glClear(GL_COLOR_BUFFER_BIT);
+        engine_.begin_accumulation();
+        for (int first = 0; first < height_; first += band)
+            engine_.draw_tiled(p, targets, [&] {
+                bind_texture(0, atlas_.id());
+                bind_texture(1, row_merge_.id());
+                bind_texture(2, rows.id());
+                bind_texture(3, mask ? mask->id() : rows.id());
+                bind_texture(4, log_cmax_.id());
+                glUniform1i(p.uniform("u_atlas"), 0);
+                glUniform1i(p.uniform("u_row_merge"), 1);
+                glUniform1i(p.uniform("u_row_x_outer"), 2);
+                glUniform1i(p.uniform("u_mask"), 3);
+                glUniform1i(p.uniform("u_log_cmax"), 4);
+                glUniform1i(p.uniform("u_use_mask"), mask ? 1 : 0);
+                glUniform2i(p.uniform("u_level_size"), width_, height_);
+                glUniform1iv(p.uniform("u_merge_offset"), 8, merge_offset_.data());
+                glUniform2i(p.uniform("u_out_size"), out_.width, out_.height);
+                glUniform1i(p.uniform("u_classes"), classes_);
+                glUniform1f(p.uniform("u_n"), float(n_));
+                glUniform1f(p.uniform("u_x_inner"), x_inner);
+                glUniform1i(p.uniform("u_row_begin"), first);
+                glUniform1i(p.uniform("u_row_end"), std::min(height_, first + band));
+            });
+        glDisable(GL_BLEND);
     }
 
     GpuEngine& engine_;
@@ -254,8 +279,8 @@ private:
     double n_;
     int width_, height_, classes_;
     std::array<GLint, 8> merge_offset_{};
-    render::GlTexture atlas_, row_merge_;
-    std::unique_ptr<RenderTargets> first_;  // the first pass: sums and log cmax (read by the bright pass)
+    render::GlTexture atlas_, row_merge_, log_cmax_;
+    std::vector<double> cmax_;  // per output row and class
 };
 
 }  // namespace
@@ -301,6 +326,21 @@ GpuEngine::GpuEngine(const render::GlContext& context, TileGate& gate, double ha
                            "needed to accumulate in 32-bit float); use the CPU engine");
 }
 
+int GpuEngine::band_rows(int width, int height) const {
+    // At most kBandTexels input texels per draw: llvmpipe ends a loop after
+    // 65535 iterations (silently: the sums were short by 95 % at 1024x512),
+    // and it bounds a draw's cost. Without GL_EXT_float_blend: one band.
+    constexpr int kBandTexels = 16384;
+    return context_.caps().has("GL_EXT_float_blend") ? std::max(1, kBandTexels / width) : height;
+}
+
+void GpuEngine::begin_accumulation() const {
+    if (!context_.caps().has("GL_EXT_float_blend")) return;
+    glEnable(GL_BLEND);
+    glBlendEquation(GL_FUNC_ADD);
+    glBlendFunc(GL_ONE, GL_ONE);
+}
+
 const render::GlProgram& GpuEngine::program(const std::string& fragment) {
     for (const auto& [name, p] : programs_)
         if (name == fragment) return *p;
@@ -335,16 +375,35 @@ std::vector<HdrImage> GpuEngine::exact(const HdrImage& input, const std::vector<
     const render::GlProgram& p = program("convolve_exact.frag");
     std::array<float, 8> n{};
     for (std::size_t k = 0; k < shininess.size(); ++k) n[k] = float(shininess[k]);
-    draw_tiled(p, targets, [&] {
-        bind_texture(0, texture.id());
-        glUniform1i(p.uniform("u_input"), 0);
-        glUniform2i(p.uniform("u_out_size"), out.width, out.height);
-        glUniform1i(p.uniform("u_classes"), out.width / std::gcd(input.width(), out.width));
-        glUniform1i(p.uniform("u_maps"), GLint(shininess.size()));
-        glUniform1fv(p.uniform("u_n"), 8, n.data());
-    });
+    const int band = band_rows(input.width(), input.height());
+    targets.bind();
+    glClearColor(0, 0, 0, 0);
+    glClear(GL_COLOR_BUFFER_BIT);
+    begin_accumulation();
+    for (int first = 0; first < input.height(); first += band) {
+        draw_tiled(p, targets, [&] {
+            bind_texture(0, texture.id());
+            glUniform1i(p.uniform("u_input"), 0);
+            glUniform2i(p.uniform("u_out_size"), out.width, out.height);
+            glUniform1i(p.uniform("u_classes"), out.width / std::gcd(input.width(), out.width));
+            glUniform1i(p.uniform("u_maps"), GLint(shininess.size()));
+            glUniform1fv(p.uniform("u_n"), 8, n.data());
+            glUniform1i(p.uniform("u_row_begin"), first);
+            glUniform1i(p.uniform("u_row_end"), std::min(input.height(), first + band));
+        });
+    }
+    glDisable(GL_BLEND);
     std::vector<HdrImage> images;
-    for (int k = 0; k < int(shininess.size()); ++k) images.push_back(rgb_of(targets.read(k), out.width, out.height));
+    for (int k = 0; k < int(shininess.size()); ++k) {
+        const std::vector<float> sums = targets.read(k);
+        HdrImage image(out.width, out.height);
+        for (int j = 0; j < out.height; ++j)
+            for (int i = 0; i < out.width; ++i) {
+                const float* t = sums.data() + (std::size_t(j) * std::size_t(out.width) + std::size_t(i)) * 4;
+                if (t[3] > 0) image.set(i, j, {t[0] / t[3], t[1] / t[3], t[2] / t[3]});
+            }
+        images.push_back(std::move(image));
+    }
     return images;
 }
 

@@ -64,6 +64,10 @@ public:
     void draw_tiled(const render::GlProgram& program, const RenderTargets& targets,
                     const std::function<void()>& set_uniforms);
     const render::GlProgram& program(const std::string& fragment);
+    // Input rows per draw of a width x height input (the passes sum bands of
+    // rows and add them up), and the blending that adds them.
+    int band_rows(int width, int height) const;
+    void begin_accumulation() const;
 
 private:
     const render::GlContext& context_;
