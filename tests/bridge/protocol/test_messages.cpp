@@ -56,16 +56,14 @@ TEST(Messages, EveryKnownTypeHasANameAndAllOthersAreUnknown) {
 }
 
 TEST(Messages, OrientationLayoutIsLittleEndianAtDocumentedOffsets) {
-    const Orientation o{0x0102030405060708ull, kQ30One, -2, 3, -kQ30One / 2};
-    Orientation unit = o;
-    unit.x_q30 = unit.y_q30 = 0;
-    unit.z_q30 = 0;
-    const Bytes p = test::payload_of(unit);
+    const Orientation o{0x0102030405060708ull, kQ30One, 0, 0, -1};  // identity, z one LSB off
+    const Bytes p = test::payload_of(o);
     ASSERT_EQ(p.size(), 24u);
     EXPECT_EQ(p[0], 0x08);  // timestamp, least significant byte first
     EXPECT_EQ(p[7], 0x01);
     EXPECT_EQ(p[8], 0x00);  // w = 2^30 = 0x40000000
     EXPECT_EQ(p[11], 0x40);
+    for (int i = 20; i < 24; ++i) EXPECT_EQ(p[i], 0xFF) << i;  // z = -1
 }
 
 TEST(Messages, RawImuNegativeValuesAreTwosComplement) {
