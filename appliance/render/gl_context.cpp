@@ -83,14 +83,15 @@ EglDisplay::~EglDisplay() {
     if (display_ != EGL_NO_DISPLAY) eglTerminate(display_);
 }
 
-GlContext::GlContext(const EglDisplay& display, EGLConfig config) : display_(display.handle()) {
+GlContext::GlContext(const EglDisplay& display, EGLConfig config, const GlContext* share)
+    : display_(display.handle()) {
     if (!eglBindAPI(EGL_OPENGL_ES_API)) throw RuntimeError("EGL: OpenGL ES is not supported by this display");
     if (!config && !has_word(eglQueryString(display_, EGL_EXTENSIONS), "EGL_KHR_no_config_context"))
         throw RuntimeError("EGL: a context without a config needs EGL_KHR_no_config_context");
     // Ask for 3.1 (compute and more texture formats on the appliance's GPU), accept 3.0.
     for (const int minor : {1, 0}) {
         const EGLint attributes[] = {EGL_CONTEXT_MAJOR_VERSION, 3, EGL_CONTEXT_MINOR_VERSION, minor, EGL_NONE};
-        context_ = eglCreateContext(display_, config, EGL_NO_CONTEXT, attributes);
+        context_ = eglCreateContext(display_, config, share ? share->handle() : EGL_NO_CONTEXT, attributes);
         if (context_ != EGL_NO_CONTEXT) break;
     }
     if (context_ == EGL_NO_CONTEXT)

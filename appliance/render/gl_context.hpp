@@ -47,7 +47,9 @@ private:
 // objects; a scanout backend passes the config of its surfaces.
 class GlContext {
 public:
-    explicit GlContext(const EglDisplay& display, EGLConfig config = nullptr);
+    // share: a context whose objects (textures) this one sees too, e.g. the
+    // convolution worker's context shares its maps with the renderer's.
+    explicit GlContext(const EglDisplay& display, EGLConfig config = nullptr, const GlContext* share = nullptr);
     GlContext(const GlContext&) = delete;
     GlContext& operator=(const GlContext&) = delete;
     ~GlContext();
@@ -57,6 +59,8 @@ public:
     const GlCapabilities& caps() const { return caps_; }
     // One line: versions, renderer, and the extensions Glint uses.
     std::string describe() const;
+
+    EGLContext handle() const { return context_; }
 
 private:
     EGLDisplay display_;
