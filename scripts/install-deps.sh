@@ -18,6 +18,7 @@ packages=(
   libgpiod-dev                         # buttons and lamps, libgpiod 1.6 C++ API (firmware_bridge/host)
   libegl-dev libgles-dev libgbm-dev libdrm-dev   # EGL/GLES3 platform, KMS (appliance/render)
   libegl-mesa0 libgl1-mesa-dri         # Mesa llvmpipe: the GPU of tests and CI
+  zlib1g-dev                           # PNG screenshots of the GPU benchmark
 )
 
 missing=()

@@ -19,3 +19,12 @@ int hardware_threads();
 void parallel_for(int count, int threads, const std::function<void(int)>& body);
 
 }  // namespace glint
+
+namespace glint {
+
+// Lowers the calling thread's scheduling priority (nice 10): for background
+// work like a convolution job, so the render thread and the GL driver's
+// threads keep the cores first. Returns false if the system refused.
+bool lower_this_thread_priority();
+
+}  // namespace glint
