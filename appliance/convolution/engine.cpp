@@ -207,7 +207,7 @@ void run_sh_split(MapResult& r, const MapPlan& cone, SharedInputs& shared, int s
         sh_split_convolve(shared.remainder_sh(level, split_order, threads), shared.remainder_ones(level, split_order),
                           shared.legendre(split_order),
                           shared.remainder_mean(level), shared.bright().texels, n, r.plan.sh_order, out,
-                          settings.texel_tolerance, settings.bright_tolerance, threads);
+                          settings.texel_tolerance, settings.bright_tolerance, threads, options.executor);
     r.plan.bright_texels = int(shared.bright().texels.size());
     r.image = split.image;
     r.clamped_texels = split.clamped;
@@ -346,7 +346,7 @@ std::vector<MapResult> convolve(const HdrImage& env, const std::vector<MapReques
                     run_sh_split(r, cone_plans[k], shared, split_order, options, model, threads);
                 else
                     r.image = sh_convolve(shared.sh(r.plan.sh_order, threads), {env.width(), env.height()}, n,
-                                          r.plan.sh_order, out, threads, &r.clamped_texels);
+                                          r.plan.sh_order, out, threads, &r.clamped_texels, options.executor);
                 progress(out.height);
                 break;
             case Method::Cone: {

@@ -101,6 +101,7 @@ public:
 };
 
 class Pyramid;
+struct ShCoefficients;
 
 // The methods' heavy sums on another device (the GPU engine): `exact` and
 // `mipmap` for several maps of one output size per pass, and the cone's sums.
@@ -115,6 +116,9 @@ public:
                                          Size out) = 0;
     virtual std::unique_ptr<ConeSumsBackend> cone_sums(const PreparedLevel& level, Size out, double shininess,
                                                        const ConeSettings& settings) = 0;
+    // sh_evaluate of the first `order` bands of c: 3 values per texel of out, row 0 first.
+    virtual std::vector<double> sh_evaluate(const ShCoefficients& c, int order, const std::vector<double>& kernel,
+                                            Size out) = 0;
 };
 
 HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel>& bright,
@@ -130,7 +134,7 @@ class ShLegendre;
 // all-ones response (sh_lobe_normaliser); negative values clamped to 0 and
 // counted in *clamped.
 HdrImage sh_convolve(const ShCoefficients& coefficients, Size input, double shininess, int order, Size out,
-                     int threads, long long* clamped);
+                     int threads, long long* clamped, MethodExecutor* executor = nullptr);
 
 // SH with the bright split (used by `auto`): `remainder` holds at least `order`
 // bands of the map without its bright texels (mean radiance remainder_mean),
@@ -147,7 +151,8 @@ struct ShSplitResult {
 ShSplitResult sh_split_convolve(const ShCoefficients& remainder, const std::vector<double>& remainder_ones,
                                 const ShLegendre& legendre, double remainder_mean,
                                 const std::vector<BrightTexel>& bright, double shininess, int order,
-                                Size out, double texel_tolerance, double bright_tolerance, int threads);
+                                Size out, double texel_tolerance, double bright_tolerance, int threads,
+                                MethodExecutor* executor = nullptr);
 
 // The zonal coefficients c_l0, l < order, of the all-ones map projected from a
 // map of size `input` (texel solid angle quadrature; the m > 0 sums vanish).

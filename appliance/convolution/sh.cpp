@@ -845,6 +845,10 @@ std::vector<double> sh_evaluate(const ShCoefficients& c, const std::vector<doubl
     return detail::sh_evaluate(c, kernel, width, height, threads, ShAzimuthal::Automatic);
 }
 
+void sh_column_steps(int order, int m, double* a, double* b) { column_steps(order, m, a, b); }
+
+void sh_diagonal(int order, double s, double* out) { diagonal_values(diagonal_factors(order), order, s, out); }
+
 void sh_evaluate_rows(const ShCoefficients& c, int order, const std::vector<double>& kernel, int width, int height,
                       int threads, const std::function<void(int, const double*)>& sink) {
     evaluate_impl(c, order, kernel, width, height, threads, ShAzimuthal::Automatic, sink);

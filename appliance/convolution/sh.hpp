@@ -117,6 +117,12 @@ std::vector<double> sh_evaluate(const ShCoefficients& c, const std::vector<doubl
 void sh_evaluate_rows(const ShCoefficients& c, int order, const std::vector<double>& kernel, int width, int height,
                       int threads, const std::function<void(int, const double*)>& sink);
 
+// The tables of sh_evaluate's recurrences, for another device (the GPU engine):
+// for column m, a[t], b[t] with \bar P_{m+t,m} = a[t] (x \bar P_{m+t-1,m} - b[t] \bar P_{m+t-2,m})
+// for t in [1, order - m) (b[1] = 0), and \bar P_mm(cos theta) from s = sin(theta).
+void sh_column_steps(int order, int m, double* a, double* b);
+void sh_diagonal(int order, double s, double* out);
+
 // sh_evaluate as an image: negative channel values are clamped to 0 and counted in *clamped.
 HdrImage sh_reconstruct(const ShCoefficients& c, const std::vector<double>& kernel, int width, int height,
                         int threads, long long* clamped = nullptr);

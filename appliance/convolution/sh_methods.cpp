@@ -76,12 +76,15 @@ double sh_truncation_tail(double n, int order) { return sh_truncation_tails(n, o
 
 
 HdrImage sh_convolve(const ShCoefficients& coefficients, Size input, double n, int order, Size out, int threads,
-                     long long* clamped) {
+                     long long* clamped, MethodExecutor* executor) {
     const std::vector<double> kernel = phong_sh_kernel(n, order);
     std::vector<double> e(3 * std::size_t(out.width) * std::size_t(out.height));
-    sh_evaluate_rows(coefficients, order, kernel, out.width, out.height, threads, [&](int j, const double* row) {
-        std::copy(row, row + 3 * std::size_t(out.width), e.data() + 3 * std::size_t(j) * std::size_t(out.width));
-    });
+    if (executor)
+        e = executor->sh_evaluate(coefficients, order, kernel, out);
+    else
+        sh_evaluate_rows(coefficients, order, kernel, out.width, out.height, threads, [&](int j, const double* row) {
+            std::copy(row, row + 3 * std::size_t(out.width), e.data() + 3 * std::size_t(j) * std::size_t(out.width));
+        });
     const ShLegendre legendre(order);
     const std::vector<double> norm =
         sh_lobe_normaliser(sh_ones_projection(input, order, legendre), order, kernel, out, legendre);
@@ -98,7 +101,7 @@ ShSplitResult sh_split_convolve(const ShCoefficients& remainder, const std::vect
                                 const ShLegendre& legendre, double remainder_mean,
                                 const std::vector<BrightTexel>& bright, double n, int order,
                                 Size out, double texel_tolerance, double bright_tolerance,
-                                int threads) {
+                                int threads, MethodExecutor* executor) {
     const std::vector<double> kernel = phong_sh_kernel(n, order);
     const std::vector<double> norm = sh_lobe_normaliser(remainder_ones, order, kernel, out, legendre);
     const std::size_t row_values = 3 * std::size_t(out.width);
@@ -107,7 +110,7 @@ ShSplitResult sh_split_convolve(const ShCoefficients& remainder, const std::vect
     // positive value for the bright terms' cut-off below.
     UninitVector<double> e(row_values * std::size_t(out.height));
     std::vector<double> row_floor(std::size_t(out.height), INFINITY);
-    sh_evaluate_rows(remainder, order, kernel, out.width, out.height, threads, [&](int j, const double* row) {
+    const auto take_row = [&](int j, const double* row) {
         double* dst = e.data() + std::size_t(j) * row_values;
         double f = INFINITY;
         for (std::size_t k = 0; k < row_values; ++k) {
@@ -115,7 +118,13 @@ ShSplitResult sh_split_convolve(const ShCoefficients& remainder, const std::vect
             if (row[k] > 0) f = std::min(f, row[k]);
         }
         row_floor[std::size_t(j)] = f;
-    });
+    };
+    if (executor) {
+        const std::vector<double> values = executor->sh_evaluate(remainder, order, kernel, out);
+        for (int j = 0; j < out.height; ++j) take_row(j, values.data() + std::size_t(j) * row_values);
+    } else {
+        sh_evaluate_rows(remainder, order, kernel, out.width, out.height, threads, take_row);
+    }
     double floor_value = INFINITY;
     for (double f : row_floor) floor_value = std::min(floor_value, f);
     // SH sums are normalised to the continuous lobe, i.e. cmax = 1.

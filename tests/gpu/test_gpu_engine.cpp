@@ -151,6 +151,13 @@ TEST_F(GpuEngineTest, TinyMapWithHugeShininessGivesTheNearestTexelsNeverNan) {
     expect_parity(env, requests(false, {20480}, {8, 4}), Method::Cone, "8x4 n=20480");
 }
 
+TEST_F(GpuEngineTest, ShReconstructionMatchesTheCpu) {
+    const HdrImage env = smooth_map(128, 64, 8);
+    expect_parity(env, requests(true, {10, 40, 160}, {64, 32}), Method::Sh, "sh");
+    const Pyramid pyramid(load_exr(std::filesystem::path(GLINT_BLENDER_WORLDS) / "sunset.exr").image);
+    expect_parity(pyramid.level(1), requests(false, {640, 1280}, {128, 64}), Method::Auto, "auto sunset (sh split)");
+}
+
 TEST_F(GpuEngineTest, MipmapMatchesTheCpu) {
     const HdrImage env = smooth_map(128, 64, 4);
     expect_parity(env, requests(true, {1, 10, 40, 160, 640}, {64, 32}), Method::Mipmap, "mipmap", 1e-6);
@@ -169,8 +176,8 @@ TEST_F(GpuEngineTest, TilesCoverEveryTexelOnce) {
     const auto a = convolve(env, maps, o);
     o.executor = &many;
     const auto b = convolve(env, maps, o);
-    EXPECT_GT(many.stats().tiles, 24) << "a tiny cap must split the pass";
-    EXPECT_LE(one.stats().tiles, 3);
+    EXPECT_GT(many.stats().tiles, 100) << "a tiny cap must split the pass";
+    EXPECT_LT(one.stats().tiles, many.stats().tiles / 10);
     for (std::size_t k = 0; k < a.size(); ++k) EXPECT_EQ(a[k].image.data(), b[k].image.data()) << k;
 }
 

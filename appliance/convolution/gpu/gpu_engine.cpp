@@ -11,6 +11,8 @@
 
 #include "appliance/convolution/lobe_sum.hpp"
 #include "appliance/convolution/mipmap.hpp"
+#include "appliance/convolution/sh.hpp"
+#include "appliance/core/equirect.hpp"
 #include "appliance/core/errors.hpp"
 
 namespace glint::convolution::gpu {
@@ -326,6 +328,12 @@ GpuEngine::GpuEngine(const render::GlContext& context, TileGate& gate, double ha
                            "needed to accumulate in 32-bit float); use the CPU engine");
 }
 
+void GpuEngine::prepare_programs() {
+    for (const char* fragment :
+         {"convolve_exact.frag", "convolve_cone.frag", "convolve_bright.frag", "convolve_mipmap.frag", "convolve_sh.frag"})
+        program(fragment);
+}
+
 int GpuEngine::band_rows(int width, int height) const {
     // At most kBandTexels input texels per draw: llvmpipe ends a loop after
     // 65535 iterations (silently: the sums were short by 95 % at 1024x512),
@@ -453,6 +461,90 @@ std::vector<HdrImage> GpuEngine::mipmap(const Pyramid& pyramid, const std::vecto
     std::vector<HdrImage> images;
     for (int k = 0; k < int(maps.size()); ++k) images.push_back(rgb_of(targets.read(k), out.width, out.height));
     return images;
+}
+
+std::vector<double> GpuEngine::sh_evaluate(const ShCoefficients& c, int order, const std::vector<double>& kernel,
+                                           Size out) {
+    if (order < 1 || order > c.order || int(kernel.size()) < order)
+        throw RuntimeError("GPU engine: SH order " + std::to_string(order) + " with " + std::to_string(c.order) +
+                           " projected bands and " + std::to_string(kernel.size()) + " kernel bands");
+    // The weighted coefficients and the recurrences, packed by column m.
+    const std::size_t packed = std::size_t(order) * std::size_t(order + 1) / 2;
+    constexpr std::size_t kWidth = 4096;
+    const std::size_t rows = (packed + kWidth - 1) / kWidth;
+    std::vector<float> cos_w(rows * kWidth * 4, 0.0f), sin_w(rows * kWidth * 4, 0.0f), steps(rows * kWidth * 4, 0.0f);
+    std::vector<double> a(std::size_t(order) + 1), b(std::size_t(order) + 1);
+    for (int m = 0; m < order; ++m) {
+        const std::size_t first = std::size_t(m) * std::size_t(order) - std::size_t(m) * std::size_t(m - 1) / 2;
+        sh_column_steps(order, m, a.data(), b.data());
+        const double s_m = m == 0 ? 1.0 : std::sqrt(2.0);
+        for (int l = m; l < order; ++l) {
+            const std::size_t idx = first + std::size_t(l - m);
+            const double w = kernel[std::size_t(l)] * s_m;
+            for (int ch = 0; ch < 3; ++ch) {
+                cos_w[4 * idx + std::size_t(ch)] = float(w * c.at(l, m, ch));
+                if (m > 0) sin_w[4 * idx + std::size_t(ch)] = float(w * c.at(l, -m, ch));
+            }
+            if (l > m) {
+                steps[4 * idx] = float(a[std::size_t(l - m)]);
+                steps[4 * idx + 1] = float(b[std::size_t(l - m)]);
+            }
+        }
+    }
+    std::vector<float> pmm(std::size_t(order) * std::size_t(out.height) * 4, 0.0f);
+    std::vector<double> diag(static_cast<std::size_t>(order));
+    for (int j = 0; j < out.height; ++j) {
+        sh_diagonal(order, std::sin(kPi * (j + 0.5) / out.height), diag.data());
+        for (int m = 0; m < order; ++m) {
+            const double v = diag[std::size_t(m)];
+            // Below float's range the column is negligible (see the shader).
+            pmm[(std::size_t(j) * std::size_t(order) + std::size_t(m)) * 4] = std::abs(v) < 1e-37 ? 0.0f : float(v);
+        }
+    }
+    const render::GlTexture cos_tex = make_float_texture(int(kWidth), int(rows), cos_w.data());
+    const render::GlTexture sin_tex = make_float_texture(int(kWidth), int(rows), sin_w.data());
+    const render::GlTexture steps_tex = make_float_texture(int(kWidth), int(rows), steps.data());
+    const render::GlTexture pmm_tex = make_float_texture(order, out.height, pmm.data());
+
+    RenderTargets targets(out.width, out.height, 1);
+    targets.bind();
+    glClearColor(0, 0, 0, 0);
+    glClear(GL_COLOR_BUFFER_BIT);
+    begin_accumulation();
+    const render::GlProgram& p = program("convolve_sh.frag");
+    // Bands of columns m with at most ~4096 recurrence steps per texel: one
+    // texel of a band must stay far below the hard cap on any GPU.
+    const bool blend = context_.caps().has("GL_EXT_float_blend");
+    int m0 = 0;
+    while (m0 < order) {
+        int m1 = m0;
+        long long steps_in_band = 0;
+        while (m1 < order && (!blend || m1 == m0 || steps_in_band + (order - m1) <= 4096)) {
+            steps_in_band += order - m1;
+            ++m1;
+        }
+        draw_tiled(p, targets, [&] {
+            bind_texture(0, cos_tex.id());
+            bind_texture(1, sin_tex.id());
+            bind_texture(2, steps_tex.id());
+            bind_texture(3, pmm_tex.id());
+            glUniform1i(p.uniform("u_cos_weights"), 0);
+            glUniform1i(p.uniform("u_sin_weights"), 1);
+            glUniform1i(p.uniform("u_steps"), 2);
+            glUniform1i(p.uniform("u_pmm"), 3);
+            glUniform1i(p.uniform("u_order"), order);
+            glUniform1i(p.uniform("u_m_begin"), m0);
+            glUniform1i(p.uniform("u_m_end"), m1);
+            glUniform2i(p.uniform("u_out_size"), out.width, out.height);
+        });
+        m0 = m1;
+    }
+    glDisable(GL_BLEND);
+    const std::vector<float> values = targets.read(0);
+    std::vector<double> e(std::size_t(out.width) * std::size_t(out.height) * 3);
+    for (std::size_t t = 0; t < std::size_t(out.width) * std::size_t(out.height); ++t)
+        for (std::size_t ch = 0; ch < 3; ++ch) e[3 * t + ch] = double(values[4 * t + ch]);
+    return e;
 }
 
 std::unique_ptr<ConeSumsBackend> GpuEngine::cone_sums(const PreparedLevel& level, Size out, double shininess,

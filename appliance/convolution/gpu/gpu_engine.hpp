@@ -3,8 +3,9 @@
 // in tiles (tile_runner.hpp). `exact` and `mipmap` share a pass between up to
 // 8 maps of one output size (one RGBA32F render target each); the cone's
 // first pass, its annuli and its bright texels run as passes of one map, and
-// the CPU does the cone's bound and normalisation between them. SH plans run
-// on the CPU (not built on the GPU yet: docs/gpu.md).
+// the CPU does the cone's bound and normalisation between them; SH maps are
+// reconstructed on the GPU from the CPU's projection (the bound, bright
+// texels and normalisation of the SH split stay on the CPU).
 #pragma once
 
 #include <functional>
@@ -54,6 +55,8 @@ public:
                                  Size out) override;
     std::unique_ptr<ConeSumsBackend> cone_sums(const PreparedLevel& level, Size out, double shininess,
                                                const ConeSettings& settings) override;
+    std::vector<double> sh_evaluate(const ShCoefficients& c, int order, const std::vector<double>& kernel,
+                                    Size out) override;
 
     // Called after every finished tile with the tile and the texture it was
     // drawn into (already flushed): a progress view can show the maps filling in.
@@ -64,6 +67,9 @@ public:
     void draw_tiled(const render::GlProgram& program, const RenderTargets& targets,
                     const std::function<void()>& set_uniforms);
     const render::GlProgram& program(const std::string& fragment);
+    // Compiles every program now (the driver may hold a lock while it compiles:
+    // at start-up, not in the middle of a frame).
+    void prepare_programs();
     // Input rows per draw of a width x height input (the passes sum bands of
     // rows and add them up), and the blending that adds them.
     int band_rows(int width, int height) const;

@@ -51,8 +51,12 @@ double TileRunner::measure(const TileRect& tile, const std::function<void(const 
         const double gpu = double(ns) * 1e-6, wall = cpu_ms();
         // The GPU's time lies inside the wall time we waited for it; a result
         // outside it (a disjoint event, or the first query of a context on
-        // llvmpipe: 1e7 ms, measured) is not believed.
-        if (!disjoint && gpu <= 1.5 * wall + 1.0) return gpu;
+        // llvmpipe: 1e7 ms, measured) is not believed. And the tile is charged
+        // the longer of the two: what the frame loses is the wall time the GPU
+        // was busy with it (on llvmpipe the query reported a fraction of it for
+        // heavy shaders, and the sized-up tiles held the render thread's frames
+        // for up to 0.7 s).
+        if (!disjoint && gpu <= 1.5 * wall + 1.0) return std::max(gpu, wall);
         return wall;
     }
     draw(tile);
@@ -70,11 +74,18 @@ void TileRunner::run(int width, int height, const std::function<void(const TileR
         tile.x = x;
         tile.y = y;
         if (ms_per_texel_ < 0) {
-            // First tile of the runner: a small one, to learn the cost.
-            tile.width = std::min(width - x, 16);
+            // First tile of the runner: one texel, to learn the cost (a texel of
+            // an SH band on llvmpipe took ~6 ms; 16 of them broke the cap).
+            tile.width = 1;
             tile.height = 1;
         } else {
-            const double texels = std::max(1.0, std::floor(0.8 * limit / ms_per_texel_));  // 20 % headroom
+            // 20 % headroom, and at most 4x the last tile's texels: texels of one
+            // pass can differ in cost by orders of magnitude (masked texels of an
+            // annulus pass cost nothing, polar rows read more columns), so an
+            // estimate from cheap texels must not size a huge tile (measured: a
+            // 112 ms draw under a 50 ms cap before this limit).
+            const double texels = std::max(
+                1.0, std::min(std::floor(0.8 * limit / ms_per_texel_), 4.0 * double(last_texels_)));
             if (x == 0 && texels >= width) {
                 tile.width = width;
                 tile.height = int(std::min<double>(height - y, std::floor(texels / width)));
@@ -85,6 +96,7 @@ void TileRunner::run(int width, int height, const std::function<void(const TileR
         }
         const double ms = measure(tile, draw);
         gate_.spent(ms);
+        last_texels_ = (long long)tile.width * tile.height;
         const double per_texel = ms / double(tile.width * tile.height);
         // Smoothed, but a slower tile is believed at once (the cap must hold).
         ms_per_texel_ = ms_per_texel_ < 0 ? per_texel : std::max(per_texel, 0.5 * (ms_per_texel_ + per_texel));

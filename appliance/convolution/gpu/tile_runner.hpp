@@ -74,6 +74,7 @@ private:
     TileGate& gate_;
     double hard_cap_ms_;
     double ms_per_texel_ = -1;  // unknown until the first tile
+    long long last_texels_ = 1;
     TileStats stats_;
 };
 
