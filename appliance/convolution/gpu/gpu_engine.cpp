@@ -130,6 +130,7 @@ public:
                 }
         atlas_ = make_float_texture(atlas_width, height_, atlas.data());
         row_merge_ = make_int_row_texture(merge);
+        merge_ = merge;
         // The largest cosine of every output row and class, as the CPU's sums take it.
         const LobeSummer summer(level, out.width, out.height, n, Accumulation::FloatRuns, settings.max_texel_arc);
         cmax_.resize(std::size_t(classes_) * std::size_t(out.height));
@@ -170,6 +171,12 @@ public:
                 for (int i = a; i < b; ++i) mask[std::size_t(rows[k]) * std::size_t(out_.width) + std::size_t(i)] = 1.0f;
         }
         const render::GlTexture mask_texture = make_mask_texture(out_.width, out_.height, mask);
+        mask_fraction_.assign(std::size_t(out_.height), 0.0);
+        for (int r = 0; r < out_.height; ++r) {
+            double on = 0;
+            for (int i = 0; i < out_.width; ++i) on += mask[std::size_t(r) * std::size_t(out_.width) + std::size_t(i)];
+            mask_fraction_[std::size_t(r)] = std::max(0.01, on / out_.width);  // masked-out texels cost a little too
+        }
         RenderTargets targets(out_.width, out_.height, 1);
         run_cone(targets, x_outer, float(1.0 - c_inner), &mask_texture);
         const std::vector<float> sums = targets.read(0);
@@ -251,7 +258,9 @@ private:
         glClearColor(0, 0, 0, 0);
         glClear(GL_COLOR_BUFFER_BIT);
         engine_.begin_accumulation();
-        for (int first = 0; first < height_; first += band)
+        for (int first = 0; first < height_; first += band) {
+            const std::vector<double> work =
+                row_work(x_outer, first, std::min(height_, first + band), mask ? &mask_fraction_ : nullptr);
             engine_.draw_tiled(p, targets, [&] {
                 bind_texture(0, atlas_.id());
                 bind_texture(1, row_merge_.id());
@@ -272,8 +281,35 @@ private:
                 glUniform1f(p.uniform("u_x_inner"), x_inner);
                 glUniform1i(p.uniform("u_row_begin"), first);
                 glUniform1i(p.uniform("u_row_end"), std::min(height_, first + band));
-            });
+            }, &work);
+        }
         glDisable(GL_BLEND);
+    }
+
+    // Terms a texel of each output row sums over the level rows [j_begin,
+    // j_end): the shader's column ranges, counted on the CPU; times the share
+    // of the row's texels that the mask lets through.
+    std::vector<double> row_work(const std::vector<float>& x_outer, int j_begin, int j_end,
+                                 const std::vector<double>* mask_share) const {
+        std::vector<double> work(std::size_t(out_.height), 0.0);
+        for (int r = 0; r < out_.height; ++r) {
+            const double xo = x_outer[std::size_t(r)];
+            if (xo < 0) continue;
+            const double tr = kPi * (r + 0.5) / out_.height, str = std::sin(tr);
+            double terms = 0;
+            for (int j = j_begin; j < j_end; ++j) {
+                const double tk = kPi * (j + 0.5) / height_, sdt = std::sin(0.5 * (tr - tk));
+                const double rest = xo - 2.0 * sdt * sdt;
+                if (rest < 0) continue;
+                const int wm = width_ / merge_[std::size_t(j)];
+                const double sp = str * std::sin(tk);
+                const double half = sp > 1e-30 ? 2.0 * std::asin(std::min(1.0, std::sqrt(rest / (2.0 * sp)))) * wm / kTwoPi
+                                               : double(wm);
+                terms += std::min(double(wm), 2.0 * half + 3.0);
+            }
+            work[std::size_t(r)] = (terms + 1.0) * (mask_share ? (*mask_share)[std::size_t(r)] : 1.0);
+        }
+        return work;
     }
 
     GpuEngine& engine_;
@@ -283,6 +319,8 @@ private:
     std::array<GLint, 8> merge_offset_{};
     render::GlTexture atlas_, row_merge_, log_cmax_;
     std::vector<double> cmax_;  // per output row and class
+    std::vector<int> merge_;    // merge factor of each level row
+    std::vector<double> mask_fraction_;  // share of each output row's texels in the annulus mask
 };
 
 }  // namespace
@@ -357,7 +395,7 @@ const render::GlProgram& GpuEngine::program(const std::string& fragment) {
 }
 
 void GpuEngine::draw_tiled(const render::GlProgram& program, const RenderTargets& targets,
-                           const std::function<void()>& set_uniforms) {
+                           const std::function<void()>& set_uniforms, const std::vector<double>* row_work) {
     targets.bind();
     program.use();
     glBindVertexArray(vao_.id());
@@ -368,7 +406,8 @@ void GpuEngine::draw_tiled(const render::GlProgram& program, const RenderTargets
         targets.width(), targets.height(), [](const TileRect&) { glDrawArrays(GL_TRIANGLES, 0, 3); },
         [&](const TileRect& tile) {
             if (on_tile_) on_tile_(tile, targets.texture(0));
-        });
+        },
+        row_work);
     render::check_gl(("drawing the pass " + program.label()).c_str());
     stats_.tiles += runner.stats().tiles;
     stats_.gpu_ms += runner.stats().gpu_ms;
@@ -523,6 +562,12 @@ std::vector<double> GpuEngine::sh_evaluate(const ShCoefficients& c, int order, c
             steps_in_band += order - m1;
             ++m1;
         }
+        // Recurrence steps of a texel of each row in this band (columns whose
+        // P_mm underflowed are skipped by the shader).
+        std::vector<double> work(std::size_t(out.height), 1.0);
+        for (int j = 0; j < out.height; ++j)
+            for (int m = m0; m < m1; ++m)
+                if (pmm[(std::size_t(j) * std::size_t(order) + std::size_t(m)) * 4] != 0.0f) work[std::size_t(j)] += order - m;
         draw_tiled(p, targets, [&] {
             bind_texture(0, cos_tex.id());
             bind_texture(1, sin_tex.id());
@@ -536,7 +581,7 @@ std::vector<double> GpuEngine::sh_evaluate(const ShCoefficients& c, int order, c
             glUniform1i(p.uniform("u_m_begin"), m0);
             glUniform1i(p.uniform("u_m_end"), m1);
             glUniform2i(p.uniform("u_out_size"), out.width, out.height);
-        });
+        }, &work);
         m0 = m1;
     }
     glDisable(GL_BLEND);

@@ -64,8 +64,9 @@ public:
     const TileStats& stats() const { return stats_; }
 
     // Draws `program` over every texel of `targets` in tiles. Used by the passes.
+    // row_work: relative work of a texel of each output row (TileRunner).
     void draw_tiled(const render::GlProgram& program, const RenderTargets& targets,
-                    const std::function<void()>& set_uniforms);
+                    const std::function<void()>& set_uniforms, const std::vector<double>* row_work = nullptr);
     const render::GlProgram& program(const std::string& fragment);
     // Compiles every program now (the driver may hold a lock while it compiles:
     // at start-up, not in the middle of a frame).

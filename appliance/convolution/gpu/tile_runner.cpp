@@ -66,40 +66,46 @@ double TileRunner::measure(const TileRect& tile, const std::function<void(const 
 }
 
 void TileRunner::run(int width, int height, const std::function<void(const TileRect&)>& draw,
-                     const std::function<void(const TileRect&)>& on_tile) {
+                     const std::function<void(const TileRect&)>& on_tile, const std::vector<double>* row_work) {
+    // Work of one texel of row y, in the units the cost model learns: the
+    // caller's estimate (how many terms the row's texels sum), else 1.
+    const auto work = [&](int y) { return row_work ? std::max(1e-3, (*row_work)[std::size_t(y)]) : 1.0; };
     int x = 0, y = 0;
     while (y < height) {
         const double limit = std::min(gate_.acquire(), hard_cap_ms_);
         TileRect tile;
         tile.x = x;
         tile.y = y;
-        if (ms_per_texel_ < 0) {
+        if (ms_per_work_ < 0) {
             // First tile of the runner: one texel, to learn the cost (a texel of
             // an SH band on llvmpipe took ~6 ms; 16 of them broke the cap).
             tile.width = 1;
             tile.height = 1;
         } else {
-            // 20 % headroom, and at most 4x the last tile's texels: texels of one
-            // pass can differ in cost by orders of magnitude (masked texels of an
-            // annulus pass cost nothing, polar rows read more columns), so an
-            // estimate from cheap texels must not size a huge tile (measured: a
-            // 112 ms draw under a 50 ms cap before this limit).
-            const double texels = std::max(
-                1.0, std::min(std::floor(0.8 * limit / ms_per_texel_), 4.0 * double(last_texels_)));
-            if (x == 0 && texels >= width) {
+            // Half the limit, and at most 4x the last tile's work: the work
+            // estimate is only relative, and texels of one pass can differ in
+            // cost by orders of magnitude (masked texels of an annulus pass cost
+            // nothing, polar rows read more columns).
+            const double budget = std::min(0.5 * limit / ms_per_work_, 4.0 * last_work_);
+            if (x == 0 && budget >= work(y) * width) {
+                double used = 0;
+                int rows = 0;
+                while (y + rows < height && used + work(y + rows) * width <= budget) used += work(y + rows++) * width;
                 tile.width = width;
-                tile.height = int(std::min<double>(height - y, std::floor(texels / width)));
+                tile.height = std::max(1, rows);
             } else {
-                tile.width = int(std::min<double>(width - x, texels));
+                tile.width = int(std::clamp(std::floor(budget / work(y)), 1.0, double(width - x)));
                 tile.height = 1;
             }
         }
+        double tile_work = 0;
+        for (int r = tile.y; r < tile.y + tile.height; ++r) tile_work += work(r) * tile.width;
         const double ms = measure(tile, draw);
         gate_.spent(ms);
-        last_texels_ = (long long)tile.width * tile.height;
-        const double per_texel = ms / double(tile.width * tile.height);
+        last_work_ = tile_work;
+        const double per_work = ms / tile_work;
         // Smoothed, but a slower tile is believed at once (the cap must hold).
-        ms_per_texel_ = ms_per_texel_ < 0 ? per_texel : std::max(per_texel, 0.5 * (ms_per_texel_ + per_texel));
+        ms_per_work_ = ms_per_work_ < 0 ? per_work : std::max(per_work, 0.5 * (ms_per_work_ + per_work));
         ++stats_.tiles;
         stats_.gpu_ms += ms;
         stats_.largest_ms = std::max(stats_.largest_ms, ms);

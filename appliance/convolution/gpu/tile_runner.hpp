@@ -6,6 +6,7 @@
 #include <chrono>
 #include <functional>
 #include <stdexcept>
+#include <vector>
 
 #include "appliance/render/gl_context.hpp"
 #include "appliance/render/gl_objects.hpp"
@@ -61,20 +62,19 @@ public:
     TileRunner(const render::GlCapabilities& caps, TileGate& gate, double hard_cap_ms);
     // draw: sets the scissor to the tile and issues the draw. on_tile: called
     // after each finished tile (e.g. to show progress).
+    // row_work: the relative work of one texel of each row (e.g. the number
+    // of terms it sums), which the cost model scales; null: uniform.
     void run(int width, int height, const std::function<void(const TileRect&)>& draw,
-             const std::function<void(const TileRect&)>& on_tile = {});
+             const std::function<void(const TileRect&)>& on_tile = {}, const std::vector<double>* row_work = nullptr);
     const TileStats& stats() const { return stats_; }
-    // The current estimate of one texel's cost, ms (for a new pass of the
-    // same program it is a starting point; the first tile is small anyway).
-    double ms_per_texel() const { return ms_per_texel_; }
 
 private:
     double measure(const TileRect& tile, const std::function<void(const TileRect&)>& draw);
     bool timer_query_;
     TileGate& gate_;
     double hard_cap_ms_;
-    double ms_per_texel_ = -1;  // unknown until the first tile
-    long long last_texels_ = 1;
+    double ms_per_work_ = -1;  // unknown until the first tile
+    double last_work_ = 1;
     TileStats stats_;
 };
 
