@@ -202,6 +202,17 @@ public:
             d[7] = 0.0f;
         }
         const render::GlTexture bright = make_float_texture(2, int(texels.size()), data.data());
+        // Work of a texel of each row: the loop over every bright texel, plus
+        // the terms of those whose cut-off cone reaches the row.
+        std::vector<double> work(std::size_t(out_.height), double(texels.size()) + 1.0);
+        for (std::size_t b = 0; b < texels.size(); ++b) {
+            const double c = scatter.min_cos()[b];
+            if (c > 1.0) continue;
+            const double reach = std::acos(std::clamp(c, -1.0, 1.0));
+            for (int r = 0; r < out_.height; ++r)
+                // A term (exp, log, a fetch) costs ~20 times the loop's test.
+                if (std::abs(kPi * (r + 0.5) / out_.height - texels[b].theta) <= reach) work[std::size_t(r)] += 20.0;
+        }
         RenderTargets targets(out_.width, out_.height, 1);
         const render::GlProgram& p = engine_.program("convolve_bright.frag");
         engine_.draw_tiled(p, targets, [&] {
@@ -213,7 +224,7 @@ public:
             glUniform1i(p.uniform("u_count"), GLint(texels.size()));
             glUniform1f(p.uniform("u_n"), float(n_));
             glUniform2i(p.uniform("u_out_size"), out_.width, out_.height);
-        });
+        }, &work);
         const std::vector<float> values = targets.read(0);
         for (int row : rows)
             for (int i = 0; i < out_.width; ++i) {
