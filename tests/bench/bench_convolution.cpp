@@ -29,6 +29,7 @@
 #include <vector>
 
 #include "appliance/core/memory.hpp"
+#include "bench_util.hpp"
 #include "appliance/convolution/convolution.hpp"
 #include "appliance/core/equirect.hpp"
 #include "appliance/core/error_metrics.hpp"
@@ -37,6 +38,9 @@
 namespace fs = std::filesystem;
 using namespace glint;
 using namespace glint::convolution;
+
+using glint::bench::fmt;
+using glint::bench::machine_description;
 
 namespace {
 
@@ -186,22 +190,6 @@ double glint_peak_mib(const std::string& glint, const fs::path& input, const std
     return double(usage.ru_maxrss) / 1024.0;
 }
 
-std::string machine_description() {
-    std::ifstream cpu("/proc/cpuinfo");
-    std::string line, model = "unknown CPU";
-    while (std::getline(cpu, line))
-        if (line.rfind("model name", 0) == 0) {
-            model = line.substr(line.find(':') + 2);
-            break;
-        }
-    return model + ", " + std::to_string(sysconf(_SC_NPROCESSORS_ONLN)) + " cores";
-}
-
-std::string fmt(const char* f, double v) {
-    char b[64];
-    std::snprintf(b, sizeof b, f, v);
-    return b;
-}
 
 }  // namespace
 

@@ -46,35 +46,29 @@ render::GlTexture upload_image(const HdrImage& image) {
 
 namespace {
 
-// A single-channel texture of one row (per-row parameters of a pass).
-render::GlTexture make_row_texture(const std::vector<float>& values) {
+// A single-channel texture with nearest filtering: R32F (GL_RED, GL_FLOAT) or
+// R32I (GL_RED_INTEGER, GL_INT); per-row parameters of a pass, masks.
+render::GlTexture make_channel_texture(int width, int height, GLenum internal, GLenum format, GLenum type,
+                                       const void* data) {
     render::GlTexture t = render::GlTexture::create();
     glBindTexture(GL_TEXTURE_2D, t.id());
-    glTexImage2D(GL_TEXTURE_2D, 0, GL_R32F, GLsizei(values.size()), 1, 0, GL_RED, GL_FLOAT, values.data());
+    glTexImage2D(GL_TEXTURE_2D, 0, GLint(internal), width, height, 0, format, type, data);
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
-    render::check_gl("creating an R32F texture");
+    render::check_gl("creating a single-channel texture");
     return t;
+}
+
+render::GlTexture make_row_texture(const std::vector<float>& values) {
+    return make_channel_texture(int(values.size()), 1, GL_R32F, GL_RED, GL_FLOAT, values.data());
 }
 
 render::GlTexture make_int_row_texture(const std::vector<int>& values) {
-    render::GlTexture t = render::GlTexture::create();
-    glBindTexture(GL_TEXTURE_2D, t.id());
-    glTexImage2D(GL_TEXTURE_2D, 0, GL_R32I, GLsizei(values.size()), 1, 0, GL_RED_INTEGER, GL_INT, values.data());
-    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
-    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
-    render::check_gl("creating an R32I texture");
-    return t;
+    return make_channel_texture(int(values.size()), 1, GL_R32I, GL_RED_INTEGER, GL_INT, values.data());
 }
 
 render::GlTexture make_mask_texture(int width, int height, const std::vector<float>& mask) {
-    render::GlTexture t = render::GlTexture::create();
-    glBindTexture(GL_TEXTURE_2D, t.id());
-    glTexImage2D(GL_TEXTURE_2D, 0, GL_R32F, width, height, 0, GL_RED, GL_FLOAT, mask.data());
-    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
-    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
-    render::check_gl("creating a mask texture");
-    return t;
+    return make_channel_texture(width, height, GL_R32F, GL_RED, GL_FLOAT, mask.data());
 }
 
 void bind_texture(int unit, GLuint texture) {
@@ -141,12 +135,7 @@ public:
                 cmax_[rc] = summer.cmax(row, cls);
                 log_cmax[rc] = float(std::log(cmax_[rc]));
             }
-        log_cmax_ = render::GlTexture::create();
-        glBindTexture(GL_TEXTURE_2D, log_cmax_.id());
-        glTexImage2D(GL_TEXTURE_2D, 0, GL_R32F, classes_, out.height, 0, GL_RED, GL_FLOAT, log_cmax.data());
-        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
-        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
-        render::check_gl("uploading the largest cosines");
+        log_cmax_ = make_channel_texture(classes_, out.height, GL_R32F, GL_RED, GL_FLOAT, log_cmax.data());
     }
 
     LobeSums first_pass(const std::vector<int>& rows, double c0, const RowProgress& progress) override {
