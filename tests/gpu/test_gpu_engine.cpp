@@ -145,6 +145,32 @@ TEST_F(GpuEngineTest, ConstantMapGivesTheConstant) {
     }
 }
 
+// The rest of the CPU issue's hard cases: a dynamic range of 1e-6 .. 6e4 in one
+// map, a map lit only from below, an all-zero map.
+TEST_F(GpuEngineTest, DynamicRangeLitFromBelowAndZeroMapsMatchTheCpu) {
+    HdrImage range(128, 64), below(128, 64), zero(128, 64);
+    std::mt19937 rng(11);
+    std::uniform_real_distribution<double> u(0.0, 1.0);
+    for (int j = 0; j < 64; ++j)
+        for (int i = 0; i < 128; ++i) {
+            const float v = float(std::pow(10.0, -6.0 + 10.78 * u(rng)));  // 1e-6 .. 6e4
+            range.set(i, j, {v, 0.5f * v, 2.0f * v});
+            const float b = j >= 32 ? 1.0f + 0.01f * float(i % 7) : 0.0f;  // the lower hemisphere only
+            below.set(i, j, {b, b, b});
+        }
+    for (Method m : {Method::Cone, Method::Auto}) {
+        expect_parity(range, requests(true, {20, 160, 1280}, {64, 32}), m, "dynamic range 1e-6..6e4");
+        expect_parity(below, requests(true, {20, 160}, {64, 32}), m, "lit only from below");
+    }
+    UnlimitedGate gate(50.0);
+    GpuEngine engine(context(), gate);
+    Options o;
+    o.method = Method::Cone;
+    o.executor = &engine;
+    for (const MapResult& r : convolve(zero, requests(true, {20, 20480}, {32, 16}), o))
+        for (float v : r.image.data()) ASSERT_EQ(v, 0.0f) << r.request.label;
+}
+
 TEST_F(GpuEngineTest, TinyMapWithHugeShininessGivesTheNearestTexelsNeverNan) {
     const HdrImage env = smooth_map(8, 4, 9);
     expect_parity(env, requests(false, {20480}, {8, 4}), Method::Exact, "8x4 n=20480");
