@@ -2,6 +2,9 @@
 // recordings, are of a newer major version, or whose header is cut or damaged.
 #include <gtest/gtest.h>
 
+#include <cstdio>
+#include <fstream>
+
 #include "firmware_bridge/protocol/byte_io.hpp"
 #include "firmware_bridge/protocol/crc32c.hpp"
 #include "firmware_bridge/recording/format.hpp"
@@ -214,6 +217,55 @@ TEST(RecordingFormat, MalformedPayloadWithRightCrc) {
     p = parse_record(resign(msg));
     EXPECT_EQ(p.check, RecordCheck::Malformed);
     EXPECT_NE(p.detail.find("does not decode"), std::string::npos) << p.detail;
+}
+
+// The hex of a FORMAT.md example row "| `name` | what | `hex` |"; empty when missing.
+std::string doc_example(const std::string& name) {
+    std::ifstream doc(GLINT_RECORDING_FORMAT_DOC);
+    std::string line;
+    const std::string key = "| `" + name + "` |";
+    while (std::getline(doc, line)) {
+        if (line.rfind(key, 0) != 0) continue;
+        const std::size_t end = line.rfind('`');
+        const std::size_t begin = line.rfind('`', end - 1);
+        return line.substr(begin + 1, end - begin - 1);
+    }
+    return "";
+}
+
+std::string hex(const Bytes& bytes) {
+    std::string out;
+    char b[4];
+    for (std::size_t i = 0; i < bytes.size(); ++i) {
+        std::snprintf(b, sizeof b, i ? " %02x" : "%02x", static_cast<unsigned>(bytes[i]));
+        out += b;
+    }
+    return out;
+}
+
+TEST(RecordingFormat, DocExamples) {
+    FileHeader h;
+    h.created_unix_us = 1'735'689'600'000'000;
+    h.created_monotonic_us = 7'200'000'000;
+    h.transport = Transport::Serial;
+    h.baud = 115200;
+    h.decoded_types = {2};
+    h.device = "/dev/ttyACM0";
+    h.notes = {{"site", "lab"}};
+    const std::pair<std::string, Bytes> examples[] = {
+        {"ex-header", encode_header(h)},
+        {"ex-marker", encode_record(MarkerRecord{7'200'001'000, "start"})},
+        {"ex-raw", encode_record(RawBytesRecord{7'200'002'000, 0, Direction::Received,
+                                                {0x03, 0x01, 0x10, 0x01, 0x05, 0xf5, 0x9c, 0x80, 0xe5, 0x00}})},
+        {"ex-decoded", encode_record(DecodedMessageRecord{
+                           7'200'003'000, 25, 1, protocol::Orientation{1'000'000, 0x2D413CCD, 0, 0x2D413CCD, 0}})},
+        {"ex-gpio", encode_record(GpioEventRecord{7'200'004'000, 17, Edge::Rising, "gpiochip0"})},
+        {"ex-restart", encode_record(StreamRestartRecord{7'200'005'000, "reopened"})},
+    };
+    for (const auto& [name, bytes] : examples)
+        EXPECT_EQ(doc_example(name), hex(bytes)) << "FORMAT.md row " << name << " should read:\n| `" << name
+                                                 << "` | ... | `" << hex(bytes) << "` |";
+    EXPECT_EQ(parse_header(examples[0].second).header_size, 72u);
 }
 
 TEST(RecordingFormat, TransportNames) {
