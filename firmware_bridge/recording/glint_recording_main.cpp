@@ -205,11 +205,8 @@ int main(int argc, char** argv) {
 
     try {
         app.parse(argc, argv);
-    } catch (const CLI::CallForHelp&) {
-        std::printf("%s", app.help().c_str());
-        return 0;
     } catch (const CLI::ParseError& e) {
-        if (e.get_exit_code() == 0) return app.exit(e);  // e.g. help of a subcommand
+        if (e.get_exit_code() == 0) return app.exit(e);  // --help (of the tool or a subcommand)
         std::fprintf(stderr, "glint-recording: error: %s (see glint-recording --help)\n", e.what());
         return 2;
     }

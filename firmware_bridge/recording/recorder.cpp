@@ -60,10 +60,16 @@ Recorder::Recorder(std::string path, RecorderOptions options, Clock& clock)
     const int flags = O_WRONLY | O_CREAT | O_CLOEXEC | (options_.overwrite ? O_TRUNC : O_EXCL);
     fd_ = detail::UniqueFd(::open(path_.c_str(), flags, 0644));
     if (!fd_.valid()) throw RecordingError("cannot create recording " + path_ + ": " + detail::errno_text(errno));
-    if (const int err = write_all(fd_.get(), head))
-        throw RecordingError("cannot write the header of recording " + path_ + ": " + detail::errno_text(err));
+    // A file this constructor created but could not start is removed again, so that no
+    // header-less file is left to be mistaken for a recording. (A replaced file is gone anyway.)
+    auto give_up = [&](const char* what, int err) {
+        fd_.reset();
+        if (!options_.overwrite) ::unlink(path_.c_str());
+        throw RecordingError(std::string(what) + " recording " + path_ + ": " + detail::errno_text(err));
+    };
+    if (const int err = write_all(fd_.get(), head)) give_up("cannot write the header of", err);
     if (::fdatasync(fd_.get()) != 0 && errno != EINVAL)  // EINVAL: a special file such as a pipe
-        throw RecordingError("cannot sync recording " + path_ + ": " + detail::errno_text(errno));
+        give_up("cannot sync", errno);
     sync_parent_directory(path_);
     last_sync_us_ = clock_.now_us();
     buffer_.reserve(options_.block_size + 1024);

@@ -232,5 +232,16 @@ TEST(Recorder, WriteErrorIsReportedWithPathAndErrnoAndStopsTheRecording) {
     for (const ReadIssue& issue : reader.issues()) EXPECT_EQ(issue.kind, IssueKind::TornTail) << issue.message;
 }
 
+TEST(Recorder, FileThatCouldNotBeStartedIsRemoved) {
+    TempDir dir;
+    VirtualClock clock;
+    const std::string path = dir.file("no-room.glrec");
+    {
+        FileSizeLimit limit(20);  // smaller than any header
+        EXPECT_THROW(Recorder(path, RecorderOptions{}, clock), RecordingError);
+    }
+    EXPECT_FALSE(std::filesystem::exists(path));
+}
+
 }  // namespace
 }  // namespace glint::recording
