@@ -68,7 +68,10 @@ ImuStatus Bno055Imu::probe(std::uint64_t now_us) {
         bus_.read_regs(config_.address, bno055::kRegChipId, {&id, 1}) != I2cStatus::Ok ||
         id != bno055::kChipId) {
         deadline_us_ = now_us + config_.probe_retry_us;
-        return ImuStatus::NotResponding;
+        // Silence during the chip's boot after power-on is expected, not a fault.
+        return now_us < first_poll_us_ + bno055::kBootTimeUs + config_.probe_retry_us
+                   ? ImuStatus::Starting
+                   : ImuStatus::NotResponding;
     }
     // Whatever mode the chip is in, go to CONFIGMODE and wait the longer switching time.
     if (bus_.write_reg(config_.address, bno055::kRegOprMode, bno055::kModeConfig) != I2cStatus::Ok) {
@@ -81,9 +84,16 @@ ImuStatus Bno055Imu::probe(std::uint64_t now_us) {
 
 ImuStatus Bno055Imu::poll(std::uint64_t now_us, ImuReading& reading) {
     const std::uint8_t a = config_.address;
+    if (!polled_) {
+        polled_ = true;
+        first_poll_us_ = now_us;
+    }
     switch (state_) {
         case State::Probe:
-            if (now_us < deadline_us_) return ImuStatus::NotResponding;
+            if (now_us < deadline_us_) {
+                return now_us < first_poll_us_ + bno055::kBootTimeUs ? ImuStatus::Starting
+                                                                     : ImuStatus::NotResponding;
+            }
             return probe(now_us);
         case State::EnteringConfig:
             if (now_us < deadline_us_) return ImuStatus::Starting;

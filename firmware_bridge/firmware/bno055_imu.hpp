@@ -62,6 +62,8 @@ private:
     std::uint64_t next_status_us_ = 0;
     CalibrationLevels calibration_{};
     std::uint32_t probes_ = 0;
+    bool polled_ = false;
+    std::uint64_t first_poll_us_ = 0;
 };
 
 }  // namespace glint::firmware
