@@ -108,7 +108,7 @@ void MahonyFilter::update(Vec3f gyro_rad_s, Vec3f accel, const Vec3f* mag, float
     }
 
     // Integral feedback: the bias estimate moves against the error (db/dt = -kI e).
-    bias_ -= (gains_.ki * dt_s) * error;
+    if (norm(error) < limits_.bias_error_limit) bias_ -= (gains_.ki * dt_s) * error;
     bias_ = {clamp(bias_.x, limits_.max_bias_rad_s), clamp(bias_.y, limits_.max_bias_rad_s),
              clamp(bias_.z, limits_.max_bias_rad_s)};
     const Vec3f omega = gyro_rad_s - bias_ + gains_.kp * error;

@@ -18,7 +18,8 @@
 //     vector, |.| = sin of the heading error) is rotated back to the sensor frame.
 // Samples whose accelerometer norm is far from g (the board is being accelerated) or whose field
 // norm or dip angle is far from the reference learned at start (a magnet, a steel door) are
-// left out of the correction, so the gyro carries the estimate through them.
+// left out of the correction, so the gyro carries the estimate through them. The bias is only
+// integrated while the error is small (anti-windup, see MahonyLimits::bias_error_limit).
 #pragma once
 
 #include "firmware_bridge/firmware/rotation.hpp"
@@ -37,6 +38,10 @@ struct MahonyLimits {
     float mag_norm_tolerance = 0.2f;     // relative change of |m| beyond which mag is not trusted
     float mag_dip_tolerance_rad = 0.17f; // change of the dip angle (~10 deg) likewise
     float max_bias_rad_s = 0.35f;        // clamp of each bias component (MPU-6050: +-20 deg/s ZRO)
+    // The bias is integrated only while the error is small (|e| ~ sin of the angle, 0.1 ~ 6 deg):
+    // a large error is a transient (start, a wrong set_orientation), not bias, and integrating
+    // it would wind the bias estimate up and take kp/ki seconds to unwind.
+    float bias_error_limit = 0.1f;
     float mag_reference_time_s = 30.0f;  // time constant of the reference field's slow update
 };
 
