@@ -60,6 +60,12 @@ ImuStatus Bno055Imu::fail(std::uint64_t now_us) {
     return ImuStatus::ReadFailed;
 }
 
+// Until the chip has answered once, silence for its boot time after the first poll (power-on)
+// is expected.
+bool Bno055Imu::in_boot_grace(std::uint64_t now_us) const {
+    return !answered_once_ && now_us < first_poll_us_ + bno055::kBootTimeUs + config_.probe_retry_us;
+}
+
 ImuStatus Bno055Imu::probe(std::uint64_t now_us) {
     ++probes_;
     std::uint8_t id = 0;
@@ -69,10 +75,9 @@ ImuStatus Bno055Imu::probe(std::uint64_t now_us) {
         id != bno055::kChipId) {
         deadline_us_ = now_us + config_.probe_retry_us;
         // Silence during the chip's boot after power-on is expected, not a fault.
-        return now_us < first_poll_us_ + bno055::kBootTimeUs + config_.probe_retry_us
-                   ? ImuStatus::Starting
-                   : ImuStatus::NotResponding;
+        return in_boot_grace(now_us) ? ImuStatus::Starting : ImuStatus::NotResponding;
     }
+    answered_once_ = true;
     // Whatever mode the chip is in, go to CONFIGMODE and wait the longer switching time.
     if (bus_.write_reg(config_.address, bno055::kRegOprMode, bno055::kModeConfig) != I2cStatus::Ok) {
         return fail(now_us);
@@ -91,8 +96,7 @@ ImuStatus Bno055Imu::poll(std::uint64_t now_us, ImuReading& reading) {
     switch (state_) {
         case State::Probe:
             if (now_us < deadline_us_) {
-                return now_us < first_poll_us_ + bno055::kBootTimeUs ? ImuStatus::Starting
-                                                                     : ImuStatus::NotResponding;
+                return in_boot_grace(now_us) ? ImuStatus::Starting : ImuStatus::NotResponding;
             }
             return probe(now_us);
         case State::EnteringConfig:

@@ -62,7 +62,9 @@ private:
     std::uint64_t next_status_us_ = 0;
     CalibrationLevels calibration_{};
     std::uint32_t probes_ = 0;
+    bool in_boot_grace(std::uint64_t now_us) const;
     bool polled_ = false;
+    bool answered_once_ = false;
     std::uint64_t first_poll_us_ = 0;
 };
 
