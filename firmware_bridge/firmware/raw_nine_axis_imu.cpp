@@ -178,7 +178,12 @@ ImuStatus RawNineAxisImu::poll(std::uint64_t now_us, ImuReading& reading) {
     const bool use_mag = mode_ == protocol::FusionMode::Ndof && mag_running_ && have_mag_;
     const float dt_s =
         have_last_sample_ ? static_cast<float>(now_us - last_sample_us_) * 1e-6f : 0.0f;
-    if (mode_ != protocol::FusionMode::Off) {
+    // In Ndof the first estimate waits for the first field sample (10 ms at 100 Hz), so the
+    // heading starts from north rather than from the sensor's -Z; without a running
+    // magnetometer it starts at once.
+    const bool wait_for_mag = mode_ == protocol::FusionMode::Ndof && mag_running_ && !have_mag_ &&
+                              !filter_.initialised();
+    if (mode_ != protocol::FusionMode::Off && !wait_for_mag) {
         filter_.update(gyro, accel, use_mag ? &last_mag_ut_ : nullptr, dt_s);
     }
     have_last_sample_ = true;
