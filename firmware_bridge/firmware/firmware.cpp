@@ -85,8 +85,8 @@ void Firmware::send_hello() {
                   info_.board_id, caps, info_.button_count});
 }
 
-void Firmware::send_error(p::ErrorCode code, std::uint32_t detail, std::uint64_t now_us) {
-    send(p::ErrorReport{now_us, static_cast<std::uint16_t>(code), detail});
+bool Firmware::send_error(p::ErrorCode code, std::uint32_t detail, std::uint64_t now_us) {
+    return send(p::ErrorReport{now_us, static_cast<std::uint16_t>(code), detail});
 }
 
 void Firmware::poll() {
@@ -105,10 +105,10 @@ void Firmware::poll() {
         next_heartbeat_us_ = now + std::uint64_t{settings_.heartbeat_period_ms} * 1000;
     }
     // Frames were dropped (receiver not reading, buffer full): say how many, once there is room.
+    // A report that cannot be sent either is one more dropped frame, counted in the next one.
     if (drops_unreported_ > 0) {
         const std::uint32_t dropped = drops_unreported_;
-        drops_unreported_ = 0;
-        send_error(p::ErrorCode::TransmitOverflow, dropped, now);
+        if (send_error(p::ErrorCode::TransmitOverflow, dropped, now)) drops_unreported_ -= dropped;
     }
     update_lamp(now);
 }

@@ -108,7 +108,7 @@ public:
 private:
     bool send(const protocol::Message& message);
     void send_hello();
-    void send_error(protocol::ErrorCode code, std::uint32_t detail, std::uint64_t now_us);
+    bool send_error(protocol::ErrorCode code, std::uint32_t detail, std::uint64_t now_us);
     void receive(std::uint64_t now_us);
     void handle(const protocol::FrameEvent& event, std::uint64_t now_us);
     protocol::ConfigAck configure(std::uint16_t key, const protocol::ConfigValue* new_value);
