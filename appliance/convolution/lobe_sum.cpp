@@ -98,11 +98,19 @@ LobeSummer::Geometry LobeSummer::make_geometry(const PreparedLevel& level) const
     return g;
 }
 
+namespace {
+
+// Arc (radians) of one column of level row `row` at its edge nearer the equator.
+double column_arc(int row, int level_width, int level_height) {
+    const double edge = std::clamp(kPi / 2, row * kPi / level_height, (row + 1) * kPi / level_height);
+    return std::sin(edge) * kTwoPi / level_width;
+}
+
+}  // namespace
+
 int polar_merge_factor(int row, int level_width, int level_height, int out_width, double max_arc) {
     if (!(max_arc > 0)) return 1;
-    // The polar angle of the row's texels nearest the equator.
-    const double edge = std::clamp(kPi / 2, row * kPi / level_height, (row + 1) * kPi / level_height);
-    const double arc = std::sin(edge) * kTwoPi / level_width;  // one column
+    const double arc = column_arc(row, level_width, level_height);
     const int g = std::gcd(level_width, out_width);
     int best = 1;
     for (int m = 2; m <= 64; m *= 2) {
@@ -110,6 +118,15 @@ int polar_merge_factor(int row, int level_width, int level_height, int out_width
         if (m * arc <= max_arc) best = m;
     }
     return best;
+}
+
+double widest_merged_arc(int level_width, int level_height, int out_width, double max_arc) {
+    double widest = 0;
+    for (int j = 0; j < level_height; ++j) {
+        const int m = polar_merge_factor(j, level_width, level_height, out_width, max_arc);
+        if (m > 1) widest = std::max(widest, m * column_arc(j, level_width, level_height));
+    }
+    return widest;
 }
 
 LobeSummer::LobeSummer(const PreparedLevel& level, int out_w, int out_h, double shininess,
@@ -324,6 +341,19 @@ namespace {
 // store the whole accumulator row (measured ~1.2 multiply-adds per cycle).
 constexpr int kBlock = 16;
 
+// Columns [q, q1) one at a time in double: what is left past the last whole
+// block (a class narrower than kBlock), for both accumulations.
+template <typename Term>
+void apply_terms_scalar(const std::vector<Term>& terms, int q, int q1, std::size_t channel_stride,
+                        double* acc_r, double* acc_g, double* acc_b) {
+    for (; q < q1; ++q)
+        for (const Term& term : terms) {
+            acc_r[q] += term.weight * double(term.texels[q]);
+            acc_g[q] += term.weight * double(term.texels[q + channel_stride]);
+            acc_b[q] += term.weight * double(term.texels[q + 2 * channel_stride]);
+        }
+}
+
 // Double accumulation (exact): every multiply-add in double.
 template <typename Term>
 void apply_terms_double(const std::vector<Term>& terms, int q0, int q1, std::size_t channel_stride,
@@ -354,12 +384,7 @@ void apply_terms_double(const std::vector<Term>& terms, int q0, int q1, std::siz
             acc_b[q + t] = ab[t];
         }
     }
-    for (; q < q1; ++q)
-        for (const Term& term : terms) {
-            acc_r[q] += term.weight * double(term.texels[q]);
-            acc_g[q] += term.weight * double(term.texels[q + channel_stride]);
-            acc_b[q] += term.weight * double(term.texels[q + 2 * channel_stride]);
-        }
+    apply_terms_scalar(terms, q, q1, channel_stride, acc_r, acc_g, acc_b);
 }
 
 // Float runs (cone): runs of kFloatRun terms are summed in float, which needs
@@ -424,13 +449,7 @@ void apply_terms_float(const std::vector<Term>& terms, int q0, int q1, std::size
             }
         }
     }
-    // Columns past the last whole block (a class narrower than kBlock): double.
-    for (; q < q1; ++q)
-        for (const Term& term : terms) {
-            acc_r[q] += term.weight * double(term.texels[q]);
-            acc_g[q] += term.weight * double(term.texels[q + channel_stride]);
-            acc_b[q] += term.weight * double(term.texels[q + 2 * channel_stride]);
-        }
+    apply_terms_scalar(terms, q, q1, channel_stride, acc_r, acc_g, acc_b);
 }
 
 }  // namespace

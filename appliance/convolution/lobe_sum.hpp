@@ -150,6 +150,8 @@ enum class Accumulation { Double, FloatRuns };
 // radians of arc, that divides the width and keeps the output's column classes
 // (gcd(W / m, out_w) = gcd(W, out_w)); 1 when none.
 int polar_merge_factor(int row, int level_width, int level_height, int out_width, double max_arc);
+// The widest merged texel (radians of arc) of any row; 0 when no row merges.
+double widest_merged_arc(int level_width, int level_height, int out_width, double max_arc);
 
 class LobeSummer {
 public:

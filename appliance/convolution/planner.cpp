@@ -107,14 +107,7 @@ MapPlan plan_map(const MapRequest& request, const Options& options, const Enviro
         // Rows near the poles that read merged columns: a texel as wide as the
         // widest merged one, by the same model.
         const Size ls = env.cone_levels[std::size_t(level)];
-        double widest = 0;
-        for (int j = 0; j < ls.height; ++j) {
-            const int m = polar_merge_factor(j, ls.width, ls.height, out.width, cone.max_texel_arc);
-            if (m > 1) {
-                const double edge = std::clamp(kPi / 2, j * kPi / ls.height, (j + 1) * kPi / ls.height);
-                widest = std::max(widest, m * std::sin(edge) * kTwoPi / ls.width);
-            }
-        }
+        const double widest = widest_merged_arc(ls.width, ls.height, out.width, cone.max_texel_arc);
         const double h_level = level > 0 ? texel_spacing(ls) : 0.0;
         if (widest > h_level)
             level_error = model.level_rms_coefficient * widest * widest * std::max(n, model.level_min_shininess);

@@ -111,6 +111,7 @@ GlContext::GlContext(const EglDisplay& display, EGLConfig config, const GlContex
         caps_.extensions.emplace_back(reinterpret_cast<const char*>(glGetStringi(GL_EXTENSIONS, GLuint(i))));
     caps_.float_color_buffer = caps_.has("GL_EXT_color_buffer_float");
     caps_.timer_query = caps_.has("GL_EXT_disjoint_timer_query");
+    caps_.float_blend = caps_.has("GL_EXT_float_blend");
     glGetIntegerv(GL_MAX_DRAW_BUFFERS, &caps_.max_draw_buffers);
     glGetIntegerv(GL_MAX_TEXTURE_SIZE, &caps_.max_texture_size);
     check_gl("reading the context's capabilities");

@@ -17,6 +17,7 @@ struct GlCapabilities {
     std::string version, renderer, vendor, glsl_version, egl_version;
     bool float_color_buffer = false;   // GL_EXT_color_buffer_float: RGBA32F render targets
     bool timer_query = false;          // GL_EXT_disjoint_timer_query: GPU time of a draw
+    bool float_blend = false;          // GL_EXT_float_blend: additive blending into RGBA32F targets
     int max_draw_buffers = 1;
     int max_texture_size = 0;
     std::vector<std::string> extensions;

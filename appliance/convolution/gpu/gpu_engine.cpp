@@ -142,7 +142,7 @@ public:
         std::vector<float> x_outer(std::size_t(out_.height), -1.0f);
         for (int row : rows) x_outer[std::size_t(row)] = float(1.0 - c0);
         RenderTargets targets(out_.width, out_.height, 1);
-        run_cone(targets, x_outer, -1.0f, nullptr);
+        run_cone(targets, x_outer, -1.0f, nullptr, nullptr);
         const std::vector<float> sums = targets.read(0);
         LobeSums s = make_sums();
         for (int row : rows) fill_row(s, row, sums, nullptr);
@@ -160,14 +160,14 @@ public:
                 for (int i = a; i < b; ++i) mask[std::size_t(rows[k]) * std::size_t(out_.width) + std::size_t(i)] = 1.0f;
         }
         const render::GlTexture mask_texture = make_mask_texture(out_.width, out_.height, mask);
-        mask_fraction_.assign(std::size_t(out_.height), 0.0);
+        std::vector<double> mask_share(std::size_t(out_.height), 0.0);
         for (int r = 0; r < out_.height; ++r) {
             double on = 0;
             for (int i = 0; i < out_.width; ++i) on += mask[std::size_t(r) * std::size_t(out_.width) + std::size_t(i)];
-            mask_fraction_[std::size_t(r)] = std::max(0.01, on / out_.width);  // masked-out texels cost a little too
+            mask_share[std::size_t(r)] = std::max(0.01, on / out_.width);  // masked-out texels cost a little too
         }
         RenderTargets targets(out_.width, out_.height, 1);
-        run_cone(targets, x_outer, float(1.0 - c_inner), &mask_texture);
+        run_cone(targets, x_outer, float(1.0 - c_inner), &mask_texture, &mask_share);
         const std::vector<float> sums = targets.read(0);
         LobeSums s = make_sums();
         for (int row : rows) fill_row(s, row, sums, &mask);
@@ -248,8 +248,9 @@ private:
         }
     }
 
+    // mask, mask_share: the annulus pass's texels and each row's share of them.
     void run_cone(const RenderTargets& targets, const std::vector<float>& x_outer, float x_inner,
-                  const render::GlTexture* mask) {
+                  const render::GlTexture* mask, const std::vector<double>* mask_share) {
         const render::GlTexture rows = make_row_texture(x_outer);
         const render::GlProgram& p = engine_.program("convolve_cone.frag");
         // Bands of level rows, added up by float blending (see exact()).
@@ -260,7 +261,7 @@ private:
         engine_.begin_accumulation();
         for (int first = 0; first < height_; first += band) {
             const std::vector<double> work =
-                row_work(x_outer, first, std::min(height_, first + band), mask ? &mask_fraction_ : nullptr);
+                row_work(x_outer, first, std::min(height_, first + band), mask_share);
             engine_.draw_tiled(p, targets, [&] {
                 bind_texture(0, atlas_.id());
                 bind_texture(1, row_merge_.id());
@@ -320,7 +321,6 @@ private:
     render::GlTexture atlas_, row_merge_, log_cmax_;
     std::vector<double> cmax_;  // per output row and class
     std::vector<int> merge_;    // merge factor of each level row
-    std::vector<double> mask_fraction_;  // share of each output row's texels in the annulus mask
 };
 
 }  // namespace
@@ -377,11 +377,11 @@ int GpuEngine::band_rows(int width, int height) const {
     // 65535 iterations (silently: the sums were short by 95 % at 1024x512),
     // and it bounds a draw's cost. Without GL_EXT_float_blend: one band.
     constexpr int kBandTexels = 16384;
-    return context_.caps().has("GL_EXT_float_blend") ? std::max(1, kBandTexels / width) : height;
+    return context_.caps().float_blend ? std::max(1, kBandTexels / width) : height;
 }
 
 void GpuEngine::begin_accumulation() const {
-    if (!context_.caps().has("GL_EXT_float_blend")) return;
+    if (!context_.caps().float_blend) return;
     glEnable(GL_BLEND);
     glBlendEquation(GL_FUNC_ADD);
     glBlendFunc(GL_ONE, GL_ONE);
@@ -401,7 +401,7 @@ void GpuEngine::draw_tiled(const render::GlProgram& program, const RenderTargets
     glBindVertexArray(vao_.id());
     set_uniforms();
     render::check_gl(("setting up the pass " + program.label()).c_str());
-    TileRunner runner(context_.caps(), gate_, hard_cap_ms_);
+    TileRunner runner(context_.caps(), gate_, hard_cap_ms_, costs_[program.label()]);
     runner.run(
         targets.width(), targets.height(), [](const TileRect&) { glDrawArrays(GL_TRIANGLES, 0, 3); },
         [&](const TileRect& tile) {
@@ -553,7 +553,7 @@ std::vector<double> GpuEngine::sh_evaluate(const ShCoefficients& c, int order, c
     const render::GlProgram& p = program("convolve_sh.frag");
     // Bands of columns m with at most ~4096 recurrence steps per texel: one
     // texel of a band must stay far below the hard cap on any GPU.
-    const bool blend = context_.caps().has("GL_EXT_float_blend");
+    const bool blend = context_.caps().float_blend;
     int m0 = 0;
     while (m0 < order) {
         int m1 = m0;

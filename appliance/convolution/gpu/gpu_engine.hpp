@@ -9,6 +9,7 @@
 #pragma once
 
 #include <functional>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -84,6 +85,7 @@ private:
     render::GlVertexArray vao_;
     std::vector<std::pair<std::string, std::unique_ptr<render::GlProgram>>> programs_;
     std::function<void(const TileRect&, GLuint)> on_tile_;
+    std::map<std::string, TileCost> costs_;  // per program (its label)
     TileStats stats_;
 };
 

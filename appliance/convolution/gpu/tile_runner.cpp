@@ -30,8 +30,8 @@ const TimerQuery& timer_query() {
 
 }  // namespace
 
-TileRunner::TileRunner(const render::GlCapabilities& caps, TileGate& gate, double hard_cap_ms)
-    : timer_query_(caps.timer_query && timer_query().ok), gate_(gate), hard_cap_ms_(hard_cap_ms) {}
+TileRunner::TileRunner(const render::GlCapabilities& caps, TileGate& gate, double hard_cap_ms, TileCost& cost)
+    : timer_query_(caps.timer_query && timer_query().ok), gate_(gate), hard_cap_ms_(hard_cap_ms), cost_(cost) {}
 
 double TileRunner::measure(const TileRect& tile, const std::function<void(const TileRect&)>& draw) {
     glEnable(GL_SCISSOR_TEST);
@@ -78,9 +78,9 @@ void TileRunner::run(int width, int height, const std::function<void(const TileR
         TileRect tile;
         tile.x = x;
         tile.y = y;
-        if (ms_per_work_ < 0) {
-            // First tile of the runner: one texel, to learn the cost (a texel of
-            // an SH band on llvmpipe took ~6 ms; 16 of them broke the cap).
+        if (cost_.ms_per_work < 0) {
+            // First tile of the program: one texel, to learn the cost (a texel
+            // of an SH band on llvmpipe took ~6 ms; 16 of them broke the cap).
             tile.width = 1;
             tile.height = 1;
         } else {
@@ -88,7 +88,7 @@ void TileRunner::run(int width, int height, const std::function<void(const TileR
             // estimate is only relative, and texels of one pass can differ in
             // cost by orders of magnitude (masked texels of an annulus pass cost
             // nothing, polar rows read more columns).
-            const double budget = std::min(0.5 * limit / ms_per_work_, 4.0 * last_work_);
+            const double budget = std::min(0.5 * limit / cost_.ms_per_work, 4.0 * cost_.last_work);
             if (x == 0 && budget >= work(y) * width) {
                 double used = 0;
                 int rows = 0;
@@ -108,10 +108,10 @@ void TileRunner::run(int width, int height, const std::function<void(const TileR
         for (int r = tile.y; r < tile.y + tile.height; ++r) tile_work += work(r) * tile.width;
         const double ms = measure(tile, draw);
         gate_.spent(ms);
-        last_work_ = tile_work;
+        cost_.last_work = tile_work;
         const double per_work = ms / tile_work;
         // Smoothed, but a slower tile is believed at once (the cap must hold).
-        ms_per_work_ = ms_per_work_ < 0 ? per_work : std::max(per_work, 0.5 * (ms_per_work_ + per_work));
+        cost_.ms_per_work = cost_.ms_per_work < 0 ? per_work : std::max(per_work, 0.5 * (cost_.ms_per_work + per_work));
         ++stats_.tiles;
         stats_.gpu_ms += ms;
         stats_.largest_ms = std::max(stats_.largest_ms, ms);

@@ -46,6 +46,15 @@ struct TileRect {
     int x = 0, y = 0, width = 0, height = 0;
 };
 
+// What a TileRunner learns of a program's cost: ms per unit of work (the
+// units its passes give per row) and the work of its last tile. Kept by the
+// engine per program, so the bands and maps that run it do not each start
+// from a one-texel probe again.
+struct TileCost {
+    double ms_per_work = -1;  // unknown until the first tile
+    double last_work = 1;
+};
+
 struct TileStats {
     long long tiles = 0;
     double gpu_ms = 0;        // measured time of all tiles
@@ -59,7 +68,7 @@ struct TileStats {
 // sized so its predicted time stays within min(allowance, hard cap).
 class TileRunner {
 public:
-    TileRunner(const render::GlCapabilities& caps, TileGate& gate, double hard_cap_ms);
+    TileRunner(const render::GlCapabilities& caps, TileGate& gate, double hard_cap_ms, TileCost& cost);
     // draw: sets the scissor to the tile and issues the draw. on_tile: called
     // after each finished tile (e.g. to show progress).
     // row_work: the relative work of one texel of each row (e.g. the number
@@ -73,8 +82,7 @@ private:
     bool timer_query_;
     TileGate& gate_;
     double hard_cap_ms_;
-    double ms_per_work_ = -1;  // unknown until the first tile
-    double last_work_ = 1;
+    TileCost& cost_;
     TileStats stats_;
 };
 
