@@ -41,6 +41,7 @@ using namespace glint::convolution;
 
 using glint::bench::fmt;
 using glint::bench::machine_description;
+using glint::bench::reference_size;
 
 namespace {
 
@@ -62,19 +63,10 @@ struct Target {
     Size size;
 };
 
-// The reference output sizes of the issue: 128x64 for n <= 40, 256x128 for
-// n <= 320, 512x256 above.
-Size reference_size(double n) {
-    if (n <= 40) return {128, 64};
-    if (n <= 320) return {256, 128};
-    return {512, 256};
-}
-
 std::vector<Target> targets(bool quick) {
     std::vector<Target> t;
     t.push_back({true, 1, "irradiance", reference_size(1)});
-    const std::vector<double> ns = quick ? std::vector<double>{1, 40, 640, 20480}
-                                         : std::vector<double>{1, 10, 20, 40, 80, 160, 320, 640, 1280, 5120, 20480};
+    const std::vector<double> ns = quick ? std::vector<double>{1, 40, 640, 20480} : glint::bench::whole_set_shininess();
     for (double n : ns) {
         std::ostringstream label;
         label << "phong_" << n;

@@ -53,12 +53,12 @@ double ms_since(Clock::time_point t) { return std::chrono::duration<double, std:
 
 std::vector<MapRequest> whole_set() {
     std::vector<MapRequest> maps{MapRequest::make_irradiance()};
-    maps[0].size = Size{128, 64};
-    for (double n : {1.0, 10.0, 20.0, 40.0, 80.0, 160.0, 320.0, 640.0, 1280.0, 5120.0, 20480.0}) {
+    maps[0].size = bench::reference_size(1);
+    for (double n : bench::whole_set_shininess()) {
         std::ostringstream s;
         s << n;
         MapRequest m = MapRequest::make_phong(n, s.str());
-        m.size = n <= 40 ? Size{128, 64} : n <= 320 ? Size{256, 128} : Size{512, 256};
+        m.size = bench::reference_size(n);
         maps.push_back(m);
     }
     return maps;

@@ -6,6 +6,9 @@
 #include <cstdio>
 #include <fstream>
 #include <string>
+#include <vector>
+
+#include "appliance/convolution/convolution.hpp"
 
 namespace glint::bench {
 
@@ -26,6 +29,20 @@ inline std::string fmt(const char* format, double value) {
     char buffer[64];
     std::snprintf(buffer, sizeof buffer, format, value);
     return buffer;
+}
+
+// The whole set: the irradiance map and these shininess values...
+inline const std::vector<double>& whole_set_shininess() {
+    static const std::vector<double> ns{1, 10, 20, 40, 80, 160, 320, 640, 1280, 5120, 20480};
+    return ns;
+}
+
+// ...each at its reference output size: 128x64 for n <= 40, 256x128 for
+// n <= 320, 512x256 above.
+inline convolution::Size reference_size(double n) {
+    if (n <= 40) return {128, 64};
+    if (n <= 320) return {256, 128};
+    return {512, 256};
 }
 
 }  // namespace glint::bench
