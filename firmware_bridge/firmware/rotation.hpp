@@ -79,6 +79,30 @@ T angle_between(Quat<T> a, Quat<T> b) {
     return T(2) * std::acos(d > T(1) ? T(1) : d);
 }
 
+// q or -q, whichever lies in the same hemisphere as `reference` (non-negative dot product),
+// so that interpolating from `reference` takes the short way round.
+template <typename T>
+Quat<T> same_hemisphere(Quat<T> q, Quat<T> reference) {
+    const T d = q.w * reference.w + q.x * reference.x + q.y * reference.y + q.z * reference.z;
+    return d < T(0) ? Quat<T>{-q.w, -q.x, -q.y, -q.z} : q;
+}
+
+// Spherical linear interpolation between unit quaternions (constant angular velocity, the short
+// way): t = 0 gives a, t = 1 gives b (up to sign). Nearly equal inputs return a.
+template <typename T>
+Quat<T> slerp(Quat<T> a, Quat<T> b, T t) {
+    b = same_hemisphere(b, a);
+    T d = a.w * b.w + a.x * b.x + a.y * b.y + a.z * b.z;
+    if (d > T(1)) d = T(1);
+    const T angle = std::acos(d);
+    if (angle < T(1e-9)) return a;
+    const T sa = std::sin(angle);
+    const T wa = std::sin((T(1) - t) * angle) / sa;
+    const T wb = std::sin(t * angle) / sa;
+    return normalized(Quat<T>{wa * a.w + wb * b.w, wa * a.x + wb * b.x, wa * a.y + wb * b.y,
+                              wa * a.z + wb * b.z});
+}
+
 template <typename T, typename U>
 Quat<T> quat_cast(Quat<U> q) {
     return {static_cast<T>(q.w), static_cast<T>(q.x), static_cast<T>(q.y), static_cast<T>(q.z)};

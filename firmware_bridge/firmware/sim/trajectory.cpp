@@ -44,24 +44,6 @@ double parse_number(const std::string& text, const std::string& source, std::siz
     return v;
 }
 
-// Quaternion with the same sign hemisphere as `reference`, so slerp takes the short way.
-Quatd same_hemisphere(Quatd q, Quatd reference) {
-    const double d = q.w * reference.w + q.x * reference.x + q.y * reference.y + q.z * reference.z;
-    return d < 0 ? Quatd{-q.w, -q.x, -q.y, -q.z} : q;
-}
-
-Quatd slerp(Quatd a, Quatd b, double t) {
-    b = same_hemisphere(b, a);
-    const double d = std::min(1.0, a.w * b.w + a.x * b.x + a.y * b.y + a.z * b.z);
-    const double angle = std::acos(d);
-    if (angle < 1e-9) return a;
-    const double sa = std::sin(angle);
-    const double wa = std::sin((1 - t) * angle) / sa;
-    const double wb = std::sin(t * angle) / sa;
-    return normalized(Quatd{wa * a.w + wb * b.w, wa * a.x + wb * b.x, wa * a.y + wb * b.y,
-                            wa * a.z + wb * b.z});
-}
-
 // Rotation vector (axis * angle) of a unit quaternion, angle in [0, pi].
 Vec3d log_map(Quatd q) {
     if (q.w < 0) q = {-q.w, -q.x, -q.y, -q.z};

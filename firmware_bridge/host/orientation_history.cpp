@@ -1,0 +1,60 @@
+#include "firmware_bridge/host/orientation_history.hpp"
+
+#include <algorithm>
+#include <stdexcept>
+
+namespace glint::host {
+
+OrientationHistory::OrientationHistory(std::size_t capacity, std::int64_t max_gap_ns,
+                                       std::int64_t max_hold_ns)
+    : ring_(capacity), max_gap_ns_(max_gap_ns), max_hold_ns_(max_hold_ns) {
+    if (capacity < 2) throw std::invalid_argument("OrientationHistory: capacity must be at least 2");
+}
+
+const OrientationSample& OrientationHistory::nth(std::size_t i) const {
+    const std::size_t cap = ring_.size();
+    return ring_[(head_ + cap - size_ + i) % cap];
+}
+
+bool OrientationHistory::push(const OrientationSample& sample) {
+    if (size_ > 0 && sample.t_ns <= nth(size_ - 1).t_ns) return false;
+    ring_[head_] = sample;
+    ring_[head_].q = firmware::normalized(sample.q);
+    head_ = (head_ + 1) % ring_.size();
+    size_ = std::min(size_ + 1, ring_.size());
+    return true;
+}
+
+std::optional<OrientationSample> OrientationHistory::newest() const {
+    if (size_ == 0) return std::nullopt;
+    return nth(size_ - 1);
+}
+
+std::optional<OrientationSample> OrientationHistory::oldest() const {
+    if (size_ == 0) return std::nullopt;
+    return nth(0);
+}
+
+HistoryAnswer OrientationHistory::at(std::int64_t t_ns) const {
+    if (size_ == 0 || t_ns < nth(0).t_ns) return {std::nullopt, Lookup::BeforeFirst};
+    const OrientationSample& last = nth(size_ - 1);
+    if (t_ns >= last.t_ns) {
+        if (t_ns == last.t_ns) return {last.q, Lookup::Exact};
+        if (t_ns - last.t_ns <= max_hold_ns_) return {last.q, Lookup::AfterLast};
+        return {std::nullopt, Lookup::AfterLast};
+    }
+    // Binary search for the first sample later than t (exists: t < last.t_ns).
+    std::size_t lo = 0, hi = size_ - 1;
+    while (lo < hi) {
+        const std::size_t mid = (lo + hi) / 2;
+        if (nth(mid).t_ns > t_ns) hi = mid; else lo = mid + 1;
+    }
+    const OrientationSample& b = nth(lo);
+    const OrientationSample& a = nth(lo - 1);  // lo >= 1 because nth(0).t_ns <= t_ns
+    if (a.t_ns == t_ns) return {a.q, Lookup::Exact};
+    if (b.t_ns - a.t_ns > max_gap_ns_) return {std::nullopt, Lookup::Gap};
+    const double f = static_cast<double>(t_ns - a.t_ns) / static_cast<double>(b.t_ns - a.t_ns);
+    return {firmware::slerp(a.q, b.q, f), Lookup::Interpolated};
+}
+
+}  // namespace glint::host
