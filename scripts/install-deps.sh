@@ -19,6 +19,7 @@ packages=(
   libegl-dev libgles-dev libgbm-dev libdrm-dev   # EGL/GLES3 platform, KMS (appliance/render)
   libegl-mesa0 libgl1-mesa-dri         # Mesa llvmpipe: the GPU of tests and CI
   zlib1g-dev                           # PNG screenshots of the GPU benchmark
+  clang libclang-rt-14-dev             # libFuzzer targets with ASan/UBSan (scripts/run-fuzz.sh)
 )
 
 missing=()
