@@ -4,6 +4,7 @@
 #include <atomic>
 #include <algorithm>
 #include <chrono>
+#include <functional>
 #include <limits>
 #include <cmath>
 #include <map>
@@ -260,6 +261,81 @@ void run_batches(std::vector<MapResult>& results, SharedInputs& shared, MethodEx
     }
 }
 
+bool same_plan(const MapResult& a, const MapResult& b) {
+    return a.request.shininess == b.request.shininess && a.plan.method == b.plan.method &&
+           a.plan.output_size.width == b.plan.output_size.width &&
+           a.plan.output_size.height == b.plan.output_size.height && a.plan.sh_order == b.plan.sh_order &&
+           a.plan.bright_split == b.plan.bright_split && a.plan.input_level == b.plan.input_level;
+}
+
+// Computes map k with `threads` threads (results[k].image, .seconds, ...).
+using MapRunner = std::function<void(std::size_t k, int threads)>;
+
+// Builds every shared input the maps in `to_run` read, each with all threads, before maps run
+// concurrently: SharedInputs builds lazily and is not thread-safe, and a build started inside
+// a concurrent map would run on one thread only.
+void prepare_shared(SharedInputs& shared, const std::vector<MapResult>& results,
+                    const std::vector<MapPlan>& cone_plans, const std::vector<std::size_t>& to_run,
+                    int split_order, int threads) {
+    int max_sh_order = 0;
+    for (std::size_t k : to_run) {
+        const MapPlan& p = results[k].plan;
+        switch (p.method) {
+            case Method::Exact:
+                shared.full_level();
+                break;
+            case Method::Mipmap:
+                shared.mip_pyramid();
+                break;
+            case Method::Cone:
+                shared.bright();
+                shared.cone_level(p.input_level);
+                break;
+            case Method::Sh:
+                if (p.bright_split) {
+                    shared.bright();
+                    shared.remainder_sh(p.input_level, split_order, threads);
+                    shared.remainder_ones(p.input_level, split_order);
+                    shared.legendre(split_order);
+                    shared.remainder_mean(p.input_level);
+                    shared.cone_level(cone_plans[k].input_level);  // rows whose SH bound fails
+                } else {
+                    max_sh_order = std::max(max_sh_order, p.sh_order);
+                }
+                break;
+            case Method::Auto:
+                break;
+        }
+    }
+    if (max_sh_order > 0) shared.sh(max_sh_order, threads);
+}
+
+// Runs the maps concurrently, one per thread, longest predicted first (LPT scheduling), so
+// the serial parts of one map (tables, set-up, the tail of its row loop) overlap with the
+// work of others instead of leaving threads idle. A map predicted to take more than
+// 1 / (2 * threads) of the whole cannot be balanced among the others: such maps run first,
+// one after another, each with every thread. Each map's result does not depend on how many
+// threads computed it (every row is computed by one thread).
+void run_maps_in_parallel(const std::vector<MapResult>& results, std::vector<std::size_t> to_run,
+                          const PlannerModel& model, int threads, const MapRunner& run_map) {
+    const auto predicted_seconds = [&](std::size_t k) {
+        const MapPlan& p = results[k].plan;
+        return p.method == Method::Sh ? p.predicted_cost * model.sh_step_seconds : cone_seconds(p, model);
+    };
+    std::stable_sort(to_run.begin(), to_run.end(),
+                     [&](std::size_t a, std::size_t b) { return predicted_seconds(a) > predicted_seconds(b); });
+    double total = 0;
+    for (std::size_t k : to_run) total += predicted_seconds(k);
+    std::size_t first_shared = 0;
+    while (first_shared < to_run.size() &&
+           predicted_seconds(to_run[first_shared]) * 2.0 * threads > total) {
+        run_map(to_run[first_shared], threads);
+        ++first_shared;
+    }
+    const int rest = int(to_run.size() - first_shared);
+    parallel_for(rest, threads, [&](int i) { run_map(to_run[first_shared + std::size_t(i)], 1); });
+}
+
 void validate(const HdrImage& env, const std::vector<MapRequest>& maps, const Options& options) {
     if (env.empty()) throw InputError("environment map is empty (0 texels)");
     if (env.width() < 2 || env.height() < 2)
@@ -312,41 +388,37 @@ std::vector<MapResult> convolve(const HdrImage& env, const std::vector<MapReques
     std::vector<std::optional<HdrImage>> batched(results.size());
     if (options.executor) run_batches(results, shared, *options.executor, batched, progress);
 
+    // Identical lobe, size and plan (irradiance and phong_1): computed once, copied after.
+    std::vector<std::optional<std::size_t>> same_as(results.size());
+    std::vector<std::size_t> to_run;
     for (std::size_t k = 0; k < results.size(); ++k) {
-        MapResult& r = results[k];
         if (batched[k]) {
-            r.image = std::move(*batched[k]);
+            results[k].image = std::move(*batched[k]);
             continue;
         }
-        // Identical lobe, size and plan (irradiance and phong_1): compute once.
-        for (std::size_t e = 0; e < k; ++e) {
-            const MapResult& prev = results[e];
-            if (prev.request.shininess == r.request.shininess && prev.plan.method == r.plan.method &&
-                prev.plan.output_size.width == r.plan.output_size.width &&
-                prev.plan.output_size.height == r.plan.output_size.height &&
-                prev.plan.sh_order == r.plan.sh_order) {
-                r.plan.shares_with = prev.request.label;
-                r.image = prev.image;
-                break;
-            }
-        }
-        if (!r.plan.shares_with.empty()) {
-            progress(r.plan.output_size.height);
-            continue;
-        }
+        for (std::size_t e = 0; e < k && !same_as[k]; ++e)
+            if (!batched[e] && !same_as[e] && same_plan(results[e], results[k])) same_as[k] = e;
+        if (same_as[k])
+            results[k].plan.shares_with = results[*same_as[k]].request.label;
+        else
+            to_run.push_back(k);
+    }
+
+    const MapRunner run_map = [&](std::size_t k, int map_threads) {
+        MapResult& r = results[k];
         const auto start = std::chrono::steady_clock::now();
         const double n = r.request.shininess;
         const Size out = r.plan.output_size;
         switch (r.plan.method) {
             case Method::Exact:
-                r.image = exact_convolve(shared.full_level(), n, out, threads, progress);
+                r.image = exact_convolve(shared.full_level(), n, out, map_threads, progress);
                 break;
             case Method::Sh:
                 if (r.plan.bright_split)
-                    run_sh_split(r, cone_plans[k], shared, split_order, options, model, threads);
+                    run_sh_split(r, cone_plans[k], shared, split_order, options, model, map_threads);
                 else
-                    r.image = sh_convolve(shared.sh(r.plan.sh_order, threads), {env.width(), env.height()}, n,
-                                          r.plan.sh_order, out, threads, &r.clamped_texels, options.executor);
+                    r.image = sh_convolve(shared.sh(r.plan.sh_order, map_threads), {env.width(), env.height()}, n,
+                                          r.plan.sh_order, out, map_threads, &r.clamped_texels, options.executor);
                 progress(out.height);
                 break;
             case Method::Cone: {
@@ -356,7 +428,7 @@ std::vector<MapResult> convolve(const HdrImage& env, const std::vector<MapReques
                 const PreparedLevel& level = shared.cone_level(r.plan.input_level);
                 std::unique_ptr<ConeSumsBackend> backend;
                 if (options.executor) backend = options.executor->cone_sums(level, out, n, settings);
-                r.image = cone_convolve(level, shared.bright().texels, n, out, settings, threads, progress, &stats,
+                r.image = cone_convolve(level, shared.bright().texels, n, out, settings, map_threads, progress, &stats,
                                         {}, backend.get());
                 r.refined_texels = stats.refined_texels;
                 break;
@@ -369,7 +441,19 @@ std::vector<MapResult> convolve(const HdrImage& env, const std::vector<MapReques
                 throw RuntimeError("internal: a plan must name a concrete method");
         }
         r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+    };
+    if (options.executor || threads == 1) {
+        // The GPU engine owns one context, driven from this thread: maps in order.
+        for (std::size_t k : to_run) run_map(k, threads);
+    } else {
+        prepare_shared(shared, results, cone_plans, to_run, split_order, threads);
+        run_maps_in_parallel(results, to_run, model, threads, run_map);
     }
+    for (std::size_t k = 0; k < results.size(); ++k)
+        if (same_as[k]) {
+            results[k].image = results[*same_as[k]].image;
+            progress(results[k].plan.output_size.height);
+        }
     return results;
 }
 

@@ -539,6 +539,37 @@ TEST_F(HardCases, IrradianceAndPhong1AreComputedOnce) {
     EXPECT_NE(r[0].image.data(), r[1].image.data());
 }
 
+TEST_F(HardCases, ResultsDoNotDependOnTheThreadCount) {
+    // With several threads, auto runs whole maps concurrently (one thread each) after the large
+    // ones ran alone with every thread; every texel must still be computed exactly as on one
+    // thread, whichever thread and schedule computed it.
+    HdrImage env = smooth_random_map(256, 128, 31);
+    for (int y = 20; y < 23; ++y)
+        for (int x = 100; x < 103; ++x)
+            for (int c = 0; c < 3; ++c) env.row(y)[3 * x + c] = 5.0e4f;  // a sun: bright split and cone
+    std::vector<MapRequest> maps{MapRequest::make_irradiance()};
+    for (const MapRequest& m : phong_requests({1, 10, 80, 640, 5120})) maps.push_back(m);
+    std::vector<std::vector<MapResult>> runs;
+    for (int threads : {1, 2, 3}) {
+        Options o;
+        o.threads = threads;
+        runs.push_back(convolve(env, maps, o));
+    }
+    for (std::size_t t = 1; t < runs.size(); ++t) {
+        ASSERT_EQ(runs[t].size(), maps.size());
+        for (std::size_t k = 0; k < maps.size(); ++k) {
+            const MapResult& a = runs[0][k];
+            const MapResult& b = runs[t][k];
+            EXPECT_EQ(to_string(a.plan.method), to_string(b.plan.method)) << b.request.label;
+            EXPECT_EQ(a.plan.shares_with, b.plan.shares_with) << b.request.label;
+            ASSERT_EQ(a.image.width(), b.image.width()) << b.request.label;
+            ASSERT_EQ(a.image.height(), b.image.height()) << b.request.label;
+            EXPECT_TRUE(a.image.data() == b.image.data())
+                << b.request.label << " differs between 1 and " << t + 1 << " threads";
+        }
+    }
+}
+
 // ---------------------------------------------------------------------------------------------
 // 8. The planner: output size follows the lobe; every plan is concrete and filled in.
 
