@@ -716,6 +716,8 @@ void ShLegendre::column(int m, double x, double pmm, double* out) const {
     for (int t = 2; t < count; ++t) out[t] = a[t] * (x * out[t - 1] - b[t] * out[t - 2]);
 }
 
+void ShLegendre::zonal(double x, double* out) const { column(0, x, 0.5 / std::sqrt(kPi), out); }
+
 void ShLegendre::evaluate(double x, double s, double* out) const {
     std::vector<double> diag(static_cast<std::size_t>(order_));
     std::vector<double> col(static_cast<std::size_t>(order_));

@@ -64,6 +64,9 @@ public:
     void diagonal(double s, double* out) const;
     // Column m: out[l - m] = \bar P_lm(x) for l in [m, order), given x = cos(theta) and \bar P_mm.
     void column(int m, double x, double pmm, double* out) const;
+    // Column 0 (the zonal functions): out[l] = \bar P_l0(x) for l in [0, order). \bar P_00 is a
+    // constant, so no diagonal is needed.
+    void zonal(double x, double* out) const;
     // All values, out[legendre_index(l, m)], order*(order+1)/2 of them.
     void evaluate(double x, double s, double* out) const;
 

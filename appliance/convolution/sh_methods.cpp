@@ -28,14 +28,20 @@ namespace glint::convolution {
 std::vector<double> sh_ones_projection(Size input, int order, const ShLegendre& legendre) {
     // Only column m = 0: \bar P_l0 for l < legendre.order() (the recurrence
     // coefficients do not depend on the order, so a longer table serves).
+    // Rows j and H-1-j mirror each other (x -> -x, same weight) and
+    // \bar P_l0(-x) = (-1)^l \bar P_l0(x): each pair adds 2 w P_l for even l and
+    // nothing for odd l, so one recurrence serves both rows.
     const std::size_t table = std::size_t(legendre.order());
     const std::vector<double> w = sh_row_weights(input.width, input.height, ShQuadrature::TexelSolidAngle);
-    std::vector<double> c(static_cast<std::size_t>(order), 0.0), p(table), diag(table);
-    for (int j = 0; j < input.height; ++j) {
-        const double t = row_theta(j, input.height);
-        legendre.diagonal(std::sin(t), diag.data());
-        legendre.column(0, std::cos(t), diag[0], p.data());
-        for (int l = 0; l < order; ++l) c[std::size_t(l)] += w[std::size_t(j)] * input.width * p[std::size_t(l)];
+    std::vector<double> c(static_cast<std::size_t>(order), 0.0), p(table);
+    for (int j = 0; j < (input.height + 1) / 2; ++j) {
+        const bool middle = 2 * j + 1 == input.height;  // the middle row of an odd height has no mirror
+        legendre.zonal(std::cos(row_theta(j, input.height)), p.data());
+        const double scale = w[std::size_t(j)] * input.width;
+        for (int l = 0; l < order; ++l) {
+            const double v = scale * p[std::size_t(l)];
+            c[std::size_t(l)] += middle ? v : (l % 2 == 0 ? 2.0 * v : 0.0);
+        }
     }
     return c;
 }
@@ -44,12 +50,10 @@ std::vector<double> sh_lobe_normaliser(const std::vector<double>& ones, int orde
                                        Size out, const ShLegendre& legendre) {
     // The convolution of the all-ones projection, per output row.
     const std::size_t table = std::size_t(legendre.order());
-    std::vector<double> p(table), diag(table);
+    std::vector<double> p(table);
     std::vector<double> norm(std::size_t(out.height));
     for (int j = 0; j < out.height; ++j) {
-        const double t = row_theta(j, out.height);
-        legendre.diagonal(std::sin(t), diag.data());
-        legendre.column(0, std::cos(t), diag[0], p.data());
+        legendre.zonal(std::cos(row_theta(j, out.height)), p.data());
         double e = 0;
         for (int l = 0; l < order; ++l) e += kernel[std::size_t(l)] * ones[std::size_t(l)] * p[std::size_t(l)];
         norm[std::size_t(j)] = e;
