@@ -20,6 +20,8 @@ packages=(
   libegl-mesa0 libgl1-mesa-dri         # Mesa llvmpipe: the GPU of tests and CI
   zlib1g-dev                           # PNG screenshots of the GPU benchmark
   clang libclang-rt-14-dev             # libFuzzer targets with ASan/UBSan (scripts/run-fuzz.sh)
+  libopencv-dev                        # capture: frames, calibration, features (appliance/capture)
+  libcamera-dev                        # capture: the real camera source (appliance/capture)
 )
 
 missing=()

@@ -1,0 +1,92 @@
+// The camera as the capture pipeline models it: a pinhole with OpenCV's radial-tangential
+// distortion, vignetting, a response curve, and its mounting on the orientation sensor.
+//
+// Frames of reference (see docs/capture.md):
+// - Pixels follow OpenCV: (u, v) with u to the right and v down, pixel centres at integers,
+//   (0, 0) the centre of the top-left pixel. Intrinsics and distortion are OpenCV's
+//   (fx, fy, cx, cy; k1, k2, p1, p2, k3), so cv::calibrateCamera results drop in unchanged.
+// - The camera frame follows the world frame's habit (spec/conventions.md, OpenGL): the camera
+//   looks along -Z, +Y is up in the image, +X right. A camera-frame direction (X, Y, Z) with
+//   Z < 0 has OpenCV normalised coordinates x = X / -Z, y = -Y / -Z.
+// - world_from_camera rotates camera-frame vectors into the world frame; it is the sensor's
+//   world_from_sensor times the calibrated sensor_from_camera alignment.
+#pragma once
+
+#include <array>
+#include <optional>
+
+#include "appliance/core/equirect.hpp"
+#include "firmware_bridge/firmware/rotation.hpp"
+
+namespace glint::capture {
+
+using Quatd = firmware::Quatd;
+
+struct PixelCoord {
+    double u = 0, v = 0;
+};
+
+struct Intrinsics {
+    int width = 0, height = 0;  // pixels
+    double fx = 0, fy = 0;      // focal lengths, pixels
+    double cx = 0, cy = 0;      // principal point, pixels (OpenCV: centres at integers)
+    double k1 = 0, k2 = 0, p1 = 0, p2 = 0, k3 = 0;  // OpenCV distortion
+
+    // A distortion-free camera of the given horizontal field of view, principal point at the
+    // image centre, square pixels.
+    static Intrinsics from_fov(int width, int height, double horizontal_fov_rad);
+};
+
+// OpenCV's distortion of normalised coordinates (x, y) -> (xd, yd).
+void distort(const Intrinsics& k, double x, double y, double& xd, double& yd);
+// The inverse, by fixed-point iteration (as cv::undistortPoints); converges for the mild
+// distortion of camera lenses inside the image.
+void undistort(const Intrinsics& k, double xd, double yd, double& x, double& y);
+
+// Pixel of a camera-frame direction, or nullopt when it is behind the camera (Z >= 0) or
+// projects outside the image by more than `margin` pixels.
+std::optional<PixelCoord> project(const Intrinsics& k, const Vec3& camera_dir, double margin = 0.0);
+// Unit camera-frame direction of a pixel (u, v).
+Vec3 pixel_ray(const Intrinsics& k, double u, double v);
+// Cosine of the widest angle between the optical axis (-Z) and any pixel centre's ray: a
+// frustum cull bound.
+double min_cos_to_axis(const Intrinsics& k);
+
+// Relative transmittance of the lens over the image, V(r) = 1 + a1 r^2 + a2 r^4 + a3 r^6, with r
+// the distance from the principal point divided by the half diagonal (0 at the centre, ~1 in
+// the corners). V(0) = 1.
+struct Vignetting {
+    double a1 = 0, a2 = 0, a3 = 0;
+    double at(const Intrinsics& k, double u, double v) const;
+};
+
+// The camera's response: code value Z in 0..255 of a relative exposure X (X = 1 just saturates).
+// inverse[Z] is the exposure that gives code Z (the centre of its bin); the simulator's forward
+// curve is the parametric one below, and a calibrated camera has only the table.
+struct Response {
+    std::array<double, 256> inverse{};  // strictly increasing from inverse[0] >= 0
+
+    // Z = 255 * (1 + c) * X^(1/g) / (X^(1/g) + c), clamped to 255: gamma-like, with a shoulder.
+    static Response parametric(double gamma = 2.2, double shoulder = 0.25);
+    double gamma = 0, shoulder = 0;  // the parameters when parametric (0: a table only)
+    // The parametric forward curve (real-valued, before quantisation); only when parametric.
+    double forward(double exposure) const;
+};
+
+// Robertson-style weight of a code value: near 0 for codes close to 0 or 255, where noise or
+// clipping make the exposure unreliable; exactly 0 at 0 and 255.
+double code_weight(int z);
+
+// Everything stored per camera (docs/capture.md "Calibration").
+struct CameraCalibration {
+    Intrinsics intrinsics;
+    Vignetting vignetting;
+    Response response = Response::parametric();
+    Quatd sensor_from_camera = Quatd::identity();  // alignment: camera vectors -> sensor frame
+    double time_offset_s = 0;  // camera timestamp + offset = sensor time of the same instant
+    // Relative exposure per unit radiance per second at gain 1: divides it out, so maps come out
+    // in radiance units. Photometric calibration is not built; 1 gives relative radiance.
+    double sensitivity = 1;
+};
+
+}  // namespace glint::capture

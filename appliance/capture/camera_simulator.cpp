@@ -1,0 +1,91 @@
+#include "appliance/capture/camera_simulator.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <stdexcept>
+
+#include "appliance/core/equirect.hpp"
+#include "appliance/core/errors.hpp"
+#include "appliance/core/parallel.hpp"
+
+namespace glint::capture {
+
+CameraSimulator::CameraSimulator(const HdrImage& environment, CameraCalibration truth, SensorModel sensor,
+                                 AutoExposureModel auto_exposure, std::uint64_t seed)
+    : env_(environment), truth_(std::move(truth)), sensor_(sensor), ae_(auto_exposure), seed_(seed) {
+    const Intrinsics& k = truth_.intrinsics;
+    if (k.width < 2 || k.height < 2 || !(k.fx > 0) || !(k.fy > 0))
+        throw InputError("camera simulator: intrinsics need a size of at least 2x2 and positive focal lengths");
+    if (truth_.response.gamma <= 0)
+        throw InputError("camera simulator: the response must be parametric (it needs the forward curve)");
+    rays_.resize(std::size_t(k.width) * std::size_t(k.height));
+    vignette_.resize(rays_.size());
+    for (int v = 0; v < k.height; ++v)
+        for (int u = 0; u < k.width; ++u) {
+            const std::size_t i = std::size_t(v) * std::size_t(k.width) + std::size_t(u);
+            rays_[i] = pixel_ray(k, u, v);
+            vignette_[i] = truth_.vignetting.at(k, u, v);
+        }
+    exposure_s_ = std::clamp(exposure_s_, ae_.min_exposure_s, ae_.max_exposure_s);
+}
+
+void CameraSimulator::set_exposure(double exposure_s, double gain) {
+    exposure_s_ = exposure_s;
+    gain_ = gain;
+}
+
+double CameraSimulator::exposure_of(double radiance, double vignetting) const {
+    const double electrons = radiance * vignetting * exposure_s_ * sensor_.electrons_per_radiance_second;
+    return electrons * gain_ / sensor_.full_well_electrons;
+}
+
+CameraFrame CameraSimulator::render(const Quatd& world_from_camera, std::int64_t t_ns, int threads) {
+    const Intrinsics& k = truth_.intrinsics;
+    CameraFrame frame;
+    frame.rgb.create(k.height, k.width, CV_8UC3);
+    frame.t_ns = t_ns;
+    frame.exposure_s = exposure_s_;
+    frame.analogue_gain = gain_;
+    frame.sequence = frames_;
+    const double e_scale = exposure_s_ * sensor_.electrons_per_radiance_second;  // electrons per radiance
+    const double to_relative = gain_ / sensor_.full_well_electrons;
+    std::vector<double> row_sums(std::size_t(k.height), 0.0);
+    parallel_for(k.height, threads, [&](int v) {
+        // One generator per (frame, row): the same frame whatever the thread count.
+        std::mt19937_64 rng(seed_ * 0x9E3779B97F4A7C15ULL + frames_ * 100003ULL + std::uint64_t(v));
+        std::normal_distribution<double> normal(0.0, 1.0);
+        std::uint8_t* out = frame.rgb.ptr<std::uint8_t>(v);
+        double sum = 0;
+        for (int u = 0; u < k.width; ++u) {
+            const std::size_t i = std::size_t(v) * std::size_t(k.width) + std::size_t(u);
+            const firmware::Vec3d r{rays_[i].x, rays_[i].y, rays_[i].z};
+            const firmware::Vec3d w = world_from_camera.rotate(r);
+            const Rgb l = sample_bilinear(env_, {w.x, w.y, w.z});
+            const double radiance[3] = {l.r, l.g, l.b};
+            for (int c = 0; c < 3; ++c) {
+                double electrons = radiance[c] * vignette_[i] * e_scale;
+                if (sensor_.noise) electrons = std::max(0.0, electrons + std::sqrt(electrons) * normal(rng));
+                double x = electrons * to_relative;
+                if (sensor_.noise) x += sensor_.read_noise * normal(rng);
+                sum += std::clamp(x, 0.0, 1.0);
+                const double z = std::round(truth_.response.forward(std::max(0.0, x)));
+                out[3 * u + c] = static_cast<std::uint8_t>(std::clamp(z, 0.0, 255.0));
+            }
+        }
+        row_sums[std::size_t(v)] = sum;
+    });
+    ++frames_;
+    if (ae_.enabled) {
+        double mean = 0;
+        for (double s : row_sums) mean += s;
+        mean /= 3.0 * double(k.width) * double(k.height);
+        // Multiplicative correction in log space, only part of the way: the loop lags the scene.
+        const double wanted = exposure_s_ * gain_ * ae_.target / std::max(mean, 1e-4);
+        const double next = exposure_s_ * gain_ * std::pow(wanted / (exposure_s_ * gain_), ae_.rate);
+        exposure_s_ = std::clamp(next, ae_.min_exposure_s, ae_.max_exposure_s);
+        gain_ = std::clamp(next / exposure_s_, 1.0, ae_.max_gain);
+    }
+    return frame;
+}
+
+}  // namespace glint::capture

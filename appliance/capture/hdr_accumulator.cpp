@@ -1,0 +1,150 @@
+#include "appliance/capture/hdr_accumulator.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "appliance/core/equirect.hpp"
+#include "appliance/core/errors.hpp"
+#include "appliance/core/parallel.hpp"
+
+namespace glint::capture {
+
+HdrAccumulator::HdrAccumulator(int width, int height, AccumulationSettings settings)
+    : width_(width), height_(height), settings_(settings) {
+    if (width < 2 || height < 2) throw InputError("environment map size must be at least 2x2");
+    const std::size_t n = std::size_t(width) * std::size_t(height);
+    num_.assign(3 * n, 0.0);
+    den_.assign(3 * n, 0.0);
+    samples_.assign(n, 0);
+    weight_sum_.assign(n, 0.0f);
+}
+
+int HdrAccumulator::auto_downscale(const Intrinsics& k, int map_width) {
+    // Pixels per map texel at the image centre, rounded down: never blur more than one texel.
+    const double per_texel = kTwoPi / map_width * std::min(k.fx, k.fy);
+    return std::max(1, int(std::floor(per_texel)));
+}
+
+std::vector<float> HdrAccumulator::filtered_planes(const CameraFrame& frame, const CameraCalibration& cal, int s,
+                                                   int& out_width, int& out_height) {
+    const Intrinsics& k = cal.intrinsics;
+    if (frame.rgb.type() != CV_8UC3 || frame.rgb.cols != k.width || frame.rgb.rows != k.height)
+        throw InputError("frame " + std::to_string(frame.sequence) + " is " + std::to_string(frame.rgb.cols) + "x" +
+                         std::to_string(frame.rgb.rows) + " 8-bit RGB expected " + std::to_string(k.width) + "x" +
+                         std::to_string(k.height) + " (the calibration's size)");
+    out_width = k.width / s;
+    out_height = k.height / s;
+    std::array<double, 256> weight{};
+    for (int z = 0; z < 256; ++z) weight[std::size_t(z)] = code_weight(z);
+    std::vector<float> planes(std::size_t(out_width) * std::size_t(out_height) * 6, 0.0f);
+    const double inv_area = 1.0 / (double(s) * s);
+    for (int V = 0; V < out_height; ++V)
+        for (int U = 0; U < out_width; ++U) {
+            double p[3] = {0, 0, 0}, w[3] = {0, 0, 0};
+            for (int dv = 0; dv < s; ++dv) {
+                const int v = V * s + dv;
+                const std::uint8_t* row = frame.rgb.ptr<std::uint8_t>(v);
+                for (int du = 0; du < s; ++du) {
+                    const int u = U * s + du;
+                    const double inv_v = 1.0 / cal.vignetting.at(k, u, v);
+                    for (int c = 0; c < 3; ++c) {
+                        const std::uint8_t z = row[3 * u + c];
+                        const double wz = weight[z];
+                        p[c] += wz * cal.response.inverse[z] * inv_v;
+                        w[c] += wz;
+                    }
+                }
+            }
+            float* o = planes.data() + (std::size_t(V) * std::size_t(out_width) + std::size_t(U)) * 6;
+            for (int c = 0; c < 3; ++c) {
+                o[c] = float(p[c] * inv_area);
+                o[3 + c] = float(w[c] * inv_area);
+            }
+        }
+    return planes;
+}
+
+FrameContribution HdrAccumulator::add_frame(const CameraFrame& frame, const CameraCalibration& cal,
+                                            const Quatd& world_from_camera, int threads) {
+    const Intrinsics& k = cal.intrinsics;
+    const double t = frame.exposure_s * frame.total_gain() * cal.sensitivity;
+    if (!(t > 0) || !std::isfinite(t))
+        throw InputError("frame " + std::to_string(frame.sequence) + ": exposure x gain must be positive");
+    FrameContribution out;
+    out.downscale = settings_.downscale > 0 ? settings_.downscale : auto_downscale(k, width_);
+    const int s = out.downscale;
+    int pw = 0, ph = 0;
+    const std::vector<float> planes = filtered_planes(frame, cal, s, pw, ph);
+    if (pw < 2 || ph < 2) throw InputError("frame too small for a downscale of " + std::to_string(s));
+
+    const firmware::Vec3d fwd = world_from_camera.rotate(firmware::Vec3d{0, 0, -1});
+    const double cos_limit = std::max(-1.0, min_cos_to_axis(k) - 0.02);
+    const double rho = std::hypot(fwd.x, fwd.z);
+    const double phi0 = std::atan2(fwd.x, -fwd.z);
+    const Quatd camera_from_world = world_from_camera.conj();
+    const double half_pixel = 0.5 * (s - 1);
+    std::vector<long long> in_view(std::size_t(height_), 0), sampled(std::size_t(height_), 0);
+
+    parallel_for(height_, threads, [&](int j) {
+        const double theta = row_theta(j, height_);
+        const double st = std::sin(theta), ct = std::cos(theta);
+        // Columns whose direction is within the frustum's cone: cos(phi - phi0) >= q.
+        const double a = st * rho;
+        const double q = a > 1e-12 ? (cos_limit - ct * fwd.y) / a : (ct * fwd.y >= cos_limit ? -2.0 : 2.0);
+        if (q > 1.0) return;
+        int i0 = 0, count = width_;
+        if (q > -1.0) {
+            const double half = std::acos(q);
+            i0 = int(std::floor((phi0 - half + kPi) / kTwoPi * width_ - 0.5)) - 1;
+            count = std::min(width_, int(std::ceil(2 * half / kTwoPi * width_)) + 3);
+        }
+        for (int n = 0; n < count; ++n) {
+            const int i = ((i0 + n) % width_ + width_) % width_;
+            const Vec3 d = texel_direction(i, j, width_, height_);
+            const firmware::Vec3d dc = camera_from_world.rotate(firmware::Vec3d{d.x, d.y, d.z});
+            const auto px = project(k, {dc.x, dc.y, dc.z});
+            if (!px) continue;
+            ++in_view[std::size_t(j)];
+            // Position in the filtered grid, clamped to its pixel centres.
+            const double U = std::clamp((px->u - half_pixel) / s, 0.0, double(pw - 1));
+            const double V = std::clamp((px->v - half_pixel) / s, 0.0, double(ph - 1));
+            const int u0 = std::min(int(U), pw - 2), v0 = std::min(int(V), ph - 2);
+            const double fu = U - u0, fv = V - v0;
+            const float* p00 = planes.data() + (std::size_t(v0) * std::size_t(pw) + std::size_t(u0)) * 6;
+            const float* p01 = p00 + 6;
+            const float* p10 = p00 + std::size_t(pw) * 6;
+            const float* p11 = p10 + 6;
+            double P[6];
+            for (int c = 0; c < 6; ++c)
+                P[c] = (1 - fv) * ((1 - fu) * p00[c] + fu * p01[c]) + fv * ((1 - fu) * p10[c] + fu * p11[c]);
+            const std::size_t texel = std::size_t(j) * std::size_t(width_) + std::size_t(i);
+            double wmean = 0;
+            for (int c = 0; c < 3; ++c) {
+                num_[3 * texel + std::size_t(c)] += t * P[c];
+                den_[3 * texel + std::size_t(c)] += P[3 + c] * t * t;
+                wmean += P[3 + c];
+            }
+            wmean /= 3;
+            weight_sum_[texel] += float(wmean);
+            if (wmean >= settings_.min_weight) {
+                ++samples_[texel];
+                ++sampled[std::size_t(j)];
+            }
+        }
+    });
+    for (int j = 0; j < height_; ++j) {
+        out.texels_in_view += in_view[std::size_t(j)];
+        out.texels_sampled += sampled[std::size_t(j)];
+    }
+    ++frames_;
+    return out;
+}
+
+HdrImage HdrAccumulator::radiance() const {
+    HdrImage image(width_, height_);
+    float* o = image.data().data();
+    for (std::size_t k = 0; k < num_.size(); ++k) o[k] = den_[k] > 0 ? float(num_[k] / den_[k]) : 0.0f;
+    return image;
+}
+
+}  // namespace glint::capture

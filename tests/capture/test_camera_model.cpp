@@ -1,0 +1,83 @@
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "appliance/capture/camera_model.hpp"
+
+namespace glint::capture {
+namespace {
+
+Intrinsics lens() {
+    Intrinsics k = Intrinsics::from_fov(640, 360, 60.0 * kPi / 180.0);
+    k.cx += 3.5;
+    k.cy -= 2.0;
+    k.k1 = -0.12;
+    k.k2 = 0.03;
+    k.p1 = 0.001;
+    k.p2 = -0.0007;
+    k.k3 = -0.002;
+    return k;
+}
+
+TEST(CameraModel, ProjectionInvertsThePixelRayOverTheWholeImage) {
+    const Intrinsics k = lens();
+    for (double v : {0.0, 17.0, 179.5, 359.0})
+        for (double u : {0.0, 100.25, 320.0, 639.0}) {
+            const Vec3 r = pixel_ray(k, u, v);
+            EXPECT_NEAR(std::sqrt(dot(r, r)), 1.0, 1e-12);
+            EXPECT_LT(r.z, 0.0);
+            const auto p = project(k, r);
+            ASSERT_TRUE(p) << u << "," << v;
+            EXPECT_NEAR(p->u, u, 1e-6);
+            EXPECT_NEAR(p->v, v, 1e-6);
+        }
+}
+
+TEST(CameraModel, FollowsTheWorldFrameHabit) {
+    // -Z is the optical axis; +Y is up in the image (smaller v), +X right (larger u).
+    const Intrinsics k = Intrinsics::from_fov(101, 51, 1.0);
+    const auto centre = project(k, {0, 0, -1});
+    ASSERT_TRUE(centre);
+    EXPECT_NEAR(centre->u, 50.0, 1e-9);
+    EXPECT_NEAR(centre->v, 25.0, 1e-9);
+    EXPECT_LT(project(k, {0, 0.1, -1})->v, 25.0);
+    EXPECT_GT(project(k, {0.1, 0, -1})->u, 50.0);
+    EXPECT_FALSE(project(k, {0, 0, 1}));       // behind
+    EXPECT_FALSE(project(k, {5, 0, -1}));      // far outside the image
+    EXPECT_FALSE(project(k, {0, 0, 0}));
+}
+
+TEST(CameraModel, FrustumBoundHoldsForEveryPixel) {
+    const Intrinsics k = lens();
+    const double c = min_cos_to_axis(k);
+    for (int v = 0; v < k.height; v += 7)
+        for (int u = 0; u < k.width; u += 7) EXPECT_GE(-pixel_ray(k, u, v).z, c - 1e-12);
+}
+
+TEST(CameraModel, ResponseTableInvertsTheForwardCurve) {
+    const Response r = Response::parametric(2.2, 0.25);
+    for (int z = 1; z < 256; ++z) EXPECT_GT(r.inverse[std::size_t(z)], r.inverse[std::size_t(z - 1)]) << z;
+    for (int z = 1; z < 255; ++z) EXPECT_NEAR(r.forward(r.inverse[std::size_t(z)]), z, 1e-9) << z;
+    EXPECT_DOUBLE_EQ(r.forward(1.0), 255.0);
+    EXPECT_DOUBLE_EQ(r.forward(4.0), 255.0);
+    EXPECT_EQ(r.forward(0.0), 0.0);
+}
+
+TEST(CameraModel, CodeWeightsVanishAtTheEnds) {
+    EXPECT_EQ(code_weight(0), 0.0);
+    EXPECT_EQ(code_weight(255), 0.0);
+    EXPECT_GT(code_weight(128), 0.9);
+    EXPECT_LT(code_weight(3), 0.02);
+    EXPECT_NEAR(code_weight(100), code_weight(155), 1e-12);  // symmetric about 127.5
+}
+
+TEST(CameraModel, VignettingIsOneAtThePrincipalPoint) {
+    const Intrinsics k = lens();
+    const Vignetting v{-0.3, 0.05, 0};
+    EXPECT_DOUBLE_EQ(v.at(k, k.cx, k.cy), 1.0);
+    EXPECT_LT(v.at(k, 0, 0), 0.8);
+    EXPECT_GT(v.at(k, 0, 0), 0.7);
+}
+
+}  // namespace
+}  // namespace glint::capture
