@@ -20,4 +20,10 @@ Command add_convolve_command(CLI::App& app);
 // `glint compare MAP.exr REFERENCE.exr`
 Command add_compare_command(CLI::App& app);
 
+// `glint simulate --env ENV.exr --trajectory guided|FILE --out SESSION/` (capture_commands.cpp)
+Command add_simulate_command(CLI::App& app);
+
+// `glint capture --session SESSION/ --out env.exr ...` (capture_commands.cpp)
+Command add_capture_command(CLI::App& app);
+
 }  // namespace glint::app

@@ -14,8 +14,9 @@ int main(int argc, char** argv) {
     glint::keep_freed_memory();
     CLI::App app{"Glint: lights virtual objects with the captured light of the room."};
     app.require_subcommand(1);
-    const std::vector<glint::app::Command> commands{glint::app::add_convolve_command(app),
-                                                    glint::app::add_compare_command(app)};
+    const std::vector<glint::app::Command> commands{
+        glint::app::add_convolve_command(app), glint::app::add_compare_command(app),
+        glint::app::add_simulate_command(app), glint::app::add_capture_command(app)};
 
     try {
         app.parse(argc, argv);

@@ -1,0 +1,138 @@
+// `glint simulate` and `glint capture` (appliance/capture; docs/capture.md).
+#include <cmath>
+#include <cstdio>
+#include <memory>
+
+#include "appliance/app/cli_util.hpp"
+#include "appliance/app/commands.hpp"
+#include "appliance/capture/capture_pipeline.hpp"
+#include "appliance/capture/session_simulator.hpp"
+#include "appliance/core/errors.hpp"
+#include "appliance/core/progress.hpp"
+
+namespace glint::app {
+
+Command add_simulate_command(CLI::App& app) {
+    struct Args {
+        capture::SimulateOptions o;
+        std::string env, out, size = "320x180", mount = "2,-1.5,0.5";
+        bool no_camera_noise = false;
+    };
+    auto a = std::make_shared<Args>();
+    CLI::App* cmd = app.add_subcommand(
+        "simulate", "Render a recorded capture session with ground truth from an equirect HDR map: camera frames "
+                    "through a camera model (distortion, vignetting, response, noise, auto-exposure) along a "
+                    "trajectory, and the sensor board's recorded stream from its firmware simulator");
+    cmd->add_option("--env", a->env, "Equirect HDR environment map (OpenEXR)")->required();
+    cmd->add_option("--trajectory", a->o.trajectory,
+                    "guided (the built-in scan: rings at -60..60 degrees and the zenith, ~52 s) or a file of "
+                    "lines t_seconds,w,x,y,z (camera-to-world, conventions' frame)")
+        ->capture_default_str();
+    cmd->add_option("--out", a->out, "Session directory to create")->required();
+    cmd->add_flag("--force", a->o.overwrite, "Replace an existing session directory");
+    cmd->add_option("--fps", a->o.fps, "Frames per second")->capture_default_str();
+    cmd->add_option("--size", a->size, "Frame size WxH, pixels")->capture_default_str();
+    cmd->add_option("--fov", a->o.horizontal_fov_deg, "Horizontal field of view, degrees")->capture_default_str();
+    cmd->add_option("--imu", a->o.imu, "Sensor board IMU: raw (MPU-6050 + QMC5883L, fused on the board) or bno055")
+        ->capture_default_str();
+    cmd->add_option("--sensor-noise", a->o.sensor_noise, "Sensor error preset: none, default, high")
+        ->capture_default_str();
+    cmd->add_flag("--no-camera-noise", a->no_camera_noise, "Render without shot and read noise");
+    cmd->add_option("--mount", a->mount, "Sensor mounting error yaw,pitch,roll in degrees (sensor_from_camera)")
+        ->capture_default_str();
+    cmd->add_option("--clock-drift-ppm", a->o.clock_drift_ppm, "Board clock rate error against the appliance clock")
+        ->capture_default_str();
+    cmd->add_option("--seed", a->o.seed, "Seed of every noise source")->capture_default_str();
+    cmd->add_option("--threads", a->o.threads, "Render threads (0: all)")->capture_default_str();
+    return {cmd, [a] {
+                a->o.env = a->env;
+                a->o.out = a->out;
+                a->o.camera_noise = !a->no_camera_noise;
+                const convolution::Size s = parse_size(a->size, "--size");
+                a->o.width = s.width;
+                a->o.height = s.height;
+                const std::vector<std::string> m = split_list(a->mount, "--mount");
+                if (m.size() != 3) throw InputError("--mount needs three angles: yaw,pitch,roll");
+                a->o.mount_yaw_deg = parse_number(m[0], "--mount");
+                a->o.mount_pitch_deg = parse_number(m[1], "--mount");
+                a->o.mount_roll_deg = parse_number(m[2], "--mount");
+                std::unique_ptr<ProgressBar> bar;
+                const capture::SimulateSummary r = capture::simulate_session(a->o, [&](long long d, long long t) {
+                    if (!bar) bar = std::make_unique<ProgressBar>("simulate frames", t);
+                    (void)d;
+                    bar->advance(1);
+                });
+                if (bar) bar->finish();
+                std::printf("session %s: %d frames over %.1f s, %llu sensor bytes (%llu orientations)\n",
+                            a->out.c_str(), r.frames, r.duration_s, static_cast<unsigned long long>(r.sensor_bytes),
+                            static_cast<unsigned long long>(r.orientation_messages));
+                return 0;
+            }};
+}
+
+Command add_capture_command(CLI::App& app) {
+    struct Args {
+        capture::CaptureOptions o;
+        std::string session, out, size = "1024x512", orientations = "sensors", engine = "cpu";
+        bool no_drift = false;
+    };
+    auto a = std::make_shared<Args>();
+    CLI::App* cmd = app.add_subcommand(
+        "capture", "Run the capture pipeline offline on a recorded or simulated session: HDR accumulation on the "
+                   "sphere -> environment map (EXR) and its coverage map (<out stem>.coverage.exr)");
+    cmd->add_option("--session", a->session, "Session directory (glint simulate, or a recorded one)")->required();
+    cmd->add_option("--out", a->out, "Environment map to write (OpenEXR, equirect)")->required();
+    cmd->add_option("--size", a->size, "Environment map size WxH")->capture_default_str();
+    cmd->add_flag("--no-drift-correction", a->no_drift, "Use the sensor orientations as they are");
+    cmd->add_option("--engine", a->engine, "Accumulation engine: cpu or gpu")->capture_default_str();
+    cmd->add_option("--orientations", a->orientations,
+                    "sensors (the session's recorded sensor stream) or truth (a simulated session's true "
+                    "orientations: isolates the accumulation's own error)")
+        ->capture_default_str();
+    cmd->add_option("--min-samples", a->o.min_samples, "Frames that must see a texel for it to count as covered")
+        ->capture_default_str();
+    cmd->add_option("--threads", a->o.threads, "Threads (0: all)")->capture_default_str();
+    return {cmd, [a] {
+                const convolution::Size s = parse_size(a->size, "--size");
+                a->o.width = s.width;
+                a->o.height = s.height;
+                a->o.session = a->session;
+                a->o.out = a->out;
+                if (a->orientations == "sensors")
+                    a->o.orientations = capture::OrientationInput::Sensors;
+                else if (a->orientations == "truth")
+                    a->o.orientations = capture::OrientationInput::Truth;
+                else
+                    throw InputError("--orientations must be sensors or truth");
+                if (a->engine == "gpu")
+                    throw InputError("--engine gpu: the GPU accumulation path is not built yet (use --engine cpu)");
+                if (a->engine != "cpu") throw InputError("--engine must be cpu or gpu");
+                if (!a->no_drift)
+                    std::fprintf(stderr, "glint: drift correction is not built yet; the sensor orientations are used "
+                                         "as they are (--no-drift-correction silences this)\n");
+                a->o.drift_correction = false;
+                std::unique_ptr<ProgressBar> bar;
+                const capture::CaptureSummary r = capture::run_capture(a->o, [&](long long d, long long t) {
+                    if (!bar) bar = std::make_unique<ProgressBar>("accumulate frames", t);
+                    (void)d;
+                    bar->advance(1);
+                });
+                if (bar) bar->finish();
+                const Vec3& g = r.coverage.largest_gap;
+                std::printf("%s: %d frames, coverage %.1f %% of the sphere, largest gap %.2f sr around "
+                            "(%.3f, %.3f, %.3f), %lld texels filled\n",
+                            a->out.c_str(), r.frames_used, 100 * r.coverage.covered_fraction, r.coverage.largest_gap_sr,
+                            g.x, g.y, g.z, r.filled_texels);
+                std::printf("coverage map: %s\n", r.coverage_path.c_str());
+                if (r.frames_without_orientation > 0)
+                    std::printf("frames without an orientation (skipped): %d\n", r.frames_without_orientation);
+                if (r.truth_error)
+                    std::printf("against the session's truth (covered texels, %.1f %% of the sphere): weighted "
+                                "relative RMS %.4f, median relative error %.4f\n",
+                                100 * r.truth_error->covered_fraction_compared, r.truth_error->weighted_relative_rms,
+                                r.truth_error->median_relative);
+                return 0;
+            }};
+}
+
+}  // namespace glint::app

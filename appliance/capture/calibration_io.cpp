@@ -1,0 +1,130 @@
+#include "appliance/capture/calibration_io.hpp"
+
+#include <cmath>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include "appliance/core/atomic_file.hpp"
+#include "appliance/core/errors.hpp"
+
+namespace glint::capture {
+
+namespace {
+
+using nlohmann::json;
+
+[[noreturn]] void bad(const std::string& source, const std::string& key, const std::string& why) {
+    throw InputError(source + ": key '" + key + "': " + why);
+}
+
+const json& member(const json& j, const char* key, const std::string& source, const std::string& path) {
+    const std::string full = path.empty() ? key : path + "." + key;
+    if (!j.is_object() || !j.contains(key)) bad(source, full, "missing");
+    return j.at(key);
+}
+
+double number(const json& j, const char* key, const std::string& source, const std::string& path) {
+    const json& v = member(j, key, source, path);
+    const std::string full = path.empty() ? key : path + "." + key;
+    if (!v.is_number()) bad(source, full, "not a number");
+    const double d = v.get<double>();
+    if (!std::isfinite(d)) bad(source, full, "not finite");
+    return d;
+}
+
+}  // namespace
+
+std::string calibration_to_json(const CameraCalibration& c) {
+    const Intrinsics& k = c.intrinsics;
+    json j;
+    j["format"] = "glint-camera-calibration";
+    j["version"] = kCalibrationVersion;
+    j["intrinsics"] = {{"width", k.width}, {"height", k.height}, {"fx", k.fx}, {"fy", k.fy},
+                       {"cx", k.cx},       {"cy", k.cy},         {"k1", k.k1}, {"k2", k.k2},
+                       {"p1", k.p1},       {"p2", k.p2},         {"k3", k.k3}};
+    j["vignetting"] = {{"a1", c.vignetting.a1}, {"a2", c.vignetting.a2}, {"a3", c.vignetting.a3}};
+    j["response"] = {{"inverse", std::vector<double>(c.response.inverse.begin(), c.response.inverse.end())},
+                     {"gamma", c.response.gamma},
+                     {"shoulder", c.response.shoulder}};
+    const Quatd& q = c.sensor_from_camera;
+    j["sensor_from_camera"] = {q.w, q.x, q.y, q.z};
+    j["time_offset_s"] = c.time_offset_s;
+    j["sensitivity"] = c.sensitivity;
+    return j.dump(2) + "\n";
+}
+
+CameraCalibration calibration_from_json(const std::string& text, const std::string& source) {
+    json j;
+    try {
+        j = json::parse(text);
+    } catch (const json::parse_error& e) {
+        throw InputError(source + ": not valid JSON (" + e.what() + ")");
+    }
+    const json& format = member(j, "format", source, "");
+    if (!format.is_string() || format.get<std::string>() != "glint-camera-calibration")
+        bad(source, "format", "not a Glint camera calibration");
+    const double version = number(j, "version", source, "");
+    if (version != kCalibrationVersion)
+        bad(source, "version", "version " + std::to_string(int(version)) + " is not supported (this build reads " +
+                                   std::to_string(kCalibrationVersion) + ")");
+    CameraCalibration c;
+    const json& k = member(j, "intrinsics", source, "");
+    Intrinsics& in = c.intrinsics;
+    const double w = number(k, "width", source, "intrinsics"), h = number(k, "height", source, "intrinsics");
+    if (w < 2 || h < 2 || w != std::floor(w) || h != std::floor(h) || w > 65535 || h > 65535)
+        bad(source, "intrinsics.width/height", "must be whole numbers of pixels, at least 2");
+    in.width = int(w);
+    in.height = int(h);
+    in.fx = number(k, "fx", source, "intrinsics");
+    in.fy = number(k, "fy", source, "intrinsics");
+    if (!(in.fx > 0) || !(in.fy > 0)) bad(source, "intrinsics.fx/fy", "must be positive");
+    in.cx = number(k, "cx", source, "intrinsics");
+    in.cy = number(k, "cy", source, "intrinsics");
+    in.k1 = number(k, "k1", source, "intrinsics");
+    in.k2 = number(k, "k2", source, "intrinsics");
+    in.p1 = number(k, "p1", source, "intrinsics");
+    in.p2 = number(k, "p2", source, "intrinsics");
+    in.k3 = number(k, "k3", source, "intrinsics");
+    const json& v = member(j, "vignetting", source, "");
+    c.vignetting = {number(v, "a1", source, "vignetting"), number(v, "a2", source, "vignetting"),
+                    number(v, "a3", source, "vignetting")};
+    const json& r = member(j, "response", source, "");
+    const json& inv = member(r, "inverse", source, "response");
+    if (!inv.is_array() || inv.size() != 256) bad(source, "response.inverse", "must hold 256 numbers");
+    for (std::size_t z = 0; z < 256; ++z) {
+        if (!inv[z].is_number()) bad(source, "response.inverse[" + std::to_string(z) + "]", "not a number");
+        c.response.inverse[z] = inv[z].get<double>();
+        if (!std::isfinite(c.response.inverse[z]) || c.response.inverse[z] < 0 ||
+            (z > 0 && !(c.response.inverse[z] > c.response.inverse[z - 1])))
+            bad(source, "response.inverse[" + std::to_string(z) + "]", "must be finite, >= 0 and increasing");
+    }
+    c.response.gamma = number(r, "gamma", source, "response");
+    c.response.shoulder = number(r, "shoulder", source, "response");
+    const json& q = member(j, "sensor_from_camera", source, "");
+    if (!q.is_array() || q.size() != 4 || !q[0].is_number() || !q[1].is_number() || !q[2].is_number() ||
+        !q[3].is_number())
+        bad(source, "sensor_from_camera", "must be a quaternion [w, x, y, z]");
+    const Quatd raw{q[0].get<double>(), q[1].get<double>(), q[2].get<double>(), q[3].get<double>()};
+    const double n = firmware::norm(raw);
+    if (!(std::abs(n - 1) < 1e-3)) bad(source, "sensor_from_camera", "not a unit quaternion");
+    c.sensor_from_camera = firmware::normalized(raw);
+    c.time_offset_s = number(j, "time_offset_s", source, "");
+    c.sensitivity = number(j, "sensitivity", source, "");
+    if (!(c.sensitivity > 0)) bad(source, "sensitivity", "must be positive");
+    return c;
+}
+
+void save_calibration(const std::filesystem::path& path, const CameraCalibration& calibration) {
+    write_text_atomically(path, calibration_to_json(calibration));
+}
+
+CameraCalibration load_calibration(const std::filesystem::path& path) {
+    std::ifstream in(path);
+    if (!in) throw InputError(path.string() + ": cannot open the camera calibration");
+    std::stringstream text;
+    text << in.rdbuf();
+    return calibration_from_json(text.str(), path.string());
+}
+
+}  // namespace glint::capture

@@ -1,0 +1,108 @@
+#include "appliance/capture/capture_pipeline.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <map>
+
+#include "appliance/capture/hdr_accumulator.hpp"
+#include "appliance/capture/session.hpp"
+#include "appliance/core/equirect.hpp"
+#include "appliance/core/errors.hpp"
+#include "appliance/core/exr_io.hpp"
+#include "appliance/core/parallel.hpp"
+
+namespace glint::capture {
+
+namespace fs = std::filesystem;
+
+fs::path coverage_path_for(const fs::path& env_out) {
+    fs::path p = env_out;
+    p.replace_filename(env_out.stem().string() + ".coverage.exr");
+    return p;
+}
+
+namespace {
+
+// world_from_camera per frame index from the session's truth.
+std::map<std::uint64_t, Quatd> truth_orientations(const Session& s) {
+    if (!s.has_truth)
+        throw InputError(s.dir.string() + ": --orientations truth needs a simulated session (truth/camera.csv)");
+    std::map<std::uint64_t, Quatd> out;
+    for (const TruthPose& p : load_truth_poses(s)) out[p.index] = p.world_from_camera;
+    return out;
+}
+
+GroundTruthError compare_with_truth(const HdrImage& got, const std::vector<std::uint32_t>& samples, int min_samples,
+                                    const HdrImage& truth_full) {
+    const HdrImage truth = resample_bilinear(truth_full, got.width(), got.height());
+    const std::vector<double> omega = row_solid_angles(got.width(), got.height());
+    double num = 0, den = 0, covered = 0;
+    std::vector<double> rel;
+    for (int j = 0; j < got.height(); ++j)
+        for (int i = 0; i < got.width(); ++i) {
+            if (samples[std::size_t(j) * std::size_t(got.width()) + std::size_t(i)] < std::uint32_t(min_samples)) continue;
+            const Rgb a = got.at(i, j), b = truth.at(i, j);
+            const double o = omega[std::size_t(j)];
+            covered += o;
+            const double ref[3] = {b.r, b.g, b.b}, val[3] = {a.r, a.g, a.b};
+            for (int c = 0; c < 3; ++c) {
+                const double d = val[c] - ref[c];
+                num += o * d * d;
+                den += o * ref[c] * ref[c];
+                if (ref[c] > 0) rel.push_back(std::abs(d) / ref[c]);
+            }
+        }
+    GroundTruthError e;
+    e.weighted_relative_rms = den > 0 ? std::sqrt(num / den) : 0;
+    if (!rel.empty()) {
+        std::nth_element(rel.begin(), rel.begin() + std::ptrdiff_t(rel.size() / 2), rel.end());
+        e.median_relative = rel[rel.size() / 2];
+    }
+    e.covered_fraction_compared = covered / (4 * kPi);
+    return e;
+}
+
+}  // namespace
+
+CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(long long, long long)>& progress) {
+    if (o.width < 8 || o.height < 4 || o.width > 16384 || o.height > 8192)
+        throw InputError("--size must be between 8x4 and 16384x8192");
+    if (o.min_samples < 1) throw InputError("--min-samples must be at least 1");
+    const Session session = open_session(o.session);
+    const int threads = o.threads > 0 ? o.threads : hardware_threads();
+    std::map<std::uint64_t, Quatd> truth;
+    if (o.orientations == OrientationInput::Truth) {
+        truth = truth_orientations(session);
+    } else {
+        throw InputError("--orientations sensors: replaying the session's sensor stream into capture is not built "
+                         "yet (use --orientations truth on a simulated session)");
+    }
+    HdrAccumulator acc(o.width, o.height);
+    CaptureSummary summary;
+    const long long total = (long long)session.frames.size();
+    long long done = 0;
+    for (const FrameRecord& r : session.frames) {
+        const auto q = truth.find(r.index);
+        if (q == truth.end()) {
+            ++summary.frames_without_orientation;
+        } else {
+            const CameraFrame f = load_frame(session, r);
+            acc.add_frame(f, session.calibration, q->second, threads);
+            ++summary.frames_used;
+        }
+        if (progress) progress(++done, total);
+    }
+    if (summary.frames_used == 0) throw InputError(o.session.string() + ": no frame has an orientation");
+    HdrImage env = acc.radiance();
+    summary.coverage = measure_coverage(acc.samples(), o.width, o.height, o.min_samples);
+    if (session.has_truth && fs::exists(truth_env_path(session)))
+        summary.truth_error = compare_with_truth(env, acc.samples(), o.min_samples, load_exr(truth_env_path(session)).image);
+    summary.filled_texels = fill_uncovered(env, acc.samples(), o.min_samples);
+    summary.coverage_path = coverage_path_for(o.out);
+    // Coverage first: a reader that finds env.exr finds its coverage map too.
+    save_exr(summary.coverage_path, coverage_image(acc.samples(), acc.weights(), o.width, o.height, o.min_samples));
+    save_exr(o.out, env);
+    return summary;
+}
+
+}  // namespace glint::capture

@@ -1,0 +1,177 @@
+#include "appliance/capture/session.hpp"
+
+#include <cerrno>
+#include <cmath>
+#include <cstdlib>
+#include <fstream>
+#include <nlohmann/json.hpp>
+#include <sstream>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "appliance/capture/calibration_io.hpp"
+#include "appliance/core/errors.hpp"
+
+namespace glint::capture {
+
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string read_text(const fs::path& p, const char* what) {
+    std::ifstream in(p);
+    if (!in) throw InputError(p.string() + ": cannot open the " + what);
+    std::stringstream s;
+    s << in.rdbuf();
+    return s.str();
+}
+
+std::vector<std::string> split_csv(const std::string& line) {
+    std::vector<std::string> out;
+    std::string field;
+    std::stringstream s(line);
+    while (std::getline(s, field, ',')) out.push_back(field);
+    if (!line.empty() && line.back() == ',') out.emplace_back();
+    return out;
+}
+
+double parse_double(const std::string& text, const std::string& where) {
+    char* end = nullptr;
+    errno = 0;
+    const double v = std::strtod(text.c_str(), &end);
+    if (text.empty() || end != text.c_str() + text.size() || errno == ERANGE || !std::isfinite(v))
+        throw InputError(where + ": '" + text + "' is not a finite number");
+    return v;
+}
+
+std::int64_t parse_int(const std::string& text, const std::string& where) {
+    char* end = nullptr;
+    errno = 0;
+    const long long v = std::strtoll(text.c_str(), &end, 10);
+    if (text.empty() || end != text.c_str() + text.size() || errno == ERANGE)
+        throw InputError(where + ": '" + text + "' is not a whole number");
+    return v;
+}
+
+// Lines of a CSV file after its header, which must equal `header`.
+std::vector<std::pair<int, std::vector<std::string>>> read_csv(const fs::path& p, const std::string& header,
+                                                               std::size_t columns, const char* what) {
+    std::ifstream in(p);
+    if (!in) throw InputError(p.string() + ": cannot open the " + what);
+    std::string line;
+    if (!std::getline(in, line) || line != header)
+        throw InputError(p.string() + ":1: the header must be '" + header + "'");
+    std::vector<std::pair<int, std::vector<std::string>>> rows;
+    int number = 1;
+    while (std::getline(in, line)) {
+        ++number;
+        if (line.empty()) continue;
+        std::vector<std::string> f = split_csv(line);
+        if (f.size() != columns)
+            throw InputError(p.string() + ":" + std::to_string(number) + ": " + std::to_string(f.size()) +
+                             " fields, expected " + std::to_string(columns));
+        rows.emplace_back(number, std::move(f));
+    }
+    return rows;
+}
+
+}  // namespace
+
+std::string frames_csv_header() { return "index,t_ns,exposure_s,analogue_gain,digital_gain,file"; }
+
+std::string frames_csv_line(const FrameRecord& r) {
+    char buf[160];
+    std::snprintf(buf, sizeof buf, "%llu,%lld,%.9g,%.6g,%.6g,", static_cast<unsigned long long>(r.index),
+                  static_cast<long long>(r.t_ns), r.exposure_s, r.analogue_gain, r.digital_gain);
+    return buf + r.file;
+}
+
+std::string session_json(const std::string& created_by) {
+    nlohmann::json j;
+    j["format"] = "glint-session";
+    j["version"] = kSessionVersion;
+    j["calibration"] = "calibration.json";
+    j["frames"] = "frames.csv";
+    j["sensors"] = "sensors.glrec";
+    j["created_by"] = created_by;
+    return j.dump(2) + "\n";
+}
+
+Session open_session(const fs::path& dir) {
+    if (!fs::is_directory(dir)) throw InputError(dir.string() + ": no such session directory");
+    Session s;
+    s.dir = dir;
+    const fs::path meta = dir / "session.json";
+    nlohmann::json j;
+    try {
+        j = nlohmann::json::parse(read_text(meta, "session description"));
+    } catch (const nlohmann::json::parse_error& e) {
+        throw InputError(meta.string() + ": not valid JSON (" + e.what() + ")");
+    }
+    if (!j.is_object() || j.value("format", "") != "glint-session")
+        throw InputError(meta.string() + ": key 'format': not a Glint session");
+    if (!j.contains("version") || !j["version"].is_number_integer() || j["version"].get<int>() != kSessionVersion)
+        throw InputError(meta.string() + ": key 'version': this build reads version " +
+                         std::to_string(kSessionVersion));
+    for (const char* key : {"calibration", "frames"})
+        if (!j.contains(key) || !j[key].is_string())
+            throw InputError(meta.string() + ": key '" + std::string(key) + "': missing");
+    s.calibration = load_calibration(dir / j["calibration"].get<std::string>());
+    if (j.contains("sensors") && j["sensors"].is_string() && fs::exists(dir / j["sensors"].get<std::string>()))
+        s.sensors = dir / j["sensors"].get<std::string>();
+    const fs::path frames = dir / j["frames"].get<std::string>();
+    for (const auto& [line, f] : read_csv(frames, frames_csv_header(), 6, "frame list")) {
+        const std::string where = frames.string() + ":" + std::to_string(line);
+        FrameRecord r;
+        r.index = std::uint64_t(parse_int(f[0], where));
+        r.t_ns = parse_int(f[1], where);
+        r.exposure_s = parse_double(f[2], where);
+        r.analogue_gain = parse_double(f[3], where);
+        r.digital_gain = parse_double(f[4], where);
+        r.file = f[5];
+        if (!(r.exposure_s > 0) || !(r.analogue_gain > 0) || !(r.digital_gain > 0))
+            throw InputError(where + ": exposure and gains must be positive");
+        if (r.file.empty() || fs::path(r.file).is_absolute() || r.file.find("..") != std::string::npos)
+            throw InputError(where + ": frame file must be a relative path inside the session");
+        if (!s.frames.empty() && r.t_ns <= s.frames.back().t_ns)
+            throw InputError(where + ": frame times must increase");
+        s.frames.push_back(std::move(r));
+    }
+    if (s.frames.empty()) throw InputError(frames.string() + ": the session has no frames");
+    s.has_truth = fs::exists(dir / "truth" / "camera.csv");
+    return s;
+}
+
+CameraFrame load_frame(const Session& session, const FrameRecord& r) {
+    const fs::path p = session.dir / r.file;
+    cv::Mat bgr = cv::imread(p.string(), cv::IMREAD_COLOR);
+    if (bgr.empty()) throw InputError(p.string() + ": missing or not a readable image");
+    CameraFrame f;
+    cv::cvtColor(bgr, f.rgb, cv::COLOR_BGR2RGB);
+    f.t_ns = r.t_ns;
+    f.exposure_s = r.exposure_s;
+    f.analogue_gain = r.analogue_gain;
+    f.digital_gain = r.digital_gain;
+    f.sequence = r.index;
+    return f;
+}
+
+std::vector<TruthPose> load_truth_poses(const Session& session) {
+    const fs::path p = session.dir / "truth" / "camera.csv";
+    std::vector<TruthPose> poses;
+    for (const auto& [line, f] : read_csv(p, "index,t_ns,w,x,y,z", 6, "true camera orientations")) {
+        const std::string where = p.string() + ":" + std::to_string(line);
+        TruthPose t;
+        t.index = std::uint64_t(parse_int(f[0], where));
+        t.t_ns = parse_int(f[1], where);
+        t.world_from_camera = firmware::normalized(Quatd{parse_double(f[2], where), parse_double(f[3], where),
+                                                         parse_double(f[4], where), parse_double(f[5], where)});
+        poses.push_back(t);
+    }
+    return poses;
+}
+
+fs::path truth_env_path(const Session& session) { return session.dir / "truth" / "env.exr"; }
+
+}  // namespace glint::capture

@@ -1,0 +1,64 @@
+// A recorded capture session on disk (docs/capture.md "Session directory"): camera frames with
+// their metadata, the stored camera calibration, the orientation sensor's recorded stream, and,
+// for simulated sessions, the ground truth. `glint simulate` writes one; `glint capture` reads one.
+//
+//   SESSION/session.json     {"format": "glint-session", "version": 1, ...}
+//   SESSION/calibration.json the camera calibration the appliance has on file (calibration_io.hpp)
+//   SESSION/frames.csv       index,t_ns,exposure_s,analogue_gain,digital_gain,file
+//   SESSION/frames/*.png     8-bit RGB frames (lossless)
+//   SESSION/sensors.glrec    the sensor board's byte stream (firmware_bridge/recording/FORMAT.md)
+//   SESSION/truth/           simulated sessions only: env.exr, camera.csv (index,t_ns,w,x,y,z:
+//                            true world_from_camera per frame), calibration.json (the true one)
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "appliance/capture/camera_frame.hpp"
+#include "appliance/capture/camera_model.hpp"
+
+namespace glint::capture {
+
+inline constexpr int kSessionVersion = 1;
+
+struct FrameRecord {
+    std::uint64_t index = 0;
+    std::int64_t t_ns = 0;  // appliance CLOCK_MONOTONIC at mid-exposure
+    double exposure_s = 0;
+    double analogue_gain = 1;
+    double digital_gain = 1;
+    std::string file;       // relative to the session directory
+};
+
+struct TruthPose {
+    std::uint64_t index = 0;
+    std::int64_t t_ns = 0;
+    Quatd world_from_camera;
+};
+
+struct Session {
+    std::filesystem::path dir;
+    CameraCalibration calibration;
+    std::vector<FrameRecord> frames;
+    std::filesystem::path sensors;  // the sensor recording (may be absent: empty path)
+    bool has_truth = false;
+};
+
+// Reads session.json, calibration.json and frames.csv. Throws InputError naming the file (and
+// line or key) for anything missing or malformed; frames must have increasing times.
+Session open_session(const std::filesystem::path& dir);
+// Loads one frame's image (PNG); throws InputError naming the file.
+CameraFrame load_frame(const Session& session, const FrameRecord& record);
+// truth/camera.csv and truth/env.exr of a simulated session.
+std::vector<TruthPose> load_truth_poses(const Session& session);
+std::filesystem::path truth_env_path(const Session& session);
+
+// Writing (for the simulator and for recording live sessions).
+std::string frames_csv_header();
+std::string frames_csv_line(const FrameRecord& r);
+std::string session_json(const std::string& created_by);
+
+}  // namespace glint::capture

@@ -1,0 +1,212 @@
+#include "appliance/capture/session_simulator.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+
+#include <opencv2/imgcodecs.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "appliance/capture/calibration_io.hpp"
+#include "appliance/capture/camera_simulator.hpp"
+#include "appliance/capture/session.hpp"
+#include "appliance/core/atomic_file.hpp"
+#include "appliance/core/errors.hpp"
+#include "appliance/core/exr_io.hpp"
+#include "appliance/core/parallel.hpp"
+#include "firmware_bridge/firmware/sim/sim_board.hpp"
+#include "firmware_bridge/firmware/sim/sim_hal.hpp"
+#include "firmware_bridge/protocol/frame_decoder.hpp"
+#include "firmware_bridge/recording/clock.hpp"
+#include "firmware_bridge/recording/recorder.hpp"
+
+namespace glint::capture {
+
+namespace fs = std::filesystem;
+using firmware::sim::TrajectorySample;
+
+namespace {
+
+constexpr double kDeg = kPi / 180.0;
+// The board boots (the BNO055 is silent for 650 ms) before the camera's first frame.
+constexpr std::uint64_t kLeadUs = 1'000'000;
+// Appliance clock at board reset, µs (any value; not 0 so that a mix-up of clocks shows).
+constexpr std::uint64_t kHostAtBoardResetUs = 5'000'000'000ULL;
+
+void write_text(const fs::path& p, const std::string& text) {
+    std::ofstream out(p);
+    out << text;
+    if (!out.flush()) throw RuntimeError(p.string() + ": cannot write");
+}
+
+}  // namespace
+
+Quatd camera_look(double yaw_deg, double pitch_deg, double roll_deg) {
+    const Quatd yaw = Quatd::from_axis_angle({0, 1, 0}, yaw_deg * kDeg);
+    const Quatd pitch = Quatd::from_axis_angle({1, 0, 0}, pitch_deg * kDeg);
+    const Quatd roll = Quatd::from_axis_angle({0, 0, -1}, roll_deg * kDeg);
+    return firmware::normalized(yaw * pitch * roll);
+}
+
+std::vector<TrajectorySample> guided_camera_trajectory() {
+    std::vector<TrajectorySample> out;
+    const double step_s = 0.01;
+    double t = 0;
+    const auto add = [&](double yaw, double pitch) {
+        out.push_back({std::uint64_t(std::llround(t * 1e6)), camera_look(yaw, pitch)});
+        t += step_s;
+    };
+    const double rings[] = {-60, -30, 0, 30, 60};
+    const double speed = 45;  // deg/s
+    double yaw = 0;
+    bool forward = true;
+    for (std::size_t r = 0; r < std::size(rings); ++r) {
+        const double pitch = rings[r];
+        const int steps = int(360 / speed / step_s);
+        for (int k = 0; k < steps; ++k) add(yaw + (forward ? 1 : -1) * 360.0 * k / steps, pitch);
+        yaw += forward ? 360 : -360;
+        const double next = r + 1 < std::size(rings) ? rings[r + 1] : 85.0;
+        const int move = int(1.5 / step_s);
+        for (int k = 0; k < move; ++k) add(yaw, pitch + (next - pitch) * (0.5 - 0.5 * std::cos(kPi * k / move)));
+        forward = !forward;
+    }
+    const int steps = int(4.0 / step_s);
+    for (int k = 0; k <= steps; ++k) add(yaw + (forward ? 1 : -1) * 360.0 * k / steps, 85);
+    return out;
+}
+
+SimulateSummary simulate_session(const SimulateOptions& o, const std::function<void(long long, long long)>& progress) {
+    if (!(o.fps > 0 && o.fps <= 120)) throw InputError("--fps must be in (0, 120]");
+    if (o.width < 16 || o.height < 16 || o.width > 8192 || o.height > 8192)
+        throw InputError("--size must be between 16x16 and 8192x8192");
+    if (!(o.horizontal_fov_deg > 5 && o.horizontal_fov_deg < 150)) throw InputError("--fov must be in (5, 150) degrees");
+    if (o.imu != "raw" && o.imu != "bno055") throw InputError("--imu must be raw or bno055");
+    if (o.sensor_noise != "none" && o.sensor_noise != "default" && o.sensor_noise != "high")
+        throw InputError("--sensor-noise must be none, default or high");
+    if (fs::exists(o.out) && !o.overwrite)
+        throw InputError(o.out.string() + ": already exists (give --force to replace it)");
+    const HdrImage env = load_exr(o.env).image;
+
+    firmware::sim::Trajectory camera = o.trajectory == "guided"
+                                           ? firmware::sim::Trajectory(guided_camera_trajectory())
+                                           : firmware::sim::Trajectory::load(o.trajectory);
+    const double duration_s = double(camera.end_us()) * 1e-6;
+    if (duration_s <= 0) throw InputError(o.trajectory + ": the trajectory must last longer than 0 s");
+
+    // The true camera: a mild lens, vignetting, a gamma-like response, the sensor mounted with a
+    // small error that calibration is supposed to find.
+    SensorModel sensor;
+    sensor.noise = o.camera_noise;
+    CameraCalibration truth;
+    truth.intrinsics = Intrinsics::from_fov(o.width, o.height, o.horizontal_fov_deg * kDeg);
+    truth.intrinsics.k1 = -0.08;
+    truth.intrinsics.k2 = 0.012;
+    truth.vignetting = {-0.22, 0.03, 0};
+    truth.sensor_from_camera = camera_look(o.mount_yaw_deg, o.mount_pitch_deg, o.mount_roll_deg);
+    truth.sensitivity = sensor.electrons_per_radiance_second / sensor.full_well_electrons;
+
+    // The sensor board rides on the camera: world_from_sensor = world_from_camera * camera_from_sensor,
+    // held still for the board's boot (kLeadUs) before the camera's time 0.
+    const Quatd camera_from_sensor = truth.sensor_from_camera.conj();
+    std::vector<TrajectorySample> sensor_path;
+    for (std::uint64_t b = 0; b <= kLeadUs + camera.end_us() + 500'000; b += 5'000) {
+        const std::uint64_t tc = b > kLeadUs ? b - kLeadUs : 0;
+        sensor_path.push_back({b, firmware::normalized(camera.at(tc).world_from_sensor * camera_from_sensor)});
+    }
+    const firmware::sim::Trajectory sensor_trajectory(sensor_path);
+
+    const fs::path partial = o.out.string() + ".partial";
+    fs::remove_all(partial);
+    fs::create_directories(partial / "frames");
+    fs::create_directories(partial / "truth");
+
+    // Appliance time of a board instant: the board clock runs clock_drift_ppm fast.
+    const double rate = 1.0 + o.clock_drift_ppm * 1e-6;
+    const auto host_us = [&](std::uint64_t board_us) {
+        return kHostAtBoardResetUs + std::uint64_t(std::llround(double(board_us) / rate));
+    };
+
+    // --- the orientation stream, recorded as the serial driver records a live board ---
+    firmware::sim::SimBoardOptions board;
+    board.imu = o.imu == "raw" ? firmware::sim::ImuKind::Raw : firmware::sim::ImuKind::Bno055;
+    board.seed = o.seed;
+    if (o.sensor_noise == "none") board.errors = firmware::sim::SensorErrors::none();
+    if (o.sensor_noise == "high") {
+        board.errors.gyro_noise_rad_s *= 5;
+        board.errors.accel_noise_m_s2 *= 5;
+        board.errors.mag_noise_ut *= 5;
+    }
+    firmware::sim::MemoryUart uart;
+    firmware::sim::VirtualClock board_clock;
+    firmware::sim::SimBoard sim_board(sensor_trajectory, board, uart, board_clock);
+    recording::RecorderOptions ropt;
+    ropt.header.transport = recording::Transport::Simulator;
+    ropt.header.baud = 921600;
+    ropt.header.device = "glint simulate (" + o.imu + " board)";
+    ropt.header.decoded_types = recording::board_message_types();
+    ropt.header.created_unix_us = 1'795'000'000'000'000;  // fixed: same options, same file
+    ropt.header.created_monotonic_us = kHostAtBoardResetUs;
+    ropt.header.notes = {{"generator", "glint simulate"}, {"imu", o.imu}, {"sensor_noise", o.sensor_noise}};
+    recording::VirtualClock record_clock(kHostAtBoardResetUs);
+    SimulateSummary summary;
+    {
+        recording::Recorder recorder((partial / "sensors.glrec").string(), ropt, record_clock);
+        protocol::FrameDecoder decoder;
+        sim_board.start();
+        const std::uint64_t end_board = kLeadUs + camera.end_us() + 500'000;
+        while (board_clock.now_us() < end_board) {
+            sim_board.step();
+            std::vector<std::uint8_t> bytes = uart.take();
+            if (bytes.empty()) continue;
+            // Delivered after the line time of the bytes at 921600 bit/s plus 0.3 ms of USB latency.
+            const std::uint64_t t = host_us(board_clock.now_us()) + 300 + bytes.size() * 10'000'000 / 921600 / 1000;
+            record_clock.sleep_until_us(t);
+            recorder.on_bytes(t, bytes);
+            decoder.feed_all(bytes, [&](const protocol::FrameEvent& e) {
+                recorder.on_sample(t, e);
+                if (e.status == protocol::FrameStatus::Ok && e.type == std::uint8_t(protocol::MessageType::Orientation))
+                    ++summary.orientation_messages;
+            });
+            summary.sensor_bytes += bytes.size();
+        }
+        if (!recorder.close()) throw RuntimeError(recorder.error());
+    }
+
+    // --- the frames ---
+    CameraSimulator cam(env, truth, sensor, {}, o.seed);
+    const int threads = o.threads > 0 ? o.threads : hardware_threads();
+    const int frames = int(std::floor(duration_s * o.fps)) + 1;
+    std::string frames_csv = frames_csv_header() + "\n";
+    std::string truth_csv = "index,t_ns,w,x,y,z\n";
+    for (int k = 0; k < frames; ++k) {
+        const std::uint64_t tc = std::uint64_t(std::llround(k / o.fps * 1e6));
+        const Quatd q = firmware::normalized(camera.at(tc).world_from_sensor);
+        const std::int64_t t_ns = std::int64_t(host_us(kLeadUs + tc)) * 1000;
+        const CameraFrame f = cam.render(q, t_ns, threads);
+        char name[32];
+        std::snprintf(name, sizeof name, "frames/%06d.png", k);
+        cv::Mat bgr;
+        cv::cvtColor(f.rgb, bgr, cv::COLOR_RGB2BGR);
+        if (!cv::imwrite((partial / name).string(), bgr)) throw RuntimeError((partial / name).string() + ": cannot write");
+        frames_csv += frames_csv_line({std::uint64_t(k), t_ns, f.exposure_s, f.analogue_gain, f.digital_gain, name}) + "\n";
+        char line[160];
+        std::snprintf(line, sizeof line, "%d,%lld,%.12f,%.12f,%.12f,%.12f\n", k, static_cast<long long>(t_ns), q.w, q.x,
+                      q.y, q.z);
+        truth_csv += line;
+        if (progress) progress(k + 1, frames);
+    }
+    write_text(partial / "frames.csv", frames_csv);
+    write_text(partial / "truth" / "camera.csv", truth_csv);
+    save_calibration(partial / "calibration.json", truth);
+    save_calibration(partial / "truth" / "calibration.json", truth);
+    save_exr(partial / "truth" / "env.exr", env);
+    write_text(partial / "session.json", session_json("glint simulate"));
+    if (fs::exists(o.out)) fs::remove_all(o.out);
+    fs::rename(partial, o.out);
+    summary.frames = frames;
+    summary.duration_s = duration_s;
+    return summary;
+}
+
+}  // namespace glint::capture

@@ -1,0 +1,56 @@
+// `glint simulate`: renders a recorded session with ground truth from any equirect HDR map. The
+// camera follows a trajectory (the built-in guided scan or a file); the orientation stream comes
+// from the sensor-board firmware's host build (firmware_bridge/firmware/sim) riding on the
+// camera, with its own noise, bias drift and fusion, recorded byte for byte as the serial driver
+// would record a live board (firmware_bridge/recording). See docs/capture.md "Simulated sessions".
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "appliance/capture/camera_model.hpp"
+#include "firmware_bridge/firmware/sim/trajectory.hpp"
+
+namespace glint::capture {
+
+struct SimulateOptions {
+    std::filesystem::path env;       // equirect HDR map (EXR)
+    std::string trajectory = "guided";  // "guided" or a file: t_seconds,w,x,y,z (world_from_camera)
+    std::filesystem::path out;       // session directory (must not exist unless overwrite)
+    bool overwrite = false;
+    double fps = 4;                  // frames per second of camera time
+    int width = 320, height = 180;   // frame size, pixels
+    double horizontal_fov_deg = 70;
+    std::string imu = "raw";         // "raw" (MPU-6050 + QMC5883L, Mahony on the board) or "bno055"
+    std::string sensor_noise = "default";  // "none", "default", "high" (firmware simulator presets)
+    bool camera_noise = true;
+    double mount_yaw_deg = 2.0, mount_pitch_deg = -1.5, mount_roll_deg = 0.5;  // sensor_from_camera
+    double clock_drift_ppm = 40;     // board clock rate against the appliance clock
+    std::uint64_t seed = 1;
+    int threads = 0;
+};
+
+struct SimulateSummary {
+    int frames = 0;
+    double duration_s = 0;
+    std::uint64_t sensor_bytes = 0;
+    std::uint64_t orientation_messages = 0;
+};
+
+// The built-in guided scan (world_from_camera over camera time from 0): yaw sweeps of 360
+// degrees at elevations -60, -30, 0, 30 and 60 degrees at 45 deg/s, 1.5 s pitch moves between
+// them, and a last sweep looking up at 85 degrees; about 52 s.
+std::vector<firmware::sim::TrajectorySample> guided_camera_trajectory();
+
+// world_from_camera = yaw about world +Y, then pitch about the camera's X, then roll about -Z.
+Quatd camera_look(double yaw_deg, double pitch_deg, double roll_deg = 0);
+
+// Writes the session (into OUT.partial, renamed to OUT at the end: never a half session).
+// progress(done, total) is called per frame. Throws InputError for bad options or inputs.
+SimulateSummary simulate_session(const SimulateOptions& options,
+                                 const std::function<void(long long, long long)>& progress = {});
+
+}  // namespace glint::capture
