@@ -27,15 +27,21 @@ CoverageReport measure_coverage(const std::vector<std::uint32_t>& samples, int w
         }
     r.covered_fraction = covered / (4 * kPi);
     const double cos_radius = std::cos(gap_radius_rad);
+    struct Cell {
+        Vec3 d;
+        double unseen;
+    };
+    std::vector<Cell> unseen_cells;
+    for (int j = 0; j < ch; ++j)
+        for (int i = 0; i < cw; ++i)
+            if (cell_unseen[at(i, j, cw)] > 0) unseen_cells.push_back({texel_direction(i, j, cw, ch), cell_unseen[at(i, j, cw)]});
+    if (unseen_cells.empty()) return r;
     for (int cj = 0; cj < ch; ++cj)
         for (int ci = 0; ci < cw; ++ci) {
             const Vec3 centre = texel_direction(ci, cj, cw, ch);
             double unseen = 0;
-            for (int j = 0; j < ch; ++j)
-                for (int i = 0; i < cw; ++i) {
-                    const double u = cell_unseen[at(i, j, cw)];
-                    if (u > 0 && dot(centre, texel_direction(i, j, cw, ch)) >= cos_radius) unseen += u;
-                }
+            for (const Cell& c : unseen_cells)
+                if (dot(centre, c.d) >= cos_radius) unseen += c.unseen;
             if (unseen > r.largest_gap_sr) {
                 r.largest_gap_sr = unseen;
                 r.largest_gap = centre;

@@ -73,7 +73,9 @@ Trajectory::Trajectory(std::vector<TrajectorySample> samples) : samples_(std::mo
 }
 
 Trajectory Trajectory::parse(const std::string& text, const std::string& source) {
-    enum class Format { Unknown, Quaternion, YprDeg } format = Format::Unknown;
+    // Seconds: the fixed format of the issue and of `glint simulate` (no format line): lines of
+    // t_seconds,w,x,y,z. The two formats with a format line take times in microseconds.
+    enum class Format { Unknown, Quaternion, YprDeg, Seconds } format = Format::Unknown;
     std::vector<TrajectorySample> samples;
     std::istringstream in(text);
     std::string line;
@@ -89,31 +91,38 @@ Trajectory Trajectory::parse(const std::string& text, const std::string& source)
                 format = Format::Quaternion;
             } else if (fields.size() == 2 && fields[0] == "format" && fields[1] == "ypr_deg") {
                 format = Format::YprDeg;
+            } else if (fields.size() == 5) {
+                format = Format::Seconds;  // this line is the first sample
             } else {
-                fail(source, line_no, "expected 'format quaternion' or 'format ypr_deg' before the samples");
+                fail(source, line_no,
+                     "expected samples t_seconds,w,x,y,z (or a line 'format quaternion' / 'format ypr_deg')");
             }
-            continue;
+            if (format != Format::Seconds) continue;
         }
-        const std::size_t expected = format == Format::Quaternion ? 5 : 4;
+        const std::size_t expected = format == Format::YprDeg ? 4 : 5;
+        const char* layout = format == Format::Quaternion ? "time_us, w, x, y, z"
+                             : format == Format::YprDeg   ? "time_us, yaw, pitch, roll"
+                                                          : "t_seconds, w, x, y, z";
         if (fields.size() != expected) {
-            fail(source, line_no, "expected " + std::to_string(expected) + " fields (" +
-                                      (format == Format::Quaternion ? "time_us, w, x, y, z"
-                                                                    : "time_us, yaw, pitch, roll") +
-                                      "), got " + std::to_string(fields.size()));
+            fail(source, line_no, "expected " + std::to_string(expected) + " fields (" + layout + "), got " +
+                                      std::to_string(fields.size()));
         }
         double values[5] = {};
         for (std::size_t i = 0; i < expected; ++i) values[i] = parse_number(fields[i], source, line_no, i + 1);
-        if (values[0] < 0 || values[0] > 1e15 || values[0] != std::floor(values[0])) {
+        if (format == Format::Seconds) {
+            if (values[0] < 0 || values[0] > 1e9) fail(source, line_no, "t_seconds '" + fields[0] + "' must be >= 0");
+            values[0] = std::round(values[0] * 1e6);
+        } else if (values[0] < 0 || values[0] > 1e15 || values[0] != std::floor(values[0])) {
             fail(source, line_no, "time_us '" + fields[0] + "' is not a whole number of microseconds >= 0");
         }
         TrajectorySample s;
         s.time_us = static_cast<std::uint64_t>(values[0]);
-        if (samples.empty() && s.time_us != 0) fail(source, line_no, "the first sample must be at time_us 0");
+        if (samples.empty() && s.time_us != 0) fail(source, line_no, "the first sample must be at time 0");
         if (!samples.empty() && s.time_us <= samples.back().time_us) {
             fail(source, line_no, "time_us " + fields[0] + " does not increase (previous " +
                                       std::to_string(samples.back().time_us) + ")");
         }
-        if (format == Format::Quaternion) {
+        if (format != Format::YprDeg) {
             s.world_from_sensor = {values[1], values[2], values[3], values[4]};
             const double n = norm(s.world_from_sensor);
             if (std::fabs(n - 1.0) > 0.01) {
@@ -124,7 +133,7 @@ Trajectory Trajectory::parse(const std::string& text, const std::string& source)
         }
         samples.push_back(s);
     }
-    if (format == Format::Unknown) fail(source, line_no, "no 'format' line: the file is empty");
+    if (format == Format::Unknown) fail(source, line_no, "no samples: the file is empty");
     if (samples.empty()) fail(source, line_no, "no samples after the format line");
     return Trajectory(std::move(samples));
 }

@@ -53,8 +53,11 @@ TEST(Trajectory, YawPitchRollFollowTheWorldFrame) {
 }
 
 TEST(Trajectory, ErrorsNameFileAndLine) {
-    EXPECT_EQ(error_of(""), "motion.csv:0: no 'format' line: the file is empty");
-    EXPECT_EQ(error_of("0,1,0,0,0\n"), "motion.csv:1: expected 'format quaternion' or 'format ypr_deg' before the samples");
+    EXPECT_EQ(error_of(""), "motion.csv:0: no samples: the file is empty");
+    EXPECT_EQ(error_of("0,1,0,0\n"),
+              "motion.csv:1: expected samples t_seconds,w,x,y,z (or a line 'format quaternion' / 'format ypr_deg')");
+    EXPECT_EQ(error_of("0,1,0,0,0\n0.5,1,0,0\n"), "motion.csv:2: expected 5 fields (t_seconds, w, x, y, z), got 4");
+    EXPECT_EQ(error_of("0.1,1,0,0,0\n"), "motion.csv:1: the first sample must be at time 0");
     EXPECT_EQ(error_of("format quaternion\n0,1,0,0,0\n5,1,0,0\n"),
               "motion.csv:3: expected 5 fields (time_us, w, x, y, z), got 4");
     EXPECT_EQ(error_of("format quaternion\n\n0,1,0,0,0\n10,1,0,zero,0\n"),
@@ -63,11 +66,20 @@ TEST(Trajectory, ErrorsNameFileAndLine) {
               "motion.csv:3: quaternion norm 2.000000 is not 1 (+-0.01)");
     EXPECT_EQ(error_of("format ypr_deg\n0,0,0,0\n10,0,0,0\n10,1,0,0\n"),
               "motion.csv:4: time_us 10 does not increase (previous 10)");
-    EXPECT_EQ(error_of("format ypr_deg\n5,0,0,0\n"), "motion.csv:2: the first sample must be at time_us 0");
+    EXPECT_EQ(error_of("format ypr_deg\n5,0,0,0\n"), "motion.csv:2: the first sample must be at time 0");
     EXPECT_EQ(error_of("format ypr_deg\n-1,0,0,0\n"),
               "motion.csv:2: time_us '-1' is not a whole number of microseconds >= 0");
     EXPECT_EQ(error_of("format ypr_deg\n0,nan,0,0\n"), "motion.csv:2: field 2 'nan' is not a finite number");
     EXPECT_EQ(error_of("format ypr_deg\n# nothing\n"), "motion.csv:2: no samples after the format line");
+}
+
+TEST(Trajectory, ReadsTheSecondsFormatWithoutAFormatLine) {
+    // The fixed format of the issue: t_seconds,w,x,y,z, camera/sensor to world.
+    const Trajectory t = Trajectory::parse("# a quarter turn\n0,1,0,0,0\n2.5,0.70710678,0,0.70710678,0\n", "m.csv");
+    ASSERT_EQ(t.samples().size(), 2u);
+    EXPECT_EQ(t.samples()[1].time_us, 2'500'000u);
+    const Quatd mid = t.at(1'250'000).world_from_sensor;
+    EXPECT_NEAR(angle_between(mid, Quatd::from_axis_angle({0, 1, 0}, 3.14159265358979 / 4)), 0.0, 1e-6);
 }
 
 TEST(Trajectory, LoadNamesAMissingFileAndReadsARealOne) {

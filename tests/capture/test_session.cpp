@@ -1,0 +1,143 @@
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <regex>
+#include <unistd.h>
+
+#include "appliance/capture/calibration_io.hpp"
+#include "appliance/capture/capture_pipeline.hpp"
+#include "appliance/capture/session.hpp"
+#include "appliance/capture/session_simulator.hpp"
+#include "appliance/core/errors.hpp"
+#include "appliance/core/exr_io.hpp"
+#include "firmware_bridge/recording/reader.hpp"
+
+namespace glint::capture {
+namespace {
+
+namespace fs = std::filesystem;
+
+class SessionTest : public ::testing::Test {
+protected:
+    void SetUp() override {
+        dir_ = fs::temp_directory_path() / ("glint-session-test-" + std::to_string(::getpid()));
+        fs::remove_all(dir_);
+        fs::create_directories(dir_);
+        // A small sky: brighter up, a warm band at the horizon, a lamp.
+        HdrImage env(128, 64);
+        for (int j = 0; j < 64; ++j)
+            for (int i = 0; i < 128; ++i) {
+                const Vec3 d = texel_direction(i, j, 128, 64);
+                double l = 0.3 + 0.4 * (d.y + 1) + 0.2 * std::exp(-20 * d.y * d.y);
+                if (dot(d, {0.6, 0.3, -0.74}) > 0.995) l *= 20;
+                env.set(i, j, {float(l), float(0.9 * l), float(0.7 * l)});
+            }
+        save_exr(dir_ / "env.exr", env);
+    }
+    void TearDown() override { fs::remove_all(dir_); }
+
+    SimulateOptions small_session() const {
+        SimulateOptions o;
+        o.env = dir_ / "env.exr";
+        o.out = dir_ / "session";
+        o.fps = 1.0;
+        o.width = 96;
+        o.height = 54;
+        o.threads = 2;
+        return o;
+    }
+    fs::path dir_;
+};
+
+TEST_F(SessionTest, SimulateThenCaptureWithTrueOrientationsCoversAndMatchesTheSky) {
+    const SimulateSummary sim = simulate_session(small_session());
+    EXPECT_GT(sim.frames, 40);
+    EXPECT_GT(sim.orientation_messages, 1000u);  // ~100 Hz for ~53 s
+    const Session s = open_session(dir_ / "session");
+    EXPECT_EQ(int(s.frames.size()), sim.frames);
+    EXPECT_TRUE(s.has_truth);
+    EXPECT_FALSE(s.sensors.empty());
+    EXPECT_NO_THROW(recording::RecordingReader(s.sensors.string()));
+    EXPECT_FALSE(fs::exists(dir_ / "session.partial"));
+
+    CaptureOptions c;
+    c.session = dir_ / "session";
+    c.out = dir_ / "env-captured.exr";
+    c.width = 128;
+    c.height = 64;
+    c.orientations = OrientationInput::Truth;
+    const CaptureSummary r = run_capture(c);
+    EXPECT_EQ(r.frames_used, sim.frames);
+    // The guided scan sees everything but the floor under the stand (below about -80 degrees).
+    EXPECT_GT(r.coverage.covered_fraction, 0.9);
+    EXPECT_LT(r.coverage.largest_gap.y, -0.9);
+    ASSERT_TRUE(r.truth_error);
+    EXPECT_LT(r.truth_error->median_relative, 0.05);
+    EXPECT_LT(r.truth_error->weighted_relative_rms, 0.15);
+    EXPECT_TRUE(fs::exists(c.out));
+    EXPECT_TRUE(fs::exists(dir_ / "env-captured.coverage.exr"));
+    const HdrImage cov = load_exr(dir_ / "env-captured.coverage.exr").image;
+    EXPECT_EQ(cov.width(), 128);
+}
+
+TEST_F(SessionTest, RefusesToReplaceASessionWithoutForce) {
+    SimulateOptions o = small_session();
+    o.trajectory = (dir_ / "short.csv").string();
+    std::ofstream(dir_ / "short.csv") << "0,1,0,0,0\n2,0.9238795,0,0.3826834,0\n";
+    ASSERT_NO_THROW(simulate_session(o));
+    EXPECT_THROW(simulate_session(o), InputError);
+    o.overwrite = true;
+    EXPECT_NO_THROW(simulate_session(o));
+}
+
+TEST_F(SessionTest, MalformedFilesNameTheFileAndTheLine) {
+    SimulateOptions o = small_session();
+    o.trajectory = (dir_ / "short.csv").string();
+    std::ofstream(dir_ / "short.csv") << "0,1,0,0,0\n1,1,0,0,0\n";
+    simulate_session(o);
+    const fs::path frames = dir_ / "session" / "frames.csv";
+    {
+        std::ofstream f(frames, std::ios::app);
+        f << "9,notanumber,0.01,1,1,frames/000000.png\n";
+    }
+    try {
+        open_session(dir_ / "session");
+        FAIL() << "no error";
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("frames.csv:"), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find("notanumber"), std::string::npos) << e.what();
+    }
+    std::ofstream(dir_ / "session" / "calibration.json") << "{\"format\": \"glint-camera-calibration\"}";
+    try {
+        open_session(dir_ / "session");
+        FAIL() << "no error";
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("calibration.json: key 'version'"), std::string::npos) << e.what();
+    }
+    EXPECT_THROW(open_session(dir_ / "nothing-here"), InputError);
+}
+
+TEST(CalibrationIo, RoundTripsAndRejectsBadValues) {
+    CameraCalibration c;
+    c.intrinsics = Intrinsics::from_fov(640, 480, 1.2);
+    c.intrinsics.k1 = -0.1;
+    c.vignetting = {-0.2, 0.01, 0};
+    c.sensor_from_camera = camera_look(3, -2, 1);
+    c.time_offset_s = 0.012;
+    c.sensitivity = 42;
+    const CameraCalibration back = calibration_from_json(calibration_to_json(c), "c.json");
+    EXPECT_EQ(back.intrinsics.width, 640);
+    EXPECT_DOUBLE_EQ(back.intrinsics.k1, -0.1);
+    EXPECT_DOUBLE_EQ(back.vignetting.a1, -0.2);
+    EXPECT_NEAR(firmware::angle_between(back.sensor_from_camera, c.sensor_from_camera), 0.0, 1e-9);
+    EXPECT_DOUBLE_EQ(back.time_offset_s, 0.012);
+    EXPECT_DOUBLE_EQ(back.response.inverse[200], c.response.inverse[200]);
+    std::string text = calibration_to_json(c);
+    const std::string bad = std::regex_replace(text, std::regex("\"fx\": [0-9.e+-]+"), "\"fx\": -3");
+    EXPECT_THROW(calibration_from_json(bad, "c.json"), InputError);
+    EXPECT_THROW(calibration_from_json("{", "c.json"), InputError);
+}
+
+}  // namespace
+}  // namespace glint::capture
