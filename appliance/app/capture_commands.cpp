@@ -107,9 +107,6 @@ Command add_capture_command(CLI::App& app) {
                 if (a->engine == "gpu")
                     throw InputError("--engine gpu: the GPU accumulation path is not built yet (use --engine cpu)");
                 if (a->engine != "cpu") throw InputError("--engine must be cpu or gpu");
-                if (!a->no_drift)
-                    std::fprintf(stderr, "glint: drift correction is not built yet; the sensor orientations are used "
-                                         "as they are (--no-drift-correction silences this)\n");
                 a->o.drift_correction = false;
                 std::unique_ptr<ProgressBar> bar;
                 const capture::CaptureSummary r = capture::run_capture(a->o, [&](long long d, long long t) {
@@ -118,6 +115,10 @@ Command add_capture_command(CLI::App& app) {
                     bar->advance(1);
                 });
                 if (bar) bar->finish();
+                // After the run, so that a bad input still gets exactly one line on stderr.
+                if (!a->no_drift)
+                    std::fprintf(stderr, "glint: note: drift correction is not built yet; the orientations were used "
+                                         "as they are (--no-drift-correction silences this)\n");
                 const Vec3& g = r.coverage.largest_gap;
                 std::printf("%s: %d frames, coverage %.1f %% of the sphere, largest gap %.2f sr around "
                             "(%.3f, %.3f, %.3f), %lld texels filled\n",

@@ -76,23 +76,11 @@ std::vector<TrajectorySample> guided_camera_trajectory() {
     return out;
 }
 
-SimulateSummary simulate_session(const SimulateOptions& o, const std::function<void(long long, long long)>& progress) {
-    if (!(o.fps > 0 && o.fps <= 120)) throw InputError("--fps must be in (0, 120]");
-    if (o.width < 16 || o.height < 16 || o.width > 8192 || o.height > 8192)
-        throw InputError("--size must be between 16x16 and 8192x8192");
-    if (!(o.horizontal_fov_deg > 5 && o.horizontal_fov_deg < 150)) throw InputError("--fov must be in (5, 150) degrees");
-    if (o.imu != "raw" && o.imu != "bno055") throw InputError("--imu must be raw or bno055");
-    if (o.sensor_noise != "none" && o.sensor_noise != "default" && o.sensor_noise != "high")
-        throw InputError("--sensor-noise must be none, default or high");
-    if (fs::exists(o.out) && !o.overwrite)
-        throw InputError(o.out.string() + ": already exists (give --force to replace it)");
-    const HdrImage env = load_exr(o.env).image;
+namespace {
 
-    firmware::sim::Trajectory camera = o.trajectory == "guided"
-                                           ? firmware::sim::Trajectory(guided_camera_trajectory())
-                                           : firmware::sim::Trajectory::load(o.trajectory);
+SimulateSummary write_session(const SimulateOptions& o, const HdrImage& env, const firmware::sim::Trajectory& camera,
+                              const fs::path& partial, const std::function<void(long long, long long)>& progress) {
     const double duration_s = double(camera.end_us()) * 1e-6;
-    if (duration_s <= 0) throw InputError(o.trajectory + ": the trajectory must last longer than 0 s");
 
     // The true camera: a mild lens, vignetting, a gamma-like response, the sensor mounted with a
     // small error that calibration is supposed to find.
@@ -115,11 +103,6 @@ SimulateSummary simulate_session(const SimulateOptions& o, const std::function<v
         sensor_path.push_back({b, firmware::normalized(camera.at(tc).world_from_sensor * camera_from_sensor)});
     }
     const firmware::sim::Trajectory sensor_trajectory(sensor_path);
-
-    const fs::path partial = o.out.string() + ".partial";
-    fs::remove_all(partial);
-    fs::create_directories(partial / "frames");
-    fs::create_directories(partial / "truth");
 
     // Appliance time of a board instant: the board clock runs clock_drift_ppm fast.
     const double rate = 1.0 + o.clock_drift_ppm * 1e-6;
@@ -208,5 +191,44 @@ SimulateSummary simulate_session(const SimulateOptions& o, const std::function<v
     summary.duration_s = duration_s;
     return summary;
 }
+
+}  // namespace
+
+SimulateSummary simulate_session(const SimulateOptions& o, const std::function<void(long long, long long)>& progress) {
+    if (!(o.fps > 0 && o.fps <= 120)) throw InputError("--fps must be in (0, 120]");
+    if (o.width < 16 || o.height < 16 || o.width > 8192 || o.height > 8192)
+        throw InputError("--size must be between 16x16 and 8192x8192");
+    if (!(o.horizontal_fov_deg > 5 && o.horizontal_fov_deg < 150)) throw InputError("--fov must be in (5, 150) degrees");
+    if (o.imu != "raw" && o.imu != "bno055") throw InputError("--imu must be raw or bno055");
+    if (o.sensor_noise != "none" && o.sensor_noise != "default" && o.sensor_noise != "high")
+        throw InputError("--sensor-noise must be none, default or high");
+    if (fs::exists(o.out) && !o.overwrite)
+        throw InputError(o.out.string() + ": already exists (give --force to replace it)");
+    const HdrImage env = load_exr(o.env).image;
+
+    const firmware::sim::Trajectory camera = [&] {
+        if (o.trajectory == "guided") return firmware::sim::Trajectory(guided_camera_trajectory());
+        try {
+            return firmware::sim::Trajectory::load(o.trajectory);
+        } catch (const std::runtime_error& e) {
+            throw InputError(std::string("--trajectory: ") + e.what());  // names the file and line
+        }
+    }();
+    if (camera.end_us() == 0) throw InputError(o.trajectory + ": the trajectory must last longer than 0 s");
+
+
+    const fs::path partial = o.out.string() + ".partial";
+    fs::remove_all(partial);
+    fs::create_directories(partial / "frames");
+    fs::create_directories(partial / "truth");
+    try {
+        return write_session(o, env, camera, partial, progress);
+    } catch (...) {
+        std::error_code ignored;
+        fs::remove_all(partial, ignored);  // never leave half a session behind
+        throw;
+    }
+}
+
 
 }  // namespace glint::capture

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# End-to-end checks of the glint binary's convolve and compare commands (DESIGN.md, Commands):
+# End-to-end checks of the glint binary's convolve, compare, simulate and capture commands (DESIGN.md, Commands):
 # help, a small real run (files, report.json keys, compare against itself), and every kind of
 # bad input: exit code 2, exactly one line on stderr naming the file or flag, nothing written,
 # and no temp or staging files left behind.
@@ -198,6 +198,35 @@ rms=$(awk '/weighted_rel_rms/ { print $2 }' "$work/stdout")
 python3 -c "import sys; sys.exit(0 if float('$rms') <= 1e-4 else 1)" || fail "GPU exact differs from CPU exact: $rms"
 pass "GPU exact phong_20 within 1e-4 of the CPU's ($rms)"
 rm -rf "$gpu_out"
+
+# simulate and capture: help, a tiny session end to end, bad input.
+run simulate --help
+[[ $rc -eq 0 ]] && grep -q -- "--trajectory" "$work/stdout" || fail "simulate --help"
+run capture --help
+[[ $rc -eq 0 ]] && grep -q -- "--orientations" "$work/stdout" || fail "capture --help"
+pass "simulate and capture --help"
+printf '0,1,0,0,0\n3,0.70710678,0,0.70710678,0\n' > "$work/turn.csv"
+run simulate --env "$WORLD" --trajectory "$work/turn.csv" --out "$work/session" --fps 2 --size 64x36
+[[ $rc -eq 0 ]] || fail "simulate: exit $rc: $(stderr_text)"
+[[ -f $work/session/session.json && -f $work/session/sensors.glrec && ! -e $work/session.partial ]] ||
+    fail "simulate did not write a whole session"
+pass "simulate writes a session ($(awk 'END { print NR - 1 }' "$work/session/frames.csv") frames)"
+expect_bad "simulate onto an existing session" "already exists" "$work/none" \
+    simulate --env "$WORLD" --trajectory "$work/turn.csv" --out "$work/session"
+expect_bad "simulate with a bad trajectory" "nothing.csv" "$work/none" \
+    simulate --env "$WORLD" --trajectory "$work/nothing.csv" --out "$work/session2"
+[[ ! -e $work/session2 && ! -e $work/session2.partial ]] || fail "a failed simulate left a session behind"
+run capture --session "$work/session" --out "$work/env.exr" --size 64x32 --orientations truth --no-drift-correction
+[[ $rc -eq 0 ]] || fail "capture: exit $rc: $(stderr_text)"
+[[ -f $work/env.exr && -f $work/env.coverage.exr ]] || fail "capture did not write env.exr and env.coverage.exr"
+grep -q "coverage" "$work/stdout" || fail "capture printed no coverage"
+pass "capture writes the map and its coverage map"
+expect_bad "capture of a missing session" "no such session" "$work/none" \
+    capture --session "$work/nope" --out "$work/env2.exr"
+expect_bad "capture --engine gpu (not built)" "not built" "$work/none" \
+    capture --session "$work/session" --out "$work/env2.exr" --engine gpu --no-drift-correction
+[[ ! -e $work/env2.exr ]] || fail "a failed capture wrote a map"
+rm -rf "$work/session" "$work/env.exr" "$work/env.coverage.exr" "$work/turn.csv"
 
 # The good output directory is still exactly what the good runs wrote.
 listing=$(ls -A "$out" | sort | tr '\n' ' ')
