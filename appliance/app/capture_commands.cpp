@@ -6,6 +6,7 @@
 #include "appliance/app/cli_util.hpp"
 #include "appliance/app/commands.hpp"
 #include "appliance/capture/capture_pipeline.hpp"
+#include "appliance/capture/libcamera_source.hpp"
 #include "appliance/capture/session_simulator.hpp"
 #include "appliance/core/errors.hpp"
 #include "appliance/core/progress.hpp"
@@ -66,6 +67,16 @@ Command add_simulate_command(CLI::App& app) {
                 std::printf("session %s: %d frames over %.1f s, %llu sensor bytes (%llu orientations)\n",
                             a->out.c_str(), r.frames, r.duration_s, static_cast<unsigned long long>(r.sensor_bytes),
                             static_cast<unsigned long long>(r.orientation_messages));
+                return 0;
+            }};
+}
+
+Command add_cameras_command(CLI::App& app) {
+    CLI::App* cmd = app.add_subcommand("cameras", "List the cameras libcamera finds (exit 1 when there is none)");
+    return {cmd, [] {
+                const std::vector<std::string> cameras = capture::list_libcamera_cameras();
+                if (cameras.empty()) throw RuntimeError("libcamera found no camera");
+                for (const std::string& c : cameras) std::printf("%s\n", c.c_str());
                 return 0;
             }};
 }

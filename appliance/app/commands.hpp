@@ -26,4 +26,7 @@ Command add_simulate_command(CLI::App& app);
 // `glint capture --session SESSION/ --out env.exr ...` (capture_commands.cpp)
 Command add_capture_command(CLI::App& app);
 
+// `glint cameras`: what libcamera finds (capture_commands.cpp)
+Command add_cameras_command(CLI::App& app);
+
 }  // namespace glint::app

@@ -16,7 +16,8 @@ int main(int argc, char** argv) {
     app.require_subcommand(1);
     const std::vector<glint::app::Command> commands{
         glint::app::add_convolve_command(app), glint::app::add_compare_command(app),
-        glint::app::add_simulate_command(app), glint::app::add_capture_command(app)};
+        glint::app::add_simulate_command(app), glint::app::add_capture_command(app),
+        glint::app::add_cameras_command(app)};
 
     try {
         app.parse(argc, argv);

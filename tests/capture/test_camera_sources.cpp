@@ -1,0 +1,99 @@
+#include <gtest/gtest.h>
+
+#include <filesystem>
+#include <fstream>
+#include <unistd.h>
+
+#include "appliance/capture/libcamera_source.hpp"
+#include "appliance/capture/replay_camera.hpp"
+#include "appliance/capture/session_simulator.hpp"
+#include "appliance/core/exr_io.hpp"
+
+namespace glint::capture {
+namespace {
+
+namespace fs = std::filesystem;
+
+TEST(LibcameraSource, AMissingCameraIsAClearErrorListingWhatWasFound) {
+    LibcameraOptions o;
+    o.camera_id = "/base/no/such/camera@0";
+    LibcameraSource source(o);
+    try {
+        source.start();
+        FAIL() << "started a camera that does not exist";
+    } catch (const CameraError& e) {
+        const std::string what = e.what();
+        EXPECT_NE(what.find("libcamera"), std::string::npos) << what;
+        EXPECT_TRUE(what.find("no camera") != std::string::npos || what.find("did not start") != std::string::npos)
+            << what;
+        // Whatever libcamera lists on this machine is named in the message.
+        for (const std::string& name : list_libcamera_cameras()) EXPECT_NE(what.find(name), std::string::npos) << what;
+    }
+    EXPECT_FALSE(source.next_frame(std::chrono::milliseconds(1)));  // not started: no frame, no crash
+    source.stop();                                                    // idempotent
+}
+
+class ReplayCameraTest : public ::testing::Test {
+protected:
+    void SetUp() override {
+        dir_ = fs::temp_directory_path() / ("glint-replay-camera-" + std::to_string(::getpid()));
+        fs::remove_all(dir_);
+        fs::create_directories(dir_);
+        HdrImage env(64, 32);
+        for (int j = 0; j < 32; ++j)
+            for (int i = 0; i < 64; ++i) env.set(i, j, {0.5f + 0.01f * float(i), 0.6f, 0.7f});
+        save_exr(dir_ / "env.exr", env);
+        SimulateOptions o;
+        o.env = dir_ / "env.exr";
+        o.out = dir_ / "session";
+        o.trajectory = (dir_ / "t.csv").string();
+        std::ofstream(dir_ / "t.csv") << "0,1,0,0,0\n2,0.70710678,0,0.70710678,0\n";
+        o.fps = 2;
+        o.width = 32;
+        o.height = 18;
+        simulate_session(o);
+    }
+    void TearDown() override { fs::remove_all(dir_); }
+    fs::path dir_;
+};
+
+TEST_F(ReplayCameraTest, DeliversEveryFrameAtItsRecordedTimeOnTheVirtualClock) {
+    const Session s = open_session(dir_ / "session");
+    ASSERT_EQ(s.frames.size(), 5u);  // 0, 0.5, ..., 2 s
+    recording::VirtualClock clock(1'000'000);
+    ReplayCamera cam(s, clock);
+    cam.start();
+    for (std::size_t k = 0; k < s.frames.size(); ++k) {
+        const auto f = cam.next_frame(std::chrono::milliseconds(1000));
+        ASSERT_TRUE(f) << k;
+        EXPECT_EQ(f->t_ns, s.frames[k].t_ns);
+        EXPECT_EQ(f->sequence, k);
+        EXPECT_EQ(f->rgb.cols, 32);
+        // Paced: the clock stands at the frame's offset from the first frame.
+        EXPECT_EQ(clock.now_us(), 1'000'000 + std::uint64_t((s.frames[k].t_ns - s.frames[0].t_ns) / 1000));
+    }
+    EXPECT_TRUE(cam.finished());
+    EXPECT_FALSE(cam.next_frame(std::chrono::milliseconds(10)));
+    EXPECT_EQ(cam.health().frames, 5u);
+}
+
+TEST_F(ReplayCameraTest, WaitsNoLongerThanTheTimeoutAndSkipsADamagedFrame) {
+    const Session s = open_session(dir_ / "session");
+    std::ofstream(dir_ / "session" / s.frames[1].file) << "not a png";
+    recording::VirtualClock clock(0);
+    ReplayCamera cam(s, clock);
+    cam.start();
+    ASSERT_TRUE(cam.next_frame(std::chrono::milliseconds(10)));
+    // Frame 1 is due 500 ms later: a 100 ms wait times out, and the clock moved 100 ms.
+    EXPECT_FALSE(cam.next_frame(std::chrono::milliseconds(100)));
+    EXPECT_EQ(clock.now_us(), 100'000u);
+    EXPECT_EQ(cam.health().timeouts, 1u);
+    EXPECT_FALSE(cam.next_frame(std::chrono::milliseconds(1000)));  // frame 1: damaged, skipped
+    EXPECT_NE(cam.health().last_error.find(s.frames[1].file), std::string::npos) << cam.health().last_error;
+    const auto f2 = cam.next_frame(std::chrono::milliseconds(1000));
+    ASSERT_TRUE(f2);
+    EXPECT_EQ(f2->sequence, 2u);
+}
+
+}  // namespace
+}  // namespace glint::capture
