@@ -54,6 +54,9 @@ struct LinkHealth {
     std::uint64_t timeouts = 0;            // requests without an answer in time (I2C, Modbus)
     std::uint64_t reconnects = 0;          // times the device was reopened after a loss
     std::uint64_t stalls = 0;              // times the stream fell silent past the stall limit (kept by the base)
+    // Samples dropped because the board-clock estimate placed them at or before an earlier one:
+    // a backlog read all at once (e.g. right after opening the port) cannot be timed; not an error.
+    std::uint64_t untimed_samples = 0;
     double clock_drift_ppm = 0;            // board clock rate minus appliance clock rate (serial)
     std::string last_error;                // the latest fault, naming the device; "" when none
 };

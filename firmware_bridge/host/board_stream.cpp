@@ -1,0 +1,81 @@
+#include "firmware_bridge/host/board_stream.hpp"
+
+#include "firmware_bridge/recording/player.hpp"
+
+namespace glint::host {
+
+BoardStream::BoardStream(SampleSink on_sample, BoardClockOptions clock_options)
+    : on_sample_(std::move(on_sample)), clock_(clock_options) {}
+
+void BoardStream::feed(std::int64_t host_ns, std::span<const std::uint8_t> bytes) {
+    // Recordings keep receive times in µs: live and replayed streams use the same µs times, so a
+    // replay reproduces every mapped sample time exactly.
+    const std::uint64_t host_us = std::uint64_t(host_ns / 1000);
+    host_ns = std::int64_t(host_us) * 1000;
+    if (recorder_) recorder_->on_bytes(host_us, bytes);
+    decoder_.feed_all(bytes, [&](const protocol::FrameEvent& e) {
+        if (recorder_) recorder_->on_sample(host_us, e);
+        if (e.status != protocol::FrameStatus::Ok) return;
+        const protocol::Message& m = e.message;
+        switch (m.type) {
+            case protocol::MessageType::Orientation: {
+                const protocol::Orientation& o = m.orientation;
+                clock_.observe(o.timestamp_us, host_ns);
+                OrientationSample s;
+                s.board_us = o.timestamp_us;
+                s.t_ns = *clock_.to_host_ns(o.timestamp_us);
+                s.q = firmware::normalized(Quatd{protocol::from_q30(o.w_q30), protocol::from_q30(o.x_q30),
+                                                 protocol::from_q30(o.y_q30), protocol::from_q30(o.z_q30)});
+                if (last_published_ns_ && s.t_ns <= *last_published_ns_) {
+                    ++untimed_;
+                    break;
+                }
+                last_published_ns_ = s.t_ns;
+                on_sample_(s);
+                break;
+            }
+            case protocol::MessageType::Hello:
+                status_.hello = m.hello;
+                break;
+            case protocol::MessageType::FusionStatus:
+                status_.fusion = m.fusion_status;
+                break;
+            case protocol::MessageType::Heartbeat:
+                status_.heartbeat = m.heartbeat;
+                break;
+            case protocol::MessageType::ErrorReport:
+                status_.last_error = m.error_report;
+                break;
+            default:
+                break;
+        }
+        if (on_message_) on_message_(host_ns, m);
+    });
+}
+
+void BoardStream::restart(std::int64_t host_ns, const char* reason) {
+    recording::accumulate(before_restarts_, decoder_.stats());
+    decoder_.reset();
+    clock_.restart();
+    last_published_ns_.reset();
+    if (recorder_) recorder_->on_stream_restart(std::uint64_t(host_ns / 1000), reason);
+}
+
+protocol::DecoderStats BoardStream::total() const {
+    protocol::DecoderStats t = before_restarts_;
+    recording::accumulate(t, decoder_.stats());
+    return t;
+}
+
+std::uint64_t BoardStream::crc_errors() const { return total().crc_errors; }
+
+std::uint64_t BoardStream::frame_errors() const {
+    const protocol::DecoderStats t = total();
+    return t.cobs_errors + t.too_short + t.version_mismatches + t.unknown_types + t.bad_lengths + t.bad_values +
+           t.oversize_frames + t.truncated_at_end;
+}
+
+std::uint64_t BoardStream::lost_frames() const { return total().lost_frames; }
+std::uint64_t BoardStream::frames_ok() const { return total().frames_ok; }
+
+}  // namespace glint::host

@@ -1,0 +1,98 @@
+#include "firmware_bridge/host/replay_source.hpp"
+
+#include <variant>
+
+namespace glint::host {
+
+namespace detail {
+ShiftedClock::ShiftedClock(ReplayPacing pacing) {
+    if (pacing == ReplayPacing::Fast)
+        virtual_ = std::make_unique<recording::VirtualClock>(0);
+    else
+        steady_ = std::make_unique<recording::SteadyClock>();
+}
+}  // namespace detail
+
+ReplaySource::ReplaySource(std::string name, const std::string& path, ReplayPacing pacing, SourceOptions options)
+    : detail::ReplayClockHolder(pacing), OrientationSource(std::move(name), replay_clock, options) {
+    try {
+        reader_ = std::make_unique<recording::RecordingReader>(path);
+    } catch (const std::exception& e) {
+        throw SourceError(this->name() + ": " + e.what());
+    }
+}
+
+ReplaySource::~ReplaySource() { stop(); }
+
+void ReplaySource::start() {
+    if (thread_.joinable()) return;
+    stopping_ = false;
+    thread_ = std::thread([this] { replay(); });
+}
+
+void ReplaySource::stop() {
+    stopping_ = true;
+    if (thread_.joinable()) thread_.join();
+}
+
+void ReplaySource::run_to_end() {
+    stopping_ = false;
+    replay();
+}
+
+BoardStatus ReplaySource::board_status() const {
+    const std::lock_guard lock(mutex_);
+    return status_;
+}
+
+std::vector<recording::ReadIssue> ReplaySource::file_issues() const {
+    const std::lock_guard lock(mutex_);
+    return issues_;
+}
+
+void ReplaySource::replay() {
+    set_state(LinkState::Connecting);
+    reader_->rewind();
+    BoardStream stream([this](const OrientationSample& s) { publish(s); });
+    stream.set_message_sink(message_sink_);
+    bool aligned = false;
+    while (!stopping_) {
+        const std::optional<recording::Record> record = reader_->next();
+        if (!record) break;
+        const std::optional<std::uint64_t> t = recording::record_time_us(record->body);
+        if (t) {
+            if (!aligned) {
+                replay_clock.align(*t);
+                aligned = true;
+            }
+            replay_clock.sleep_until_us(*t);  // pacing: recorded speed, or instant on the virtual clock
+        }
+        if (const auto* raw = std::get_if<recording::RawBytesRecord>(&record->body)) {
+            if (raw->direction != recording::Direction::Received) continue;
+            stream.feed(std::int64_t(raw->time_us) * 1000, raw->bytes);
+            const std::uint64_t crc = stream.crc_errors(), frames = stream.frame_errors(), lost = stream.lost_frames();
+            const double drift = stream.clock().drift_ppm();
+            const std::uint64_t untimed = stream.untimed_samples();
+            edit_health([&](LinkHealth& h) {
+                h.crc_errors = crc;
+                h.frame_errors = frames;
+                h.lost_frames = lost;
+                h.clock_drift_ppm = drift;
+                h.untimed_samples = untimed;
+            });
+        } else if (const auto* restart = std::get_if<recording::StreamRestartRecord>(&record->body)) {
+            stream.restart(std::int64_t(restart->time_us) * 1000, restart->reason.c_str());
+            edit_health([](LinkHealth& h) { ++h.reconnects; });
+        }
+    }
+    {
+        const std::lock_guard lock(mutex_);
+        status_ = stream.status();
+        issues_ = reader_->issues();
+    }
+    if (!issues_.empty()) note_error(issues_.back().message);
+    set_state(LinkState::Finished);
+    finished_ = true;
+}
+
+}  // namespace glint::host
