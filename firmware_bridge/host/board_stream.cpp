@@ -23,15 +23,9 @@ void BoardStream::feed(std::int64_t host_ns, std::span<const std::uint8_t> bytes
                 clock_.observe(o.timestamp_us, host_ns);
                 OrientationSample s;
                 s.board_us = o.timestamp_us;
-                s.t_ns = *clock_.to_host_ns(o.timestamp_us);
                 s.q = firmware::normalized(Quatd{protocol::from_q30(o.w_q30), protocol::from_q30(o.x_q30),
                                                  protocol::from_q30(o.y_q30), protocol::from_q30(o.z_q30)});
-                if (last_published_ns_ && s.t_ns <= *last_published_ns_) {
-                    ++untimed_;
-                    break;
-                }
-                last_published_ns_ = s.t_ns;
-                on_sample_(s);
+                chunk_samples_.push_back(s);
                 break;
             }
             case protocol::MessageType::Hello:
@@ -51,6 +45,19 @@ void BoardStream::feed(std::int64_t host_ns, std::span<const std::uint8_t> bytes
         }
         if (on_message_) on_message_(host_ns, m);
     });
+    // The orientations of one read are timed together, with the estimate that has seen all of
+    // them: frames that arrive in one chunk (USB packets, a busy reader) stay in board-time order
+    // and spacing instead of each pulling the envelope down past the one before.
+    for (OrientationSample& s : chunk_samples_) {
+        s.t_ns = *clock_.to_host_ns(s.board_us);
+        if (last_published_ns_ && s.t_ns <= *last_published_ns_) {
+            ++untimed_;
+            continue;
+        }
+        last_published_ns_ = s.t_ns;
+        on_sample_(s);
+    }
+    chunk_samples_.clear();
 }
 
 void BoardStream::restart(std::int64_t host_ns, const char* reason) {

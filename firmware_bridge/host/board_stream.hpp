@@ -9,6 +9,7 @@
 #include <functional>
 #include <optional>
 #include <span>
+#include <vector>
 
 #include "firmware_bridge/host/board_clock.hpp"
 #include "firmware_bridge/host/orientation_history.hpp"
@@ -46,9 +47,10 @@ public:
     std::uint64_t frame_errors() const;  // every other rejected frame
     std::uint64_t lost_frames() const;
     std::uint64_t frames_ok() const;
-    // Orientations dropped because their mapped time was not after the previous sample's: the
-    // clock estimate improved between them (a backlog delivered at once). Not published: a time
-    // that is known to be wrong is worse than no sample.
+    // Orientations dropped because their mapped time was not after the previous sample's: a
+    // chunk carried more board time than host time passed since the last one (a backlog, e.g.
+    // right after opening the port), so the improved estimate places it in the past. Not
+    // published: a time that is known to be wrong is worse than no sample.
     std::uint64_t untimed_samples() const { return untimed_; }
     const BoardClock& clock() const { return clock_; }
     const BoardStatus& status() const { return status_; }
@@ -64,6 +66,7 @@ private:
     BoardClock clock_;
     BoardStatus status_;
     std::optional<std::int64_t> last_published_ns_;
+    std::vector<OrientationSample> chunk_samples_;  // orientations of the chunk being fed
     std::uint64_t untimed_ = 0;
 };
 

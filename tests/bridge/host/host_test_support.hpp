@@ -71,11 +71,18 @@ public:
         return bytes;
     }
     const std::filesystem::path& link() const { return link_; }
+    // A board clock that runs with real time (µs since this port was made), as a real board's.
+    std::uint64_t board_now_us() const {
+        return std::uint64_t(std::chrono::duration_cast<std::chrono::microseconds>(
+                                 std::chrono::steady_clock::now() - born_)
+                                 .count());
+    }
 
 private:
     std::filesystem::path link_;
     int master_ = -1;
     int slave_ = -1;
+    std::chrono::steady_clock::time_point born_ = std::chrono::steady_clock::now();
 };
 
 // Waits (up to `limit`) until pred() holds; returns whether it did.

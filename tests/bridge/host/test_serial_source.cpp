@@ -7,6 +7,7 @@
 
 #include <atomic>
 #include <chrono>
+#include <map>
 #include <mutex>
 #include <random>
 
@@ -63,13 +64,17 @@ TEST_F(SerialSourceTest, ReadsOrientationsInTheWorldFrame) {
     auto src = make_source();
     src->start();
     ASSERT_TRUE(eventually([&] { return src->health().state == LinkState::Connecting; }));
-    for (int k = 0; k < 50; ++k) port_->orientation(std::uint64_t(k) * 10'000, yaw(0.01 * k), std::uint16_t(k));
+    std::vector<std::uint64_t> board(50);
+    for (int k = 0; k < 50; ++k) {
+        board[std::size_t(k)] = port_->board_now_us();
+        port_->orientation(board[std::size_t(k)], yaw(0.01 * k), std::uint16_t(k));
+    }
     ASSERT_TRUE(eventually([&] { return count() == 50; }))
         << count() << " samples; state " << link_state_name(src->health().state) << ", last error: " << src->health().last_error
         << ", frame errors " << src->health().frame_errors << ", crc " << src->health().crc_errors;
     const std::vector<OrientationSample> s = samples();
     for (int k = 0; k < 50; ++k) {
-        EXPECT_EQ(s[std::size_t(k)].board_us, std::uint64_t(k) * 10'000);
+        EXPECT_EQ(s[std::size_t(k)].board_us, board[std::size_t(k)]);
         EXPECT_NEAR(firmware::angle_between(s[std::size_t(k)].q, yaw(0.01 * k)), 0.0, 1e-6);
         if (k > 0) {
             EXPECT_GT(s[std::size_t(k)].t_ns, s[std::size_t(k - 1)].t_ns);
@@ -88,8 +93,10 @@ TEST_F(SerialSourceTest, GarbageFlippedBitsAndLostFramesAreCountedAndSkipped) {
     std::mt19937 rng(3);
     std::uint16_t seq = 0;
     int good = 0, corrupted = 0;
+    std::map<std::uint64_t, int> k_of_board;
     for (int k = 0; k < 200; ++k) {
-        const std::uint64_t t = std::uint64_t(k) * 10'000;
+        const std::uint64_t t = port_->board_now_us() + 1;  // +1: never two frames at one time
+        k_of_board[t] = k;
         if (k % 20 == 7) {  // garbage burst, with delimiters in it
             std::vector<std::uint8_t> junk(37);
             for (auto& b : junk) b = std::uint8_t(rng());
@@ -108,14 +115,15 @@ TEST_F(SerialSourceTest, GarbageFlippedBitsAndLostFramesAreCountedAndSkipped) {
         ++good;
     }
     // Every good frame arrives except at most one per garbage burst (the one it merged with).
-    ASSERT_TRUE(eventually([&] { return count() >= std::size_t(good - 10); })) << count();
+    ASSERT_TRUE(eventually([&] { return count() + src->health().untimed_samples >= std::size_t(good - 10); }))
+        << count();
     std::this_thread::sleep_for(std::chrono::milliseconds(100));
     const LinkHealth h = src->health();
     EXPECT_GE(h.crc_errors + h.frame_errors, std::uint64_t(corrupted));
     EXPECT_GE(h.lost_frames, 5u);
     for (const OrientationSample& s : samples()) {
-        const double k = double(s.board_us) / 10'000.0;
-        EXPECT_NEAR(firmware::angle_between(s.q, yaw(0.001 * k)), 0.0, 1e-6);  // nothing silently wrong
+        ASSERT_TRUE(k_of_board.count(s.board_us)) << s.board_us;
+        EXPECT_NEAR(firmware::angle_between(s.q, yaw(0.001 * k_of_board[s.board_us])), 0.0, 1e-6);  // nothing silently wrong
     }
 }
 
@@ -124,7 +132,7 @@ TEST_F(SerialSourceTest, AStalledBoardShowsAsStalledWithinTheLimit) {
     so.stall_after_ns = 200'000'000;
     auto src = make_source(so);
     src->start();
-    for (int k = 0; k < 10; ++k) port_->orientation(std::uint64_t(k) * 10'000, yaw(0), std::uint16_t(k));
+    for (int k = 0; k < 10; ++k) port_->orientation(port_->board_now_us(), yaw(0), std::uint16_t(k));
     ASSERT_TRUE(eventually([&] { return count() == 10; }));
     const auto last = std::chrono::steady_clock::now();
     ASSERT_TRUE(eventually([&] { return src->health().state == LinkState::Stalled; }));
@@ -132,14 +140,14 @@ TEST_F(SerialSourceTest, AStalledBoardShowsAsStalledWithinTheLimit) {
     EXPECT_GE(after_ms, 195.0);
     EXPECT_EQ(src->health().stalls, 1u);
     std::printf("stall reported %.0f ms after the last sample (limit 200 ms, poll 20 ms)\n", after_ms);
-    port_->orientation(200'000, yaw(0), 10);  // it talks again
+    port_->orientation(port_->board_now_us(), yaw(0), 10);  // it talks again
     ASSERT_TRUE(eventually([&] { return src->health().state == LinkState::Streaming; }));
 }
 
 TEST_F(SerialSourceTest, UnplugAndReplugReconnectsAndStreamsAgain) {
     auto src = make_source();
     src->start();
-    for (int k = 0; k < 5; ++k) port_->orientation(std::uint64_t(k) * 10'000, yaw(0.1), std::uint16_t(k));
+    for (int k = 0; k < 5; ++k) port_->orientation(port_->board_now_us(), yaw(0.1), std::uint16_t(k));
     ASSERT_TRUE(eventually([&] { return count() == 5; }));
     port_->unplug();  // the cable is pulled: hang-up on the open port
     ASSERT_TRUE(eventually([&] { return src->health().state == LinkState::Disconnected; }));
@@ -147,11 +155,33 @@ TEST_F(SerialSourceTest, UnplugAndReplugReconnectsAndStreamsAgain) {
     port_->plug();  // a (new) board appears under the same name
     ASSERT_TRUE(eventually([&] { return src->health().reconnects >= 1; }));
     // The new board starts its clock and sequence from 0.
-    for (int k = 0; k < 5; ++k) port_->orientation(std::uint64_t(k) * 10'000, yaw(0.2), std::uint16_t(k));
+    const std::uint64_t reset_at = port_->board_now_us();
+    for (int k = 0; k < 5; ++k) port_->orientation(port_->board_now_us() - reset_at, yaw(0.2), std::uint16_t(k));
     ASSERT_TRUE(eventually([&] { return count() == 10; })) << count();
     EXPECT_NEAR(firmware::angle_between(samples().back().q, yaw(0.2)), 0.0, 1e-6);
     EXPECT_EQ(src->health().state, LinkState::Streaming);
     EXPECT_EQ(src->health().lost_frames, 0u);  // a restart is not a loss
+}
+
+TEST_F(SerialSourceTest, ABacklogReadAtOnceIsDroppedAsUntimedNotMistimed) {
+    // 100 frames covering 1 s of board time, all waiting before the driver reads: only the
+    // frames the estimate can place after their predecessor are published.
+    std::vector<std::uint8_t> backlog;
+    for (int k = 0; k < 100; ++k) {
+        const auto f = port_->orientation(std::uint64_t(k) * 10'000, yaw(0.01 * k), std::uint16_t(k), false);
+        backlog.insert(backlog.end(), f.begin(), f.end());
+    }
+    port_->write_bytes(backlog);
+    auto src = make_source();
+    src->start();
+    ASSERT_TRUE(eventually([&] { return count() + src->health().untimed_samples == 100; }));
+    const std::vector<OrientationSample> s = samples();
+    for (std::size_t k = 1; k < s.size(); ++k) EXPECT_GT(s[k].t_ns, s[k - 1].t_ns);
+    // Then the board streams in real time: every later frame is timed and published.
+    const std::size_t before = count();
+    const std::uint64_t base = 1'000'000 - port_->board_now_us();
+    for (int k = 100; k < 120; ++k) port_->orientation(base + port_->board_now_us(), yaw(0), std::uint16_t(k));
+    ASSERT_TRUE(eventually([&] { return count() == before + 20; })) << count() - before;
 }
 
 TEST_F(SerialSourceTest, AMissingDeviceIsRetriedWithAClearError) {
@@ -186,10 +216,9 @@ TEST_F(SerialSourceTest, ARecordingOfTheLiveStreamReplaysToTheSameSamples) {
     src->start();
     for (int k = 0; k < 60; ++k) {
         if (k == 30) port_->write_bytes({0x41, 0x00, 0x42, 0x43, 0x00});  // garbage on the line, delimited
-        port_->orientation(std::uint64_t(k) * 10'000, yaw(0.02 * k), std::uint16_t(k));
-        if (k % 10 == 0) std::this_thread::sleep_for(std::chrono::milliseconds(3));
+        port_->orientation(port_->board_now_us(), yaw(0.02 * k), std::uint16_t(k));
     }
-    ASSERT_TRUE(eventually([&] { return count() == 60; })) << count();
+    ASSERT_TRUE(eventually([&] { return count() + src->health().untimed_samples == 60; })) << count();
     src->stop();
     ASSERT_TRUE(recorder->close()) << recorder->error();
     const std::vector<OrientationSample> live = samples();
