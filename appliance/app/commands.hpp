@@ -26,6 +26,9 @@ Command add_simulate_command(CLI::App& app);
 // `glint capture --session SESSION/ --out env.exr ...` (capture_commands.cpp)
 Command add_capture_command(CLI::App& app);
 
+// `glint sensors --source SPEC ...` (sensors_command.cpp)
+Command add_sensors_command(CLI::App& app);
+
 // `glint cameras`: what libcamera finds (capture_commands.cpp)
 Command add_cameras_command(CLI::App& app);
 

@@ -16,9 +16,16 @@ Trajectory load_trajectory(const std::string& spec) {
 SensorSim::SensorSim(SensorSimOptions options)
     : options_(std::move(options)), trajectory_(load_trajectory(options_.trajectory)) {
     if (options_.loop_trajectory) trajectory_.set_loop(true);
-    uart_ = std::make_unique<PtyUart>(options_.pty_link);
+    if (options_.port == "pty") {
+        auto pty = std::make_unique<PtyUart>(options_.pty_link);
+        pty_ = pty.get();
+        uart_ = std::move(pty);
+    } else {
+        if (!options_.pty_link.empty()) throw std::runtime_error("--pty-link needs --port pty");
+        uart_ = std::make_unique<SerialDeviceUart>(options_.port, options_.baud);
+    }
     if (options_.pacing == Pacing::Realtime) {
-        realtime_clock_ = std::make_unique<RealtimeClock>(uart_->master_fd());
+        realtime_clock_ = std::make_unique<RealtimeClock>(uart_->fd());
         clock_ = realtime_clock_.get();
     } else {
         virtual_clock_ = std::make_unique<VirtualClock>();

@@ -28,6 +28,9 @@ struct SensorSimOptions {
     std::string trajectory = "kiosk";  // built-in name, "builtin:NAME", or a trajectory file
     bool loop_trajectory = true;       // files: repeat after the last sample (built-ins always loop)
     std::string pty_link;              // empty: no symlink
+    // "pty" (default): a new pseudo-terminal; anything else: a serial device opened at `baud`.
+    std::string port = "pty";
+    int baud = 115200;
     double duration_s = 0;             // board-clock seconds to run; 0 = until stopped
     Pacing pacing = Pacing::Realtime;
 };
@@ -41,8 +44,8 @@ public:
     explicit SensorSim(SensorSimOptions options);
     ~SensorSim();
 
-    const std::string& port() const { return uart_->slave_path(); }  // e.g. /dev/pts/7
-    const std::string& link() const { return uart_->link_path(); }
+    const std::string& port() const { return uart_->port(); }  // e.g. /dev/pts/7, /dev/ttyUSB0
+    const std::string& link() const { return pty_ ? pty_->link_path() : no_link_; }
     // Starts the firmware (Hello with seq 0) and runs until duration_s or `stop` becomes true.
     // Returns within about 100 ms of `stop` being set.
     void run(const std::atomic<bool>& stop);
@@ -52,7 +55,9 @@ public:
 private:
     SensorSimOptions options_;
     Trajectory trajectory_;
-    std::unique_ptr<PtyUart> uart_;
+    std::unique_ptr<FdUart> uart_;
+    PtyUart* pty_ = nullptr;  // uart_ when it is a pty
+    std::string no_link_;
     std::unique_ptr<RealtimeClock> realtime_clock_;
     std::unique_ptr<VirtualClock> virtual_clock_;
     Clock* clock_ = nullptr;

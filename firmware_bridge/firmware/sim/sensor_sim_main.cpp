@@ -57,7 +57,7 @@ glint::firmware::Vec3d vec3(const std::string& text, const std::string& option) 
 int main(int argc, char** argv) {
     using namespace glint::firmware;
     CLI::App app{"Sensor-board simulator: the Glint firmware against a simulated IMU, on a pseudo-terminal.\n"
-                 "Prints the serial port (the pty slave) on stderr; open it like a real serial device."};
+                 "Prints the serial port (the pty slave, or the device) on the first line of stdout; open it like a real serial device."};
     std::string imu = "bno055";
     std::string trajectory = "kiosk";
     bool no_loop = false;
@@ -68,6 +68,8 @@ int main(int argc, char** argv) {
     std::optional<std::string> gyro_bias;
     std::vector<std::string> disturbances, presses, nacks;
     std::string pty_link;
+    std::string port = "pty";
+    int baud = 115200;
     double duration = 0;
     bool realtime = false, fast = false;
     std::uint32_t board_id = 0x51A0B0A2;
@@ -94,6 +96,13 @@ int main(int argc, char** argv) {
                    "Extra magnetic field START_S:END_S:X,Y,Z (uT, world frame: +Y up, -Z north); repeatable");
     app.add_option("--press", presses, "Button press BUTTON:START_S:END_S (with 3 ms of contact bounce); repeatable");
     app.add_option("--nack", nacks, "I2C fault: the IMU NACKs every transfer START_S:END_S; repeatable");
+    app.add_option("--port", port,
+                   "Where the board's UART goes: pty (a new pseudo-terminal; its path is printed on the first "
+                   "line of stdout) or a serial device PATH")
+        ->capture_default_str();
+    app.add_option("--baud", baud, "Line rate for a serial device (with a pty it is only recorded)")
+        ->check(CLI::IsMember({9600, 19200, 38400, 57600, 115200, 230400, 460800, 921600, 1000000, 2000000}))
+        ->capture_default_str();
     app.add_option("--pty-link", pty_link, "Create this symlink to the pty slave (replaced if it is a symlink; removed at exit)");
     app.add_option("--duration", duration, "Seconds of board time to run (0 = until SIGINT/SIGTERM)")
         ->check(CLI::NonNegativeNumber)->capture_default_str();
@@ -112,6 +121,8 @@ int main(int argc, char** argv) {
         options.trajectory = trajectory;
         options.loop_trajectory = !no_loop;
         options.pty_link = pty_link;
+        options.port = port;
+        options.baud = baud;
         options.duration_s = duration;
         options.pacing = fast ? sim::Pacing::Fast : sim::Pacing::Realtime;
         sim::SimBoardOptions& b = options.board;
@@ -166,6 +177,9 @@ int main(int argc, char** argv) {
         sim::SensorSim simulator(options);
         std::signal(SIGINT, on_signal);
         std::signal(SIGTERM, on_signal);
+        // The port on the first line of stdout, for scripts (`--port pty`): read it, open it.
+        std::printf("%s\n", simulator.port().c_str());
+        std::fflush(stdout);
         std::fprintf(stderr, "glint-sensor-sim: serial port %s%s%s (%s IMU, trajectory %s, %s)\n",
                      simulator.port().c_str(), simulator.link().empty() ? "" : ", link ",
                      simulator.link().c_str(), imu.c_str(), trajectory.c_str(), fast ? "fast" : "real time");

@@ -73,7 +73,8 @@ std::vector<std::uint8_t> MemoryUart::take() {
 
 // ---- PtyUart ----
 
-PtyUart::PtyUart(std::string link_path, std::size_t tx_buffer_bytes) : tx_capacity_(tx_buffer_bytes) {
+PtyUart::PtyUart(std::string link_path, std::size_t tx_buffer_bytes) : FdUart(tx_buffer_bytes) {
+    int& master_ = fd_;
     std::array<char, 256> name{};
     if (openpty(&master_, &slave_, name.data(), nullptr, nullptr) != 0) throw_errno("openpty");
     slave_path_ = name.data();
@@ -116,23 +117,67 @@ PtyUart::PtyUart(std::string link_path, std::size_t tx_buffer_bytes) : tx_capaci
 
 PtyUart::~PtyUart() {
     if (!link_path_.empty()) unlink(link_path_.c_str());
-    close(master_);
+    close(fd_);
     close(slave_);
 }
 
-std::size_t PtyUart::flush() {
+namespace {
+speed_t device_speed(int baud) {
+    switch (baud) {
+        case 9600: return B9600;
+        case 19200: return B19200;
+        case 38400: return B38400;
+        case 57600: return B57600;
+        case 115200: return B115200;
+        case 230400: return B230400;
+        case 460800: return B460800;
+        case 921600: return B921600;
+        case 1000000: return B1000000;
+        case 2000000: return B2000000;
+        default: return B0;
+    }
+}
+}  // namespace
+
+SerialDeviceUart::SerialDeviceUart(std::string path, int baud, std::size_t tx_buffer_bytes)
+    : FdUart(tx_buffer_bytes), path_(std::move(path)) {
+    if (device_speed(baud) == B0) throw std::runtime_error("baud rate " + std::to_string(baud) + " is not supported");
+    fd_ = ::open(path_.c_str(), O_RDWR | O_NOCTTY | O_NONBLOCK | O_CLOEXEC);
+    if (fd_ < 0) throw_errno(path_ + ": cannot open");
+    termios tio{};
+    if (tcgetattr(fd_, &tio) != 0) {
+        const int e = errno;
+        close(fd_);
+        errno = e;
+        throw_errno(path_ + ": not a serial device");
+    }
+    cfmakeraw(&tio);
+    tio.c_cflag |= CLOCAL | CREAD;
+    cfsetispeed(&tio, device_speed(baud));
+    cfsetospeed(&tio, device_speed(baud));
+    if (tcsetattr(fd_, TCSANOW, &tio) != 0) {
+        const int e = errno;
+        close(fd_);
+        errno = e;
+        throw_errno(path_ + ": cannot set raw mode at " + std::to_string(baud) + " baud");
+    }
+}
+
+SerialDeviceUart::~SerialDeviceUart() { close(fd_); }
+
+std::size_t FdUart::flush() {
     while (!tx_.empty()) {
         std::array<std::uint8_t, 4096> chunk{};
         std::size_t n = 0;
         for (auto it = tx_.begin(); it != tx_.end() && n < chunk.size(); ++it) chunk[n++] = *it;
-        const ssize_t w = ::write(master_, chunk.data(), n);
+        const ssize_t w = ::write(fd_, chunk.data(), n);
         if (w <= 0) break;  // EAGAIN: the pty's buffer is full (nobody reading)
         tx_.erase(tx_.begin(), tx_.begin() + w);
     }
     return tx_.size();
 }
 
-bool PtyUart::write(std::span<const std::uint8_t> bytes) {
+bool FdUart::write(std::span<const std::uint8_t> bytes) {
     flush();
     if (tx_.size() + bytes.size() > tx_capacity_) return false;
     tx_.insert(tx_.end(), bytes.begin(), bytes.end());
@@ -140,15 +185,15 @@ bool PtyUart::write(std::span<const std::uint8_t> bytes) {
     return true;
 }
 
-std::size_t PtyUart::read(std::span<std::uint8_t> out) {
-    const ssize_t n = ::read(master_, out.data(), out.size());
+std::size_t FdUart::read(std::span<std::uint8_t> out) {
+    const ssize_t n = ::read(fd_, out.data(), out.size());
     return n > 0 ? static_cast<std::size_t>(n) : 0;  // EAGAIN: nothing; EIO: no client
 }
 
-bool PtyUart::wait_drain(int timeout_ms) {
+bool FdUart::wait_drain(int timeout_ms) {
     const std::size_t before = flush();
     if (before == 0) return true;
-    pollfd p{master_, POLLOUT, 0};
+    pollfd p{fd_, POLLOUT, 0};
     poll(&p, 1, timeout_ms);
     return flush() < before;
 }

@@ -61,39 +61,67 @@ private:
     std::size_t capacity_ = SIZE_MAX;
 };
 
-// UART on a pseudo-terminal (openpty). The firmware talks to the master side; the slave is set
-// raw (cfmakeraw) and kept open by the simulator, so a client may open, close and reopen it
-// (e.g. /dev/pts/7, or the symlink `link_path`) without hanging up the link. Frames wait in a
-// user-space transmit buffer when the pty is full; when that is full too, write() refuses them
-// (the firmware counts a dropped frame).
-class PtyUart final : public Uart {
+// A UART on a file descriptor (a pty master or a serial device), non-blocking: frames wait in a
+// user-space transmit buffer when the descriptor is full; when that is full too, write() refuses
+// them (the firmware counts a dropped frame).
+class FdUart : public Uart {
 public:
-    // Throws std::system_error when no pty can be opened, std::runtime_error when `link_path`
-    // exists and is not a symlink (it is never overwritten).
-    explicit PtyUart(std::string link_path = {}, std::size_t tx_buffer_bytes = 16384);
-    ~PtyUart();
-    PtyUart(const PtyUart&) = delete;
-    PtyUart& operator=(const PtyUart&) = delete;
+    FdUart(const FdUart&) = delete;
+    FdUart& operator=(const FdUart&) = delete;
+    virtual ~FdUart() = default;
 
     bool write(std::span<const std::uint8_t> bytes) override;
     std::size_t read(std::span<std::uint8_t> out) override;
 
-    const std::string& slave_path() const { return slave_path_; }
-    const std::string& link_path() const { return link_path_; }
-    int master_fd() const { return master_; }
-    // Moves buffered bytes into the pty; returns the bytes still waiting.
+    int fd() const { return fd_; }
+    // What a reader opens: the pty slave or the device itself.
+    virtual const std::string& port() const = 0;
+    // Moves buffered bytes into the descriptor; returns the bytes still waiting.
     std::size_t flush();
     std::size_t pending() const { return tx_.size(); }
-    // Waits up to timeout_ms for the pty to take more bytes; true when it drained some.
+    // Waits up to timeout_ms for the descriptor to take more bytes; true when it drained some.
     bool wait_drain(int timeout_ms);
 
+protected:
+    explicit FdUart(std::size_t tx_buffer_bytes) : tx_capacity_(tx_buffer_bytes) {}
+    int fd_ = -1;
+
 private:
-    int master_ = -1;
+    std::deque<std::uint8_t> tx_;
+    std::size_t tx_capacity_;
+};
+
+// UART on a pseudo-terminal (openpty). The firmware talks to the master side; the slave is set
+// raw (cfmakeraw) and kept open by the simulator, so a client may open, close and reopen it
+// (e.g. /dev/pts/7, or the symlink `link_path`) without hanging up the link.
+class PtyUart final : public FdUart {
+public:
+    // Throws std::system_error when no pty can be opened, std::runtime_error when `link_path`
+    // exists and is not a symlink (it is never overwritten).
+    explicit PtyUart(std::string link_path = {}, std::size_t tx_buffer_bytes = 16384);
+    ~PtyUart() override;
+
+    const std::string& port() const override { return slave_path_; }
+    const std::string& slave_path() const { return slave_path_; }
+    const std::string& link_path() const { return link_path_; }
+    int master_fd() const { return fd_; }
+
+private:
     int slave_ = -1;
     std::string slave_path_;
     std::string link_path_;
-    std::deque<std::uint8_t> tx_;
-    std::size_t tx_capacity_;
+};
+
+// UART on a real serial device (a USB-serial adapter wired to the appliance, or one end of a
+// socat pair): termios raw, 8N1, at `baud`. Throws std::system_error naming the device.
+class SerialDeviceUart final : public FdUart {
+public:
+    SerialDeviceUart(std::string path, int baud, std::size_t tx_buffer_bytes = 16384);
+    ~SerialDeviceUart() override;
+    const std::string& port() const override { return path_; }
+
+private:
+    std::string path_;
 };
 
 // One scripted press: held from start_us to end_us (board clock), with contact bounce (the level

@@ -1,0 +1,182 @@
+// `glint sensors --source SPEC [--record FILE] [--print-csv] [--seconds S] [--latency-ms L]`:
+// reads (or replays) an orientation source and prints one line per sample on stdout and the
+// health figures on stderr once a second (firmware_bridge/host; issue 4, Part 5).
+#include <signal.h>
+
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <deque>
+#include <memory>
+#include <mutex>
+#include <thread>
+
+#include "appliance/app/commands.hpp"
+#include "appliance/core/errors.hpp"
+#include "firmware_bridge/host/replay_source.hpp"
+#include "firmware_bridge/host/serial_source.hpp"
+#include "firmware_bridge/host/source_spec.hpp"
+#include "firmware_bridge/recording/recorder.hpp"
+
+namespace glint::app {
+namespace {
+
+std::atomic<bool> g_interrupted{false};
+
+void on_signal(int) { g_interrupted = true; }
+
+void install_signal_handlers() {
+    struct sigaction sa {};
+    sa.sa_handler = on_signal;
+    sigemptyset(&sa.sa_mask);
+    sigaction(SIGINT, &sa, nullptr);
+    sigaction(SIGTERM, &sa, nullptr);
+}
+
+constexpr double kDeg = 180.0 / 3.14159265358979323846;
+
+// Yaw about world +Y (from -Z towards -X), pitch of the sensor's -Z axis above the horizon, roll
+// about that axis (the sensor's +X dipping below the horizon is positive): degrees.
+void yaw_pitch_roll(const host::Quatd& q, double& yaw, double& pitch, double& roll) {
+    const firmware::Vec3d f = q.rotate(firmware::Vec3d{0, 0, -1});
+    const firmware::Vec3d r = q.rotate(firmware::Vec3d{1, 0, 0});
+    const firmware::Vec3d u = q.rotate(firmware::Vec3d{0, 1, 0});
+    yaw = std::atan2(-f.x, -f.z) * kDeg;
+    pitch = std::asin(std::clamp(f.y, -1.0, 1.0)) * kDeg;
+    roll = std::atan2(-r.y, u.y) * kDeg;
+}
+
+std::string health_line(const host::LinkHealth& h) {
+    char buf[512];
+    std::snprintf(buf, sizeof buf,
+                  "health: %s, %.1f Hz, age %s, crc errors %llu, frame errors %llu, lost %llu, untimed %llu, "
+                  "reconnects %llu, stalls %llu, timeouts %llu, drift %.1f ppm",
+                  host::link_state_name(h.state), h.rate_hz,
+                  h.last_sample_age_ns < 0 ? "-" : (std::to_string(h.last_sample_age_ns / 1'000'000) + " ms").c_str(),
+                  static_cast<unsigned long long>(h.crc_errors), static_cast<unsigned long long>(h.frame_errors),
+                  static_cast<unsigned long long>(h.lost_frames), static_cast<unsigned long long>(h.untimed_samples),
+                  static_cast<unsigned long long>(h.reconnects), static_cast<unsigned long long>(h.stalls),
+                  static_cast<unsigned long long>(h.timeouts), h.clock_drift_ppm);
+    std::string s = buf;
+    if (!h.last_error.empty()) s += ", last error: " + h.last_error;
+    return s;
+}
+
+}  // namespace
+
+Command add_sensors_command(CLI::App& app) {
+    struct Args {
+        std::string source, record;
+        bool csv = false, realtime = false;
+        double seconds = 0, latency_ms = 0;
+    };
+    auto a = std::make_shared<Args>();
+    CLI::App* cmd = app.add_subcommand(
+        "sensors", "Read or replay an orientation source: one line per sample on stdout (appliance monotonic time), "
+                   "the health figures on stderr once a second");
+    cmd->add_option("--source", a->source,
+                    "serial:PATH[:BAUD] | i2c:/dev/i2c-N[:ADDR] | modbus-tcp:HOST:PORT | modbus-rtu:PATH[:BAUD] | "
+                    "replay:FILE")
+        ->required();
+    cmd->add_option("--record", a->record, "Record the raw stream and the decoded messages to FILE (serial sources)");
+    cmd->add_flag("--print-csv", a->csv,
+                  "Print samples as t_ns,w,x,y,z (sensor-to-world quaternion, conventions' frame); without it, "
+                  "t in seconds and yaw/pitch/roll in degrees (yaw about +Y from -Z towards -X, pitch up, roll "
+                  "right side down)");
+    cmd->add_option("--seconds", a->seconds, "Stop after S seconds (replay: of recorded time); 0 = until Ctrl-C")
+        ->check(CLI::NonNegativeNumber);
+    cmd->add_option("--latency-ms", a->latency_ms, "Latency offset of the sensor path, ms (sample times move back)")
+        ->check(CLI::Range(0.0, 1000.0));
+    cmd->add_flag("--realtime", a->realtime, "Replay at recorded speed (default: as fast as possible)");
+    return {cmd, [a] {
+                host::SourceSpec spec;
+                try {
+                    spec = host::parse_source_spec(a->source);
+                } catch (const host::SourceError& e) {
+                    throw InputError(std::string("--source: ") + e.what());
+                }
+                if (!a->record.empty() && spec.kind != host::SourceKind::Serial)
+                    throw InputError("--record works with serial sources only (a replay is already a recording; the "
+                                     "I2C and Modbus drivers have no byte stream to record)");
+                host::SourceOptions options;
+                options.latency_offset_ns = std::int64_t(a->latency_ms * 1e6);
+                recording::SteadyClock clock;
+                std::unique_ptr<host::OrientationSource> source;
+                try {
+                    source = host::make_source(spec, clock, options, a->realtime);
+                } catch (const host::SourceError& e) {
+                    throw InputError(e.what());
+                }
+                std::unique_ptr<recording::Recorder> recorder;
+                if (!a->record.empty()) {
+                    recording::RecorderOptions ro;
+                    ro.header.transport = recording::Transport::Serial;
+                    ro.header.device = spec.path;
+                    ro.header.baud = std::uint32_t(spec.baud);
+                    ro.header.decoded_types = recording::board_message_types();
+                    try {
+                        recorder = std::make_unique<recording::Recorder>(a->record, ro, clock);
+                    } catch (const std::exception& e) {
+                        throw InputError(std::string("--record: ") + e.what());
+                    }
+                    static_cast<host::SerialSource&>(*source).set_recorder(recorder.get());
+                }
+                const bool replay = spec.kind == host::SourceKind::Replay;
+                std::mutex mutex;
+                std::deque<host::OrientationSample> pending;
+                std::atomic<bool> done{false};
+                std::int64_t first_t = -1;
+                source->set_sample_callback([&](const host::OrientationSample& s) {
+                    const std::lock_guard lock(mutex);
+                    if (first_t < 0) first_t = s.t_ns;
+                    if (a->seconds > 0 && double(s.t_ns - first_t) > a->seconds * 1e9) {
+                        done = true;
+                        return;
+                    }
+                    pending.push_back(s);
+                });
+                install_signal_handlers();
+                source->start();
+                const auto started = std::chrono::steady_clock::now();
+                auto next_health = started + std::chrono::seconds(1);
+                const auto flush = [&] {
+                    std::deque<host::OrientationSample> batch;
+                    {
+                        const std::lock_guard lock(mutex);
+                        batch.swap(pending);
+                    }
+                    for (const host::OrientationSample& s : batch) {
+                        if (a->csv) {
+                            std::printf("%lld,%.9f,%.9f,%.9f,%.9f\n", static_cast<long long>(s.t_ns), s.q.w, s.q.x,
+                                        s.q.y, s.q.z);
+                        } else {
+                            double y = 0, p = 0, r = 0;
+                            yaw_pitch_roll(s.q, y, p, r);
+                            std::printf("t=%.6f s  yaw %8.3f  pitch %7.3f  roll %8.3f deg\n", double(s.t_ns) * 1e-9, y,
+                                        p, r);
+                        }
+                    }
+                    std::fflush(stdout);
+                };
+                while (!g_interrupted && !done) {
+                    std::this_thread::sleep_for(std::chrono::milliseconds(20));
+                    flush();
+                    const auto now = std::chrono::steady_clock::now();
+                    if (replay && source->health().state == host::LinkState::Finished) break;
+                    if (!replay && a->seconds > 0 && now - started >= std::chrono::duration<double>(a->seconds)) break;
+                    if (now >= next_health) {
+                        std::fprintf(stderr, "%s\n", health_line(source->health()).c_str());
+                        next_health += std::chrono::seconds(1);
+                    }
+                }
+                flush();
+                std::fprintf(stderr, "%s\n", health_line(source->health()).c_str());  // before stop(): the last state
+                source->stop();
+                flush();
+                if (recorder && !recorder->close()) throw RuntimeError(recorder->error());
+                return 0;
+            }};
+}
+
+}  // namespace glint::app
