@@ -138,6 +138,9 @@ Command add_capture_command(CLI::App& app) {
                 std::printf("coverage map: %s\n", r.coverage_path.c_str());
                 if (r.frames_without_orientation > 0)
                     std::printf("frames without an orientation (skipped): %d\n", r.frames_without_orientation);
+                if (r.orientation_error_median_deg)
+                    std::printf("camera orientation against the session's truth: median %.3f, max %.3f degrees\n",
+                                *r.orientation_error_median_deg, *r.orientation_error_max_deg);
                 if (r.truth_error)
                     std::printf("against the session's truth (covered texels, %.1f %% of the sphere): weighted "
                                 "relative RMS %.4f, median relative error %.4f\n",

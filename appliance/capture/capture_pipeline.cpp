@@ -10,6 +10,7 @@
 #include "appliance/core/errors.hpp"
 #include "appliance/core/exr_io.hpp"
 #include "appliance/core/parallel.hpp"
+#include "firmware_bridge/host/replay_source.hpp"
 
 namespace glint::capture {
 
@@ -30,6 +31,28 @@ std::map<std::uint64_t, Quatd> truth_orientations(const Session& s) {
     std::map<std::uint64_t, Quatd> out;
     for (const TruthPose& p : load_truth_poses(s)) out[p.index] = p.world_from_camera;
     return out;
+}
+
+// world_from_sensor over the whole session, from its recorded sensor stream replayed through the
+// same decode path and clock mapping as the live serial driver.
+struct SensorTrack {
+    std::unique_ptr<host::OrientationHistory> history;
+    host::LinkHealth health;
+};
+
+SensorTrack replay_sensors(const Session& s) {
+    if (s.sensors.empty()) throw InputError(s.dir.string() + ": the session has no sensor recording (sensors.glrec)");
+    host::ReplaySource replay("replay:" + s.sensors.string(), s.sensors.string());
+    std::vector<host::OrientationSample> samples;
+    replay.set_sample_callback([&](const host::OrientationSample& x) { samples.push_back(x); });
+    replay.run_to_end();
+    if (samples.size() < 2) throw InputError(s.sensors.string() + ": fewer than two orientation samples");
+    SensorTrack t;
+    // Keep everything; a gap over 100 ms (a lost stretch) is not interpolated across.
+    t.history = std::make_unique<host::OrientationHistory>(samples.size() + 1, 100'000'000, 0);
+    for (const host::OrientationSample& x : samples) t.history->push(x);
+    t.health = replay.health();
+    return t;
 }
 
 GroundTruthError compare_with_truth(const HdrImage& got, const std::vector<std::uint32_t>& samples, int min_samples,
@@ -71,26 +94,51 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
     const Session session = open_session(o.session);
     const int threads = o.threads > 0 ? o.threads : hardware_threads();
     std::map<std::uint64_t, Quatd> truth;
+    SensorTrack sensors;
     if (o.orientations == OrientationInput::Truth) {
         truth = truth_orientations(session);
     } else {
-        throw InputError("--orientations sensors: replaying the session's sensor stream into capture is not built "
-                         "yet (use --orientations truth on a simulated session)");
+        sensors = replay_sensors(session);
     }
+    const CameraCalibration& cal = session.calibration;
+    // The camera's orientation at a frame: the sensor's at the frame's time (shifted by the
+    // calibrated offset), then the mounting.
+    const auto orientation_of = [&](const FrameRecord& r) -> std::optional<Quatd> {
+        if (o.orientations == OrientationInput::Truth) {
+            const auto q = truth.find(r.index);
+            if (q == truth.end()) return std::nullopt;
+            return q->second;
+        }
+        const std::int64_t t = r.t_ns + std::int64_t(std::llround(cal.time_offset_s * 1e9));
+        const host::HistoryAnswer a = sensors.history->at(t);
+        if (!a.q) return std::nullopt;
+        return firmware::normalized(*a.q * cal.sensor_from_camera);
+    };
+    std::vector<double> orientation_errors;
+    std::map<std::uint64_t, Quatd> true_poses;
+    if (session.has_truth)
+        for (const TruthPose& p : load_truth_poses(session)) true_poses[p.index] = p.world_from_camera;
     HdrAccumulator acc(o.width, o.height);
     CaptureSummary summary;
     const long long total = (long long)session.frames.size();
     long long done = 0;
     for (const FrameRecord& r : session.frames) {
-        const auto q = truth.find(r.index);
-        if (q == truth.end()) {
+        const std::optional<Quatd> q = orientation_of(r);
+        if (!q) {
             ++summary.frames_without_orientation;
         } else {
             const CameraFrame f = load_frame(session, r);
-            acc.add_frame(f, session.calibration, q->second, threads);
+            acc.add_frame(f, cal, *q, threads);
             ++summary.frames_used;
+            if (const auto t = true_poses.find(r.index); t != true_poses.end())
+                orientation_errors.push_back(firmware::angle_between(*q, t->second) * 180.0 / kPi);
         }
         if (progress) progress(++done, total);
+    }
+    if (!orientation_errors.empty()) {
+        std::sort(orientation_errors.begin(), orientation_errors.end());
+        summary.orientation_error_median_deg = orientation_errors[orientation_errors.size() / 2];
+        summary.orientation_error_max_deg = orientation_errors.back();
     }
     if (summary.frames_used == 0) throw InputError(o.session.string() + ": no frame has an orientation");
     HdrImage env = acc.radiance();

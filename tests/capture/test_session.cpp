@@ -79,6 +79,19 @@ TEST_F(SessionTest, SimulateThenCaptureWithTrueOrientationsCoversAndMatchesTheSk
     EXPECT_TRUE(fs::exists(dir_ / "env-captured.coverage.exr"));
     const HdrImage cov = load_exr(dir_ / "env-captured.coverage.exr").image;
     EXPECT_EQ(cov.width(), 128);
+
+    // The same session through the recorded sensor stream (replayed through the serial driver's
+    // decode path and clock mapping, then the mounting): what the appliance itself would do.
+    c.orientations = OrientationInput::Sensors;
+    c.out = dir_ / "env-from-sensors.exr";
+    const CaptureSummary viaSensors = run_capture(c);
+    EXPECT_EQ(viaSensors.frames_used, sim.frames);
+    ASSERT_TRUE(viaSensors.orientation_error_median_deg);
+    EXPECT_LT(*viaSensors.orientation_error_median_deg, 1.0);
+    EXPECT_LT(*viaSensors.orientation_error_max_deg, 3.0);
+    EXPECT_GT(viaSensors.coverage.covered_fraction, 0.9);
+    ASSERT_TRUE(viaSensors.truth_error);
+    EXPECT_LT(viaSensors.truth_error->median_relative, 0.08);
 }
 
 TEST_F(SessionTest, RefusesToReplaceASessionWithoutForce) {
