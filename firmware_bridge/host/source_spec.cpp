@@ -4,6 +4,7 @@
 #include <cerrno>
 #include <cstdlib>
 
+#include "firmware_bridge/host/i2c_bno055_source.hpp"
 #include "firmware_bridge/host/replay_source.hpp"
 #include "firmware_bridge/host/serial_source.hpp"
 
@@ -121,6 +122,7 @@ std::unique_ptr<OrientationSource> make_source(const SourceSpec& spec, recording
             return std::make_unique<ReplaySource>(
                 spec.text, spec.path, replay_realtime ? ReplayPacing::Realtime : ReplayPacing::Fast, options);
         case SourceKind::I2c:
+            return std::make_unique<LinuxBno055Source>(spec.text, spec.path, spec.i2c_address, clock, options);
         case SourceKind::ModbusTcp:
         case SourceKind::ModbusRtu:
             break;
