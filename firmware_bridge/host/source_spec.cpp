@@ -5,6 +5,7 @@
 #include <cstdlib>
 
 #include "firmware_bridge/host/i2c_bno055_source.hpp"
+#include "firmware_bridge/host/modbus_head_source.hpp"
 #include "firmware_bridge/host/replay_source.hpp"
 #include "firmware_bridge/host/serial_source.hpp"
 
@@ -124,11 +125,11 @@ std::unique_ptr<OrientationSource> make_source(const SourceSpec& spec, recording
         case SourceKind::I2c:
             return std::make_unique<LinuxBno055Source>(spec.text, spec.path, spec.i2c_address, clock, options);
         case SourceKind::ModbusTcp:
+            return ModbusHeadSource::tcp(spec.text, spec.path, spec.port, clock, options);
         case SourceKind::ModbusRtu:
-            break;
+            return ModbusHeadSource::rtu(spec.text, spec.path, spec.baud, clock, options);
     }
-    throw SourceError("source '" + spec.text + "': the " + source_kind_name(spec.kind) +
-                      " driver is not built yet (README.md lists what is)");
+    throw SourceError("source '" + spec.text + "': unknown kind");
 }
 
 }  // namespace glint::host
