@@ -53,8 +53,12 @@ TEST(EndToEnd, FirmwareOverAPtyToTheSerialDriverMatchesTheTruth) {
     std::printf("end to end (BNO055 firmware -> pty -> serial driver): %zu samples, orientation error median %.4f, "
                 "p99 %.4f, max %.4f degrees\n",
                 e.size(), median, p99, worst);
-    EXPECT_LT(median, 0.1);
-    EXPECT_LT(worst, 0.5);
+    // The chip model fuses at 100 Hz and the firmware stamps a sample when it reads it, so a
+    // sample is up to one output period (10 ms) old: 0.28 degrees at the sweep's peak speed of
+    // 28 deg/s. Where in that period the reads fall depends on real-time scheduling (measured
+    // medians of 0.07 and 0.20 degrees in two runs).
+    EXPECT_LT(median, 0.3);
+    EXPECT_LT(worst, 0.45);
     const LinkHealth h = source.health();
     EXPECT_EQ(h.crc_errors + h.frame_errors + h.lost_frames, 0u);
 }
