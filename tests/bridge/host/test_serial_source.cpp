@@ -87,7 +87,7 @@ TEST_F(SerialSourceTest, ReadsOrientationsInTheWorldFrame) {
     EXPECT_TRUE(src->orientation_at(s[10].t_ns + (s[11].t_ns - s[10].t_ns) / 2).q);
 }
 
-TEST_F(SerialSourceTest, GarbageFlippedBitsAndLostFramesAreCountedAndSkipped) {
+TEST_F(SerialSourceTest, GarbageFlippedBitsDroppedBytesAndLostFramesAreCountedAndSkipped) {
     auto src = make_source();
     src->start();
     std::mt19937 rng(3);
@@ -106,6 +106,13 @@ TEST_F(SerialSourceTest, GarbageFlippedBitsAndLostFramesAreCountedAndSkipped) {
         if (k % 25 == 3) {  // a frame with one flipped bit: rejected by the CRC (or COBS)
             std::vector<std::uint8_t> f = port_->orientation(t, yaw(0.001 * k), seq++, false);
             f[5] ^= 0x10;
+            port_->write_bytes(f);
+            ++corrupted;
+            continue;
+        }
+        if (k % 25 == 15) {  // a frame that lost two bytes on the way
+            std::vector<std::uint8_t> f = port_->orientation(t, yaw(0.001 * k), seq++, false);
+            f.erase(f.begin() + 9, f.begin() + 11);
             port_->write_bytes(f);
             ++corrupted;
             continue;
