@@ -95,6 +95,9 @@ Command add_capture_command(CLI::App& app) {
     cmd->add_option("--out", a->out, "Environment map to write (OpenEXR, equirect)")->required();
     cmd->add_option("--size", a->size, "Environment map size WxH")->capture_default_str();
     cmd->add_flag("--no-drift-correction", a->no_drift, "Use the sensor orientations as they are");
+    cmd->add_option("--drift-gain", a->o.drift_gain,
+                    "Share of each frame's alignment to the sphere fused over the sensor's orientation (0..1]")
+        ->capture_default_str();
     cmd->add_option("--engine", a->engine, "Accumulation engine: cpu or gpu")->capture_default_str();
     cmd->add_option("--orientations", a->orientations,
                     "sensors (the session's recorded sensor stream) or truth (a simulated session's true "
@@ -118,7 +121,7 @@ Command add_capture_command(CLI::App& app) {
                 if (a->engine == "gpu")
                     throw InputError("--engine gpu: the GPU accumulation path is not built yet (use --engine cpu)");
                 if (a->engine != "cpu") throw InputError("--engine must be cpu or gpu");
-                a->o.drift_correction = false;
+                a->o.drift_correction = !a->no_drift;
                 std::unique_ptr<ProgressBar> bar;
                 const capture::CaptureSummary r = capture::run_capture(a->o, [&](long long d, long long t) {
                     if (!bar) bar = std::make_unique<ProgressBar>("accumulate frames", t);
@@ -126,10 +129,11 @@ Command add_capture_command(CLI::App& app) {
                     bar->advance(1);
                 });
                 if (bar) bar->finish();
-                // After the run, so that a bad input still gets exactly one line on stderr.
-                if (!a->no_drift)
-                    std::fprintf(stderr, "glint: note: drift correction is not built yet; the orientations were used "
-                                         "as they are (--no-drift-correction silences this)\n");
+                if (a->o.drift_correction)
+                    std::printf("drift correction: %d of %d frames corrected, median correction %.3f degrees, median "
+                                "residual %.4f -> %.4f (RMS log luminance against the sphere)\n",
+                                r.drift_applied, r.drift_considered, r.drift_median_deg, r.drift_residual_before,
+                                r.drift_residual_after);
                 const Vec3& g = r.coverage.largest_gap;
                 std::printf("%s: %d frames, coverage %.1f %% of the sphere, largest gap %.2f sr around "
                             "(%.3f, %.3f, %.3f), %lld texels filled\n",

@@ -4,6 +4,7 @@
 #include <cmath>
 #include <map>
 
+#include "appliance/capture/drift_correction.hpp"
 #include "appliance/capture/hdr_accumulator.hpp"
 #include "appliance/capture/session.hpp"
 #include "appliance/core/equirect.hpp"
@@ -91,6 +92,7 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
     if (o.width < 8 || o.height < 4 || o.width > 16384 || o.height > 8192)
         throw InputError("--size must be between 8x4 and 16384x8192");
     if (o.min_samples < 1) throw InputError("--min-samples must be at least 1");
+    if (!(o.drift_gain > 0 && o.drift_gain <= 1)) throw InputError("--drift-gain must be in (0, 1]");
     const Session session = open_session(o.session);
     const int threads = o.threads > 0 ? o.threads : hardware_threads();
     std::map<std::uint64_t, Quatd> truth;
@@ -122,12 +124,27 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
     CaptureSummary summary;
     const long long total = (long long)session.frames.size();
     long long done = 0;
+    DriftSettings drift_settings;
+    drift_settings.gain = o.drift_gain;
+    DriftCorrector drift(drift_settings);
+    std::vector<double> drift_angles, drift_before, drift_after;
     for (const FrameRecord& r : session.frames) {
-        const std::optional<Quatd> q = orientation_of(r);
+        std::optional<Quatd> q = orientation_of(r);
         if (!q) {
             ++summary.frames_without_orientation;
         } else {
             const CameraFrame f = load_frame(session, r);
+            if (o.drift_correction && acc.frames() > 0) {
+                const DriftEstimate e = drift.estimate(f, cal, *q, acc.radiance(), acc.samples());
+                ++summary.drift_considered;
+                if (e.applied) {
+                    ++summary.drift_applied;
+                    drift_angles.push_back(e.angle_deg);
+                    drift_before.push_back(e.residual_before);
+                    drift_after.push_back(e.residual_after);
+                }
+                q = firmware::normalized(drift.carried() * *q);  // the last trusted correction
+            }
             acc.add_frame(f, cal, *q, threads);
             ++summary.frames_used;
             if (const auto t = true_poses.find(r.index); t != true_poses.end())
@@ -135,6 +152,14 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
         }
         if (progress) progress(++done, total);
     }
+    const auto median = [](std::vector<double> v) {
+        if (v.empty()) return 0.0;
+        std::nth_element(v.begin(), v.begin() + std::ptrdiff_t(v.size() / 2), v.end());
+        return v[v.size() / 2];
+    };
+    summary.drift_median_deg = median(drift_angles);
+    summary.drift_residual_before = median(drift_before);
+    summary.drift_residual_after = median(drift_after);
     if (!orientation_errors.empty()) {
         std::sort(orientation_errors.begin(), orientation_errors.end());
         summary.orientation_error_median_deg = orientation_errors[orientation_errors.size() / 2];

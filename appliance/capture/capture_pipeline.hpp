@@ -24,7 +24,8 @@ struct CaptureOptions {
     std::filesystem::path out;  // env.exr; the coverage map goes to <stem>.coverage.exr beside it
     int width = 1024, height = 512;
     OrientationInput orientations = OrientationInput::Sensors;
-    bool drift_correction = true;  // not built yet: see docs/capture.md
+    bool drift_correction = true;  // align each frame to the sphere before accumulating it
+    double drift_gain = 0.6;       // share of the image alignment fused over the sensor (DriftSettings)
     int min_samples = 1;
     int threads = 0;
 };
@@ -43,6 +44,10 @@ struct CaptureSummary {
     std::filesystem::path coverage_path;
     std::optional<GroundTruthError> truth_error;  // simulated sessions only
     std::optional<double> orientation_error_median_deg, orientation_error_max_deg;  // ditto
+    // Drift correction (when on): frames it corrected, the median correction, and the median
+    // RMS log-luminance residual against the sphere before and after it.
+    int drift_applied = 0, drift_considered = 0;
+    double drift_median_deg = 0, drift_residual_before = 0, drift_residual_after = 0;
 };
 
 std::filesystem::path coverage_path_for(const std::filesystem::path& env_out);

@@ -94,6 +94,35 @@ TEST_F(SessionTest, SimulateThenCaptureWithTrueOrientationsCoversAndMatchesTheSk
     EXPECT_LT(viaSensors.truth_error->median_relative, 0.08);
 }
 
+TEST_F(SessionTest, DriftCorrectionBringsTheCameraCloserToTheTruth) {
+    // A real room (blender-data's studio), seen through the raw IMU's Mahony fusion, whose error
+    // the overlapping frames of the scan can correct.
+    SimulateOptions o = small_session();
+    o.env = std::string(GLINT_BLENDER_WORLDS) + "/studio.exr";
+    o.width = 160;
+    o.height = 90;
+    o.fps = 3;  // 15 degrees between frames at the scan's 45 deg/s: most of a frame overlaps the last
+    simulate_session(o);
+    CaptureOptions c;
+    c.session = dir_ / "session";
+    c.width = 512;
+    c.height = 256;
+    c.out = dir_ / "plain.exr";
+    c.drift_correction = false;
+    const CaptureSummary plain = run_capture(c);
+    c.out = dir_ / "corrected.exr";
+    c.drift_correction = true;
+    const CaptureSummary corrected = run_capture(c);
+    ASSERT_TRUE(plain.orientation_error_median_deg && corrected.orientation_error_median_deg);
+    std::printf("camera orientation error median: %.3f degrees from the sensor alone, %.3f with drift correction "
+                "(%d of %d frames corrected)\n",
+                *plain.orientation_error_median_deg, *corrected.orientation_error_median_deg, corrected.drift_applied,
+                corrected.drift_considered);
+    EXPECT_GT(corrected.drift_applied, corrected.drift_considered / 2);
+    EXPECT_LT(*corrected.orientation_error_median_deg, *plain.orientation_error_median_deg);
+    EXPECT_LT(corrected.drift_residual_after, corrected.drift_residual_before);
+}
+
 TEST_F(SessionTest, RefusesToReplaceASessionWithoutForce) {
     SimulateOptions o = small_session();
     o.trajectory = (dir_ / "short.csv").string();
