@@ -98,6 +98,9 @@ Command add_capture_command(CLI::App& app) {
     cmd->add_option("--drift-gain", a->o.drift_gain,
                     "Share of each frame's alignment to the sphere fused over the sensor's orientation (0..1]")
         ->capture_default_str();
+    cmd->add_option("--drift-log", a->o.drift_log,
+                    "Write every frame's drift estimate (CSV: index, overlapping points, estimate and its standard "
+                    "deviation in degrees, residual before and after, applied)");
     cmd->add_option("--engine", a->engine, "Accumulation engine: cpu or gpu")->capture_default_str();
     cmd->add_option("--orientations", a->orientations,
                     "sensors (the session's recorded sensor stream) or truth (a simulated session's true "

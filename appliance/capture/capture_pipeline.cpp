@@ -2,11 +2,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <map>
 
 #include "appliance/capture/drift_correction.hpp"
 #include "appliance/capture/hdr_accumulator.hpp"
 #include "appliance/capture/session.hpp"
+#include "appliance/core/atomic_file.hpp"
 #include "appliance/core/equirect.hpp"
 #include "appliance/core/errors.hpp"
 #include "appliance/core/exr_io.hpp"
@@ -127,6 +129,7 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
     DriftSettings drift_settings;
     drift_settings.gain = o.drift_gain;
     DriftCorrector drift(drift_settings);
+    std::string drift_log = "index,pixels,estimate_deg,sigma_deg,residual_before,residual_after,applied\n";
     std::vector<double> drift_angles, drift_before, drift_after;
     for (const FrameRecord& r : session.frames) {
         std::optional<Quatd> q = orientation_of(r);
@@ -136,6 +139,11 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
             const CameraFrame f = load_frame(session, r);
             if (o.drift_correction && acc.frames() > 0) {
                 const DriftEstimate e = drift.estimate(f, cal, *q, acc.radiance(), acc.samples());
+                char line[200];
+                std::snprintf(line, sizeof line, "%llu,%d,%.4f,%.5f,%.5f,%.5f,%d\n",
+                              static_cast<unsigned long long>(r.index), e.pixels, e.angle_deg, e.sigma_deg,
+                              e.residual_before, e.residual_after, e.applied ? 1 : 0);
+                drift_log += line;
                 ++summary.drift_considered;
                 if (e.applied) {
                     ++summary.drift_applied;
@@ -175,6 +183,7 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
     // Coverage first: a reader that finds env.exr finds its coverage map too.
     save_exr(summary.coverage_path, coverage_image(acc.samples(), acc.weights(), o.width, o.height, o.min_samples));
     save_exr(o.out, env);
+    if (!o.drift_log.empty()) write_text_atomically(o.drift_log, drift_log);
     return summary;
 }
 

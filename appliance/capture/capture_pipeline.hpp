@@ -26,6 +26,9 @@ struct CaptureOptions {
     OrientationInput orientations = OrientationInput::Sensors;
     bool drift_correction = true;  // align each frame to the sphere before accumulating it
     double drift_gain = 0.6;       // share of the image alignment fused over the sensor (DriftSettings)
+    // Per-frame log of the drift estimates (CSV: index,pixels,estimate_deg,sigma_deg,
+    // residual_before,residual_after,applied); empty = none.
+    std::filesystem::path drift_log;
     int min_samples = 1;
     int threads = 0;
 };

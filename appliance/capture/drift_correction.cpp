@@ -115,6 +115,7 @@ DriftEstimate DriftCorrector::estimate(const CameraFrame& frame, const CameraCal
     }
     const double h_step = 0.0005;  // rad, about a tenth of a texel of a 1024-wide map
     double cost = out.residual_before;
+    double sigma_rad = 1e9;  // uncertainty of the estimate (from the last normal equations)
     for (int it = 0; it < settings_.iterations; ++it) {
         // Jacobian by central differences; only pixels valid in all evaluations take part.
         std::vector<std::array<double, 3>> J(grid.size());
@@ -150,6 +151,22 @@ DriftEstimate DriftCorrector::estimate(const CameraFrame& frame, const CameraCal
         };
         const double D = det3(A);
         if (!(std::abs(D) > 1e-30)) break;
+        {
+            // Covariance of delta ~ s^2 (J^T J)^-1 with s^2 the mean squared residual: the trace of
+            // the inverse from the cofactors' diagonal.
+            double sr = 0;
+            int nr = 0;
+            for (std::size_t i = 0; i < grid.size(); ++i)
+                if (ok[i]) {
+                    sr += r0[i] * r0[i];
+                    ++nr;
+                }
+            const double c00 = A[1][1] * A[2][2] - A[1][2] * A[2][1];
+            const double c11 = A[0][0] * A[2][2] - A[0][2] * A[2][0];
+            const double c22 = A[0][0] * A[1][1] - A[0][1] * A[1][0];
+            const double trace_inv = (c00 + c11 + c22) / D;
+            if (nr > 0 && trace_inv > 0) sigma_rad = std::sqrt(sr / nr * trace_inv / 3);
+        }
         double step[3];
         for (int c = 0; c < 3; ++c) {
             double M[3][3];
@@ -174,7 +191,9 @@ DriftEstimate DriftCorrector::estimate(const CameraFrame& frame, const CameraCal
     const double angle = std::sqrt(delta.x * delta.x + delta.y * delta.y + delta.z * delta.z);
     out.angle_deg = angle * 180.0 / kPi;
     out.residual_after = cost;
-    if (out.angle_deg > settings_.max_correction_deg || !(cost <= out.residual_before)) {
+    out.sigma_deg = sigma_rad * 180.0 / kPi;
+    if (out.angle_deg > settings_.max_correction_deg || !(cost <= out.residual_before) ||
+        out.sigma_deg > settings_.max_sigma_deg) {
         out.residual_after = out.residual_before;
         return out;  // not trusted: keep the previous correction
     }

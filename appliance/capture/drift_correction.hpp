@@ -24,6 +24,9 @@ struct DriftSettings {
     int grid_width = 64;            // grid pixels across the frame
     int min_pixels = 150;           // overlapping grid pixels needed to estimate anything
     double max_correction_deg = 3;  // |delta| limit: beyond it the estimate is not trusted
+    // Uncertainty limit: the estimate's standard deviation (from the residuals and the normal
+    // equations) must be below this, or the frame's texture does not pin the rotation down.
+    double max_sigma_deg = 0.02;
     int iterations = 8;
     bool carry = false;             // start from the previous frame's correction (else from none)
     // Fusion with the sensor: the share of the image's estimate applied (1 = trust the image
@@ -39,6 +42,7 @@ struct DriftEstimate {
     double residual_before = 0;            // RMS of log-luminance differences with the prior
     double residual_after = 0;             // ... with the estimate
     int pixels = 0;                        // grid pixels that overlapped covered texels
+    double sigma_deg = 0;                  // standard deviation of the estimate (per axis)
     bool applied = false;                  // false: too little overlap, or no improvement
 };
 

@@ -67,6 +67,7 @@ TEST_F(SessionTest, SimulateThenCaptureWithTrueOrientationsCoversAndMatchesTheSk
     c.width = 128;
     c.height = 64;
     c.orientations = OrientationInput::Truth;
+    c.drift_correction = false;  // the accumulation and the sensor path alone (drift: its own test)
     const CaptureSummary r = run_capture(c);
     EXPECT_EQ(r.frames_used, sim.frames);
     // The guided scan sees everything but the floor under the stand (below about -80 degrees).
