@@ -143,6 +143,12 @@ Command add_capture_command(CLI::App& app) {
                             a->out.c_str(), r.frames_used, 100 * r.coverage.covered_fraction, r.coverage.largest_gap_sr,
                             g.x, g.y, g.z, r.filled_texels);
                 std::printf("coverage map: %s\n", r.coverage_path.c_str());
+                if (r.guided_complete_after_s)
+                    std::printf("guided capture: complete after %.1f s (95 %% of the seeable sphere); ", *r.guided_complete_after_s);
+                else
+                    std::printf("guided capture: not complete (%.1f %% of the seeable sphere); ", 100 * r.guided_final_coverage);
+                std::printf("warnings: too fast %d, too bright %d, too dark %d frames\n", r.guided_too_fast,
+                            r.guided_too_bright, r.guided_too_dark);
                 if (r.frames_without_orientation > 0)
                     std::printf("frames without an orientation (skipped): %d\n", r.frames_without_orientation);
                 if (r.orientation_error_median_deg)

@@ -6,6 +6,7 @@
 #include <map>
 
 #include "appliance/capture/drift_correction.hpp"
+#include "appliance/capture/guided_capture.hpp"
 #include "appliance/capture/hdr_accumulator.hpp"
 #include "appliance/capture/session.hpp"
 #include "appliance/core/atomic_file.hpp"
@@ -126,6 +127,7 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
     CaptureSummary summary;
     const long long total = (long long)session.frames.size();
     long long done = 0;
+    GuidedCapture guide({}, cal.intrinsics);
     DriftSettings drift_settings;
     drift_settings.gain = o.drift_gain;
     DriftCorrector drift(drift_settings);
@@ -155,6 +157,13 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
             }
             acc.add_frame(f, cal, *q, threads);
             ++summary.frames_used;
+            const GuidedStep g = guide.update(f, *q, acc.samples(), o.width, o.height);
+            summary.guided_too_fast += g.too_fast ? 1 : 0;
+            summary.guided_too_bright += g.exposure == ExposureStatus::TooBright ? 1 : 0;
+            summary.guided_too_dark += g.exposure == ExposureStatus::TooDark ? 1 : 0;
+            summary.guided_final_coverage = g.seeable_coverage;
+            if (g.state == GuidedState::Complete && !summary.guided_complete_after_s)
+                summary.guided_complete_after_s = g.elapsed_s;
             if (const auto t = true_poses.find(r.index); t != true_poses.end())
                 orientation_errors.push_back(firmware::angle_between(*q, t->second) * 180.0 / kPi);
         }

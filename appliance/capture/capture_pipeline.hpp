@@ -49,6 +49,12 @@ struct CaptureSummary {
     std::optional<double> orientation_error_median_deg, orientation_error_max_deg;  // ditto
     // Drift correction (when on): frames it corrected, the median correction, and the median
     // RMS log-luminance residual against the sphere before and after it.
+    // The guided-capture logic run over the session as if live (guided_capture.hpp): when it would
+    // have said "complete" (seconds from the first frame; nullopt: never), and how often it would
+    // have warned.
+    std::optional<double> guided_complete_after_s;
+    int guided_too_fast = 0, guided_too_bright = 0, guided_too_dark = 0;
+    double guided_final_coverage = 0;
     int drift_applied = 0, drift_considered = 0;
     double drift_median_deg = 0, drift_residual_before = 0, drift_residual_after = 0;
 };

@@ -93,6 +93,9 @@ TEST_F(SessionTest, SimulateThenCaptureWithTrueOrientationsCoversAndMatchesTheSk
     EXPECT_GT(viaSensors.coverage.covered_fraction, 0.9);
     ASSERT_TRUE(viaSensors.truth_error);
     EXPECT_LT(viaSensors.truth_error->median_relative, 0.08);
+    // The guided-capture logic, run over the scan as if live, says "complete" before its end.
+    ASSERT_TRUE(viaSensors.guided_complete_after_s);
+    EXPECT_LT(*viaSensors.guided_complete_after_s, sim.duration_s);
 }
 
 TEST_F(SessionTest, DriftCorrectionBringsTheCameraCloserToTheTruth) {

@@ -1,0 +1,76 @@
+// The guided-capture logic of the kiosk (no drawing: the kiosk issue draws what this decides).
+// Fed after every accumulated frame, it says where the visitor should point next, whether they
+// turn too fast for a sharp frame, whether the exposure is usable, how far along the capture is,
+// and when it is done (enough of the sphere covered, or the time limit).
+//
+// - Target: the centre of the 0.5 rad cap holding the most unseen solid angle (coverage.hpp),
+//   ignoring what cannot be seen: everything below `floor_elevation_deg` (the stand, the
+//   visitor's feet; filled by the coverage rule instead).
+// - Too fast: the blur a frame would get, angular speed x exposure time x focal length in pixels,
+//   above `max_blur_px`.
+// - Exposure: more than `max_clipped_share` of the pixels at code 255 in some channel is too
+//   bright (the camera should shorten the exposure or the capture bracket); a mean code below
+//   `min_mean_code` is too dark.
+// - Progress: coverage of the seeable part / the target coverage, capped at 1.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <vector>
+
+#include "appliance/capture/camera_frame.hpp"
+#include "appliance/capture/camera_model.hpp"
+#include "appliance/capture/coverage.hpp"
+
+namespace glint::capture {
+
+struct GuidedSettings {
+    double target_coverage = 0.95;     // of the seeable sphere
+    double time_limit_s = 90;
+    double floor_elevation_deg = -78;  // below this nothing is expected to be seen
+    double max_blur_px = 2.0;
+    double max_clipped_share = 0.02;
+    double min_mean_code = 25;
+    int min_samples = 1;
+};
+
+enum class GuidedState : std::uint8_t { Scanning, Complete, TimedOut };
+enum class ExposureStatus : std::uint8_t { Ok, TooBright, TooDark };
+const char* guided_state_name(GuidedState s);
+const char* exposure_status_name(ExposureStatus s);
+
+struct GuidedStep {
+    GuidedState state = GuidedState::Scanning;
+    Vec3 next_target{0, 0, -1};    // world direction to point the camera at next
+    double turn_to_target_deg = 0; // angle between the camera's axis and the target
+    double progress = 0;           // 0..1
+    double seeable_coverage = 0;   // covered share of the sphere above the floor limit
+    double angular_speed_deg_s = 0;
+    double blur_px = 0;
+    bool too_fast = false;
+    ExposureStatus exposure = ExposureStatus::Ok;
+    double clipped_share = 0, mean_code = 0;
+    double elapsed_s = 0;
+};
+
+class GuidedCapture {
+public:
+    GuidedCapture(GuidedSettings settings, Intrinsics camera);
+
+    // One frame: its time and exposure, the camera orientation it was accumulated with, and the
+    // per-texel samples after it (HdrAccumulator::samples()).
+    GuidedStep update(const CameraFrame& frame, const Quatd& world_from_camera,
+                      const std::vector<std::uint32_t>& samples, int map_width, int map_height);
+
+    const GuidedStep& last() const { return last_; }
+
+private:
+    GuidedSettings settings_;
+    Intrinsics camera_;
+    std::optional<std::int64_t> start_ns_;
+    std::optional<std::int64_t> previous_t_ns_;
+    Quatd previous_q_;
+    GuidedStep last_;
+};
+
+}  // namespace glint::capture
