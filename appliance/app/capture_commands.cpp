@@ -5,6 +5,8 @@
 
 #include "appliance/app/cli_util.hpp"
 #include "appliance/app/commands.hpp"
+#include "appliance/capture/calibration.hpp"
+#include "appliance/capture/calibration_io.hpp"
 #include "appliance/capture/capture_pipeline.hpp"
 #include "appliance/capture/libcamera_source.hpp"
 #include "appliance/capture/session_simulator.hpp"
@@ -45,6 +47,12 @@ Command add_simulate_command(CLI::App& app) {
         ->capture_default_str();
     cmd->add_option("--seed", a->o.seed, "Seed of every noise source")->capture_default_str();
     cmd->add_option("--threads", a->o.threads, "Render threads (0: all)")->capture_default_str();
+    cmd->add_option("--bracket", a->o.bracket,
+                    "Instead of a scan: N frames of one still view with the exposure doubling each frame (a "
+                    "response-calibration bracket; 0 = a scan)")
+        ->capture_default_str();
+    cmd->add_option("--bracket-first", a->o.bracket_first_exposure_s, "First exposure of the bracket, seconds")
+        ->capture_default_str();
     return {cmd, [a] {
                 a->o.env = a->env;
                 a->o.out = a->out;
@@ -67,6 +75,48 @@ Command add_simulate_command(CLI::App& app) {
                 std::printf("session %s: %d frames over %.1f s, %llu sensor bytes (%llu orientations)\n",
                             a->out.c_str(), r.frames, r.duration_s, static_cast<unsigned long long>(r.sensor_bytes),
                             static_cast<unsigned long long>(r.orientation_messages));
+                return 0;
+            }};
+}
+
+Command add_calibrate_command(CLI::App& app) {
+    struct Args {
+        std::string session, calibration;
+    };
+    auto a = std::make_shared<Args>();
+    CLI::App* cmd = app.add_subcommand("calibrate", "Camera calibrations from recorded frames, stored in a calibration file");
+    cmd->require_subcommand(1);
+    CLI::App* response = cmd->add_subcommand(
+        "response", "Inverse response curve from an exposure bracket of a still view (OpenCV CalibrateRobertson)");
+    response->add_option("--session", a->session, "Session holding the bracket (e.g. glint simulate --bracket 12)")
+        ->required();
+    response->add_option("--calibration", a->calibration,
+                         "Calibration file to update (created from the session's calibration.json when absent)")
+        ->required();
+    return {cmd, [a] {
+                const capture::Session s = capture::open_session(a->session);
+                capture::CameraCalibration cal = std::filesystem::exists(a->calibration)
+                                                     ? capture::load_calibration(a->calibration)
+                                                     : s.calibration;
+                const capture::ResponseResult r = capture::calibrate_response(s);
+                cal.response = r.response;
+                capture::save_calibration(a->calibration, cal);
+                std::printf("response from %d frames spanning %.0fx in exposure -> %s\n", r.frames, r.exposure_span,
+                            a->calibration.c_str());
+                if (s.has_truth) {
+                    // Against the session's true curve, as ratios to code 128 (the scale is free), over
+                    // codes 64..250: below 64 the simulator's read noise (0.002 of full scale, code 61)
+                    // dominates what a code means, and 251..255 are next to clipping.
+                    const capture::CameraCalibration truth = capture::load_calibration(s.dir / "truth" / "calibration.json");
+                    double worst = 0;
+                    for (int z = 64; z <= 250; ++z) {
+                        const double est = r.response.inverse[std::size_t(z)] / r.response.inverse[128];
+                        const double tru = truth.response.inverse[std::size_t(z)] / truth.response.inverse[128];
+                        worst = std::max(worst, std::abs(est / tru - 1));
+                    }
+                    std::printf("against the session's truth: worst relative error %.2f %% over codes 64..250\n",
+                                100 * worst);
+                }
                 return 0;
             }};
 }

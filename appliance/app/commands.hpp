@@ -29,6 +29,9 @@ Command add_capture_command(CLI::App& app);
 // `glint sensors --source SPEC ...` (sensors_command.cpp)
 Command add_sensors_command(CLI::App& app);
 
+// `glint calibrate response ...` (capture_commands.cpp)
+Command add_calibrate_command(CLI::App& app);
+
 // `glint cameras`: what libcamera finds (capture_commands.cpp)
 Command add_cameras_command(CLI::App& app);
 

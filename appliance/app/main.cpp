@@ -17,7 +17,8 @@ int main(int argc, char** argv) {
     const std::vector<glint::app::Command> commands{
         glint::app::add_convolve_command(app), glint::app::add_compare_command(app),
         glint::app::add_simulate_command(app), glint::app::add_capture_command(app),
-        glint::app::add_cameras_command(app), glint::app::add_sensors_command(app)};
+        glint::app::add_cameras_command(app), glint::app::add_sensors_command(app),
+        glint::app::add_calibrate_command(app)};
 
     try {
         app.parse(argc, argv);

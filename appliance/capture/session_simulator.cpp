@@ -157,15 +157,21 @@ SimulateSummary write_session(const SimulateOptions& o, const HdrImage& env, con
     }
 
     // --- the frames ---
-    CameraSimulator cam(env, truth, sensor, {}, o.seed);
+    AutoExposureModel ae;
+    ae.enabled = o.bracket == 0;
+    CameraSimulator cam(env, truth, sensor, ae, o.seed);
     const int threads = o.threads > 0 ? o.threads : hardware_threads();
-    const int frames = int(std::floor(duration_s * o.fps)) + 1;
+    const int frames = o.bracket > 0 ? o.bracket : int(std::floor(duration_s * o.fps)) + 1;
     std::string frames_csv = frames_csv_header() + "\n";
     std::string truth_csv = "index,t_ns,w,x,y,z\n";
     for (int k = 0; k < frames; ++k) {
-        const std::uint64_t tc = std::uint64_t(std::llround(k / o.fps * 1e6));
-        const Quatd q = firmware::normalized(camera.at(tc).world_from_sensor);
-        const std::int64_t t_ns = std::int64_t(host_us(kLeadUs + tc)) * 1000;
+        const std::uint64_t tc = o.bracket > 0 ? 0 : std::uint64_t(std::llround(k / o.fps * 1e6));
+        // A bracket of the built-in scan looks at the horizon (the scan itself starts at the floor).
+        const Quatd q = o.bracket > 0 && o.trajectory == "guided"
+                            ? camera_look(0, 0)
+                            : firmware::normalized(camera.at(tc).world_from_sensor);
+        if (o.bracket > 0) cam.set_exposure(o.bracket_first_exposure_s * std::pow(2.0, k), 1.0);
+        const std::int64_t t_ns = std::int64_t(host_us(kLeadUs + std::uint64_t(std::llround(k / o.fps * 1e6)))) * 1000;
         const CameraFrame f = cam.render(q, t_ns, threads);
         char name[32];
         std::snprintf(name, sizeof name, "frames/%06d.png", k);
@@ -196,6 +202,8 @@ SimulateSummary write_session(const SimulateOptions& o, const HdrImage& env, con
 
 SimulateSummary simulate_session(const SimulateOptions& o, const std::function<void(long long, long long)>& progress) {
     if (!(o.fps > 0 && o.fps <= 120)) throw InputError("--fps must be in (0, 120]");
+    if (o.bracket < 0 || o.bracket > 30) throw InputError("--bracket must be in [0, 30] frames");
+    if (o.bracket > 0 && !(o.bracket_first_exposure_s > 0)) throw InputError("--bracket-first must be positive");
     if (o.width < 16 || o.height < 16 || o.width > 8192 || o.height > 8192)
         throw InputError("--size must be between 16x16 and 8192x8192");
     if (!(o.horizontal_fov_deg > 5 && o.horizontal_fov_deg < 150)) throw InputError("--fov must be in (5, 150) degrees");

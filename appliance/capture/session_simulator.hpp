@@ -31,6 +31,11 @@ struct SimulateOptions {
     double clock_drift_ppm = 40;     // board clock rate against the appliance clock
     std::uint64_t seed = 1;
     int threads = 0;
+    // A calibration session instead of a scan: `bracket` frames of one still view (the
+    // trajectory's first orientation; the horizon for "guided"), auto-exposure off, exposure doubling from
+    // `bracket_first_exposure_s` (glint calibrate response). 0 = a normal session.
+    int bracket = 0;
+    double bracket_first_exposure_s = 1e-4;
 };
 
 struct SimulateSummary {

@@ -5,6 +5,7 @@
 #include <regex>
 #include <unistd.h>
 
+#include "appliance/capture/calibration.hpp"
 #include "appliance/capture/calibration_io.hpp"
 #include "appliance/capture/capture_pipeline.hpp"
 #include "appliance/capture/session.hpp"
@@ -162,6 +163,41 @@ TEST_F(SessionTest, MalformedFilesNameTheFileAndTheLine) {
         EXPECT_NE(std::string(e.what()).find("calibration.json: key 'version'"), std::string::npos) << e.what();
     }
     EXPECT_THROW(open_session(dir_ / "nothing-here"), InputError);
+}
+
+TEST_F(SessionTest, ResponseCalibrationFromABracketFindsTheTrueCurve) {
+    SimulateOptions o = small_session();
+    o.env = std::string(GLINT_BLENDER_WORLDS) + "/courtyard.exr";
+    o.bracket = 16;
+    o.bracket_first_exposure_s = 3e-6;
+    o.camera_noise = false;
+    simulate_session(o);
+    const Session s = open_session(dir_ / "session");
+    const ResponseResult r = calibrate_response(s);
+    EXPECT_EQ(r.frames, 16);
+    EXPECT_NEAR(r.exposure_span, 32768.0, 1.0);
+    const CameraCalibration truth = load_calibration(dir_ / "session" / "truth" / "calibration.json");
+    double worst = 0;
+    for (int z = 64; z <= 250; ++z) {
+        const double est = r.response.inverse[std::size_t(z)] / r.response.inverse[128];
+        const double tru = truth.response.inverse[std::size_t(z)] / truth.response.inverse[128];
+        worst = std::max(worst, std::abs(est / tru - 1));
+    }
+    std::printf("response calibration, noiseless bracket: worst relative error %.2f %% over codes 64..250\n", 100 * worst);
+    EXPECT_LT(worst, 0.05);
+    for (int z = 1; z < 256; ++z) EXPECT_GT(r.response.inverse[std::size_t(z)], r.response.inverse[std::size_t(z - 1)]);
+    // The table survives the calibration file.
+    CameraCalibration c = s.calibration;
+    c.response = r.response;
+    save_calibration(dir_ / "cal.json", c);
+    EXPECT_DOUBLE_EQ(load_calibration(dir_ / "cal.json").response.inverse[200], r.response.inverse[200]);
+}
+
+TEST_F(SessionTest, AResponseNeedsARealBracket) {
+    SimulateOptions o = small_session();
+    o.bracket = 3;  // 4x: too narrow
+    simulate_session(o);
+    EXPECT_THROW(calibrate_response(open_session(dir_ / "session")), InputError);
 }
 
 TEST(CalibrationIo, RoundTripsAndRejectsBadValues) {
