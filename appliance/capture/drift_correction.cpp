@@ -45,27 +45,17 @@ DriftEstimate DriftCorrector::estimate(const CameraFrame& frame, const CameraCal
     int pw = 0, ph = 0;
     const std::vector<float> planes = HdrAccumulator::filtered_planes(frame, cal, s, pw, ph);
     const double t = frame.exposure_s * frame.total_gain() * cal.sensitivity;
-    const double half = 0.5 * (s - 1);
     std::vector<GridPixel> grid;
     for (int pv = stride / 2; pv < k.height; pv += stride)
         for (int pu = stride / 2; pu < k.width; pu += stride) {
-            const double U = std::clamp((pu - half) / s, 0.0, double(pw - 1));
-            const double V = std::clamp((pv - half) / s, 0.0, double(ph - 1));
-            const int u0 = std::min(int(U), pw - 2), v0 = std::min(int(V), ph - 2);
-            const double fu = U - u0, fv = V - v0;
-            const float* p00 = planes.data() + (std::size_t(v0) * std::size_t(pw) + std::size_t(u0)) * 6;
-            const float* p01 = p00 + 6;
-            const float* p10 = p00 + std::size_t(pw) * 6;
-            const float* p11 = p10 + 6;
+            double P[6];
+            HdrAccumulator::sample_planes(planes, pw, ph, HdrAccumulator::grid_coordinate(pu, s),
+                                          HdrAccumulator::grid_coordinate(pv, s), P);
             double lum = 0;
             bool ok = true;
             for (int c = 0; c < 3; ++c) {
-                const auto bil = [&](int i) {
-                    return (1 - fv) * ((1 - fu) * p00[i] + fu * p01[i]) + fv * ((1 - fu) * p10[i] + fu * p11[i]);
-                };
-                const double P = bil(c), W = bil(3 + c);
-                if (!(W > 0.05)) ok = false;  // mostly clipped or black: no reliable value
-                else lum += P / W / t;
+                if (!(P[3 + c] > 0.05)) ok = false;  // mostly clipped or black: no reliable value
+                else lum += P[c] / P[3 + c] / t;
             }
             if (!ok || !(lum > 0)) continue;
             const Vec3 r = pixel_ray(k, pu, pv);

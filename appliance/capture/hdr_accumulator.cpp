@@ -64,6 +64,19 @@ std::vector<float> HdrAccumulator::filtered_planes(const CameraFrame& frame, con
     return planes;
 }
 
+void HdrAccumulator::sample_planes(const std::vector<float>& planes, int pw, int ph, double U, double V, double out[6]) {
+    U = std::clamp(U, 0.0, double(pw - 1));
+    V = std::clamp(V, 0.0, double(ph - 1));
+    const int u0 = std::min(int(U), pw - 2), v0 = std::min(int(V), ph - 2);
+    const double fu = U - u0, fv = V - v0;
+    const float* p00 = planes.data() + (std::size_t(v0) * std::size_t(pw) + std::size_t(u0)) * 6;
+    const float* p01 = p00 + 6;
+    const float* p10 = p00 + std::size_t(pw) * 6;
+    const float* p11 = p10 + 6;
+    for (int c = 0; c < 6; ++c)
+        out[c] = (1 - fv) * ((1 - fu) * p00[c] + fu * p01[c]) + fv * ((1 - fu) * p10[c] + fu * p11[c]);
+}
+
 FrameContribution HdrAccumulator::add_frame(const CameraFrame& frame, const CameraCalibration& cal,
                                             const Quatd& world_from_camera, int threads) {
     const Intrinsics& k = cal.intrinsics;
@@ -82,7 +95,6 @@ FrameContribution HdrAccumulator::add_frame(const CameraFrame& frame, const Came
     const double rho = std::hypot(fwd.x, fwd.z);
     const double phi0 = std::atan2(fwd.x, -fwd.z);
     const Quatd camera_from_world = world_from_camera.conj();
-    const double half_pixel = 0.5 * (s - 1);
     std::vector<long long> in_view(std::size_t(height_), 0), sampled(std::size_t(height_), 0);
 
     parallel_for(height_, threads, [&](int j) {
@@ -105,18 +117,8 @@ FrameContribution HdrAccumulator::add_frame(const CameraFrame& frame, const Came
             const auto px = project(k, {dc.x, dc.y, dc.z});
             if (!px) continue;
             ++in_view[std::size_t(j)];
-            // Position in the filtered grid, clamped to its pixel centres.
-            const double U = std::clamp((px->u - half_pixel) / s, 0.0, double(pw - 1));
-            const double V = std::clamp((px->v - half_pixel) / s, 0.0, double(ph - 1));
-            const int u0 = std::min(int(U), pw - 2), v0 = std::min(int(V), ph - 2);
-            const double fu = U - u0, fv = V - v0;
-            const float* p00 = planes.data() + (std::size_t(v0) * std::size_t(pw) + std::size_t(u0)) * 6;
-            const float* p01 = p00 + 6;
-            const float* p10 = p00 + std::size_t(pw) * 6;
-            const float* p11 = p10 + 6;
             double P[6];
-            for (int c = 0; c < 6; ++c)
-                P[c] = (1 - fv) * ((1 - fu) * p00[c] + fu * p01[c]) + fv * ((1 - fu) * p10[c] + fu * p11[c]);
+            sample_planes(planes, pw, ph, grid_coordinate(px->u, s), grid_coordinate(px->v, s), P);
             const std::size_t texel = std::size_t(j) * std::size_t(width_) + std::size_t(i);
             double wmean = 0;
             for (int c = 0; c < 3; ++c) {

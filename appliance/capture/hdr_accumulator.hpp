@@ -54,6 +54,12 @@ public:
     // 6 floats per output pixel, P_r P_g P_b W_r W_g W_b.
     static std::vector<float> filtered_planes(const CameraFrame& frame, const CameraCalibration& calibration,
                                               int s, int& out_width, int& out_height);
+    // Bilinear read of the planes at grid position (U, V) (clamped to the pixel centres): out[6]
+    // = P_r P_g P_b W_r W_g W_b there.
+    static void sample_planes(const std::vector<float>& planes, int width, int height, double U, double V,
+                              double out[6]);
+    // Grid position of full-resolution pixel coordinates for the factor s.
+    static double grid_coordinate(double pixel, int s) { return (pixel - 0.5 * (s - 1)) / s; }
     // The factor s for a camera and a map width.
     static int auto_downscale(const Intrinsics& k, int map_width);
 

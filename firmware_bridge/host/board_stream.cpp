@@ -86,3 +86,16 @@ std::uint64_t BoardStream::lost_frames() const { return total().lost_frames; }
 std::uint64_t BoardStream::frames_ok() const { return total().frames_ok; }
 
 }  // namespace glint::host
+
+namespace glint::host {
+
+void BoardStream::copy_counters(LinkHealth& h) const {
+    const protocol::DecoderStats t = total();
+    h.crc_errors = t.crc_errors;
+    h.frame_errors = frame_errors();
+    h.lost_frames = t.lost_frames;
+    h.untimed_samples = untimed_;
+    h.clock_drift_ppm = clock_.drift_ppm();
+}
+
+}  // namespace glint::host

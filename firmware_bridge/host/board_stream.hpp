@@ -13,6 +13,7 @@
 
 #include "firmware_bridge/host/board_clock.hpp"
 #include "firmware_bridge/host/orientation_history.hpp"
+#include "firmware_bridge/host/orientation_source.hpp"
 #include "firmware_bridge/protocol/frame_decoder.hpp"
 #include "firmware_bridge/recording/recorder.hpp"
 
@@ -53,6 +54,8 @@ public:
     // published: a time that is known to be wrong is worse than no sample.
     std::uint64_t untimed_samples() const { return untimed_; }
     const BoardClock& clock() const { return clock_; }
+    // Copies the stream's counters (crc, frame errors, lost, untimed, drift) into `health`.
+    void copy_counters(LinkHealth& health) const;
     const BoardStatus& status() const { return status_; }
 
 private:

@@ -70,16 +70,7 @@ void ReplaySource::replay() {
         if (const auto* raw = std::get_if<recording::RawBytesRecord>(&record->body)) {
             if (raw->direction != recording::Direction::Received) continue;
             stream.feed(std::int64_t(raw->time_us) * 1000, raw->bytes);
-            const std::uint64_t crc = stream.crc_errors(), frames = stream.frame_errors(), lost = stream.lost_frames();
-            const double drift = stream.clock().drift_ppm();
-            const std::uint64_t untimed = stream.untimed_samples();
-            edit_health([&](LinkHealth& h) {
-                h.crc_errors = crc;
-                h.frame_errors = frames;
-                h.lost_frames = lost;
-                h.clock_drift_ppm = drift;
-                h.untimed_samples = untimed;
-            });
+            edit_health([&](LinkHealth& h) { stream.copy_counters(h); });
         } else if (const auto* restart = std::get_if<recording::StreamRestartRecord>(&record->body)) {
             stream.restart(std::int64_t(restart->time_us) * 1000, restart->reason.c_str());
             edit_health([](LinkHealth& h) { ++h.reconnects; });

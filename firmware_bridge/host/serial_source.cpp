@@ -1,4 +1,5 @@
 #include "firmware_bridge/host/serial_source.hpp"
+#include "firmware_bridge/host/serial_speed.hpp"
 
 #include <fcntl.h>
 #include <poll.h>
@@ -15,32 +16,11 @@ namespace glint::host {
 
 namespace {
 
-speed_t speed_of(int baud) {
-    switch (baud) {
-        case 9600: return B9600;
-        case 19200: return B19200;
-        case 38400: return B38400;
-        case 57600: return B57600;
-        case 115200: return B115200;
-        case 230400: return B230400;
-        case 460800: return B460800;
-        case 500000: return B500000;
-        case 576000: return B576000;
-        case 921600: return B921600;
-        case 1000000: return B1000000;
-        case 1500000: return B1500000;
-        case 2000000: return B2000000;
-        case 3000000: return B3000000;
-        case 4000000: return B4000000;
-        default: return B0;
-    }
-}
-
 std::string errno_text(int err) { return std::strerror(err); }
 
 }  // namespace
 
-bool serial_baud_supported(int baud) { return speed_of(baud) != B0; }
+bool serial_baud_supported(int baud) { return termios_speed(baud) != B0; }
 
 SerialSource::SerialSource(std::string name, SerialOptions options, recording::Clock& clock,
                            SourceOptions source_options)
@@ -104,8 +84,8 @@ bool SerialSource::open_port() {
     tio.c_cflag |= CLOCAL | CREAD;
     tio.c_cc[VMIN] = 0;
     tio.c_cc[VTIME] = 0;
-    cfsetispeed(&tio, speed_of(options_.baud));
-    cfsetospeed(&tio, speed_of(options_.baud));
+    cfsetispeed(&tio, termios_speed(options_.baud));
+    cfsetospeed(&tio, termios_speed(options_.baud));
     if (tcsetattr(fd, TCSANOW, &tio) != 0) {
         note_error(name() + ": cannot configure " + options_.path + ": " + errno_text(errno));
         ::close(fd);
@@ -138,16 +118,7 @@ void SerialSource::wait_interruptible(int ms) {
 }
 
 void SerialSource::sync_health() {
-    const std::uint64_t crc = stream_->crc_errors(), frames = stream_->frame_errors(), lost = stream_->lost_frames();
-    const double drift = stream_->clock().drift_ppm();
-    const std::uint64_t untimed = stream_->untimed_samples();
-    edit_health([&](LinkHealth& h) {
-        h.crc_errors = crc;
-        h.frame_errors = frames;
-        h.lost_frames = lost;
-        h.clock_drift_ppm = drift;
-        h.untimed_samples = untimed;
-    });
+    edit_health([&](LinkHealth& h) { stream_->copy_counters(h); });
     const std::lock_guard lock(status_mutex_);
     status_copy_ = stream_->status();
 }

@@ -1,5 +1,6 @@
 // Host HAL implementations: see sim_hal.hpp.
 #include "firmware_bridge/firmware/sim/sim_hal.hpp"
+#include "firmware_bridge/host/serial_speed.hpp"  // header only: the termios constants
 
 #include <fcntl.h>
 #include <poll.h>
@@ -121,27 +122,9 @@ PtyUart::~PtyUart() {
     close(slave_);
 }
 
-namespace {
-speed_t device_speed(int baud) {
-    switch (baud) {
-        case 9600: return B9600;
-        case 19200: return B19200;
-        case 38400: return B38400;
-        case 57600: return B57600;
-        case 115200: return B115200;
-        case 230400: return B230400;
-        case 460800: return B460800;
-        case 921600: return B921600;
-        case 1000000: return B1000000;
-        case 2000000: return B2000000;
-        default: return B0;
-    }
-}
-}  // namespace
-
 SerialDeviceUart::SerialDeviceUart(std::string path, int baud, std::size_t tx_buffer_bytes)
     : FdUart(tx_buffer_bytes), path_(std::move(path)) {
-    if (device_speed(baud) == B0) throw std::runtime_error("baud rate " + std::to_string(baud) + " is not supported");
+    if (host::termios_speed(baud) == B0) throw std::runtime_error("baud rate " + std::to_string(baud) + " is not supported");
     fd_ = ::open(path_.c_str(), O_RDWR | O_NOCTTY | O_NONBLOCK | O_CLOEXEC);
     if (fd_ < 0) throw_errno(path_ + ": cannot open");
     termios tio{};
@@ -153,8 +136,8 @@ SerialDeviceUart::SerialDeviceUart(std::string path, int baud, std::size_t tx_bu
     }
     cfmakeraw(&tio);
     tio.c_cflag |= CLOCAL | CREAD;
-    cfsetispeed(&tio, device_speed(baud));
-    cfsetospeed(&tio, device_speed(baud));
+    cfsetispeed(&tio, host::termios_speed(baud));
+    cfsetospeed(&tio, host::termios_speed(baud));
     if (tcsetattr(fd_, TCSANOW, &tio) != 0) {
         const int e = errno;
         close(fd_);
