@@ -17,32 +17,16 @@
 #include "appliance/convolution/gpu/tile_runner.hpp"
 #include "appliance/convolution/methods.hpp"
 #include "appliance/render/gl_context.hpp"
+#include "appliance/render/gl_targets.hpp"
 #include "appliance/render/gl_objects.hpp"
 #include "appliance/render/gl_program.hpp"
 
 namespace glint::convolution::gpu {
 
-// An RGBA32F texture with nearest filtering and clamped edges.
-render::GlTexture make_float_texture(int width, int height, const float* rgba);
-// The RGB of an image as an RGBA32F texture.
-render::GlTexture upload_image(const HdrImage& image);
-
-// A framebuffer drawing into `targets` (RGBA32F textures of one size).
-class RenderTargets {
-public:
-    RenderTargets(int width, int height, int count);
-    void bind() const;
-    GLuint texture(int k) const { return textures_[std::size_t(k)].id(); }
-    // Reads target k back, RGBA per texel, row 0 first.
-    std::vector<float> read(int k) const;
-    int width() const { return width_; }
-    int height() const { return height_; }
-
-private:
-    int width_, height_;
-    std::vector<render::GlTexture> textures_;
-    render::GlFramebuffer framebuffer_;
-};
+// Float textures and render targets now live in appliance/render (gl_targets.hpp).
+using render::make_float_texture;
+using render::RenderTargets;
+using render::upload_image;
 
 class GpuEngine final : public MethodExecutor {
 public:

@@ -1,0 +1,37 @@
+// Float textures and multiple-render-target framebuffers: what the GPU convolution engine and
+// the GPU capture accumulation draw into and read back.
+#pragma once
+
+#include <GLES3/gl3.h>
+
+#include <vector>
+
+#include "appliance/core/hdr_image.hpp"
+#include "appliance/render/gl_objects.hpp"
+
+namespace glint::render {
+
+// An RGBA32F texture with nearest filtering and clamped edges (rgba may be null: undefined texels).
+GlTexture make_float_texture(int width, int height, const float* rgba);
+// The RGB of an image as an RGBA32F texture.
+GlTexture upload_image(const HdrImage& image);
+
+// A framebuffer drawing into `count` RGBA32F textures of one size (MRT). Throws RuntimeError when
+// the driver cannot render to them (no GL_EXT_color_buffer_float).
+class RenderTargets {
+public:
+    RenderTargets(int width, int height, int count);
+    void bind() const;
+    GLuint texture(int k) const { return textures_[std::size_t(k)].id(); }
+    // Reads target k back, RGBA per texel, row 0 first.
+    std::vector<float> read(int k) const;
+    int width() const { return width_; }
+    int height() const { return height_; }
+
+private:
+    int width_, height_;
+    std::vector<GlTexture> textures_;
+    GlFramebuffer framebuffer_;
+};
+
+}  // namespace glint::render
