@@ -172,8 +172,9 @@ Command add_capture_command(CLI::App& app) {
                 else
                     throw InputError("--orientations must be sensors or truth");
                 if (a->engine == "gpu")
-                    throw InputError("--engine gpu: the GPU accumulation path is not built yet (use --engine cpu)");
-                if (a->engine != "cpu") throw InputError("--engine must be cpu or gpu");
+                    a->o.engine = capture::CaptureEngine::Gpu;
+                else if (a->engine != "cpu")
+                    throw InputError("--engine must be cpu or gpu");
                 a->o.drift_correction = !a->no_drift;
                 std::unique_ptr<ProgressBar> bar;
                 const capture::CaptureSummary r = capture::run_capture(a->o, [&](long long d, long long t) {

@@ -6,6 +6,7 @@
 #include <map>
 
 #include "appliance/capture/drift_correction.hpp"
+#include "appliance/capture/gpu_accumulator.hpp"
 #include "appliance/capture/guided_capture.hpp"
 #include "appliance/capture/hdr_accumulator.hpp"
 #include "appliance/capture/session.hpp"
@@ -123,7 +124,30 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
     std::map<std::uint64_t, Quatd> true_poses;
     if (session.has_truth)
         for (const TruthPose& p : load_truth_poses(session)) true_poses[p.index] = p.world_from_camera;
-    HdrAccumulator acc(o.width, o.height);
+    // One face for both engines: the CPU reference, or the GPU path on a surfaceless EGL context.
+    struct Engine {
+        std::unique_ptr<HdrAccumulator> cpu;
+        std::unique_ptr<render::EglDisplay> display;
+        std::unique_ptr<render::GlContext> context;
+        std::unique_ptr<GpuAccumulator> gpu;
+        int threads = 1;
+        int frames() const { return cpu ? cpu->frames() : gpu->frames(); }
+        void add_frame(const CameraFrame& f, const CameraCalibration& c, const Quatd& q) {
+            if (cpu) cpu->add_frame(f, c, q, threads);
+            else gpu->add_frame(f, c, q);
+        }
+        HdrImage radiance() const { return cpu ? cpu->radiance() : gpu->radiance(); }
+        std::vector<std::uint32_t> samples() const { return cpu ? cpu->samples() : gpu->samples(); }
+        std::vector<float> weights() const { return cpu ? cpu->weights() : gpu->weights(); }
+    } acc;
+    acc.threads = threads;
+    if (o.engine == CaptureEngine::Gpu) {
+        acc.display = std::make_unique<render::EglDisplay>(render::EglDisplay::surfaceless());
+        acc.context = std::make_unique<render::GlContext>(*acc.display);
+        acc.gpu = std::make_unique<GpuAccumulator>(*acc.context, o.width, o.height);
+    } else {
+        acc.cpu = std::make_unique<HdrAccumulator>(o.width, o.height);
+    }
     CaptureSummary summary;
     const long long total = (long long)session.frames.size();
     long long done = 0;
@@ -155,7 +179,7 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
                 }
                 q = firmware::normalized(drift.carried() * *q);  // the last trusted correction
             }
-            acc.add_frame(f, cal, *q, threads);
+            acc.add_frame(f, cal, *q);
             ++summary.frames_used;
             const GuidedStep g = guide.update(f, *q, acc.samples(), o.width, o.height);
             summary.guided_too_fast += g.too_fast ? 1 : 0;
@@ -184,13 +208,14 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
     }
     if (summary.frames_used == 0) throw InputError(o.session.string() + ": no frame has an orientation");
     HdrImage env = acc.radiance();
-    summary.coverage = measure_coverage(acc.samples(), o.width, o.height, o.min_samples);
+    const std::vector<std::uint32_t> samples = acc.samples();
+    summary.coverage = measure_coverage(samples, o.width, o.height, o.min_samples);
     if (session.has_truth && fs::exists(truth_env_path(session)))
-        summary.truth_error = compare_with_truth(env, acc.samples(), o.min_samples, load_exr(truth_env_path(session)).image);
-    summary.filled_texels = fill_uncovered(env, acc.samples(), o.min_samples);
+        summary.truth_error = compare_with_truth(env, samples, o.min_samples, load_exr(truth_env_path(session)).image);
+    summary.filled_texels = fill_uncovered(env, samples, o.min_samples);
     summary.coverage_path = coverage_path_for(o.out);
     // Coverage first: a reader that finds env.exr finds its coverage map too.
-    save_exr(summary.coverage_path, coverage_image(acc.samples(), acc.weights(), o.width, o.height, o.min_samples));
+    save_exr(summary.coverage_path, coverage_image(samples, acc.weights(), o.width, o.height, o.min_samples));
     save_exr(o.out, env);
     if (!o.drift_log.empty()) write_text_atomically(o.drift_log, drift_log);
     return summary;

@@ -19,7 +19,10 @@ enum class OrientationInput {
     Truth,    // a simulated session's true camera orientations (isolates the accumulation's error)
 };
 
+enum class CaptureEngine { Cpu, Gpu };
+
 struct CaptureOptions {
+    CaptureEngine engine = CaptureEngine::Cpu;  // gpu: gpu_accumulator.hpp on a surfaceless EGL context
     std::filesystem::path session;
     std::filesystem::path out;  // env.exr; the coverage map goes to <stem>.coverage.exr beside it
     int width = 1024, height = 512;

@@ -223,10 +223,16 @@ grep -q "coverage" "$work/stdout" || fail "capture printed no coverage"
 pass "capture writes the map and its coverage map"
 expect_bad "capture of a missing session" "no such session" "$work/none" \
     capture --session "$work/nope" --out "$work/env2.exr"
-expect_bad "capture --engine gpu (not built)" "not built" "$work/none" \
-    capture --session "$work/session" --out "$work/env2.exr" --engine gpu --no-drift-correction
+expect_bad "capture --engine with a bad name" "--engine" "$work/none" \
+    capture --session "$work/session" --out "$work/env2.exr" --engine tpu
 [[ ! -e $work/env2.exr ]] || fail "a failed capture wrote a map"
-rm -rf "$work/session" "$work/env.exr" "$work/env.coverage.exr" "$work/turn.csv"
+run capture --session "$work/session" --out "$work/env-gpu.exr" --size 64x32 --orientations truth --no-drift-correction --engine gpu
+[[ $rc -eq 0 && -f $work/env-gpu.exr ]] || fail "capture --engine gpu: exit $rc: $(stderr_text)"
+run compare "$work/env-gpu.exr" "$work/env.exr"
+rms=$(awk '/weighted_rel_rms/ { print $2 }' "$work/stdout")
+python3 -c "import sys; sys.exit(0 if float('$rms') <= 1e-4 else 1)" || fail "GPU capture differs from the CPU's: $rms"
+pass "capture --engine gpu agrees with the CPU engine ($rms)"
+rm -rf "$work/session" "$work/env.exr" "$work/env.coverage.exr" "$work/env-gpu.exr" "$work/env-gpu.coverage.exr" "$work/turn.csv"
 
 # The good output directory is still exactly what the good runs wrote.
 listing=$(ls -A "$out" | sort | tr '\n' ' ')

@@ -1,0 +1,124 @@
+#include "appliance/capture/gpu_accumulator.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "appliance/core/errors.hpp"
+
+namespace glint::capture {
+
+namespace {
+// The map width, once the context is known to have what the accumulation needs (checked before
+// the render targets are made, so the error names the missing extension).
+int checked_width(const render::GlContext& c, int width) {
+    if (!c.caps().float_color_buffer)
+        throw RuntimeError("GPU accumulation: this GL context cannot render to float targets "
+                           "(GL_EXT_color_buffer_float); use --engine cpu");
+    if (!c.caps().float_blend)
+        throw RuntimeError("GPU accumulation: this GL context cannot blend float targets (GL_EXT_float_blend); "
+                           "use --engine cpu");
+    return width;
+}
+}  // namespace
+
+GpuAccumulator::GpuAccumulator(const render::GlContext& context, int width, int height, AccumulationSettings settings)
+    : width_(width),
+      height_(height),
+      settings_(settings),
+      targets_(checked_width(context, width), height, 3),
+      program_("fullscreen.vert", "capture_accumulate.frag"),
+      vao_(render::GlVertexArray::create()) {
+    targets_.bind();
+    const float zero[4] = {0, 0, 0, 0};
+    for (int k = 0; k < 3; ++k) glClearBufferfv(GL_COLOR, k, zero);
+    render::check_gl("clearing the accumulation targets");
+}
+
+void GpuAccumulator::add_frame(const CameraFrame& frame, const CameraCalibration& cal, const Quatd& world_from_camera) {
+    const Intrinsics& k = cal.intrinsics;
+    const double t = frame.exposure_s * frame.total_gain() * cal.sensitivity;
+    if (!(t > 0) || !std::isfinite(t))
+        throw InputError("frame " + std::to_string(frame.sequence) + ": exposure x gain must be positive");
+    const int s = settings_.downscale > 0 ? settings_.downscale : HdrAccumulator::auto_downscale(k, width_);
+    int pw = 0, ph = 0;
+    const std::vector<float> planes = HdrAccumulator::filtered_planes(frame, cal, s, pw, ph);
+    std::vector<float> p(std::size_t(pw) * std::size_t(ph) * 4), w(p.size());
+    for (std::size_t i = 0; i < std::size_t(pw) * std::size_t(ph); ++i)
+        for (int c = 0; c < 3; ++c) {
+            p[4 * i + std::size_t(c)] = planes[6 * i + std::size_t(c)];
+            w[4 * i + std::size_t(c)] = planes[6 * i + 3 + std::size_t(c)];
+        }
+    const render::GlTexture p_tex = render::make_float_texture(pw, ph, p.data());
+    const render::GlTexture w_tex = render::make_float_texture(pw, ph, w.data());
+
+    targets_.bind();
+    program_.use();
+    glActiveTexture(GL_TEXTURE0);
+    glBindTexture(GL_TEXTURE_2D, p_tex.id());
+    glActiveTexture(GL_TEXTURE1);
+    glBindTexture(GL_TEXTURE_2D, w_tex.id());
+    glUniform1i(program_.uniform("u_p"), 0);
+    glUniform1i(program_.uniform("u_w"), 1);
+    const Quatd q = world_from_camera.conj();  // camera_from_world
+    glUniform4f(program_.uniform("u_camera_from_world"), float(q.x), float(q.y), float(q.z), float(q.w));
+    glUniform4f(program_.uniform("u_focal_centre"), float(k.fx), float(k.fy), float(k.cx), float(k.cy));
+    glUniform4f(program_.uniform("u_k1k2p1p2"), float(k.k1), float(k.k2), float(k.p1), float(k.p2));
+    glUniform1f(program_.uniform("u_k3"), float(k.k3));
+    glUniform2f(program_.uniform("u_image_size"), float(k.width), float(k.height));
+    glUniform1i(program_.uniform("u_s"), s);
+    glUniform1f(program_.uniform("u_t"), float(t));
+    glUniform1f(program_.uniform("u_min_weight"), float(settings_.min_weight));
+    glUniform2i(program_.uniform("u_map_size"), width_, height_);
+    // The same pre-distortion bound as project() (camera_model.cpp): far outside the image the
+    // distortion polynomial folds back.
+    glUniform1f(program_.uniform("u_limit_x"), float(std::max(k.cx, k.width - 1 - k.cx) / k.fx * 1.5 + 0.5));
+    glUniform1f(program_.uniform("u_limit_y"), float(std::max(k.cy, k.height - 1 - k.cy) / k.fy * 1.5 + 0.5));
+    glEnable(GL_BLEND);
+    glBlendEquation(GL_FUNC_ADD);
+    glBlendFunc(GL_ONE, GL_ONE);
+    glBindVertexArray(vao_.id());
+    glDrawArrays(GL_TRIANGLES, 0, 3);
+    glDisable(GL_BLEND);
+    render::check_gl("accumulating a frame");
+    ++frames_;
+}
+
+namespace {
+// Texel (i, j) of the map is framebuffer row H-1-j (the shader flips): read back in map order.
+std::size_t readback_index(int i, int j, int w, int h) {
+    return (std::size_t(h - 1 - j) * std::size_t(w) + std::size_t(i)) * 4;
+}
+}  // namespace
+
+HdrImage GpuAccumulator::radiance() const {
+    const std::vector<float> num = targets_.read(0), den = targets_.read(1);
+    HdrImage img(width_, height_);
+    for (int j = 0; j < height_; ++j)
+        for (int i = 0; i < width_; ++i) {
+            const std::size_t k = readback_index(i, j, width_, height_);
+            float* o = img.row(j) + 3 * i;
+            for (int c = 0; c < 3; ++c) o[c] = den[k + std::size_t(c)] > 0 ? num[k + std::size_t(c)] / den[k + std::size_t(c)] : 0.0f;
+        }
+    return img;
+}
+
+std::vector<std::uint32_t> GpuAccumulator::samples() const {
+    const std::vector<float> aux = targets_.read(2);
+    std::vector<std::uint32_t> out(std::size_t(width_) * std::size_t(height_));
+    for (int j = 0; j < height_; ++j)
+        for (int i = 0; i < width_; ++i)
+            out[std::size_t(j) * std::size_t(width_) + std::size_t(i)] =
+                std::uint32_t(std::lround(aux[readback_index(i, j, width_, height_) + 1]));
+    return out;
+}
+
+std::vector<float> GpuAccumulator::weights() const {
+    const std::vector<float> aux = targets_.read(2);
+    std::vector<float> out(std::size_t(width_) * std::size_t(height_));
+    for (int j = 0; j < height_; ++j)
+        for (int i = 0; i < width_; ++i)
+            out[std::size_t(j) * std::size_t(width_) + std::size_t(i)] = aux[readback_index(i, j, width_, height_)];
+    return out;
+}
+
+}  // namespace glint::capture

@@ -1,0 +1,62 @@
+#version 300 es
+// HDR accumulation of one camera frame onto the sphere (appliance/capture/gpu_accumulator.hpp):
+// the GPU twin of HdrAccumulator::add_frame. Every fragment is one texel of the equirect map;
+// its direction is rotated into the camera, projected through the OpenCV distortion, and the
+// frame's premultiplied planes (P = mean w X, W = mean w, box filtered by s) are read bilinearly
+// there (texelFetch: the same four texels and weights as the CPU, no filtering extension needed).
+// Outputs are added by blending: num += t P, den += W t^2, aux += (W mean, sampled ? 1 : 0).
+precision highp float;
+precision highp int;
+#include "equirect.glsl"
+
+uniform highp sampler2D u_p;      // P_r P_g P_b (RGBA32F, pw x ph)
+uniform highp sampler2D u_w;      // W_r W_g W_b
+uniform vec4 u_camera_from_world; // quaternion (x, y, z, w)
+uniform vec4 u_focal_centre;      // fx, fy, cx, cy (pixels)
+uniform vec4 u_k1k2p1p2;
+uniform float u_k3;
+uniform vec2 u_image_size;        // pixels
+uniform int u_s;                  // box filter factor
+uniform float u_t;                // exposure x gain x sensitivity
+uniform float u_min_weight;
+uniform ivec2 u_map_size;         // W, H
+uniform float u_limit_x, u_limit_y;  // normalised-coordinate bound before distorting
+
+layout(location = 0) out vec4 o_num;
+layout(location = 1) out vec4 o_den;
+layout(location = 2) out vec4 o_aux;
+
+vec3 rotate(vec4 q, vec3 v) {
+    vec3 t = 2.0 * cross(q.xyz, v);
+    return v + q.w * t + cross(q.xyz, t);
+}
+
+void main() {
+    int i = int(gl_FragCoord.x);
+    int j = u_map_size.y - 1 - int(gl_FragCoord.y);  // row 0 of the map is the top
+    float theta = row_theta(j, u_map_size.y), phi = column_phi(i, u_map_size.x);
+    vec3 d = vec3(sin(theta) * sin(phi), cos(theta), -sin(theta) * cos(phi));
+    vec3 c = rotate(u_camera_from_world, d);
+    if (!(c.z < 0.0)) discard;
+    float x = c.x / -c.z, y = -c.y / -c.z;
+    if (abs(x) > u_limit_x || abs(y) > u_limit_y) discard;
+    float r2 = x * x + y * y;
+    float radial = 1.0 + r2 * (u_k1k2p1p2.x + r2 * (u_k1k2p1p2.y + r2 * u_k3));
+    float xd = x * radial + 2.0 * u_k1k2p1p2.z * x * y + u_k1k2p1p2.w * (r2 + 2.0 * x * x);
+    float yd = y * radial + u_k1k2p1p2.z * (r2 + 2.0 * y * y) + 2.0 * u_k1k2p1p2.w * x * y;
+    vec2 px = vec2(u_focal_centre.x * xd + u_focal_centre.z, u_focal_centre.y * yd + u_focal_centre.w);
+    if (px.x < 0.0 || px.y < 0.0 || px.x > u_image_size.x - 1.0 || px.y > u_image_size.y - 1.0) discard;
+    ivec2 size = textureSize(u_p, 0);
+    float s = float(u_s);
+    vec2 g = clamp((px - 0.5 * (s - 1.0)) / s, vec2(0.0), vec2(size - 1));
+    ivec2 g0 = min(ivec2(g), size - 2);
+    vec2 f = g - vec2(g0);
+    vec4 p = mix(mix(texelFetch(u_p, g0, 0), texelFetch(u_p, g0 + ivec2(1, 0), 0), f.x),
+                 mix(texelFetch(u_p, g0 + ivec2(0, 1), 0), texelFetch(u_p, g0 + ivec2(1, 1), 0), f.x), f.y);
+    vec4 w = mix(mix(texelFetch(u_w, g0, 0), texelFetch(u_w, g0 + ivec2(1, 0), 0), f.x),
+                 mix(texelFetch(u_w, g0 + ivec2(0, 1), 0), texelFetch(u_w, g0 + ivec2(1, 1), 0), f.x), f.y);
+    o_num = vec4(u_t * p.rgb, 0.0);
+    o_den = vec4(w.rgb * (u_t * u_t), 0.0);
+    float wmean = (w.r + w.g + w.b) / 3.0;
+    o_aux = vec4(wmean, wmean >= u_min_weight ? 1.0 : 0.0, 0.0, 0.0);
+}
