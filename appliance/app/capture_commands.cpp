@@ -93,8 +93,27 @@ Command add_calibrate_command(CLI::App& app) {
     response->add_option("--calibration", a->calibration,
                          "Calibration file to update (created from the session's calibration.json when absent)")
         ->required();
-    return {cmd, [a] {
+    CLI::App* vignetting = cmd->add_subcommand(
+        "vignetting", "Vignetting from flat-field frames (a uniformly lit view filling the frame), using the "
+                      "calibration's response");
+    vignetting->add_option("--session", a->session, "Session holding the flat-field frames")->required();
+    vignetting->add_option("--calibration", a->calibration,
+                           "Calibration file to update (created from the session's calibration.json when absent)")
+        ->required();
+    return {cmd, [a, vignetting] {
                 const capture::Session s = capture::open_session(a->session);
+                if (vignetting->parsed()) {
+                    capture::CameraCalibration cal = std::filesystem::exists(a->calibration)
+                                                         ? capture::load_calibration(a->calibration)
+                                                         : s.calibration;
+                    const capture::VignettingResult r = capture::calibrate_vignetting(s, cal);
+                    cal.vignetting = r.vignetting;
+                    capture::save_calibration(a->calibration, cal);
+                    std::printf("vignetting from %d frames, %lld pixels: a1 %.5f a2 %.5f a3 %.5f, fit RMS %.5f -> %s\n",
+                                r.frames, r.pixels, r.vignetting.a1, r.vignetting.a2, r.vignetting.a3, r.fit_rms,
+                                a->calibration.c_str());
+                    return 0;
+                }
                 capture::CameraCalibration cal = std::filesystem::exists(a->calibration)
                                                      ? capture::load_calibration(a->calibration)
                                                      : s.calibration;

@@ -20,4 +20,17 @@ struct ResponseResult {
 // spread over at least 8x).
 ResponseResult calibrate_response(const Session& bracket);
 
+struct VignettingResult {
+    Vignetting vignetting;
+    int frames = 0;
+    long long pixels = 0;     // pixels used (not clipped, not dark, in every frame)
+    double fit_rms = 0;       // RMS of the fitted polynomial against the measured falloff
+};
+
+// Vignetting from flat-field frames (a uniformly lit, featureless view filling the frame, e.g. a
+// diffuser): every frame is linearised with the calibration's inverse response, the frames are
+// averaged, normalised at the principal point, and V(r) = 1 + a1 r^2 + a2 r^4 + a3 r^6 is fitted
+// by least squares. Throws InputError when too few usable pixels remain.
+VignettingResult calibrate_vignetting(const Session& flat_field, const CameraCalibration& calibration);
+
 }  // namespace glint::capture

@@ -200,6 +200,33 @@ TEST_F(SessionTest, AResponseNeedsARealBracket) {
     EXPECT_THROW(calibrate_response(open_session(dir_ / "session")), InputError);
 }
 
+TEST_F(SessionTest, VignettingFromAFlatFieldFindsTheTrueFalloff) {
+    HdrImage flat(64, 32);
+    for (int j = 0; j < 32; ++j)
+        for (int i = 0; i < 64; ++i) flat.set(i, j, {0.5f, 0.5f, 0.5f});
+    save_exr(dir_ / "flat.exr", flat);
+    SimulateOptions o = small_session();
+    o.env = dir_ / "flat.exr";
+    o.trajectory = (dir_ / "still.csv").string();
+    std::ofstream(dir_ / "still.csv") << "0,1,0,0,0\n4,1,0,0,0\n";
+    o.fps = 2;
+    simulate_session(o);
+    const Session s = open_session(dir_ / "session");
+    const CameraCalibration truth = load_calibration(dir_ / "session" / "truth" / "calibration.json");
+    const VignettingResult r = calibrate_vignetting(s, truth);
+    EXPECT_EQ(r.frames, 9);
+    double worst = 0;
+    for (double rr = 0; rr <= 1.0; rr += 0.05) {
+        const double r2 = rr * rr;
+        const auto v = [&](const Vignetting& g) { return 1 + r2 * (g.a1 + r2 * (g.a2 + r2 * g.a3)); };
+        worst = std::max(worst, std::abs(v(r.vignetting) - v(truth.vignetting)));
+    }
+    std::printf("vignetting from a flat field: a1 %.4f a2 %.4f a3 %.4f (true %.4f %.4f %.4f), worst |dV| %.4f\n",
+                r.vignetting.a1, r.vignetting.a2, r.vignetting.a3, truth.vignetting.a1, truth.vignetting.a2,
+                truth.vignetting.a3, worst);
+    EXPECT_LT(worst, 0.01);
+}
+
 TEST(CalibrationIo, RoundTripsAndRejectsBadValues) {
     CameraCalibration c;
     c.intrinsics = Intrinsics::from_fov(640, 480, 1.2);
