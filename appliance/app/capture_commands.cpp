@@ -100,8 +100,34 @@ Command add_calibrate_command(CLI::App& app) {
     vignetting->add_option("--calibration", a->calibration,
                            "Calibration file to update (created from the session's calibration.json when absent)")
         ->required();
-    return {cmd, [a, vignetting] {
+    CLI::App* alignment = cmd->add_subcommand(
+        "alignment", "Camera-to-sensor rotation and time offset from a scan (rotation-only motion): image rotations "
+                     "between consecutive frames against the sensor's");
+    alignment->add_option("--session", a->session, "Session of a scan with its sensor recording")->required();
+    alignment->add_option("--calibration", a->calibration,
+                          "Calibration file to update (created from the session's calibration.json when absent)")
+        ->required();
+    return {cmd, [a, vignetting, alignment] {
                 const capture::Session s = capture::open_session(a->session);
+                if (alignment->parsed()) {
+                    capture::CameraCalibration cal = std::filesystem::exists(a->calibration)
+                                                         ? capture::load_calibration(a->calibration)
+                                                         : s.calibration;
+                    const capture::AlignmentResult r = capture::calibrate_alignment(s);
+                    cal.sensor_from_camera = r.sensor_from_camera;
+                    cal.time_offset_s = r.time_offset_s;
+                    capture::save_calibration(a->calibration, cal);
+                    std::printf("alignment from %d frame pairs: time offset %.3f s, median residual %.3f degrees -> %s\n",
+                                r.pairs, r.time_offset_s, r.residual_deg, a->calibration.c_str());
+                    if (s.has_truth) {
+                        const capture::CameraCalibration truth =
+                            capture::load_calibration(s.dir / "truth" / "calibration.json");
+                        std::printf("against the session's truth: mounting off by %.3f degrees, time offset by %.1f ms\n",
+                                    firmware::angle_between(r.sensor_from_camera, truth.sensor_from_camera) * 180 / kPi,
+                                    (r.time_offset_s - truth.time_offset_s) * 1e3);
+                    }
+                    return 0;
+                }
                 if (vignetting->parsed()) {
                     capture::CameraCalibration cal = std::filesystem::exists(a->calibration)
                                                          ? capture::load_calibration(a->calibration)

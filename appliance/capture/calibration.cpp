@@ -4,9 +4,12 @@
 #include <cmath>
 
 #include <opencv2/imgproc.hpp>
+#include <opencv2/calib3d.hpp>
+#include <opencv2/features2d.hpp>
 #include <opencv2/photo.hpp>
 
 #include "appliance/core/errors.hpp"
+#include "firmware_bridge/host/replay_source.hpp"
 
 namespace glint::capture {
 
@@ -142,6 +145,165 @@ VignettingResult calibrate_vignetting(const Session& s, const CameraCalibration&
     }
     out.fit_rms = std::sqrt(e2 / double(points.size()));
     return out;
+}
+
+namespace {
+
+// The rotation between two frames of a rotating camera, from the images: ORB features, matches,
+// a RANSAC homography of the undistorted normalised points, and the nearest rotation to it.
+// Returns the rotation taking camera-b vectors into camera-a's frame (a_from_b), in the
+// conventions' camera frame (-Z forward, +Y up).
+std::optional<Quatd> image_rotation(const cv::Mat& a, const cv::Mat& b, const Intrinsics& k) {
+    // Small frames and soft indoor texture: smaller patches and a low FAST threshold find enough corners.
+    cv::Ptr<cv::ORB> orb = cv::ORB::create(1500, 1.2f, 8, 15, 0, 2, cv::ORB::HARRIS_SCORE, 15, 5);
+    std::vector<cv::KeyPoint> ka, kb;
+    cv::Mat da, db, ga, gb;
+    cv::cvtColor(a, ga, cv::COLOR_RGB2GRAY);
+    cv::cvtColor(b, gb, cv::COLOR_RGB2GRAY);
+    orb->detectAndCompute(ga, cv::noArray(), ka, da);
+    orb->detectAndCompute(gb, cv::noArray(), kb, db);
+    if (ka.size() < 30 || kb.size() < 30) return std::nullopt;
+    cv::BFMatcher matcher(cv::NORM_HAMMING, true);
+    std::vector<cv::DMatch> matches;
+    matcher.match(da, db, matches);
+    if (matches.size() < 30) return std::nullopt;
+    std::vector<cv::Point2d> pa, pb;
+    for (const cv::DMatch& m : matches) {
+        // Undistorted normalised OpenCV coordinates (x right, y down, z forward).
+        const Vec3 ra = pixel_ray(k, ka[std::size_t(m.queryIdx)].pt.x, ka[std::size_t(m.queryIdx)].pt.y);
+        const Vec3 rb = pixel_ray(k, kb[std::size_t(m.trainIdx)].pt.x, kb[std::size_t(m.trainIdx)].pt.y);
+        pa.emplace_back(ra.x / -ra.z, -ra.y / -ra.z);
+        pb.emplace_back(rb.x / -rb.z, -rb.y / -rb.z);
+    }
+    std::vector<unsigned char> inliers;
+    const cv::Mat H = cv::findHomography(pb, pa, cv::RANSAC, 0.002, inliers);  // b -> a
+    if (H.empty() || cv::countNonZero(inliers) < 25) return std::nullopt;
+    // For a pure rotation (in normalised coordinates) H ~ R_a_from_b (OpenCV camera axes).
+    cv::Mat w, u, vt;
+    cv::SVD::compute(H, w, u, vt);
+    cv::Mat R = u * vt;
+    if (cv::determinant(R) < 0) R = -R;
+    // OpenCV camera axes (x, y down, z forward) -> conventions' camera axes (x, y up, z back):
+    // C = diag(1, -1, -1), R_conv = C R C.
+    double m[3][3];
+    const double c[3] = {1, -1, -1};
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) m[i][j] = c[i] * R.at<double>(i, j) * c[j];
+    // The quaternion of m (Shepperd's method, in double: the largest pivot from the diagonal).
+    const double tr = m[0][0] + m[1][1] + m[2][2];
+    Quatd q;
+    if (tr > 0) {
+        const double s = std::sqrt(tr + 1.0) * 2;
+        q = {s / 4, (m[2][1] - m[1][2]) / s, (m[0][2] - m[2][0]) / s, (m[1][0] - m[0][1]) / s};
+    } else if (m[0][0] >= m[1][1] && m[0][0] >= m[2][2]) {
+        const double s = std::sqrt(1.0 + m[0][0] - m[1][1] - m[2][2]) * 2;
+        q = {(m[2][1] - m[1][2]) / s, s / 4, (m[0][1] + m[1][0]) / s, (m[0][2] + m[2][0]) / s};
+    } else if (m[1][1] >= m[2][2]) {
+        const double s = std::sqrt(1.0 + m[1][1] - m[0][0] - m[2][2]) * 2;
+        q = {(m[0][2] - m[2][0]) / s, (m[0][1] + m[1][0]) / s, s / 4, (m[1][2] + m[2][1]) / s};
+    } else {
+        const double s = std::sqrt(1.0 + m[2][2] - m[0][0] - m[1][1]) * 2;
+        q = {(m[1][0] - m[0][1]) / s, (m[0][2] + m[2][0]) / s, (m[1][2] + m[2][1]) / s, s / 4};
+    }
+    return firmware::normalized(q);
+}
+
+firmware::Vec3d rotation_vector(Quatd q) {
+    q = firmware::normalized(q);
+    const double s = std::sqrt(q.x * q.x + q.y * q.y + q.z * q.z);
+    if (s < 1e-15) return {};
+    const double angle = 2 * std::atan2(s, q.w);
+    return {q.x / s * angle, q.y / s * angle, q.z / s * angle};
+}
+
+// The rotation R minimising sum w |R a_i - b_i|^2 (Kabsch, by SVD of the 3x3 correlation).
+Quatd kabsch(const std::vector<firmware::Vec3d>& a, const std::vector<firmware::Vec3d>& b) {
+    cv::Mat C = cv::Mat::zeros(3, 3, CV_64F);
+    for (std::size_t i = 0; i < a.size(); ++i) {
+        const double av[3] = {a[i].x, a[i].y, a[i].z}, bv[3] = {b[i].x, b[i].y, b[i].z};
+        for (int r = 0; r < 3; ++r)
+            for (int c = 0; c < 3; ++c) C.at<double>(r, c) += bv[r] * av[c];
+    }
+    cv::Mat w, u, vt;
+    cv::SVD::compute(C, w, u, vt);
+    cv::Mat d = cv::Mat::eye(3, 3, CV_64F);
+    if (cv::determinant(u * vt) < 0) d.at<double>(2, 2) = -1;
+    const cv::Mat R = u * d * vt;
+    const float m[3][3] = {{float(R.at<double>(0, 0)), float(R.at<double>(0, 1)), float(R.at<double>(0, 2))},
+                           {float(R.at<double>(1, 0)), float(R.at<double>(1, 1)), float(R.at<double>(1, 2))},
+                           {float(R.at<double>(2, 0)), float(R.at<double>(2, 1)), float(R.at<double>(2, 2))}};
+    const firmware::Quatf q = firmware::quat_from_matrix(m);
+    return firmware::normalized(Quatd{q.w, q.x, q.y, q.z});
+}
+
+}  // namespace
+
+AlignmentResult calibrate_alignment(const Session& s, double max_offset_s) {
+    if (s.sensors.empty()) throw InputError(s.dir.string() + ": an alignment needs the session's sensor recording");
+    // The sensor's orientations over the whole session.
+    host::ReplaySource replay("replay:" + s.sensors.string(), s.sensors.string());
+    std::vector<host::OrientationSample> samples;
+    replay.set_sample_callback([&](const host::OrientationSample& x) { samples.push_back(x); });
+    replay.run_to_end();
+    host::OrientationHistory history(samples.size() + 1, 100'000'000, 0);
+    for (const auto& x : samples) history.push(x);
+    // Image rotations between consecutive frames.
+    struct Pair {
+        std::int64_t ta, tb;
+        Quatd camera_a_from_b;
+    };
+    std::vector<Pair> pairs;
+    CameraFrame previous;
+    bool have_previous = false;
+    for (const FrameRecord& r : s.frames) {
+        CameraFrame f = load_frame(s, r);
+        if (have_previous) {
+            if (const auto q = image_rotation(previous.rgb, f.rgb, s.calibration.intrinsics))
+                if (firmware::angle_between(*q, Quatd::identity()) > 2 * kPi / 180)  // too small a turn says little
+                    pairs.push_back({previous.t_ns, f.t_ns, *q});
+        }
+        previous = std::move(f);
+        have_previous = true;
+    }
+    if (pairs.size() < 10)
+        throw InputError(s.dir.string() + ": only " + std::to_string(pairs.size()) +
+                         " frame pairs with a measurable turn; the alignment needs a scan");
+    AlignmentResult best;
+    best.residual_deg = 1e9;
+    const int steps = int(std::lround(max_offset_s * 1000));
+    for (int ms = -steps; ms <= steps; ++ms) {
+        const std::int64_t off = std::int64_t(ms) * 1'000'000;
+        // Relative rotations: camera a_from_b = X^-1 (sensor a_from_b) X, with X = sensor_from_camera,
+        // so their rotation vectors satisfy v_camera = X^-1 v_sensor: fit X^-1 on the pairs.
+        std::vector<firmware::Vec3d> vs, vc;
+        std::vector<Quatd> sensor_rel, camera_rel;
+        for (const Pair& p : pairs) {
+            const auto qa = history.at(p.ta + off).q, qb = history.at(p.tb + off).q;
+            if (!qa || !qb) continue;
+            const Quatd sens = firmware::normalized(qa->conj() * *qb);  // sensor a_from_b
+            vs.push_back(rotation_vector(sens));
+            vc.push_back(rotation_vector(p.camera_a_from_b));
+            sensor_rel.push_back(sens);
+            camera_rel.push_back(p.camera_a_from_b);
+        }
+        if (vs.size() < 10) continue;
+        const Quatd camera_from_sensor = kabsch(vs, vc);
+        const Quatd x = camera_from_sensor.conj();  // sensor_from_camera
+        std::vector<double> res;
+        for (std::size_t i = 0; i < vs.size(); ++i) {
+            const Quatd predicted = firmware::normalized(x.conj() * sensor_rel[i] * x);
+            res.push_back(firmware::angle_between(predicted, camera_rel[i]) * 180 / kPi);
+        }
+        std::nth_element(res.begin(), res.begin() + std::ptrdiff_t(res.size() / 2), res.end());
+        const double median = res[res.size() / 2];
+        if (median < best.residual_deg) {
+            best.residual_deg = median;
+            best.sensor_from_camera = x;
+            best.time_offset_s = double(ms) * 1e-3;
+            best.pairs = int(vs.size());
+        }
+    }
+    return best;
 }
 
 }  // namespace glint::capture

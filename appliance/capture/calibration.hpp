@@ -33,4 +33,20 @@ struct VignettingResult {
 // by least squares. Throws InputError when too few usable pixels remain.
 VignettingResult calibrate_vignetting(const Session& flat_field, const CameraCalibration& calibration);
 
+struct AlignmentResult {
+    Quatd sensor_from_camera;     // the mounting
+    double time_offset_s = 0;     // camera time + offset = sensor time of the same instant
+    int pairs = 0;                // frame pairs whose image rotation was measured
+    double residual_deg = 0;      // median angle between image and (aligned) sensor relative rotations
+};
+
+// The camera-sensor alignment from a capture with rotation-only motion (a scan): the relative
+// rotation between consecutive frames is measured in the images (ORB features, RANSAC homography
+// of the undistorted points, R = K^-1 H K orthonormalised) and compared with the sensor's relative
+// rotation over the same interval; the mounting is the rotation that best maps the sensor's
+// rotation axes onto the camera's (weighted by angle, Kabsch), and the time offset the one, on a
+// 1 ms grid within +-`max_offset_s`, with the smallest residual. Needs the session's sensor
+// stream. Throws InputError when fewer than 10 pairs could be measured.
+AlignmentResult calibrate_alignment(const Session& capture, double max_offset_s = 0.05);
+
 }  // namespace glint::capture

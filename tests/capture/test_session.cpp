@@ -227,6 +227,28 @@ TEST_F(SessionTest, VignettingFromAFlatFieldFindsTheTrueFalloff) {
     EXPECT_LT(worst, 0.01);
 }
 
+TEST_F(SessionTest, AlignmentFromAScanComesCloserThanNoCalibration) {
+    // The simulator mounts the sensor 2 / -1.5 / 0.5 degrees (yaw / pitch / roll) off the camera:
+    // 2.55 degrees in all. Image rotations between frames of courtyard against the sensor's.
+    SimulateOptions o = small_session();
+    o.env = std::string(GLINT_BLENDER_WORLDS) + "/courtyard.exr";
+    o.width = 320;
+    o.height = 180;
+    o.fps = 3;
+    simulate_session(o);
+    const Session s = open_session(dir_ / "session");
+    const CameraCalibration truth = load_calibration(dir_ / "session" / "truth" / "calibration.json");
+    const AlignmentResult r = calibrate_alignment(s);
+    const double off = firmware::angle_between(r.sensor_from_camera, truth.sensor_from_camera) * 180 / kPi;
+    const double uncalibrated = firmware::angle_between(Quatd::identity(), truth.sensor_from_camera) * 180 / kPi;
+    std::printf("alignment: %d pairs, mounting off by %.3f degrees (%.3f uncalibrated), time offset %.1f ms, "
+                "median residual %.3f degrees\n",
+                r.pairs, off, uncalibrated, r.time_offset_s * 1e3, r.residual_deg);
+    EXPECT_GT(r.pairs, 100);
+    EXPECT_LT(off, 1.5);
+    EXPECT_LT(std::abs(r.time_offset_s - truth.time_offset_s), 0.015);
+}
+
 TEST(CalibrationIo, RoundTripsAndRejectsBadValues) {
     CameraCalibration c;
     c.intrinsics = Intrinsics::from_fov(640, 480, 1.2);
