@@ -8,6 +8,7 @@
 #include "appliance/capture/calibration.hpp"
 #include "appliance/capture/calibration_io.hpp"
 #include "appliance/capture/capture_pipeline.hpp"
+#include "appliance/capture/charuco.hpp"
 #include "appliance/capture/libcamera_source.hpp"
 #include "appliance/capture/session_simulator.hpp"
 #include "appliance/core/errors.hpp"
@@ -20,13 +21,14 @@ Command add_simulate_command(CLI::App& app) {
         capture::SimulateOptions o;
         std::string env, out, size = "320x180", mount = "2,-1.5,0.5";
         bool no_camera_noise = false;
+        int charuco = 0;
     };
     auto a = std::make_shared<Args>();
     CLI::App* cmd = app.add_subcommand(
         "simulate", "Render a recorded capture session with ground truth from an equirect HDR map: camera frames "
                     "through a camera model (distortion, vignetting, response, noise, auto-exposure) along a "
                     "trajectory, and the sensor board's recorded stream from its firmware simulator");
-    cmd->add_option("--env", a->env, "Equirect HDR environment map (OpenEXR)")->required();
+    cmd->add_option("--env", a->env, "Equirect HDR environment map (OpenEXR); not with --charuco");
     cmd->add_option("--trajectory", a->o.trajectory,
                     "guided (the built-in scan: rings at -60..60 degrees and the zenith, ~52 s) or a file of "
                     "lines t_seconds,w,x,y,z (camera-to-world, conventions' frame)")
@@ -53,6 +55,9 @@ Command add_simulate_command(CLI::App& app) {
         ->capture_default_str();
     cmd->add_option("--bracket-first", a->o.bracket_first_exposure_s, "First exposure of the bracket, seconds")
         ->capture_default_str();
+    cmd->add_option("--charuco", a->charuco,
+                    "Instead of a scan: N views of a ChArUco board (7x5 squares of 4 cm, DICT_5X5_100) for glint "
+                    "calibrate intrinsics; use --size 640x360 or more");
     return {cmd, [a] {
                 a->o.env = a->env;
                 a->o.out = a->out;
@@ -65,6 +70,12 @@ Command add_simulate_command(CLI::App& app) {
                 a->o.mount_yaw_deg = parse_number(m[0], "--mount");
                 a->o.mount_pitch_deg = parse_number(m[1], "--mount");
                 a->o.mount_roll_deg = parse_number(m[2], "--mount");
+                if (a->charuco > 0) {
+                    const int n = capture::simulate_charuco_session(a->o, a->charuco);
+                    std::printf("session %s: %d ChArUco views\n", a->out.c_str(), n);
+                    return 0;
+                }
+                if (a->env.empty()) throw InputError("--env is required (except with --charuco)");
                 std::unique_ptr<ProgressBar> bar;
                 const capture::SimulateSummary r = capture::simulate_session(a->o, [&](long long d, long long t) {
                     if (!bar) bar = std::make_unique<ProgressBar>("simulate frames", t);
@@ -107,8 +118,29 @@ Command add_calibrate_command(CLI::App& app) {
     alignment->add_option("--calibration", a->calibration,
                           "Calibration file to update (created from the session's calibration.json when absent)")
         ->required();
-    return {cmd, [a, vignetting, alignment] {
+    CLI::App* intrinsics = cmd->add_subcommand(
+        "intrinsics", "Focal lengths, principal point and distortion from views of a ChArUco board (7x5 squares of "
+                      "4 cm, 3 cm markers, DICT_5X5_100), with the RMS reprojection error");
+    intrinsics->add_option("--session", a->session, "Session of board views (e.g. glint simulate --charuco 16)")->required();
+    intrinsics->add_option("--calibration", a->calibration,
+                           "Calibration file to update (created from the session's calibration.json when absent)")
+        ->required();
+    return {cmd, [a, vignetting, alignment, intrinsics] {
                 const capture::Session s = capture::open_session(a->session);
+                if (intrinsics->parsed()) {
+                    capture::CameraCalibration cal = std::filesystem::exists(a->calibration)
+                                                         ? capture::load_calibration(a->calibration)
+                                                         : s.calibration;
+                    const capture::IntrinsicsResult r = capture::calibrate_intrinsics(s, {});
+                    cal.intrinsics = r.intrinsics;
+                    capture::save_calibration(a->calibration, cal);
+                    const capture::Intrinsics& k = r.intrinsics;
+                    std::printf("intrinsics from %d views (%d corners): fx %.2f fy %.2f cx %.2f cy %.2f k1 %.4f k2 %.4f "
+                                "p1 %.5f p2 %.5f k3 %.4f, RMS reprojection %.3f px -> %s\n",
+                                r.views, r.corners, k.fx, k.fy, k.cx, k.cy, k.k1, k.k2, k.p1, k.p2, k.k3, r.rms_px,
+                                a->calibration.c_str());
+                    return 0;
+                }
                 if (alignment->parsed()) {
                     capture::CameraCalibration cal = std::filesystem::exists(a->calibration)
                                                          ? capture::load_calibration(a->calibration)

@@ -10,6 +10,7 @@
 
 #include "appliance/capture/calibration_io.hpp"
 #include "appliance/capture/camera_simulator.hpp"
+#include "appliance/capture/charuco.hpp"
 #include "appliance/capture/session.hpp"
 #include "appliance/core/atomic_file.hpp"
 #include "appliance/core/errors.hpp"
@@ -238,5 +239,56 @@ SimulateSummary simulate_session(const SimulateOptions& o, const std::function<v
     }
 }
 
+
+int simulate_charuco_session(const SimulateOptions& o, int views) {
+    if (views < 4 || views > 200) throw InputError("--charuco must be 4..200 views");
+    if (o.width < 64 || o.height < 64) throw InputError("--size must be at least 64x64 for a ChArUco board");
+    if (fs::exists(o.out) && !o.overwrite)
+        throw InputError(o.out.string() + ": already exists (give --force to replace it)");
+    CameraCalibration truth;
+    truth.intrinsics = Intrinsics::from_fov(o.width, o.height, o.horizontal_fov_deg * kDeg);
+    truth.intrinsics.k1 = -0.08;
+    truth.intrinsics.k2 = 0.012;
+    CameraCalibration guess;
+    guess.intrinsics = Intrinsics::from_fov(o.width, o.height, o.horizontal_fov_deg * kDeg);
+    const CharucoSpec spec;
+    const double w = spec.squares_x * spec.square_m, h = spec.squares_y * spec.square_m;
+    const fs::path partial = o.out.string() + ".partial";
+    fs::remove_all(partial);
+    fs::create_directories(partial / "frames");
+    fs::create_directories(partial / "truth");
+    try {
+        std::string frames_csv = frames_csv_header() + "\n";
+        for (int k = 0; k < views; ++k) {
+            // Poses spread over tilts, in-plane turns, distances and image positions (deterministic).
+            const double a = 25 * std::sin(1.7 * k) * kDeg, b = 25 * std::cos(1.3 * k) * kDeg, c = 10 * std::sin(0.9 * k) * kDeg;
+            const cv::Matx33d Rx(1, 0, 0, 0, std::cos(a), -std::sin(a), 0, std::sin(a), std::cos(a));
+            const cv::Matx33d Ry(std::cos(b), 0, std::sin(b), 0, 1, 0, -std::sin(b), 0, std::cos(b));
+            const cv::Matx33d Rz(std::cos(c), -std::sin(c), 0, std::sin(c), std::cos(c), 0, 0, 0, 1);
+            const cv::Matx33d R = Rx * Ry * Rz;
+            const double dist = 0.3 + 0.3 * (0.5 + 0.5 * std::sin(2.3 * k));
+            // Off-centre too: the corners of the image must see corners of the board, or the
+            // distortion there is a guess.
+            const cv::Vec3d centre(0.3 * std::sin(3.1 * k) * dist, 0.17 * std::cos(2.7 * k) * dist, dist);
+            const cv::Vec3d origin = centre - R * cv::Vec3d(w / 2, h / 2, 0);
+            const cv::Mat rgb = render_charuco_view(spec, truth.intrinsics, R, origin);
+            char name[32];
+            std::snprintf(name, sizeof name, "frames/%06d.png", k);
+            if (!cv::imwrite((partial / name).string(), rgb)) throw RuntimeError((partial / name).string() + ": cannot write");
+            frames_csv += frames_csv_line({std::uint64_t(k), std::int64_t(k + 1) * 1'000'000'000, 0.01, 1, 1, name}) + "\n";
+        }
+        write_text(partial / "frames.csv", frames_csv);
+        save_calibration(partial / "calibration.json", guess);
+        save_calibration(partial / "truth" / "calibration.json", truth);
+        write_text(partial / "session.json", session_json("glint simulate --charuco"));
+        if (fs::exists(o.out)) fs::remove_all(o.out);
+        fs::rename(partial, o.out);
+    } catch (...) {
+        std::error_code ignored;
+        fs::remove_all(partial, ignored);
+        throw;
+    }
+    return views;
+}
 
 }  // namespace glint::capture

@@ -53,6 +53,13 @@ std::vector<firmware::sim::TrajectorySample> guided_camera_trajectory();
 // world_from_camera = yaw about world +Y, then pitch about the camera's X, then roll about -Z.
 Quatd camera_look(double yaw_deg, double pitch_deg, double roll_deg = 0);
 
+// An intrinsics-calibration session: `views` frames of a ChArUco board (charuco.hpp) at varied
+// poses, 0.3-0.6 m away, through the true camera of `options` (size, field of view, the
+// simulator's lens distortion). calibration.json holds a distortion-free first guess from the
+// field of view (what a camera has before calibration); truth/calibration.json the true one.
+// No sensor stream. Same atomicity as simulate_session.
+int simulate_charuco_session(const SimulateOptions& options, int views);
+
 // Writes the session (into OUT.partial, renamed to OUT at the end: never a half session).
 // progress(done, total) is called per frame. Throws InputError for bad options or inputs.
 SimulateSummary simulate_session(const SimulateOptions& options,

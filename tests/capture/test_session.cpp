@@ -8,6 +8,7 @@
 #include "appliance/capture/calibration.hpp"
 #include "appliance/capture/calibration_io.hpp"
 #include "appliance/capture/capture_pipeline.hpp"
+#include "appliance/capture/charuco.hpp"
 #include "appliance/capture/session.hpp"
 #include "appliance/capture/session_simulator.hpp"
 #include "appliance/core/errors.hpp"
@@ -247,6 +248,34 @@ TEST_F(SessionTest, AlignmentFromAScanComesCloserThanNoCalibration) {
     EXPECT_GT(r.pairs, 100);
     EXPECT_LT(off, 1.5);
     EXPECT_LT(std::abs(r.time_offset_s - truth.time_offset_s), 0.015);
+}
+
+TEST_F(SessionTest, IntrinsicsFromChArUcoViewsMatchTheTrueCamera) {
+    SimulateOptions o = small_session();
+    o.width = 640;
+    o.height = 360;
+    ASSERT_EQ(simulate_charuco_session(o, 24), 24);
+    const Session s = open_session(dir_ / "session");
+    const IntrinsicsResult r = calibrate_intrinsics(s, {});
+    const Intrinsics& k = r.intrinsics;
+    const Intrinsics t = load_calibration(dir_ / "session" / "truth" / "calibration.json").intrinsics;
+    // The lens as a whole: where both models put the same rays, over the image.
+    double worst_px = 0;
+    for (double v = 0; v < t.height; v += 20)
+        for (double u = 0; u < t.width; u += 20) {
+            const Vec3 ray = pixel_ray(t, u, v);
+            const auto p = project(k, ray, 50);
+            ASSERT_TRUE(p) << u << "," << v;
+            worst_px = std::max(worst_px, std::hypot(p->u - u, p->v - v));
+        }
+    std::printf("intrinsics: %d views, %d corners, RMS reprojection %.3f px; fx %.2f (true %.2f), cx %.2f (%.2f), "
+                "cy %.2f (%.2f); the two lenses differ by at most %.3f px over the image\n",
+                r.views, r.corners, r.rms_px, k.fx, t.fx, k.cx, t.cx, k.cy, t.cy, worst_px);
+    EXPECT_GE(r.views, 12);
+    EXPECT_LT(r.rms_px, 0.5);
+    EXPECT_NEAR(k.fx / t.fx, 1.0, 0.01);
+    EXPECT_NEAR(k.fy / t.fy, 1.0, 0.01);
+    EXPECT_LT(worst_px, 2.5);  // at the image corners, which the views reach least (1.6 px with 32 views)
 }
 
 TEST(CalibrationIo, RoundTripsAndRejectsBadValues) {
