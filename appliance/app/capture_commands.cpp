@@ -48,6 +48,11 @@ Command add_simulate_command(CLI::App& app) {
     cmd->add_option("--clock-drift-ppm", a->o.clock_drift_ppm, "Board clock rate error against the appliance clock")
         ->capture_default_str();
     cmd->add_option("--seed", a->o.seed, "Seed of every noise source")->capture_default_str();
+    cmd->add_option("--heading-drift", a->o.heading_drift_deg_per_min,
+                    "Extra heading drift of the sensor's orientation, deg/min about world +Y")
+        ->capture_default_str();
+    cmd->add_option("--guided-speed", a->o.guided_speed_deg_s, "Yaw speed of the built-in scan, deg/s")
+        ->capture_default_str();
     cmd->add_option("--threads", a->o.threads, "Render threads (0: all)")->capture_default_str();
     cmd->add_option("--bracket", a->o.bracket,
                     "Instead of a scan: N frames of one still view with the exposure doubling each frame (a "
@@ -223,7 +228,8 @@ Command add_capture_command(CLI::App& app) {
     cmd->add_option("--size", a->size, "Environment map size WxH")->capture_default_str();
     cmd->add_flag("--no-drift-correction", a->no_drift, "Use the sensor orientations as they are");
     cmd->add_option("--drift-gain", a->o.drift_gain,
-                    "Share of each frame's alignment to the sphere fused over the sensor's orientation (0..1]")
+                    "Low-pass gain of the drift correction: the share of each new measured offset taken into the "
+                    "correction carried to the frames (0..1]")
         ->capture_default_str();
     cmd->add_option("--drift-log", a->o.drift_log,
                     "Write every frame's drift estimate (CSV: index, overlapping points, estimate and its standard "
@@ -282,6 +288,8 @@ Command add_capture_command(CLI::App& app) {
                 if (r.orientation_error_median_deg)
                     std::printf("camera orientation against the session's truth: median %.3f, max %.3f degrees\n",
                                 *r.orientation_error_median_deg, *r.orientation_error_max_deg);
+                if (r.orientation_error_after_60s_max_deg)
+                    std::printf("camera orientation error after 60 s: max %.3f degrees\n", *r.orientation_error_after_60s_max_deg);
                 if (r.truth_error)
                     std::printf("against the session's truth (covered texels, %.1f %% of the sphere): weighted "
                                 "relative RMS %.4f, median relative error %.4f\n",

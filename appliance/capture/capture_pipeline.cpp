@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <chrono>
 #include <map>
 
 #include "appliance/capture/drift_correction.hpp"
@@ -157,12 +158,14 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
     DriftCorrector drift(drift_settings);
     std::string drift_log = "index,pixels,estimate_deg,sigma_deg,residual_before,residual_after,applied\n";
     std::vector<double> drift_angles, drift_before, drift_after;
+    double min_exposure = 1e30, max_exposure = 0;
     for (const FrameRecord& r : session.frames) {
         std::optional<Quatd> q = orientation_of(r);
         if (!q) {
             ++summary.frames_without_orientation;
         } else {
             const CameraFrame f = load_frame(session, r);
+            const auto t_drift = std::chrono::steady_clock::now();
             if (o.drift_correction && acc.frames() > 0) {
                 const DriftEstimate e = drift.estimate(f, cal, *q, acc.radiance(), acc.samples());
                 char line[200];
@@ -177,9 +180,17 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
                     drift_before.push_back(e.residual_before);
                     drift_after.push_back(e.residual_after);
                 }
-                q = firmware::normalized(drift.carried() * *q);  // the last trusted correction
+                // This frame's correction, or the slow one carried when its estimate was not trusted.
+                q = firmware::normalized((e.applied ? e.correction : drift.carried()) * *q);
             }
+            const auto t_acc = std::chrono::steady_clock::now();
+            summary.drift_seconds += std::chrono::duration<double>(t_acc - t_drift).count();
             acc.add_frame(f, cal, *q);
+            if (acc.gpu) glFinish();  // the draw's time, not just its submission
+            summary.accumulate_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t_acc).count();
+            const double et = f.exposure_s * f.total_gain();
+            min_exposure = std::min(min_exposure, et);
+            max_exposure = std::max(max_exposure, et);
             ++summary.frames_used;
             const GuidedStep g = guide.update(f, *q, acc.samples(), o.width, o.height);
             summary.guided_too_fast += g.too_fast ? 1 : 0;
@@ -188,11 +199,16 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
             summary.guided_final_coverage = g.seeable_coverage;
             if (g.state == GuidedState::Complete && !summary.guided_complete_after_s)
                 summary.guided_complete_after_s = g.elapsed_s;
-            if (const auto t = true_poses.find(r.index); t != true_poses.end())
+            if (const auto t = true_poses.find(r.index); t != true_poses.end()) {
                 orientation_errors.push_back(firmware::angle_between(*q, t->second) * 180.0 / kPi);
+                if (r.t_ns - session.frames.front().t_ns >= 60'000'000'000LL)
+                    summary.orientation_error_after_60s_max_deg =
+                        std::max(summary.orientation_error_after_60s_max_deg.value_or(0.0), orientation_errors.back());
+            }
         }
         if (progress) progress(++done, total);
     }
+    if (max_exposure > 0) summary.exposure_stops = std::log2(max_exposure / min_exposure);
     const auto median = [](std::vector<double> v) {
         if (v.empty()) return 0.0;
         std::nth_element(v.begin(), v.begin() + std::ptrdiff_t(v.size() / 2), v.end());

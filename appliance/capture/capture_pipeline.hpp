@@ -28,7 +28,7 @@ struct CaptureOptions {
     int width = 1024, height = 512;
     OrientationInput orientations = OrientationInput::Sensors;
     bool drift_correction = true;  // align each frame to the sphere before accumulating it
-    double drift_gain = 0.6;       // share of the image alignment fused over the sensor (DriftSettings)
+    double drift_gain = 0.1;       // low-pass gain of the drift correction (DriftSettings::gain)
     // Per-frame log of the drift estimates (CSV: index,pixels,estimate_deg,sigma_deg,
     // residual_before,residual_after,applied); empty = none.
     std::filesystem::path drift_log;
@@ -59,6 +59,11 @@ struct CaptureSummary {
     int guided_too_fast = 0, guided_too_bright = 0, guided_too_dark = 0;
     double guided_final_coverage = 0;
     int drift_applied = 0, drift_considered = 0;
+    double accumulate_seconds = 0, drift_seconds = 0;  // wall time summed over the frames
+    double exposure_stops = 0;  // log2 of the largest over the smallest exposure x gain of the frames
+    // Camera-orientation error against truth (simulated sessions) of the frames after 60 s of
+    // session time: median and max; nullopt when the session is shorter.
+    std::optional<double> orientation_error_after_60s_max_deg;
     double drift_median_deg = 0, drift_residual_before = 0, drift_residual_after = 0;
 };
 

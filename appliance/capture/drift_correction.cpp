@@ -91,7 +91,7 @@ DriftEstimate DriftCorrector::estimate(const CameraFrame& frame, const CameraCal
     };
 
     firmware::Vec3d delta = log_map(carried_);
-    if (!settings_.carry) delta = {};
+    delta = {};  // every frame is measured from the sensor's own orientation
     std::vector<double> r0, rp, rm;
     residuals(delta, r0);
     std::vector<char> use(grid.size());
@@ -187,10 +187,13 @@ DriftEstimate DriftCorrector::estimate(const CameraFrame& frame, const CameraCal
         out.residual_after = out.residual_before;
         return out;  // not trusted: keep the previous correction
     }
-    const double g = settings_.gain;
-    out.correction = exp_map({delta.x * g, delta.y * g, delta.z * g});
+    // Low-pass of the measured offset: a slowly growing sensor drift is followed in full, while the
+    // noise of single alignments averages out instead of being applied (or chained) frame by frame.
+    const Quatd measured = exp_map(delta);
+    carried_ = firmware::normalized(firmware::slerp(carried_, measured, settings_.gain));
+    // This frame: the slow part, plus a share of what this frame's own alignment says beyond it.
+    out.correction = firmware::normalized(firmware::slerp(carried_, measured, settings_.frame_share));
     out.applied = true;
-    carried_ = out.correction;
     return out;
 }
 

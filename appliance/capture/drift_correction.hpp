@@ -7,8 +7,9 @@
 // the sphere's radiance is read there. delta (a world-frame rotation vector) minimises the sum of
 // squared differences of log luminance (exposure-independent, so auto-exposure does not bias it)
 // over pixels whose sphere texel is covered, by Gauss-Newton with numerical derivatives, starting
-// from the previous frame's correction (sensor drift changes slowly). A correction is applied
-// when enough pixels overlap and the residual falls; it is limited to `max_correction_deg`.
+// from no correction. The correction applied to frames is a low-pass of the trusted estimates
+// (DriftSettings::gain); an estimate is trusted when enough pixels overlap, the residual falls,
+// it is under `max_correction_deg`, and its standard deviation under `max_sigma_deg`.
 #pragma once
 
 #include <cstdint>
@@ -28,12 +29,14 @@ struct DriftSettings {
     // equations) must be below this, or the frame's texture does not pin the rotation down.
     double max_sigma_deg = 0.02;
     int iterations = 8;
-    bool carry = false;             // start from the previous frame's correction (else from none)
-    // Fusion with the sensor: the share of the image's estimate applied (1 = trust the image
-    // alone). Frame-to-mosaic alignments chain, so their small errors add up along a scan like a
-    // random walk, while the sensor's error stays bounded: a share below 1 damps the walk.
-    // 0.6 from the guided scan on courtyard, studio and sunset (docs/capture.md).
-    double gain = 0.6;
+    // Fusion with the sensor: the correction carried to the frames is a low-pass of the measured
+    // offsets, c <- c + gain (offset - c) per trusted frame. A sensor drift that grows slowly is
+    // followed in full; the noise of single frame-to-mosaic alignments is averaged, not applied
+    // frame by frame (which chains them into a random walk).
+    double gain = 0.1;
+    // On top of that slow part, the share of the frame's own measured offset beyond it applied to
+    // that frame alone: the sensor's faster wander (fusion noise) is not a drift.
+    double frame_share = 0.6;
 };
 
 struct DriftEstimate {
@@ -53,7 +56,7 @@ public:
     // sphere: the radiance accumulated so far; samples: per texel, 0 = not covered.
     DriftEstimate estimate(const CameraFrame& frame, const CameraCalibration& calibration, const Quatd& world_from_camera,
                            const HdrImage& sphere, const std::vector<std::uint32_t>& samples);
-    // The correction carried from frame to frame (the last applied one).
+    // The slow correction carried from frame to frame (for frames without a trusted estimate).
     const Quatd& carried() const { return carried_; }
 
 private:

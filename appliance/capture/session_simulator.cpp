@@ -50,7 +50,7 @@ Quatd camera_look(double yaw_deg, double pitch_deg, double roll_deg) {
     return firmware::normalized(yaw * pitch * roll);
 }
 
-std::vector<TrajectorySample> guided_camera_trajectory() {
+std::vector<TrajectorySample> guided_camera_trajectory(double speed_deg_s) {
     std::vector<TrajectorySample> out;
     const double step_s = 0.01;
     double t = 0;
@@ -59,7 +59,7 @@ std::vector<TrajectorySample> guided_camera_trajectory() {
         t += step_s;
     };
     const double rings[] = {-60, -30, 0, 30, 60};
-    const double speed = 45;  // deg/s
+    const double speed = speed_deg_s;
     double yaw = 0;
     bool forward = true;
     for (std::size_t r = 0; r < std::size(rings); ++r) {
@@ -101,7 +101,8 @@ SimulateSummary write_session(const SimulateOptions& o, const HdrImage& env, con
     std::vector<TrajectorySample> sensor_path;
     for (std::uint64_t b = 0; b <= kLeadUs + camera.end_us() + 500'000; b += 5'000) {
         const std::uint64_t tc = b > kLeadUs ? b - kLeadUs : 0;
-        sensor_path.push_back({b, firmware::normalized(camera.at(tc).world_from_sensor * camera_from_sensor)});
+        const Quatd drift = Quatd::from_axis_angle({0, 1, 0}, o.heading_drift_deg_per_min * kDeg * double(b) / 60e6);
+        sensor_path.push_back({b, firmware::normalized(drift * camera.at(tc).world_from_sensor * camera_from_sensor)});
     }
     const firmware::sim::Trajectory sensor_trajectory(sensor_path);
 
@@ -204,6 +205,7 @@ SimulateSummary write_session(const SimulateOptions& o, const HdrImage& env, con
 SimulateSummary simulate_session(const SimulateOptions& o, const std::function<void(long long, long long)>& progress) {
     if (!(o.fps > 0 && o.fps <= 120)) throw InputError("--fps must be in (0, 120]");
     if (o.bracket < 0 || o.bracket > 30) throw InputError("--bracket must be in [0, 30] frames");
+    if (!(o.guided_speed_deg_s >= 5 && o.guided_speed_deg_s <= 180)) throw InputError("--guided-speed must be 5..180 deg/s");
     if (o.bracket > 0 && !(o.bracket_first_exposure_s > 0)) throw InputError("--bracket-first must be positive");
     if (o.width < 16 || o.height < 16 || o.width > 8192 || o.height > 8192)
         throw InputError("--size must be between 16x16 and 8192x8192");
@@ -216,7 +218,7 @@ SimulateSummary simulate_session(const SimulateOptions& o, const std::function<v
     const HdrImage env = load_exr(o.env).image;
 
     const firmware::sim::Trajectory camera = [&] {
-        if (o.trajectory == "guided") return firmware::sim::Trajectory(guided_camera_trajectory());
+        if (o.trajectory == "guided") return firmware::sim::Trajectory(guided_camera_trajectory(o.guided_speed_deg_s));
         try {
             return firmware::sim::Trajectory::load(o.trajectory);
         } catch (const std::runtime_error& e) {

@@ -29,6 +29,10 @@ struct SimulateOptions {
     bool camera_noise = true;
     double mount_yaw_deg = 2.0, mount_pitch_deg = -1.5, mount_roll_deg = 0.5;  // sensor_from_camera
     double clock_drift_ppm = 40;     // board clock rate against the appliance clock
+    // A heading drift of the sensor's reported orientation, deg/min about world +Y, on top of its
+    // own errors (a gyro bias the fusion does not see): the board is fed a world that turns.
+    double heading_drift_deg_per_min = 0;
+    double guided_speed_deg_s = 45;  // yaw speed of the built-in scan
     std::uint64_t seed = 1;
     int threads = 0;
     // A calibration session instead of a scan: `bracket` frames of one still view (the
@@ -48,7 +52,7 @@ struct SimulateSummary {
 // The built-in guided scan (world_from_camera over camera time from 0): yaw sweeps of 360
 // degrees at elevations -60, -30, 0, 30 and 60 degrees at 45 deg/s, 1.5 s pitch moves between
 // them, and a last sweep looking up at 85 degrees; about 52 s.
-std::vector<firmware::sim::TrajectorySample> guided_camera_trajectory();
+std::vector<firmware::sim::TrajectorySample> guided_camera_trajectory(double speed_deg_s = 45);
 
 // world_from_camera = yaw about world +Y, then pitch about the camera's X, then roll about -Z.
 Quatd camera_look(double yaw_deg, double pitch_deg, double roll_deg = 0);

@@ -101,12 +101,13 @@ TEST_F(SessionTest, SimulateThenCaptureWithTrueOrientationsCoversAndMatchesTheSk
 }
 
 TEST_F(SessionTest, DriftCorrectionBringsTheCameraCloserToTheTruth) {
-    // A real room (blender-data's studio), seen through the raw IMU's Mahony fusion, whose error
-    // the overlapping frames of the scan can correct.
+    // A real room (blender-data's studio), seen through the raw IMU's Mahony fusion plus a heading
+    // drift of 1 deg/min (issue 5, Part 5), which the overlapping frames of the scan can correct.
     SimulateOptions o = small_session();
     o.env = std::string(GLINT_BLENDER_WORLDS) + "/studio.exr";
     o.width = 160;
     o.height = 90;
+    o.heading_drift_deg_per_min = 1.0;
     o.fps = 3;  // 15 degrees between frames at the scan's 45 deg/s: most of a frame overlaps the last
     simulate_session(o);
     CaptureOptions c;
