@@ -166,6 +166,29 @@ SimulateSummary write_session(const SimulateOptions& o, const HdrImage& env, con
     const int frames = o.bracket > 0 ? o.bracket : int(std::floor(duration_s * o.fps)) + 1;
     std::string frames_csv = frames_csv_header() + "\n";
     std::string truth_csv = "index,t_ns,w,x,y,z\n";
+    int written = 0;
+    const auto emit = [&](const CameraFrame& f, const Quatd& q, std::int64_t t_ns) {
+        char name[32];
+        std::snprintf(name, sizeof name, "frames/%06d.png", written);
+        cv::Mat bgr;
+        cv::cvtColor(f.rgb, bgr, cv::COLOR_RGB2BGR);
+        if (!cv::imwrite((partial / name).string(), bgr)) throw RuntimeError((partial / name).string() + ": cannot write");
+        frames_csv +=
+            frames_csv_line({std::uint64_t(written), t_ns, f.exposure_s, f.analogue_gain, f.digital_gain, name}) + "\n";
+        char line[160];
+        std::snprintf(line, sizeof line, "%d,%lld,%.12f,%.12f,%.12f,%.12f\n", written, static_cast<long long>(t_ns),
+                      q.w, q.x, q.y, q.z);
+        truth_csv += line;
+        ++written;
+    };
+    const auto clipped_share = [](const CameraFrame& f) {
+        long long n = 0;
+        for (int v = 0; v < f.rgb.rows; ++v) {
+            const std::uint8_t* row = f.rgb.ptr<std::uint8_t>(v);
+            for (int u = 0; u < f.rgb.cols; ++u) n += (row[3 * u] == 255 || row[3 * u + 1] == 255 || row[3 * u + 2] == 255);
+        }
+        return double(n) / double(f.rgb.rows * f.rgb.cols);
+    };
     for (int k = 0; k < frames; ++k) {
         const std::uint64_t tc = o.bracket > 0 ? 0 : std::uint64_t(std::llround(k / o.fps * 1e6));
         // A bracket of the built-in scan looks at the horizon (the scan itself starts at the floor).
@@ -175,16 +198,20 @@ SimulateSummary write_session(const SimulateOptions& o, const HdrImage& env, con
         if (o.bracket > 0) cam.set_exposure(o.bracket_first_exposure_s * std::pow(2.0, k), 1.0);
         const std::int64_t t_ns = std::int64_t(host_us(kLeadUs + std::uint64_t(std::llround(k / o.fps * 1e6)))) * 1000;
         const CameraFrame f = cam.render(q, t_ns, threads);
-        char name[32];
-        std::snprintf(name, sizeof name, "frames/%06d.png", k);
-        cv::Mat bgr;
-        cv::cvtColor(f.rgb, bgr, cv::COLOR_RGB2BGR);
-        if (!cv::imwrite((partial / name).string(), bgr)) throw RuntimeError((partial / name).string() + ": cannot write");
-        frames_csv += frames_csv_line({std::uint64_t(k), t_ns, f.exposure_s, f.analogue_gain, f.digital_gain, name}) + "\n";
-        char line[160];
-        std::snprintf(line, sizeof line, "%d,%lld,%.12f,%.12f,%.12f,%.12f\n", k, static_cast<long long>(t_ns), q.w, q.x,
-                      q.y, q.z);
-        truth_csv += line;
+        emit(f, q, t_ns);
+        if (o.hdr_bracket && clipped_share(f) > 0.02) {
+            // What the kiosk's capture does when the guided logic says "too bright": two more
+            // frames at 1/64 and 1/4096 of the exposure, 2 ms apart, then back to auto-exposure.
+            const double e = cam.exposure_s(), g = cam.gain();
+            for (int b = 1; b <= 2; ++b) {
+                const std::uint64_t tb = tc + std::uint64_t(b) * 2000;
+                const Quatd qb = firmware::normalized(camera.at(tb).world_from_sensor);
+                const std::int64_t tb_ns = t_ns + std::int64_t(b) * 2'000'000;
+                cam.set_exposure(f.exposure_s * std::pow(64.0, -b), f.analogue_gain);
+                emit(cam.render(qb, tb_ns, threads), qb, tb_ns);
+            }
+            cam.set_exposure(e, g);
+        }
         if (progress) progress(k + 1, frames);
     }
     write_text(partial / "frames.csv", frames_csv);
@@ -195,7 +222,7 @@ SimulateSummary write_session(const SimulateOptions& o, const HdrImage& env, con
     write_text(partial / "session.json", session_json("glint simulate"));
     if (fs::exists(o.out)) fs::remove_all(o.out);
     fs::rename(partial, o.out);
-    summary.frames = frames;
+    summary.frames = written;
     summary.duration_s = duration_s;
     return summary;
 }
