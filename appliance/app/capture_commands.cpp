@@ -54,7 +54,8 @@ Command add_simulate_command(CLI::App& app) {
     cmd->add_option("--guided-speed", a->o.guided_speed_deg_s, "Yaw speed of the built-in scan, deg/s")
         ->capture_default_str();
     cmd->add_flag("--hdr-bracket", a->o.hdr_bracket,
-                  "After a frame with more than 2 % clipped, add frames at 1/64 and 1/4096 of its exposure");
+                  "After a frame with more than 2 % clipped, add frames at 1/64, 1/4096, ... of its exposure until "
+                  "none clips (at most four)");
     cmd->add_option("--threads", a->o.threads, "Render threads (0: all)")->capture_default_str();
     cmd->add_option("--bracket", a->o.bracket,
                     "Instead of a scan: N frames of one still view with the exposure doubling each frame (a "

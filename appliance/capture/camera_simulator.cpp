@@ -10,6 +10,10 @@
 
 namespace glint::capture {
 
+namespace {
+constexpr std::size_t kSubsamples = 4;  // rays per pixel (2x2)
+}  // namespace
+
 CameraSimulator::CameraSimulator(const HdrImage& environment, CameraCalibration truth, SensorModel sensor,
                                  AutoExposureModel auto_exposure, std::uint64_t seed)
     : env_(environment), truth_(std::move(truth)), sensor_(sensor), ae_(auto_exposure), seed_(seed) {
@@ -18,12 +22,16 @@ CameraSimulator::CameraSimulator(const HdrImage& environment, CameraCalibration 
         throw InputError("camera simulator: intrinsics need a size of at least 2x2 and positive focal lengths");
     if (truth_.response.gamma <= 0)
         throw InputError("camera simulator: the response must be parametric (it needs the forward curve)");
-    rays_.resize(std::size_t(k.width) * std::size_t(k.height));
+    rays_.resize(std::size_t(k.width) * std::size_t(k.height) * kSubsamples);
     vignette_.resize(rays_.size());
     for (int v = 0; v < k.height; ++v)
         for (int u = 0; u < k.width; ++u) {
             const std::size_t i = std::size_t(v) * std::size_t(k.width) + std::size_t(u);
-            rays_[i] = pixel_ray(k, u, v);
+            // A pixel integrates light over its area: 2x2 rays per pixel, so a light source smaller
+            // than a pixel (the sun) keeps its energy instead of being point-sampled in or out.
+            for (int sy = 0; sy < 2; ++sy)
+                for (int sx = 0; sx < 2; ++sx)
+                    rays_[i * kSubsamples + std::size_t(sy * 2 + sx)] = pixel_ray(k, u - 0.25 + 0.5 * sx, v - 0.25 + 0.5 * sy);
             vignette_[i] = truth_.vignetting.at(k, u, v);
         }
     exposure_s_ = std::clamp(exposure_s_, ae_.min_exposure_s, ae_.max_exposure_s);
@@ -58,10 +66,15 @@ CameraFrame CameraSimulator::render(const Quatd& world_from_camera, std::int64_t
         double sum = 0;
         for (int u = 0; u < k.width; ++u) {
             const std::size_t i = std::size_t(v) * std::size_t(k.width) + std::size_t(u);
-            const firmware::Vec3d r{rays_[i].x, rays_[i].y, rays_[i].z};
-            const firmware::Vec3d w = world_from_camera.rotate(r);
-            const Rgb l = sample_bilinear(env_, {w.x, w.y, w.z});
-            const double radiance[3] = {l.r, l.g, l.b};
+            double radiance[3] = {0, 0, 0};
+            for (std::size_t sub = 0; sub < kSubsamples; ++sub) {
+                const Vec3& ray = rays_[i * kSubsamples + sub];
+                const firmware::Vec3d w = world_from_camera.rotate(firmware::Vec3d{ray.x, ray.y, ray.z});
+                const Rgb l = sample_bilinear(env_, {w.x, w.y, w.z});
+                radiance[0] += l.r / double(kSubsamples);
+                radiance[1] += l.g / double(kSubsamples);
+                radiance[2] += l.b / double(kSubsamples);
+            }
             for (int c = 0; c < 3; ++c) {
                 double electrons = radiance[c] * vignette_[i] * e_scale;
                 if (sensor_.noise) electrons = std::max(0.0, electrons + std::sqrt(electrons) * normal(rng));

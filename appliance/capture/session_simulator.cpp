@@ -200,15 +200,18 @@ SimulateSummary write_session(const SimulateOptions& o, const HdrImage& env, con
         const CameraFrame f = cam.render(q, t_ns, threads);
         emit(f, q, t_ns);
         if (o.hdr_bracket && clipped_share(f) > 0.02) {
-            // What the kiosk's capture does when the guided logic says "too bright": two more
-            // frames at 1/64 and 1/4096 of the exposure, 2 ms apart, then back to auto-exposure.
+            // What the kiosk's capture does when the guided logic says "too bright": frames at
+            // 1/64, 1/4096, ... of the exposure, 2 ms apart, until no pixel clips (at most four),
+            // then back to auto-exposure.
             const double e = cam.exposure_s(), g = cam.gain();
-            for (int b = 1; b <= 2; ++b) {
+            for (int b = 1; b <= 4; ++b) {
                 const std::uint64_t tb = tc + std::uint64_t(b) * 2000;
                 const Quatd qb = firmware::normalized(camera.at(tb).world_from_sensor);
                 const std::int64_t tb_ns = t_ns + std::int64_t(b) * 2'000'000;
                 cam.set_exposure(f.exposure_s * std::pow(64.0, -b), f.analogue_gain);
-                emit(cam.render(qb, tb_ns, threads), qb, tb_ns);
+                const CameraFrame fb = cam.render(qb, tb_ns, threads);
+                emit(fb, qb, tb_ns);
+                if (clipped_share(fb) == 0) break;
             }
             cam.set_exposure(e, g);
         }

@@ -33,8 +33,9 @@ struct SimulateOptions {
     // own errors (a gyro bias the fusion does not see): the board is fed a world that turns.
     double heading_drift_deg_per_min = 0;
     double guided_speed_deg_s = 45;  // yaw speed of the built-in scan
-    // When more than 2 % of a frame is clipped, add two frames at 1/64 and 1/4096 of its exposure
-    // (what the kiosk's capture does when the guided logic says "too bright").
+    // When more than 2 % of a frame is clipped, add frames at 1/64, 1/4096, ... of its exposure
+    // until none clips (at most four): what the kiosk's capture does when the guided logic says
+    // "too bright".
     bool hdr_bracket = false;
     std::uint64_t seed = 1;
     int threads = 0;
