@@ -189,23 +189,7 @@ std::optional<Quatd> image_rotation(const cv::Mat& a, const cv::Mat& b, const In
     const double c[3] = {1, -1, -1};
     for (int i = 0; i < 3; ++i)
         for (int j = 0; j < 3; ++j) m[i][j] = c[i] * R.at<double>(i, j) * c[j];
-    // The quaternion of m (Shepperd's method, in double: the largest pivot from the diagonal).
-    const double tr = m[0][0] + m[1][1] + m[2][2];
-    Quatd q;
-    if (tr > 0) {
-        const double s = std::sqrt(tr + 1.0) * 2;
-        q = {s / 4, (m[2][1] - m[1][2]) / s, (m[0][2] - m[2][0]) / s, (m[1][0] - m[0][1]) / s};
-    } else if (m[0][0] >= m[1][1] && m[0][0] >= m[2][2]) {
-        const double s = std::sqrt(1.0 + m[0][0] - m[1][1] - m[2][2]) * 2;
-        q = {(m[2][1] - m[1][2]) / s, s / 4, (m[0][1] + m[1][0]) / s, (m[0][2] + m[2][0]) / s};
-    } else if (m[1][1] >= m[2][2]) {
-        const double s = std::sqrt(1.0 + m[1][1] - m[0][0] - m[2][2]) * 2;
-        q = {(m[0][2] - m[2][0]) / s, (m[0][1] + m[1][0]) / s, s / 4, (m[1][2] + m[2][1]) / s};
-    } else {
-        const double s = std::sqrt(1.0 + m[2][2] - m[0][0] - m[1][1]) * 2;
-        q = {(m[1][0] - m[0][1]) / s, (m[0][2] + m[2][0]) / s, (m[1][2] + m[2][1]) / s, s / 4};
-    }
-    return firmware::normalized(q);
+    return firmware::quat_from_matrix(m);
 }
 
 firmware::Vec3d rotation_vector(Quatd q) {
@@ -229,11 +213,10 @@ Quatd kabsch(const std::vector<firmware::Vec3d>& a, const std::vector<firmware::
     cv::Mat d = cv::Mat::eye(3, 3, CV_64F);
     if (cv::determinant(u * vt) < 0) d.at<double>(2, 2) = -1;
     const cv::Mat R = u * d * vt;
-    const float m[3][3] = {{float(R.at<double>(0, 0)), float(R.at<double>(0, 1)), float(R.at<double>(0, 2))},
-                           {float(R.at<double>(1, 0)), float(R.at<double>(1, 1)), float(R.at<double>(1, 2))},
-                           {float(R.at<double>(2, 0)), float(R.at<double>(2, 1)), float(R.at<double>(2, 2))}};
-    const firmware::Quatf q = firmware::quat_from_matrix(m);
-    return firmware::normalized(Quatd{q.w, q.x, q.y, q.z});
+    const double m[3][3] = {{R.at<double>(0, 0), R.at<double>(0, 1), R.at<double>(0, 2)},
+                            {R.at<double>(1, 0), R.at<double>(1, 1), R.at<double>(1, 2)},
+                            {R.at<double>(2, 0), R.at<double>(2, 1), R.at<double>(2, 2)}};
+    return firmware::quat_from_matrix(m);
 }
 
 }  // namespace

@@ -171,20 +171,21 @@ namespace glint::firmware {
 // Unit quaternion (w >= 0) of a proper rotation matrix m (row-major, v' = m v), by Shepperd's
 // method: the largest of w, x, y, z is taken from the diagonal, the others from off-diagonal
 // sums, so no division by a small number.
-inline Quatf quat_from_matrix(const float m[3][3]) {
-    const float trace = m[0][0] + m[1][1] + m[2][2];
-    Quatf q;
+template <typename T>
+Quat<T> quat_from_matrix(const T m[3][3]) {
+    const T trace = m[0][0] + m[1][1] + m[2][2];
+    Quat<T> q;
     if (trace > 0) {
-        const float s = std::sqrt(trace + 1.0f) * 2;
+        const T s = std::sqrt(trace + T(1)) * 2;
         q = {s / 4, (m[2][1] - m[1][2]) / s, (m[0][2] - m[2][0]) / s, (m[1][0] - m[0][1]) / s};
     } else if (m[0][0] >= m[1][1] && m[0][0] >= m[2][2]) {
-        const float s = std::sqrt(1.0f + m[0][0] - m[1][1] - m[2][2]) * 2;
+        const T s = std::sqrt(T(1) + m[0][0] - m[1][1] - m[2][2]) * 2;
         q = {(m[2][1] - m[1][2]) / s, s / 4, (m[0][1] + m[1][0]) / s, (m[0][2] + m[2][0]) / s};
     } else if (m[1][1] >= m[2][2]) {
-        const float s = std::sqrt(1.0f + m[1][1] - m[0][0] - m[2][2]) * 2;
+        const T s = std::sqrt(T(1) + m[1][1] - m[0][0] - m[2][2]) * 2;
         q = {(m[0][2] - m[2][0]) / s, (m[0][1] + m[1][0]) / s, s / 4, (m[1][2] + m[2][1]) / s};
     } else {
-        const float s = std::sqrt(1.0f + m[2][2] - m[0][0] - m[1][1]) * 2;
+        const T s = std::sqrt(T(1) + m[2][2] - m[0][0] - m[1][1]) * 2;
         q = {(m[1][0] - m[0][1]) / s, (m[0][2] + m[2][0]) / s, (m[1][2] + m[2][1]) / s, s / 4};
     }
     return normalized(q);
