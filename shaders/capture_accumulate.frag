@@ -2,14 +2,16 @@
 // HDR accumulation of one camera frame onto the sphere (appliance/capture/gpu_accumulator.hpp):
 // the GPU twin of HdrAccumulator::add_frame. Every fragment is one texel of the equirect map;
 // its direction is rotated into the camera, projected through the OpenCV distortion, and the
-// frame's premultiplied planes (P = mean w X, W = mean w, box filtered by s) are read bilinearly
-// there (texelFetch: the same four texels and weights as the CPU, no filtering extension needed).
-// Outputs are added by blending: num += t P, den += W t^2, aux += (W mean, sampled ? 1 : 0).
+// frame's planes (X = sum w X / sum w, W = mean w, box filtered by s) are read bilinearly there
+// (texelFetch: the same four texels and weights as the CPU, no filtering extension needed).
+// Outputs are added by blending: num += t W X, den += W t^2, aux += (W mean, sampled ? 1 : 0).
+// A read whose four cells hold an invalid one (X's alpha > 0: clipped or weightless) adds nothing,
+// as on the CPU.
 precision highp float;
 precision highp int;
 #include "equirect.glsl"
 
-uniform highp sampler2D u_p;      // P_r P_g P_b (RGBA32F, pw x ph)
+uniform highp sampler2D u_p;      // X_r X_g X_b, invalid (RGBA32F, pw x ph)
 uniform highp sampler2D u_w;      // W_r W_g W_b
 uniform vec4 u_camera_from_world; // quaternion (x, y, z, w)
 uniform vec4 u_focal_centre;      // fx, fy, cx, cy (pixels)
@@ -51,11 +53,13 @@ void main() {
     vec2 g = clamp((px - 0.5 * (s - 1.0)) / s, vec2(0.0), vec2(size - 1));
     ivec2 g0 = min(ivec2(g), size - 2);
     vec2 f = g - vec2(g0);
-    vec4 p = mix(mix(texelFetch(u_p, g0, 0), texelFetch(u_p, g0 + ivec2(1, 0), 0), f.x),
-                 mix(texelFetch(u_p, g0 + ivec2(0, 1), 0), texelFetch(u_p, g0 + ivec2(1, 1), 0), f.x), f.y);
+    vec4 p00 = texelFetch(u_p, g0, 0), p01 = texelFetch(u_p, g0 + ivec2(1, 0), 0);
+    vec4 p10 = texelFetch(u_p, g0 + ivec2(0, 1), 0), p11 = texelFetch(u_p, g0 + ivec2(1, 1), 0);
+    if (max(max(p00.a, p01.a), max(p10.a, p11.a)) > 0.0) discard;
+    vec4 p = mix(mix(p00, p01, f.x), mix(p10, p11, f.x), f.y);
     vec4 w = mix(mix(texelFetch(u_w, g0, 0), texelFetch(u_w, g0 + ivec2(1, 0), 0), f.x),
                  mix(texelFetch(u_w, g0 + ivec2(0, 1), 0), texelFetch(u_w, g0 + ivec2(1, 1), 0), f.x), f.y);
-    o_num = vec4(u_t * p.rgb, 0.0);
+    o_num = vec4(u_t * w.rgb * p.rgb, 0.0);
     o_den = vec4(w.rgb * (u_t * u_t), 0.0);
     float wmean = (w.r + w.g + w.b) / 3.0;
     o_aux = vec4(wmean, wmean >= u_min_weight ? 1.0 : 0.0, 0.0, 0.0);

@@ -156,7 +156,10 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
     DriftSettings drift_settings;
     drift_settings.gain = o.drift_gain;
     DriftCorrector drift(drift_settings);
-    std::string drift_log = "index,pixels,estimate_deg,sigma_deg,residual_before,residual_after,applied\n";
+    // The last two columns, on a simulated session, are the camera-orientation error against the
+    // truth before and after the correction (NaN without truth).
+    std::string drift_log =
+        "index,t_s,pixels,estimate_deg,sigma_deg,residual_before,residual_after,applied,error_before_deg,error_after_deg\n";
     std::vector<double> drift_angles, drift_before, drift_after;
     double min_exposure = 1e30, max_exposure = 0;
     for (const FrameRecord& r : session.frames) {
@@ -168,10 +171,16 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
             const auto t_drift = std::chrono::steady_clock::now();
             if (o.drift_correction && acc.frames() > 0) {
                 const DriftEstimate e = drift.estimate(f, cal, *q, acc.radiance(), acc.samples());
-                char line[200];
-                std::snprintf(line, sizeof line, "%llu,%d,%.4f,%.5f,%.5f,%.5f,%d\n",
-                              static_cast<unsigned long long>(r.index), e.pixels, e.angle_deg, e.sigma_deg,
-                              e.residual_before, e.residual_after, e.applied ? 1 : 0);
+                const Quatd corrected = firmware::normalized((e.applied ? e.correction : drift.carried()) * *q);
+                const auto t = true_poses.find(r.index);
+                const auto err = [&](const Quatd& x) {
+                    return t == true_poses.end() ? std::nan("") : firmware::angle_between(x, t->second) * 180.0 / kPi;
+                };
+                char line[256];
+                std::snprintf(line, sizeof line, "%llu,%.3f,%d,%.4f,%.5f,%.5f,%.5f,%d,%.4f,%.4f\n",
+                              static_cast<unsigned long long>(r.index),
+                              double(r.t_ns - session.frames.front().t_ns) * 1e-9, e.pixels, e.angle_deg, e.sigma_deg,
+                              e.residual_before, e.residual_after, e.applied ? 1 : 0, err(*q), err(corrected));
                 drift_log += line;
                 ++summary.drift_considered;
                 if (e.applied) {
@@ -181,7 +190,7 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
                     drift_after.push_back(e.residual_after);
                 }
                 // This frame's correction, or the slow one carried when its estimate was not trusted.
-                q = firmware::normalized((e.applied ? e.correction : drift.carried()) * *q);
+                q = corrected;
             }
             const auto t_acc = std::chrono::steady_clock::now();
             summary.drift_seconds += std::chrono::duration<double>(t_acc - t_drift).count();

@@ -29,8 +29,9 @@ struct CaptureOptions {
     OrientationInput orientations = OrientationInput::Sensors;
     bool drift_correction = true;  // align each frame to the sphere before accumulating it
     double drift_gain = 0.1;       // low-pass gain of the drift correction (DriftSettings::gain)
-    // Per-frame log of the drift estimates (CSV: index,pixels,estimate_deg,sigma_deg,
-    // residual_before,residual_after,applied); empty = none.
+    // Per-frame log of the drift estimates (CSV: index,t_s,pixels,estimate_deg,sigma_deg,
+    // residual_before,residual_after,applied,error_before_deg,error_after_deg; the errors against a
+    // simulated session's truth, NaN otherwise); empty = none.
     std::filesystem::path drift_log;
     int min_samples = 1;
     int threads = 0;

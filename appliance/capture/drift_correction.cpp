@@ -48,14 +48,14 @@ DriftEstimate DriftCorrector::estimate(const CameraFrame& frame, const CameraCal
     std::vector<GridPixel> grid;
     for (int pv = stride / 2; pv < k.height; pv += stride)
         for (int pu = stride / 2; pu < k.width; pu += stride) {
-            double P[6];
+            double P[HdrAccumulator::kPlaneFloats];
             HdrAccumulator::sample_planes(planes, pw, ph, HdrAccumulator::grid_coordinate(pu, s),
                                           HdrAccumulator::grid_coordinate(pv, s), P);
             double lum = 0;
-            bool ok = true;
+            bool ok = P[6] == 0;  // beside a clipped or weightless pixel the value is only a bound
             for (int c = 0; c < 3; ++c) {
                 if (!(P[3 + c] > 0.05)) ok = false;  // mostly clipped or black: no reliable value
-                else lum += P[c] / P[3 + c] / t;
+                else lum += P[c] / t;
             }
             if (!ok || !(lum > 0)) continue;
             const Vec3 r = pixel_ray(k, pu, pv);

@@ -43,11 +43,14 @@ void GpuAccumulator::add_frame(const CameraFrame& frame, const CameraCalibration
     int pw = 0, ph = 0;
     const std::vector<float> planes = HdrAccumulator::filtered_planes(frame, cal, s, pw, ph);
     std::vector<float> p(std::size_t(pw) * std::size_t(ph) * 4), w(p.size());
-    for (std::size_t i = 0; i < std::size_t(pw) * std::size_t(ph); ++i)
+    constexpr std::size_t n = HdrAccumulator::kPlaneFloats;
+    for (std::size_t i = 0; i < std::size_t(pw) * std::size_t(ph); ++i) {
         for (int c = 0; c < 3; ++c) {
-            p[4 * i + std::size_t(c)] = planes[6 * i + std::size_t(c)];
-            w[4 * i + std::size_t(c)] = planes[6 * i + 3 + std::size_t(c)];
+            p[4 * i + std::size_t(c)] = planes[n * i + std::size_t(c)];
+            w[4 * i + std::size_t(c)] = planes[n * i + 3 + std::size_t(c)];
         }
+        p[4 * i + 3] = planes[n * i + 6];  // the invalid flag rides in X's alpha
+    }
     const render::GlTexture p_tex = render::make_float_texture(pw, ph, p.data());
     const render::GlTexture w_tex = render::make_float_texture(pw, ph, w.data());
 

@@ -36,11 +36,12 @@ std::vector<float> HdrAccumulator::filtered_planes(const CameraFrame& frame, con
     out_height = k.height / s;
     std::array<double, 256> weight{};
     for (int z = 0; z < 256; ++z) weight[std::size_t(z)] = code_weight(z);
-    std::vector<float> planes(std::size_t(out_width) * std::size_t(out_height) * 6, 0.0f);
+    std::vector<float> planes(std::size_t(out_width) * std::size_t(out_height) * kPlaneFloats, 0.0f);
     const double inv_area = 1.0 / (double(s) * s);
     for (int V = 0; V < out_height; ++V)
         for (int U = 0; U < out_width; ++U) {
             double p[3] = {0, 0, 0}, w[3] = {0, 0, 0};
+            bool invalid = false;  // a pixel clipped or weightless in some channel
             for (int dv = 0; dv < s; ++dv) {
                 const int v = V * s + dv;
                 const std::uint8_t* row = frame.rgb.ptr<std::uint8_t>(v);
@@ -50,31 +51,36 @@ std::vector<float> HdrAccumulator::filtered_planes(const CameraFrame& frame, con
                     for (int c = 0; c < 3; ++c) {
                         const std::uint8_t z = row[3 * u + c];
                         const double wz = weight[z];
-                        p[c] += wz * cal.response.inverse[z] * inv_v;
+                        invalid = invalid || !(wz > 0);
+                        p[c] += cal.response.inverse[z] * inv_v;
                         w[c] += wz;
                     }
                 }
             }
-            float* o = planes.data() + (std::size_t(V) * std::size_t(out_width) + std::size_t(U)) * 6;
+            float* o = planes.data() + (std::size_t(V) * std::size_t(out_width) + std::size_t(U)) * kPlaneFloats;
             for (int c = 0; c < 3; ++c) {
-                o[c] = float(p[c] * inv_area);
-                o[3 + c] = float(w[c] * inv_area);
+                o[c] = invalid ? 0.0f : float(p[c] * inv_area);
+                o[3 + c] = invalid ? 0.0f : float(w[c] * inv_area);
             }
+            o[6] = invalid ? 1.0f : 0.0f;
         }
     return planes;
 }
 
-void HdrAccumulator::sample_planes(const std::vector<float>& planes, int pw, int ph, double U, double V, double out[6]) {
+void HdrAccumulator::sample_planes(const std::vector<float>& planes, int pw, int ph, double U, double V,
+                                   double out[kPlaneFloats]) {
     U = std::clamp(U, 0.0, double(pw - 1));
     V = std::clamp(V, 0.0, double(ph - 1));
     const int u0 = std::min(int(U), pw - 2), v0 = std::min(int(V), ph - 2);
     const double fu = U - u0, fv = V - v0;
-    const float* p00 = planes.data() + (std::size_t(v0) * std::size_t(pw) + std::size_t(u0)) * 6;
-    const float* p01 = p00 + 6;
-    const float* p10 = p00 + std::size_t(pw) * 6;
-    const float* p11 = p10 + 6;
+    const float* p00 = planes.data() + (std::size_t(v0) * std::size_t(pw) + std::size_t(u0)) * kPlaneFloats;
+    const float* p01 = p00 + kPlaneFloats;
+    const float* p10 = p00 + std::size_t(pw) * kPlaneFloats;
+    const float* p11 = p10 + kPlaneFloats;
     for (int c = 0; c < 6; ++c)
         out[c] = (1 - fv) * ((1 - fu) * p00[c] + fu * p01[c]) + fv * ((1 - fu) * p10[c] + fu * p11[c]);
+    // All four cells, whatever their bilinear weight: the GPU makes the same integer decision.
+    out[6] = std::max(std::max(p00[6], p01[6]), std::max(p10[6], p11[6]));
 }
 
 FrameContribution HdrAccumulator::add_frame(const CameraFrame& frame, const CameraCalibration& cal,
@@ -117,12 +123,13 @@ FrameContribution HdrAccumulator::add_frame(const CameraFrame& frame, const Came
             const auto px = project(k, {dc.x, dc.y, dc.z});
             if (!px) continue;
             ++in_view[std::size_t(j)];
-            double P[6];
+            double P[kPlaneFloats];
             sample_planes(planes, pw, ph, grid_coordinate(px->u, s), grid_coordinate(px->v, s), P);
+            if (P[6] > 0) continue;  // an invalid cell: no sample (see the header)
             const std::size_t texel = std::size_t(j) * std::size_t(width_) + std::size_t(i);
             double wmean = 0;
             for (int c = 0; c < 3; ++c) {
-                num_[3 * texel + std::size_t(c)] += t * P[c];
+                num_[3 * texel + std::size_t(c)] += t * P[3 + c] * P[c];
                 den_[3 * texel + std::size_t(c)] += P[3 + c] * t * t;
                 wmean += P[3 + c];
             }

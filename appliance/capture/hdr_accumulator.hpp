@@ -7,10 +7,19 @@
 // radiance; a texel seen only clipped keeps no estimate from that frame.
 //
 // Sampling (docs/capture.md "Accumulation"): the frame is first linearised per pixel and box
-// filtered, weighted, to about one environment texel per pixel (factor s, from the focal length
-// and the map width), as premultiplied planes P = mean(w X) and W = mean(w). A texel then reads
-// P and W bilinearly at its projected position: X = P / W, w = W. The GPU path does the same
-// with textures, so the two agree.
+// filtered to about one environment texel per pixel (factor s, from the focal length and the map
+// width) into planes of X = mean(X) and W = mean(w) per cell. A texel reads both bilinearly at
+// its projected position and adds t W X to the numerator and W t^2 to the denominator. The GPU
+// path does the same with textures, so the two agree.
+//
+// Averaging X itself, not the premultiplied w X, matters at a sun: beside a pixel near
+// saturation (code 246, w ~ 0.013) a rim pixel (w ~ 0.9) would otherwise take the whole cell or
+// read. A cell is invalid when one of its pixels is clipped (code 255) or black (code 0) in any
+// channel, since its value is then only a bound, and a read that touches an invalid cell is no
+// sample at all. Beside a clipped sun the unclipped rim is far dimmer than what
+// clipped, and with Robertson's t^2 a long exposure's biased read would outweigh the short
+// exposures that hold the sun by (t_long / t_short)^2. Both effects together cost the sun of
+// sunset.exr half of its energy (docs/capture.md "Saturation and the sun").
 #pragma once
 
 #include <cstdint>
@@ -50,14 +59,18 @@ public:
     int height() const { return height_; }
     int frames() const { return frames_; }
 
+    // Floats per grid cell of the planes: X_r X_g X_b W_r W_g W_b I, where I is 1 for an invalid
+    // cell (see above) and 0 otherwise.
+    static constexpr int kPlaneFloats = 7;
     // The linearised, box-filtered planes of one frame (exposed for tests and the GPU path):
-    // 6 floats per output pixel, P_r P_g P_b W_r W_g W_b.
+    // kPlaneFloats per output pixel.
     static std::vector<float> filtered_planes(const CameraFrame& frame, const CameraCalibration& calibration,
                                               int s, int& out_width, int& out_height);
-    // Bilinear read of the planes at grid position (U, V) (clamped to the pixel centres): out[6]
-    // = P_r P_g P_b W_r W_g W_b there.
+    // Bilinear read of the planes at grid position (U, V) (clamped to the pixel centres): out[0..5]
+    // = X_r X_g X_b W_r W_g W_b there, out[6] = 1 when one of the four cells read is invalid (the
+    // read is then no sample), else 0.
     static void sample_planes(const std::vector<float>& planes, int width, int height, double U, double V,
-                              double out[6]);
+                              double out[kPlaneFloats]);
     // Grid position of full-resolution pixel coordinates for the factor s.
     static double grid_coordinate(double pixel, int s) { return (pixel - 0.5 * (s - 1)) / s; }
     // The factor s for a camera and a map width.
