@@ -4,8 +4,9 @@
 // its direction is rotated into the camera, projected through the OpenCV distortion, and the
 // frame's planes (X = sum w X / sum w, W = mean w, box filtered by s) are read bilinearly there
 // (texelFetch: the same four texels and weights as the CPU, no filtering extension needed).
-// Outputs are added by blending: num += t W X, den += W t^2, aux += (W mean, sampled ? 1 : 0).
-// A read whose four cells hold an invalid one (X's alpha > 0: clipped or weightless) adds nothing,
+// Outputs are added by blending into the frame's exposure band (exposure_bands.hpp):
+// num += (t W X, t W mean), den += W t^2, aux += (W mean, sampled ? 1 : 0).
+// A read whose four cells hold an invalid one (X's alpha > 0: a clipped pixel) adds nothing,
 // as on the CPU.
 precision highp float;
 precision highp int;
@@ -59,8 +60,8 @@ void main() {
     vec4 p = mix(mix(p00, p01, f.x), mix(p10, p11, f.x), f.y);
     vec4 w = mix(mix(texelFetch(u_w, g0, 0), texelFetch(u_w, g0 + ivec2(1, 0), 0), f.x),
                  mix(texelFetch(u_w, g0 + ivec2(0, 1), 0), texelFetch(u_w, g0 + ivec2(1, 1), 0), f.x), f.y);
-    o_num = vec4(u_t * w.rgb * p.rgb, 0.0);
-    o_den = vec4(w.rgb * (u_t * u_t), 0.0);
     float wmean = (w.r + w.g + w.b) / 3.0;
+    o_num = vec4(u_t * w.rgb * p.rgb, u_t * wmean);
+    o_den = vec4(w.rgb * (u_t * u_t), 0.0);
     o_aux = vec4(wmean, wmean >= u_min_weight ? 1.0 : 0.0, 0.0, 0.0);
 }

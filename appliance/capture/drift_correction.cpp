@@ -52,7 +52,7 @@ DriftEstimate DriftCorrector::estimate(const CameraFrame& frame, const CameraCal
             HdrAccumulator::sample_planes(planes, pw, ph, HdrAccumulator::grid_coordinate(pu, s),
                                           HdrAccumulator::grid_coordinate(pv, s), P);
             double lum = 0;
-            bool ok = P[6] == 0;  // beside a clipped or weightless pixel the value is only a bound
+            bool ok = P[6] == 0;  // beside a clipped pixel the value is only a lower bound
             for (int c = 0; c < 3; ++c) {
                 if (!(P[3 + c] > 0.05)) ok = false;  // mostly clipped or black: no reliable value
                 else lum += P[c] / t;

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "appliance/capture/exposure_bands.hpp"
 #include "appliance/core/errors.hpp"
 
 namespace glint::capture {
@@ -25,13 +26,27 @@ GpuAccumulator::GpuAccumulator(const render::GlContext& context, int width, int 
     : width_(width),
       height_(height),
       settings_(settings),
-      targets_(checked_width(context, width), height, 3),
       program_("fullscreen.vert", "capture_accumulate.frag"),
       vao_(render::GlVertexArray::create()) {
-    targets_.bind();
-    const float zero[4] = {0, 0, 0, 0};
-    for (int k = 0; k < 3; ++k) glClearBufferfv(GL_COLOR, k, zero);
-    render::check_gl("clearing the accumulation targets");
+    checked_width(context, width);
+}
+
+GpuAccumulator::Band& GpuAccumulator::band_for(double t) {
+    const int index = exposure_band(t);
+    auto it = std::lower_bound(bands_.begin(), bands_.end(), index, [](const Band& b, int i) { return b.index < i; });
+    if (it == bands_.end() || it->index != index) {
+        Band b;
+        b.index = index;
+        b.t_min = t;
+        b.targets = std::make_unique<render::RenderTargets>(width_, height_, 3);
+        b.targets->bind();
+        const float zero[4] = {0, 0, 0, 0};
+        for (int k = 0; k < 3; ++k) glClearBufferfv(GL_COLOR, k, zero);
+        render::check_gl("clearing the accumulation targets of an exposure band");
+        it = bands_.insert(it, std::move(b));
+    }
+    it->t_min = std::min(it->t_min, t);
+    return *it;
 }
 
 void GpuAccumulator::add_frame(const CameraFrame& frame, const CameraCalibration& cal, const Quatd& world_from_camera) {
@@ -54,7 +69,7 @@ void GpuAccumulator::add_frame(const CameraFrame& frame, const CameraCalibration
     const render::GlTexture p_tex = render::make_float_texture(pw, ph, p.data());
     const render::GlTexture w_tex = render::make_float_texture(pw, ph, w.data());
 
-    targets_.bind();
+    band_for(t).targets->bind();
     program_.use();
     glActiveTexture(GL_TEXTURE0);
     glBindTexture(GL_TEXTURE_2D, p_tex.id());
@@ -94,34 +109,48 @@ std::size_t readback_index(int i, int j, int w, int h) {
 }  // namespace
 
 HdrImage GpuAccumulator::radiance() const {
-    const std::vector<float> num = targets_.read(0), den = targets_.read(1);
+    std::vector<std::vector<float>> num, den;
+    for (const Band& b : bands_) {
+        num.push_back(b.targets->read(0));
+        den.push_back(b.targets->read(1));
+    }
     HdrImage img(width_, height_);
+    std::vector<BandTexel> texel(bands_.size());
     for (int j = 0; j < height_; ++j)
         for (int i = 0; i < width_; ++i) {
             const std::size_t k = readback_index(i, j, width_, height_);
-            float* o = img.row(j) + 3 * i;
-            for (int c = 0; c < 3; ++c) o[c] = den[k + std::size_t(c)] > 0 ? num[k + std::size_t(c)] / den[k + std::size_t(c)] : 0.0f;
+            for (std::size_t b = 0; b < bands_.size(); ++b) {
+                for (int c = 0; c < 3; ++c) {
+                    texel[b].num[c] = num[b][k + std::size_t(c)];
+                    texel[b].den[c] = den[b][k + std::size_t(c)];
+                }
+                texel[b].wt = num[b][k + 3];
+                texel[b].t_min = bands_[b].t_min;
+            }
+            img.set(i, j, merge_bands(texel));
         }
     return img;
 }
 
-std::vector<std::uint32_t> GpuAccumulator::samples() const {
-    const std::vector<float> aux = targets_.read(2);
-    std::vector<std::uint32_t> out(std::size_t(width_) * std::size_t(height_));
-    for (int j = 0; j < height_; ++j)
-        for (int i = 0; i < width_; ++i)
-            out[std::size_t(j) * std::size_t(width_) + std::size_t(i)] =
-                std::uint32_t(std::lround(aux[readback_index(i, j, width_, height_) + 1]));
+std::vector<float> GpuAccumulator::aux_sum(int component) const {
+    std::vector<float> out(std::size_t(width_) * std::size_t(height_), 0.0f);
+    for (const Band& b : bands_) {
+        const std::vector<float> aux = b.targets->read(2);
+        for (int j = 0; j < height_; ++j)
+            for (int i = 0; i < width_; ++i)
+                out[std::size_t(j) * std::size_t(width_) + std::size_t(i)] +=
+                    aux[readback_index(i, j, width_, height_) + std::size_t(component)];
+    }
     return out;
 }
 
-std::vector<float> GpuAccumulator::weights() const {
-    const std::vector<float> aux = targets_.read(2);
-    std::vector<float> out(std::size_t(width_) * std::size_t(height_));
-    for (int j = 0; j < height_; ++j)
-        for (int i = 0; i < width_; ++i)
-            out[std::size_t(j) * std::size_t(width_) + std::size_t(i)] = aux[readback_index(i, j, width_, height_)];
+std::vector<std::uint32_t> GpuAccumulator::samples() const {
+    const std::vector<float> sampled = aux_sum(1);
+    std::vector<std::uint32_t> out(sampled.size());
+    for (std::size_t k = 0; k < sampled.size(); ++k) out[k] = std::uint32_t(std::lround(sampled[k]));
     return out;
 }
+
+std::vector<float> GpuAccumulator::weights() const { return aux_sum(0); }
 
 }  // namespace glint::capture

@@ -1,6 +1,7 @@
 // The GPU path of the HDR accumulation (hdr_accumulator.hpp): the same estimator and the same
 // sampling, as a fragment shader over the map's texels (shaders/capture_accumulate.frag) adding
-// into three float32 render targets by blending. The frame's linearised, box-filtered planes are
+// into three float32 render targets per exposure band (exposure_bands.hpp) by blending; the bands
+// are read back and merged by the CPU's rule. The frame's linearised, box-filtered planes are
 // computed on the CPU (HdrAccumulator::filtered_planes) and uploaded; the texel loop, the
 // projection and the bilinear reads run on the GPU. Needs float render targets and
 // GL_EXT_float_blend (both checked, with a clear error).
@@ -30,9 +31,18 @@ public:
     int frames() const { return frames_; }
 
 private:
+    // One exposure band: targets num (t W X, alpha t W), den (W t^2), aux (W, sampled).
+    struct Band {
+        int index = 0;
+        double t_min = 0;
+        std::unique_ptr<render::RenderTargets> targets;
+    };
+    Band& band_for(double t);
+    std::vector<float> aux_sum(int component) const;  // aux summed over the bands, in map order
+
     int width_, height_;
     AccumulationSettings settings_;
-    render::RenderTargets targets_;
+    std::vector<Band> bands_;
     render::GlProgram program_;
     render::GlVertexArray vao_;
     int frames_ = 0;

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "appliance/capture/exposure_bands.hpp"
 #include "appliance/core/equirect.hpp"
 #include "appliance/core/errors.hpp"
 #include "appliance/core/parallel.hpp"
@@ -13,10 +14,25 @@ HdrAccumulator::HdrAccumulator(int width, int height, AccumulationSettings setti
     : width_(width), height_(height), settings_(settings) {
     if (width < 2 || height < 2) throw InputError("environment map size must be at least 2x2");
     const std::size_t n = std::size_t(width) * std::size_t(height);
-    num_.assign(3 * n, 0.0);
-    den_.assign(3 * n, 0.0);
     samples_.assign(n, 0);
     weight_sum_.assign(n, 0.0f);
+}
+
+HdrAccumulator::Band& HdrAccumulator::band_for(double t) {
+    const int index = exposure_band(t);
+    auto it = std::lower_bound(bands_.begin(), bands_.end(), index, [](const Band& b, int i) { return b.index < i; });
+    if (it == bands_.end() || it->index != index) {
+        const std::size_t n = std::size_t(width_) * std::size_t(height_);
+        Band b;
+        b.index = index;
+        b.t_min = t;
+        b.num.assign(3 * n, 0.0f);
+        b.den.assign(3 * n, 0.0f);
+        b.wt.assign(n, 0.0f);
+        it = bands_.insert(it, std::move(b));
+    }
+    it->t_min = std::min(it->t_min, t);
+    return *it;
 }
 
 int HdrAccumulator::auto_downscale(const Intrinsics& k, int map_width) {
@@ -41,7 +57,7 @@ std::vector<float> HdrAccumulator::filtered_planes(const CameraFrame& frame, con
     for (int V = 0; V < out_height; ++V)
         for (int U = 0; U < out_width; ++U) {
             double p[3] = {0, 0, 0}, w[3] = {0, 0, 0};
-            bool invalid = false;  // a pixel clipped or weightless in some channel
+            bool invalid = false;  // a pixel clipped in some channel
             for (int dv = 0; dv < s; ++dv) {
                 const int v = V * s + dv;
                 const std::uint8_t* row = frame.rgb.ptr<std::uint8_t>(v);
@@ -51,7 +67,7 @@ std::vector<float> HdrAccumulator::filtered_planes(const CameraFrame& frame, con
                     for (int c = 0; c < 3; ++c) {
                         const std::uint8_t z = row[3 * u + c];
                         const double wz = weight[z];
-                        invalid = invalid || !(wz > 0);
+                        invalid = invalid || z == 255;
                         p[c] += cal.response.inverse[z] * inv_v;
                         w[c] += wz;
                     }
@@ -101,6 +117,7 @@ FrameContribution HdrAccumulator::add_frame(const CameraFrame& frame, const Came
     const double rho = std::hypot(fwd.x, fwd.z);
     const double phi0 = std::atan2(fwd.x, -fwd.z);
     const Quatd camera_from_world = world_from_camera.conj();
+    Band& band = band_for(t);
     std::vector<long long> in_view(std::size_t(height_), 0), sampled(std::size_t(height_), 0);
 
     parallel_for(height_, threads, [&](int j) {
@@ -129,11 +146,12 @@ FrameContribution HdrAccumulator::add_frame(const CameraFrame& frame, const Came
             const std::size_t texel = std::size_t(j) * std::size_t(width_) + std::size_t(i);
             double wmean = 0;
             for (int c = 0; c < 3; ++c) {
-                num_[3 * texel + std::size_t(c)] += t * P[3 + c] * P[c];
-                den_[3 * texel + std::size_t(c)] += P[3 + c] * t * t;
+                band.num[3 * texel + std::size_t(c)] += float(t * P[3 + c] * P[c]);
+                band.den[3 * texel + std::size_t(c)] += float(P[3 + c] * t * t);
                 wmean += P[3 + c];
             }
             wmean /= 3;
+            band.wt[texel] += float(wmean * t);
             weight_sum_[texel] += float(wmean);
             if (wmean >= settings_.min_weight) {
                 ++samples_[texel];
@@ -151,8 +169,22 @@ FrameContribution HdrAccumulator::add_frame(const CameraFrame& frame, const Came
 
 HdrImage HdrAccumulator::radiance() const {
     HdrImage image(width_, height_);
-    float* o = image.data().data();
-    for (std::size_t k = 0; k < num_.size(); ++k) o[k] = den_[k] > 0 ? float(num_[k] / den_[k]) : 0.0f;
+    std::vector<BandTexel> texel(bands_.size());
+    for (int j = 0; j < height_; ++j)
+        for (int i = 0; i < width_; ++i) {
+            const std::size_t k = std::size_t(j) * std::size_t(width_) + std::size_t(i);
+            for (std::size_t b = 0; b < bands_.size(); ++b) {
+                const Band& band = bands_[b];
+                BandTexel& x = texel[b];
+                for (int c = 0; c < 3; ++c) {
+                    x.num[c] = band.num[3 * k + std::size_t(c)];
+                    x.den[c] = band.den[3 * k + std::size_t(c)];
+                }
+                x.wt = band.wt[k];
+                x.t_min = band.t_min;
+            }
+            image.set(i, j, merge_bands(texel));
+        }
     return image;
 }
 

@@ -14,9 +14,13 @@
 //
 // Averaging X itself, not the premultiplied w X, matters at a sun: beside a pixel near
 // saturation (code 246, w ~ 0.013) a rim pixel (w ~ 0.9) would otherwise take the whole cell or
-// read. A cell is invalid when one of its pixels is clipped (code 255) or black (code 0) in any
-// channel, since its value is then only a bound, and a read that touches an invalid cell is no
-// sample at all. Beside a clipped sun the unclipped rim is far dimmer than what
+// read. A cell is invalid when one of its pixels is clipped (code 255) in any channel, since its
+// value is then only a lower bound, and a read that touches an invalid cell is no sample at all.
+// A black pixel (code 0) is not: its bound is an upper one, near 0, and averaging it in is right
+// (a bracket frame holds the sun in a few pixels amid black ones).
+//
+// The sums are kept per exposure band and merged per texel when the radiance is read
+// (exposure_bands.hpp): a misregistered long exposure must not erase what only short ones hold. Beside a clipped sun the unclipped rim is far dimmer than what
 // clipped, and with Robertson's t^2 a long exposure's biased read would outweigh the short
 // exposures that hold the sun by (t_long / t_short)^2. Both effects together cost the sun of
 // sunset.exr half of its energy (docs/capture.md "Saturation and the sun").
@@ -60,7 +64,7 @@ public:
     int frames() const { return frames_; }
 
     // Floats per grid cell of the planes: X_r X_g X_b W_r W_g W_b I, where I is 1 for an invalid
-    // cell (see above) and 0 otherwise.
+    // (clipped) cell and 0 otherwise.
     static constexpr int kPlaneFloats = 7;
     // The linearised, box-filtered planes of one frame (exposed for tests and the GPU path):
     // kPlaneFloats per output pixel.
@@ -76,11 +80,22 @@ public:
     // The factor s for a camera and a map width.
     static int auto_downscale(const Intrinsics& k, int map_width);
 
+    // Exposure bands that hold frames, shortest first.
+    int bands() const { return int(bands_.size()); }
+
 private:
+    struct Band {
+        int index = 0;  // exposure_band(t)
+        double t_min = 0;
+        std::vector<float> num;  // 3 per texel: sum W t X
+        std::vector<float> den;  // 3 per texel: sum W t^2
+        std::vector<float> wt;   // 1 per texel: sum W t
+    };
+    Band& band_for(double t);
+
     int width_, height_;
     AccumulationSettings settings_;
-    std::vector<double> num_;  // 3 per texel: sum w t X
-    std::vector<double> den_;  // 3 per texel: sum w t^2
+    std::vector<Band> bands_;
     std::vector<std::uint32_t> samples_;
     std::vector<float> weight_sum_;
     int frames_ = 0;

@@ -152,6 +152,31 @@ TEST(HdrAccumulation, ASunSmallerThanAFewPixelsKeepsItsEnergyAcrossTheBracket) {
     EXPECT_NEAR(got / want, 1.0, 0.05);
 }
 
+TEST(HdrAccumulation, AMisregisteredLongExposureDoesNotEraseTheSun) {
+    // The long exposures are placed 1 degree off (a sensor error), the short ones true. Where a
+    // long frame puts valid sky on the sun, its t^2 would outweigh the bracket by 4096^2; the
+    // exposure bands (exposure_bands.hpp) keep the bracket's sun there.
+    const double norm = std::sqrt(0.3 * 0.3 + 0.1 * 0.1 + 1.0);
+    const Vec3 sun{0.3 / norm, 0.1 / norm, -1 / norm};
+    const HdrImage env = smooth_env(512, 256, 20000.0, sun, 0.6 * kDeg);
+    SensorModel sensor;
+    sensor.noise = false;
+    AutoExposureModel manual;
+    manual.enabled = false;
+    CameraCalibration cal = test_camera(sensor);
+    cal.intrinsics = Intrinsics::from_fov(320, 180, 70 * kDeg);
+    CameraSimulator sim(env, cal, sensor, manual);
+    HdrAccumulator acc(512, 256);
+    for (double t : {2e-3, 2e-3 / 4096, 2e-3 / 65536}) {
+        sim.set_exposure(t, 1.0);
+        const double off = t > 1e-4 ? 1.0 : 0.0;
+        for (double yaw : {-4.0, 0.0, 4.0}) acc.add_frame(sim.render(look(yaw, 0), 0), cal, look(yaw + off, off));
+    }
+    EXPECT_EQ(acc.bands(), 3);
+    const double got = energy_in_cap(acc.radiance(), sun, 4 * kDeg), want = energy_in_cap(env, sun, 4 * kDeg);
+    EXPECT_NEAR(got / want, 1.0, 0.1);
+}
+
 TEST(HdrAccumulation, AClippedTexelGetsNoEstimateFromThatFrame) {
     const HdrImage env = smooth_env(256, 128, 3000.0, {0, 0, -1}, 0.2);
     SensorModel sensor;

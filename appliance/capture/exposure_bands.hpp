@@ -1,0 +1,42 @@
+// Exposure bands: Robertson's sums kept apart per band of exposure (4 stops wide), and merged per
+// texel at the end with a consistency rule, so that a misregistered long exposure cannot erase a
+// sun that only the short exposures hold.
+//
+// Why: Robertson's estimator weights a frame by w t^2. Where a long exposure clips, its reads
+// are no samples (hdr_accumulator.hpp), but a frame registered a fraction of a degree off puts
+// valid sky where a short exposure put the sun, and its t^2 (4096^2 for a bracket 12 stops
+// shorter) makes the sky win: the sun of sunset.exr lost 85 % of its energy within 4 texels with
+// the sensor's orientations.
+//
+// The rule: a band b whose estimate here is measured well above its noise (relative exposure
+// E_b t_eff >= kConfidentExposure in the brightest channel) says the radiance is E_b. Any longer
+// band c whose shortest frame would have clipped at that radiance (E_b t_min(c) > 1) cannot hold
+// a valid read of it, so c and every longer band are left out at this texel. Everything else
+// merges as one Robertson sum, so a dim texel keeps the low noise of the long exposures.
+#pragma once
+
+#include <cmath>
+#include <span>
+
+#include "appliance/core/hdr_image.hpp"
+
+namespace glint::capture {
+
+inline constexpr double kBandStops = 4;             // width of a band in stops of exposure x gain
+inline constexpr double kConfidentExposure = 0.02;  // 10x the read noise of the simulated sensor
+
+// The band of an exposure t (exposure x gain x sensitivity, > 0).
+inline int exposure_band(double t) { return int(std::floor(std::log2(t) / kBandStops)); }
+
+// One band's sums at one texel.
+struct BandTexel {
+    double num[3];  // sum W t X per channel
+    double den[3];  // sum W t^2 per channel
+    double wt;      // sum W t (W the mean of the channels' weights)
+    double t_min;   // shortest exposure of any frame in the band (the whole band, not this texel)
+};
+
+// Merged radiance at a texel from its bands, shortest band first; 0 where no band has weight.
+Rgb merge_bands(std::span<const BandTexel> bands);
+
+}  // namespace glint::capture

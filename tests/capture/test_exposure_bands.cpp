@@ -1,0 +1,59 @@
+#include <gtest/gtest.h>
+
+#include <vector>
+
+#include "appliance/capture/exposure_bands.hpp"
+
+namespace glint::capture {
+namespace {
+
+// The sums one frame of exposure t adds at a texel of radiance e (all channels), with weight w.
+BandTexel frame_sums(double e, double t, double w, double t_min) {
+    BandTexel b{};
+    for (int c = 0; c < 3; ++c) {
+        b.num[c] = w * t * (e * t);
+        b.den[c] = w * t * t;
+    }
+    b.wt = w * t;
+    b.t_min = t_min;
+    return b;
+}
+
+TEST(ExposureBands, BandsFourStopsWide) {
+    EXPECT_EQ(exposure_band(1.0), 0);
+    EXPECT_EQ(exposure_band(15.9), 0);
+    EXPECT_EQ(exposure_band(16.0), 1);
+    EXPECT_EQ(exposure_band(1.0 / 16), -1);
+    EXPECT_EQ(exposure_band(1.0 / 17), -2);
+}
+
+TEST(ExposureBands, ConsistentBandsMergeAsOneRobertsonSum) {
+    // A dim texel (radiance 2) seen at t = 0.01 and t = 0.2: neither clips, so both count, and the
+    // long exposure dominates as Robertson's weights say.
+    const std::vector<BandTexel> bands{frame_sums(2.1, 0.01, 0.5, 0.01), frame_sums(1.99, 0.2, 0.9, 0.2)};
+    const double want = (0.5 * 0.01 * 0.01 * 2.1 + 0.9 * 0.2 * 0.2 * 1.99) / (0.5 * 0.01 * 0.01 + 0.9 * 0.2 * 0.2);
+    EXPECT_NEAR(merge_bands(bands).g, want, 1e-6 * want);
+}
+
+TEST(ExposureBands, AConfidentShortBandOverrulesALongBandThatWouldHaveClipped) {
+    // The short band measures 5000 at a relative exposure of 0.5; the long band's shortest frame
+    // (t = 0.01) would have clipped at 50. Its read of 3 (sky, misregistered) is dropped.
+    const std::vector<BandTexel> bands{frame_sums(5000, 1e-4, 0.4, 1e-4), frame_sums(3, 0.02, 1.0, 0.01)};
+    EXPECT_NEAR(merge_bands(bands).r, 5000.0, 1e-3);
+}
+
+TEST(ExposureBands, AShortBandInItsNoiseDoesNotOverrule) {
+    // The short band's read is at a relative exposure of 0.004 (read noise): it is no evidence that
+    // the long band clipped, so both merge and the long band dominates.
+    const std::vector<BandTexel> bands{frame_sums(40, 1e-4, 0.3, 1e-4), frame_sums(3, 0.02, 1.0, 0.01)};
+    EXPECT_NEAR(merge_bands(bands).r, 3.0, 0.01);
+}
+
+TEST(ExposureBands, NoWeightGivesZero) {
+    const std::vector<BandTexel> bands{BandTexel{}};
+    EXPECT_EQ(merge_bands(bands).b, 0.0f);
+    EXPECT_EQ(merge_bands({}).r, 0.0f);
+}
+
+}  // namespace
+}  // namespace glint::capture
