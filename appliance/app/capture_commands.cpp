@@ -234,9 +234,15 @@ Command add_capture_command(CLI::App& app) {
                     "Low-pass gain of the drift correction: the share of each new measured offset taken into the "
                     "correction carried to the frames (0..1]")
         ->capture_default_str();
+    cmd->add_option("--refine", a->o.refine_iterations,
+                    "Passes of the global refinement after the scan: every frame aligned to the sphere of all frames, "
+                    "tied back to the sensor by a fitted drift line (0 = the live drift correction alone)")
+        ->check(CLI::Range(0, 10))
+        ->capture_default_str();
     cmd->add_option("--drift-log", a->o.drift_log,
-                    "Write every frame's drift estimate (CSV: index, overlapping points, estimate and its standard "
-                    "deviation in degrees, residual before and after, applied)");
+                    "Write every frame's drift estimate (CSV: index, time, overlapping points, estimate and its "
+                    "standard deviation in degrees, residual before and after, applied; on a simulated session also "
+                    "the orientation error before and after and the sensor's error vector)");
     cmd->add_option("--engine", a->engine, "Accumulation engine: cpu or gpu")->capture_default_str();
     cmd->add_option("--orientations", a->orientations,
                     "sensors (the session's recorded sensor stream) or truth (a simulated session's true "
@@ -264,7 +270,10 @@ Command add_capture_command(CLI::App& app) {
                 a->o.drift_correction = !a->no_drift;
                 std::unique_ptr<ProgressBar> bar;
                 const capture::CaptureSummary r = capture::run_capture(a->o, [&](long long d, long long t) {
-                    if (!bar) bar = std::make_unique<ProgressBar>("accumulate frames", t);
+                    if (!bar) bar = std::make_unique<ProgressBar>(a->o.refine_iterations > 0 && a->o.drift_correction
+                                                                      ? "accumulate and refine frames"
+                                                                      : "accumulate frames",
+                                                                  t);
                     (void)d;
                     bar->advance(1);
                 });
@@ -274,6 +283,11 @@ Command add_capture_command(CLI::App& app) {
                                 "residual %.4f -> %.4f (RMS log luminance against the sphere)\n",
                                 r.drift_applied, r.drift_considered, r.drift_median_deg, r.drift_residual_before,
                                 r.drift_residual_after);
+                if (a->o.drift_correction && a->o.refine_iterations > 0)
+                    std::printf("refinement: %d passes in %.1f s, %d frames trusted, drift %.3f deg/min, the drift "
+                                "line's residual %.3f degrees RMS\n",
+                                a->o.refine_iterations, r.refine_seconds, r.refine_trusted,
+                                r.refine_drift_rate_deg_per_min, r.refine_residual_deg);
                 const Vec3& g = r.coverage.largest_gap;
                 std::printf("%s: %d frames, coverage %.1f %% of the sphere, largest gap %.2f sr around "
                             "(%.3f, %.3f, %.3f), %lld texels filled\n",

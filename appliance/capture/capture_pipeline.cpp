@@ -10,6 +10,7 @@
 #include "appliance/capture/gpu_accumulator.hpp"
 #include "appliance/capture/guided_capture.hpp"
 #include "appliance/capture/hdr_accumulator.hpp"
+#include "appliance/capture/orientation_refinement.hpp"
 #include "appliance/capture/session.hpp"
 #include "appliance/core/atomic_file.hpp"
 #include "appliance/core/equirect.hpp"
@@ -121,15 +122,19 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
         if (!a.q) return std::nullopt;
         return firmware::normalized(*a.q * cal.sensor_from_camera);
     };
-    std::vector<double> orientation_errors;
     std::map<std::uint64_t, Quatd> true_poses;
     if (session.has_truth)
         for (const TruthPose& p : load_truth_poses(session)) true_poses[p.index] = p.world_from_camera;
-    // One face for both engines: the CPU reference, or the GPU path on a surfaceless EGL context.
+    // One face for both engines: the CPU reference, or the GPU path on a surfaceless EGL context
+    // (one context for every accumulation of the run).
+    std::unique_ptr<render::EglDisplay> display;
+    std::unique_ptr<render::GlContext> context;
+    if (o.engine == CaptureEngine::Gpu) {
+        display = std::make_unique<render::EglDisplay>(render::EglDisplay::surfaceless());
+        context = std::make_unique<render::GlContext>(*display);
+    }
     struct Engine {
         std::unique_ptr<HdrAccumulator> cpu;
-        std::unique_ptr<render::EglDisplay> display;
-        std::unique_ptr<render::GlContext> context;
         std::unique_ptr<GpuAccumulator> gpu;
         int threads = 1;
         int frames() const { return cpu ? cpu->frames() : gpu->frames(); }
@@ -140,17 +145,27 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
         HdrImage radiance() const { return cpu ? cpu->radiance() : gpu->radiance(); }
         std::vector<std::uint32_t> samples() const { return cpu ? cpu->samples() : gpu->samples(); }
         std::vector<float> weights() const { return cpu ? cpu->weights() : gpu->weights(); }
-    } acc;
-    acc.threads = threads;
-    if (o.engine == CaptureEngine::Gpu) {
-        acc.display = std::make_unique<render::EglDisplay>(render::EglDisplay::surfaceless());
-        acc.context = std::make_unique<render::GlContext>(*acc.display);
-        acc.gpu = std::make_unique<GpuAccumulator>(*acc.context, o.width, o.height);
-    } else {
-        acc.cpu = std::make_unique<HdrAccumulator>(o.width, o.height);
-    }
+    };
+    const auto make_engine = [&] {
+        auto e = std::make_unique<Engine>();
+        e->threads = threads;
+        if (context) e->gpu = std::make_unique<GpuAccumulator>(*context, o.width, o.height);
+        else e->cpu = std::make_unique<HdrAccumulator>(o.width, o.height);
+        return e;
+    };
+    std::unique_ptr<Engine> live = make_engine();
+    Engine& acc = *live;
+    // What the refinement needs of each accumulated frame.
+    struct UsedFrame {
+        const FrameRecord* record;
+        Quatd sensor, live;
+    };
+    std::vector<UsedFrame> used;
     CaptureSummary summary;
-    const long long total = (long long)session.frames.size();
+    const int refine = o.drift_correction ? o.refine_iterations : 0;
+    // Progress: the live pass, then per refinement pass an accumulation and a measurement, then
+    // the final accumulation.
+    const long long total = (long long)session.frames.size() * (refine > 0 ? 2 + 2 * refine : 1);
     long long done = 0;
     GuidedCapture guide({}, cal.intrinsics);
     DriftSettings drift_settings;
@@ -159,7 +174,8 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
     // The last two columns, on a simulated session, are the camera-orientation error against the
     // truth before and after the correction (NaN without truth).
     std::string drift_log =
-        "index,t_s,pixels,estimate_deg,sigma_deg,residual_before,residual_after,applied,error_before_deg,error_after_deg\n";
+        "index,t_s,pixels,estimate_deg,sigma_deg,residual_before,residual_after,applied,error_before_deg,error_after_deg,"
+        "sensor_error_x_deg,sensor_error_y_deg,sensor_error_z_deg\n";
     std::vector<double> drift_angles, drift_before, drift_after;
     double min_exposure = 1e30, max_exposure = 0;
     for (const FrameRecord& r : session.frames) {
@@ -168,6 +184,7 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
             ++summary.frames_without_orientation;
         } else {
             const CameraFrame f = load_frame(session, r);
+            const Quatd sensor_q = *q;
             const auto t_drift = std::chrono::steady_clock::now();
             if (o.drift_correction && acc.frames() > 0) {
                 const DriftEstimate e = drift.estimate(f, cal, *q, acc.radiance(), acc.samples());
@@ -176,11 +193,18 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
                 const auto err = [&](const Quatd& x) {
                     return t == true_poses.end() ? std::nan("") : firmware::angle_between(x, t->second) * 180.0 / kPi;
                 };
-                char line[256];
-                std::snprintf(line, sizeof line, "%llu,%.3f,%d,%.4f,%.5f,%.5f,%.5f,%d,%.4f,%.4f\n",
+                // The sensor's error as a world-frame rotation vector: truth = exp(error) x sensor.
+                firmware::Vec3d ev{std::nan(""), std::nan(""), std::nan("")};
+                if (t != true_poses.end()) {
+                    ev = rotation_vector_of(firmware::normalized(t->second * q->conj()));
+                    ev = {ev.x * 180 / kPi, ev.y * 180 / kPi, ev.z * 180 / kPi};
+                }
+                char line[320];
+                std::snprintf(line, sizeof line, "%llu,%.3f,%d,%.4f,%.5f,%.5f,%.5f,%d,%.4f,%.4f,%.4f,%.4f,%.4f\n",
                               static_cast<unsigned long long>(r.index),
                               double(r.t_ns - session.frames.front().t_ns) * 1e-9, e.pixels, e.angle_deg, e.sigma_deg,
-                              e.residual_before, e.residual_after, e.applied ? 1 : 0, err(*q), err(corrected));
+                              e.residual_before, e.residual_after, e.applied ? 1 : 0, err(*q), err(corrected), ev.x, ev.y,
+                              ev.z);
                 drift_log += line;
                 ++summary.drift_considered;
                 if (e.applied) {
@@ -195,6 +219,7 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
             const auto t_acc = std::chrono::steady_clock::now();
             summary.drift_seconds += std::chrono::duration<double>(t_acc - t_drift).count();
             acc.add_frame(f, cal, *q);
+            used.push_back({&r, sensor_q, *q});
             if (acc.gpu) glFinish();  // the draw's time, not just its submission
             summary.accumulate_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t_acc).count();
             const double et = f.exposure_s * f.total_gain();
@@ -208,12 +233,6 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
             summary.guided_final_coverage = g.seeable_coverage;
             if (g.state == GuidedState::Complete && !summary.guided_complete_after_s)
                 summary.guided_complete_after_s = g.elapsed_s;
-            if (const auto t = true_poses.find(r.index); t != true_poses.end()) {
-                orientation_errors.push_back(firmware::angle_between(*q, t->second) * 180.0 / kPi);
-                if (r.t_ns - session.frames.front().t_ns >= 60'000'000'000LL)
-                    summary.orientation_error_after_60s_max_deg =
-                        std::max(summary.orientation_error_after_60s_max_deg.value_or(0.0), orientation_errors.back());
-            }
         }
         if (progress) progress(++done, total);
     }
@@ -226,21 +245,85 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
     summary.drift_median_deg = median(drift_angles);
     summary.drift_residual_before = median(drift_before);
     summary.drift_residual_after = median(drift_after);
-    if (!orientation_errors.empty()) {
-        std::sort(orientation_errors.begin(), orientation_errors.end());
-        summary.orientation_error_median_deg = orientation_errors[orientation_errors.size() / 2];
-        summary.orientation_error_max_deg = orientation_errors.back();
-    }
     if (summary.frames_used == 0) throw InputError(o.session.string() + ": no frame has an orientation");
-    HdrImage env = acc.radiance();
-    const std::vector<std::uint32_t> samples = acc.samples();
+
+    // Global refinement (orientation_refinement.hpp): every frame against the sphere of all
+    // frames, the result tied back to the sensor by the drift line; then the map is made again.
+    std::vector<Quatd> final_q;
+    for (const UsedFrame& u : used) final_q.push_back(u.live);
+    std::unique_ptr<Engine> refined;
+    const std::int64_t t_first = session.frames.front().t_ns;
+    const auto t_refine = std::chrono::steady_clock::now();
+    for (int pass = 0; pass < refine; ++pass) {
+        auto sphere_acc = make_engine();
+        for (std::size_t i = 0; i < used.size(); ++i) {
+            sphere_acc->add_frame(load_frame(session, *used[i].record), cal, final_q[i]);
+            if (progress) progress(++done, total);
+        }
+        const HdrImage sphere = sphere_acc->radiance();
+        const std::vector<std::uint32_t> sphere_samples = sphere_acc->samples();
+        std::vector<RefinedFrame> frames(used.size());
+        int trusted = 0;
+        for (std::size_t i = 0; i < used.size(); ++i) {
+            const DriftEstimate e = drift.measure(load_frame(session, *used[i].record), cal, final_q[i], sphere, sphere_samples);
+            frames[i].t_s = double(used[i].record->t_ns - t_first) * 1e-9;
+            frames[i].sensor = used[i].sensor;
+            frames[i].trusted = e.applied;
+            frames[i].image = firmware::normalized(e.correction * final_q[i]);
+            trusted += e.applied ? 1 : 0;
+            if (progress) progress(++done, total);
+        }
+        DriftLine line;
+        final_q = anchor_to_sensor(frames, &line);
+        summary.refine_trusted = trusted;
+        summary.refine_drift_rate_deg_per_min = std::sqrt(line.rate_rad_per_s.x * line.rate_rad_per_s.x +
+                                                          line.rate_rad_per_s.y * line.rate_rad_per_s.y +
+                                                          line.rate_rad_per_s.z * line.rate_rad_per_s.z) *
+                                                180.0 / kPi * 60.0;
+        summary.refine_residual_deg = line.residual_rms_deg;
+    }
+    if (refine > 0) {
+        refined = make_engine();
+        for (std::size_t i = 0; i < used.size(); ++i) {
+            refined->add_frame(load_frame(session, *used[i].record), cal, final_q[i]);
+            if (progress) progress(++done, total);
+        }
+        summary.refine_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_refine).count();
+    }
+    // Orientation errors against a simulated session's truth: of the map's orientations, and of
+    // the live pass (what the kiosk showed while scanning).
+    const auto errors = [&](const std::vector<Quatd>& qs, std::optional<double>& med, std::optional<double>& max,
+                            std::optional<double>& after_60s) {
+        std::vector<double> e;
+        for (std::size_t i = 0; i < used.size(); ++i) {
+            const auto t = true_poses.find(used[i].record->index);
+            if (t == true_poses.end()) continue;
+            e.push_back(firmware::angle_between(qs[i], t->second) * 180.0 / kPi);
+            if (used[i].record->t_ns - t_first >= 60'000'000'000LL) after_60s = std::max(after_60s.value_or(0.0), e.back());
+        }
+        if (e.empty()) return;
+        std::sort(e.begin(), e.end());
+        med = e[e.size() / 2];
+        max = e.back();
+    };
+    {
+        std::vector<Quatd> live_q;
+        for (const UsedFrame& u : used) live_q.push_back(u.live);
+        errors(live_q, summary.live_orientation_error_median_deg, summary.live_orientation_error_max_deg,
+               summary.live_orientation_error_after_60s_max_deg);
+        errors(final_q, summary.orientation_error_median_deg, summary.orientation_error_max_deg,
+               summary.orientation_error_after_60s_max_deg);
+    }
+    const Engine& map_acc = refined ? *refined : acc;
+    HdrImage env = map_acc.radiance();
+    const std::vector<std::uint32_t> samples = map_acc.samples();
     summary.coverage = measure_coverage(samples, o.width, o.height, o.min_samples);
     if (session.has_truth && fs::exists(truth_env_path(session)))
         summary.truth_error = compare_with_truth(env, samples, o.min_samples, load_exr(truth_env_path(session)).image);
     summary.filled_texels = fill_uncovered(env, samples, o.min_samples);
     summary.coverage_path = coverage_path_for(o.out);
     // Coverage first: a reader that finds env.exr finds its coverage map too.
-    save_exr(summary.coverage_path, coverage_image(samples, acc.weights(), o.width, o.height, o.min_samples));
+    save_exr(summary.coverage_path, coverage_image(samples, map_acc.weights(), o.width, o.height, o.min_samples));
     save_exr(o.out, env);
     if (!o.drift_log.empty()) write_text_atomically(o.drift_log, drift_log);
     return summary;

@@ -8,21 +8,21 @@
 
 namespace glint::capture {
 
-namespace {
-
-Quatd exp_map(const firmware::Vec3d& v) {
+Quatd rotation_from_vector(const firmware::Vec3d& v) {
     const double angle = std::sqrt(v.x * v.x + v.y * v.y + v.z * v.z);
     if (angle < 1e-15) return Quatd::identity();
     return Quatd::from_axis_angle({v.x / angle, v.y / angle, v.z / angle}, angle);
 }
 
-firmware::Vec3d log_map(Quatd q) {
+firmware::Vec3d rotation_vector_of(Quatd q) {
     if (q.w < 0) q = {-q.w, -q.x, -q.y, -q.z};
     const double s = std::sqrt(q.x * q.x + q.y * q.y + q.z * q.z);
     if (s < 1e-15) return {};
     const double angle = 2 * std::atan2(s, q.w);
     return {q.x / s * angle, q.y / s * angle, q.z / s * angle};
 }
+
+namespace {
 
 struct GridPixel {
     firmware::Vec3d ray;  // camera frame
@@ -34,6 +34,20 @@ struct GridPixel {
 DriftEstimate DriftCorrector::estimate(const CameraFrame& frame, const CameraCalibration& cal,
                                        const Quatd& world_from_camera, const HdrImage& sphere,
                                        const std::vector<std::uint32_t>& samples) {
+    DriftEstimate out = measure(frame, cal, world_from_camera, sphere, samples);
+    if (!out.applied) return out;  // not trusted: keep the previous correction
+    // Low-pass of the measured offset: a slowly growing sensor drift is followed in full, while the
+    // noise of single alignments averages out instead of being applied (or chained) frame by frame.
+    const Quatd measured = out.correction;
+    carried_ = firmware::normalized(firmware::slerp(carried_, measured, settings_.gain));
+    // This frame: the slow part, plus a share of what this frame's own alignment says beyond it.
+    out.correction = firmware::normalized(firmware::slerp(carried_, measured, settings_.frame_share));
+    return out;
+}
+
+DriftEstimate DriftCorrector::measure(const CameraFrame& frame, const CameraCalibration& cal,
+                                      const Quatd& world_from_camera, const HdrImage& sphere,
+                                      const std::vector<std::uint32_t>& samples) const {
     DriftEstimate out;
     const Intrinsics& k = cal.intrinsics;
     // The frame is sampled exactly as the accumulator samples it (box filtered by the same factor
@@ -63,7 +77,7 @@ DriftEstimate DriftCorrector::estimate(const CameraFrame& frame, const CameraCal
         }
     // Residuals of a candidate world-frame correction; pixels whose texel is not covered drop out.
     const auto residuals = [&](const firmware::Vec3d& delta, std::vector<double>& r) {
-        const Quatd q = exp_map(delta) * world_from_camera;
+        const Quatd q = rotation_from_vector(delta) * world_from_camera;
         r.assign(grid.size(), std::nan(""));
         for (std::size_t i = 0; i < grid.size(); ++i) {
             const firmware::Vec3d d = q.rotate(grid[i].ray);
@@ -90,8 +104,7 @@ DriftEstimate DriftCorrector::estimate(const CameraFrame& frame, const CameraCal
         return n > 0 ? std::sqrt(sum / n) : 0.0;
     };
 
-    firmware::Vec3d delta = log_map(carried_);
-    delta = {};  // every frame is measured from the sensor's own orientation
+    firmware::Vec3d delta{};  // every frame is measured from the orientation it is given
     std::vector<double> r0, rp, rm;
     residuals(delta, r0);
     std::vector<char> use(grid.size());
@@ -185,14 +198,9 @@ DriftEstimate DriftCorrector::estimate(const CameraFrame& frame, const CameraCal
     if (out.angle_deg > settings_.max_correction_deg || !(cost <= out.residual_before) ||
         out.sigma_deg > settings_.max_sigma_deg) {
         out.residual_after = out.residual_before;
-        return out;  // not trusted: keep the previous correction
+        return out;  // not trusted
     }
-    // Low-pass of the measured offset: a slowly growing sensor drift is followed in full, while the
-    // noise of single alignments averages out instead of being applied (or chained) frame by frame.
-    const Quatd measured = exp_map(delta);
-    carried_ = firmware::normalized(firmware::slerp(carried_, measured, settings_.gain));
-    // This frame: the slow part, plus a share of what this frame's own alignment says beyond it.
-    out.correction = firmware::normalized(firmware::slerp(carried_, measured, settings_.frame_share));
+    out.correction = rotation_from_vector(delta);
     out.applied = true;
     return out;
 }

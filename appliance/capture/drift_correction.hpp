@@ -49,10 +49,20 @@ struct DriftEstimate {
     bool applied = false;                  // false: too little overlap, or no improvement
 };
 
+// Rotation vector (axis x angle, radians) <-> quaternion.
+Quatd rotation_from_vector(const firmware::Vec3d& v);
+firmware::Vec3d rotation_vector_of(Quatd q);
+
 class DriftCorrector {
 public:
     explicit DriftCorrector(DriftSettings settings = {}) : settings_(settings) {}
 
+    // The alignment alone: `correction` is the full measured offset (exp(delta)) and `applied`
+    // says whether it is trusted; no fusion, no state. The global refinement uses this.
+    DriftEstimate measure(const CameraFrame& frame, const CameraCalibration& calibration, const Quatd& world_from_camera,
+                          const HdrImage& sphere, const std::vector<std::uint32_t>& samples) const;
+    // measure(), then fused for a live capture: the slow part carried from frame to frame plus a
+    // share of this frame's own offset (DriftSettings::gain, frame_share).
     // sphere: the radiance accumulated so far; samples: per texel, 0 = not covered.
     DriftEstimate estimate(const CameraFrame& frame, const CameraCalibration& calibration, const Quatd& world_from_camera,
                            const HdrImage& sphere, const std::vector<std::uint32_t>& samples);
