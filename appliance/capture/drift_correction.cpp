@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "appliance/capture/hdr_accumulator.hpp"
+#include "appliance/capture/rotation_fit.hpp"
 #include "appliance/core/equirect.hpp"
 
 namespace glint::capture {
@@ -90,107 +91,17 @@ DriftEstimate DriftCorrector::measure(const CameraFrame& frame, const CameraCali
             r[i] = grid[i].log_lum - std::log(lum);
         }
     };
-    // Cost over the pixels valid for every evaluation of an iteration (same set when comparing).
-    const auto rms = [](const std::vector<double>& r, const std::vector<char>& use, int& n) {
-        double sum = 0;
-        n = 0;
-        for (std::size_t i = 0; i < r.size(); ++i)
-            if (use[i]) {
-                // Huber-like: a pixel far off (a moving person, a specular glint) counts linearly.
-                const double a = std::abs(r[i]);
-                sum += a < 0.3 ? a * a : 0.3 * (2 * a - 0.3);
-                ++n;
-            }
-        return n > 0 ? std::sqrt(sum / n) : 0.0;
-    };
-
-    firmware::Vec3d delta{};  // every frame is measured from the orientation it is given
-    std::vector<double> r0, rp, rm;
-    residuals(delta, r0);
-    std::vector<char> use(grid.size());
-    for (std::size_t i = 0; i < grid.size(); ++i) use[i] = std::isfinite(r0[i]);
-    int n = 0;
-    out.residual_before = rms(r0, use, n);
-    out.pixels = n;
-    if (n < settings_.min_pixels) {
-        out.residual_after = out.residual_before;
-        return out;
-    }
-    const double h_step = 0.0005;  // rad, about a tenth of a texel of a 1024-wide map
-    double cost = out.residual_before;
-    double sigma_rad = 1e9;  // uncertainty of the estimate (from the last normal equations)
-    for (int it = 0; it < settings_.iterations; ++it) {
-        // Jacobian by central differences; only pixels valid in all evaluations take part.
-        std::vector<std::array<double, 3>> J(grid.size());
-        std::vector<char> ok = use;
-        for (int a = 0; a < 3; ++a) {
-            firmware::Vec3d dp = delta, dm = delta;
-            (a == 0 ? dp.x : a == 1 ? dp.y : dp.z) += h_step;
-            (a == 0 ? dm.x : a == 1 ? dm.y : dm.z) -= h_step;
-            residuals(dp, rp);
-            residuals(dm, rm);
-            for (std::size_t i = 0; i < grid.size(); ++i) {
-                if (!ok[i] || !std::isfinite(rp[i]) || !std::isfinite(rm[i])) {
-                    ok[i] = 0;
-                    continue;
-                }
-                J[i][std::size_t(a)] = (rp[i] - rm[i]) / (2 * h_step);
-            }
-        }
-        double A[3][3] = {}, b[3] = {};
-        for (std::size_t i = 0; i < grid.size(); ++i) {
-            if (!ok[i]) continue;
-            const double wgt = std::abs(r0[i]) < 0.3 ? 1.0 : 0.3 / std::abs(r0[i]);
-            for (int p = 0; p < 3; ++p) {
-                b[p] -= wgt * J[i][std::size_t(p)] * r0[i];
-                for (int q = 0; q < 3; ++q) A[p][q] += wgt * J[i][std::size_t(p)] * J[i][std::size_t(q)];
-            }
-        }
-        for (int p = 0; p < 3; ++p) A[p][p] *= 1.01;  // a little damping (Levenberg)
-        // Solve the 3x3 system by Cramer's rule.
-        const auto det3 = [](const double m[3][3]) {
-            return m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
-                   m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
-        };
-        const double D = det3(A);
-        if (!(std::abs(D) > 1e-30)) break;
-        {
-            // Covariance of delta ~ s^2 (J^T J)^-1 with s^2 the mean squared residual: the trace of
-            // the inverse from the cofactors' diagonal.
-            double sr = 0;
-            int nr = 0;
-            for (std::size_t i = 0; i < grid.size(); ++i)
-                if (ok[i]) {
-                    sr += r0[i] * r0[i];
-                    ++nr;
-                }
-            const double c00 = A[1][1] * A[2][2] - A[1][2] * A[2][1];
-            const double c11 = A[0][0] * A[2][2] - A[0][2] * A[2][0];
-            const double c22 = A[0][0] * A[1][1] - A[0][1] * A[1][0];
-            const double trace_inv = (c00 + c11 + c22) / D;
-            if (nr > 0 && trace_inv > 0) sigma_rad = std::sqrt(sr / nr * trace_inv / 3);
-        }
-        double step[3];
-        for (int c = 0; c < 3; ++c) {
-            double M[3][3];
-            for (int p = 0; p < 3; ++p)
-                for (int q = 0; q < 3; ++q) M[p][q] = q == c ? b[p] : A[p][q];
-            step[c] = det3(M) / D;
-        }
-        const firmware::Vec3d next{delta.x + step[0], delta.y + step[1], delta.z + step[2]};
-        std::vector<double> rn;
-        residuals(next, rn);
-        std::vector<char> both(grid.size());
-        for (std::size_t i = 0; i < grid.size(); ++i) both[i] = use[i] && std::isfinite(rn[i]);
-        int n_old = 0, n_new = 0;
-        const double c_old = rms(r0, both, n_old), c_new = rms(rn, both, n_new);
-        if (!(c_new < c_old) || n_new < settings_.min_pixels) break;
-        delta = next;
-        r0 = rn;
-        use = both;
-        cost = c_new;
-        if (std::sqrt(step[0] * step[0] + step[1] * step[1] + step[2] * step[2]) < 1e-5) break;
-    }
+    RotationFitSettings fit_settings;
+    fit_settings.iterations = settings_.iterations;
+    fit_settings.min_points = settings_.min_pixels;
+    const RotationFit fit = fit_rotation(residuals, fit_settings);
+    out.residual_before = fit.cost_before;
+    out.residual_after = fit.cost_after;
+    out.pixels = fit.points;
+    if (fit.points < settings_.min_pixels) return out;
+    const firmware::Vec3d delta = fit.delta;
+    const double cost = fit.cost_after;
+    const double sigma_rad = fit.sigma_rad;
     const double angle = std::sqrt(delta.x * delta.x + delta.y * delta.y + delta.z * delta.z);
     out.angle_deg = angle * 180.0 / kPi;
     out.residual_after = cost;
