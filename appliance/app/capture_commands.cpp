@@ -221,6 +221,7 @@ Command add_capture_command(CLI::App& app) {
         capture::CaptureOptions o;
         std::string session, out, size = "1024x512", orientations = "sensors", engine = "cpu";
         bool no_drift = false;
+        bool no_adjust = false;
     };
     auto a = std::make_shared<Args>();
     CLI::App* cmd = app.add_subcommand(
@@ -234,11 +235,8 @@ Command add_capture_command(CLI::App& app) {
                     "Low-pass gain of the drift correction: the share of each new measured offset taken into the "
                     "correction carried to the frames (0..1]")
         ->capture_default_str();
-    cmd->add_option("--refine", a->o.refine_iterations,
-                    "Passes of the global refinement after the scan: every frame aligned to the sphere of all frames, "
-                    "tied back to the sensor by a fitted drift line (0 = the live drift correction alone)")
-        ->check(CLI::Range(0, 10))
-        ->capture_default_str();
+    cmd->add_flag("--no-global-adjustment", a->no_adjust,
+                  "Keep the live pass's orientations: no pose graph of frame pairs and the sensor after the scan");
     cmd->add_option("--drift-log", a->o.drift_log,
                     "Write every frame's drift estimate (CSV: index, time, overlapping points, estimate and its "
                     "standard deviation in degrees, residual before and after, applied; on a simulated session also "
@@ -268,10 +266,11 @@ Command add_capture_command(CLI::App& app) {
                 else if (a->engine != "cpu")
                     throw InputError("--engine must be cpu or gpu");
                 a->o.drift_correction = !a->no_drift;
+                a->o.global_adjustment = !a->no_adjust;
                 std::unique_ptr<ProgressBar> bar;
                 const capture::CaptureSummary r = capture::run_capture(a->o, [&](long long d, long long t) {
-                    if (!bar) bar = std::make_unique<ProgressBar>(a->o.refine_iterations > 0 && a->o.drift_correction
-                                                                      ? "accumulate and refine frames"
+                    if (!bar) bar = std::make_unique<ProgressBar>(a->o.global_adjustment && a->o.drift_correction
+                                                                      ? "accumulate and adjust frames"
                                                                       : "accumulate frames",
                                                                   t);
                     (void)d;
@@ -283,11 +282,11 @@ Command add_capture_command(CLI::App& app) {
                                 "residual %.4f -> %.4f (RMS log luminance against the sphere)\n",
                                 r.drift_applied, r.drift_considered, r.drift_median_deg, r.drift_residual_before,
                                 r.drift_residual_after);
-                if (a->o.drift_correction && a->o.refine_iterations > 0)
-                    std::printf("refinement: %d passes in %.1f s, %d frames trusted, drift %.3f deg/min, the drift "
-                                "line's residual %.3f degrees RMS\n",
-                                a->o.refine_iterations, r.refine_seconds, r.refine_trusted,
-                                r.refine_drift_rate_deg_per_min, r.refine_residual_deg);
+                if (a->o.drift_correction && a->o.global_adjustment)
+                    std::printf("global adjustment: %d of %d frame pairs aligned, pair error %.3f degrees RMS, sensor "
+                                "error %.3f degrees RMS, drift %.3f deg/min, %.1f s\n",
+                                r.adjust_pairs, r.adjust_pairs_tried, r.adjust_pair_rms_deg, r.adjust_sensor_rms_deg,
+                                r.adjust_drift_deg_per_min, r.adjust_seconds);
                 const Vec3& g = r.coverage.largest_gap;
                 std::printf("%s: %d frames, coverage %.1f %% of the sphere, largest gap %.2f sr around "
                             "(%.3f, %.3f, %.3f), %lld texels filled\n",

@@ -10,7 +10,7 @@
 #include "appliance/capture/gpu_accumulator.hpp"
 #include "appliance/capture/guided_capture.hpp"
 #include "appliance/capture/hdr_accumulator.hpp"
-#include "appliance/capture/orientation_refinement.hpp"
+#include "appliance/capture/global_adjustment.hpp"
 #include "appliance/capture/session.hpp"
 #include "appliance/core/atomic_file.hpp"
 #include "appliance/core/equirect.hpp"
@@ -155,17 +155,16 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
     };
     std::unique_ptr<Engine> live = make_engine();
     Engine& acc = *live;
-    // What the refinement needs of each accumulated frame.
+    // What the global adjustment needs of each accumulated frame.
     struct UsedFrame {
         const FrameRecord* record;
         Quatd sensor, live;
     };
     std::vector<UsedFrame> used;
     CaptureSummary summary;
-    const int refine = o.drift_correction ? o.refine_iterations : 0;
-    // Progress: the live pass, then per refinement pass an accumulation and a measurement, then
-    // the final accumulation.
-    const long long total = (long long)session.frames.size() * (refine > 0 ? 2 + 2 * refine : 1);
+    // Progress: the live pass, then (global adjustment) the views, the pairs and the final map.
+    const bool adjust = o.drift_correction && o.global_adjustment;
+    const long long total = (long long)session.frames.size() * (adjust ? 4 : 1);
     long long done = 0;
     GuidedCapture guide({}, cal.intrinsics);
     DriftSettings drift_settings;
@@ -247,51 +246,89 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
     summary.drift_residual_after = median(drift_after);
     if (summary.frames_used == 0) throw InputError(o.session.string() + ": no frame has an orientation");
 
-    // Global refinement (orientation_refinement.hpp): every frame against the sphere of all
-    // frames, the result tied back to the sensor by the drift line; then the map is made again.
     std::vector<Quatd> final_q;
     for (const UsedFrame& u : used) final_q.push_back(u.live);
     std::unique_ptr<Engine> refined;
     const std::int64_t t_first = session.frames.front().t_ns;
-    const auto t_refine = std::chrono::steady_clock::now();
-    for (int pass = 0; pass < refine; ++pass) {
-        auto sphere_acc = make_engine();
+    if (adjust) {
+        // Global adjustment (global_adjustment.hpp): pairs of overlapping frames aligned to each
+        // other, then one pose graph with the sensor and its drift line.
+        const auto t_adjust = std::chrono::steady_clock::now();
+        std::vector<AlignmentView> views(used.size());
         for (std::size_t i = 0; i < used.size(); ++i) {
-            sphere_acc->add_frame(load_frame(session, *used[i].record), cal, final_q[i]);
+            views[i] = make_alignment_view(load_frame(session, *used[i].record), cal);
             if (progress) progress(++done, total);
         }
-        const HdrImage sphere = sphere_acc->radiance();
-        const std::vector<std::uint32_t> sphere_samples = sphere_acc->samples();
-        std::vector<RefinedFrame> frames(used.size());
-        int trusted = 0;
+        const double half_fov = std::atan2(0.5 * cal.intrinsics.width, cal.intrinsics.fx);
+        const auto axis = [](const Quatd& q) { return q.rotate(firmware::Vec3d{0, 0, -1}); };
+        std::vector<std::pair<int, int>> candidates;
         for (std::size_t i = 0; i < used.size(); ++i) {
-            const DriftEstimate e = drift.measure(load_frame(session, *used[i].record), cal, final_q[i], sphere, sphere_samples);
-            frames[i].t_s = double(used[i].record->t_ns - t_first) * 1e-9;
-            frames[i].sensor = used[i].sensor;
-            frames[i].trusted = e.applied;
-            frames[i].image = firmware::normalized(e.correction * final_q[i]);
-            trusted += e.applied ? 1 : 0;
-            if (progress) progress(++done, total);
+            if (views[i].rays.size() < 150) continue;
+            const firmware::Vec3d ai = axis(final_q[i]);
+            // The two frames before it (the sweep's neighbours), and up to four earlier frames
+            // (more than 3 s before: another row, or the sweep's start) nearest in direction.
+            int near = 0;
+            std::vector<std::pair<double, int>> far;
+            for (std::size_t j = i; j-- > 0;) {
+                if (views[j].rays.size() < 150) continue;
+                const firmware::Vec3d aj = axis(final_q[j]);
+                const double angle = std::acos(std::clamp(ai.x * aj.x + ai.y * aj.y + ai.z * aj.z, -1.0, 1.0));
+                if (angle > half_fov) continue;
+                const double dt = double(used[i].record->t_ns - used[j].record->t_ns) * 1e-9;
+                if (dt < 3.0) {
+                    if (near < 2) {
+                        candidates.push_back({int(i), int(j)});
+                        ++near;
+                    }
+                } else {
+                    far.push_back({angle, int(j)});
+                }
+            }
+            std::sort(far.begin(), far.end());
+            for (std::size_t k = 0; k < std::min<std::size_t>(4, far.size()); ++k) candidates.push_back({int(i), far[k].second});
         }
-        DriftLine line;
-        final_q = anchor_to_sensor(frames, &line);
-        summary.refine_trusted = trusted;
-        summary.refine_drift_rate_deg_per_min = std::sqrt(line.rate_rad_per_s.x * line.rate_rad_per_s.x +
-                                                          line.rate_rad_per_s.y * line.rate_rad_per_s.y +
-                                                          line.rate_rad_per_s.z * line.rate_rad_per_s.z) *
-                                                180.0 / kPi * 60.0;
-        summary.refine_residual_deg = line.residual_rms_deg;
+        std::vector<std::optional<PairMeasurement>> measured(candidates.size());
+        parallel_for(int(candidates.size()), threads, [&](int k) {
+            const auto [i, j] = candidates[std::size_t(k)];
+            measured[std::size_t(k)] = align_pair(views[std::size_t(i)], final_q[std::size_t(i)], views[std::size_t(j)],
+                                                  final_q[std::size_t(j)]);
+            if (measured[std::size_t(k)]) {
+                measured[std::size_t(k)]->i = i;
+                measured[std::size_t(k)]->j = j;
+            }
+        });
+        std::vector<PairMeasurement> pairs;
+        for (const auto& m : measured)
+            if (m) pairs.push_back(*m);
+        for (std::size_t i = 0; i < used.size(); ++i)
+            if (progress) progress(++done, total);
+        std::vector<double> t_s;
+        std::vector<Quatd> sensor_q;
+        for (const UsedFrame& u : used) {
+            t_s.push_back(double(u.record->t_ns - t_first) * 1e-9);
+            sensor_q.push_back(u.sensor);
+        }
+        const AdjustmentResult ar = adjust_orientations(t_s, sensor_q, final_q, pairs);
+        final_q = ar.orientations;
+        summary.adjust_pairs_tried = int(candidates.size());
+        summary.adjust_pairs = ar.pairs_used;
+        summary.adjust_pair_rms_deg = ar.pair_rms_deg;
+        summary.adjust_sensor_rms_deg = ar.sensor_rms_deg;
+        summary.adjust_drift_deg_per_min = std::sqrt(ar.drift_rate_rad_per_s.x * ar.drift_rate_rad_per_s.x +
+                                                     ar.drift_rate_rad_per_s.y * ar.drift_rate_rad_per_s.y +
+                                                     ar.drift_rate_rad_per_s.z * ar.drift_rate_rad_per_s.z) *
+                                           180.0 / kPi * 60.0;
+        summary.adjust_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_adjust).count();
     }
-    if (refine > 0) {
+    if (adjust) {
         refined = make_engine();
         for (std::size_t i = 0; i < used.size(); ++i) {
             refined->add_frame(load_frame(session, *used[i].record), cal, final_q[i]);
             if (progress) progress(++done, total);
         }
-        summary.refine_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_refine).count();
     }
     // Orientation errors against a simulated session's truth: of the map's orientations, and of
-    // the live pass (what the kiosk showed while scanning).
+    // the live pass (what the kiosk had while scanning).
     const auto errors = [&](const std::vector<Quatd>& qs, std::optional<double>& med, std::optional<double>& max,
                             std::optional<double>& after_60s) {
         std::vector<double> e;

@@ -29,10 +29,8 @@ struct CaptureOptions {
     OrientationInput orientations = OrientationInput::Sensors;
     bool drift_correction = true;  // align each frame to the sphere before accumulating it
     double drift_gain = 0.1;       // low-pass gain of the drift correction (DriftSettings::gain)
-    // Passes of the global refinement after the scan (orientation_refinement.hpp); 0 = the live
-    // drift correction alone. Only with drift correction on. Off by default: measured, it helps
-    // studio and sunset but hurts courtyard (docs/capture.md "Global refinement").
-    int refine_iterations = 0;
+    // The global adjustment after the scan (global_adjustment.hpp); only with drift correction on.
+    bool global_adjustment = true;
     // Per-frame log of the drift estimates (CSV: index,t_s,pixels,estimate_deg,sigma_deg,
     // residual_before,residual_after,applied,error_before_deg,error_after_deg; the errors against a
     // simulated session's truth, NaN otherwise); empty = none.
@@ -54,15 +52,15 @@ struct CaptureSummary {
     long long filled_texels = 0;
     std::filesystem::path coverage_path;
     std::optional<GroundTruthError> truth_error;  // simulated sessions only
-    // Camera-orientation error of the frames as the map was made (after the refinement).
+    // Camera-orientation error of the frames as the map was made (after the global adjustment).
     std::optional<double> orientation_error_median_deg, orientation_error_max_deg;  // ditto
     // ... and of the live pass alone (what the kiosk had while scanning).
     std::optional<double> live_orientation_error_median_deg, live_orientation_error_max_deg,
         live_orientation_error_after_60s_max_deg;
-    // Global refinement: trusted frames in the last pass, the fitted drift rate, the RMS of the
-    // drift line's residuals, and the wall time of all passes.
-    int refine_trusted = 0;
-    double refine_drift_rate_deg_per_min = 0, refine_residual_deg = 0, refine_seconds = 0;
+    // Global adjustment: candidate pairs, pairs measured, RMS of the pair and sensor errors after
+    // the solve, the drift rate found, wall time (alignment and solve, not the final map).
+    int adjust_pairs_tried = 0, adjust_pairs = 0;
+    double adjust_pair_rms_deg = 0, adjust_sensor_rms_deg = 0, adjust_drift_deg_per_min = 0, adjust_seconds = 0;
     // Drift correction (when on): frames it corrected, the median correction, and the median
     // RMS log-luminance residual against the sphere before and after it.
     // The guided-capture logic run over the session as if live (guided_capture.hpp): when it would

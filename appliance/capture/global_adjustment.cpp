@@ -1,0 +1,224 @@
+#include "appliance/capture/global_adjustment.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <opencv2/core.hpp>
+
+#include "appliance/capture/drift_correction.hpp"
+#include "appliance/capture/hdr_accumulator.hpp"
+#include "appliance/capture/rotation_fit.hpp"
+#include "appliance/core/equirect.hpp"
+#include "appliance/core/errors.hpp"
+
+namespace glint::capture {
+
+namespace {
+
+using V3 = firmware::Vec3d;
+
+// Bilinear read of a view's cells at cell coordinates (U, V); NaN outside or beside an invalid cell.
+double read_cells(const AlignmentView& v, double U, double V) {
+    if (!(U >= 0 && V >= 0 && U <= v.cells_w - 1 && V <= v.cells_h - 1)) return std::nan("");
+    const int u0 = std::min(int(U), v.cells_w - 2), v0 = std::min(int(V), v.cells_h - 2);
+    const double fu = U - u0, fv = V - v0;
+    const float* p = v.log_lum.data() + std::size_t(v0) * std::size_t(v.cells_w) + std::size_t(u0);
+    const float a = p[0], b = p[1], c = p[v.cells_w], d = p[v.cells_w + 1];
+    return (1 - fv) * ((1 - fu) * a + fu * b) + fv * ((1 - fu) * c + fu * d);  // NaN propagates
+}
+
+// The 3x3 rotation matrix of a unit quaternion (world-frame vectors: Q v).
+void rotation_matrix(const Quatd& q, double m[3][3]) {
+    const V3 ex = q.rotate(V3{1, 0, 0}), ey = q.rotate(V3{0, 1, 0}), ez = q.rotate(V3{0, 0, 1});
+    const V3 cols[3] = {ex, ey, ez};
+    for (int c = 0; c < 3; ++c) {
+        m[0][c] = cols[c].x;
+        m[1][c] = cols[c].y;
+        m[2][c] = cols[c].z;
+    }
+}
+
+double deg(double rad) { return rad * 180.0 / kPi; }
+double length(const V3& v) { return std::sqrt(v.x * v.x + v.y * v.y + v.z * v.z); }
+
+}  // namespace
+
+AlignmentView make_alignment_view(const CameraFrame& frame, const CameraCalibration& cal, int grid_width, int s) {
+    AlignmentView v;
+    v.intrinsics = cal.intrinsics;
+    const Intrinsics& k = cal.intrinsics;
+    v.s = s;
+    const std::vector<float> planes = HdrAccumulator::filtered_planes(frame, cal, v.s, v.cells_w, v.cells_h);
+    const double t = frame.exposure_s * frame.total_gain() * cal.sensitivity;
+    v.log_lum.assign(std::size_t(v.cells_w) * std::size_t(v.cells_h), std::nanf(""));
+
+    constexpr std::size_t n = HdrAccumulator::kPlaneFloats;
+    for (std::size_t c = 0; c < v.log_lum.size(); ++c) {
+        const float* p = planes.data() + c * n;
+        // Clipped, or mostly black in a channel: no reliable value.
+        if (p[6] > 0 || !(p[3] > 0.05f && p[4] > 0.05f && p[5] > 0.05f)) continue;
+        const double x = (double(p[0]) + p[1] + p[2]) / 3;  // relative exposure
+        if (x > 0) v.log_lum[c] = float(std::log(x / t));
+    }
+    const int stride = std::max(1, k.width / grid_width);
+    for (int pv = stride / 2; pv < k.height; pv += stride)
+        for (int pu = stride / 2; pu < k.width; pu += stride) {
+            const double value = read_cells(v, HdrAccumulator::grid_coordinate(pu, v.s), HdrAccumulator::grid_coordinate(pv, v.s));
+            if (!std::isfinite(value)) continue;
+            const Vec3 r = pixel_ray(k, pu, pv);
+            v.rays.push_back({r.x, r.y, r.z});
+            v.values.push_back(float(value));
+        }
+    return v;
+}
+
+std::optional<PairMeasurement> align_pair(const AlignmentView& a, const Quatd& ra, const AlignmentView& b,
+                                          const Quatd& rb, const PairSettings& settings) {
+    if (int(a.rays.size()) < settings.min_points) return std::nullopt;
+    const Quatd b_from_world = rb.conj();
+    const Intrinsics& kb = b.intrinsics;
+    const auto residuals = [&](const V3& delta, std::vector<double>& r) {
+        const Quatd b_from_a = b_from_world * rotation_from_vector(delta) * ra;
+        r.assign(a.rays.size(), std::nan(""));
+        for (std::size_t i = 0; i < a.rays.size(); ++i) {
+            const V3 d = b_from_a.rotate(a.rays[i]);
+            const auto px = project(kb, {d.x, d.y, d.z});
+            if (!px) continue;
+            const double value =
+                read_cells(b, HdrAccumulator::grid_coordinate(px->u, b.s), HdrAccumulator::grid_coordinate(px->v, b.s));
+            if (std::isfinite(value)) r[i] = double(a.values[i]) - value;
+        }
+    };
+    RotationFitSettings fs;
+    fs.min_points = settings.min_points;
+    const RotationFit fit = fit_rotation(residuals, fs);
+    if (!fit.estimated || fit.points < settings.min_points || !(fit.cost_after <= fit.cost_before)) return std::nullopt;
+    const double sigma = deg(fit.sigma_rad);
+    if (sigma > settings.max_sigma_deg || deg(length(fit.delta)) > settings.max_angle_deg) return std::nullopt;
+    PairMeasurement m;
+    m.relative = firmware::normalized(rotation_from_vector(fit.delta) * ra * rb.conj());
+    // The information, scaled so that no pair claims better than min_sigma_deg: neighbouring
+    // samples are not independent, and the fit's own figure is far too confident.
+    const double floor_info = 1.0 / std::pow(settings.min_sigma_deg * kPi / 180.0, 2);
+    double scale = 1.0;
+    for (int p = 0; p < 3; ++p) scale = std::max(scale, fit.information[p][p] / floor_info);
+    for (int p = 0; p < 3; ++p)
+        for (int q = 0; q < 3; ++q) m.information[p][q] = fit.information[p][q] / scale;
+    m.sigma_deg = std::max(sigma, settings.min_sigma_deg);
+    m.points = fit.points;
+    return m;
+}
+
+AdjustmentResult adjust_orientations(const std::vector<double>& t_s, const std::vector<Quatd>& sensor,
+                                     const std::vector<Quatd>& initial, const std::vector<PairMeasurement>& pairs,
+                                     const AdjustmentSettings& settings) {
+    const int n = int(initial.size());
+    if (int(t_s.size()) != n || int(sensor.size()) != n) throw InputError("adjust_orientations: inputs of different lengths");
+    AdjustmentResult out;
+    out.orientations = initial;
+    if (n == 0) return out;
+    const int unknowns = 3 * n + 3;  // a rotation vector per frame, then the drift rate
+    std::vector<Quatd>& R = out.orientations;
+    V3 b{};
+    const double w_sensor = 1.0 / std::pow(settings.sensor_sigma_deg * kPi / 180.0, 2);
+    std::vector<double> pair_weight(pairs.size(), 1.0);  // Huber reweighting of the pairs
+    for (int it = 0; it < settings.iterations; ++it) {
+        cv::Mat H = cv::Mat::zeros(unknowns, unknowns, CV_64F), g = cv::Mat::zeros(unknowns, 1, CV_64F);
+        // A constraint on the relative rotation of frames i and j: e ~ e0 + x_i - Q0 x_j.
+        const auto add_relative = [&](int i, int j, const V3& e0v, const double L[3][3]) {
+            double Q0[3][3];
+            rotation_matrix(firmware::normalized(R[std::size_t(i)] * R[std::size_t(j)].conj()), Q0);
+            const double e0[3] = {e0v.x, e0v.y, e0v.z};
+            // J_i = I, J_j = -Q0. H += J^T L J, g += J^T L e0.
+            double LQ[3][3] = {}, QtL[3][3] = {}, QtLQ[3][3] = {};
+            for (int p = 0; p < 3; ++p)
+                for (int q = 0; q < 3; ++q)
+                    for (int r = 0; r < 3; ++r) {
+                        LQ[p][q] += L[p][r] * Q0[r][q];
+                        QtL[p][q] += Q0[r][p] * L[r][q];
+                    }
+            for (int p = 0; p < 3; ++p)
+                for (int q = 0; q < 3; ++q)
+                    for (int r = 0; r < 3; ++r) QtLQ[p][q] += Q0[r][p] * LQ[r][q];
+            for (int p = 0; p < 3; ++p) {
+                for (int q = 0; q < 3; ++q) {
+                    H.at<double>(3 * i + p, 3 * i + q) += L[p][q];
+                    H.at<double>(3 * i + p, 3 * j + q) -= LQ[p][q];
+                    H.at<double>(3 * j + p, 3 * i + q) -= QtL[p][q];
+                    H.at<double>(3 * j + p, 3 * j + q) += QtLQ[p][q];
+                }
+                double le = 0, qle = 0;
+                for (int q = 0; q < 3; ++q) {
+                    le += L[p][q] * e0[q];
+                    qle += QtL[p][q] * e0[q];
+                }
+                g.at<double>(3 * i + p) += le;
+                g.at<double>(3 * j + p) -= qle;
+            }
+        };
+        double pair_ss = 0;
+        for (std::size_t k = 0; k < pairs.size(); ++k) {
+            const PairMeasurement& m = pairs[k];
+            const V3 e0 = rotation_vector_of(
+                firmware::normalized(R[std::size_t(m.i)] * R[std::size_t(m.j)].conj() * m.relative.conj()));
+            // Mahalanobis length of the error: beyond 3 the pair counts less (a false match).
+            const double ev[3] = {e0.x, e0.y, e0.z};
+            double maha = 0;
+            for (int p = 0; p < 3; ++p)
+                for (int q = 0; q < 3; ++q) maha += ev[p] * m.information[p][q] * ev[q];
+            maha = std::sqrt(maha);
+            pair_weight[k] = it == 0 || maha <= 3 ? 1.0 : 3 / maha;
+            pair_ss += length(e0) * length(e0);
+            double L[3][3];
+            for (int p = 0; p < 3; ++p)
+                for (int q = 0; q < 3; ++q) L[p][q] = pair_weight[k] * m.information[p][q];
+            add_relative(m.i, m.j, e0, L);
+        }
+        out.pair_rms_deg = pairs.empty() ? 0 : deg(std::sqrt(pair_ss / double(pairs.size())));
+        // The sensor's relative rotation between frames close in time.
+        for (int i = 1; i < n; ++i) {
+            const double dt = std::abs(t_s[std::size_t(i)] - t_s[std::size_t(i - 1)]);
+            if (dt > settings.relative_max_dt_s) continue;
+            const double sigma = (settings.relative_sigma_deg + settings.relative_sigma_deg_per_s * dt) * kPi / 180.0;
+            const double w = 1.0 / (sigma * sigma);
+            const double L[3][3] = {{w, 0, 0}, {0, w, 0}, {0, 0, w}};
+            const Quatd s_rel = firmware::normalized(sensor[std::size_t(i)] * sensor[std::size_t(i - 1)].conj());
+            const V3 e0 = rotation_vector_of(
+                firmware::normalized(R[std::size_t(i)] * R[std::size_t(i - 1)].conj() * s_rel.conj()));
+            add_relative(i, i - 1, e0, L);
+        }
+        // The sensor's absolute orientation with the drift line: e = log(R_f S_f^-1) - b t_f.
+        double sensor_ss = 0;
+        for (int f = 0; f < n; ++f) {
+            const V3 r = rotation_vector_of(firmware::normalized(R[std::size_t(f)] * sensor[std::size_t(f)].conj()));
+            const double t = t_s[std::size_t(f)];
+            const double e0[3] = {r.x - b.x * t, r.y - b.y * t, r.z - b.z * t};
+            sensor_ss += e0[0] * e0[0] + e0[1] * e0[1] + e0[2] * e0[2];
+            for (int p = 0; p < 3; ++p) {
+                // J = [I at x_f, -t I at b].
+                H.at<double>(3 * f + p, 3 * f + p) += w_sensor;
+                H.at<double>(3 * f + p, 3 * n + p) -= w_sensor * t;
+                H.at<double>(3 * n + p, 3 * f + p) -= w_sensor * t;
+                H.at<double>(3 * n + p, 3 * n + p) += w_sensor * t * t;
+                g.at<double>(3 * f + p) += w_sensor * e0[p];
+                g.at<double>(3 * n + p) -= w_sensor * t * e0[p];
+            }
+        }
+        out.sensor_rms_deg = deg(std::sqrt(sensor_ss / n));
+        for (int p = 0; p < 3; ++p) H.at<double>(3 * n + p, 3 * n + p) += 1e-9;  // a session shorter than an instant
+        cv::Mat step;
+        if (!cv::solve(H, -g, step, cv::DECOMP_CHOLESKY)) throw RuntimeError("global adjustment: singular system");
+        double largest = 0;
+        for (int f = 0; f < n; ++f) {
+            const V3 x{step.at<double>(3 * f), step.at<double>(3 * f + 1), step.at<double>(3 * f + 2)};
+            R[std::size_t(f)] = firmware::normalized(rotation_from_vector(x) * R[std::size_t(f)]);
+            largest = std::max(largest, length(x));
+        }
+        b = {b.x + step.at<double>(3 * n), b.y + step.at<double>(3 * n + 1), b.z + step.at<double>(3 * n + 2)};
+        if (largest < 1e-7) break;
+    }
+    out.drift_rate_rad_per_s = b;
+    out.pairs_used = int(pairs.size());
+    return out;
+}
+
+}  // namespace glint::capture
