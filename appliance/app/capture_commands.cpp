@@ -237,6 +237,9 @@ Command add_capture_command(CLI::App& app) {
         ->capture_default_str();
     cmd->add_flag("--no-global-adjustment", a->no_adjust,
                   "Keep the live pass's orientations: no pose graph of frame pairs and the sensor after the scan");
+    cmd->add_option("--adjustment-rounds", a->o.adjustment_rounds,
+                    "Rounds of the global adjustment: frame pairs aligned again from each solution, then solved")
+        ->capture_default_str();
     cmd->add_option("--drift-log", a->o.drift_log,
                     "Write every frame's drift estimate (CSV: index, time, overlapping points, estimate and its "
                     "standard deviation in degrees, residual before and after, applied; on a simulated session also "
@@ -283,10 +286,10 @@ Command add_capture_command(CLI::App& app) {
                                 r.drift_applied, r.drift_considered, r.drift_median_deg, r.drift_residual_before,
                                 r.drift_residual_after);
                 if (a->o.drift_correction && a->o.global_adjustment)
-                    std::printf("global adjustment: %d of %d frame pairs aligned, pair error %.3f degrees RMS, sensor "
-                                "error %.3f degrees RMS, drift %.3f deg/min, %.1f s\n",
-                                r.adjust_pairs, r.adjust_pairs_tried, r.adjust_pair_rms_deg, r.adjust_sensor_rms_deg,
-                                r.adjust_drift_deg_per_min, r.adjust_seconds);
+                    std::printf("global adjustment: %d rounds, %d of %d frame pairs aligned in the last, pair error "
+                                "%.3f degrees RMS, sensor error %.3f degrees RMS, drift %.3f deg/min, %.1f s\n",
+                                a->o.adjustment_rounds, r.adjust_pairs, r.adjust_pairs_tried, r.adjust_pair_rms_deg,
+                                r.adjust_sensor_rms_deg, r.adjust_drift_deg_per_min, r.adjust_seconds);
                 const Vec3& g = r.coverage.largest_gap;
                 std::printf("%s: %d frames, coverage %.1f %% of the sphere, largest gap %.2f sr around "
                             "(%.3f, %.3f, %.3f), %lld texels filled\n",

@@ -98,6 +98,7 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
     if (o.width < 8 || o.height < 4 || o.width > 16384 || o.height > 8192)
         throw InputError("--size must be between 8x4 and 16384x8192");
     if (o.min_samples < 1) throw InputError("--min-samples must be at least 1");
+    if (o.adjustment_rounds < 1 || o.adjustment_rounds > 20) throw InputError("--adjustment-rounds must be 1 to 20");
     if (!(o.drift_gain > 0 && o.drift_gain <= 1)) throw InputError("--drift-gain must be in (0, 1]");
     const Session session = open_session(o.session);
     const int threads = o.threads > 0 ? o.threads : hardware_threads();
@@ -164,7 +165,8 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
     CaptureSummary summary;
     // Progress: the live pass, then (global adjustment) the views, the pairs and the final map.
     const bool adjust = o.drift_correction && o.global_adjustment;
-    const long long total = (long long)session.frames.size() * (adjust ? 4 : 1);
+    const long long total = (long long)session.frames.size() * (adjust ? 3 : 1) +
+                            (adjust ? (long long)session.frames.size() * o.adjustment_rounds : 0);
     long long done = 0;
     GuidedCapture guide({}, cal.intrinsics);
     DriftSettings drift_settings;
@@ -287,29 +289,35 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
             std::sort(far.begin(), far.end());
             for (std::size_t k = 0; k < std::min<std::size_t>(4, far.size()); ++k) candidates.push_back({int(i), far[k].second});
         }
-        std::vector<std::optional<PairMeasurement>> measured(candidates.size());
-        parallel_for(int(candidates.size()), threads, [&](int k) {
-            const auto [i, j] = candidates[std::size_t(k)];
-            measured[std::size_t(k)] = align_pair(views[std::size_t(i)], final_q[std::size_t(i)], views[std::size_t(j)],
-                                                  final_q[std::size_t(j)]);
-            if (measured[std::size_t(k)]) {
-                measured[std::size_t(k)]->i = i;
-                measured[std::size_t(k)]->j = j;
-            }
-        });
-        std::vector<PairMeasurement> pairs;
-        for (const auto& m : measured)
-            if (m) pairs.push_back(*m);
-        for (std::size_t i = 0; i < used.size(); ++i)
-            if (progress) progress(++done, total);
         std::vector<double> t_s;
         std::vector<Quatd> sensor_q;
         for (const UsedFrame& u : used) {
             t_s.push_back(double(u.record->t_ns - t_first) * 1e-9);
             sensor_q.push_back(u.sensor);
         }
-        const AdjustmentResult ar = adjust_orientations(t_s, sensor_q, final_q, pairs);
-        final_q = ar.orientations;
+        AdjustmentResult ar;
+        // Rounds: a pair's alignment keeps part of its starting error along the directions the
+        // images pin down weakly, so the pairs are aligned again from each solution (measured:
+        // sunset's error after 60 s 0.70 -> 0.52 -> 0.47 degrees over the first three rounds).
+        for (int round = 0; round < o.adjustment_rounds; ++round) {
+            std::vector<std::optional<PairMeasurement>> measured(candidates.size());
+            parallel_for(int(candidates.size()), threads, [&](int k) {
+                const auto [i, j] = candidates[std::size_t(k)];
+                measured[std::size_t(k)] = align_pair(views[std::size_t(i)], final_q[std::size_t(i)],
+                                                      views[std::size_t(j)], final_q[std::size_t(j)]);
+                if (measured[std::size_t(k)]) {
+                    measured[std::size_t(k)]->i = i;
+                    measured[std::size_t(k)]->j = j;
+                }
+            });
+            std::vector<PairMeasurement> pairs;
+            for (const auto& m : measured)
+                if (m) pairs.push_back(*m);
+            ar = adjust_orientations(t_s, sensor_q, final_q, pairs);
+            final_q = ar.orientations;
+            for (std::size_t i = 0; i < used.size(); ++i)
+                if (progress) progress(++done, total);
+        }
         summary.adjust_pairs_tried = int(candidates.size());
         summary.adjust_pairs = ar.pairs_used;
         summary.adjust_pair_rms_deg = ar.pair_rms_deg;

@@ -31,6 +31,8 @@ struct CaptureOptions {
     double drift_gain = 0.1;       // low-pass gain of the drift correction (DriftSettings::gain)
     // The global adjustment after the scan (global_adjustment.hpp); only with drift correction on.
     bool global_adjustment = true;
+    // Rounds of pair alignment and solve, each from the last solution.
+    int adjustment_rounds = 4;
     // Per-frame log of the drift estimates (CSV: index,t_s,pixels,estimate_deg,sigma_deg,
     // residual_before,residual_after,applied,error_before_deg,error_after_deg; the errors against a
     // simulated session's truth, NaN otherwise); empty = none.
