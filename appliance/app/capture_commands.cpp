@@ -244,6 +244,9 @@ Command add_capture_command(CLI::App& app) {
                     "Write every frame's drift estimate (CSV: index, time, overlapping points, estimate and its "
                     "standard deviation in degrees, residual before and after, applied; on a simulated session also "
                     "the orientation error before and after and the sensor's error vector)");
+    cmd->add_option("--orientations-out", a->o.orientations_out,
+                    "Write the orientations the map was made with (CSV index,t_ns,w,x,y,z, world_from_camera: the "
+                    "format of a simulated session's truth/camera.csv)");
     cmd->add_option("--engine", a->engine, "Accumulation engine: cpu or gpu")->capture_default_str();
     cmd->add_option("--orientations", a->orientations,
                     "sensors (the session's recorded sensor stream) or truth (a simulated session's true "

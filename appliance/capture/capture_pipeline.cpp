@@ -371,6 +371,17 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
     save_exr(summary.coverage_path, coverage_image(samples, map_acc.weights(), o.width, o.height, o.min_samples));
     save_exr(o.out, env);
     if (!o.drift_log.empty()) write_text_atomically(o.drift_log, drift_log);
+    if (!o.orientations_out.empty()) {
+        std::string csv = "index,t_ns,w,x,y,z\n";
+        for (std::size_t i = 0; i < used.size(); ++i) {
+            char line[160];
+            std::snprintf(line, sizeof line, "%llu,%lld,%.12f,%.12f,%.12f,%.12f\n",
+                          static_cast<unsigned long long>(used[i].record->index), static_cast<long long>(used[i].record->t_ns),
+                          final_q[i].w, final_q[i].x, final_q[i].y, final_q[i].z);
+            csv += line;
+        }
+        write_text_atomically(o.orientations_out, csv);
+    }
     return summary;
 }
 

@@ -37,6 +37,9 @@ struct CaptureOptions {
     // residual_before,residual_after,applied,error_before_deg,error_after_deg; the errors against a
     // simulated session's truth, NaN otherwise); empty = none.
     std::filesystem::path drift_log;
+    // The orientations the map was made with (CSV: index,t_ns,w,x,y,z, world_from_camera, the
+    // truth/camera.csv format); empty = none.
+    std::filesystem::path orientations_out;
     int min_samples = 1;
     int threads = 0;
 };

@@ -127,22 +127,44 @@ double energy_in_cap(const HdrImage& map, Vec3 dir, double radius) {
     return e;
 }
 
+// A sun of three texels at 20000x a smooth sky, and a noiseless camera under manual exposure.
+struct SunScene {
+    static Vec3 sun_direction() {
+        const double norm = std::sqrt(0.3 * 0.3 + 0.1 * 0.1 + 1.0);
+        return {0.3 / norm, 0.1 / norm, -1 / norm};
+    }
+    static SensorModel noiseless() {
+        SensorModel m;
+        m.noise = false;
+        return m;
+    }
+    static AutoExposureModel manual() {
+        AutoExposureModel m;
+        m.enabled = false;
+        return m;
+    }
+    static CameraCalibration camera() {
+        CameraCalibration c = test_camera(noiseless());
+        c.intrinsics = Intrinsics::from_fov(320, 180, 70 * kDeg);
+        return c;
+    }
+    Vec3 sun = sun_direction();
+    HdrImage env = smooth_env(512, 256, 20000.0, sun, 0.6 * kDeg);
+    CameraCalibration cal = camera();
+    CameraSimulator sim{env, cal, noiseless(), manual()};
+};
+
 TEST(HdrAccumulation, ASunSmallerThanAFewPixelsKeepsItsEnergyAcrossTheBracket) {
     // A sun of three texels at 20000x the sky: it clips in the long exposures, and near
     // saturation in the next shorter one. A read that touches a clipped pixel must not count
     // (with Robertson's t^2 the long exposure's dimmer rim would outweigh the short exposures that
     // hold the sun), and X is averaged, not w X (a rim pixel of weight 0.9 beside a core pixel of
     // weight 0.013 would take the whole cell). Without both it kept 51 % of its energy.
-    const double norm = std::sqrt(0.3 * 0.3 + 0.1 * 0.1 + 1.0);
-    const Vec3 sun{0.3 / norm, 0.1 / norm, -1 / norm};
-    const HdrImage env = smooth_env(512, 256, 20000.0, sun, 0.6 * kDeg);
-    SensorModel sensor;
-    sensor.noise = false;
-    AutoExposureModel manual;
-    manual.enabled = false;
-    CameraCalibration cal = test_camera(sensor);
-    cal.intrinsics = Intrinsics::from_fov(320, 180, 70 * kDeg);
-    CameraSimulator sim(env, cal, sensor, manual);
+    SunScene scene;
+    CameraSimulator& sim = scene.sim;
+    const CameraCalibration& cal = scene.cal;
+    const Vec3& sun = scene.sun;
+    const HdrImage& env = scene.env;
     HdrAccumulator acc(512, 256);
     for (double t : {2e-3, 2e-3 / 64, 2e-3 / 4096, 2e-3 / 65536}) {
         sim.set_exposure(t, 1.0);
@@ -156,16 +178,11 @@ TEST(HdrAccumulation, AMisregisteredLongExposureDoesNotEraseTheSun) {
     // The long exposures are placed 1 degree off (a sensor error), the short ones true. Where a
     // long frame puts valid sky on the sun, its t^2 would outweigh the bracket by 4096^2; the
     // exposure bands (exposure_bands.hpp) keep the bracket's sun there.
-    const double norm = std::sqrt(0.3 * 0.3 + 0.1 * 0.1 + 1.0);
-    const Vec3 sun{0.3 / norm, 0.1 / norm, -1 / norm};
-    const HdrImage env = smooth_env(512, 256, 20000.0, sun, 0.6 * kDeg);
-    SensorModel sensor;
-    sensor.noise = false;
-    AutoExposureModel manual;
-    manual.enabled = false;
-    CameraCalibration cal = test_camera(sensor);
-    cal.intrinsics = Intrinsics::from_fov(320, 180, 70 * kDeg);
-    CameraSimulator sim(env, cal, sensor, manual);
+    SunScene scene;
+    CameraSimulator& sim = scene.sim;
+    const CameraCalibration& cal = scene.cal;
+    const Vec3& sun = scene.sun;
+    const HdrImage& env = scene.env;
     HdrAccumulator acc(512, 256);
     for (double t : {2e-3, 2e-3 / 4096, 2e-3 / 65536}) {
         sim.set_exposure(t, 1.0);
