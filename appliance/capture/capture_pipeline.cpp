@@ -172,6 +172,7 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
     DriftSettings drift_settings;
     drift_settings.gain = o.drift_gain;
     DriftCorrector drift(drift_settings);
+    HdrImage live_sphere(o.width, o.height);  // the live map's radiance, kept current where frames look
     // The last two columns, on a simulated session, are the camera-orientation error against the
     // truth before and after the correction (NaN without truth).
     std::string drift_log =
@@ -188,7 +189,14 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
             const Quatd sensor_q = *q;
             const auto t_drift = std::chrono::steady_clock::now();
             if (o.drift_correction && acc.frames() > 0) {
-                const DriftEstimate e = drift.estimate(f, cal, *q, acc.radiance(), acc.samples());
+                // The CPU merges the exposure bands only where this frame can look (its view plus
+                // the largest correction trusted); the GPU path reads the whole map back.
+                if (acc.cpu)
+                    acc.cpu->update_radiance_in_view(live_sphere, *q, cal.intrinsics,
+                                                     drift_settings.max_correction_deg * kPi / 180.0, threads);
+                else
+                    live_sphere = acc.radiance();
+                const DriftEstimate e = drift.estimate(f, cal, *q, live_sphere, acc.samples());
                 const Quatd corrected = firmware::normalized((e.applied ? e.correction : drift.carried()) * *q);
                 const auto t = true_poses.find(r.index);
                 const auto err = [&](const Quatd& x) {

@@ -18,6 +18,26 @@ HdrAccumulator::HdrAccumulator(int width, int height, AccumulationSettings setti
     weight_sum_.assign(n, 0.0f);
 }
 
+bool HdrAccumulator::cone_columns(int j, int width, int height, const firmware::Vec3d& axis, double cos_limit, int& i0,
+                                  int& count) {
+    const double rho = std::hypot(axis.x, axis.z);
+    const double phi0 = std::atan2(axis.x, -axis.z);
+    const double theta = row_theta(j, height);
+    const double st = std::sin(theta), ct = std::cos(theta);
+    // Columns whose direction is within the cone: cos(phi - phi0) >= q.
+    const double a = st * rho;
+    const double q = a > 1e-12 ? (cos_limit - ct * axis.y) / a : (ct * axis.y >= cos_limit ? -2.0 : 2.0);
+    if (q > 1.0) return false;
+    i0 = 0;
+    count = width;
+    if (q > -1.0) {
+        const double half = std::acos(q);
+        i0 = int(std::floor((phi0 - half + kPi) / kTwoPi * width - 0.5)) - 1;
+        count = std::min(width, int(std::ceil(2 * half / kTwoPi * width)) + 3);
+    }
+    return true;
+}
+
 HdrAccumulator::Band& HdrAccumulator::band_for(double t) {
     const int index = exposure_band(t);
     auto it = std::lower_bound(bands_.begin(), bands_.end(), index, [](const Band& b, int i) { return b.index < i; });
@@ -114,25 +134,13 @@ FrameContribution HdrAccumulator::add_frame(const CameraFrame& frame, const Came
 
     const firmware::Vec3d fwd = world_from_camera.rotate(firmware::Vec3d{0, 0, -1});
     const double cos_limit = std::max(-1.0, min_cos_to_axis(k) - 0.02);
-    const double rho = std::hypot(fwd.x, fwd.z);
-    const double phi0 = std::atan2(fwd.x, -fwd.z);
     const Quatd camera_from_world = world_from_camera.conj();
     Band& band = band_for(t);
     std::vector<long long> in_view(std::size_t(height_), 0), sampled(std::size_t(height_), 0);
 
     parallel_for(height_, threads, [&](int j) {
-        const double theta = row_theta(j, height_);
-        const double st = std::sin(theta), ct = std::cos(theta);
-        // Columns whose direction is within the frustum's cone: cos(phi - phi0) >= q.
-        const double a = st * rho;
-        const double q = a > 1e-12 ? (cos_limit - ct * fwd.y) / a : (ct * fwd.y >= cos_limit ? -2.0 : 2.0);
-        if (q > 1.0) return;
-        int i0 = 0, count = width_;
-        if (q > -1.0) {
-            const double half = std::acos(q);
-            i0 = int(std::floor((phi0 - half + kPi) / kTwoPi * width_ - 0.5)) - 1;
-            count = std::min(width_, int(std::ceil(2 * half / kTwoPi * width_)) + 3);
-        }
+        int i0 = 0, count = 0;
+        if (!cone_columns(j, width_, height_, fwd, cos_limit, i0, count)) return;
         for (int n = 0; n < count; ++n) {
             const int i = ((i0 + n) % width_ + width_) % width_;
             const Vec3 d = texel_direction(i, j, width_, height_);
@@ -167,25 +175,44 @@ FrameContribution HdrAccumulator::add_frame(const CameraFrame& frame, const Came
     return out;
 }
 
+Rgb HdrAccumulator::merged(std::size_t k, std::vector<BandTexel>& texel) const {
+    texel.resize(bands_.size());
+    for (std::size_t b = 0; b < bands_.size(); ++b) {
+        const Band& band = bands_[b];
+        BandTexel& x = texel[b];
+        for (int c = 0; c < 3; ++c) {
+            x.num[c] = band.num[3 * k + std::size_t(c)];
+            x.den[c] = band.den[3 * k + std::size_t(c)];
+        }
+        x.wt = band.wt[k];
+        x.t_min = band.t_min;
+    }
+    return merge_bands(texel);
+}
+
 HdrImage HdrAccumulator::radiance() const {
     HdrImage image(width_, height_);
-    std::vector<BandTexel> texel(bands_.size());
+    std::vector<BandTexel> texel;
     for (int j = 0; j < height_; ++j)
-        for (int i = 0; i < width_; ++i) {
-            const std::size_t k = std::size_t(j) * std::size_t(width_) + std::size_t(i);
-            for (std::size_t b = 0; b < bands_.size(); ++b) {
-                const Band& band = bands_[b];
-                BandTexel& x = texel[b];
-                for (int c = 0; c < 3; ++c) {
-                    x.num[c] = band.num[3 * k + std::size_t(c)];
-                    x.den[c] = band.den[3 * k + std::size_t(c)];
-                }
-                x.wt = band.wt[k];
-                x.t_min = band.t_min;
-            }
-            image.set(i, j, merge_bands(texel));
-        }
+        for (int i = 0; i < width_; ++i) image.set(i, j, merged(std::size_t(j) * std::size_t(width_) + std::size_t(i), texel));
     return image;
+}
+
+void HdrAccumulator::update_radiance_in_view(HdrImage& image, const Quatd& world_from_camera, const Intrinsics& k,
+                                             double margin_rad, int threads) const {
+    if (image.width() != width_ || image.height() != height_) image = HdrImage(width_, height_);
+    const firmware::Vec3d fwd = world_from_camera.rotate(firmware::Vec3d{0, 0, -1});
+    const double limit = std::acos(std::clamp(min_cos_to_axis(k), -1.0, 1.0)) + margin_rad + 2 * kTwoPi / width_;
+    const double cos_limit = limit >= kPi ? -1.0 : std::cos(limit);
+    parallel_for(height_, threads, [&](int j) {
+        int i0 = 0, count = 0;
+        if (!cone_columns(j, width_, height_, fwd, cos_limit, i0, count)) return;
+        std::vector<BandTexel> texel;
+        for (int n = 0; n < count; ++n) {
+            const int i = ((i0 + n) % width_ + width_) % width_;
+            image.set(i, j, merged(std::size_t(j) * std::size_t(width_) + std::size_t(i), texel));
+        }
+    });
 }
 
 }  // namespace glint::capture

@@ -258,3 +258,40 @@ TEST(HdrAccumulation, RejectsAFrameOfTheWrongSize) {
 
 }  // namespace
 }  // namespace glint::capture
+
+namespace glint::capture {
+namespace {
+
+TEST(HdrAccumulation, RadianceInViewMatchesTheWholeMapThereAndLeavesTheRest) {
+    SunScene scene;
+    HdrAccumulator acc(256, 128);
+    for (double t : {2e-3, 2e-3 / 4096})
+        for (double yaw : {0.0, 40.0, 80.0}) {
+            scene.sim.set_exposure(t, 1.0);
+            acc.add_frame(scene.sim.render(look(yaw, 0), 0), scene.cal, look(yaw, 0));
+        }
+    const HdrImage whole = acc.radiance();
+    HdrImage part(256, 128);
+    for (int j = 0; j < 128; ++j)
+        for (int i = 0; i < 256; ++i) part.set(i, j, {-1.0f, -1.0f, -1.0f});
+    const Quatd view = look(40, 0);
+    acc.update_radiance_in_view(part, view, scene.cal.intrinsics, 3 * kDeg, 2);
+    int inside = 0, outside = 0;
+    for (int j = 0; j < 128; ++j)
+        for (int i = 0; i < 256; ++i) {
+            const Vec3 d = texel_direction(i, j, 256, 128);
+            const firmware::Vec3d c = view.conj().rotate(firmware::Vec3d{d.x, d.y, d.z});
+            const bool in_frame = project(scene.cal.intrinsics, {c.x, c.y, c.z}).has_value();
+            if (in_frame) {
+                ++inside;
+                EXPECT_EQ(part.at(i, j).g, whole.at(i, j).g) << i << "," << j;  // every texel the frame sees
+            } else if (part.at(i, j).g == -1.0f) {
+                ++outside;
+            }
+        }
+    EXPECT_GT(inside, 1000);
+    EXPECT_GT(outside, 20000);  // far from the view nothing was touched
+}
+
+}  // namespace
+}  // namespace glint::capture
