@@ -205,8 +205,7 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
                 // The sensor's error as a world-frame rotation vector: truth = exp(error) x sensor.
                 firmware::Vec3d ev{std::nan(""), std::nan(""), std::nan("")};
                 if (t != true_poses.end()) {
-                    ev = rotation_vector_of(firmware::normalized(t->second * q->conj()));
-                    ev = {ev.x * 180 / kPi, ev.y * 180 / kPi, ev.z * 180 / kPi};
+                    ev = (180 / kPi) * rotation_vector_of(firmware::normalized(t->second * q->conj()));
                 }
                 char line[320];
                 std::snprintf(line, sizeof line, "%llu,%.3f,%d,%.4f,%.5f,%.5f,%.5f,%d,%.4f,%.4f,%.4f,%.4f,%.4f\n",
@@ -258,88 +257,35 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
 
     std::vector<Quatd> final_q;
     for (const UsedFrame& u : used) final_q.push_back(u.live);
-    std::unique_ptr<Engine> refined;
     const std::int64_t t_first = session.frames.front().t_ns;
+    std::unique_ptr<Engine> adjusted;  // the map made again from the adjusted orientations
     if (adjust) {
         // Global adjustment (global_adjustment.hpp): pairs of overlapping frames aligned to each
-        // other, then one pose graph with the sensor and its drift line.
+        // other, then one pose graph with the sensor and its drift line, in rounds.
         const auto t_adjust = std::chrono::steady_clock::now();
         std::vector<AlignmentView> views(used.size());
-        for (std::size_t i = 0; i < used.size(); ++i) {
-            views[i] = make_alignment_view(load_frame(session, *used[i].record), cal);
-            if (progress) progress(++done, total);
-        }
-        const double half_fov = std::atan2(0.5 * cal.intrinsics.width, cal.intrinsics.fx);
-        const auto axis = [](const Quatd& q) { return q.rotate(firmware::Vec3d{0, 0, -1}); };
-        std::vector<std::pair<int, int>> candidates;
-        for (std::size_t i = 0; i < used.size(); ++i) {
-            if (views[i].rays.size() < 150) continue;
-            const firmware::Vec3d ai = axis(final_q[i]);
-            // The two frames before it (the sweep's neighbours), and up to four earlier frames
-            // (more than 3 s before: another row, or the sweep's start) nearest in direction.
-            int near = 0;
-            std::vector<std::pair<double, int>> far;
-            for (std::size_t j = i; j-- > 0;) {
-                if (views[j].rays.size() < 150) continue;
-                const firmware::Vec3d aj = axis(final_q[j]);
-                const double angle = std::acos(std::clamp(ai.x * aj.x + ai.y * aj.y + ai.z * aj.z, -1.0, 1.0));
-                if (angle > half_fov) continue;
-                const double dt = double(used[i].record->t_ns - used[j].record->t_ns) * 1e-9;
-                if (dt < 3.0) {
-                    if (near < 2) {
-                        candidates.push_back({int(i), int(j)});
-                        ++near;
-                    }
-                } else {
-                    far.push_back({angle, int(j)});
-                }
-            }
-            std::sort(far.begin(), far.end());
-            for (std::size_t k = 0; k < std::min<std::size_t>(4, far.size()); ++k) candidates.push_back({int(i), far[k].second});
-        }
         std::vector<double> t_s;
         std::vector<Quatd> sensor_q;
-        for (const UsedFrame& u : used) {
-            t_s.push_back(double(u.record->t_ns - t_first) * 1e-9);
-            sensor_q.push_back(u.sensor);
+        for (std::size_t i = 0; i < used.size(); ++i) {
+            views[i] = make_alignment_view(load_frame(session, *used[i].record), cal);
+            t_s.push_back(double(used[i].record->t_ns - t_first) * 1e-9);
+            sensor_q.push_back(used[i].sensor);
+            if (progress) progress(++done, total);
         }
-        AdjustmentResult ar;
-        // Rounds: a pair's alignment keeps part of its starting error along the directions the
-        // images pin down weakly, so the pairs are aligned again from each solution (measured:
-        // sunset's error after 60 s 0.70 -> 0.52 -> 0.47 degrees over the first three rounds).
-        for (int round = 0; round < o.adjustment_rounds; ++round) {
-            std::vector<std::optional<PairMeasurement>> measured(candidates.size());
-            parallel_for(int(candidates.size()), threads, [&](int k) {
-                const auto [i, j] = candidates[std::size_t(k)];
-                measured[std::size_t(k)] = align_pair(views[std::size_t(i)], final_q[std::size_t(i)],
-                                                      views[std::size_t(j)], final_q[std::size_t(j)]);
-                if (measured[std::size_t(k)]) {
-                    measured[std::size_t(k)]->i = i;
-                    measured[std::size_t(k)]->j = j;
-                }
-            });
-            std::vector<PairMeasurement> pairs;
-            for (const auto& m : measured)
-                if (m) pairs.push_back(*m);
-            ar = adjust_orientations(t_s, sensor_q, final_q, pairs);
-            final_q = ar.orientations;
+        const ScanAdjustment sa = adjust_scan(views, t_s, sensor_q, final_q, o.adjustment_rounds, threads, [&] {
             for (std::size_t i = 0; i < used.size(); ++i)
                 if (progress) progress(++done, total);
-        }
-        summary.adjust_pairs_tried = int(candidates.size());
-        summary.adjust_pairs = ar.pairs_used;
-        summary.adjust_pair_rms_deg = ar.pair_rms_deg;
-        summary.adjust_sensor_rms_deg = ar.sensor_rms_deg;
-        summary.adjust_drift_deg_per_min = std::sqrt(ar.drift_rate_rad_per_s.x * ar.drift_rate_rad_per_s.x +
-                                                     ar.drift_rate_rad_per_s.y * ar.drift_rate_rad_per_s.y +
-                                                     ar.drift_rate_rad_per_s.z * ar.drift_rate_rad_per_s.z) *
-                                           180.0 / kPi * 60.0;
+        });
+        final_q = sa.result.orientations;
+        summary.adjust_pairs_tried = sa.pairs_tried;
+        summary.adjust_pairs = sa.result.pairs_used;
+        summary.adjust_pair_rms_deg = sa.result.pair_rms_deg;
+        summary.adjust_sensor_rms_deg = sa.result.sensor_rms_deg;
+        summary.adjust_drift_deg_per_min = firmware::norm(sa.result.drift_rate_rad_per_s) * 180.0 / kPi * 60.0;
         summary.adjust_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_adjust).count();
-    }
-    if (adjust) {
-        refined = make_engine();
+        adjusted = make_engine();
         for (std::size_t i = 0; i < used.size(); ++i) {
-            refined->add_frame(load_frame(session, *used[i].record), cal, final_q[i]);
+            adjusted->add_frame(load_frame(session, *used[i].record), cal, final_q[i]);
             if (progress) progress(++done, total);
         }
     }
@@ -367,7 +313,7 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
         errors(final_q, summary.orientation_error_median_deg, summary.orientation_error_max_deg,
                summary.orientation_error_after_60s_max_deg);
     }
-    const Engine& map_acc = refined ? *refined : acc;
+    const Engine& map_acc = adjusted ? *adjusted : acc;
     HdrImage env = map_acc.radiance();
     const std::vector<std::uint32_t> samples = map_acc.samples();
     summary.coverage = measure_coverage(samples, o.width, o.height, o.min_samples);
@@ -380,14 +326,9 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
     save_exr(o.out, env);
     if (!o.drift_log.empty()) write_text_atomically(o.drift_log, drift_log);
     if (!o.orientations_out.empty()) {
-        std::string csv = "index,t_ns,w,x,y,z\n";
-        for (std::size_t i = 0; i < used.size(); ++i) {
-            char line[160];
-            std::snprintf(line, sizeof line, "%llu,%lld,%.12f,%.12f,%.12f,%.12f\n",
-                          static_cast<unsigned long long>(used[i].record->index), static_cast<long long>(used[i].record->t_ns),
-                          final_q[i].w, final_q[i].x, final_q[i].y, final_q[i].z);
-            csv += line;
-        }
+        std::string csv = camera_poses_csv_header() + "\n";
+        for (std::size_t i = 0; i < used.size(); ++i)
+            csv += camera_poses_csv_line({used[i].record->index, used[i].record->t_ns, final_q[i]}) + "\n";
         write_text_atomically(o.orientations_out, csv);
     }
     return summary;

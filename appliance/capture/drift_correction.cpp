@@ -99,19 +99,14 @@ DriftEstimate DriftCorrector::measure(const CameraFrame& frame, const CameraCali
     out.residual_after = fit.cost_after;
     out.pixels = fit.points;
     if (fit.points < settings_.min_pixels) return out;
-    const firmware::Vec3d delta = fit.delta;
-    const double cost = fit.cost_after;
-    const double sigma_rad = fit.sigma_rad;
-    const double angle = std::sqrt(delta.x * delta.x + delta.y * delta.y + delta.z * delta.z);
-    out.angle_deg = angle * 180.0 / kPi;
-    out.residual_after = cost;
-    out.sigma_deg = sigma_rad * 180.0 / kPi;
-    if (out.angle_deg > settings_.max_correction_deg || !(cost <= out.residual_before) ||
+    out.angle_deg = firmware::norm(fit.delta) * 180.0 / kPi;
+    out.sigma_deg = fit.sigma_rad * 180.0 / kPi;
+    if (out.angle_deg > settings_.max_correction_deg || !(fit.cost_after <= out.residual_before) ||
         out.sigma_deg > settings_.max_sigma_deg) {
         out.residual_after = out.residual_before;
         return out;  // not trusted
     }
-    out.correction = rotation_from_vector(delta);
+    out.correction = rotation_from_vector(fit.delta);
     out.applied = true;
     return out;
 }

@@ -57,12 +57,8 @@ class DriftCorrector {
 public:
     explicit DriftCorrector(DriftSettings settings = {}) : settings_(settings) {}
 
-    // The alignment alone: `correction` is the full measured offset (exp(delta)) and `applied`
-    // says whether it is trusted; no fusion, no state. The global refinement uses this.
-    DriftEstimate measure(const CameraFrame& frame, const CameraCalibration& calibration, const Quatd& world_from_camera,
-                          const HdrImage& sphere, const std::vector<std::uint32_t>& samples) const;
-    // measure(), then fused for a live capture: the slow part carried from frame to frame plus a
-    // share of this frame's own offset (DriftSettings::gain, frame_share).
+    // The frame's offset against the sphere, fused for a live capture: the slow part carried from
+    // frame to frame plus a share of this frame's own offset (DriftSettings::gain, frame_share).
     // sphere: the radiance accumulated so far; samples: per texel, 0 = not covered.
     DriftEstimate estimate(const CameraFrame& frame, const CameraCalibration& calibration, const Quatd& world_from_camera,
                            const HdrImage& sphere, const std::vector<std::uint32_t>& samples);
@@ -70,6 +66,11 @@ public:
     const Quatd& carried() const { return carried_; }
 
 private:
+    // The alignment alone: `correction` is the full measured offset (exp(delta)) and `applied`
+    // says whether it is trusted; no fusion, no state.
+    DriftEstimate measure(const CameraFrame& frame, const CameraCalibration& calibration, const Quatd& world_from_camera,
+                          const HdrImage& sphere, const std::vector<std::uint32_t>& samples) const;
+
     DriftSettings settings_;
     Quatd carried_ = Quatd::identity();
 };

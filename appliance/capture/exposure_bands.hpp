@@ -15,8 +15,10 @@
 // merges as one Robertson sum, so a dim texel keeps the low noise of the long exposures.
 #pragma once
 
+#include <algorithm>
 #include <cmath>
 #include <span>
+#include <vector>
 
 #include "appliance/core/hdr_image.hpp"
 
@@ -27,6 +29,23 @@ inline constexpr double kConfidentExposure = 0.02;  // 10x the read noise of the
 
 // The band of an exposure t (exposure x gain x sensitivity, > 0).
 inline int exposure_band(double t) { return int(std::floor(std::log2(t) / kBandStops)); }
+
+// The band of exposure t in `bands` (kept sorted by index; a Band has `int index` and
+// `double t_min`), made by make(index) when it is the first frame of its band; t_min follows t.
+// Shared by the CPU and GPU accumulators, whose bands hold their sums differently.
+template <typename Band, typename Make>
+Band& band_for_exposure(std::vector<Band>& bands, double t, Make make) {
+    const int index = exposure_band(t);
+    auto it = std::lower_bound(bands.begin(), bands.end(), index, [](const Band& b, int i) { return b.index < i; });
+    if (it == bands.end() || it->index != index) {
+        Band b = make(index);
+        b.index = index;
+        b.t_min = t;
+        it = bands.insert(it, std::move(b));
+    }
+    it->t_min = std::min(it->t_min, t);
+    return *it;
+}
 
 // One band's sums at one texel.
 struct BandTexel {

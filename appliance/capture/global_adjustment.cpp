@@ -9,6 +9,7 @@
 #include "appliance/capture/rotation_fit.hpp"
 #include "appliance/core/equirect.hpp"
 #include "appliance/core/errors.hpp"
+#include "appliance/core/parallel.hpp"
 
 namespace glint::capture {
 
@@ -38,7 +39,7 @@ void rotation_matrix(const Quatd& q, double m[3][3]) {
 }
 
 double deg(double rad) { return rad * 180.0 / kPi; }
-double length(const V3& v) { return std::sqrt(v.x * v.x + v.y * v.y + v.z * v.z); }
+using firmware::norm;
 
 }  // namespace
 
@@ -93,7 +94,7 @@ std::optional<PairMeasurement> align_pair(const AlignmentView& a, const Quatd& r
     const RotationFit fit = fit_rotation(residuals, fs);
     if (!fit.estimated || fit.points < settings.min_points || !(fit.cost_after <= fit.cost_before)) return std::nullopt;
     const double sigma = deg(fit.sigma_rad);
-    if (sigma > settings.max_sigma_deg || deg(length(fit.delta)) > settings.max_angle_deg) return std::nullopt;
+    if (sigma > settings.max_sigma_deg || deg(norm(fit.delta)) > settings.max_angle_deg) return std::nullopt;
     PairMeasurement m;
     m.relative = firmware::normalized(rotation_from_vector(fit.delta) * ra * rb.conj());
     // The information, scaled so that no pair claims better than min_sigma_deg: neighbouring
@@ -167,7 +168,7 @@ AdjustmentResult adjust_orientations(const std::vector<double>& t_s, const std::
                 for (int q = 0; q < 3; ++q) maha += ev[p] * m.information[p][q] * ev[q];
             maha = std::sqrt(maha);
             pair_weight[k] = it == 0 || maha <= 3 ? 1.0 : 3 / maha;
-            pair_ss += length(e0) * length(e0);
+            pair_ss += norm(e0) * norm(e0);
             double L[3][3];
             for (int p = 0; p < 3; ++p)
                 for (int q = 0; q < 3; ++q) L[p][q] = pair_weight[k] * m.information[p][q];
@@ -211,13 +212,69 @@ AdjustmentResult adjust_orientations(const std::vector<double>& t_s, const std::
         for (int f = 0; f < n; ++f) {
             const V3 x{step.at<double>(3 * f), step.at<double>(3 * f + 1), step.at<double>(3 * f + 2)};
             R[std::size_t(f)] = firmware::normalized(rotation_from_vector(x) * R[std::size_t(f)]);
-            largest = std::max(largest, length(x));
+            largest = std::max(largest, norm(x));
         }
         b = {b.x + step.at<double>(3 * n), b.y + step.at<double>(3 * n + 1), b.z + step.at<double>(3 * n + 2)};
         if (largest < 1e-7) break;
     }
     out.drift_rate_rad_per_s = b;
     out.pairs_used = int(pairs.size());
+    return out;
+}
+
+ScanAdjustment adjust_scan(const std::vector<AlignmentView>& views, const std::vector<double>& t_s,
+                           const std::vector<Quatd>& sensor, std::vector<Quatd> initial, int rounds, int threads,
+                           const std::function<void()>& round_done, const PairSettings& pair_settings,
+                           const AdjustmentSettings& settings) {
+    const std::size_t n = views.size();
+    if (t_s.size() != n || sensor.size() != n || initial.size() != n)
+        throw InputError("adjust_scan: inputs of different lengths");
+    const auto usable = [&](std::size_t i) { return int(views[i].rays.size()) >= pair_settings.min_points; };
+    const auto axis = [](const Quatd& q) { return q.rotate(V3{0, 0, -1}); };
+    std::vector<std::pair<int, int>> candidates;
+    for (std::size_t i = 0; i < n; ++i) {
+        if (!usable(i)) continue;
+        const Intrinsics& k = views[i].intrinsics;
+        const double half_fov = std::atan2(0.5 * k.width, k.fx);
+        const V3 ai = axis(initial[i]);
+        int near = 0;
+        std::vector<std::pair<double, int>> far;
+        for (std::size_t j = i; j-- > 0;) {
+            if (!usable(j)) continue;
+            const double angle = std::acos(std::clamp(firmware::dot(ai, axis(initial[j])), -1.0, 1.0));
+            if (angle > half_fov) continue;
+            if (t_s[i] - t_s[j] >= 3.0) far.push_back({angle, int(j)});
+            else if (near < 2) {
+                candidates.push_back({int(i), int(j)});
+                ++near;
+            }
+        }
+        std::sort(far.begin(), far.end());
+        for (std::size_t k2 = 0; k2 < std::min<std::size_t>(4, far.size()); ++k2)
+            candidates.push_back({int(i), far[k2].second});
+    }
+    ScanAdjustment out;
+    out.pairs_tried = int(candidates.size());
+    out.result.orientations = initial;
+    for (int round = 0; round < rounds; ++round) {
+        std::vector<std::optional<PairMeasurement>> measured(candidates.size());
+        const std::vector<Quatd>& q = out.result.orientations;
+        parallel_for(int(candidates.size()), threads, [&](int c) {
+            const auto [i, j] = candidates[std::size_t(c)];
+            auto& m = measured[std::size_t(c)];
+            m = align_pair(views[std::size_t(i)], q[std::size_t(i)], views[std::size_t(j)], q[std::size_t(j)],
+                           pair_settings);
+            if (m) {
+                m->i = i;
+                m->j = j;
+            }
+        });
+        std::vector<PairMeasurement> pairs;
+        for (const auto& m : measured)
+            if (m) pairs.push_back(*m);
+        out.result = adjust_orientations(t_s, sensor, out.result.orientations, pairs, settings);
+        if (round_done) round_done();
+    }
     return out;
 }
 

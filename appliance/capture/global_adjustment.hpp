@@ -19,6 +19,7 @@
 // of the frames that painted it, a warp the mosaic is consistent with.
 #pragma once
 
+#include <functional>
 #include <optional>
 #include <vector>
 
@@ -84,5 +85,21 @@ struct AdjustmentResult {
 AdjustmentResult adjust_orientations(const std::vector<double>& t_s, const std::vector<Quatd>& sensor,
                                      const std::vector<Quatd>& initial, const std::vector<PairMeasurement>& pairs,
                                      const AdjustmentSettings& settings = {});
+
+// A whole scan: candidate pairs (for each frame that has enough valid samples, the two frames
+// before it within half the field of view, and up to four frames more than 3 s earlier, another
+// row or the sweep's start, nearest in direction), then `rounds` of aligning every candidate
+// from the current orientations and solving. A pair's alignment keeps part of its starting error
+// along the directions the images pin down weakly, so each round starts from the last solution
+// (measured: sunset's error after 60 s 0.70 -> 0.52 -> 0.47 degrees over the first three).
+struct ScanAdjustment {
+    AdjustmentResult result;  // of the last round
+    int pairs_tried = 0;      // candidate pairs
+};
+
+ScanAdjustment adjust_scan(const std::vector<AlignmentView>& views, const std::vector<double>& t_s,
+                           const std::vector<Quatd>& sensor, std::vector<Quatd> initial, int rounds, int threads,
+                           const std::function<void()>& round_done = {}, const PairSettings& pair_settings = {},
+                           const AdjustmentSettings& settings = {});
 
 }  // namespace glint::capture

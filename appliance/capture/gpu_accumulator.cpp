@@ -9,16 +9,15 @@
 namespace glint::capture {
 
 namespace {
-// The map width, once the context is known to have what the accumulation needs (checked before
-// the render targets are made, so the error names the missing extension).
-int checked_width(const render::GlContext& c, int width) {
+// The accumulation needs float render targets and float blending; checked before any target is
+// made, so the error names the missing extension.
+void check_capabilities(const render::GlContext& c) {
     if (!c.caps().float_color_buffer)
         throw RuntimeError("GPU accumulation: this GL context cannot render to float targets "
                            "(GL_EXT_color_buffer_float); use --engine cpu");
     if (!c.caps().float_blend)
         throw RuntimeError("GPU accumulation: this GL context cannot blend float targets (GL_EXT_float_blend); "
                            "use --engine cpu");
-    return width;
 }
 }  // namespace
 
@@ -28,25 +27,19 @@ GpuAccumulator::GpuAccumulator(const render::GlContext& context, int width, int 
       settings_(settings),
       program_("fullscreen.vert", "capture_accumulate.frag"),
       vao_(render::GlVertexArray::create()) {
-    checked_width(context, width);
+    check_capabilities(context);
 }
 
 GpuAccumulator::Band& GpuAccumulator::band_for(double t) {
-    const int index = exposure_band(t);
-    auto it = std::lower_bound(bands_.begin(), bands_.end(), index, [](const Band& b, int i) { return b.index < i; });
-    if (it == bands_.end() || it->index != index) {
+    return band_for_exposure(bands_, t, [&](int) {
         Band b;
-        b.index = index;
-        b.t_min = t;
         b.targets = std::make_unique<render::RenderTargets>(width_, height_, 3);
         b.targets->bind();
         const float zero[4] = {0, 0, 0, 0};
         for (int k = 0; k < 3; ++k) glClearBufferfv(GL_COLOR, k, zero);
         render::check_gl("clearing the accumulation targets of an exposure band");
-        it = bands_.insert(it, std::move(b));
-    }
-    it->t_min = std::min(it->t_min, t);
-    return *it;
+        return b;
+    });
 }
 
 void GpuAccumulator::add_frame(const CameraFrame& frame, const CameraCalibration& cal, const Quatd& world_from_camera) {

@@ -39,20 +39,14 @@ bool HdrAccumulator::cone_columns(int j, int width, int height, const firmware::
 }
 
 HdrAccumulator::Band& HdrAccumulator::band_for(double t) {
-    const int index = exposure_band(t);
-    auto it = std::lower_bound(bands_.begin(), bands_.end(), index, [](const Band& b, int i) { return b.index < i; });
-    if (it == bands_.end() || it->index != index) {
+    return band_for_exposure(bands_, t, [&](int) {
         const std::size_t n = std::size_t(width_) * std::size_t(height_);
         Band b;
-        b.index = index;
-        b.t_min = t;
         b.num.assign(3 * n, 0.0f);
         b.den.assign(3 * n, 0.0f);
         b.wt.assign(n, 0.0f);
-        it = bands_.insert(it, std::move(b));
-    }
-    it->t_min = std::min(it->t_min, t);
-    return *it;
+        return b;
+    });
 }
 
 int HdrAccumulator::auto_downscale(const Intrinsics& k, int map_width) {

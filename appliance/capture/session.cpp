@@ -87,6 +87,16 @@ std::string frames_csv_line(const FrameRecord& r) {
     return buf + r.file;
 }
 
+std::string camera_poses_csv_header() { return "index,t_ns,w,x,y,z"; }
+
+std::string camera_poses_csv_line(const TruthPose& p) {
+    char buf[160];
+    std::snprintf(buf, sizeof buf, "%llu,%lld,%.12f,%.12f,%.12f,%.12f", static_cast<unsigned long long>(p.index),
+                  static_cast<long long>(p.t_ns), p.world_from_camera.w, p.world_from_camera.x, p.world_from_camera.y,
+                  p.world_from_camera.z);
+    return buf;
+}
+
 std::string session_json(const std::string& created_by) {
     nlohmann::json j;
     j["format"] = "glint-session";
@@ -160,7 +170,7 @@ CameraFrame load_frame(const Session& session, const FrameRecord& r) {
 std::vector<TruthPose> load_truth_poses(const Session& session) {
     const fs::path p = session.dir / "truth" / "camera.csv";
     std::vector<TruthPose> poses;
-    for (const auto& [line, f] : read_csv(p, "index,t_ns,w,x,y,z", 6, "true camera orientations")) {
+    for (const auto& [line, f] : read_csv(p, camera_poses_csv_header(), 6, "true camera orientations")) {
         const std::string where = p.string() + ":" + std::to_string(line);
         TruthPose t;
         t.index = std::uint64_t(parse_int(f[0], where));

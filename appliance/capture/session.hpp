@@ -59,6 +59,9 @@ std::filesystem::path truth_env_path(const Session& session);
 // Writing (for the simulator and for recording live sessions).
 std::string frames_csv_header();
 std::string frames_csv_line(const FrameRecord& r);
+// truth/camera.csv (and `glint capture --orientations-out`): index,t_ns,w,x,y,z.
+std::string camera_poses_csv_header();
+std::string camera_poses_csv_line(const TruthPose& p);
 std::string session_json(const std::string& created_by);
 
 }  // namespace glint::capture

@@ -165,7 +165,7 @@ SimulateSummary write_session(const SimulateOptions& o, const HdrImage& env, con
     const int threads = o.threads > 0 ? o.threads : hardware_threads();
     const int frames = o.bracket > 0 ? o.bracket : int(std::floor(duration_s * o.fps)) + 1;
     std::string frames_csv = frames_csv_header() + "\n";
-    std::string truth_csv = "index,t_ns,w,x,y,z\n";
+    std::string truth_csv = camera_poses_csv_header() + "\n";
     int written = 0;
     const auto emit = [&](const CameraFrame& f, const Quatd& q, std::int64_t t_ns) {
         char name[32];
@@ -175,10 +175,7 @@ SimulateSummary write_session(const SimulateOptions& o, const HdrImage& env, con
         if (!cv::imwrite((partial / name).string(), bgr)) throw RuntimeError((partial / name).string() + ": cannot write");
         frames_csv +=
             frames_csv_line({std::uint64_t(written), t_ns, f.exposure_s, f.analogue_gain, f.digital_gain, name}) + "\n";
-        char line[160];
-        std::snprintf(line, sizeof line, "%d,%lld,%.12f,%.12f,%.12f,%.12f\n", written, static_cast<long long>(t_ns),
-                      q.w, q.x, q.y, q.z);
-        truth_csv += line;
+        truth_csv += camera_poses_csv_line({std::uint64_t(written), t_ns, q}) + "\n";
         ++written;
     };
     const auto clipped_share = [](const CameraFrame& f) {
