@@ -17,7 +17,7 @@
 #include "appliance/app/commands.hpp"
 #include "appliance/convolution/convolution.hpp"
 #include "appliance/convolution/gpu/gpu_engine.hpp"
-#include "appliance/render/gl_context.hpp"
+#include "appliance/gl/gl_context.hpp"
 #include "appliance/core/atomic_file.hpp"
 #include "appliance/core/errors.hpp"
 #include "appliance/core/exr_io.hpp"
@@ -44,8 +44,8 @@ struct ConvolveArgs {
 
 // The GPU engine on a surfaceless EGL context, or why not (then the CPU runs).
 struct GpuSetup {
-    std::unique_ptr<render::EglDisplay> display;
-    std::unique_ptr<render::GlContext> context;
+    std::unique_ptr<gl::EglDisplay> display;
+    std::unique_ptr<gl::GlContext> context;
     std::unique_ptr<convolution::gpu::UnlimitedGate> gate;
     std::unique_ptr<convolution::gpu::GpuEngine> engine;
 };
@@ -53,8 +53,8 @@ struct GpuSetup {
 GpuSetup start_gpu(double cap_ms) {
     GpuSetup g;
     try {
-        g.display = std::make_unique<render::EglDisplay>(render::EglDisplay::surfaceless());
-        g.context = std::make_unique<render::GlContext>(*g.display);
+        g.display = std::make_unique<gl::EglDisplay>(gl::EglDisplay::surfaceless());
+        g.context = std::make_unique<gl::GlContext>(*g.display);
         std::fprintf(stderr, "glint: GL: %s\n", g.context->describe().c_str());
         g.gate = std::make_unique<convolution::gpu::UnlimitedGate>(cap_ms);
         g.engine = std::make_unique<convolution::gpu::GpuEngine>(*g.context, *g.gate, cap_ms);

@@ -128,11 +128,11 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
         for (const TruthPose& p : load_truth_poses(session)) true_poses[p.index] = p.world_from_camera;
     // One face for both engines: the CPU reference, or the GPU path on a surfaceless EGL context
     // (one context for every accumulation of the run).
-    std::unique_ptr<render::EglDisplay> display;
-    std::unique_ptr<render::GlContext> context;
+    std::unique_ptr<gl::EglDisplay> display;
+    std::unique_ptr<gl::GlContext> context;
     if (o.engine == CaptureEngine::Gpu) {
-        display = std::make_unique<render::EglDisplay>(render::EglDisplay::surfaceless());
-        context = std::make_unique<render::GlContext>(*display);
+        display = std::make_unique<gl::EglDisplay>(gl::EglDisplay::surfaceless());
+        context = std::make_unique<gl::GlContext>(*display);
     }
     struct Engine {
         std::unique_ptr<HdrAccumulator> cpu;

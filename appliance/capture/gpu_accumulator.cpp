@@ -11,7 +11,7 @@ namespace glint::capture {
 namespace {
 // The accumulation needs float render targets and float blending; checked before any target is
 // made, so the error names the missing extension.
-void check_capabilities(const render::GlContext& c) {
+void check_capabilities(const gl::GlContext& c) {
     if (!c.caps().float_color_buffer)
         throw RuntimeError("GPU accumulation: this GL context cannot render to float targets "
                            "(GL_EXT_color_buffer_float); use --engine cpu");
@@ -21,23 +21,23 @@ void check_capabilities(const render::GlContext& c) {
 }
 }  // namespace
 
-GpuAccumulator::GpuAccumulator(const render::GlContext& context, int width, int height, AccumulationSettings settings)
+GpuAccumulator::GpuAccumulator(const gl::GlContext& context, int width, int height, AccumulationSettings settings)
     : width_(width),
       height_(height),
       settings_(settings),
       program_("fullscreen.vert", "capture_accumulate.frag"),
-      vao_(render::GlVertexArray::create()) {
+      vao_(gl::GlVertexArray::create()) {
     check_capabilities(context);
 }
 
 GpuAccumulator::Band& GpuAccumulator::band_for(double t) {
     return band_for_exposure(bands_, t, [&](int) {
         Band b;
-        b.targets = std::make_unique<render::RenderTargets>(width_, height_, 3);
+        b.targets = std::make_unique<gl::RenderTargets>(width_, height_, 3);
         b.targets->bind();
         const float zero[4] = {0, 0, 0, 0};
         for (int k = 0; k < 3; ++k) glClearBufferfv(GL_COLOR, k, zero);
-        render::check_gl("clearing the accumulation targets of an exposure band");
+        gl::check_gl("clearing the accumulation targets of an exposure band");
         return b;
     });
 }
@@ -59,8 +59,8 @@ void GpuAccumulator::add_frame(const CameraFrame& frame, const CameraCalibration
         }
         p[4 * i + 3] = planes[n * i + 6];  // the invalid flag rides in X's alpha
     }
-    const render::GlTexture p_tex = render::make_float_texture(pw, ph, p.data());
-    const render::GlTexture w_tex = render::make_float_texture(pw, ph, w.data());
+    const gl::GlTexture p_tex = gl::make_float_texture(pw, ph, p.data());
+    const gl::GlTexture w_tex = gl::make_float_texture(pw, ph, w.data());
 
     band_for(t).targets->bind();
     program_.use();
@@ -90,7 +90,7 @@ void GpuAccumulator::add_frame(const CameraFrame& frame, const CameraCalibration
     glBindVertexArray(vao_.id());
     glDrawArrays(GL_TRIANGLES, 0, 3);
     glDisable(GL_BLEND);
-    render::check_gl("accumulating a frame");
+    gl::check_gl("accumulating a frame");
     ++frames_;
 }
 

@@ -12,16 +12,16 @@
 #include <vector>
 
 #include "appliance/capture/hdr_accumulator.hpp"
-#include "appliance/render/gl_context.hpp"
-#include "appliance/render/gl_program.hpp"
-#include "appliance/render/gl_targets.hpp"
+#include "appliance/gl/gl_context.hpp"
+#include "appliance/gl/gl_program.hpp"
+#include "appliance/gl/gl_targets.hpp"
 
 namespace glint::capture {
 
 class GpuAccumulator {
 public:
     // The context must be current on the calling thread for every call.
-    GpuAccumulator(const render::GlContext& context, int width, int height, AccumulationSettings settings = {});
+    GpuAccumulator(const gl::GlContext& context, int width, int height, AccumulationSettings settings = {});
 
     void add_frame(const CameraFrame& frame, const CameraCalibration& calibration, const Quatd& world_from_camera);
 
@@ -35,7 +35,7 @@ private:
     struct Band {
         int index = 0;
         double t_min = 0;
-        std::unique_ptr<render::RenderTargets> targets;
+        std::unique_ptr<gl::RenderTargets> targets;
     };
     Band& band_for(double t);
     std::vector<float> aux_sum(int component) const;  // aux summed over the bands, in map order
@@ -43,8 +43,8 @@ private:
     int width_, height_;
     AccumulationSettings settings_;
     std::vector<Band> bands_;
-    render::GlProgram program_;
-    render::GlVertexArray vao_;
+    gl::GlProgram program_;
+    gl::GlVertexArray vao_;
     int frames_ = 0;
 };
 

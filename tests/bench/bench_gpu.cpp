@@ -35,9 +35,9 @@
 #include "appliance/core/memory.hpp"
 #include "bench_util.hpp"
 #include "appliance/core/parallel.hpp"
-#include "appliance/render/gl_context.hpp"
-#include "appliance/render/gl_objects.hpp"
-#include "appliance/render/gl_program.hpp"
+#include "appliance/gl/gl_context.hpp"
+#include "appliance/gl/gl_objects.hpp"
+#include "appliance/gl/gl_program.hpp"
 
 using namespace glint;
 using namespace glint::convolution;
@@ -74,8 +74,8 @@ double percentile(std::vector<double> v, double p) {
 
 // A UV sphere: positions and normals interleaved, indexed triangles.
 struct Mesh {
-    render::GlVertexArray vao;
-    render::GlBuffer vertices, indices;
+    gl::GlVertexArray vao;
+    gl::GlBuffer vertices, indices;
     GLsizei count = 0;
 };
 
@@ -93,7 +93,7 @@ Mesh make_sphere(int slices, int stacks) {
             const GLuint a = GLuint(j * (slices + 1) + i), b = a + GLuint(slices + 1);
             idx.insert(idx.end(), {a, b, a + 1, a + 1, b, b + 1});
         }
-    Mesh m{render::GlVertexArray::create(), render::GlBuffer::create(), render::GlBuffer::create(), GLsizei(idx.size())};
+    Mesh m{gl::GlVertexArray::create(), gl::GlBuffer::create(), gl::GlBuffer::create(), GLsizei(idx.size())};
     glBindVertexArray(m.vao.id());
     glBindBuffer(GL_ARRAY_BUFFER, m.vertices.id());
     glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(v.size() * sizeof(float)), v.data(), GL_STATIC_DRAW);
@@ -115,9 +115,9 @@ class Scene {
 public:
     Scene(const HdrImage& irradiance, const HdrImage& reflection, const HdrImage& background)
         : quad_("textured_quad.vert", "textured_quad.frag"), lit_("lit_mesh.vert", "lit_mesh.frag"),
-          sphere_(make_sphere(96, 48)), empty_(render::GlVertexArray::create()),
+          sphere_(make_sphere(96, 48)), empty_(gl::GlVertexArray::create()),
           irradiance_(gpu::upload_image(irradiance)), reflection_(gpu::upload_image(reflection)),
-          color_(render::GlTexture::create()), framebuffer_(render::GlFramebuffer::create()) {
+          color_(gl::GlTexture::create()), framebuffer_(gl::GlFramebuffer::create()) {
         for (GLuint t : {irradiance_.id(), reflection_.id()}) {
             glBindTexture(GL_TEXTURE_2D, t);
             glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
@@ -134,7 +134,7 @@ public:
                     rgba[std::size_t((y * 1280 + x) * 4 + k)] = (unsigned char)(255.0f * std::min(1.0f, v[k] / (1.0f + v[k])));
                 rgba[std::size_t((y * 1280 + x) * 4 + 3)] = 255;
             }
-        camera_ = render::GlTexture::create();
+        camera_ = gl::GlTexture::create();
         glBindTexture(GL_TEXTURE_2D, camera_.id());
         glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, 1280, 720, 0, GL_RGBA, GL_UNSIGNED_BYTE, rgba.data());
         glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
@@ -148,7 +148,7 @@ public:
         glBindFramebuffer(GL_FRAMEBUFFER, framebuffer_.id());
         glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, color_.id(), 0);
         glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, depth_);
-        render::check_gl("creating the 1280x720 frame");
+        gl::check_gl("creating the 1280x720 frame");
     }
     ~Scene() { glDeleteRenderbuffers(1, &depth_); }
 
@@ -186,7 +186,7 @@ public:
         glBindVertexArray(sphere_.vao.id());
         glDrawElements(GL_TRIANGLES, sphere_.count, GL_UNSIGNED_INT, nullptr);
         glBindVertexArray(0);
-        render::GlFence::insert().wait();
+        gl::GlFence::insert().wait();
         return ms_since(start);
     }
 
@@ -225,11 +225,11 @@ public:
     }
 
 private:
-    render::GlProgram quad_, lit_;
+    gl::GlProgram quad_, lit_;
     Mesh sphere_;
-    render::GlVertexArray empty_;
-    render::GlTexture irradiance_, reflection_, camera_, color_;
-    render::GlFramebuffer framebuffer_;
+    gl::GlVertexArray empty_;
+    gl::GlTexture irradiance_, reflection_, camera_, color_;
+    gl::GlFramebuffer framebuffer_;
     GLuint depth_ = 0;
 };
 
@@ -242,7 +242,7 @@ struct LoopResult {
 
 // Runs frames at 30 Hz; with `env`, the whole set's convolution runs on a worker
 // thread (its own context, shared with this one) in each frame's leftover time.
-LoopResult render_loop(render::EglDisplay& display, render::GlContext& main, Scene& scene, const HdrImage* env,
+LoopResult render_loop(gl::EglDisplay& display, gl::GlContext& main, Scene& scene, const HdrImage* env,
                        int frames_without_job, double budget_ms, double cap_ms) {
     LoopResult r;
     gpu::FrameBudgetGate gate;
@@ -257,7 +257,7 @@ LoopResult render_loop(render::EglDisplay& display, render::GlContext& main, Sce
             // take the cores from the frame: they run at a lower priority.
             lower_this_thread_priority();
             try {
-                render::GlContext context(display, nullptr, &main);
+                gl::GlContext context(display, nullptr, &main);
                 gpu::GpuEngine engine(context, gate, cap_ms);
                 engine.prepare_programs();  // at start-up, as the appliance does
                 ready = true;
@@ -325,8 +325,8 @@ int main(int argc, char** argv) {
         }
     }
     const HdrImage env = load_exr(worlds / "courtyard.exr").image;
-    render::EglDisplay display = render::EglDisplay::surfaceless();
-    render::GlContext context(display);
+    gl::EglDisplay display = gl::EglDisplay::surfaceless();
+    gl::GlContext context(display);
     std::fprintf(stderr, "bench_gpu: %s\n", context.describe().c_str());
 
     // (a) whole set, CPU and GPU (the GPU engine with no frame to share).

@@ -5,7 +5,7 @@
 
 #include <memory>
 
-#include "appliance/render/gl_context.hpp"
+#include "appliance/gl/gl_context.hpp"
 
 namespace glint::test {
 
@@ -13,16 +13,16 @@ class GpuTest : public ::testing::Test {
 protected:
     static void SetUpTestSuite() {
         if (!display_) {
-            display_ = std::make_unique<render::EglDisplay>(render::EglDisplay::surfaceless());
-            context_ = std::make_unique<render::GlContext>(*display_);
+            display_ = std::make_unique<gl::EglDisplay>(gl::EglDisplay::surfaceless());
+            context_ = std::make_unique<gl::GlContext>(*display_);
         }
         context_->make_current();
     }
-    static const render::GlContext& context() { return *context_; }
+    static const gl::GlContext& context() { return *context_; }
 
 private:
-    static inline std::unique_ptr<render::EglDisplay> display_;
-    static inline std::unique_ptr<render::GlContext> context_;
+    static inline std::unique_ptr<gl::EglDisplay> display_;
+    static inline std::unique_ptr<gl::GlContext> context_;
 };
 
 }  // namespace glint::test

@@ -5,12 +5,12 @@
 #include <string>
 
 #include "appliance/core/errors.hpp"
-#include "appliance/render/gl_objects.hpp"
-#include "appliance/render/gl_program.hpp"
-#include "appliance/render/shader_sources.hpp"
+#include "appliance/gl/gl_objects.hpp"
+#include "appliance/gl/gl_program.hpp"
+#include "appliance/gl/shader_sources.hpp"
 #include "gpu_fixture.hpp"
 
-namespace glint::render {
+namespace glint::gl {
 namespace {
 
 using test::GpuTest;
@@ -78,4 +78,4 @@ TEST_F(GpuTest, RaiiReleasesNames) {
 }
 
 }  // namespace
-}  // namespace glint::render
+}  // namespace glint::gl

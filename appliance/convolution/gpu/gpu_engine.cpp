@@ -21,26 +21,26 @@ namespace {
 
 // A single-channel texture with nearest filtering: R32F (GL_RED, GL_FLOAT) or
 // R32I (GL_RED_INTEGER, GL_INT); per-row parameters of a pass, masks.
-render::GlTexture make_channel_texture(int width, int height, GLenum internal, GLenum format, GLenum type,
+gl::GlTexture make_channel_texture(int width, int height, GLenum internal, GLenum format, GLenum type,
                                        const void* data) {
-    render::GlTexture t = render::GlTexture::create();
+    gl::GlTexture t = gl::GlTexture::create();
     glBindTexture(GL_TEXTURE_2D, t.id());
     glTexImage2D(GL_TEXTURE_2D, 0, GLint(internal), width, height, 0, format, type, data);
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
-    render::check_gl("creating a single-channel texture");
+    gl::check_gl("creating a single-channel texture");
     return t;
 }
 
-render::GlTexture make_row_texture(const std::vector<float>& values) {
+gl::GlTexture make_row_texture(const std::vector<float>& values) {
     return make_channel_texture(int(values.size()), 1, GL_R32F, GL_RED, GL_FLOAT, values.data());
 }
 
-render::GlTexture make_int_row_texture(const std::vector<int>& values) {
+gl::GlTexture make_int_row_texture(const std::vector<int>& values) {
     return make_channel_texture(int(values.size()), 1, GL_R32I, GL_RED_INTEGER, GL_INT, values.data());
 }
 
-render::GlTexture make_mask_texture(int width, int height, const std::vector<float>& mask) {
+gl::GlTexture make_mask_texture(int width, int height, const std::vector<float>& mask) {
     return make_channel_texture(width, height, GL_R32F, GL_RED, GL_FLOAT, mask.data());
 }
 
@@ -132,7 +132,7 @@ public:
             for (const auto& [a, b] : runs[k])
                 for (int i = a; i < b; ++i) mask[std::size_t(rows[k]) * std::size_t(out_.width) + std::size_t(i)] = 1.0f;
         }
-        const render::GlTexture mask_texture = make_mask_texture(out_.width, out_.height, mask);
+        const gl::GlTexture mask_texture = make_mask_texture(out_.width, out_.height, mask);
         std::vector<double> mask_share(std::size_t(out_.height), 0.0);
         for (int r = 0; r < out_.height; ++r) {
             double on = 0;
@@ -163,7 +163,7 @@ public:
             d[6] = float(texels[b].b);
             d[7] = 0.0f;
         }
-        const render::GlTexture bright = make_float_texture(2, int(texels.size()), data.data());
+        const gl::GlTexture bright = make_float_texture(2, int(texels.size()), data.data());
         // Work of a texel of each row: the loop over every bright texel, plus
         // the terms of those whose cut-off cone reaches the row.
         std::vector<double> work(std::size_t(out_.height), double(texels.size()) + 1.0);
@@ -176,7 +176,7 @@ public:
                 if (std::abs(kPi * (r + 0.5) / out_.height - texels[b].theta) <= reach) work[std::size_t(r)] += 20.0;
         }
         RenderTargets targets(out_.width, out_.height, 1);
-        const render::GlProgram& p = engine_.program("convolve_bright.frag");
+        const gl::GlProgram& p = engine_.program("convolve_bright.frag");
         engine_.draw_tiled(p, targets, [&] {
             bind_texture(0, bright.id());
             bind_texture(1, log_cmax_.id());
@@ -223,9 +223,9 @@ private:
 
     // mask, mask_share: the annulus pass's texels and each row's share of them.
     void run_cone(const RenderTargets& targets, const std::vector<float>& x_outer, float x_inner,
-                  const render::GlTexture* mask, const std::vector<double>* mask_share) {
-        const render::GlTexture rows = make_row_texture(x_outer);
-        const render::GlProgram& p = engine_.program("convolve_cone.frag");
+                  const gl::GlTexture* mask, const std::vector<double>* mask_share) {
+        const gl::GlTexture rows = make_row_texture(x_outer);
+        const gl::GlProgram& p = engine_.program("convolve_cone.frag");
         // Bands of level rows, added up by float blending (see exact()).
         const int band = engine_.band_rows(width_, height_);
         targets.bind();
@@ -291,16 +291,16 @@ private:
     double n_;
     int width_, height_, classes_;
     std::array<GLint, 8> merge_offset_{};
-    render::GlTexture atlas_, row_merge_, log_cmax_;
+    gl::GlTexture atlas_, row_merge_, log_cmax_;
     std::vector<double> cmax_;  // per output row and class
     std::vector<int> merge_;    // merge factor of each level row
 };
 
 }  // namespace
 
-GpuEngine::GpuEngine(const render::GlContext& context, TileGate& gate, double hard_cap_ms)
+GpuEngine::GpuEngine(const gl::GlContext& context, TileGate& gate, double hard_cap_ms)
     : context_(context), gate_(gate), hard_cap_ms_(hard_cap_ms),
-      batch_(std::min(8, context.caps().max_draw_buffers)), vao_(render::GlVertexArray::create()) {
+      batch_(std::min(8, context.caps().max_draw_buffers)), vao_(gl::GlVertexArray::create()) {
     if (!context.caps().float_color_buffer)
         throw RuntimeError("GPU engine: this GL context lacks GL_EXT_color_buffer_float (float render targets, "
                            "needed to accumulate in 32-bit float); use the CPU engine");
@@ -327,20 +327,20 @@ void GpuEngine::begin_accumulation() const {
     glBlendFunc(GL_ONE, GL_ONE);
 }
 
-const render::GlProgram& GpuEngine::program(const std::string& fragment) {
+const gl::GlProgram& GpuEngine::program(const std::string& fragment) {
     for (const auto& [name, p] : programs_)
         if (name == fragment) return *p;
-    programs_.emplace_back(fragment, std::make_unique<render::GlProgram>("fullscreen.vert", fragment));
+    programs_.emplace_back(fragment, std::make_unique<gl::GlProgram>("fullscreen.vert", fragment));
     return *programs_.back().second;
 }
 
-void GpuEngine::draw_tiled(const render::GlProgram& program, const RenderTargets& targets,
+void GpuEngine::draw_tiled(const gl::GlProgram& program, const RenderTargets& targets,
                            const std::function<void()>& set_uniforms, const std::vector<double>* row_work) {
     targets.bind();
     program.use();
     glBindVertexArray(vao_.id());
     set_uniforms();
-    render::check_gl(("setting up the pass " + program.label()).c_str());
+    gl::check_gl(("setting up the pass " + program.label()).c_str());
     TileRunner runner(context_.caps(), gate_, hard_cap_ms_, costs_[program.label()]);
     runner.run(
         targets.width(), targets.height(), [](const TileRect&) { glDrawArrays(GL_TRIANGLES, 0, 3); },
@@ -348,7 +348,7 @@ void GpuEngine::draw_tiled(const render::GlProgram& program, const RenderTargets
             if (on_tile_) on_tile_(tile, targets.texture(0));
         },
         row_work);
-    render::check_gl(("drawing the pass " + program.label()).c_str());
+    gl::check_gl(("drawing the pass " + program.label()).c_str());
     stats_.tiles += runner.stats().tiles;
     stats_.gpu_ms += runner.stats().gpu_ms;
     stats_.largest_ms = std::max(stats_.largest_ms, runner.stats().largest_ms);
@@ -357,9 +357,9 @@ void GpuEngine::draw_tiled(const render::GlProgram& program, const RenderTargets
 std::vector<HdrImage> GpuEngine::exact(const HdrImage& input, const std::vector<double>& shininess, Size out) {
     if (shininess.empty() || int(shininess.size()) > batch_)
         throw RuntimeError("GPU engine: an exact pass takes 1 to " + std::to_string(batch_) + " maps");
-    const render::GlTexture texture = upload_image(input);
+    const gl::GlTexture texture = upload_image(input);
     RenderTargets targets(out.width, out.height, int(shininess.size()));
-    const render::GlProgram& p = program("convolve_exact.frag");
+    const gl::GlProgram& p = program("convolve_exact.frag");
     std::array<float, 8> n{};
     for (std::size_t k = 0; k < shininess.size(); ++k) n[k] = float(shininess[k]);
     const int band = band_rows(input.width(), input.height());
@@ -398,7 +398,7 @@ std::vector<HdrImage> GpuEngine::mipmap(const Pyramid& pyramid, const std::vecto
                                         Size out) {
     if (maps.empty() || int(maps.size()) > batch_)
         throw RuntimeError("GPU engine: a mipmap pass takes 1 to " + std::to_string(batch_) + " maps");
-    std::map<int, render::GlTexture> levels;
+    std::map<int, gl::GlTexture> levels;
     const auto level_texture = [&](int k) {
         auto it = levels.find(k);
         if (it == levels.end()) it = levels.emplace(k, upload_image(pyramid.level(k))).first;
@@ -419,7 +419,7 @@ std::vector<HdrImage> GpuEngine::mipmap(const Pyramid& pyramid, const std::vecto
         lookups.push_back({level_texture(k0), level_texture(k1), (t > 0 && k1 != k0) ? float(t) : 0.0f});
     }
     RenderTargets targets(out.width, out.height, int(maps.size()));
-    const render::GlProgram& p = program("convolve_mipmap.frag");
+    const gl::GlProgram& p = program("convolve_mipmap.frag");
     draw_tiled(p, targets, [&] {
         std::array<GLint, 8> fine{}, coarse{};
         std::array<float, 8> blend{};
@@ -480,17 +480,17 @@ std::vector<double> GpuEngine::sh_evaluate(const ShCoefficients& c, int order, c
             pmm[(std::size_t(j) * std::size_t(order) + std::size_t(m)) * 4] = std::abs(v) < 1e-37 ? 0.0f : float(v);
         }
     }
-    const render::GlTexture cos_tex = make_float_texture(int(kWidth), int(rows), cos_w.data());
-    const render::GlTexture sin_tex = make_float_texture(int(kWidth), int(rows), sin_w.data());
-    const render::GlTexture steps_tex = make_float_texture(int(kWidth), int(rows), steps.data());
-    const render::GlTexture pmm_tex = make_float_texture(order, out.height, pmm.data());
+    const gl::GlTexture cos_tex = make_float_texture(int(kWidth), int(rows), cos_w.data());
+    const gl::GlTexture sin_tex = make_float_texture(int(kWidth), int(rows), sin_w.data());
+    const gl::GlTexture steps_tex = make_float_texture(int(kWidth), int(rows), steps.data());
+    const gl::GlTexture pmm_tex = make_float_texture(order, out.height, pmm.data());
 
     RenderTargets targets(out.width, out.height, 1);
     targets.bind();
     glClearColor(0, 0, 0, 0);
     glClear(GL_COLOR_BUFFER_BIT);
     begin_accumulation();
-    const render::GlProgram& p = program("convolve_sh.frag");
+    const gl::GlProgram& p = program("convolve_sh.frag");
     // Bands of columns m with at most ~4096 recurrence steps per texel: one
     // texel of a band must stay far below the hard cap on any GPU.
     const bool blend = context_.caps().float_blend;

@@ -16,23 +16,23 @@
 
 #include "appliance/convolution/gpu/tile_runner.hpp"
 #include "appliance/convolution/methods.hpp"
-#include "appliance/render/gl_context.hpp"
-#include "appliance/render/gl_targets.hpp"
-#include "appliance/render/gl_objects.hpp"
-#include "appliance/render/gl_program.hpp"
+#include "appliance/gl/gl_context.hpp"
+#include "appliance/gl/gl_targets.hpp"
+#include "appliance/gl/gl_objects.hpp"
+#include "appliance/gl/gl_program.hpp"
 
 namespace glint::convolution::gpu {
 
-// Float textures and render targets now live in appliance/render (gl_targets.hpp).
-using render::make_float_texture;
-using render::RenderTargets;
-using render::upload_image;
+// Float textures and render targets now live in appliance/gl (gl_targets.hpp).
+using gl::make_float_texture;
+using gl::RenderTargets;
+using gl::upload_image;
 
 class GpuEngine final : public MethodExecutor {
 public:
     // Throws RuntimeError naming GL_EXT_color_buffer_float when the context
     // cannot render into float targets (the caller then uses the CPU engine).
-    GpuEngine(const render::GlContext& context, TileGate& gate, double hard_cap_ms = 50.0);
+    GpuEngine(const gl::GlContext& context, TileGate& gate, double hard_cap_ms = 50.0);
 
     int max_batch() const override { return batch_; }
     std::vector<HdrImage> exact(const HdrImage& input, const std::vector<double>& shininess, Size out) override;
@@ -50,9 +50,9 @@ public:
 
     // Draws `program` over every texel of `targets` in tiles. Used by the passes.
     // row_work: relative work of a texel of each output row (TileRunner).
-    void draw_tiled(const render::GlProgram& program, const RenderTargets& targets,
+    void draw_tiled(const gl::GlProgram& program, const RenderTargets& targets,
                     const std::function<void()>& set_uniforms, const std::vector<double>* row_work = nullptr);
-    const render::GlProgram& program(const std::string& fragment);
+    const gl::GlProgram& program(const std::string& fragment);
     // Compiles every program now (the driver may hold a lock while it compiles:
     // at start-up, not in the middle of a frame).
     void prepare_programs();
@@ -62,12 +62,12 @@ public:
     void begin_accumulation() const;
 
 private:
-    const render::GlContext& context_;
+    const gl::GlContext& context_;
     TileGate& gate_;
     double hard_cap_ms_;
     int batch_;
-    render::GlVertexArray vao_;
-    std::vector<std::pair<std::string, std::unique_ptr<render::GlProgram>>> programs_;
+    gl::GlVertexArray vao_;
+    std::vector<std::pair<std::string, std::unique_ptr<gl::GlProgram>>> programs_;
     std::function<void(const TileRect&, GLuint)> on_tile_;
     std::map<std::string, TileCost> costs_;  // per program (its label)
     TileStats stats_;

@@ -30,7 +30,7 @@ const TimerQuery& timer_query() {
 
 }  // namespace
 
-TileRunner::TileRunner(const render::GlCapabilities& caps, TileGate& gate, double hard_cap_ms, TileCost& cost)
+TileRunner::TileRunner(const gl::GlCapabilities& caps, TileGate& gate, double hard_cap_ms, TileCost& cost)
     : timer_query_(caps.timer_query && timer_query().ok), gate_(gate), hard_cap_ms_(hard_cap_ms), cost_(cost) {}
 
 double TileRunner::measure(const TileRect& tile, const std::function<void(const TileRect&)>& draw) {
@@ -41,7 +41,7 @@ double TileRunner::measure(const TileRect& tile, const std::function<void(const 
         return std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - start).count();
     };
     if (timer_query_) {
-        render::GlQuery query = render::GlQuery::create();
+        gl::GlQuery query = gl::GlQuery::create();
         glBeginQuery(GL_TIME_ELAPSED_EXT, query.id());
         draw(tile);
         glEndQuery(GL_TIME_ELAPSED_EXT);
@@ -62,7 +62,7 @@ double TileRunner::measure(const TileRect& tile, const std::function<void(const 
         return wall;
     }
     draw(tile);
-    render::GlFence::insert().wait();
+    gl::GlFence::insert().wait();
     glDisable(GL_SCISSOR_TEST);
     return cpu_ms();
 }

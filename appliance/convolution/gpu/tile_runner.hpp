@@ -8,8 +8,8 @@
 #include <stdexcept>
 #include <vector>
 
-#include "appliance/render/gl_context.hpp"
-#include "appliance/render/gl_objects.hpp"
+#include "appliance/gl/gl_context.hpp"
+#include "appliance/gl/gl_objects.hpp"
 
 namespace glint::convolution::gpu {
 
@@ -68,7 +68,7 @@ struct TileStats {
 // sized so its predicted time stays within min(allowance, hard cap).
 class TileRunner {
 public:
-    TileRunner(const render::GlCapabilities& caps, TileGate& gate, double hard_cap_ms, TileCost& cost);
+    TileRunner(const gl::GlCapabilities& caps, TileGate& gate, double hard_cap_ms, TileCost& cost);
     // draw: sets the scissor to the tile and issues the draw. on_tile: called
     // after each finished tile (e.g. to show progress).
     // row_work: the relative work of one texel of each row (e.g. the number

@@ -1,4 +1,4 @@
-#include "appliance/render/gl_context.hpp"
+#include "appliance/gl/gl_context.hpp"
 
 #include <EGL/eglext.h>
 #include <GLES3/gl3.h>
@@ -8,7 +8,7 @@
 
 #include "appliance/core/errors.hpp"
 
-namespace glint::render {
+namespace glint::gl {
 namespace {
 
 std::string egl_error_name(EGLint e) {
@@ -146,4 +146,4 @@ void check_gl(const char* what) {
     throw RuntimeError(std::string(what) + ": GL error " + names);
 }
 
-}  // namespace glint::render
+}  // namespace glint::gl

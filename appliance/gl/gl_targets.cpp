@@ -1,9 +1,9 @@
-#include "appliance/render/gl_targets.hpp"
+#include "appliance/gl/gl_targets.hpp"
 
 #include "appliance/core/errors.hpp"
-#include "appliance/render/gl_context.hpp"
+#include "appliance/gl/gl_context.hpp"
 
-namespace glint::render {
+namespace glint::gl {
 
 GlTexture make_float_texture(int width, int height, const float* rgba) {
     GlTexture t = GlTexture::create();
@@ -65,4 +65,4 @@ std::vector<float> RenderTargets::read(int k) const {
     return rgba;
 }
 
-}  // namespace glint::render
+}  // namespace glint::gl

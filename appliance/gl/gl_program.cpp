@@ -1,12 +1,12 @@
-#include "appliance/render/gl_program.hpp"
+#include "appliance/gl/gl_program.hpp"
 
 #include <sstream>
 
 #include "appliance/core/errors.hpp"
-#include "appliance/render/gl_context.hpp"
-#include "appliance/render/shader_sources.hpp"
+#include "appliance/gl/gl_context.hpp"
+#include "appliance/gl/shader_sources.hpp"
 
-namespace glint::render {
+namespace glint::gl {
 namespace {
 
 std::string_view find_source(std::string_view name) {
@@ -94,4 +94,4 @@ GlProgram::GlProgram(std::string_view vertex, std::string_view fragment, const s
     check_gl(("building the program " + label_).c_str());
 }
 
-}  // namespace glint::render
+}  // namespace glint::gl

@@ -5,7 +5,7 @@
 #include <string_view>
 #include <vector>
 
-namespace glint::render {
+namespace glint::gl {
 
 struct ShaderSource {
     std::string_view name;  // file name in shaders/, e.g. "convolve_exact.frag"
@@ -15,4 +15,4 @@ struct ShaderSource {
 // Every shader file, sorted by name.
 const std::vector<ShaderSource>& shader_sources();
 
-}  // namespace glint::render
+}  // namespace glint::gl

@@ -7,7 +7,7 @@
 
 #include <utility>
 
-namespace glint::render {
+namespace glint::gl {
 
 template <typename Traits>
 class GlName {
@@ -111,4 +111,4 @@ private:
     GLsync sync_ = nullptr;
 };
 
-}  // namespace glint::render
+}  // namespace glint::gl

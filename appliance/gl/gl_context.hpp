@@ -9,7 +9,7 @@
 #include <string>
 #include <vector>
 
-namespace glint::render {
+namespace glint::gl {
 
 // What the context offers that the engines depend on.
 struct GlCapabilities {
@@ -73,4 +73,4 @@ private:
 // (all pending errors are drained).
 void check_gl(const char* what);
 
-}  // namespace glint::render
+}  // namespace glint::gl

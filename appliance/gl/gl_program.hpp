@@ -11,9 +11,9 @@
 #include <utility>
 #include <vector>
 
-#include "appliance/render/gl_objects.hpp"
+#include "appliance/gl/gl_objects.hpp"
 
-namespace glint::render {
+namespace glint::gl {
 
 // The text of shaders/<name> with its #includes expanded and the defines
 // inserted; throws RuntimeError for an unknown name or an include cycle.
@@ -35,4 +35,4 @@ private:
     std::string label_;
 };
 
-}  // namespace glint::render
+}  // namespace glint::gl

@@ -7,9 +7,9 @@
 #include <vector>
 
 #include "appliance/core/hdr_image.hpp"
-#include "appliance/render/gl_objects.hpp"
+#include "appliance/gl/gl_objects.hpp"
 
-namespace glint::render {
+namespace glint::gl {
 
 // An RGBA32F texture with nearest filtering and clamped edges (rgba may be null: undefined texels).
 GlTexture make_float_texture(int width, int height, const float* rgba);
@@ -34,4 +34,4 @@ private:
     GlFramebuffer framebuffer_;
 };
 
-}  // namespace glint::render
+}  // namespace glint::gl
