@@ -1,31 +1,44 @@
-// Strict command-line value parsing.
+// Sizes and lists on the command line (cli_util.hpp).
 #include "appliance/app/cli_util.hpp"
 
-#include <cerrno>
-#include <cmath>
-#include <cstdlib>
-
 #include "appliance/core/errors.hpp"
+#include "appliance/core/strict_number.hpp"
 
 namespace glint::app {
 
-double parse_number(const std::string& text, const std::string& flag) {
-    errno = 0;
-    char* end = nullptr;
-    const double v = std::strtod(text.c_str(), &end);
-    if (text.empty() || end != text.c_str() + text.size() || errno == ERANGE || !std::isfinite(v))
-        throw InputError(flag + ": '" + text + "' is not a finite number");
-    return v;
+namespace {
+
+// Why `text` is not a size ("" when it is one, then stored in `size`).
+std::string size_problem(const std::string& text, convolution::Size& size) {
+    const auto x = text.find('x');
+    if (x == std::string::npos) return "'" + text + "' is not WxH (e.g. 512x256)";
+    try {
+        const std::int64_t w = parse_int(std::string_view(text).substr(0, x), "width");
+        const std::int64_t h = parse_int(std::string_view(text).substr(x + 1), "height");
+        if (w < 2 || h < 2 || w > 65536 || h > 65536) return "'" + text + "' needs whole sizes between 2 and 65536";
+        size = {int(w), int(h)};
+    } catch (const InputError&) {
+        return "'" + text + "' is not WxH with whole numbers (e.g. 512x256)";
+    }
+    return {};
 }
 
+}  // namespace
+
 convolution::Size parse_size(const std::string& text, const std::string& flag) {
-    const auto x = text.find('x');
-    if (x == std::string::npos) throw InputError(flag + ": '" + text + "' is not WxH (e.g. 512x256)");
-    const double w = parse_number(text.substr(0, x), flag);
-    const double h = parse_number(text.substr(x + 1), flag);
-    if (w != std::floor(w) || h != std::floor(h) || w < 2 || h < 2 || w > 65536 || h > 65536)
-        throw InputError(flag + ": '" + text + "' needs whole sizes between 2 and 65536");
-    return {int(w), int(h)};
+    convolution::Size size;
+    const std::string problem = size_problem(text, size);
+    if (!problem.empty()) throw InputError(flag + ": " + problem);
+    return size;
+}
+
+CLI::Validator size_validator() {
+    return CLI::Validator(
+        [](std::string& text) {
+            convolution::Size size;
+            return size_problem(text, size);
+        },
+        "WxH");
 }
 
 std::vector<std::string> split_list(const std::string& text, const std::string& flag) {

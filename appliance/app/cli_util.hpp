@@ -1,7 +1,8 @@
-// Parsing helpers shared by the subcommands: strict numbers and sizes, each
-// failure an InputError naming the flag.
+// Value parsing shared by the subcommands beyond what CLI11's validators do: sizes and lists,
+// each failure an InputError naming the flag. Numbers: appliance/core/strict_number.hpp.
 #pragma once
 
+#include <CLI/CLI.hpp>
 #include <string>
 #include <vector>
 
@@ -9,11 +10,10 @@
 
 namespace glint::app {
 
-// A finite number parsed from the whole of `text`, or InputError naming `flag`.
-double parse_number(const std::string& text, const std::string& flag);
-
-// "WxH" with both at least 2, or InputError naming `flag`.
+// "WxH" with both whole numbers in [2, 65536], or InputError naming `flag`.
 convolution::Size parse_size(const std::string& text, const std::string& flag);
+// The same rule as a CLI11 validator, so a bad size is rejected while parsing.
+CLI::Validator size_validator();
 
 // Comma-separated list, empty items rejected.
 std::vector<std::string> split_list(const std::string& text, const std::string& flag);

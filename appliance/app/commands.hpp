@@ -1,9 +1,16 @@
-// Subcommands of the `glint` binary. Each registers itself on the CLI11 app and
-// returns the function main() runs when that subcommand was chosen.
+// Subcommands of `glint`. Each registers itself on a CLI11 app and returns the function that runs
+// when it was chosen. They are split over two executables so that a command loads only the
+// libraries it needs (docs/architecture.md, "Two executables"):
+//   glint         convolve, compare, sensors: core, convolution, GL, sensor bridge;
+//   glint-vision  simulate, capture, calibrate, cameras: everything that needs OpenCV or libcamera,
+//                 whose loading alone takes longer than a whole small convolution.
+// `glint` runs glint-vision (execv, same arguments) for the commands that live there.
 #pragma once
 
 #include <CLI/CLI.hpp>
 #include <functional>
+#include <span>
+#include <string_view>
 
 namespace glint::app {
 
@@ -14,25 +21,28 @@ struct Command {
     CommandRunner run;  // what to run when it was
 };
 
-// `glint convolve IN.exr --out DIR ...`
-Command add_convolve_command(CLI::App& app);
+using CommandRegistrar = Command (*)(CLI::App&);
 
-// `glint compare MAP.exr REFERENCE.exr`
-Command add_compare_command(CLI::App& app);
+// Name and one-line summary of every command, for the registration and for `glint --help`
+// (which lists glint-vision's commands without loading it).
+struct CommandSummary {
+    std::string_view name;
+    std::string_view summary;
+    bool in_vision;  // lives in glint-vision
+};
+std::span<const CommandSummary> command_summaries();
+// The summary of `name`; throws std::logic_error for a name that is not in the table.
+const CommandSummary& command_summary(std::string_view name);
 
-// `glint simulate --env ENV.exr --trajectory guided|FILE --out SESSION/` (capture_commands.cpp)
-Command add_simulate_command(CLI::App& app);
+// glint (one file each)
+Command add_convolve_command(CLI::App& app);  // glint convolve IN.exr --out DIR ...
+Command add_compare_command(CLI::App& app);   // glint compare MAP.exr REFERENCE.exr
+Command add_sensors_command(CLI::App& app);   // glint sensors --source SPEC ...
 
-// `glint capture --session SESSION/ --out env.exr ...` (capture_commands.cpp)
-Command add_capture_command(CLI::App& app);
-
-// `glint sensors --source SPEC ...` (sensors_command.cpp)
-Command add_sensors_command(CLI::App& app);
-
-// `glint calibrate response ...` (capture_commands.cpp)
-Command add_calibrate_command(CLI::App& app);
-
-// `glint cameras`: what libcamera finds (capture_commands.cpp)
-Command add_cameras_command(CLI::App& app);
+// glint-vision (one file each)
+Command add_simulate_command(CLI::App& app);   // glint simulate --env ENV.exr --out SESSION ...
+Command add_capture_command(CLI::App& app);    // glint capture --session SESSION --out env.exr ...
+Command add_calibrate_command(CLI::App& app);  // glint calibrate response|vignetting|alignment|intrinsics
+Command add_cameras_command(CLI::App& app);    // glint cameras
 
 }  // namespace glint::app

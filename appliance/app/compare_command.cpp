@@ -1,4 +1,4 @@
-// `glint compare A.exr REFERENCE.exr`: the error metrics of spec/conventions.md,
+// `glint compare A.exr REFERENCE.exr`: the error metrics of docs/conventions.md,
 // so test engineers can compare any two maps the way the tests and benchmarks do.
 #include <cstdio>
 #include <memory>
@@ -14,9 +14,7 @@ Command add_compare_command(CLI::App& app) {
         std::string approx, reference;
     };
     auto args = std::make_shared<Args>();
-    CLI::App* cmd = app.add_subcommand(
-        "compare", "Error of a map against a reference map (weighted relative RMS, worst texel, "
-                   "mean/max absolute percentage); a map of another size is resampled bilinearly");
+    CLI::App* cmd = app.add_subcommand("compare", std::string(command_summary("compare").summary));
     cmd->add_option("map", args->approx, "Map to judge (OpenEXR)")->required();
     cmd->add_option("reference", args->reference, "Reference map (OpenEXR)")->required();
     return {cmd, [args] {

@@ -2,8 +2,6 @@
 //
 // Output files appear all together or not at all: every file is first written
 // and fsynced in a staging directory inside DIR, then renamed into place.
-#include <unistd.h>
-
 #include <chrono>
 #include <cmath>
 #include <mutex>
@@ -14,14 +12,16 @@
 #include <set>
 
 #include "appliance/app/cli_util.hpp"
+#include "appliance/app/gpu_policy.hpp"
+#include "appliance/app/interrupt.hpp"
 #include "appliance/app/commands.hpp"
 #include "appliance/convolution/convolution.hpp"
 #include "appliance/convolution/gpu/gpu_engine.hpp"
-#include "appliance/gl/gl_context.hpp"
 #include "appliance/core/atomic_file.hpp"
 #include "appliance/core/errors.hpp"
 #include "appliance/core/exr_io.hpp"
 #include "appliance/core/progress.hpp"
+#include "appliance/core/strict_number.hpp"
 
 namespace glint::app {
 namespace {
@@ -38,32 +38,9 @@ struct ConvolveArgs {
     std::string size;
     int sh_order = 0;
     int threads = 0;
-    std::string engine = "cpu";
+    EngineChoice engine = EngineChoice::Auto;
     double tile_cap_ms = 50.0;
 };
-
-// The GPU engine on a surfaceless EGL context, or why not (then the CPU runs).
-struct GpuSetup {
-    std::unique_ptr<gl::EglDisplay> display;
-    std::unique_ptr<gl::GlContext> context;
-    std::unique_ptr<convolution::gpu::UnlimitedGate> gate;
-    std::unique_ptr<convolution::gpu::GpuEngine> engine;
-};
-
-GpuSetup start_gpu(double cap_ms) {
-    GpuSetup g;
-    try {
-        g.display = std::make_unique<gl::EglDisplay>(gl::EglDisplay::surfaceless());
-        g.context = std::make_unique<gl::GlContext>(*g.display);
-        std::fprintf(stderr, "glint: GL: %s\n", g.context->describe().c_str());
-        g.gate = std::make_unique<convolution::gpu::UnlimitedGate>(cap_ms);
-        g.engine = std::make_unique<convolution::gpu::GpuEngine>(*g.context, *g.gate, cap_ms);
-    } catch (const RuntimeError& e) {
-        std::fprintf(stderr, "glint: warning: GPU engine unavailable (%s); using the CPU engine\n", e.what());
-        g = GpuSetup{};
-    }
-    return g;
-}
 
 nlohmann::json number_or_null(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); }
 
@@ -71,26 +48,20 @@ nlohmann::json size_json(convolution::Size s) { return {s.width, s.height}; }
 
 int run_convolve(const ConvolveArgs& args) {
     convolution::Options options;
-    const auto method = convolution::parse_method(args.method);
-    if (!method) throw InputError("--method: '" + args.method + "' is not one of auto, exact, cone, sh, mipmap");
-    options.method = *method;
+    options.method = *convolution::parse_method(args.method);  // CLI11 checked the name
     options.tolerance = args.tolerance;
     if (!(args.tolerance > 0 && args.tolerance < 1))
         throw InputError("--tolerance: must be in (0, 1), e.g. 0.01 for 1 %");
     if (!args.size.empty()) options.size = parse_size(args.size, "--size");
-    if (args.threads < 0) throw InputError("--threads: must be at least 1");
     options.threads = args.threads;
-    if (args.sh_order < 0 || args.sh_order > 1024) throw InputError("--sh-order: must be in [1, 1024]");
     options.sh_order = args.sh_order;
-    if (args.engine != "cpu" && args.engine != "gpu") throw InputError("--engine: '" + args.engine + "' is not cpu or gpu");
-    if (!(args.tile_cap_ms > 0)) throw InputError("--tile-cap-ms: must be > 0");
 
     std::vector<convolution::MapRequest> maps;
     if (args.irradiance) maps.push_back(convolution::MapRequest::make_irradiance());
     if (!args.shininess.empty()) {
         std::set<double> seen;
         for (const std::string& item : split_list(args.shininess, "--shininess")) {
-            const double n = parse_number(item, "--shininess");
+            const double n = parse_double(item, "--shininess");
             if (n < 0) throw InputError("--shininess: '" + item + "' is negative");
             if (!seen.insert(n).second) throw InputError("--shininess: '" + item + "' is given twice");
             maps.push_back(convolution::MapRequest::make_phong(n, item));
@@ -120,9 +91,18 @@ int run_convolve(const ConvolveArgs& args) {
             live_done = done;
         }
     };
-    GpuSetup gpu;
-    if (args.engine == "gpu") gpu = start_gpu(args.tile_cap_ms);
-    options.executor = gpu.engine.get();
+    GpuChoice gpu(args.engine, "convolution");
+    std::unique_ptr<convolution::gpu::UnlimitedGate> gate;
+    std::unique_ptr<convolution::gpu::GpuEngine> gpu_engine;
+    if (gpu.context()) {
+        try {
+            gate = std::make_unique<convolution::gpu::UnlimitedGate>(args.tile_cap_ms);
+            gpu_engine = std::make_unique<convolution::gpu::GpuEngine>(*gpu.context(), *gate, args.tile_cap_ms);
+        } catch (const RuntimeError& e) {
+            gpu.give_up(e.what());
+        }
+    }
+    options.executor = gpu_engine.get();
     const auto start = std::chrono::steady_clock::now();
     const std::vector<convolution::MapResult> results = convolution::convolve(loaded.image, maps, options);
     const double total_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
@@ -139,13 +119,13 @@ int run_convolve(const ConvolveArgs& args) {
     report["tolerance"] = options.tolerance;
     report["method"] = args.method;
     report["threads"] = args.threads;
-    report["engine"] = gpu.engine ? "gpu" : "cpu";
-    if (gpu.engine) {
-        report["gpu"] = {{"renderer", gpu.context->caps().renderer},
-                         {"version", gpu.context->caps().version},
-                         {"tiles", gpu.engine->stats().tiles},
-                         {"gpu_ms", gpu.engine->stats().gpu_ms},
-                         {"largest_tile_ms", gpu.engine->stats().largest_ms},
+    report["engine"] = gpu_engine ? "gpu" : "cpu";
+    if (gpu_engine) {
+        report["gpu"] = {{"renderer", gpu.context()->caps().renderer},
+                         {"version", gpu.context()->caps().version},
+                         {"tiles", gpu_engine->stats().tiles},
+                         {"gpu_ms", gpu_engine->stats().gpu_ms},
+                         {"largest_tile_ms", gpu_engine->stats().largest_ms},
                          {"tile_cap_ms", args.tile_cap_ms}};
     }
     report["wall_seconds"] = total_seconds;
@@ -175,23 +155,17 @@ int run_convolve(const ConvolveArgs& args) {
         });
     }
 
-    // Stage every file, then move them into place together.
-    const fs::path staging = out_dir / (".glint-staging-" + std::to_string(::getpid()));
-    std::error_code ec;
-    fs::remove_all(staging, ec);
-    if (!fs::create_directory(staging, ec))
-        throw RuntimeError("cannot create " + staging.string() + ": " + ec.message());
-    try {
-        for (const auto& r : results) save_exr(staging / (r.request.label + ".exr"), r.image);
-        write_text_atomically(staging / "report.json", report.dump(2) + "\n");
-        for (const auto& r : results)
-            fs::rename(staging / (r.request.label + ".exr"), out_dir / (r.request.label + ".exr"));
-        fs::rename(staging / "report.json", out_dir / "report.json");
-        fs::remove(staging);
-    } catch (...) {
-        fs::remove_all(staging, ec);
-        throw;
-    }
+    // Stage every file, then move them into place together (interrupt.hpp: a signal removes the
+    // staging directory and leaves DIR as it was).
+    StagingDirectory staging(out_dir);
+    std::vector<std::string> names;
+    for (const auto& r : results) names.push_back(r.request.label + ".exr");
+    names.push_back("report.json");
+    staging.write([&] {
+        for (const auto& r : results) save_exr(staging.file(r.request.label + ".exr"), r.image);
+        write_text_atomically(staging.file("report.json"), report.dump(2) + "\n");
+    });
+    staging.commit(names);
 
     for (const auto& r : results)
         if (std::isfinite(r.plan.predicted_error) && r.plan.predicted_error > options.tolerance)
@@ -215,23 +189,30 @@ int run_convolve(const ConvolveArgs& args) {
 
 Command add_convolve_command(CLI::App& app) {
     auto args = std::make_shared<ConvolveArgs>();
-    CLI::App* cmd = app.add_subcommand(
-        "convolve", "Environment map -> irradiance and Phong reflection maps (EXR) and report.json");
+    CLI::App* cmd = app.add_subcommand("convolve", std::string(command_summary("convolve").summary));
     cmd->add_option("input", args->input, "Equirectangular HDR environment map (OpenEXR)")->required();
     cmd->add_option("--out", args->out_dir, "Output directory (created if missing)")->required();
     cmd->add_flag("--irradiance", args->irradiance, "Compute the irradiance map (irradiance.exr)");
     cmd->add_option("--shininess", args->shininess,
                     "Comma-separated Phong exponents n >= 0, e.g. 20,60,160 (phong_<n>.exr)");
-    cmd->add_option("--method", args->method, "auto | exact | cone | sh | mipmap (default auto)");
+    cmd->add_option("--method", args->method, "auto, exact, cone, sh or mipmap")
+        ->check(CLI::IsMember({"auto", "exact", "cone", "sh", "mipmap"}))
+        ->capture_default_str();
     cmd->add_option("--tolerance", args->tolerance,
-                    "Target weighted relative RMS error against exact (default 0.01 = 1 %)");
-    cmd->add_option("--size", args->size, "Fix every output map's size, WxH (default: follows the lobe)");
-    cmd->add_option("--sh-order", args->sh_order, "SH bands for --method sh (default: from n and tolerance)");
-    cmd->add_option("--threads", args->threads, "Worker threads (default: all cores)");
-    cmd->add_option("--engine", args->engine,
-                    "cpu | gpu (default cpu). gpu: the same plans with the sums as GLES3 shaders on an EGL "
-                    "context; without float render targets it says so and uses the CPU");
-    cmd->add_option("--tile-cap-ms", args->tile_cap_ms, "GPU engine: longest single draw in ms (default 50)");
+                    "Target weighted relative RMS error against exact, in (0, 1): 0.01 = 1 %")
+        ->capture_default_str();
+    cmd->add_option("--size", args->size, "Fix every output map's size, WxH (default: follows the lobe)")
+        ->check(size_validator());
+    cmd->add_option("--sh-order", args->sh_order, "SH bands for --method sh, 1..1024; 0 = chosen from n and tolerance")
+        ->check(CLI::Range(0, 1024))
+        ->capture_default_str();
+    cmd->add_option("--threads", args->threads, "Worker threads; 0 = all cores")
+        ->check(CLI::NonNegativeNumber)
+        ->capture_default_str();
+    add_engine_option(*cmd, args->engine, "the same plans with the sums as GLES3 shaders");
+    cmd->add_option("--tile-cap-ms", args->tile_cap_ms, "GPU engine: longest single draw, ms (> 0)")
+        ->check(CLI::PositiveNumber)
+        ->capture_default_str();
     return {cmd, [args] { return run_convolve(*args); }};
 }
 

@@ -1,8 +1,6 @@
 // `glint sensors --source SPEC [--record FILE] [--print-csv] [--seconds S] [--latency-ms L]`:
 // reads (or replays) an orientation source and prints one line per sample on stdout and the
 // health figures on stderr once a second (firmware_bridge/host; issue 4, Part 5).
-#include <signal.h>
-
 #include <atomic>
 #include <chrono>
 #include <cmath>
@@ -13,6 +11,7 @@
 #include <thread>
 
 #include "appliance/app/commands.hpp"
+#include "appliance/app/interrupt.hpp"
 #include "appliance/core/errors.hpp"
 #include "firmware_bridge/host/replay_source.hpp"
 #include "firmware_bridge/host/serial_source.hpp"
@@ -21,18 +20,6 @@
 
 namespace glint::app {
 namespace {
-
-std::atomic<bool> g_interrupted{false};
-
-void on_signal(int) { g_interrupted = true; }
-
-void install_signal_handlers() {
-    struct sigaction sa {};
-    sa.sa_handler = on_signal;
-    sigemptyset(&sa.sa_mask);
-    sigaction(SIGINT, &sa, nullptr);
-    sigaction(SIGTERM, &sa, nullptr);
-}
 
 constexpr double kDeg = 180.0 / 3.14159265358979323846;
 
@@ -72,16 +59,15 @@ Command add_sensors_command(CLI::App& app) {
         double seconds = 0, latency_ms = 0;
     };
     auto a = std::make_shared<Args>();
-    CLI::App* cmd = app.add_subcommand(
-        "sensors", "Read or replay an orientation source: one line per sample on stdout (appliance monotonic time), "
-                   "the health figures on stderr once a second");
+    CLI::App* cmd = app.add_subcommand("sensors", std::string(command_summary("sensors").summary));
     cmd->add_option("--source", a->source,
                     "serial:PATH[:BAUD] | i2c:/dev/i2c-N[:ADDR] | modbus-tcp:HOST:PORT | modbus-rtu:PATH[:BAUD] | "
                     "replay:FILE")
         ->required();
     cmd->add_option("--record", a->record, "Record the raw stream and the decoded messages to FILE (serial sources)");
     cmd->add_flag("--print-csv", a->csv,
-                  "Print samples as t_ns,w,x,y,z (sensor-to-world quaternion, conventions' frame); without it, "
+                  "Print samples as CSV: a header row, then t_ns,w,x,y,z (sensor-to-world quaternion, conventions' frame); "
+                  "without it, "
                   "t in seconds and yaw/pitch/roll in degrees (yaw about +Y from -Z towards -X, pitch up, roll "
                   "right side down)");
     cmd->add_option("--seconds", a->seconds, "Stop after S seconds (replay: of recorded time); 0 = until Ctrl-C")
@@ -136,7 +122,8 @@ Command add_sensors_command(CLI::App& app) {
                     }
                     pending.push_back(s);
                 });
-                install_signal_handlers();
+                const StopRequest stop;  // Ctrl-C ends the loop below; the recording is closed properly
+                if (a->csv) std::printf("t_ns,w,x,y,z\n");
                 source->start();
                 const auto started = std::chrono::steady_clock::now();
                 auto next_health = started + std::chrono::seconds(1);
@@ -159,7 +146,7 @@ Command add_sensors_command(CLI::App& app) {
                     }
                     std::fflush(stdout);
                 };
-                while (!g_interrupted && !done) {
+                while (!stop.requested() && !done) {
                     std::this_thread::sleep_for(std::chrono::milliseconds(20));
                     flush();
                     const auto now = std::chrono::steady_clock::now();

@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# End-to-end checks of the glint binary's convolve, compare, simulate and capture commands (DESIGN.md, Commands):
+# End-to-end checks of the glint commands (docs/architecture.md, "Commands"):
 # help, a small real run (files, report.json keys, compare against itself), and every kind of
 # bad input: exit code 2, exactly one line on stderr naming the file or flag, nothing written,
 # and no temp or staging files left behind.
@@ -233,6 +233,61 @@ rms=$(awk '/weighted_rel_rms/ { print $2 }' "$work/stdout")
 python3 -c "import sys; sys.exit(0 if float('$rms') <= 1e-4 else 1)" || fail "GPU capture differs from the CPU's: $rms"
 pass "capture --engine gpu agrees with the CPU engine ($rms)"
 rm -rf "$work/session" "$work/env.exr" "$work/env.coverage.exr" "$work/env-gpu.exr" "$work/env-gpu.coverage.exr" "$work/turn.csv"
+
+# --help for every command and subcommand: exit 0, a usage line naming it, on stdout only.
+for cmd in convolve compare sensors simulate capture cameras calibrate "calibrate response" \
+    "calibrate vignetting" "calibrate alignment" "calibrate intrinsics"; do
+    # shellcheck disable=SC2086
+    run $cmd --help
+    [[ $rc -eq 0 ]] || fail "glint $cmd --help: exit code $rc, want 0"
+    grep -q "^Usage: glint $cmd" "$work/stdout" || fail "glint $cmd --help: no 'Usage: glint $cmd' line: $(head -2 "$work/stdout")"
+    [[ ! -s $work/stderr ]] || fail "glint $cmd --help wrote to stderr: $(stderr_text)"
+done
+pass "--help of every command and calibrate step exits 0 with its usage"
+
+# --version: the project version from CMakeLists.txt and the build's git description.
+run --version
+version=$(sed -n 's/^project(glint VERSION \([0-9.]*\).*/\1/p' "$(dirname "$0")/../../CMakeLists.txt")
+[[ $rc -eq 0 ]] || fail "glint --version: exit code $rc"
+grep -qE "^glint $version \(.+\)$" "$work/stdout" || fail "glint --version: '$(cat "$work/stdout")', want 'glint $version (...)'"
+pass "glint --version prints 'glint $version (git description)'"
+
+# The GPU policy: auto falls back to the CPU and says why (llvmpipe is a software rasteriser, or
+# there is no render node); cpu opens no GL; gpu was shown to work above.
+run convolve "$work/in.exr" --out "$work/auto" --irradiance --size 16x8 --engine auto
+[[ $rc -eq 0 ]] || fail "convolve --engine auto: exit $rc: $(stderr_text)"
+grep -q "engine auto: .*runs on the CPU" "$work/stderr" || fail "engine auto did not say why the CPU runs: $(stderr_text)"
+python3 -c "import json,sys; sys.exit(0 if json.load(open('$work/auto/report.json'))['engine'] == 'cpu' else 1)" ||
+    fail "engine auto on a machine without a hardware GPU did not run the CPU engine"
+run convolve "$work/in.exr" --out "$work/auto" --irradiance --size 16x8 --engine cpu
+[[ $rc -eq 0 ]] && ! grep -q "engine\|GL" "$work/stderr" || fail "convolve --engine cpu: exit $rc, stderr: $(stderr_text)"
+pass "engine auto runs the CPU and says why; engine cpu says nothing"
+rm -rf "$work/auto"
+
+# SIGTERM and SIGINT while the maps are staged: the staging directory is removed, nothing is moved
+# into place, and the exit code is 128 + the signal (GLINT_TEST_HOLD_STAGING_MS holds the staged
+# files long enough to signal the command then).
+for sig in TERM INT; do
+    GLINT_TEST_HOLD_STAGING_MS=5000 "$GLINT" convolve "$work/in.exr" --out "$work/sig" --irradiance \
+        --size 16x8 --engine cpu >"$work/stdout" 2>"$work/stderr" &
+    pid=$!
+    for _ in $(seq 100); do
+        [[ -n $(find "$work/sig" -name '.glint-staging*' -print 2>/dev/null) ]] && break
+        sleep 0.05
+    done
+    [[ -f $(find "$work/sig" -path '*.glint-staging*' -name report.json -print | head -1) ]] ||
+        fail "SIG$sig: the staged report.json never appeared"
+    kill -s "$sig" "$pid"
+    rc=0
+    wait "$pid" || rc=$?
+    want=$((128 + $(kill -l "$sig")))
+    [[ $rc -eq $want ]] || fail "SIG$sig while staging: exit code $rc, want $want"
+    expect_no_leftovers "SIG$sig while staging" "$work/sig"
+    [[ -z $(ls -A "$work/sig") ]] || fail "SIG$sig while staging: maps were moved into place: $(ls -A "$work/sig")"
+    grep -q "removed .*glint-staging" "$work/stderr" || fail "SIG$sig: no line about the removed staging directory: $(stderr_text)"
+done
+pass "SIGTERM and SIGINT while staging remove the staging directory and leave the output directory empty"
+rm -rf "$work/sig"
 
 # The good output directory is still exactly what the good runs wrote.
 listing=$(ls -A "$out" | sort | tr '\n' ' ')

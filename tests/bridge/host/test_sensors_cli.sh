@@ -17,6 +17,10 @@ expected=$("$recording_tool" info "$session" | awk '$1 == "messages" && $2 == "o
 "$glint" sensors --source "replay:$session" --print-csv >"$tmp/out.csv" 2>"$tmp/err.txt"
 rc=$?
 [ $rc -eq 0 ] || fail "replay exited $rc: $(cat "$tmp/err.txt")"
+# A header row like every other CSV Glint writes, then one line per sample.
+[ "$(head -1 "$tmp/out.csv")" = "t_ns,w,x,y,z" ] || fail "first line is not the header t_ns,w,x,y,z: $(head -1 "$tmp/out.csv")"
+tail -n +2 "$tmp/out.csv" >"$tmp/samples.csv"
+mv "$tmp/samples.csv" "$tmp/out.csv"
 lines=$(wc -l <"$tmp/out.csv")
 [ "$lines" -eq "$expected" ] || fail "replay printed $lines samples, the recording holds $expected"
 bad=$(grep -cvE '^[0-9]+(,-?[0-9]\.[0-9]{9}){4}$' "$tmp/out.csv")
@@ -31,7 +35,7 @@ grep -qE 'crc errors 0, frame errors [0-9]+, lost [0-9]+, untimed [0-9]+, reconn
     fail "health line lacks its counters: $(tail -1 "$tmp/err.txt")"
 
 # --seconds counts recorded time: one second of a 100 Hz stream.
-n=$("$glint" sensors --source "replay:$session" --print-csv --seconds 1 2>/dev/null | wc -l)
+n=$("$glint" sensors --source "replay:$session" --print-csv --seconds 1 2>/dev/null | tail -n +2 | wc -l)
 { [ "$n" -ge 90 ] && [ "$n" -le 110 ]; } || fail "--seconds 1 printed $n samples (expected ~100)"
 
 # Human form: time and yaw/pitch/roll in degrees.
@@ -41,7 +45,7 @@ head -1 "$tmp/human.txt" | grep -qE '^t=[0-9]+\.[0-9]{6} s  yaw +-?[0-9]+\.[0-9]
 
 # --latency-ms moves every sample earlier by exactly that much.
 first=$(head -1 "$tmp/out.csv" | cut -d, -f1)
-shifted=$("$glint" sensors --source "replay:$session" --print-csv --latency-ms 30 2>/dev/null | head -1 | cut -d, -f1)
+shifted=$("$glint" sensors --source "replay:$session" --print-csv --latency-ms 30 2>/dev/null | sed -n 2p | cut -d, -f1)
 [ $((first - shifted)) -eq 30000000 ] || fail "--latency-ms 30 moved the first sample by $((first - shifted)) ns"
 
 expect_exit() {

@@ -32,7 +32,7 @@ kill -INT "$glint_pid"
 wait "$glint_pid"
 rc=$?
 [ $rc -eq 0 ] || fail "glint sensors exited $rc after SIGINT: $(cat "$tmp/live.err")"
-lines=$(wc -l <"$tmp/live.csv")
+lines=$(($(wc -l <"$tmp/live.csv") - 1))  # after the header row
 [ "$lines" -ge 50 ] || fail "only $lines samples in 2 s of a 100 Hz board (BNO055 boots in 0.65 s)"
 grep -q "^health: streaming, " "$tmp/live.err" || fail "no streaming health line: $(cat "$tmp/live.err")"
 grep -q "crc errors 0, frame errors 0, lost 0" "$tmp/live.err" || fail "errors on a clean link: $(tail -1 "$tmp/live.err")"

@@ -1,0 +1,112 @@
+// `glint calibrate response|vignetting|alignment|intrinsics --session DIR --calibration FILE`:
+// one camera calibration from recorded frames, written into the calibration file (created from
+// the session's calibration.json when absent). On a simulated session, the result is also
+// compared with the session's truth (appliance/capture; docs/capture.md).
+#include <cstdio>
+#include <memory>
+
+#include "appliance/app/commands.hpp"
+#include "appliance/capture/calibration.hpp"
+#include "appliance/capture/calibration_io.hpp"
+#include "appliance/capture/calibration_truth.hpp"
+#include "appliance/capture/charuco.hpp"
+
+namespace glint::app {
+namespace {
+
+struct CalibrateArgs {
+    std::string session, calibration;
+};
+
+// Each step reads the session, updates its part of `cal` and prints one line (and, on a
+// simulated session, one line against the truth).
+using CalibrationStep = void (*)(const capture::Session& s, capture::CameraCalibration& cal, const std::string& file);
+
+void calibrate_response(const capture::Session& s, capture::CameraCalibration& cal, const std::string& file) {
+    const capture::ResponseResult r = capture::calibrate_response(s);
+    cal.response = r.response;
+    std::printf("response from %d frames spanning %.0fx in exposure -> %s\n", r.frames, r.exposure_span, file.c_str());
+    if (s.has_truth)
+        std::printf("against the session's truth: worst relative error %.2f %% over codes 64..250\n",
+                    100 * capture::response_error_against_truth(r.response, capture::truth_calibration(s).response));
+}
+
+void calibrate_vignetting(const capture::Session& s, capture::CameraCalibration& cal, const std::string& file) {
+    const capture::VignettingResult r = capture::calibrate_vignetting(s, cal);
+    cal.vignetting = r.vignetting;
+    std::printf("vignetting from %d frames, %lld pixels: a1 %.5f a2 %.5f a3 %.5f, fit RMS %.5f -> %s\n", r.frames,
+                r.pixels, r.vignetting.a1, r.vignetting.a2, r.vignetting.a3, r.fit_rms, file.c_str());
+}
+
+void calibrate_alignment(const capture::Session& s, capture::CameraCalibration& cal, const std::string& file) {
+    const capture::AlignmentResult r = capture::calibrate_alignment(s);
+    cal.sensor_from_camera = r.sensor_from_camera;
+    cal.time_offset_s = r.time_offset_s;
+    std::printf("alignment from %d frame pairs: time offset %.3f s, median residual %.3f degrees -> %s\n", r.pairs,
+                r.time_offset_s, r.residual_deg, file.c_str());
+    if (s.has_truth) {
+        const capture::CameraCalibration truth = capture::truth_calibration(s);
+        std::printf("against the session's truth: mounting off by %.3f degrees, time offset by %.1f ms\n",
+                    capture::mounting_error_deg(r.sensor_from_camera, truth.sensor_from_camera),
+                    (r.time_offset_s - truth.time_offset_s) * 1e3);
+    }
+}
+
+void calibrate_intrinsics(const capture::Session& s, capture::CameraCalibration& cal, const std::string& file) {
+    const capture::IntrinsicsResult r = capture::calibrate_intrinsics(s, {});
+    cal.intrinsics = r.intrinsics;
+    const capture::Intrinsics& k = r.intrinsics;
+    std::printf("intrinsics from %d views (%d corners): fx %.2f fy %.2f cx %.2f cy %.2f k1 %.4f k2 %.4f p1 %.5f "
+                "p2 %.5f k3 %.4f, RMS reprojection %.3f px -> %s\n",
+                r.views, r.corners, k.fx, k.fy, k.cx, k.cy, k.k1, k.k2, k.p1, k.p2, k.k3, r.rms_px, file.c_str());
+}
+
+struct StepSpec {
+    const char* name;
+    const char* description;
+    const char* session_help;
+    CalibrationStep run;
+};
+
+constexpr StepSpec kSteps[] = {
+    {"response", "Inverse response curve from an exposure bracket of a still view (OpenCV CalibrateRobertson)",
+     "Session holding the bracket (e.g. glint simulate --bracket 12)", calibrate_response},
+    {"vignetting",
+     "Vignetting from flat-field frames (a uniformly lit view filling the frame), using the calibration's response",
+     "Session holding the flat-field frames", calibrate_vignetting},
+    {"alignment",
+     "Camera-to-sensor rotation and time offset from a scan (rotation-only motion): image rotations between "
+     "consecutive frames against the sensor's",
+     "Session of a scan with its sensor recording", calibrate_alignment},
+    {"intrinsics",
+     "Focal lengths, principal point and distortion from views of a ChArUco board (7x5 squares of 4 cm, 3 cm "
+     "markers, DICT_5X5_100), with the RMS reprojection error",
+     "Session of board views (e.g. glint simulate --charuco 16)", calibrate_intrinsics},
+};
+
+}  // namespace
+
+Command add_calibrate_command(CLI::App& app) {
+    auto a = std::make_shared<CalibrateArgs>();
+    CLI::App* cmd = app.add_subcommand("calibrate", std::string(command_summary("calibrate").summary));
+    cmd->require_subcommand(1);
+    std::vector<std::pair<CLI::App*, CalibrationStep>> steps;
+    for (const StepSpec& spec : kSteps) {
+        CLI::App* step = cmd->add_subcommand(spec.name, spec.description);
+        step->add_option("--session", a->session, spec.session_help)->required();
+        step->add_option("--calibration", a->calibration,
+                         "Calibration file to update (created from the session's calibration.json when absent)")
+            ->required();
+        steps.emplace_back(step, spec.run);
+    }
+    return {cmd, [a, steps] {
+                const capture::Session s = capture::open_session(a->session);
+                capture::CameraCalibration cal = capture::calibration_to_update(a->calibration, s);
+                for (const auto& [step, run] : steps)
+                    if (step->parsed()) run(s, cal, a->calibration);
+                capture::save_calibration(a->calibration, cal);
+                return 0;
+            }};
+}
+
+}  // namespace glint::app

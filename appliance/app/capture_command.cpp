@@ -1,0 +1,115 @@
+// `glint capture`: a recorded or simulated session -> HDR environment map and coverage map
+// (appliance/capture; docs/capture.md).
+#include <cstdio>
+#include <memory>
+
+#include "appliance/app/commands.hpp"
+#include "appliance/app/cli_util.hpp"
+#include "appliance/capture/capture_pipeline.hpp"
+#include "appliance/core/errors.hpp"
+#include "appliance/core/progress.hpp"
+
+namespace glint::app {
+
+Command add_capture_command(CLI::App& app) {
+    struct Args {
+        capture::CaptureOptions o;
+        std::string session, out, size = "1024x512", orientations = "sensors", engine = "cpu";
+        bool no_drift = false;
+        bool no_adjust = false;
+    };
+    auto a = std::make_shared<Args>();
+    CLI::App* cmd = app.add_subcommand("capture", std::string(command_summary("capture").summary));
+    cmd->add_option("--session", a->session, "Session directory (glint simulate, or a recorded one)")->required();
+    cmd->add_option("--out", a->out, "Environment map to write (OpenEXR, equirect)")->required();
+    cmd->add_option("--size", a->size, "Environment map size WxH")->check(size_validator())->capture_default_str();
+    cmd->add_flag("--no-drift-correction", a->no_drift, "Use the sensor orientations as they are");
+    cmd->add_option("--drift-gain", a->o.drift_gain,
+                    "Low-pass gain of the drift correction: the share of each new measured offset taken into the "
+                    "correction carried to the frames (0..1]")
+        ->capture_default_str();
+    cmd->add_flag("--no-global-adjustment", a->no_adjust,
+                  "Keep the live pass's orientations: no pose graph of frame pairs and the sensor after the scan");
+    cmd->add_option("--adjustment-rounds", a->o.adjustment_rounds,
+                    "Rounds of the global adjustment: frame pairs aligned again from each solution, then solved")
+        ->capture_default_str();
+    cmd->add_option("--drift-log", a->o.drift_log,
+                    "Write every frame's drift estimate (CSV: index, time, overlapping points, estimate and its "
+                    "standard deviation in degrees, residual before and after, applied; on a simulated session also "
+                    "the orientation error before and after and the sensor's error vector)");
+    cmd->add_option("--orientations-out", a->o.orientations_out,
+                    "Write the orientations the map was made with (CSV index,t_ns,w,x,y,z, world_from_camera: the "
+                    "format of a simulated session's truth/camera.csv)");
+    cmd->add_option("--engine", a->engine, "Accumulation engine: cpu or gpu")
+        ->check(CLI::IsMember({"cpu", "gpu"}))
+        ->capture_default_str();
+    cmd->add_option("--orientations", a->orientations,
+                    "sensors (the session's recorded sensor stream) or truth (a simulated session's true "
+                    "orientations: isolates the accumulation's own error)")
+        ->check(CLI::IsMember({"sensors", "truth"}))
+        ->capture_default_str();
+    cmd->add_option("--min-samples", a->o.min_samples, "Frames that must see a texel for it to count as covered")
+        ->capture_default_str();
+    cmd->add_option("--threads", a->o.threads, "Threads; 0 = all cores")
+        ->check(CLI::NonNegativeNumber)
+        ->capture_default_str();
+    return {cmd, [a] {
+                const convolution::Size s = parse_size(a->size, "--size");
+                a->o.width = s.width;
+                a->o.height = s.height;
+                a->o.session = a->session;
+                a->o.out = a->out;
+                a->o.orientations = a->orientations == "truth" ? capture::OrientationInput::Truth
+                                                               : capture::OrientationInput::Sensors;
+                if (a->engine == "gpu") a->o.engine = capture::CaptureEngine::Gpu;
+                a->o.drift_correction = !a->no_drift;
+                a->o.global_adjustment = !a->no_adjust;
+                std::unique_ptr<ProgressBar> bar;
+                const capture::CaptureSummary r = capture::run_capture(a->o, [&](long long d, long long t) {
+                    if (!bar) bar = std::make_unique<ProgressBar>(a->o.global_adjustment && a->o.drift_correction
+                                                                      ? "accumulate and adjust frames"
+                                                                      : "accumulate frames",
+                                                                  t);
+                    (void)d;
+                    bar->advance(1);
+                });
+                if (bar) bar->finish();
+                if (a->o.drift_correction)
+                    std::printf("drift correction: %d of %d frames corrected, median correction %.3f degrees, median "
+                                "residual %.4f -> %.4f (RMS log luminance against the sphere)\n",
+                                r.drift_applied, r.drift_considered, r.drift_median_deg, r.drift_residual_before,
+                                r.drift_residual_after);
+                if (a->o.drift_correction && a->o.global_adjustment)
+                    std::printf("global adjustment: %d rounds, %d of %d frame pairs aligned in the last, pair error "
+                                "%.3f degrees RMS, sensor error %.3f degrees RMS, drift %.3f deg/min, %.1f s\n",
+                                a->o.adjustment_rounds, r.adjust_pairs, r.adjust_pairs_tried, r.adjust_pair_rms_deg,
+                                r.adjust_sensor_rms_deg, r.adjust_drift_deg_per_min, r.adjust_seconds);
+                const Vec3& g = r.coverage.largest_gap;
+                std::printf("%s: %d frames, coverage %.1f %% of the sphere, largest gap %.2f sr around "
+                            "(%.3f, %.3f, %.3f), %lld texels filled\n",
+                            a->out.c_str(), r.frames_used, 100 * r.coverage.covered_fraction, r.coverage.largest_gap_sr,
+                            g.x, g.y, g.z, r.filled_texels);
+                std::printf("coverage map: %s\n", r.coverage_path.c_str());
+                if (r.guided_complete_after_s)
+                    std::printf("guided capture: complete after %.1f s (95 %% of the seeable sphere); ", *r.guided_complete_after_s);
+                else
+                    std::printf("guided capture: not complete (%.1f %% of the seeable sphere); ", 100 * r.guided_final_coverage);
+                std::printf("warnings: too fast %d, too bright %d, too dark %d frames\n", r.guided_too_fast,
+                            r.guided_too_bright, r.guided_too_dark);
+                if (r.frames_without_orientation > 0)
+                    std::printf("frames without an orientation (skipped): %d\n", r.frames_without_orientation);
+                if (r.orientation_error_median_deg)
+                    std::printf("camera orientation against the session's truth: median %.3f, max %.3f degrees\n",
+                                *r.orientation_error_median_deg, *r.orientation_error_max_deg);
+                if (r.orientation_error_after_60s_max_deg)
+                    std::printf("camera orientation error after 60 s: max %.3f degrees\n", *r.orientation_error_after_60s_max_deg);
+                if (r.truth_error)
+                    std::printf("against the session's truth (covered texels, %.1f %% of the sphere): weighted "
+                                "relative RMS %.4f, median relative error %.4f\n",
+                                100 * r.truth_error->covered_fraction_compared, r.truth_error->weighted_relative_rms,
+                                r.truth_error->median_relative);
+                return 0;
+            }};
+}
+
+}  // namespace glint::app

@@ -1,0 +1,99 @@
+// `glint simulate`: a recorded capture session with ground truth, rendered from an HDR map
+// (appliance/capture; docs/capture.md).
+#include <cstdio>
+#include <memory>
+
+#include "appliance/app/commands.hpp"
+#include "appliance/app/cli_util.hpp"
+#include "appliance/capture/charuco.hpp"
+#include "appliance/capture/session_simulator.hpp"
+#include "appliance/core/errors.hpp"
+#include "appliance/core/progress.hpp"
+#include "appliance/core/strict_number.hpp"
+
+namespace glint::app {
+
+Command add_simulate_command(CLI::App& app) {
+    struct Args {
+        capture::SimulateOptions o;
+        std::string env, out, size = "320x180", mount = "2,-1.5,0.5";
+        bool no_camera_noise = false;
+        int charuco = 0;
+    };
+    auto a = std::make_shared<Args>();
+    CLI::App* cmd = app.add_subcommand("simulate", std::string(command_summary("simulate").summary));
+    cmd->add_option("--env", a->env, "Equirect HDR environment map (OpenEXR); not with --charuco");
+    cmd->add_option("--trajectory", a->o.trajectory,
+                    "guided (the built-in scan: rings at -60..60 degrees and the zenith, ~52 s) or a file of "
+                    "lines t_seconds,w,x,y,z (camera-to-world, conventions' frame)")
+        ->capture_default_str();
+    cmd->add_option("--out", a->out, "Session directory to create")->required();
+    cmd->add_flag("--force", a->o.overwrite, "Replace an existing session directory");
+    cmd->add_option("--fps", a->o.fps, "Frames per second")->capture_default_str();
+    cmd->add_option("--size", a->size, "Frame size WxH, pixels")->check(size_validator())->capture_default_str();
+    cmd->add_option("--fov", a->o.horizontal_fov_deg, "Horizontal field of view, degrees")->capture_default_str();
+    cmd->add_option("--imu", a->o.imu, "Sensor board IMU: raw (MPU-6050 + QMC5883L, fused on the board) or bno055")
+        ->check(CLI::IsMember({"raw", "bno055"}))
+        ->capture_default_str();
+    cmd->add_option("--sensor-noise", a->o.sensor_noise, "Sensor error preset: none, default, high")
+        ->check(CLI::IsMember({"none", "default", "high"}))
+        ->capture_default_str();
+    cmd->add_flag("--no-camera-noise", a->no_camera_noise, "Render without shot and read noise");
+    cmd->add_option("--mount", a->mount, "Sensor mounting error yaw,pitch,roll in degrees (sensor_from_camera)")
+        ->capture_default_str();
+    cmd->add_option("--clock-drift-ppm", a->o.clock_drift_ppm, "Board clock rate error against the appliance clock")
+        ->capture_default_str();
+    cmd->add_option("--seed", a->o.seed, "Seed of every noise source")->capture_default_str();
+    cmd->add_option("--heading-drift", a->o.heading_drift_deg_per_min,
+                    "Extra heading drift of the sensor's orientation, deg/min about world +Y")
+        ->capture_default_str();
+    cmd->add_option("--guided-speed", a->o.guided_speed_deg_s, "Yaw speed of the built-in scan, deg/s")
+        ->capture_default_str();
+    cmd->add_flag("--hdr-bracket", a->o.hdr_bracket,
+                  "After a frame with more than 2 % clipped, add frames at 1/64, 1/4096, ... of its exposure until "
+                  "none clips (at most four)");
+    cmd->add_option("--threads", a->o.threads, "Render threads; 0 = all cores")
+        ->check(CLI::NonNegativeNumber)
+        ->capture_default_str();
+    cmd->add_option("--bracket", a->o.bracket,
+                    "Instead of a scan: N frames of one still view with the exposure doubling each frame (a "
+                    "response-calibration bracket; 0 = a scan)")
+        ->capture_default_str();
+    cmd->add_option("--bracket-first", a->o.bracket_first_exposure_s, "First exposure of the bracket, seconds")
+        ->capture_default_str();
+    cmd->add_option("--charuco", a->charuco,
+                    "Instead of a scan: N views of a ChArUco board (7x5 squares of 4 cm, DICT_5X5_100) for glint "
+                    "calibrate intrinsics; use --size 640x360 or more");
+    return {cmd, [a] {
+                a->o.env = a->env;
+                a->o.out = a->out;
+                a->o.camera_noise = !a->no_camera_noise;
+                const convolution::Size s = parse_size(a->size, "--size");
+                a->o.width = s.width;
+                a->o.height = s.height;
+                const std::vector<std::string> m = split_list(a->mount, "--mount");
+                if (m.size() != 3) throw InputError("--mount needs three angles: yaw,pitch,roll");
+                a->o.mount_yaw_deg = parse_double(m[0], "--mount");
+                a->o.mount_pitch_deg = parse_double(m[1], "--mount");
+                a->o.mount_roll_deg = parse_double(m[2], "--mount");
+                if (a->charuco > 0) {
+                    const int n = capture::simulate_charuco_session(a->o, a->charuco);
+                    std::printf("session %s: %d ChArUco views\n", a->out.c_str(), n);
+                    return 0;
+                }
+                if (a->env.empty()) throw InputError("--env is required (except with --charuco)");
+                std::unique_ptr<ProgressBar> bar;
+                const capture::SimulateSummary r = capture::simulate_session(a->o, [&](long long d, long long t) {
+                    if (!bar) bar = std::make_unique<ProgressBar>("simulate frames", t);
+                    (void)d;
+                    bar->advance(1);
+                });
+                if (bar) bar->finish();
+                std::printf("session %s: %d frames over %.1f s, %llu sensor bytes (%llu orientations)\n",
+                            a->out.c_str(), r.frames, r.duration_s, static_cast<unsigned long long>(r.sensor_bytes),
+                            static_cast<unsigned long long>(r.orientation_messages));
+                return 0;
+            }};
+}
+
+}  // namespace glint::app

@@ -1,0 +1,37 @@
+// Calibrations to update and their error against a simulated truth (calibration_truth.hpp).
+#include "appliance/capture/calibration_truth.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "appliance/capture/calibration_io.hpp"
+#include "appliance/core/equirect.hpp"
+#include "appliance/core/errors.hpp"
+
+namespace glint::capture {
+
+CameraCalibration calibration_to_update(const std::filesystem::path& file, const Session& session) {
+    return std::filesystem::exists(file) ? load_calibration(file) : session.calibration;
+}
+
+CameraCalibration truth_calibration(const Session& session) {
+    if (!session.has_truth) throw InputError(session.dir.string() + ": the session has no truth/ (not simulated)");
+    return load_calibration(session.dir / "truth" / "calibration.json");
+}
+
+double response_error_against_truth(const Response& estimate, const Response& truth) {
+    constexpr int kFirstCode = 64, kLastCode = 250, kReferenceCode = 128;
+    double worst = 0;
+    for (int z = kFirstCode; z <= kLastCode; ++z) {
+        const double est = estimate.inverse[std::size_t(z)] / estimate.inverse[kReferenceCode];
+        const double tru = truth.inverse[std::size_t(z)] / truth.inverse[kReferenceCode];
+        worst = std::max(worst, std::abs(est / tru - 1));
+    }
+    return worst;
+}
+
+double mounting_error_deg(const Quatd& estimate, const Quatd& truth) {
+    return firmware::angle_between(estimate, truth) * 180 / kPi;
+}
+
+}  // namespace glint::capture
