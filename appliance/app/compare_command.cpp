@@ -1,4 +1,4 @@
-// `glint compare A.exr REFERENCE.exr`: the error metrics of spec/conventions.md,
+// `glint compare A.exr REFERENCE.exr`: the error metrics of docs/conventions.md,
 // so test engineers can compare any two maps the way the tests and benchmarks do.
 #include <cstdio>
 #include <memory>
