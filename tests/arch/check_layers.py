@@ -184,6 +184,14 @@ def walk(root):
 
 # --- C++ includes --------------------------------------------------------------------------------
 
+def raw_prefix_ok(text, i):
+    """True if the R at i starts a raw string literal: R"..., u8R"..., uR"..., UR"..., LR"..."""
+    j = i
+    while j > 0 and (text[j - 1].isalnum() or text[j - 1] == "_"):
+        j -= 1
+    return text[j:i] in ("", "u8", "u", "U", "L")
+
+
 def blank_comments(text):
     """The text with comments and raw string literals blanked; lines and ordinary strings kept.
 
@@ -205,7 +213,7 @@ def blank_comments(text):
             j = n if j < 0 else j + 2
             out.append(re.sub(r"[^\n]", " ", text[i:j]))
             i = j
-        elif c == "R" and text[i + 1:i + 2] == '"' and (i == 0 or not (text[i - 1].isalnum() or text[i - 1] == "_")):
+        elif c == "R" and text[i + 1:i + 2] == '"' and raw_prefix_ok(text, i):
             m = re.match(r'R"([^()\\\s]{0,16})\(', text[i:])
             if not m:
                 out.append(c)
@@ -450,7 +458,7 @@ SYNTHETIC = {
         "#if 0\n"
         '#include "appliance/capture/x.hpp"\n'
         "#endif\n"
-        'const char* s = R"glsl(\n'
+        'const char* s = u8R"glsl(\n'
         '#include "appliance/capture/x.hpp"\n'
         ')glsl";\n'
         "int n = 1'000;\n"
@@ -567,7 +575,9 @@ def mutation_test(root, failures):
                                 ignore=shutil.ignore_patterns("CMakeFiles", ".*"))
         before = check(tmp)
         core_dir = os.path.join(tmp, "appliance", "core")
-        victims = sorted(f for f in os.listdir(core_dir) if f.endswith(".cpp")) if os.path.isdir(core_dir) else []
+        victims = []
+        if os.path.isdir(core_dir):
+            victims = sorted(f for f in os.listdir(core_dir) if f.endswith(".cpp"))
         if not victims:
             failures.append("mutation: no appliance/core/*.cpp in %s to break" % root)
             return
@@ -586,7 +596,8 @@ def mutation_test(root, failures):
             failures.append("mutation: expected exactly %s:1: core -> app, got:\n  %s" % (
                 victim, "\n  ".join(format_violation(v) for v in new) or "(nothing new)"))
         else:
-            print("self-test: a wrong include in a copy of the tree is reported: %s" % format_violation(new[0]))
+            print("self-test: a wrong include in a copy of the tree is reported: %s"
+                  % format_violation(new[0]))
         if len(after) != len(before) + 1:
             failures.append("mutation: %d violations before, %d after; expected one more" % (
                 len(before), len(after)))
