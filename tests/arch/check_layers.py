@@ -26,7 +26,7 @@ import tempfile
 # The rules. A module may always use itself; otherwise only what its row lists.
 #
 #   appliance:  app -> ui -> {render, tracking, sim, capture, convolution} -> {gl, core}, gl -> core
-#   firmware_bridge:  host -> {firmware, recording} -> protocol; firmware/sim -> firmware
+#   firmware_bridge:  firmware/sim -> host -> {firmware, recording} -> protocol
 #
 # "M (public headers)" allows #include of M's public headers only: the headers directly in M's
 # folder, not in a subfolder. Linking M's library is allowed either way.
