@@ -1,7 +1,7 @@
 #version 300 es
 // `exact` on the GPU: every input texel for every output texel, for up to 8
 // maps of one output size at once (one render target each). Weights relative
-// to the largest cosine, in log space (spec/conventions.md: never 0/0).
+// to the largest cosine, in log space (docs/conventions.md: never 0/0).
 // One draw sums the input rows [u_row_begin, u_row_end) and writes the
 // unnormalised (numerator RGB, denominator); draws over bands of rows add up
 // in the targets by float blending, and the CPU divides. Bands keep each

@@ -1,4 +1,4 @@
-// spec/conventions.md: texel (i, j) of a W x H map, row 0 at the top;
+// docs/conventions.md: texel (i, j) of a W x H map, row 0 at the top;
 // phi = 2 pi (i + 0.5) / W - pi, theta = pi (j + 0.5) / H,
 // d = (sin(theta) sin(phi), cos(theta), -sin(theta) cos(phi)).
 const float PI = 3.14159265358979;

@@ -1,5 +1,5 @@
 #version 300 es
-// Shading of spec/conventions.md: L = kd E_d(N) + ks E_s^n(R), with E_d and
+// Shading of docs/conventions.md: L = kd E_d(N) + ks E_s^n(R), with E_d and
 // E_s^n looked up in equirect maps (bilinear, wrapping in azimuth).
 precision highp float;
 #include "equirect.glsl"

@@ -5,7 +5,7 @@
 // - Pixels follow OpenCV: (u, v) with u to the right and v down, pixel centres at integers,
 //   (0, 0) the centre of the top-left pixel. Intrinsics and distortion are OpenCV's
 //   (fx, fy, cx, cy; k1, k2, p1, p2, k3), so cv::calibrateCamera results drop in unchanged.
-// - The camera frame follows the world frame's habit (spec/conventions.md, OpenGL): the camera
+// - The camera frame follows the world frame's habit (docs/conventions.md, OpenGL): the camera
 //   looks along -Z, +Y is up in the image, +X right. A camera-frame direction (X, Y, Z) with
 //   Z < 0 has OpenCV normalised coordinates x = X / -Z, y = -Y / -Z.
 // - world_from_camera rotates camera-frame vectors into the world frame; it is the sensor's

@@ -1,6 +1,6 @@
 // Real spherical harmonics: basis, separable projection of an equirect map, Phong kernel, reconstruction.
 //
-// Angles are those of spec/conventions.md: theta = polar angle from +Y, phi = the equirect azimuth, so
+// Angles are those of docs/conventions.md: theta = polar angle from +Y, phi = the equirect azimuth, so
 //   d = ( sin(theta) sin(phi), cos(theta), -sin(theta) cos(phi) ).
 // Real orthonormal SH, index l*(l+1)+m, no Condon-Shortley phase:
 //   Y_l0    =       \bar P_l0(cos theta)

@@ -1,4 +1,4 @@
-// The fixed equirectangular mapping of spec/conventions.md as code.
+// The fixed equirectangular mapping of docs/conventions.md as code.
 //
 //   texel (i, j), centre u = (i + 0.5) / W, v = (j + 0.5) / H, row 0 at the top
 //   phi   = 2*pi*u - pi        (azimuth)      theta = pi*v (polar angle from +Y)

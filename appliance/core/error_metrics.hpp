@@ -1,4 +1,4 @@
-// The error metrics of spec/conventions.md ("Error between two maps").
+// The error metrics of docs/conventions.md ("Error between two maps").
 #pragma once
 
 #include "appliance/core/hdr_image.hpp"

@@ -1,4 +1,4 @@
-// OpenEXR load and save in the conventions of spec/conventions.md.
+// OpenEXR load and save in the conventions of docs/conventions.md.
 #pragma once
 
 #include <filesystem>

@@ -1,4 +1,4 @@
-// A linear RGB radiance image in the equirectangular layout of spec/conventions.md:
+// A linear RGB radiance image in the equirectangular layout of docs/conventions.md:
 // row 0 at the top, three float channels per texel, interleaved.
 #pragma once
 

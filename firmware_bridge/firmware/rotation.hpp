@@ -156,7 +156,7 @@ struct AxisRemap {
 };
 
 
-// Glint's world frame (spec/conventions.md: +X right/east, +Y up, -Z forward/north) from the
+// Glint's world frame (docs/conventions.md: +X right/east, +Y up, -Z forward/north) from the
 // East-North-Up frame of chips such as the BNO055: x_g = east, y_g = up, z_g = -north, i.e. a
 // rotation of -90 degrees about the shared x axis.
 inline Quatf glint_world_from_enu() {

@@ -17,7 +17,7 @@ namespace glint::host {
 
 using Quatd = firmware::Quatd;
 
-// One orientation of the sensor frame in the world frame of spec/conventions.md (+Y up, -Z
+// One orientation of the sensor frame in the world frame of docs/conventions.md (+Y up, -Z
 // forward): v_world = q v_sensor q*.
 struct OrientationSample {
     std::int64_t t_ns = 0;       // appliance CLOCK_MONOTONIC, nanoseconds, when q was true

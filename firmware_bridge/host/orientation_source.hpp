@@ -1,7 +1,7 @@
 // OrientationSource: the one interface through which the appliance learns where the camera
 // points. Every driver (serial sensor board, I2C BNO055, Modbus pan/tilt head, a recorded file)
 // derives from it, runs its own reader thread, and calls publish() with orientations already in
-// the world frame of spec/conventions.md and on the appliance's monotonic clock. Consumers either
+// the world frame of docs/conventions.md and on the appliance's monotonic clock. Consumers either
 // take every sample as it arrives (set_sample_callback) or ask for the orientation at any time
 // (orientation_at: slerp between the samples around it), and read health() at any time.
 //

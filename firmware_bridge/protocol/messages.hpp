@@ -77,7 +77,7 @@ constexpr std::int32_t to_q30(double value) {
 constexpr double from_q30(std::int32_t raw) { return static_cast<double>(raw) / kQ30One; }
 
 // Board -> appliance: the rotation that takes vectors from the sensor frame to the world frame
-// (right-handed, +Y up, -Z forward; spec/conventions.md): v_world = q * v_sensor * conj(q).
+// (right-handed, +Y up, -Z forward; docs/conventions.md): v_world = q * v_sensor * conj(q).
 // Components in Q30; the receiver accepts |q| in [0.9, 1.1] and renormalises.
 struct Orientation {
     std::uint64_t timestamp_us;  // board clock, microseconds since board reset

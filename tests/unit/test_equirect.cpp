@@ -1,4 +1,4 @@
-// Tests of the equirectangular conventions (spec/conventions.md) as implemented in core/equirect.
+// Tests of the equirectangular conventions (docs/conventions.md) as implemented in core/equirect.
 #include <gtest/gtest.h>
 
 #include <cmath>

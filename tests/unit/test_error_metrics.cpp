@@ -1,4 +1,4 @@
-// Tests of core/error_metrics against values computed by hand from spec/conventions.md.
+// Tests of core/error_metrics against values computed by hand from docs/conventions.md.
 #include <gtest/gtest.h>
 
 #include <cmath>
