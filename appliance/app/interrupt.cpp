@@ -13,6 +13,7 @@
 #include <mutex>
 #include <thread>
 
+#include "appliance/core/atomic_file.hpp"
 #include "appliance/core/errors.hpp"
 
 namespace glint::app {
@@ -112,6 +113,7 @@ void StagingDirectory::commit(const std::vector<std::string>& names) {
     const std::lock_guard lock(state().mutex);
     for (const std::string& name : names) fs::rename(dir_ / name, parent_ / name);
     fs::remove(dir_);
+    sync_directory(parent_);  // the renames survive a power cut
 }
 
 }  // namespace glint::app

@@ -80,6 +80,8 @@ void write_text_atomically(const std::filesystem::path& target, std::string_view
     });
 }
 
+void sync_directory(const std::filesystem::path& dir) { fsync_path(dir, O_RDONLY | O_DIRECTORY); }
+
 void ensure_writable_directory(const std::filesystem::path& dir) {
     std::error_code ec;
     if (!std::filesystem::exists(dir, ec)) {

@@ -1,5 +1,5 @@
 // Error types shared by every Glint module. Set-up code throws; main() turns
-// them into one line on stderr and a truthful exit code (DESIGN.md, Commands).
+// them into one line on stderr and a truthful exit code (docs/architecture.md, "Commands").
 #pragma once
 
 #include <stdexcept>
