@@ -149,10 +149,10 @@ void run_sh_split(MapResult& r, SharedInputs& shared, MethodExecutor* executor, 
     const Size out = r.plan.output_size;
     const ConeSettings& settings = r.plan.cone;
     const int level = r.plan.input_level;
-    const int split_order = r.plan.projection_order;
+    const int projection_order = r.plan.projection_order;
     const ShSplitResult split =
-        sh_split_convolve(shared.remainder_sh(level, split_order, threads), shared.remainder_ones(level, split_order),
-                          shared.legendre(split_order),
+        sh_split_convolve(shared.remainder_sh(level, projection_order, threads), shared.remainder_ones(level, projection_order),
+                          shared.legendre(projection_order),
                           shared.remainder_mean(level), shared.bright().texels, n, r.plan.sh_order, out,
                           settings.texel_tolerance, settings.bright_tolerance, threads, executor);
     r.plan.bright_texels = int(shared.bright().texels.size());
