@@ -149,10 +149,10 @@ void run_sh_split(MapResult& r, SharedInputs& shared, MethodExecutor* executor, 
     const Size out = r.plan.output_size;
     const ConeSettings& settings = r.plan.cone;
     const int level = r.plan.input_level;
-    const int projection_order = r.plan.projection_order;
+    const int bands = r.plan.projection_order;
     const ShSplitResult split =
-        sh_split_convolve(shared.remainder_sh(level, projection_order, threads), shared.remainder_ones(level, projection_order),
-                          shared.legendre(projection_order),
+        sh_split_convolve(shared.remainder_sh(level, bands, threads), shared.remainder_ones(level, bands),
+                          shared.legendre(bands),
                           shared.remainder_mean(level), shared.bright().texels, n, r.plan.sh_order, out,
                           settings.texel_tolerance, settings.bright_tolerance, threads, executor);
     r.plan.bright_texels = int(shared.bright().texels.size());
@@ -264,7 +264,8 @@ void prepare_shared(SharedInputs& shared, const std::vector<MapResult>& results,
 void run_maps_in_parallel(const std::vector<MapResult>& results, std::vector<std::size_t> to_run,
                           const PlannerModel& model, int threads, const MapRunner& run_map) {
     const auto seconds = [&](std::size_t k) { return predicted_seconds(results[k].plan, model); };
-    std::stable_sort(to_run.begin(), to_run.end(), [&](std::size_t a, std::size_t b) { return seconds(a) > seconds(b); });
+    std::stable_sort(to_run.begin(), to_run.end(),
+                     [&](std::size_t a, std::size_t b) { return seconds(a) > seconds(b); });
     double total = 0;
     for (std::size_t k : to_run) total += seconds(k);
     std::size_t first_shared = 0;

@@ -83,8 +83,8 @@ MapPlan plan_map(const MapRequest& request, const Options& options, const Enviro
     const double n = request.shininess;
     const double tau = options.tolerance;
     MapPlan plan;
-    // Every plan of auto may move to SH with the bright split, which needs the
-    // cone for its rows that fail the truncation bound.
+    // A cone plan runs with these; so does the cone that computes the failing
+    // rows of a plan auto moves to SH with the bright split (any of its plans).
     plan.cone = cone_settings(tau, n, model);
     const ConeSettings& cone = plan.cone;
     const double cut_cos = cone_cut_cos(cone.cutoff_energy, n);
