@@ -140,7 +140,7 @@ int run_convolve(const ConvolveArgs& args) {
             {"input_level", p.input_level},
             {"input_size", size_json(p.input_size)},
             {"output_size", size_json(p.output_size)},
-            {"cutoff_energy", p.cutoff_energy},
+            {"cutoff_energy", p.cutoff_energy()},
             {"cutoff_cos", p.cutoff_cos},
             {"bright_texels", p.bright_texels},
             {"sh_order", p.sh_order},

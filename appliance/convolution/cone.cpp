@@ -65,6 +65,10 @@ private:
 
 }  // namespace
 
+double cone_cut_cos(double energy, double n) {
+    return energy > 0 ? std::pow(std::min(1.0, energy), 1.0 / (n + 1.0)) : 0.0;
+}
+
 HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel>& bright,
                        double n, Size out, const ConeSettings& settings, int threads,
                        const RowProgress& progress, ConeStats* stats, const std::vector<int>& only_rows,
@@ -78,9 +82,7 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
         cpu = std::make_unique<CpuConeSums>(level, out, n, settings, threads);
         backend = cpu.get();
     }
-    const auto cut_cos = [n](double energy) {
-        return energy > 0 ? std::pow(std::min(1.0, energy), 1.0 / (n + 1.0)) : 0.0;
-    };
+    const auto cut_cos = [n](double energy) { return cone_cut_cos(energy, n); };
     const double c0 = cut_cos(settings.cutoff_energy);
     LobeSums sums = backend->first_pass(rows, c0, progress);
 

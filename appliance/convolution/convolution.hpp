@@ -49,21 +49,43 @@ struct Options {
     MethodExecutor* executor = nullptr;
 };
 
+// How the cone method runs for one map (methods.hpp, cone_convolve); the planner
+// sets it from the tolerance and the lobe.
+struct ConeSettings {
+    double cutoff_energy = 1e-2;  // lobe energy dropped outside the first cone
+    double texel_tolerance = 1e-2;  // bound on the cut-off error of each output texel
+    double bright_tolerance = 1e-4; // relative size of a bright texel's term that may be dropped
+    // Rows near the poles may read merged columns whose azimuthal arc stays
+    // within this many radians (0: never; see PolarColumns in lobe_sum.hpp).
+    double max_texel_arc = 0;
+};
+
 // What was decided for one map, and why it is expected to be within tolerance.
+// The planner (planner.hpp) fills in all of it except what running the map
+// finds out (bright_texels, shares_with, note); the engines only carry it out.
 struct MapPlan {
     Method method = Method::Exact;
     int input_level = 0;             // pyramid level read (0 = the input map)
     Size input_size;                 // size of that level
     Size output_size;
-    double cutoff_energy = 0;        // lobe energy dropped outside the cone (cone)
     double cutoff_cos = -1;          // cos of the cut-off angle, -1 = whole sphere
+    // The cone's settings for this lobe and tolerance: how a cone plan runs, and
+    // how auto's sh with the bright split computes its rows that fail the
+    // truncation bound, reading level fallback_level (a cone plan reads input_level).
+    ConeSettings cone;
+    int fallback_level = 0;
     int bright_texels = 0;           // input texels summed exactly for every output (cone, auto's sh)
     int sh_order = 0;                // bands 0..order-1 (sh)
     bool bright_split = false;       // sh of the map without its bright texels, those added exactly
+    int projection_order = 0;        // bright split: bands of the projection the call's split maps share
     double predicted_error = 0;      // predicted weighted relative RMS against exact
     double predicted_cost = 0;       // predicted multiply-adds
     std::string shares_with;         // label of an identical map computed once
     std::string note;                // e.g. why a plan was replaced while it ran
+
+    // Lobe energy dropped outside the cone by the method that computes the map
+    // (0 but for the cone).
+    double cutoff_energy() const { return method == Method::Cone ? cone.cutoff_energy : 0.0; }
 };
 
 struct MapResult {
@@ -76,7 +98,8 @@ struct MapResult {
 };
 
 // Computes every requested map. Throws InputError on an unusable request
-// (negative or non-finite shininess, empty map, bad size or tolerance).
+// (negative or non-finite shininess, empty map, bad size, tolerance or SH
+// order), from the planner, before any map is computed.
 std::vector<MapResult> convolve(const HdrImage& environment, const std::vector<MapRequest>& maps,
                                 const Options& options);
 

@@ -1,11 +1,10 @@
-// convolve(): validates the request, builds what the plans share (prepared
-// levels, the bright split and its pyramid, SH coefficients) once, runs each
-// map's plan and times it.
+// convolve(): has the planner validate the request and plan every map, builds
+// what the plans share (prepared levels, the bright split and its pyramid, SH
+// coefficients) once, runs each map's plan as it stands and times it.
 #include <atomic>
 #include <algorithm>
 #include <chrono>
 #include <functional>
-#include <limits>
 #include <cmath>
 #include <map>
 #include <optional>
@@ -119,16 +118,11 @@ public:
             sh_ = std::make_unique<ShCoefficients>(sh_project(env_, order, threads));
         return *sh_;
     }
-    EnvironmentShape shape(bool need_cone) {
-        EnvironmentShape s;
-        s.input = {env_.width(), env_.height()};
-        s.cone_levels.push_back(s.input);
-        if (need_cone) {
-            s.cone_levels.clear();
-            for (int k = 0; k < cone_pyramid().levels(); ++k)
-                s.cone_levels.push_back({cone_pyramid().level(k).width(), cone_pyramid().level(k).height()});
-        }
-        return s;
+    std::vector<Size> cone_level_sizes() {
+        std::vector<Size> sizes;
+        for (int k = 0; k < cone_pyramid().levels(); ++k)
+            sizes.push_back({cone_pyramid().level(k).width(), cone_pyramid().level(k).height()});
+        return sizes;
     }
 
 private:
@@ -148,79 +142,31 @@ private:
     int remainder_sh_level_ = -1;
 };
 
-// Auto: moves maps from the cone to SH with the bright split where that is
-// predicted to be faster, counting the one shared projection. Greedy by saving.
-void choose_sh_split(std::vector<MapResult>& results, const Options& options, const EnvironmentShape& shape,
-                     const PlannerModel& model) {
-    struct Candidate {
-        std::size_t index;
-        ShSplitPlan sh;
-        double cone_s;
-    };
-    std::vector<Candidate> candidates;
-    for (std::size_t k = 0; k < results.size(); ++k) {
-        const MapPlan& p = results[k].plan;
-        const ShSplitPlan sh = plan_sh_split(results[k].request.shininess, options.tolerance, p.output_size, shape, model);
-        const double cone_s = cone_seconds(p, model);
-        if (sh.usable && sh.reconstruct_seconds < cone_s) candidates.push_back({k, sh, cone_s});
-    }
-    std::sort(candidates.begin(), candidates.end(), [](const Candidate& a, const Candidate& b) {
-        return a.cone_s - a.sh.reconstruct_seconds > b.cone_s - b.sh.reconstruct_seconds;
-    });
-    int level = std::numeric_limits<int>::max(), order = 0;
-    double projection = 0;
-    std::vector<const Candidate*> chosen;
-    for (const Candidate& c : candidates) {
-        const int new_level = std::min(level, c.sh.level);
-        const int new_order = std::max(order, c.sh.order);
-        const double new_projection =
-            sh_projection_seconds(shape.cone_levels[std::size_t(new_level)], new_order, model);
-        if (new_projection - projection + c.sh.reconstruct_seconds < c.cone_s) {
-            level = new_level;
-            order = new_order;
-            projection = new_projection;
-            chosen.push_back(&c);
-        }
-    }
-    for (const Candidate* c : chosen) {
-        MapPlan& p = results[c->index].plan;
-        p.method = Method::Sh;
-        p.bright_split = true;
-        p.sh_order = c->sh.order;
-        p.input_level = level;  // the shared projection's level (at least as fine as this map's)
-        p.input_size = shape.cone_levels[std::size_t(level)];
-        p.cutoff_cos = -1;
-        p.cutoff_energy = 0;
-        p.predicted_error = c->sh.predicted_error;
-        p.predicted_cost = c->sh.reconstruct_seconds / model.sh_step_seconds;
-    }
-}
-
 // Auto's SH with the bright split for one map; rows where its truncation bound
-// does not hold are computed by the map's cone plan, which bounds them.
-void run_sh_split(MapResult& r, const MapPlan& cone, SharedInputs& shared, int split_order, const Options& options,
-                  const PlannerModel& model, int threads) {
+// does not hold are computed by the plan's cone, which bounds them.
+void run_sh_split(MapResult& r, SharedInputs& shared, MethodExecutor* executor, int threads) {
     const double n = r.request.shininess;
     const Size out = r.plan.output_size;
-    const ConeSettings settings = cone_settings(options.tolerance, n, model);
+    const ConeSettings& settings = r.plan.cone;
     const int level = r.plan.input_level;
+    const int bands = r.plan.projection_order;
     const ShSplitResult split =
-        sh_split_convolve(shared.remainder_sh(level, split_order, threads), shared.remainder_ones(level, split_order),
-                          shared.legendre(split_order),
+        sh_split_convolve(shared.remainder_sh(level, bands, threads), shared.remainder_ones(level, bands),
+                          shared.legendre(bands),
                           shared.remainder_mean(level), shared.bright().texels, n, r.plan.sh_order, out,
-                          settings.texel_tolerance, settings.bright_tolerance, threads, options.executor);
+                          settings.texel_tolerance, settings.bright_tolerance, threads, executor);
     r.plan.bright_texels = int(shared.bright().texels.size());
     r.image = split.image;
     r.clamped_texels = split.clamped;
     if (split.failed_rows.empty()) return;
     ConeStats stats;
-    const HdrImage rows = cone_convolve(shared.cone_level(cone.input_level), shared.bright().texels, n, out,
+    const HdrImage rows = cone_convolve(shared.cone_level(r.plan.fallback_level), shared.bright().texels, n, out,
                                         settings, threads, nullptr, &stats, split.failed_rows);
     for (int row : split.failed_rows) std::copy(rows.row(row), rows.row(row) + 3 * out.width, r.image.row(row));
     r.refined_texels = stats.refined_texels;
     r.plan.note = "sh truncation bound not met for " + std::to_string(split.failed_values) + " channel values; their " +
                   std::to_string(split.failed_rows.size()) + " rows computed by cone at level " +
-                  std::to_string(cone.input_level);
+                  std::to_string(r.plan.fallback_level);
 }
 
 // `exact` and `mipmap` maps on the executor, grouped by method and output size
@@ -275,8 +221,7 @@ using MapRunner = std::function<void(std::size_t k, int threads)>;
 // concurrently: SharedInputs builds lazily and is not thread-safe, and a build started inside
 // a concurrent map would run on one thread only.
 void prepare_shared(SharedInputs& shared, const std::vector<MapResult>& results,
-                    const std::vector<MapPlan>& cone_plans, const std::vector<std::size_t>& to_run,
-                    int split_order, int threads) {
+                    const std::vector<std::size_t>& to_run, int threads) {
     int max_sh_order = 0;
     for (std::size_t k : to_run) {
         const MapPlan& p = results[k].plan;
@@ -294,11 +239,11 @@ void prepare_shared(SharedInputs& shared, const std::vector<MapResult>& results,
             case Method::Sh:
                 if (p.bright_split) {
                     shared.bright();
-                    shared.remainder_sh(p.input_level, split_order, threads);
-                    shared.remainder_ones(p.input_level, split_order);
-                    shared.legendre(split_order);
+                    shared.remainder_sh(p.input_level, p.projection_order, threads);
+                    shared.remainder_ones(p.input_level, p.projection_order);
+                    shared.legendre(p.projection_order);
                     shared.remainder_mean(p.input_level);
-                    shared.cone_level(cone_plans[k].input_level);  // rows whose SH bound fails
+                    shared.cone_level(p.fallback_level);  // rows whose SH bound fails
                 } else {
                     max_sh_order = std::max(max_sh_order, p.sh_order);
                 }
@@ -318,17 +263,13 @@ void prepare_shared(SharedInputs& shared, const std::vector<MapResult>& results,
 // threads computed it (every row is computed by one thread).
 void run_maps_in_parallel(const std::vector<MapResult>& results, std::vector<std::size_t> to_run,
                           const PlannerModel& model, int threads, const MapRunner& run_map) {
-    const auto predicted_seconds = [&](std::size_t k) {
-        const MapPlan& p = results[k].plan;
-        return p.method == Method::Sh ? p.predicted_cost * model.sh_step_seconds : cone_seconds(p, model);
-    };
+    const auto seconds = [&](std::size_t k) { return predicted_seconds(results[k].plan, model); };
     std::stable_sort(to_run.begin(), to_run.end(),
-                     [&](std::size_t a, std::size_t b) { return predicted_seconds(a) > predicted_seconds(b); });
+                     [&](std::size_t a, std::size_t b) { return seconds(a) > seconds(b); });
     double total = 0;
-    for (std::size_t k : to_run) total += predicted_seconds(k);
+    for (std::size_t k : to_run) total += seconds(k);
     std::size_t first_shared = 0;
-    while (first_shared < to_run.size() &&
-           predicted_seconds(to_run[first_shared]) * 2.0 * threads > total) {
+    while (first_shared < to_run.size() && seconds(to_run[first_shared]) * 2.0 * threads > total) {
         run_map(to_run[first_shared], threads);
         ++first_shared;
     }
@@ -336,45 +277,17 @@ void run_maps_in_parallel(const std::vector<MapResult>& results, std::vector<std
     parallel_for(rest, threads, [&](int i) { run_map(to_run[first_shared + std::size_t(i)], 1); });
 }
 
-void validate(const HdrImage& env, const std::vector<MapRequest>& maps, const Options& options) {
-    if (env.empty()) throw InputError("environment map is empty (0 texels)");
-    if (env.width() < 2 || env.height() < 2)
-        throw InputError("environment map " + std::to_string(env.width()) + "x" +
-                         std::to_string(env.height()) + " is too small (needs at least 2x2)");
-    if (maps.empty()) throw InputError("no maps requested (give --irradiance and/or --shininess)");
-    for (const MapRequest& m : maps) {
-        if (!std::isfinite(m.shininess) || m.shininess < 0)
-            throw InputError("shininess of " + m.label + " must be a finite number >= 0");
-        if (m.size && (m.size->width < 2 || m.size->height < 2))
-            throw InputError("output size of " + m.label + " must be at least 2x2");
-    }
-    if (!(options.tolerance > 0) || !(options.tolerance < 1))
-        throw InputError("--tolerance must be in (0, 1), e.g. 0.01 for 1 %");
-    if (options.size && (options.size->width < 2 || options.size->height < 2))
-        throw InputError("--size must be at least 2x2");
-    if (options.sh_order < 0 || options.sh_order > 1024)
-        throw InputError("--sh-order must be in [1, 1024]");
-}
-
 }  // namespace
 
 std::vector<MapResult> convolve(const HdrImage& env, const std::vector<MapRequest>& maps,
                                 const Options& options) {
-    validate(env, maps, options);
     const int threads = options.threads > 0 ? options.threads : hardware_threads();
     const PlannerModel model;
     SharedInputs shared(env, model, threads);
-    const bool need_cone = options.method == Method::Auto || options.method == Method::Cone;
-    const EnvironmentShape shape = shared.shape(need_cone);
-
+    const std::vector<MapPlan> plans =
+        plan_maps({env.width(), env.height()}, maps, options, [&] { return shared.cone_level_sizes(); }, model);
     std::vector<MapResult> results;
-    for (const MapRequest& m : maps) results.push_back({m, plan_map(m, options, shape, model), {}, 0, 0, 0});
-    std::vector<MapPlan> cone_plans;  // auto's fallback when an SH bound fails while running
-    for (const MapResult& r : results) cone_plans.push_back(r.plan);
-    if (options.method == Method::Auto) choose_sh_split(results, options, shape, model);
-    int split_order = 0;
-    for (const MapResult& r : results)
-        if (r.plan.bright_split) split_order = std::max(split_order, r.plan.sh_order);
+    for (std::size_t k = 0; k < maps.size(); ++k) results.push_back({maps[k], plans[k], {}, 0, 0, 0});
 
     long long total_rows = 0;
     for (const MapResult& r : results) total_rows += r.plan.output_size.height;
@@ -415,7 +328,7 @@ std::vector<MapResult> convolve(const HdrImage& env, const std::vector<MapReques
                 break;
             case Method::Sh:
                 if (r.plan.bright_split)
-                    run_sh_split(r, cone_plans[k], shared, split_order, options, model, map_threads);
+                    run_sh_split(r, shared, options.executor, map_threads);
                 else
                     r.image = sh_convolve(shared.sh(r.plan.sh_order, map_threads), {env.width(), env.height()}, n,
                                           r.plan.sh_order, out, map_threads, &r.clamped_texels, options.executor);
@@ -424,12 +337,11 @@ std::vector<MapResult> convolve(const HdrImage& env, const std::vector<MapReques
             case Method::Cone: {
                 ConeStats stats;
                 r.plan.bright_texels = int(shared.bright().texels.size());
-                const ConeSettings settings = cone_settings(options.tolerance, n, model);
                 const PreparedLevel& level = shared.cone_level(r.plan.input_level);
                 std::unique_ptr<ConeSumsBackend> backend;
-                if (options.executor) backend = options.executor->cone_sums(level, out, n, settings);
-                r.image = cone_convolve(level, shared.bright().texels, n, out, settings, map_threads, progress, &stats,
-                                        {}, backend.get());
+                if (options.executor) backend = options.executor->cone_sums(level, out, n, r.plan.cone);
+                r.image = cone_convolve(level, shared.bright().texels, n, out, r.plan.cone, map_threads, progress,
+                                        &stats, {}, backend.get());
                 r.refined_texels = stats.refined_texels;
                 break;
             }
@@ -446,7 +358,7 @@ std::vector<MapResult> convolve(const HdrImage& env, const std::vector<MapReques
         // The GPU engine owns one context, driven from this thread: maps in order.
         for (std::size_t k : to_run) run_map(k, threads);
     } else {
-        prepare_shared(shared, results, cone_plans, to_run, split_order, threads);
+        prepare_shared(shared, results, to_run, threads);
         run_maps_in_parallel(results, to_run, model, threads, run_map);
     }
     for (std::size_t k = 0; k < results.size(); ++k)

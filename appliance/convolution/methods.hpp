@@ -62,17 +62,14 @@ private:
     std::vector<double> min_cos_, cos_phi_, sin_phi_;
 };
 
-struct ConeSettings {
-    double cutoff_energy = 1e-2;  // lobe energy dropped outside the first cone
-    double texel_tolerance = 1e-2;  // bound on the cut-off error of each output texel
-    double bright_tolerance = 1e-4; // relative size of a bright texel's term that may be dropped
-    // Rows near the poles may read merged columns whose azimuthal arc stays
-    // within this many radians (0: never; see PolarColumns in lobe_sum.hpp).
-    double max_texel_arc = 0;
-};
 struct ConeStats {
     long long refined_texels = 0;  // texels summed again with a wider cone
 };
+
+// The cosine of the cone outside which the lobe of shininess n holds `energy`
+// of its energy, e^(1/(n+1)) (0: the hemisphere for energy <= 0). The planner's
+// cut-off and cost are this cone's.
+double cone_cut_cos(double energy, double shininess);
 
 // `cone`: the lobe sum restricted to the cut-off cone cos t = e^(1/(n+1)) on a
 // (solid-angle weighted) pyramid level of the remainder, plus the bright texels

@@ -69,22 +69,26 @@ double mipmap_level(int input_height, bool irradiance, double shininess) {
     return l_max - std::log2(std::min(std::max(shininess / 2.0, 4.0), h));
 }
 
+MipmapLookup mipmap_lookup(const Pyramid& pyramid, bool irradiance, double shininess) {
+    const double level = std::clamp(mipmap_level(pyramid.level(0).height(), irradiance, shininess),
+                                    0.0, double(pyramid.levels() - 1));
+    const int k0 = int(std::floor(level));
+    const int k1 = std::min(k0 + 1, pyramid.levels() - 1);
+    const double t = level - double(k0);
+    return {k0, k1, (t > 0 && k1 != k0) ? t : 0.0};
+}
+
 HdrImage mipmap_convolve(const Pyramid& pyramid, bool irradiance, double shininess, int out_width,
                          int out_height) {
     if (!irradiance && !(shininess >= 0))
         throw InputError("shininess " + std::to_string(shininess) + " is not >= 0");
     HdrImage out(out_width, out_height);
 
-    // textureLod clamps the level to the chain it has; our chain can end early
-    // (odd sizes), so the coarsest level stands in for any level beyond it.
-    const double level = std::clamp(mipmap_level(pyramid.level(0).height(), irradiance, shininess),
-                                    0.0, double(pyramid.levels() - 1));
-    const int k0 = int(std::floor(level));
-    const int k1 = std::min(k0 + 1, pyramid.levels() - 1);
-    const double t = level - double(k0);
-    const HdrImage& fine = pyramid.level(k0);
-    const HdrImage& coarse = pyramid.level(k1);
-    const bool blend = t > 0 && k1 != k0;
+    const MipmapLookup lookup = mipmap_lookup(pyramid, irradiance, shininess);
+    const HdrImage& fine = pyramid.level(lookup.fine);
+    const HdrImage& coarse = pyramid.level(lookup.coarse);
+    const double t = lookup.blend;
+    const bool blend = t > 0;
 
     // Texel centre directions, separable: angles per column and per row once.
     const auto columns = static_cast<std::size_t>(out_width);

@@ -32,6 +32,17 @@ private:
 // maps less than 4 rows high.
 double mipmap_level(int input_height, bool irradiance, double shininess);
 
+// The levels a map reads and the weight of the coarser one: mipmap_level()
+// clamped to the levels the pyramid has (textureLod clamps to the chain it has;
+// ours can end early on odd sizes, so its coarsest level stands in for any
+// level beyond it); blend 0: the fine level alone. The CPU's mipmap_convolve
+// and the GPU engine's mipmap pass read the same.
+struct MipmapLookup {
+    int fine = 0, coarse = 0;
+    double blend = 0;
+};
+MipmapLookup mipmap_lookup(const Pyramid& pyramid, bool irradiance, double shininess);
+
 // Reads the pyramid at mipmap_level(), clamped to the levels it has, at the
 // direction of each output texel centre with sample_bilinear(); a fractional
 // level blends the lookups of the two neighbouring levels linearly, as

@@ -4,14 +4,17 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <sstream>
+#include <string>
 
 #include "appliance/convolution/lobe_sum.hpp"
+#include "appliance/convolution/methods.hpp"
 #include "appliance/convolution/sh.hpp"
 #include "appliance/core/equirect.hpp"
+#include "appliance/core/errors.hpp"
 
 namespace glint::convolution {
 namespace {
-
 
 double texel_spacing(Size s) { return kPi / s.height; }
 
@@ -23,6 +26,12 @@ double lobe_cost(Size out, Size level, double cut_cos) {
     const double per_texel = 4.0 * kPi / double(texels(level));
     return double(texels(out)) * std::max(1.0, cap / per_texel);
 }
+
+// What the planner reads of the environment map.
+struct EnvironmentShape {
+    Size input;
+    std::vector<Size> cone_levels;  // pyramid of the remainder after the bright split
+};
 
 }  // namespace
 
@@ -44,6 +53,9 @@ double merged_arc_budget(double n, double tolerance, const PlannerModel& model) 
     return std::sqrt(std::min(worst, rms));
 }
 
+namespace {
+
+// ConeSettings that realise a cone plan for shininess n.
 ConeSettings cone_settings(double tolerance, double n, const PlannerModel& model) {
     ConeSettings s;
     s.max_texel_arc = merged_arc_budget(n, tolerance, model);
@@ -53,6 +65,7 @@ ConeSettings cone_settings(double tolerance, double n, const PlannerModel& model
     return s;
 }
 
+// SH order for shininess n whose kernel tail is negligible against tolerance.
 int sh_order_for(double n, double tolerance) {
     const std::vector<double> k = phong_sh_kernel(n, kMaxShOrder);
     // Smallest order after which every kernel coefficient stays below tau / 100.
@@ -64,11 +77,17 @@ int sh_order_for(double n, double tolerance) {
     return std::max(order, 1);
 }
 
+// The plan for one map under the given options.
 MapPlan plan_map(const MapRequest& request, const Options& options, const EnvironmentShape& env,
                  const PlannerModel& model) {
     const double n = request.shininess;
     const double tau = options.tolerance;
     MapPlan plan;
+    // A cone plan runs with these; so does the cone that computes the failing
+    // rows of a plan auto moves to SH with the bright split (any of its plans).
+    plan.cone = cone_settings(tau, n, model);
+    const ConeSettings& cone = plan.cone;
+    const double cut_cos = cone_cut_cos(cone.cutoff_energy, n);
     const std::optional<Size> fixed = request.size ? request.size : options.size;
     plan.output_size = fixed ? *fixed : lobe_output_size(n, tau, env.input, model);
     const Size out = plan.output_size;
@@ -89,8 +108,6 @@ MapPlan plan_map(const MapRequest& request, const Options& options, const Enviro
         plan.cutoff_cos = 0.0;
         plan.predicted_cost = lobe_cost(out, env.input, 0.0);
     };
-    const ConeSettings cone = cone_settings(tau, n, model);
-    const double cut_cos = std::pow(cone.cutoff_energy, 1.0 / (n + 1.0));
     const auto plan_cone = [&] {
         // Coarsest level whose predicted error fits the level share of tau.
         int level = 0;
@@ -114,7 +131,6 @@ MapPlan plan_map(const MapRequest& request, const Options& options, const Enviro
         plan.method = Method::Cone;
         plan.input_level = level;
         plan.input_size = env.cone_levels[std::size_t(level)];
-        plan.cutoff_energy = cone.cutoff_energy;
         plan.cutoff_cos = cut_cos;
         plan.predicted_error = output_error + level_error + cone.cutoff_energy;
         plan.predicted_cost = lobe_cost(out, plan.input_size, cut_cos);
@@ -157,10 +173,7 @@ MapPlan plan_map(const MapRequest& request, const Options& options, const Enviro
     return plan;
 }
 
-double cone_seconds(const MapPlan& plan, const PlannerModel& model) {
-    return plan.predicted_cost * model.cone_term_seconds;
-}
-
+// Predicted seconds to project a level of `size` onto `order` bands.
 double sh_projection_seconds(Size size, int order, const PlannerModel& model) {
     // Per row: an FFT (or direct sums) per channel, then order^2/2 Legendre
     // values times 2 (cos, sin) times 3 channels.
@@ -169,6 +182,14 @@ double sh_projection_seconds(Size size, int order, const PlannerModel& model) {
     return rows * (fourier + double(order) * order * 3.0) * model.sh_step_seconds;
 }
 
+// The SH-with-bright-split alternative for one map (auto only).
+struct ShSplitPlan {
+    bool usable = false;
+    int order = 0;
+    int level = 0;                 // pyramid level of the remainder that is projected
+    double predicted_error = 0;
+    double reconstruct_seconds = 0;
+};
 ShSplitPlan plan_sh_split(double n, double tau, Size out, const EnvironmentShape& env,
                           const PlannerModel& model) {
     ShSplitPlan plan;
@@ -204,6 +225,103 @@ ShSplitPlan plan_sh_split(double n, double tau, Size out, const EnvironmentShape
                                double(out.width) * std::log2(std::max(2, out.width)) * 3.0 * 4.0)) *
         model.sh_step_seconds;
     return plan;
+}
+
+// Auto: moves maps from the cone to SH with the bright split where that is
+// predicted to be faster, counting the one shared projection. Greedy by saving.
+void choose_sh_split(const std::vector<MapRequest>& maps, std::vector<MapPlan>& plans, double tau,
+                     const EnvironmentShape& shape, const PlannerModel& model) {
+    struct Candidate {
+        std::size_t index;
+        ShSplitPlan sh;
+        double cone_s;
+    };
+    std::vector<Candidate> candidates;
+    for (std::size_t k = 0; k < plans.size(); ++k) {
+        const MapPlan& p = plans[k];
+        const ShSplitPlan sh = plan_sh_split(maps[k].shininess, tau, p.output_size, shape, model);
+        const double cone_s = predicted_seconds(p, model);
+        if (sh.usable && sh.reconstruct_seconds < cone_s) candidates.push_back({k, sh, cone_s});
+    }
+    std::sort(candidates.begin(), candidates.end(), [](const Candidate& a, const Candidate& b) {
+        return a.cone_s - a.sh.reconstruct_seconds > b.cone_s - b.sh.reconstruct_seconds;
+    });
+    int level = std::numeric_limits<int>::max(), order = 0;
+    double projection = 0;
+    std::vector<const Candidate*> chosen;
+    for (const Candidate& c : candidates) {
+        const int new_level = std::min(level, c.sh.level);
+        const int new_order = std::max(order, c.sh.order);
+        const double new_projection =
+            sh_projection_seconds(shape.cone_levels[std::size_t(new_level)], new_order, model);
+        if (new_projection - projection + c.sh.reconstruct_seconds < c.cone_s) {
+            level = new_level;
+            order = new_order;
+            projection = new_projection;
+            chosen.push_back(&c);
+        }
+    }
+    for (const Candidate* c : chosen) {
+        MapPlan& p = plans[c->index];
+        p.method = Method::Sh;
+        p.bright_split = true;
+        p.sh_order = c->sh.order;
+        p.projection_order = order;
+        p.fallback_level = p.input_level;  // the cone's, for rows whose SH bound fails
+        p.input_level = level;  // the shared projection's level (at least as fine as this map's)
+        p.input_size = shape.cone_levels[std::size_t(level)];
+        p.cutoff_cos = -1;
+        p.predicted_error = c->sh.predicted_error;
+        p.predicted_cost = c->sh.reconstruct_seconds / model.sh_step_seconds;
+    }
+}
+
+std::string number(double v) {
+    std::ostringstream s;
+    s << v;
+    return s.str();
+}
+
+std::string size_text(Size s) { return std::to_string(s.width) + "x" + std::to_string(s.height); }
+
+// The plan inputs, checked once before anything is planned or computed.
+void validate(Size input, const std::vector<MapRequest>& maps, const Options& options) {
+    if (input.width <= 0 || input.height <= 0) throw InputError("environment map is empty (0 texels)");
+    if (input.width < 2 || input.height < 2)
+        throw InputError("environment map " + size_text(input) + " is too small (needs at least 2x2)");
+    if (maps.empty()) throw InputError("no maps requested (give --irradiance and/or --shininess)");
+    for (const MapRequest& m : maps) {
+        if (!std::isfinite(m.shininess) || m.shininess < 0)
+            throw InputError("shininess of " + m.label + " must be a finite number >= 0, not " +
+                             number(m.shininess));
+        if (m.size && (m.size->width < 2 || m.size->height < 2))
+            throw InputError("output size of " + m.label + " must be at least 2x2, not " + size_text(*m.size));
+    }
+    if (!(options.tolerance > 0) || !(options.tolerance < 1))
+        throw InputError("--tolerance must be in (0, 1), e.g. 0.01 for 1 %, not " + number(options.tolerance));
+    if (options.size && (options.size->width < 2 || options.size->height < 2))
+        throw InputError("--size must be at least 2x2, not " + size_text(*options.size));
+    if (options.sh_order < 0 || options.sh_order > 1024)
+        throw InputError("--sh-order must be in [1, 1024] (0: the planner's choice), not " +
+                         std::to_string(options.sh_order));
+}
+
+}  // namespace
+
+double predicted_seconds(const MapPlan& plan, const PlannerModel& model) {
+    return plan.predicted_cost * (plan.method == Method::Sh ? model.sh_step_seconds : model.cone_term_seconds);
+}
+
+std::vector<MapPlan> plan_maps(Size input, const std::vector<MapRequest>& maps, const Options& options,
+                               const std::function<std::vector<Size>()>& cone_levels,
+                               const PlannerModel& model) {
+    validate(input, maps, options);
+    EnvironmentShape shape{input, {input}};
+    if (options.method == Method::Auto || options.method == Method::Cone) shape.cone_levels = cone_levels();
+    std::vector<MapPlan> plans;
+    for (const MapRequest& m : maps) plans.push_back(plan_map(m, options, shape, model));
+    if (options.method == Method::Auto) choose_sh_split(maps, plans, options.tolerance, shape, model);
+    return plans;
 }
 
 }  // namespace glint::convolution

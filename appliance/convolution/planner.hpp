@@ -3,10 +3,10 @@
 // cost ("model only what the scene needs", DESIGN.md).
 #pragma once
 
+#include <functional>
 #include <vector>
 
 #include "appliance/convolution/convolution.hpp"
-#include "appliance/convolution/methods.hpp"
 
 namespace glint::convolution {
 
@@ -47,28 +47,6 @@ struct PlannerModel {
     double sh_step_seconds = 0.07e-9;
 };
 
-struct EnvironmentShape;
-
-// The SH-with-bright-split alternative for one map (auto only).
-struct ShSplitPlan {
-    bool usable = false;
-    int order = 0;
-    int level = 0;                 // pyramid level of the remainder that is projected
-    double predicted_error = 0;
-    double reconstruct_seconds = 0;
-};
-ShSplitPlan plan_sh_split(double shininess, double tolerance, Size out, const EnvironmentShape& env,
-                          const PlannerModel& model);
-// Predicted seconds to project a level of `size` onto `order` bands.
-double sh_projection_seconds(Size size, int order, const PlannerModel& model);
-// Predicted seconds of a cone plan.
-double cone_seconds(const MapPlan& plan, const PlannerModel& model);
-
-struct EnvironmentShape {
-    Size input;
-    std::vector<Size> cone_levels;  // pyramid of the remainder after the bright split
-};
-
 // Lobe width in radians of cos^n (about 1/sqrt(n)); the hemisphere for n <= 1.
 double lobe_width(double shininess);
 
@@ -83,19 +61,24 @@ inline constexpr int kLobeOutputOversampling = 4;
 inline constexpr int kMaxLobeOutputHeight = 4096;
 Size lobe_output_size(double shininess, double tolerance, Size input, const PlannerModel& model);
 
-// The plan for one map under the given options.
-MapPlan plan_map(const MapRequest& request, const Options& options, const EnvironmentShape& env,
-                 const PlannerModel& model);
+// The plans of one convolve() call, one per map, in order: for each map the
+// method, level, output size, cut-off and cone settings under `options`; with
+// auto, the maps then moved to SH with the bright split (one projection shared
+// by them) where that is predicted to be faster. Validates the plan inputs
+// first (input size, maps, tolerance, sizes, SH order) and throws InputError
+// saying what is accepted. cone_levels: the sizes of the remainder's pyramid
+// (after the bright split), called only when a plan may read it (auto, cone).
+std::vector<MapPlan> plan_maps(Size input, const std::vector<MapRequest>& maps, const Options& options,
+                               const std::function<std::vector<Size>()>& cone_levels,
+                               const PlannerModel& model);
+
+// Predicted seconds of a plan on the reference machine (the cost model's
+// units); the CPU engine schedules the longest first.
+double predicted_seconds(const MapPlan& plan, const PlannerModel& model);
 
 // The widest texel (radians of arc) that the level error model accepts for
 // a lobe of shininess n: the arc up to which rows near the poles may read
 // merged columns.
 double merged_arc_budget(double shininess, double tolerance, const PlannerModel& model);
-
-// ConeSettings that realise a cone plan for shininess n.
-ConeSettings cone_settings(double tolerance, double shininess, const PlannerModel& model);
-
-// SH order for shininess n whose kernel tail is negligible against tolerance.
-int sh_order_for(double shininess, double tolerance);
 
 }  // namespace glint::convolution

@@ -658,6 +658,44 @@ TEST_F(HardCases, PlannerSharpLobeOnCoarseInput) {
     for (const MapResult& m : r) expect_plan_filled(m, env, kTau);
 }
 
+TEST_F(HardCases, PlannerSplitPlanCarriesItsConeForFailingRows) {
+    // A lit upper half over a near-black lower half: auto moves the maps to SH with the bright
+    // split, whose truncation bound fails in the dark rows; the plan names the cone that
+    // computes them (its settings and level, those of the cone plan it replaced).
+    HdrImage env(256, 128);
+    for (int j = 0; j < env.height(); ++j)
+        for (int i = 0; i < env.width(); ++i) {
+            const float v = j < env.height() / 2 ? 1.0f + 0.5f * float(std::sin(0.1 * i)) : 1e-6f;
+            env.set(i, j, {v, 0.8f * v, 0.6f * v});
+        }
+    const std::vector<MapRequest> maps = phong_requests({20, 160, 640});
+    const Size out{64, 32};
+    const auto r = run(env, maps, Method::Auto, out);
+    const auto cone = run(env, maps, Method::Cone, out);
+    const auto exact = run(env, maps, Method::Exact, out);
+    int projection_order = 0, split = 0, fell_back = 0;
+    for (const MapResult& m : r)
+        if (m.plan.bright_split) projection_order = std::max(projection_order, m.plan.sh_order);
+    for (std::size_t k = 0; k < r.size(); ++k) {
+        const MapPlan& p = r[k].plan;
+        const std::string what = r[k].request.label;
+        EXPECT_LE(compare_maps(r[k].image, exact[k].image).weighted_relative_rms, kTau) << what;
+        if (!p.bright_split) continue;
+        ++split;
+        fell_back += p.note.empty() ? 0 : 1;
+        EXPECT_EQ(p.method, Method::Sh) << what;
+        EXPECT_EQ(p.projection_order, projection_order) << what;
+        EXPECT_EQ(p.fallback_level, cone[k].plan.input_level) << what;
+        EXPECT_EQ(p.cone.cutoff_energy, cone[k].plan.cone.cutoff_energy) << what;
+        EXPECT_EQ(p.cone.max_texel_arc, cone[k].plan.cone.max_texel_arc) << what;
+        EXPECT_EQ(p.cutoff_energy(), 0.0) << what;
+        EXPECT_EQ(p.cutoff_cos, -1.0) << what;
+        EXPECT_EQ(cone[k].plan.cutoff_energy(), cone[k].plan.cone.cutoff_energy) << what;
+    }
+    EXPECT_GE(split, 2);
+    EXPECT_GE(fell_back, 1);
+}
+
 // ---------------------------------------------------------------------------------------------
 // 9. Unusable requests throw InputError.
 
@@ -683,6 +721,16 @@ TEST_F(HardCases, BadRequestsThrowInputError) {
             Options bad = o;
             bad.tolerance = t;
             EXPECT_THROW(convolve(env, {MapRequest::make_irradiance()}, bad), InputError) << m << " tolerance " << t;
+        }
+        // The message says what is accepted and what was given.
+        try {
+            Options bad = o;
+            bad.tolerance = 1.5;
+            convolve(env, {MapRequest::make_irradiance()}, bad);
+            ADD_FAILURE() << m << ": tolerance 1.5 accepted";
+        } catch (const InputError& e) {
+            EXPECT_NE(std::string(e.what()).find("(0, 1)"), std::string::npos) << e.what();
+            EXPECT_NE(std::string(e.what()).find("1.5"), std::string::npos) << e.what();
         }
         for (const Size s : {Size{0, 0}, Size{-4, 2}, Size{8, 0}}) {
             Options bad = o;

@@ -410,13 +410,8 @@ std::vector<HdrImage> GpuEngine::mipmap(const Pyramid& pyramid, const std::vecto
     };
     std::vector<Lookup> lookups;
     for (const auto& [irradiance, n] : maps) {
-        // As mipmap_convolve: the level clamped to the chain, blended between its neighbours.
-        const double level = std::clamp(mipmap_level(pyramid.level(0).height(), irradiance, n), 0.0,
-                                        double(pyramid.levels() - 1));
-        const int k0 = int(std::floor(level));
-        const int k1 = std::min(k0 + 1, pyramid.levels() - 1);
-        const double t = level - double(k0);
-        lookups.push_back({level_texture(k0), level_texture(k1), (t > 0 && k1 != k0) ? float(t) : 0.0f});
+        const MipmapLookup l = mipmap_lookup(pyramid, irradiance, n);
+        lookups.push_back({level_texture(l.fine), level_texture(l.coarse), float(l.blend)});
     }
     RenderTargets targets(out.width, out.height, int(maps.size()));
     const gl::GlProgram& p = program("convolve_mipmap.frag");
