@@ -284,8 +284,9 @@ std::string number(double v) {
 
 std::string size_text(Size s) { return std::to_string(s.width) + "x" + std::to_string(s.height); }
 
-// The plan inputs, checked once before anything is planned or computed.
-void validate(Size input, const std::vector<MapRequest>& maps, const Options& options) {
+}  // namespace
+
+void validate_plan_inputs(Size input, const std::vector<MapRequest>& maps, const Options& options) {
     if (input.width <= 0 || input.height <= 0) throw InputError("environment map is empty (0 texels)");
     if (input.width < 2 || input.height < 2)
         throw InputError("environment map " + size_text(input) + " is too small (needs at least 2x2)");
@@ -306,8 +307,6 @@ void validate(Size input, const std::vector<MapRequest>& maps, const Options& op
                          std::to_string(options.sh_order));
 }
 
-}  // namespace
-
 double predicted_seconds(const MapPlan& plan, const PlannerModel& model) {
     return plan.predicted_cost * (plan.method == Method::Sh ? model.sh_step_seconds : model.cone_term_seconds);
 }
@@ -315,7 +314,7 @@ double predicted_seconds(const MapPlan& plan, const PlannerModel& model) {
 std::vector<MapPlan> plan_maps(Size input, const std::vector<MapRequest>& maps, const Options& options,
                                const std::function<std::vector<Size>()>& cone_levels,
                                const PlannerModel& model) {
-    validate(input, maps, options);
+    validate_plan_inputs(input, maps, options);
     EnvironmentShape shape{input, {input}};
     if (options.method == Method::Auto || options.method == Method::Cone) shape.cone_levels = cone_levels();
     std::vector<MapPlan> plans;

@@ -61,6 +61,11 @@ inline constexpr int kLobeOutputOversampling = 4;
 inline constexpr int kMaxLobeOutputHeight = 4096;
 Size lobe_output_size(double shininess, double tolerance, Size input, const PlannerModel& model);
 
+// The one check of the plan inputs (input size, maps, tolerance, sizes, SH order): throws
+// InputError saying what is accepted and what was given. plan_maps() calls it first; a command
+// may call it earlier, to reject bad input before it opens a GL context or writes anything.
+void validate_plan_inputs(Size input, const std::vector<MapRequest>& maps, const Options& options);
+
 // The plans of one convolve() call, one per map, in order: for each map the
 // method, level, output size, cut-off and cone settings under `options`; with
 // auto, the maps then moved to SH with the bright split (one projection shared
