@@ -70,6 +70,7 @@ int run_convolve(const ConvolveArgs& args) {
     const fs::path out_dir(args.out_dir);
     ensure_writable_directory(out_dir);
     const LoadedExr loaded = load_exr(args.input);
+    convolution::validate_plan_inputs({loaded.image.width(), loaded.image.height()}, maps, options);
     if (loaded.sanitised.total() > 0)
         std::fprintf(stderr,
                      "glint: warning: %s: sanitised %zu channel values (NaN %zu, +Inf %zu, -Inf %zu, "
@@ -89,7 +90,6 @@ int run_convolve(const ConvolveArgs& args) {
             live_done = done;
         }
     };
-    convolution::validate_plan_inputs({loaded.image.width(), loaded.image.height()}, maps, options);
     GpuChoice gpu(args.engine, "convolution");
     std::unique_ptr<convolution::gpu::UnlimitedGate> gate;
     std::unique_ptr<convolution::gpu::GpuEngine> gpu_engine;
