@@ -163,7 +163,7 @@ Command add_calibrate_command(CLI::App& app) {
                         const capture::CameraCalibration truth =
                             capture::load_calibration(s.dir / "truth" / "calibration.json");
                         std::printf("against the session's truth: mounting off by %.3f degrees, time offset by %.1f ms\n",
-                                    firmware::angle_between(r.sensor_from_camera, truth.sensor_from_camera) * 180 / kPi,
+                                    angle_between(r.sensor_from_camera, truth.sensor_from_camera) * 180 / kPi,
                                     (r.time_offset_s - truth.time_offset_s) * 1e3);
                     }
                     return 0;
@@ -293,7 +293,7 @@ Command add_capture_command(CLI::App& app) {
                                 "%.3f degrees RMS, sensor error %.3f degrees RMS, drift %.3f deg/min, %.1f s\n",
                                 a->o.adjustment_rounds, r.adjust_pairs, r.adjust_pairs_tried, r.adjust_pair_rms_deg,
                                 r.adjust_sensor_rms_deg, r.adjust_drift_deg_per_min, r.adjust_seconds);
-                const Vec3& g = r.coverage.largest_gap;
+                const glm::dvec3& g = r.coverage.largest_gap;
                 std::printf("%s: %d frames, coverage %.1f %% of the sphere, largest gap %.2f sr around "
                             "(%.3f, %.3f, %.3f), %lld texels filled\n",
                             a->out.c_str(), r.frames_used, 100 * r.coverage.covered_fraction, r.coverage.largest_gap_sr,
