@@ -22,6 +22,7 @@ packages=(
   clang libclang-rt-14-dev             # libFuzzer targets with ASan/UBSan (scripts/run-fuzz.sh)
   libopencv-dev                        # capture: frames, calibration, features (appliance/capture)
   libcamera-dev                        # capture: the real camera source (appliance/capture)
+  libglm-dev                           # the appliance's vectors, quaternions and matrices (appliance/core/rotation.hpp)
 )
 
 missing=()

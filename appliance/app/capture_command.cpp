@@ -84,7 +84,7 @@ Command add_capture_command(CLI::App& app) {
                                 "%.3f degrees RMS, sensor error %.3f degrees RMS, drift %.3f deg/min, %.1f s\n",
                                 a->o.adjustment_rounds, r.adjust_pairs, r.adjust_pairs_tried, r.adjust_pair_rms_deg,
                                 r.adjust_sensor_rms_deg, r.adjust_drift_deg_per_min, r.adjust_seconds);
-                const Vec3& g = r.coverage.largest_gap;
+                const glm::dvec3& g = r.coverage.largest_gap;
                 std::printf("%s: %d frames, coverage %.1f %% of the sphere, largest gap %.2f sr around "
                             "(%.3f, %.3f, %.3f), %lld texels filled\n",
                             a->out.c_str(), r.frames_used, 100 * r.coverage.covered_fraction, r.coverage.largest_gap_sr,

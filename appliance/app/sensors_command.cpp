@@ -25,10 +25,10 @@ constexpr double kDeg = 180.0 / 3.14159265358979323846;
 
 // Yaw about world +Y (from -Z towards -X), pitch of the sensor's -Z axis above the horizon, roll
 // about that axis (the sensor's +X dipping below the horizon is positive): degrees.
-void yaw_pitch_roll(const host::Quatd& q, double& yaw, double& pitch, double& roll) {
-    const firmware::Vec3d f = q.rotate(firmware::Vec3d{0, 0, -1});
-    const firmware::Vec3d r = q.rotate(firmware::Vec3d{1, 0, 0});
-    const firmware::Vec3d u = q.rotate(firmware::Vec3d{0, 1, 0});
+void yaw_pitch_roll(const glm::dquat& q, double& yaw, double& pitch, double& roll) {
+    const glm::dvec3 f = q * glm::dvec3(0, 0, -1);
+    const glm::dvec3 r = q * glm::dvec3(1, 0, 0);
+    const glm::dvec3 u = q * glm::dvec3(0, 1, 0);
     yaw = std::atan2(-f.x, -f.z) * kDeg;
     pitch = std::asin(std::clamp(f.y, -1.0, 1.0)) * kDeg;
     roll = std::atan2(-r.y, u.y) * kDeg;
@@ -135,11 +135,12 @@ Command add_sensors_command(CLI::App& app) {
                     }
                     for (const host::OrientationSample& s : batch) {
                         if (a->csv) {
-                            std::printf("%lld,%.9f,%.9f,%.9f,%.9f\n", static_cast<long long>(s.t_ns), s.q.w, s.q.x,
-                                        s.q.y, s.q.z);
+                            const glm::dquat& q = s.world_from_sensor;
+                            std::printf("%lld,%.9f,%.9f,%.9f,%.9f\n", static_cast<long long>(s.t_ns), q.w, q.x, q.y,
+                                        q.z);
                         } else {
                             double y = 0, p = 0, r = 0;
-                            yaw_pitch_roll(s.q, y, p, r);
+                            yaw_pitch_roll(s.world_from_sensor, y, p, r);
                             std::printf("t=%.6f s  yaw %8.3f  pitch %7.3f  roll %8.3f deg\n", double(s.t_ns) * 1e-9, y,
                                         p, r);
                         }

@@ -149,11 +149,20 @@ VignettingResult calibrate_vignetting(const Session& s, const CameraCalibration&
 
 namespace {
 
+// The unit quaternion (w >= 0) of the rotation matrix C R C, R an OpenCV 3x3 (row-major) and
+// C = diag(c): R seen in axes with some of them turned round.
+glm::dquat rotation_of_matrix(const cv::Mat& R, const glm::dvec3& c) {
+    glm::dmat3 m(0);
+    for (int i = 0; i < 3; ++i)
+        for (int j = 0; j < 3; ++j) m[j][i] = c[i] * R.at<double>(i, j) * c[j];  // GLM: m[column][row]
+    return unit_rotation(glm::quat_cast(m));
+}
+
 // The rotation between two frames of a rotating camera, from the images: ORB features, matches,
 // a RANSAC homography of the undistorted normalised points, and the nearest rotation to it.
 // Returns the rotation taking camera-b vectors into camera-a's frame (a_from_b), in the
 // conventions' camera frame (-Z forward, +Y up).
-std::optional<Quatd> image_rotation(const cv::Mat& a, const cv::Mat& b, const Intrinsics& k) {
+std::optional<glm::dquat> image_rotation(const cv::Mat& a, const cv::Mat& b, const Intrinsics& k) {
     // Small frames and soft indoor texture: smaller patches and a low FAST threshold find enough corners.
     cv::Ptr<cv::ORB> orb = cv::ORB::create(1500, 1.2f, 8, 15, 0, 2, cv::ORB::HARRIS_SCORE, 15, 5);
     std::vector<cv::KeyPoint> ka, kb;
@@ -170,8 +179,8 @@ std::optional<Quatd> image_rotation(const cv::Mat& a, const cv::Mat& b, const In
     std::vector<cv::Point2d> pa, pb;
     for (const cv::DMatch& m : matches) {
         // Undistorted normalised OpenCV coordinates (x right, y down, z forward).
-        const Vec3 ra = pixel_ray(k, ka[std::size_t(m.queryIdx)].pt.x, ka[std::size_t(m.queryIdx)].pt.y);
-        const Vec3 rb = pixel_ray(k, kb[std::size_t(m.trainIdx)].pt.x, kb[std::size_t(m.trainIdx)].pt.y);
+        const glm::dvec3 ra = pixel_ray(k, ka[std::size_t(m.queryIdx)].pt.x, ka[std::size_t(m.queryIdx)].pt.y);
+        const glm::dvec3 rb = pixel_ray(k, kb[std::size_t(m.trainIdx)].pt.x, kb[std::size_t(m.trainIdx)].pt.y);
         pa.emplace_back(ra.x / -ra.z, -ra.y / -ra.z);
         pb.emplace_back(rb.x / -rb.z, -rb.y / -rb.z);
     }
@@ -185,38 +194,20 @@ std::optional<Quatd> image_rotation(const cv::Mat& a, const cv::Mat& b, const In
     if (cv::determinant(R) < 0) R = -R;
     // OpenCV camera axes (x, y down, z forward) -> conventions' camera axes (x, y up, z back):
     // C = diag(1, -1, -1), R_conv = C R C.
-    double m[3][3];
-    const double c[3] = {1, -1, -1};
-    for (int i = 0; i < 3; ++i)
-        for (int j = 0; j < 3; ++j) m[i][j] = c[i] * R.at<double>(i, j) * c[j];
-    return firmware::quat_from_matrix(m);
-}
-
-firmware::Vec3d rotation_vector(Quatd q) {
-    q = firmware::normalized(q);
-    const double s = std::sqrt(q.x * q.x + q.y * q.y + q.z * q.z);
-    if (s < 1e-15) return {};
-    const double angle = 2 * std::atan2(s, q.w);
-    return {q.x / s * angle, q.y / s * angle, q.z / s * angle};
+    return rotation_of_matrix(R, {1, -1, -1});
 }
 
 // The rotation R minimising sum w |R a_i - b_i|^2 (Kabsch, by SVD of the 3x3 correlation).
-Quatd kabsch(const std::vector<firmware::Vec3d>& a, const std::vector<firmware::Vec3d>& b) {
+glm::dquat kabsch(const std::vector<glm::dvec3>& a, const std::vector<glm::dvec3>& b) {
     cv::Mat C = cv::Mat::zeros(3, 3, CV_64F);
-    for (std::size_t i = 0; i < a.size(); ++i) {
-        const double av[3] = {a[i].x, a[i].y, a[i].z}, bv[3] = {b[i].x, b[i].y, b[i].z};
+    for (std::size_t i = 0; i < a.size(); ++i)
         for (int r = 0; r < 3; ++r)
-            for (int c = 0; c < 3; ++c) C.at<double>(r, c) += bv[r] * av[c];
-    }
+            for (int c = 0; c < 3; ++c) C.at<double>(r, c) += b[i][r] * a[i][c];
     cv::Mat w, u, vt;
     cv::SVD::compute(C, w, u, vt);
     cv::Mat d = cv::Mat::eye(3, 3, CV_64F);
     if (cv::determinant(u * vt) < 0) d.at<double>(2, 2) = -1;
-    const cv::Mat R = u * d * vt;
-    const double m[3][3] = {{R.at<double>(0, 0), R.at<double>(0, 1), R.at<double>(0, 2)},
-                            {R.at<double>(1, 0), R.at<double>(1, 1), R.at<double>(1, 2)},
-                            {R.at<double>(2, 0), R.at<double>(2, 1), R.at<double>(2, 2)}};
-    return firmware::quat_from_matrix(m);
+    return rotation_of_matrix(u * d * vt, {1, 1, 1});
 }
 
 }  // namespace
@@ -233,7 +224,7 @@ AlignmentResult calibrate_alignment(const Session& s, double max_offset_s) {
     // Image rotations between consecutive frames.
     struct Pair {
         std::int64_t ta, tb;
-        Quatd camera_a_from_b;
+        glm::dquat camera_a_from_b;
     };
     std::vector<Pair> pairs;
     CameraFrame previous;
@@ -242,7 +233,7 @@ AlignmentResult calibrate_alignment(const Session& s, double max_offset_s) {
         CameraFrame f = load_frame(s, r);
         if (have_previous) {
             if (const auto q = image_rotation(previous.rgb, f.rgb, s.calibration.intrinsics))
-                if (firmware::angle_between(*q, Quatd::identity()) > 2 * kPi / 180)  // too small a turn says little
+                if (angle_between(*q, glm::dquat(1, 0, 0, 0)) > 2 * kPi / 180)  // too small a turn says little
                     pairs.push_back({previous.t_ns, f.t_ns, *q});
         }
         previous = std::move(f);
@@ -258,24 +249,24 @@ AlignmentResult calibrate_alignment(const Session& s, double max_offset_s) {
         const std::int64_t off = std::int64_t(ms) * 1'000'000;
         // Relative rotations: camera a_from_b = X^-1 (sensor a_from_b) X, with X = sensor_from_camera,
         // so their rotation vectors satisfy v_camera = X^-1 v_sensor: fit X^-1 on the pairs.
-        std::vector<firmware::Vec3d> vs, vc;
-        std::vector<Quatd> sensor_rel, camera_rel;
+        std::vector<glm::dvec3> vs, vc;
+        std::vector<glm::dquat> sensor_rel, camera_rel;
         for (const Pair& p : pairs) {
-            const auto qa = history.at(p.ta + off).q, qb = history.at(p.tb + off).q;
+            const auto qa = history.at(p.ta + off).world_from_sensor, qb = history.at(p.tb + off).world_from_sensor;
             if (!qa || !qb) continue;
-            const Quatd sens = firmware::normalized(qa->conj() * *qb);  // sensor a_from_b
+            const glm::dquat sens = unit_rotation(glm::conjugate(*qa) * *qb);  // sensor a_from_b
             vs.push_back(rotation_vector(sens));
             vc.push_back(rotation_vector(p.camera_a_from_b));
             sensor_rel.push_back(sens);
             camera_rel.push_back(p.camera_a_from_b);
         }
         if (vs.size() < 10) continue;
-        const Quatd camera_from_sensor = kabsch(vs, vc);
-        const Quatd x = camera_from_sensor.conj();  // sensor_from_camera
+        const glm::dquat camera_from_sensor = kabsch(vs, vc);
+        const glm::dquat x = glm::conjugate(camera_from_sensor);  // sensor_from_camera
         std::vector<double> res;
         for (std::size_t i = 0; i < vs.size(); ++i) {
-            const Quatd predicted = firmware::normalized(x.conj() * sensor_rel[i] * x);
-            res.push_back(firmware::angle_between(predicted, camera_rel[i]) * 180 / kPi);
+            const glm::dquat predicted = unit_rotation(glm::conjugate(x) * sensor_rel[i] * x);
+            res.push_back(angle_between(predicted, camera_rel[i]) * 180 / kPi);
         }
         std::nth_element(res.begin(), res.begin() + std::ptrdiff_t(res.size() / 2), res.end());
         const double median = res[res.size() / 2];

@@ -34,7 +34,7 @@ struct VignettingResult {
 VignettingResult calibrate_vignetting(const Session& flat_field, const CameraCalibration& calibration);
 
 struct AlignmentResult {
-    Quatd sensor_from_camera;     // the mounting
+    glm::dquat sensor_from_camera{1, 0, 0, 0};  // the mounting
     double time_offset_s = 0;     // camera time + offset = sensor time of the same instant
     int pairs = 0;                // frame pairs whose image rotation was measured
     double residual_deg = 0;      // median angle between image and (aligned) sensor relative rotations

@@ -47,7 +47,7 @@ std::string calibration_to_json(const CameraCalibration& c) {
     j["response"] = {{"inverse", std::vector<double>(c.response.inverse.begin(), c.response.inverse.end())},
                      {"gamma", c.response.gamma},
                      {"shoulder", c.response.shoulder}};
-    const Quatd& q = c.sensor_from_camera;
+    const glm::dquat& q = c.sensor_from_camera;
     j["sensor_from_camera"] = {q.w, q.x, q.y, q.z};
     j["time_offset_s"] = c.time_offset_s;
     j["sensitivity"] = c.sensitivity;
@@ -105,10 +105,9 @@ CameraCalibration calibration_from_json(const std::string& text, const std::stri
     if (!q.is_array() || q.size() != 4 || !q[0].is_number() || !q[1].is_number() || !q[2].is_number() ||
         !q[3].is_number())
         bad(source, "sensor_from_camera", "must be a quaternion [w, x, y, z]");
-    const Quatd raw{q[0].get<double>(), q[1].get<double>(), q[2].get<double>(), q[3].get<double>()};
-    const double n = firmware::norm(raw);
-    if (!(std::abs(n - 1) < 1e-3)) bad(source, "sensor_from_camera", "not a unit quaternion");
-    c.sensor_from_camera = firmware::normalized(raw);
+    const glm::dquat raw(q[0].get<double>(), q[1].get<double>(), q[2].get<double>(), q[3].get<double>());
+    if (!(std::abs(glm::length(raw) - 1) < 1e-3)) bad(source, "sensor_from_camera", "not a unit quaternion");
+    c.sensor_from_camera = unit_rotation(raw);
     c.time_offset_s = number(j, "time_offset_s", source, "");
     c.sensitivity = number(j, "sensitivity", source, "");
     if (!(c.sensitivity > 0)) bad(source, "sensitivity", "must be positive");

@@ -7,6 +7,7 @@
 #include "appliance/capture/calibration_io.hpp"
 #include "appliance/core/equirect.hpp"
 #include "appliance/core/errors.hpp"
+#include "appliance/core/rotation.hpp"
 
 namespace glint::capture {
 
@@ -30,8 +31,8 @@ double response_error_against_truth(const Response& estimate, const Response& tr
     return worst;
 }
 
-double mounting_error_deg(const Quatd& estimate, const Quatd& truth) {
-    return firmware::angle_between(estimate, truth) * 180 / kPi;
+double mounting_error_deg(const glm::dquat& estimate, const glm::dquat& truth) {
+    return angle_between(estimate, truth) * 180 / kPi;
 }
 
 }  // namespace glint::capture

@@ -22,6 +22,6 @@ CameraCalibration truth_calibration(const Session& session);
 double response_error_against_truth(const Response& estimate, const Response& truth);
 
 // Angle between two mountings (sensor_from_camera), degrees.
-double mounting_error_deg(const Quatd& estimate, const Quatd& truth);
+double mounting_error_deg(const glm::dquat& estimate, const glm::dquat& truth);
 
 }  // namespace glint::capture

@@ -39,7 +39,7 @@ void undistort(const Intrinsics& k, double xd, double yd, double& x, double& y) 
     }
 }
 
-std::optional<PixelCoord> project(const Intrinsics& k, const Vec3& d, double margin) {
+std::optional<PixelCoord> project(const Intrinsics& k, const glm::dvec3& d, double margin) {
     if (!(d.z < 0)) return std::nullopt;
     const double x = d.x / -d.z;
     const double y = -d.y / -d.z;
@@ -55,7 +55,7 @@ std::optional<PixelCoord> project(const Intrinsics& k, const Vec3& d, double mar
     return p;
 }
 
-Vec3 pixel_ray(const Intrinsics& k, double u, double v) {
+glm::dvec3 pixel_ray(const Intrinsics& k, double u, double v) {
     double x = 0, y = 0;
     undistort(k, (u - k.cx) / k.fx, (v - k.cy) / k.fy, x, y);
     const double n = std::sqrt(x * x + y * y + 1);

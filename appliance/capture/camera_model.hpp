@@ -16,11 +16,9 @@
 #include <optional>
 
 #include "appliance/core/equirect.hpp"
-#include "firmware_bridge/firmware/rotation.hpp"
+#include "appliance/core/rotation.hpp"
 
 namespace glint::capture {
-
-using Quatd = firmware::Quatd;
 
 struct PixelCoord {
     double u = 0, v = 0;
@@ -45,9 +43,9 @@ void undistort(const Intrinsics& k, double xd, double yd, double& x, double& y);
 
 // Pixel of a camera-frame direction, or nullopt when it is behind the camera (Z >= 0) or
 // projects outside the image by more than `margin` pixels.
-std::optional<PixelCoord> project(const Intrinsics& k, const Vec3& camera_dir, double margin = 0.0);
+std::optional<PixelCoord> project(const Intrinsics& k, const glm::dvec3& camera_dir, double margin = 0.0);
 // Unit camera-frame direction of a pixel (u, v).
-Vec3 pixel_ray(const Intrinsics& k, double u, double v);
+glm::dvec3 pixel_ray(const Intrinsics& k, double u, double v);
 // Cosine of the widest angle between the optical axis (-Z) and any pixel centre's ray: a
 // frustum cull bound.
 double min_cos_to_axis(const Intrinsics& k);
@@ -82,7 +80,7 @@ struct CameraCalibration {
     Intrinsics intrinsics;
     Vignetting vignetting;
     Response response = Response::parametric();
-    Quatd sensor_from_camera = Quatd::identity();  // alignment: camera vectors -> sensor frame
+    glm::dquat sensor_from_camera{1, 0, 0, 0};  // alignment: camera vectors -> sensor frame
     double time_offset_s = 0;  // camera timestamp + offset = sensor time of the same instant
     // Relative exposure per unit radiance per second at gain 1: divides it out, so maps come out
     // in radiance units. Photometric calibration is not built; 1 gives relative radiance.

@@ -47,7 +47,7 @@ double CameraSimulator::exposure_of(double radiance, double vignetting) const {
     return electrons * gain_ / sensor_.full_well_electrons;
 }
 
-CameraFrame CameraSimulator::render(const Quatd& world_from_camera, std::int64_t t_ns, int threads) {
+CameraFrame CameraSimulator::render(const glm::dquat& world_from_camera, std::int64_t t_ns, int threads) {
     const Intrinsics& k = truth_.intrinsics;
     CameraFrame frame;
     frame.rgb.create(k.height, k.width, CV_8UC3);
@@ -68,9 +68,7 @@ CameraFrame CameraSimulator::render(const Quatd& world_from_camera, std::int64_t
             const std::size_t i = std::size_t(v) * std::size_t(k.width) + std::size_t(u);
             double radiance[3] = {0, 0, 0};
             for (std::size_t sub = 0; sub < kSubsamples; ++sub) {
-                const Vec3& ray = rays_[i * kSubsamples + sub];
-                const firmware::Vec3d w = world_from_camera.rotate(firmware::Vec3d{ray.x, ray.y, ray.z});
-                const Rgb l = sample_bilinear(env_, {w.x, w.y, w.z});
+                const Rgb l = sample_bilinear(env_, world_from_camera * rays_[i * kSubsamples + sub]);
                 radiance[0] += l.r / double(kSubsamples);
                 radiance[1] += l.g / double(kSubsamples);
                 radiance[2] += l.b / double(kSubsamples);

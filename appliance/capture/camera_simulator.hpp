@@ -37,7 +37,7 @@ public:
 
     // Renders the frame seen with world_from_camera at the current exposure and gain, then lets
     // the auto-exposure loop react to it (the next frame's settings). t_ns is copied into the frame.
-    CameraFrame render(const Quatd& world_from_camera, std::int64_t t_ns, int threads = 1);
+    CameraFrame render(const glm::dquat& world_from_camera, std::int64_t t_ns, int threads = 1);
 
     // Relative exposure (before noise and response) of one pixel: what a perfect sensor records.
     double exposure_of(double radiance, double vignetting) const;
@@ -56,7 +56,7 @@ private:
     std::uint64_t frames_ = 0;
     double exposure_s_ = 1.0 / 120.0;
     double gain_ = 1;
-    std::vector<Vec3> rays_;        // camera-frame ray per pixel (row-major)
+    std::vector<glm::dvec3> rays_;  // camera-frame ray per pixel (row-major)
     std::vector<double> vignette_;  // V per pixel
 };
 

@@ -32,10 +32,10 @@ fs::path coverage_path_for(const fs::path& env_out) {
 namespace {
 
 // world_from_camera per frame index from the session's truth.
-std::map<std::uint64_t, Quatd> truth_orientations(const Session& s) {
+std::map<std::uint64_t, glm::dquat> truth_orientations(const Session& s) {
     if (!s.has_truth)
         throw InputError(s.dir.string() + ": --orientations truth needs a simulated session (truth/camera.csv)");
-    std::map<std::uint64_t, Quatd> out;
+    std::map<std::uint64_t, glm::dquat> out;
     for (const TruthPose& p : load_truth_poses(s)) out[p.index] = p.world_from_camera;
     return out;
 }
@@ -102,7 +102,7 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
     if (!(o.drift_gain > 0 && o.drift_gain <= 1)) throw InputError("--drift-gain must be in (0, 1]");
     const Session session = open_session(o.session);
     const int threads = o.threads > 0 ? o.threads : hardware_threads();
-    std::map<std::uint64_t, Quatd> truth;
+    std::map<std::uint64_t, glm::dquat> truth;
     SensorTrack sensors;
     if (o.orientations == OrientationInput::Truth) {
         truth = truth_orientations(session);
@@ -112,7 +112,7 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
     const CameraCalibration& cal = session.calibration;
     // The camera's orientation at a frame: the sensor's at the frame's time (shifted by the
     // calibrated offset), then the mounting.
-    const auto orientation_of = [&](const FrameRecord& r) -> std::optional<Quatd> {
+    const auto orientation_of = [&](const FrameRecord& r) -> std::optional<glm::dquat> {
         if (o.orientations == OrientationInput::Truth) {
             const auto q = truth.find(r.index);
             if (q == truth.end()) return std::nullopt;
@@ -120,10 +120,10 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
         }
         const std::int64_t t = r.t_ns + std::int64_t(std::llround(cal.time_offset_s * 1e9));
         const host::HistoryAnswer a = sensors.history->at(t);
-        if (!a.q) return std::nullopt;
-        return firmware::normalized(*a.q * cal.sensor_from_camera);
+        if (!a.world_from_sensor) return std::nullopt;
+        return unit_rotation(*a.world_from_sensor * cal.sensor_from_camera);
     };
-    std::map<std::uint64_t, Quatd> true_poses;
+    std::map<std::uint64_t, glm::dquat> true_poses;
     if (session.has_truth)
         for (const TruthPose& p : load_truth_poses(session)) true_poses[p.index] = p.world_from_camera;
     // One face for both engines: the CPU reference, or the GPU path on a surfaceless EGL context
@@ -139,7 +139,7 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
         std::unique_ptr<GpuAccumulator> gpu;
         int threads = 1;
         int frames() const { return cpu ? cpu->frames() : gpu->frames(); }
-        void add_frame(const CameraFrame& f, const CameraCalibration& c, const Quatd& q) {
+        void add_frame(const CameraFrame& f, const CameraCalibration& c, const glm::dquat& q) {
             if (cpu) cpu->add_frame(f, c, q, threads);
             else gpu->add_frame(f, c, q);
         }
@@ -159,7 +159,7 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
     // What the global adjustment needs of each accumulated frame.
     struct UsedFrame {
         const FrameRecord* record;
-        Quatd sensor, live;
+        glm::dquat sensor, live;
     };
     std::vector<UsedFrame> used;
     CaptureSummary summary;
@@ -181,12 +181,12 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
     std::vector<double> drift_angles, drift_before, drift_after;
     double min_exposure = 1e30, max_exposure = 0;
     for (const FrameRecord& r : session.frames) {
-        std::optional<Quatd> q = orientation_of(r);
+        std::optional<glm::dquat> q = orientation_of(r);
         if (!q) {
             ++summary.frames_without_orientation;
         } else {
             const CameraFrame f = load_frame(session, r);
-            const Quatd sensor_q = *q;
+            const glm::dquat sensor_q = *q;
             const auto t_drift = std::chrono::steady_clock::now();
             if (o.drift_correction && acc.frames() > 0) {
                 // The CPU merges the exposure bands only where this frame can look (its view plus
@@ -197,16 +197,14 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
                 else
                     live_sphere = acc.radiance();
                 const DriftEstimate e = drift.estimate(f, cal, *q, live_sphere, acc.samples());
-                const Quatd corrected = firmware::normalized((e.applied ? e.correction : drift.carried()) * *q);
+                const glm::dquat corrected = unit_rotation((e.applied ? e.correction : drift.carried()) * *q);
                 const auto t = true_poses.find(r.index);
-                const auto err = [&](const Quatd& x) {
-                    return t == true_poses.end() ? std::nan("") : firmware::angle_between(x, t->second) * 180.0 / kPi;
+                const auto err = [&](const glm::dquat& x) {
+                    return t == true_poses.end() ? std::nan("") : angle_between(x, t->second) * 180.0 / kPi;
                 };
                 // The sensor's error as a world-frame rotation vector: truth = exp(error) x sensor.
-                firmware::Vec3d ev{std::nan(""), std::nan(""), std::nan("")};
-                if (t != true_poses.end()) {
-                    ev = (180 / kPi) * rotation_vector_of(firmware::normalized(t->second * q->conj()));
-                }
+                glm::dvec3 ev(std::nan(""));
+                if (t != true_poses.end()) ev = (180 / kPi) * rotation_vector(t->second * glm::conjugate(*q));
                 char line[320];
                 std::snprintf(line, sizeof line, "%llu,%.3f,%d,%.4f,%.5f,%.5f,%.5f,%d,%.4f,%.4f,%.4f,%.4f,%.4f\n",
                               static_cast<unsigned long long>(r.index),
@@ -255,7 +253,7 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
     summary.drift_residual_after = median(drift_after);
     if (summary.frames_used == 0) throw InputError(o.session.string() + ": no frame has an orientation");
 
-    std::vector<Quatd> final_q;
+    std::vector<glm::dquat> final_q;
     for (const UsedFrame& u : used) final_q.push_back(u.live);
     const std::int64_t t_first = session.frames.front().t_ns;
     std::unique_ptr<Engine> adjusted;  // the map made again from the adjusted orientations
@@ -265,7 +263,7 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
         const auto t_adjust = std::chrono::steady_clock::now();
         std::vector<AlignmentView> views(used.size());
         std::vector<double> t_s;
-        std::vector<Quatd> sensor_q;
+        std::vector<glm::dquat> sensor_q;
         for (std::size_t i = 0; i < used.size(); ++i) {
             views[i] = make_alignment_view(load_frame(session, *used[i].record), cal);
             t_s.push_back(double(used[i].record->t_ns - t_first) * 1e-9);
@@ -281,7 +279,7 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
         summary.adjust_pairs = sa.result.pairs_used;
         summary.adjust_pair_rms_deg = sa.result.pair_rms_deg;
         summary.adjust_sensor_rms_deg = sa.result.sensor_rms_deg;
-        summary.adjust_drift_deg_per_min = firmware::norm(sa.result.drift_rate_rad_per_s) * 180.0 / kPi * 60.0;
+        summary.adjust_drift_deg_per_min = glm::length(sa.result.drift_rate_rad_per_s) * 180.0 / kPi * 60.0;
         summary.adjust_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_adjust).count();
         adjusted = make_engine();
         for (std::size_t i = 0; i < used.size(); ++i) {
@@ -291,13 +289,13 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
     }
     // Orientation errors against a simulated session's truth: of the map's orientations, and of
     // the live pass (what the kiosk had while scanning).
-    const auto errors = [&](const std::vector<Quatd>& qs, std::optional<double>& med, std::optional<double>& max,
+    const auto errors = [&](const std::vector<glm::dquat>& qs, std::optional<double>& med, std::optional<double>& max,
                             std::optional<double>& after_60s) {
         std::vector<double> e;
         for (std::size_t i = 0; i < used.size(); ++i) {
             const auto t = true_poses.find(used[i].record->index);
             if (t == true_poses.end()) continue;
-            e.push_back(firmware::angle_between(qs[i], t->second) * 180.0 / kPi);
+            e.push_back(angle_between(qs[i], t->second) * 180.0 / kPi);
             if (used[i].record->t_ns - t_first >= 60'000'000'000LL) after_60s = std::max(after_60s.value_or(0.0), e.back());
         }
         if (e.empty()) return;
@@ -306,7 +304,7 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
         max = e.back();
     };
     {
-        std::vector<Quatd> live_q;
+        std::vector<glm::dquat> live_q;
         for (const UsedFrame& u : used) live_q.push_back(u.live);
         errors(live_q, summary.live_orientation_error_median_deg, summary.live_orientation_error_max_deg,
                summary.live_orientation_error_after_60s_max_deg);

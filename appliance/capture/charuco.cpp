@@ -25,7 +25,7 @@ cv::Mat render_charuco_view(const CharucoSpec& spec, const Intrinsics& k, const 
             double acc = 0;
             for (int sy = 0; sy < 2; ++sy)
                 for (int sx = 0; sx < 2; ++sx) {
-                    const Vec3 r = pixel_ray(k, u - 0.25 + 0.5 * sx, v - 0.25 + 0.5 * sy);
+                    const glm::dvec3 r = pixel_ray(k, u - 0.25 + 0.5 * sx, v - 0.25 + 0.5 * sy);
                     const cv::Vec3d d(r.x, -r.y, -r.z);  // conventions' camera axes -> OpenCV's
                     double value = 128;
                     const double denom = n.dot(d);

@@ -28,7 +28,7 @@ CoverageReport measure_coverage(const std::vector<std::uint32_t>& samples, int w
     r.covered_fraction = covered / (4 * kPi);
     const double cos_radius = std::cos(gap_radius_rad);
     struct Cell {
-        Vec3 d;
+        glm::dvec3 d;
         double unseen;
     };
     std::vector<Cell> unseen_cells;
@@ -38,10 +38,10 @@ CoverageReport measure_coverage(const std::vector<std::uint32_t>& samples, int w
     if (unseen_cells.empty()) return r;
     for (int cj = 0; cj < ch; ++cj)
         for (int ci = 0; ci < cw; ++ci) {
-            const Vec3 centre = texel_direction(ci, cj, cw, ch);
+            const glm::dvec3 centre = texel_direction(ci, cj, cw, ch);
             double unseen = 0;
             for (const Cell& c : unseen_cells)
-                if (dot(centre, c.d) >= cos_radius) unseen += c.unseen;
+                if (glm::dot(centre, c.d) >= cos_radius) unseen += c.unseen;
             if (unseen > r.largest_gap_sr) {
                 r.largest_gap_sr = unseen;
                 r.largest_gap = centre;

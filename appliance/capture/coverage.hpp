@@ -12,7 +12,7 @@ namespace glint::capture {
 
 struct CoverageReport {
     double covered_fraction = 0;   // solid-angle share of texels with >= min_samples samples
-    Vec3 largest_gap{0, -1, 0};    // centre of the cap (radius gap_radius) holding the most unseen
+    glm::dvec3 largest_gap{0, -1, 0};  // centre of the cap (radius gap_radius) holding the most unseen
     double largest_gap_sr = 0;     // unseen solid angle inside that cap, steradians
 };
 

@@ -9,45 +9,31 @@
 
 namespace glint::capture {
 
-Quatd rotation_from_vector(const firmware::Vec3d& v) {
-    const double angle = std::sqrt(v.x * v.x + v.y * v.y + v.z * v.z);
-    if (angle < 1e-15) return Quatd::identity();
-    return Quatd::from_axis_angle({v.x / angle, v.y / angle, v.z / angle}, angle);
-}
-
-firmware::Vec3d rotation_vector_of(Quatd q) {
-    if (q.w < 0) q = {-q.w, -q.x, -q.y, -q.z};
-    const double s = std::sqrt(q.x * q.x + q.y * q.y + q.z * q.z);
-    if (s < 1e-15) return {};
-    const double angle = 2 * std::atan2(s, q.w);
-    return {q.x / s * angle, q.y / s * angle, q.z / s * angle};
-}
-
 namespace {
 
 struct GridPixel {
-    firmware::Vec3d ray;  // camera frame
+    glm::dvec3 ray;       // camera frame
     double log_lum;       // log luminance of the frame's radiance estimate
 };
 
 }  // namespace
 
 DriftEstimate DriftCorrector::estimate(const CameraFrame& frame, const CameraCalibration& cal,
-                                       const Quatd& world_from_camera, const HdrImage& sphere,
+                                       const glm::dquat& world_from_camera, const HdrImage& sphere,
                                        const std::vector<std::uint32_t>& samples) {
     DriftEstimate out = measure(frame, cal, world_from_camera, sphere, samples);
     if (!out.applied) return out;  // not trusted: keep the previous correction
     // Low-pass of the measured offset: a slowly growing sensor drift is followed in full, while the
     // noise of single alignments averages out instead of being applied (or chained) frame by frame.
-    const Quatd measured = out.correction;
-    carried_ = firmware::normalized(firmware::slerp(carried_, measured, settings_.gain));
+    const glm::dquat measured = out.correction;
+    carried_ = unit_rotation(glm::slerp(carried_, measured, settings_.gain));
     // This frame: the slow part, plus a share of what this frame's own alignment says beyond it.
-    out.correction = firmware::normalized(firmware::slerp(carried_, measured, settings_.frame_share));
+    out.correction = unit_rotation(glm::slerp(carried_, measured, settings_.frame_share));
     return out;
 }
 
 DriftEstimate DriftCorrector::measure(const CameraFrame& frame, const CameraCalibration& cal,
-                                      const Quatd& world_from_camera, const HdrImage& sphere,
+                                      const glm::dquat& world_from_camera, const HdrImage& sphere,
                                       const std::vector<std::uint32_t>& samples) const {
     DriftEstimate out;
     const Intrinsics& k = cal.intrinsics;
@@ -73,19 +59,18 @@ DriftEstimate DriftCorrector::measure(const CameraFrame& frame, const CameraCali
                 else lum += P[c] / t;
             }
             if (!ok || !(lum > 0)) continue;
-            const Vec3 r = pixel_ray(k, pu, pv);
-            grid.push_back({{r.x, r.y, r.z}, std::log(lum / 3)});
+            grid.push_back({pixel_ray(k, pu, pv), std::log(lum / 3)});
         }
     // Residuals of a candidate world-frame correction; pixels whose texel is not covered drop out.
-    const auto residuals = [&](const firmware::Vec3d& delta, std::vector<double>& r) {
-        const Quatd q = rotation_from_vector(delta) * world_from_camera;
+    const auto residuals = [&](const glm::dvec3& delta, std::vector<double>& r) {
+        const glm::dquat q = rotation_from_vector(delta) * world_from_camera;
         r.assign(grid.size(), std::nan(""));
         for (std::size_t i = 0; i < grid.size(); ++i) {
-            const firmware::Vec3d d = q.rotate(grid[i].ray);
-            const TexelCoord tc = direction_to_texel({d.x, d.y, d.z}, w, h);
+            const glm::dvec3 d = q * grid[i].ray;
+            const TexelCoord tc = direction_to_texel(d, w, h);
             const int ti = std::clamp(int(tc.x), 0, w - 1), tj = std::clamp(int(tc.y), 0, h - 1);
             if (samples[std::size_t(tj) * std::size_t(w) + std::size_t(ti)] == 0) continue;
-            const Rgb e = sample_bilinear(sphere, {d.x, d.y, d.z});
+            const Rgb e = sample_bilinear(sphere, d);
             const double lum = (double(e.r) + double(e.g) + double(e.b)) / 3;
             if (!(lum > 0)) continue;
             r[i] = grid[i].log_lum - std::log(lum);
@@ -99,7 +84,7 @@ DriftEstimate DriftCorrector::measure(const CameraFrame& frame, const CameraCali
     out.residual_after = fit.cost_after;
     out.pixels = fit.points;
     if (fit.points < settings_.min_pixels) return out;
-    out.angle_deg = firmware::norm(fit.delta) * 180.0 / kPi;
+    out.angle_deg = glm::length(fit.delta) * 180.0 / kPi;
     out.sigma_deg = fit.sigma_rad * 180.0 / kPi;
     if (out.angle_deg > settings_.max_correction_deg || !(fit.cost_after <= out.residual_before) ||
         out.sigma_deg > settings_.max_sigma_deg) {

@@ -40,7 +40,7 @@ struct DriftSettings {
 };
 
 struct DriftEstimate {
-    Quatd correction = Quatd::identity();  // world-frame: corrected = correction * world_from_camera
+    glm::dquat correction{1, 0, 0, 0};     // world-frame: corrected = correction * world_from_camera
     double angle_deg = 0;                  // |correction|
     double residual_before = 0;            // RMS of log-luminance differences with the prior
     double residual_after = 0;             // ... with the estimate
@@ -49,10 +49,6 @@ struct DriftEstimate {
     bool applied = false;                  // false: too little overlap, or no improvement
 };
 
-// Rotation vector (axis x angle, radians) <-> quaternion.
-Quatd rotation_from_vector(const firmware::Vec3d& v);
-firmware::Vec3d rotation_vector_of(Quatd q);
-
 class DriftCorrector {
 public:
     explicit DriftCorrector(DriftSettings settings = {}) : settings_(settings) {}
@@ -60,19 +56,21 @@ public:
     // The frame's offset against the sphere, fused for a live capture: the slow part carried from
     // frame to frame plus a share of this frame's own offset (DriftSettings::gain, frame_share).
     // sphere: the radiance accumulated so far; samples: per texel, 0 = not covered.
-    DriftEstimate estimate(const CameraFrame& frame, const CameraCalibration& calibration, const Quatd& world_from_camera,
+    DriftEstimate estimate(const CameraFrame& frame, const CameraCalibration& calibration,
+                           const glm::dquat& world_from_camera,
                            const HdrImage& sphere, const std::vector<std::uint32_t>& samples);
     // The slow correction carried from frame to frame (for frames without a trusted estimate).
-    const Quatd& carried() const { return carried_; }
+    const glm::dquat& carried() const { return carried_; }
 
 private:
     // The alignment alone: `correction` is the full measured offset (exp(delta)) and `applied`
     // says whether it is trusted; no fusion, no state.
-    DriftEstimate measure(const CameraFrame& frame, const CameraCalibration& calibration, const Quatd& world_from_camera,
+    DriftEstimate measure(const CameraFrame& frame, const CameraCalibration& calibration,
+                          const glm::dquat& world_from_camera,
                           const HdrImage& sphere, const std::vector<std::uint32_t>& samples) const;
 
     DriftSettings settings_;
-    Quatd carried_ = Quatd::identity();
+    glm::dquat carried_{1, 0, 0, 0};
 };
 
 }  // namespace glint::capture

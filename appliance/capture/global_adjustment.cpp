@@ -4,7 +4,6 @@
 #include <cmath>
 #include <opencv2/core.hpp>
 
-#include "appliance/capture/drift_correction.hpp"
 #include "appliance/capture/hdr_accumulator.hpp"
 #include "appliance/capture/rotation_fit.hpp"
 #include "appliance/core/equirect.hpp"
@@ -14,8 +13,6 @@
 namespace glint::capture {
 
 namespace {
-
-using V3 = firmware::Vec3d;
 
 // Bilinear read of a view's cells at cell coordinates (U, V); NaN outside or beside an invalid cell.
 double read_cells(const AlignmentView& v, double U, double V) {
@@ -27,19 +24,7 @@ double read_cells(const AlignmentView& v, double U, double V) {
     return (1 - fv) * ((1 - fu) * a + fu * b) + fv * ((1 - fu) * c + fu * d);  // NaN propagates
 }
 
-// The 3x3 rotation matrix of a unit quaternion (world-frame vectors: Q v).
-void rotation_matrix(const Quatd& q, double m[3][3]) {
-    const V3 ex = q.rotate(V3{1, 0, 0}), ey = q.rotate(V3{0, 1, 0}), ez = q.rotate(V3{0, 0, 1});
-    const V3 cols[3] = {ex, ey, ez};
-    for (int c = 0; c < 3; ++c) {
-        m[0][c] = cols[c].x;
-        m[1][c] = cols[c].y;
-        m[2][c] = cols[c].z;
-    }
-}
-
 double deg(double rad) { return rad * 180.0 / kPi; }
-using firmware::norm;
 
 }  // namespace
 
@@ -65,24 +50,22 @@ AlignmentView make_alignment_view(const CameraFrame& frame, const CameraCalibrat
         for (int pu = stride / 2; pu < k.width; pu += stride) {
             const double value = read_cells(v, HdrAccumulator::grid_coordinate(pu, v.s), HdrAccumulator::grid_coordinate(pv, v.s));
             if (!std::isfinite(value)) continue;
-            const Vec3 r = pixel_ray(k, pu, pv);
-            v.rays.push_back({r.x, r.y, r.z});
+            v.rays.push_back(pixel_ray(k, pu, pv));
             v.values.push_back(float(value));
         }
     return v;
 }
 
-std::optional<PairMeasurement> align_pair(const AlignmentView& a, const Quatd& ra, const AlignmentView& b,
-                                          const Quatd& rb, const PairSettings& settings) {
+std::optional<PairMeasurement> align_pair(const AlignmentView& a, const glm::dquat& ra, const AlignmentView& b,
+                                          const glm::dquat& rb, const PairSettings& settings) {
     if (int(a.rays.size()) < settings.min_points) return std::nullopt;
-    const Quatd b_from_world = rb.conj();
+    const glm::dquat b_from_world = glm::conjugate(rb);
     const Intrinsics& kb = b.intrinsics;
-    const auto residuals = [&](const V3& delta, std::vector<double>& r) {
-        const Quatd b_from_a = b_from_world * rotation_from_vector(delta) * ra;
+    const auto residuals = [&](const glm::dvec3& delta, std::vector<double>& r) {
+        const glm::dquat b_from_a = b_from_world * rotation_from_vector(delta) * ra;
         r.assign(a.rays.size(), std::nan(""));
         for (std::size_t i = 0; i < a.rays.size(); ++i) {
-            const V3 d = b_from_a.rotate(a.rays[i]);
-            const auto px = project(kb, {d.x, d.y, d.z});
+            const auto px = project(kb, b_from_a * a.rays[i]);
             if (!px) continue;
             const double value =
                 read_cells(b, HdrAccumulator::grid_coordinate(px->u, b.s), HdrAccumulator::grid_coordinate(px->v, b.s));
@@ -94,23 +77,22 @@ std::optional<PairMeasurement> align_pair(const AlignmentView& a, const Quatd& r
     const RotationFit fit = fit_rotation(residuals, fs);
     if (!fit.estimated || fit.points < settings.min_points || !(fit.cost_after <= fit.cost_before)) return std::nullopt;
     const double sigma = deg(fit.sigma_rad);
-    if (sigma > settings.max_sigma_deg || deg(norm(fit.delta)) > settings.max_angle_deg) return std::nullopt;
+    if (sigma > settings.max_sigma_deg || deg(glm::length(fit.delta)) > settings.max_angle_deg) return std::nullopt;
     PairMeasurement m;
-    m.relative = firmware::normalized(rotation_from_vector(fit.delta) * ra * rb.conj());
+    m.relative = unit_rotation(rotation_from_vector(fit.delta) * ra * glm::conjugate(rb));
     // The information, scaled so that no pair claims better than min_sigma_deg: neighbouring
     // samples are not independent, and the fit's own figure is far too confident.
     const double floor_info = 1.0 / std::pow(settings.min_sigma_deg * kPi / 180.0, 2);
     double scale = 1.0;
     for (int p = 0; p < 3; ++p) scale = std::max(scale, fit.information[p][p] / floor_info);
-    for (int p = 0; p < 3; ++p)
-        for (int q = 0; q < 3; ++q) m.information[p][q] = fit.information[p][q] / scale;
+    m.information = fit.information / scale;
     m.sigma_deg = std::max(sigma, settings.min_sigma_deg);
     m.points = fit.points;
     return m;
 }
 
-AdjustmentResult adjust_orientations(const std::vector<double>& t_s, const std::vector<Quatd>& sensor,
-                                     const std::vector<Quatd>& initial, const std::vector<PairMeasurement>& pairs,
+AdjustmentResult adjust_orientations(const std::vector<double>& t_s, const std::vector<glm::dquat>& sensor,
+                                     const std::vector<glm::dquat>& initial, const std::vector<PairMeasurement>& pairs,
                                      const AdjustmentSettings& settings) {
     const int n = int(initial.size());
     if (int(t_s.size()) != n || int(sensor.size()) != n) throw InputError("adjust_orientations: inputs of different lengths");
@@ -118,61 +100,42 @@ AdjustmentResult adjust_orientations(const std::vector<double>& t_s, const std::
     out.orientations = initial;
     if (n == 0) return out;
     const int unknowns = 3 * n + 3;  // a rotation vector per frame, then the drift rate
-    std::vector<Quatd>& R = out.orientations;
-    V3 b{};
+    std::vector<glm::dquat>& R = out.orientations;
+    glm::dvec3 b(0);
     const double w_sensor = 1.0 / std::pow(settings.sensor_sigma_deg * kPi / 180.0, 2);
     std::vector<double> pair_weight(pairs.size(), 1.0);  // Huber reweighting of the pairs
     for (int it = 0; it < settings.iterations; ++it) {
         cv::Mat H = cv::Mat::zeros(unknowns, unknowns, CV_64F), g = cv::Mat::zeros(unknowns, 1, CV_64F);
+        // Adds the 3x3 block m (GLM: m[column][row]) at H's rows i3.., columns j3...
+        const auto add_block = [&](int i3, int j3, const glm::dmat3& m) {
+            for (int p = 0; p < 3; ++p)
+                for (int q = 0; q < 3; ++q) H.at<double>(i3 + p, j3 + q) += m[q][p];
+        };
         // A constraint on the relative rotation of frames i and j: e ~ e0 + x_i - Q0 x_j.
-        const auto add_relative = [&](int i, int j, const V3& e0v, const double L[3][3]) {
-            double Q0[3][3];
-            rotation_matrix(firmware::normalized(R[std::size_t(i)] * R[std::size_t(j)].conj()), Q0);
-            const double e0[3] = {e0v.x, e0v.y, e0v.z};
+        const auto add_relative = [&](int i, int j, const glm::dvec3& e0, const glm::dmat3& L) {
+            const glm::dmat3 Q0 = glm::mat3_cast(unit_rotation(R[std::size_t(i)] * glm::conjugate(R[std::size_t(j)])));
             // J_i = I, J_j = -Q0. H += J^T L J, g += J^T L e0.
-            double LQ[3][3] = {}, QtL[3][3] = {}, QtLQ[3][3] = {};
-            for (int p = 0; p < 3; ++p)
-                for (int q = 0; q < 3; ++q)
-                    for (int r = 0; r < 3; ++r) {
-                        LQ[p][q] += L[p][r] * Q0[r][q];
-                        QtL[p][q] += Q0[r][p] * L[r][q];
-                    }
-            for (int p = 0; p < 3; ++p)
-                for (int q = 0; q < 3; ++q)
-                    for (int r = 0; r < 3; ++r) QtLQ[p][q] += Q0[r][p] * LQ[r][q];
+            const glm::dmat3 LQ = L * Q0, QtL = glm::transpose(Q0) * L, QtLQ = glm::transpose(Q0) * LQ;
+            add_block(3 * i, 3 * i, L);
+            add_block(3 * i, 3 * j, -LQ);
+            add_block(3 * j, 3 * i, -QtL);
+            add_block(3 * j, 3 * j, QtLQ);
+            const glm::dvec3 le = L * e0, qle = QtL * e0;
             for (int p = 0; p < 3; ++p) {
-                for (int q = 0; q < 3; ++q) {
-                    H.at<double>(3 * i + p, 3 * i + q) += L[p][q];
-                    H.at<double>(3 * i + p, 3 * j + q) -= LQ[p][q];
-                    H.at<double>(3 * j + p, 3 * i + q) -= QtL[p][q];
-                    H.at<double>(3 * j + p, 3 * j + q) += QtLQ[p][q];
-                }
-                double le = 0, qle = 0;
-                for (int q = 0; q < 3; ++q) {
-                    le += L[p][q] * e0[q];
-                    qle += QtL[p][q] * e0[q];
-                }
-                g.at<double>(3 * i + p) += le;
-                g.at<double>(3 * j + p) -= qle;
+                g.at<double>(3 * i + p) += le[p];
+                g.at<double>(3 * j + p) -= qle[p];
             }
         };
         double pair_ss = 0;
         for (std::size_t k = 0; k < pairs.size(); ++k) {
             const PairMeasurement& m = pairs[k];
-            const V3 e0 = rotation_vector_of(
-                firmware::normalized(R[std::size_t(m.i)] * R[std::size_t(m.j)].conj() * m.relative.conj()));
+            const glm::dvec3 e0 = rotation_vector(
+                R[std::size_t(m.i)] * glm::conjugate(R[std::size_t(m.j)]) * glm::conjugate(m.relative));
             // Mahalanobis length of the error: beyond 3 the pair counts less (a false match).
-            const double ev[3] = {e0.x, e0.y, e0.z};
-            double maha = 0;
-            for (int p = 0; p < 3; ++p)
-                for (int q = 0; q < 3; ++q) maha += ev[p] * m.information[p][q] * ev[q];
-            maha = std::sqrt(maha);
+            const double maha = std::sqrt(glm::dot(e0, m.information * e0));
             pair_weight[k] = it == 0 || maha <= 3 ? 1.0 : 3 / maha;
-            pair_ss += norm(e0) * norm(e0);
-            double L[3][3];
-            for (int p = 0; p < 3; ++p)
-                for (int q = 0; q < 3; ++q) L[p][q] = pair_weight[k] * m.information[p][q];
-            add_relative(m.i, m.j, e0, L);
+            pair_ss += glm::dot(e0, e0);
+            add_relative(m.i, m.j, e0, pair_weight[k] * m.information);
         }
         out.pair_rms_deg = pairs.empty() ? 0 : deg(std::sqrt(pair_ss / double(pairs.size())));
         // The sensor's relative rotation between frames close in time.
@@ -180,20 +143,17 @@ AdjustmentResult adjust_orientations(const std::vector<double>& t_s, const std::
             const double dt = std::abs(t_s[std::size_t(i)] - t_s[std::size_t(i - 1)]);
             if (dt > settings.relative_max_dt_s) continue;
             const double sigma = (settings.relative_sigma_deg + settings.relative_sigma_deg_per_s * dt) * kPi / 180.0;
-            const double w = 1.0 / (sigma * sigma);
-            const double L[3][3] = {{w, 0, 0}, {0, w, 0}, {0, 0, w}};
-            const Quatd s_rel = firmware::normalized(sensor[std::size_t(i)] * sensor[std::size_t(i - 1)].conj());
-            const V3 e0 = rotation_vector_of(
-                firmware::normalized(R[std::size_t(i)] * R[std::size_t(i - 1)].conj() * s_rel.conj()));
-            add_relative(i, i - 1, e0, L);
+            const glm::dquat s_rel = unit_rotation(sensor[std::size_t(i)] * glm::conjugate(sensor[std::size_t(i - 1)]));
+            const glm::dvec3 e0 =
+                rotation_vector(R[std::size_t(i)] * glm::conjugate(R[std::size_t(i - 1)]) * glm::conjugate(s_rel));
+            add_relative(i, i - 1, e0, glm::dmat3(1.0 / (sigma * sigma)));
         }
         // The sensor's absolute orientation with the drift line: e = log(R_f S_f^-1) - b t_f.
         double sensor_ss = 0;
         for (int f = 0; f < n; ++f) {
-            const V3 r = rotation_vector_of(firmware::normalized(R[std::size_t(f)] * sensor[std::size_t(f)].conj()));
             const double t = t_s[std::size_t(f)];
-            const double e0[3] = {r.x - b.x * t, r.y - b.y * t, r.z - b.z * t};
-            sensor_ss += e0[0] * e0[0] + e0[1] * e0[1] + e0[2] * e0[2];
+            const glm::dvec3 e0 = rotation_vector(R[std::size_t(f)] * glm::conjugate(sensor[std::size_t(f)])) - b * t;
+            sensor_ss += glm::dot(e0, e0);
             for (int p = 0; p < 3; ++p) {
                 // J = [I at x_f, -t I at b].
                 H.at<double>(3 * f + p, 3 * f + p) += w_sensor;
@@ -210,11 +170,11 @@ AdjustmentResult adjust_orientations(const std::vector<double>& t_s, const std::
         if (!cv::solve(H, -g, step, cv::DECOMP_CHOLESKY)) throw RuntimeError("global adjustment: singular system");
         double largest = 0;
         for (int f = 0; f < n; ++f) {
-            const V3 x{step.at<double>(3 * f), step.at<double>(3 * f + 1), step.at<double>(3 * f + 2)};
-            R[std::size_t(f)] = firmware::normalized(rotation_from_vector(x) * R[std::size_t(f)]);
-            largest = std::max(largest, norm(x));
+            const glm::dvec3 x(step.at<double>(3 * f), step.at<double>(3 * f + 1), step.at<double>(3 * f + 2));
+            R[std::size_t(f)] = unit_rotation(rotation_from_vector(x) * R[std::size_t(f)]);
+            largest = std::max(largest, glm::length(x));
         }
-        b = {b.x + step.at<double>(3 * n), b.y + step.at<double>(3 * n + 1), b.z + step.at<double>(3 * n + 2)};
+        b += glm::dvec3(step.at<double>(3 * n), step.at<double>(3 * n + 1), step.at<double>(3 * n + 2));
         if (largest < 1e-7) break;
     }
     out.drift_rate_rad_per_s = b;
@@ -223,25 +183,26 @@ AdjustmentResult adjust_orientations(const std::vector<double>& t_s, const std::
 }
 
 ScanAdjustment adjust_scan(const std::vector<AlignmentView>& views, const std::vector<double>& t_s,
-                           const std::vector<Quatd>& sensor, std::vector<Quatd> initial, int rounds, int threads,
+                           const std::vector<glm::dquat>& sensor, std::vector<glm::dquat> initial, int rounds,
+                           int threads,
                            const std::function<void()>& round_done, const PairSettings& pair_settings,
                            const AdjustmentSettings& settings) {
     const std::size_t n = views.size();
     if (t_s.size() != n || sensor.size() != n || initial.size() != n)
         throw InputError("adjust_scan: inputs of different lengths");
     const auto usable = [&](std::size_t i) { return int(views[i].rays.size()) >= pair_settings.min_points; };
-    const auto axis = [](const Quatd& q) { return q.rotate(V3{0, 0, -1}); };
+    const auto axis = [](const glm::dquat& q) { return q * glm::dvec3(0, 0, -1); };
     std::vector<std::pair<int, int>> candidates;
     for (std::size_t i = 0; i < n; ++i) {
         if (!usable(i)) continue;
         const Intrinsics& k = views[i].intrinsics;
         const double half_fov = std::atan2(0.5 * k.width, k.fx);
-        const V3 ai = axis(initial[i]);
+        const glm::dvec3 ai = axis(initial[i]);
         int near = 0;
         std::vector<std::pair<double, int>> far;
         for (std::size_t j = i; j-- > 0;) {
             if (!usable(j)) continue;
-            const double angle = std::acos(std::clamp(firmware::dot(ai, axis(initial[j])), -1.0, 1.0));
+            const double angle = std::acos(std::clamp(glm::dot(ai, axis(initial[j])), -1.0, 1.0));
             if (angle > half_fov) continue;
             if (t_s[i] - t_s[j] >= 3.0) far.push_back({angle, int(j)});
             else if (near < 2) {
@@ -258,7 +219,7 @@ ScanAdjustment adjust_scan(const std::vector<AlignmentView>& views, const std::v
     out.result.orientations = initial;
     for (int round = 0; round < rounds; ++round) {
         std::vector<std::optional<PairMeasurement>> measured(candidates.size());
-        const std::vector<Quatd>& q = out.result.orientations;
+        const std::vector<glm::dquat>& q = out.result.orientations;
         parallel_for(int(candidates.size()), threads, [&](int c) {
             const auto [i, j] = candidates[std::size_t(c)];
             auto& m = measured[std::size_t(c)];

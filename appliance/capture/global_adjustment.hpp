@@ -34,7 +34,7 @@ struct AlignmentView {
     Intrinsics intrinsics;
     int s = 2, cells_w = 0, cells_h = 0;
     std::vector<float> log_lum;  // cells_w x cells_h
-    std::vector<firmware::Vec3d> rays;
+    std::vector<glm::dvec3> rays;
     std::vector<float> values;  // log luminance at each ray
 };
 
@@ -46,8 +46,8 @@ AlignmentView make_alignment_view(const CameraFrame& frame, const CameraCalibrat
 
 struct PairMeasurement {
     int i = 0, j = 0;                      // frame indices (i is the one aligned)
-    Quatd relative = Quatd::identity();    // measured R_i R_j^-1 (world frame)
-    double information[3][3] = {};         // of the error log(R_i R_j^-1 M^-1), rad^-2
+    glm::dquat relative{1, 0, 0, 0};       // measured R_i R_j^-1 (world frame)
+    glm::dmat3 information{0};             // of the error log(R_i R_j^-1 M^-1), rad^-2 (symmetric)
     double sigma_deg = 0;
     int points = 0;
 };
@@ -61,8 +61,8 @@ struct PairSettings {
 
 // Aligns frame a (orientation ra) to frame b (orientation rb); nullopt when they do not overlap
 // enough or the fit is not trusted.
-std::optional<PairMeasurement> align_pair(const AlignmentView& a, const Quatd& ra, const AlignmentView& b,
-                                          const Quatd& rb, const PairSettings& settings = {});
+std::optional<PairMeasurement> align_pair(const AlignmentView& a, const glm::dquat& ra, const AlignmentView& b,
+                                          const glm::dquat& rb, const PairSettings& settings = {});
 
 struct AdjustmentSettings {
     double sensor_sigma_deg = 0.3;            // the fusion's absolute noise
@@ -73,8 +73,8 @@ struct AdjustmentSettings {
 };
 
 struct AdjustmentResult {
-    std::vector<Quatd> orientations;
-    firmware::Vec3d drift_rate_rad_per_s{};
+    std::vector<glm::dquat> orientations;
+    glm::dvec3 drift_rate_rad_per_s{0};
     int pairs_used = 0;
     double pair_rms_deg = 0;    // RMS of the pair errors after the solve
     double sensor_rms_deg = 0;  // RMS of log(R_f S_f^-1) - b t_f after the solve
@@ -82,8 +82,8 @@ struct AdjustmentResult {
 
 // t_s: seconds from the first frame; sensor: world_from_camera from the sensor; initial: the
 // starting point (e.g. the live pass's orientations).
-AdjustmentResult adjust_orientations(const std::vector<double>& t_s, const std::vector<Quatd>& sensor,
-                                     const std::vector<Quatd>& initial, const std::vector<PairMeasurement>& pairs,
+AdjustmentResult adjust_orientations(const std::vector<double>& t_s, const std::vector<glm::dquat>& sensor,
+                                     const std::vector<glm::dquat>& initial, const std::vector<PairMeasurement>& pairs,
                                      const AdjustmentSettings& settings = {});
 
 // A whole scan: candidate pairs (for each frame that has enough valid samples, the two frames
@@ -98,7 +98,8 @@ struct ScanAdjustment {
 };
 
 ScanAdjustment adjust_scan(const std::vector<AlignmentView>& views, const std::vector<double>& t_s,
-                           const std::vector<Quatd>& sensor, std::vector<Quatd> initial, int rounds, int threads,
+                           const std::vector<glm::dquat>& sensor, std::vector<glm::dquat> initial, int rounds,
+                           int threads,
                            const std::function<void()>& round_done = {}, const PairSettings& pair_settings = {},
                            const AdjustmentSettings& settings = {});
 

@@ -42,7 +42,8 @@ GpuAccumulator::Band& GpuAccumulator::band_for(double t) {
     });
 }
 
-void GpuAccumulator::add_frame(const CameraFrame& frame, const CameraCalibration& cal, const Quatd& world_from_camera) {
+void GpuAccumulator::add_frame(const CameraFrame& frame, const CameraCalibration& cal,
+                               const glm::dquat& world_from_camera) {
     const Intrinsics& k = cal.intrinsics;
     const double t = frame.exposure_s * frame.total_gain() * cal.sensitivity;
     if (!(t > 0) || !std::isfinite(t))
@@ -70,7 +71,7 @@ void GpuAccumulator::add_frame(const CameraFrame& frame, const CameraCalibration
     glBindTexture(GL_TEXTURE_2D, w_tex.id());
     glUniform1i(program_.uniform("u_p"), 0);
     glUniform1i(program_.uniform("u_w"), 1);
-    const Quatd q = world_from_camera.conj();  // camera_from_world
+    const glm::dquat q = glm::conjugate(world_from_camera);  // camera_from_world
     glUniform4f(program_.uniform("u_camera_from_world"), float(q.x), float(q.y), float(q.z), float(q.w));
     glUniform4f(program_.uniform("u_focal_centre"), float(k.fx), float(k.fy), float(k.cx), float(k.cy));
     glUniform4f(program_.uniform("u_k1k2p1p2"), float(k.k1), float(k.k2), float(k.p1), float(k.p2));

@@ -23,7 +23,7 @@ public:
     // The context must be current on the calling thread for every call.
     GpuAccumulator(const gl::GlContext& context, int width, int height, AccumulationSettings settings = {});
 
-    void add_frame(const CameraFrame& frame, const CameraCalibration& calibration, const Quatd& world_from_camera);
+    void add_frame(const CameraFrame& frame, const CameraCalibration& calibration, const glm::dquat& world_from_camera);
 
     HdrImage radiance() const;                      // reads the targets back
     std::vector<std::uint32_t> samples() const;     // frames that sampled each texel

@@ -25,8 +25,8 @@ const char* exposure_status_name(ExposureStatus s) {
 
 GuidedCapture::GuidedCapture(GuidedSettings settings, Intrinsics camera) : settings_(settings), camera_(camera) {}
 
-GuidedStep GuidedCapture::update(const CameraFrame& frame, const Quatd& q, const std::vector<std::uint32_t>& samples,
-                                 int w, int h) {
+GuidedStep GuidedCapture::update(const CameraFrame& frame, const glm::dquat& q,
+                                 const std::vector<std::uint32_t>& samples, int w, int h) {
     GuidedStep s;
     if (!start_ns_) start_ns_ = frame.t_ns;
     s.elapsed_s = double(frame.t_ns - *start_ns_) * 1e-9;
@@ -34,7 +34,7 @@ GuidedStep GuidedCapture::update(const CameraFrame& frame, const Quatd& q, const
     // Speed and the blur it would give this frame.
     if (previous_t_ns_ && frame.t_ns > *previous_t_ns_) {
         const double dt = double(frame.t_ns - *previous_t_ns_) * 1e-9;
-        const double speed = firmware::angle_between(previous_q_, q) / dt;  // rad/s
+        const double speed = angle_between(previous_q_, q) / dt;  // rad/s
         s.angular_speed_deg_s = speed * 180.0 / kPi;
         s.blur_px = speed * frame.exposure_s * std::max(camera_.fx, camera_.fy);
         s.too_fast = s.blur_px > settings_.max_blur_px;
@@ -74,8 +74,7 @@ GuidedStep GuidedCapture::update(const CameraFrame& frame, const Quatd& q, const
     s.seeable_coverage = std::clamp((c.covered_fraction * 4 * kPi - floor_sr) / seeable_sr, 0.0, 1.0);
     s.progress = std::min(1.0, s.seeable_coverage / settings_.target_coverage);
     s.next_target = c.largest_gap;
-    const firmware::Vec3d axis = q.rotate(firmware::Vec3d{0, 0, -1});
-    const double d = axis.x * s.next_target.x + axis.y * s.next_target.y + axis.z * s.next_target.z;
+    const double d = glm::dot(q * glm::dvec3(0, 0, -1), s.next_target);
     s.turn_to_target_deg = std::acos(std::clamp(d, -1.0, 1.0)) * 180.0 / kPi;
 
     if (s.seeable_coverage >= settings_.target_coverage)

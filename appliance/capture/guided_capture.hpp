@@ -41,7 +41,7 @@ const char* exposure_status_name(ExposureStatus s);
 
 struct GuidedStep {
     GuidedState state = GuidedState::Scanning;
-    Vec3 next_target{0, 0, -1};    // world direction to point the camera at next
+    glm::dvec3 next_target{0, 0, -1};  // world direction to point the camera at next
     double turn_to_target_deg = 0; // angle between the camera's axis and the target
     double progress = 0;           // 0..1
     double seeable_coverage = 0;   // covered share of the sphere above the floor limit
@@ -59,7 +59,7 @@ public:
 
     // One frame: its time and exposure, the camera orientation it was accumulated with, and the
     // per-texel samples after it (HdrAccumulator::samples()).
-    GuidedStep update(const CameraFrame& frame, const Quatd& world_from_camera,
+    GuidedStep update(const CameraFrame& frame, const glm::dquat& world_from_camera,
                       const std::vector<std::uint32_t>& samples, int map_width, int map_height);
 
     const GuidedStep& last() const { return last_; }
@@ -69,7 +69,7 @@ private:
     Intrinsics camera_;
     std::optional<std::int64_t> start_ns_;
     std::optional<std::int64_t> previous_t_ns_;
-    Quatd previous_q_;
+    glm::dquat previous_q_{1, 0, 0, 0};
     GuidedStep last_;
 };
 

@@ -18,7 +18,7 @@ HdrAccumulator::HdrAccumulator(int width, int height, AccumulationSettings setti
     weight_sum_.assign(n, 0.0f);
 }
 
-bool HdrAccumulator::cone_columns(int j, int width, int height, const firmware::Vec3d& axis, double cos_limit, int& i0,
+bool HdrAccumulator::cone_columns(int j, int width, int height, const glm::dvec3& axis, double cos_limit, int& i0,
                                   int& count) {
     const double rho = std::hypot(axis.x, axis.z);
     const double phi0 = std::atan2(axis.x, -axis.z);
@@ -114,7 +114,7 @@ void HdrAccumulator::sample_planes(const std::vector<float>& planes, int pw, int
 }
 
 FrameContribution HdrAccumulator::add_frame(const CameraFrame& frame, const CameraCalibration& cal,
-                                            const Quatd& world_from_camera, int threads) {
+                                            const glm::dquat& world_from_camera, int threads) {
     const Intrinsics& k = cal.intrinsics;
     const double t = frame.exposure_s * frame.total_gain() * cal.sensitivity;
     if (!(t > 0) || !std::isfinite(t))
@@ -126,9 +126,9 @@ FrameContribution HdrAccumulator::add_frame(const CameraFrame& frame, const Came
     const std::vector<float> planes = filtered_planes(frame, cal, s, pw, ph);
     if (pw < 2 || ph < 2) throw InputError("frame too small for a downscale of " + std::to_string(s));
 
-    const firmware::Vec3d fwd = world_from_camera.rotate(firmware::Vec3d{0, 0, -1});
+    const glm::dvec3 fwd = world_from_camera * glm::dvec3(0, 0, -1);
     const double cos_limit = std::max(-1.0, min_cos_to_axis(k) - 0.02);
-    const Quatd camera_from_world = world_from_camera.conj();
+    const glm::dquat camera_from_world = glm::conjugate(world_from_camera);
     Band& band = band_for(t);
     std::vector<long long> in_view(std::size_t(height_), 0), sampled(std::size_t(height_), 0);
 
@@ -137,9 +137,7 @@ FrameContribution HdrAccumulator::add_frame(const CameraFrame& frame, const Came
         if (!cone_columns(j, width_, height_, fwd, cos_limit, i0, count)) return;
         for (int n = 0; n < count; ++n) {
             const int i = ((i0 + n) % width_ + width_) % width_;
-            const Vec3 d = texel_direction(i, j, width_, height_);
-            const firmware::Vec3d dc = camera_from_world.rotate(firmware::Vec3d{d.x, d.y, d.z});
-            const auto px = project(k, {dc.x, dc.y, dc.z});
+            const auto px = project(k, camera_from_world * texel_direction(i, j, width_, height_));
             if (!px) continue;
             ++in_view[std::size_t(j)];
             double P[kPlaneFloats];
@@ -192,10 +190,10 @@ HdrImage HdrAccumulator::radiance() const {
     return image;
 }
 
-void HdrAccumulator::update_radiance_in_view(HdrImage& image, const Quatd& world_from_camera, const Intrinsics& k,
+void HdrAccumulator::update_radiance_in_view(HdrImage& image, const glm::dquat& world_from_camera, const Intrinsics& k,
                                              double margin_rad, int threads) const {
     if (image.width() != width_ || image.height() != height_) image = HdrImage(width_, height_);
-    const firmware::Vec3d fwd = world_from_camera.rotate(firmware::Vec3d{0, 0, -1});
+    const glm::dvec3 fwd = world_from_camera * glm::dvec3(0, 0, -1);
     const double limit = std::acos(std::clamp(min_cos_to_axis(k), -1.0, 1.0)) + margin_rad + 2 * kTwoPi / width_;
     const double cos_limit = limit >= kPi ? -1.0 : std::cos(limit);
     parallel_for(height_, threads, [&](int j) {

@@ -52,13 +52,13 @@ public:
     HdrAccumulator(int width, int height, AccumulationSettings settings = {});
 
     FrameContribution add_frame(const CameraFrame& frame, const CameraCalibration& calibration,
-                                const Quatd& world_from_camera, int threads = 1);
+                                const glm::dquat& world_from_camera, int threads = 1);
 
     // E per texel and channel; 0 where no frame gave a usable weight.
     HdrImage radiance() const;
     // The same, only for the texels within `margin_rad` of a camera's view (the rest of `image`
     // is left as it was): what a frame's drift correction reads, without merging the whole map.
-    void update_radiance_in_view(HdrImage& image, const Quatd& world_from_camera, const Intrinsics& k,
+    void update_radiance_in_view(HdrImage& image, const glm::dquat& world_from_camera, const Intrinsics& k,
                                  double margin_rad, int threads = 1) const;
     // Frames that sampled each texel with a usable weight (row-major).
     const std::vector<std::uint32_t>& samples() const { return samples_; }
@@ -100,7 +100,7 @@ private:
     Rgb merged(std::size_t texel, std::vector<BandTexel>& scratch) const;
     // Row j's columns [i0, i0 + count) (wrapping) within the cone cos(angle to axis) >= cos_limit;
     // false when the row has none. The frustum cull of add_frame.
-    static bool cone_columns(int j, int width, int height, const firmware::Vec3d& axis, double cos_limit, int& i0,
+    static bool cone_columns(int j, int width, int height, const glm::dvec3& axis, double cos_limit, int& i0,
                              int& count);
 
     int width_, height_;

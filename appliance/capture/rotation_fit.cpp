@@ -1,16 +1,10 @@
 #include "appliance/capture/rotation_fit.hpp"
 
-#include <array>
 #include <cmath>
 
 namespace glint::capture {
 
 namespace {
-
-double det3(const double m[3][3]) {
-    return m[0][0] * (m[1][1] * m[2][2] - m[1][2] * m[2][1]) - m[0][1] * (m[1][0] * m[2][2] - m[1][2] * m[2][0]) +
-           m[0][2] * (m[1][0] * m[2][1] - m[1][1] * m[2][0]);
-}
 
 // Cost over the points valid for every evaluation being compared (the same set on both sides).
 double huber_rms(const std::vector<double>& r, const std::vector<char>& use, double k, int& n) {
@@ -29,7 +23,7 @@ double huber_rms(const std::vector<double>& r, const std::vector<char>& use, dou
 
 RotationFit fit_rotation(const RotationResiduals& residuals, const RotationFitSettings& settings) {
     RotationFit out;
-    firmware::Vec3d delta{};
+    glm::dvec3 delta(0);
     std::vector<double> r0, rp, rm;
     residuals(delta, r0);
     const std::size_t n_points = r0.size();
@@ -45,12 +39,12 @@ RotationFit fit_rotation(const RotationResiduals& residuals, const RotationFitSe
     double lambda = 0.01;  // Levenberg-Marquardt damping, relative to the diagonal
     for (int it = 0; it < settings.iterations; ++it) {
         // Jacobian by central differences; only points valid in all evaluations take part.
-        std::vector<std::array<double, 3>> J(n_points);
+        std::vector<glm::dvec3> J(n_points);
         std::vector<char> ok = use;
         for (int a = 0; a < 3; ++a) {
-            firmware::Vec3d dp = delta, dm = delta;
-            (a == 0 ? dp.x : a == 1 ? dp.y : dp.z) += h;
-            (a == 0 ? dm.x : a == 1 ? dm.y : dm.z) -= h;
+            glm::dvec3 dp = delta, dm = delta;
+            dp[a] += h;
+            dm[a] -= h;
             residuals(dp, rp);
             residuals(dm, rm);
             for (std::size_t i = 0; i < n_points; ++i) {
@@ -58,18 +52,20 @@ RotationFit fit_rotation(const RotationResiduals& residuals, const RotationFitSe
                     ok[i] = 0;
                     continue;
                 }
-                J[i][std::size_t(a)] = (rp[i] - rm[i]) / (2 * h);
+                J[i][a] = (rp[i] - rm[i]) / (2 * h);
             }
         }
-        double A[3][3] = {}, b[3] = {};
+        // The normal equations A step = b (A symmetric, so row or column order does not matter).
+        glm::dmat3 A(0);
+        glm::dvec3 b(0);
         double sr = 0;
         int nr = 0;
         for (std::size_t i = 0; i < n_points; ++i) {
             if (!ok[i]) continue;
             const double wgt = std::abs(r0[i]) < settings.huber ? 1.0 : settings.huber / std::abs(r0[i]);
             for (int p = 0; p < 3; ++p) {
-                b[p] -= wgt * J[i][std::size_t(p)] * r0[i];
-                for (int q = 0; q < 3; ++q) A[p][q] += wgt * J[i][std::size_t(p)] * J[i][std::size_t(q)];
+                b[p] -= wgt * J[i][p] * r0[i];
+                for (int q = 0; q < 3; ++q) A[p][q] += wgt * J[i][p] * J[i][q];
             }
             sr += r0[i] * r0[i];
             ++nr;
@@ -78,14 +74,13 @@ RotationFit fit_rotation(const RotationResiduals& residuals, const RotationFitSe
         // Covariance ~ s^2 (J^T J)^-1: its trace from the cofactors' diagonal; the information
         // is the inverse, A / s^2.
         const double s2 = sr / nr;
-        const double D0 = det3(A);
+        const double D0 = glm::determinant(A);
         if (!(std::abs(D0) > 1e-30)) break;
         const double trace_inv = (A[1][1] * A[2][2] - A[1][2] * A[2][1] + A[0][0] * A[2][2] - A[0][2] * A[2][0] +
                                   A[0][0] * A[1][1] - A[0][1] * A[1][0]) /
                                  D0;
         if (trace_inv > 0) out.sigma_rad = std::sqrt(s2 * trace_inv / 3);
-        for (int p = 0; p < 3; ++p)
-            for (int q = 0; q < 3; ++q) out.information[p][q] = s2 > 0 ? A[p][q] / s2 : 0;
+        out.information = s2 > 0 ? A / s2 : glm::dmat3(0);
         out.estimated = true;
         // Levenberg-Marquardt: a step that does not lower the cost is retried with more damping
         // (a shorter step towards the gradient). Along a weakly constrained direction the plain
@@ -93,19 +88,18 @@ RotationFit fit_rotation(const RotationResiduals& residuals, const RotationFitSe
         bool improved = false;
         double step_length = 0;
         for (int attempt = 0; attempt < 6 && !improved; ++attempt, lambda *= 10) {
-            double M0[3][3];
-            for (int p = 0; p < 3; ++p)
-                for (int q = 0; q < 3; ++q) M0[p][q] = A[p][q] * (p == q ? 1 + lambda : 1.0);
-            const double D = det3(M0);
+            glm::dmat3 M0 = A;
+            for (int p = 0; p < 3; ++p) M0[p][p] *= 1 + lambda;
+            const double D = glm::determinant(M0);
             if (!(std::abs(D) > 1e-30)) continue;
-            double step[3];
+            // Cramer's rule: step[c] = det(M0 with column c replaced by b) / det(M0).
+            glm::dvec3 step(0);
             for (int c = 0; c < 3; ++c) {
-                double M[3][3];
-                for (int p = 0; p < 3; ++p)
-                    for (int q = 0; q < 3; ++q) M[p][q] = q == c ? b[p] : M0[p][q];
-                step[c] = det3(M) / D;
+                glm::dmat3 M = M0;
+                M[c] = b;
+                step[c] = glm::determinant(M) / D;
             }
-            const firmware::Vec3d next{delta.x + step[0], delta.y + step[1], delta.z + step[2]};
+            const glm::dvec3 next = delta + step;
             std::vector<double> rn;
             residuals(next, rn);
             std::vector<char> both(n_points);
@@ -118,7 +112,7 @@ RotationFit fit_rotation(const RotationResiduals& residuals, const RotationFitSe
             use = both;
             cost = c_new;
             improved = true;
-            step_length = std::sqrt(step[0] * step[0] + step[1] * step[1] + step[2] * step[2]);
+            step_length = glm::length(step);
         }
         if (!improved) break;
         lambda = std::max(1e-3, lambda / 30);  // undo the last increase, then relax

@@ -6,7 +6,7 @@
 #include <functional>
 #include <vector>
 
-#include "firmware_bridge/firmware/rotation.hpp"
+#include <glm/glm.hpp>
 
 namespace glint::capture {
 
@@ -18,10 +18,10 @@ struct RotationFitSettings {
 };
 
 struct RotationFit {
-    firmware::Vec3d delta{};  // the rotation vector found (radians), in the residuals' frame
+    glm::dvec3 delta{0};  // the rotation vector found (radians), in the residuals' frame
     // Information of the estimate (inverse covariance, rad^-2): J^T W J / s^2 at the solution,
-    // with s^2 the mean squared residual. Zero when nothing was estimated.
-    double information[3][3] = {};
+    // with s^2 the mean squared residual (symmetric). Zero when nothing was estimated.
+    glm::dmat3 information{0};
     double sigma_rad = 1e9;  // per-axis standard deviation, sqrt(trace(covariance) / 3)
     double cost_before = 0, cost_after = 0;  // RMS (Huber) of the residuals at 0 and at delta
     int points = 0;          // valid residuals at 0
@@ -29,7 +29,7 @@ struct RotationFit {
 };
 
 // residuals(delta, r) sets r (one value per point, NaN where the point is not valid at delta).
-using RotationResiduals = std::function<void(const firmware::Vec3d& delta, std::vector<double>& r)>;
+using RotationResiduals = std::function<void(const glm::dvec3& delta, std::vector<double>& r)>;
 
 RotationFit fit_rotation(const RotationResiduals& residuals, const RotationFitSettings& settings = {});
 

@@ -175,8 +175,8 @@ std::vector<TruthPose> load_truth_poses(const Session& session) {
         TruthPose t;
         t.index = std::uint64_t(parse_int(f[0], where));
         t.t_ns = parse_int(f[1], where);
-        t.world_from_camera = firmware::normalized(Quatd{parse_double(f[2], where), parse_double(f[3], where),
-                                                         parse_double(f[4], where), parse_double(f[5], where)});
+        t.world_from_camera = unit_rotation(glm::dquat(parse_double(f[2], where), parse_double(f[3], where),
+                                                       parse_double(f[4], where), parse_double(f[5], where)));
         poses.push_back(t);
     }
     return poses;

@@ -36,7 +36,7 @@ struct FrameRecord {
 struct TruthPose {
     std::uint64_t index = 0;
     std::int64_t t_ns = 0;
-    Quatd world_from_camera;
+    glm::dquat world_from_camera{1, 0, 0, 0};
 };
 
 struct Session {

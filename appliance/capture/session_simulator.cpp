@@ -18,6 +18,7 @@
 #include "appliance/core/parallel.hpp"
 #include "firmware_bridge/firmware/sim/sim_board.hpp"
 #include "firmware_bridge/firmware/sim/sim_hal.hpp"
+#include "firmware_bridge/host/orientation_history.hpp"
 #include "firmware_bridge/protocol/frame_decoder.hpp"
 #include "firmware_bridge/recording/clock.hpp"
 #include "firmware_bridge/recording/recorder.hpp"
@@ -41,13 +42,22 @@ void write_text(const fs::path& p, const std::string& text) {
     if (!out.flush()) throw RuntimeError(p.string() + ": cannot write");
 }
 
+// camera_look on the trajectory side, in the firmware simulator's maths: its yaw, pitch, roll
+// with the roll turned round (it rolls about +Z).
+firmware::Quatd look(double yaw_deg, double pitch_deg, double roll_deg = 0) {
+    return firmware::normalized(firmware::sim::quat_from_ypr_deg(yaw_deg, pitch_deg, -roll_deg));
+}
+
+// The simulator's edge: trajectories (the board's and the camera's) are the firmware
+// simulator's; what the camera renders and the truth it writes are the appliance's.
+glm::dquat world_from_camera_at(const firmware::sim::Trajectory& camera, std::uint64_t t_us) {
+    return host::to_glm(camera.at(t_us).world_from_sensor);
+}
+
 }  // namespace
 
-Quatd camera_look(double yaw_deg, double pitch_deg, double roll_deg) {
-    const Quatd yaw = Quatd::from_axis_angle({0, 1, 0}, yaw_deg * kDeg);
-    const Quatd pitch = Quatd::from_axis_angle({1, 0, 0}, pitch_deg * kDeg);
-    const Quatd roll = Quatd::from_axis_angle({0, 0, -1}, roll_deg * kDeg);
-    return firmware::normalized(yaw * pitch * roll);
+glm::dquat camera_look(double yaw_deg, double pitch_deg, double roll_deg) {
+    return host::to_glm(look(yaw_deg, pitch_deg, roll_deg));
 }
 
 std::vector<TrajectorySample> guided_camera_trajectory(double speed_deg_s) {
@@ -55,7 +65,7 @@ std::vector<TrajectorySample> guided_camera_trajectory(double speed_deg_s) {
     const double step_s = 0.01;
     double t = 0;
     const auto add = [&](double yaw, double pitch) {
-        out.push_back({std::uint64_t(std::llround(t * 1e6)), camera_look(yaw, pitch)});
+        out.push_back({std::uint64_t(std::llround(t * 1e6)), look(yaw, pitch)});
         t += step_s;
     };
     const double rings[] = {-60, -30, 0, 30, 60};
@@ -92,16 +102,18 @@ SimulateSummary write_session(const SimulateOptions& o, const HdrImage& env, con
     truth.intrinsics.k1 = -0.08;
     truth.intrinsics.k2 = 0.012;
     truth.vignetting = {-0.22, 0.03, 0};
-    truth.sensor_from_camera = camera_look(o.mount_yaw_deg, o.mount_pitch_deg, o.mount_roll_deg);
+    const firmware::Quatd sensor_from_camera = look(o.mount_yaw_deg, o.mount_pitch_deg, o.mount_roll_deg);
+    truth.sensor_from_camera = host::to_glm(sensor_from_camera);
     truth.sensitivity = sensor.electrons_per_radiance_second / sensor.full_well_electrons;
 
     // The sensor board rides on the camera: world_from_sensor = world_from_camera * camera_from_sensor,
     // held still for the board's boot (kLeadUs) before the camera's time 0.
-    const Quatd camera_from_sensor = truth.sensor_from_camera.conj();
+    const firmware::Quatd camera_from_sensor = sensor_from_camera.conj();
     std::vector<TrajectorySample> sensor_path;
     for (std::uint64_t b = 0; b <= kLeadUs + camera.end_us() + 500'000; b += 5'000) {
         const std::uint64_t tc = b > kLeadUs ? b - kLeadUs : 0;
-        const Quatd drift = Quatd::from_axis_angle({0, 1, 0}, o.heading_drift_deg_per_min * kDeg * double(b) / 60e6);
+        const firmware::Quatd drift =
+            firmware::Quatd::from_axis_angle({0, 1, 0}, o.heading_drift_deg_per_min * kDeg * double(b) / 60e6);
         sensor_path.push_back({b, firmware::normalized(drift * camera.at(tc).world_from_sensor * camera_from_sensor)});
     }
     const firmware::sim::Trajectory sensor_trajectory(sensor_path);
@@ -167,7 +179,7 @@ SimulateSummary write_session(const SimulateOptions& o, const HdrImage& env, con
     std::string frames_csv = frames_csv_header() + "\n";
     std::string truth_csv = camera_poses_csv_header() + "\n";
     int written = 0;
-    const auto emit = [&](const CameraFrame& f, const Quatd& q, std::int64_t t_ns) {
+    const auto emit = [&](const CameraFrame& f, const glm::dquat& q, std::int64_t t_ns) {
         char name[32];
         std::snprintf(name, sizeof name, "frames/%06d.png", written);
         cv::Mat bgr;
@@ -189,9 +201,8 @@ SimulateSummary write_session(const SimulateOptions& o, const HdrImage& env, con
     for (int k = 0; k < frames; ++k) {
         const std::uint64_t tc = o.bracket > 0 ? 0 : std::uint64_t(std::llround(k / o.fps * 1e6));
         // A bracket of the built-in scan looks at the horizon (the scan itself starts at the floor).
-        const Quatd q = o.bracket > 0 && o.trajectory == "guided"
-                            ? camera_look(0, 0)
-                            : firmware::normalized(camera.at(tc).world_from_sensor);
+        const glm::dquat q =
+            o.bracket > 0 && o.trajectory == "guided" ? camera_look(0, 0) : world_from_camera_at(camera, tc);
         if (o.bracket > 0) cam.set_exposure(o.bracket_first_exposure_s * std::pow(2.0, k), 1.0);
         const std::int64_t t_ns = std::int64_t(host_us(kLeadUs + std::uint64_t(std::llround(k / o.fps * 1e6)))) * 1000;
         const CameraFrame f = cam.render(q, t_ns, threads);
@@ -203,7 +214,7 @@ SimulateSummary write_session(const SimulateOptions& o, const HdrImage& env, con
             const double e = cam.exposure_s(), g = cam.gain();
             for (int b = 1; b <= 4; ++b) {
                 const std::uint64_t tb = tc + std::uint64_t(b) * 2000;
-                const Quatd qb = firmware::normalized(camera.at(tb).world_from_sensor);
+                const glm::dquat qb = world_from_camera_at(camera, tb);
                 const std::int64_t tb_ns = t_ns + std::int64_t(b) * 2'000'000;
                 cam.set_exposure(f.exposure_s * std::pow(64.0, -b), f.analogue_gain);
                 const CameraFrame fb = cam.render(qb, tb_ns, threads);

@@ -59,7 +59,7 @@ struct SimulateSummary {
 std::vector<firmware::sim::TrajectorySample> guided_camera_trajectory(double speed_deg_s = 45);
 
 // world_from_camera = yaw about world +Y, then pitch about the camera's X, then roll about -Z.
-Quatd camera_look(double yaw_deg, double pitch_deg, double roll_deg = 0);
+glm::dquat camera_look(double yaw_deg, double pitch_deg, double roll_deg = 0);
 
 // An intrinsics-calibration session: `views` frames of a ChArUco board (charuco.hpp) at varied
 // poses, 0.3-0.6 m away, through the true camera of `options` (size, field of view, the

@@ -54,7 +54,7 @@ BrightSplit split_bright(const HdrImage& input, double contrast, int max_count, 
         const double om = omega[std::size_t(c.j)];
         const double theta = row_theta(c.j, h);
         const double phi = column_phi(c.i, w);
-        const Vec3 d = direction_from_angles(theta, phi);
+        const glm::dvec3 d = direction_from_angles(theta, phi);
         split.texels.push_back({d.x, d.y, d.z, theta, phi, l.r * om, l.g * om, l.b * om});
         split.remainder.set(c.i, c.j, {0, 0, 0});
     }

@@ -103,7 +103,7 @@ HdrImage mipmap_convolve(const Pyramid& pyramid, bool irradiance, double shinine
         const double st = std::sin(theta);
         const double ct = std::cos(theta);
         for (int i = 0; i < out_width; ++i) {
-            const Vec3 d{st * sin_phi[std::size_t(i)], ct, -st * cos_phi[std::size_t(i)]};
+            const glm::dvec3 d(st * sin_phi[std::size_t(i)], ct, -st * cos_phi[std::size_t(i)]);
             const Rgb a = sample_bilinear(fine, d);
             if (!blend) {
                 out.set(i, j, a);

@@ -728,10 +728,10 @@ void ShLegendre::evaluate(double x, double s, double* out) const {
     }
 }
 
-void sh_basis(int order, const Vec3& d, double* out) { sh_basis(ShLegendre(order), d, out); }
+void sh_basis(int order, const glm::dvec3& d, double* out) { sh_basis(ShLegendre(order), d, out); }
 
-void sh_basis(const ShLegendre& legendre, const Vec3& d, double* out) {
-    const double r = std::sqrt(dot(d, d));
+void sh_basis(const ShLegendre& legendre, const glm::dvec3& d, double* out) {
+    const double r = glm::length(d);
     if (!(r > 0.0) || !std::isfinite(r)) throw InputError("spherical-harmonics direction is zero or not finite");
     const int order = legendre.order();
     const double x = std::clamp(d.y / r, -1.0, 1.0);

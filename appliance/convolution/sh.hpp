@@ -80,8 +80,8 @@ private:
 
 // The order*order basis values Y_lm(d) at index l*(l+1)+m. d need not be normalised; throws InputError
 // if it is zero or not finite. The second form reuses the recurrence coefficients of legendre.order().
-void sh_basis(int order, const Vec3& d, double* out);
-void sh_basis(const ShLegendre& legendre, const Vec3& d, double* out);
+void sh_basis(int order, const glm::dvec3& d, double* out);
+void sh_basis(const ShLegendre& legendre, const glm::dvec3& d, double* out);
 
 // Per-row weights of Fejer's first rule in x = cos(theta) at theta_j = (j + 0.5) pi / H; they sum to 2.
 std::vector<double> fejer_weights(int height);

@@ -6,16 +6,16 @@
 
 namespace glint {
 
-Vec3 direction_from_angles(double theta, double phi) {
+glm::dvec3 direction_from_angles(double theta, double phi) {
     const double st = std::sin(theta);
     return {st * std::sin(phi), std::cos(theta), -st * std::cos(phi)};
 }
 
-Vec3 texel_direction(int i, int j, int width, int height) {
+glm::dvec3 texel_direction(int i, int j, int width, int height) {
     return direction_from_angles(row_theta(j, height), column_phi(i, width));
 }
 
-TexelCoord direction_to_texel(const Vec3& d, int width, int height) {
+TexelCoord direction_to_texel(const glm::dvec3& d, int width, int height) {
     const double phi = std::atan2(d.x, -d.z);                 // in [-pi, pi]
     const double theta = std::acos(std::clamp(d.y, -1.0, 1.0));  // in [0, pi]
     double x = (phi + kPi) / kTwoPi * width;
@@ -37,7 +37,7 @@ std::vector<double> row_solid_angles(int width, int height) {
     return out;
 }
 
-Rgb sample_bilinear(const HdrImage& image, const Vec3& d) {
+Rgb sample_bilinear(const HdrImage& image, const glm::dvec3& d) {
     const int w = image.width();
     const int h = image.height();
     const TexelCoord t = direction_to_texel(d, w, h);

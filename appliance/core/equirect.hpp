@@ -6,18 +6,13 @@
 //   dOmega_j = (2*pi / W) * ( cos(pi*j/H) - cos(pi*(j+1)/H) )   exact, sums to 4*pi
 #pragma once
 
+#include <glm/glm.hpp>
 #include <numbers>
 #include <vector>
 
 #include "appliance/core/hdr_image.hpp"
 
 namespace glint {
-
-struct Vec3 {
-    double x = 0, y = 0, z = 0;
-};
-
-inline double dot(const Vec3& a, const Vec3& b) { return a.x * b.x + a.y * b.y + a.z * b.z; }
 
 inline constexpr double kPi = std::numbers::pi;
 inline constexpr double kTwoPi = 2.0 * std::numbers::pi;
@@ -26,15 +21,15 @@ inline constexpr double kTwoPi = 2.0 * std::numbers::pi;
 inline double row_theta(int j, int height) { return kPi * (j + 0.5) / height; }
 inline double column_phi(int i, int width) { return kTwoPi * (i + 0.5) / width - kPi; }
 
-Vec3 direction_from_angles(double theta, double phi);
-Vec3 texel_direction(int i, int j, int width, int height);
+glm::dvec3 direction_from_angles(double theta, double phi);
+glm::dvec3 texel_direction(int i, int j, int width, int height);
 
 // Continuous texel coordinates (x in [0, W), y in [0, H)) of a unit direction:
 // x = u * W, y = v * H. A texel's centre is at (i + 0.5, j + 0.5).
 struct TexelCoord {
     double x = 0, y = 0;
 };
-TexelCoord direction_to_texel(const Vec3& d, int width, int height);
+TexelCoord direction_to_texel(const glm::dvec3& d, int width, int height);
 
 // Exact solid angle of one texel in row j (all texels in a row share it).
 double row_solid_angle(int j, int width, int height);
@@ -42,7 +37,7 @@ std::vector<double> row_solid_angles(int width, int height);
 
 // Bilinear lookup at a direction, the way a renderer samples a map: wraps in
 // azimuth, clamps in polar angle (the first and last rows hold up to the poles).
-Rgb sample_bilinear(const HdrImage& image, const Vec3& d);
+Rgb sample_bilinear(const HdrImage& image, const glm::dvec3& d);
 
 // Resample a map to another size by bilinear lookup at the new texel centres.
 HdrImage resample_bilinear(const HdrImage& image, int width, int height);

@@ -87,6 +87,17 @@ Quat<T> same_hemisphere(Quat<T> q, Quat<T> reference) {
     return d < T(0) ? Quat<T>{-q.w, -q.x, -q.y, -q.z} : q;
 }
 
+// Rotation vector (axis * angle, angle in 0 .. pi) of a unit quaternion, the log map: q (taken
+// with w >= 0) = (cos(angle/2), sin(angle/2) axis), so angle = 2 atan2(|vec|, w).
+template <typename T>
+Vec3<T> log_map(Quat<T> q) {
+    if (q.w < 0) q = {-q.w, -q.x, -q.y, -q.z};
+    const T s = norm(q.vec());
+    if (s < T(1e-12)) return {};
+    const T angle = T(2) * std::atan2(s, q.w);
+    return (angle / s) * q.vec();
+}
+
 // Spherical linear interpolation between unit quaternions (constant angular velocity, the short
 // way): t = 0 gives a, t = 1 gives b (up to sign). Nearly equal inputs return a.
 template <typename T>

@@ -43,8 +43,7 @@ void I2cBno055Source::poll_once() {
             if (reading.has_orientation) {
                 OrientationSample s;
                 s.t_ns = std::int64_t(now) * 1000;
-                const firmware::Quatf& q = reading.world_from_sensor;
-                s.q = firmware::normalized(Quatd{q.w, q.x, q.y, q.z});
+                s.world_from_sensor = to_glm(firmware::quat_cast<double>(reading.world_from_sensor));
                 publish(s);
             }
             break;

@@ -6,6 +6,8 @@
 #include <cmath>
 #include <thread>
 
+#include "firmware_bridge/firmware/rotation.hpp"
+
 namespace glint::host {
 
 namespace {
@@ -15,10 +17,10 @@ std::int32_t int32_at(const std::uint16_t* r, int hi) {
 }
 }  // namespace
 
-Quatd head_orientation(double azimuth_rad, double elevation_rad) {
-    const Quatd yaw = Quatd::from_axis_angle({0, 1, 0}, -azimuth_rad);
-    const Quatd pitch = Quatd::from_axis_angle({1, 0, 0}, elevation_rad);
-    return firmware::normalized(yaw * pitch);
+glm::dquat head_orientation(double azimuth_rad, double elevation_rad) {
+    const firmware::Quatd yaw = firmware::Quatd::from_axis_angle({0, 1, 0}, -azimuth_rad);
+    const firmware::Quatd pitch = firmware::Quatd::from_axis_angle({1, 0, 0}, elevation_rad);
+    return to_glm(yaw * pitch);
 }
 
 ModbusHeadSource::ModbusHeadSource(std::string name, recording::Clock& clock, SourceOptions options,
@@ -145,7 +147,7 @@ bool ModbusHeadSource::poll_once() {
         return reject("elevation " + std::to_string(el) + " counts is beyond +-90 degrees");
     OrientationSample s;
     s.t_ns = before + (after - before) / 2;  // the registers were read somewhere in the request
-    s.q = head_orientation(kTwoPi * az / double(cpr), kTwoPi * el / double(cpr));
+    s.world_from_sensor = head_orientation(kTwoPi * az / double(cpr), kTwoPi * el / double(cpr));
     publish(s);
     return true;
 }

@@ -53,7 +53,7 @@ struct ModbusHeadOptions {
 };
 
 // Orientation of a head at (azimuth, elevation) in radians, as documented above.
-Quatd head_orientation(double azimuth_rad, double elevation_rad);
+glm::dquat head_orientation(double azimuth_rad, double elevation_rad);
 
 class ModbusHeadSource final : public OrientationSource {
 public:

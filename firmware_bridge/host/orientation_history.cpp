@@ -3,7 +3,14 @@
 #include <algorithm>
 #include <stdexcept>
 
+#include "firmware_bridge/firmware/rotation.hpp"
+
 namespace glint::host {
+
+glm::dquat to_glm(const firmware::Quatd& q) {
+    const firmware::Quatd u = firmware::normalized(q);
+    return {u.w, u.x, u.y, u.z};
+}
 
 OrientationHistory::OrientationHistory(std::size_t capacity, std::int64_t max_gap_ns,
                                        std::int64_t max_hold_ns)
@@ -19,7 +26,6 @@ const OrientationSample& OrientationHistory::nth(std::size_t i) const {
 bool OrientationHistory::push(const OrientationSample& sample) {
     if (size_ > 0 && sample.t_ns <= nth(size_ - 1).t_ns) return false;
     ring_[head_] = sample;
-    ring_[head_].q = firmware::normalized(sample.q);
     head_ = (head_ + 1) % ring_.size();
     size_ = std::min(size_ + 1, ring_.size());
     return true;
@@ -39,8 +45,8 @@ HistoryAnswer OrientationHistory::at(std::int64_t t_ns) const {
     if (size_ == 0 || t_ns < nth(0).t_ns) return {std::nullopt, Lookup::BeforeFirst};
     const OrientationSample& last = nth(size_ - 1);
     if (t_ns >= last.t_ns) {
-        if (t_ns == last.t_ns) return {last.q, Lookup::Exact};
-        if (t_ns - last.t_ns <= max_hold_ns_) return {last.q, Lookup::AfterLast};
+        if (t_ns == last.t_ns) return {last.world_from_sensor, Lookup::Exact};
+        if (t_ns - last.t_ns <= max_hold_ns_) return {last.world_from_sensor, Lookup::AfterLast};
         return {std::nullopt, Lookup::AfterLast};
     }
     // Binary search for the first sample later than t (exists: t < last.t_ns).
@@ -51,10 +57,10 @@ HistoryAnswer OrientationHistory::at(std::int64_t t_ns) const {
     }
     const OrientationSample& b = nth(lo);
     const OrientationSample& a = nth(lo - 1);  // lo >= 1 because nth(0).t_ns <= t_ns
-    if (a.t_ns == t_ns) return {a.q, Lookup::Exact};
+    if (a.t_ns == t_ns) return {a.world_from_sensor, Lookup::Exact};
     if (b.t_ns - a.t_ns > max_gap_ns_) return {std::nullopt, Lookup::Gap};
     const double f = static_cast<double>(t_ns - a.t_ns) / static_cast<double>(b.t_ns - a.t_ns);
-    return {firmware::slerp(a.q, b.q, f), Lookup::Interpolated};
+    return {glm::slerp(a.world_from_sensor, b.world_from_sensor, f), Lookup::Interpolated};
 }
 
 }  // namespace glint::host

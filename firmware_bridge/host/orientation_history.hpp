@@ -3,26 +3,36 @@
 // the frame's exposure midpoint?"; the answer is the slerp between the two samples around that
 // time (constant angular velocity between samples, which is what a 100+ Hz sensor resolves).
 //
+// Orientations are the appliance's glm::dquat from here on: a driver turns the sensor side's
+// quaternions (firmware_bridge/firmware/rotation.hpp) into one with to_glm, once, when it makes
+// the sample.
+//
 // Not thread-safe by itself; OrientationSource guards it.
 #pragma once
 
 #include <cstddef>
 #include <cstdint>
+#include <glm/gtc/quaternion.hpp>
 #include <optional>
 #include <vector>
 
-#include "firmware_bridge/firmware/rotation.hpp"
+namespace glint::firmware {
+template <typename T>
+struct Quat;
+}  // namespace glint::firmware
 
 namespace glint::host {
 
-using Quatd = firmware::Quatd;
+// The one conversion of the sensor side's quaternions into the appliance's: unit, w >= 0 (a zero
+// or non-finite input gives the identity).
+glm::dquat to_glm(const firmware::Quat<double>& q);
 
 // One orientation of the sensor frame in the world frame of docs/conventions.md (+Y up, -Z
-// forward): v_world = q v_sensor q*.
+// forward): v_world = world_from_sensor * v_sensor.
 struct OrientationSample {
-    std::int64_t t_ns = 0;       // appliance CLOCK_MONOTONIC, nanoseconds, when q was true
-    Quatd q;                     // unit, w >= 0
-    std::uint64_t board_us = 0;  // the board's own timestamp (µs since board reset); 0 if none
+    std::int64_t t_ns = 0;                     // appliance CLOCK_MONOTONIC, nanoseconds, when it was true
+    glm::dquat world_from_sensor{1, 0, 0, 0};  // unit, w >= 0 (made by to_glm)
+    std::uint64_t board_us = 0;                // the board's own timestamp (µs since board reset); 0 if none
 };
 
 enum class Lookup : std::uint8_t {
@@ -34,7 +44,8 @@ enum class Lookup : std::uint8_t {
 };
 
 struct HistoryAnswer {
-    std::optional<Quatd> q;
+    // A sample's, or glm::slerp between two (the short way; either sign).
+    std::optional<glm::dquat> world_from_sensor;
     Lookup lookup = Lookup::BeforeFirst;
 };
 

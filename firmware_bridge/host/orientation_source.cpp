@@ -54,7 +54,6 @@ bool OrientationSource::publish(OrientationSample s) {
             health_.last_error = name_ + ": sample out of time order dropped";
             return false;
         }
-        s.q = history_.newest()->q;  // normalised
         ++health_.samples;
         last_arrival_ns_ = now;
         stall_counted_ = false;

@@ -9,6 +9,7 @@
 #include <random>
 #include <vector>
 
+#include "firmware_bridge/firmware/rotation.hpp"
 #include "firmware_bridge/protocol/frame.hpp"
 #include "firmware_bridge/protocol/frame_decoder.hpp"
 #include "firmware_bridge/recording/recorder.hpp"
@@ -46,31 +47,21 @@ private:
     std::mt19937_64 engine_;
 };
 
-struct Quat {
-    double w, x, y, z;
-};
-
-Quat multiply(const Quat& a, const Quat& b) {
-    return {a.w * b.w - a.x * b.x - a.y * b.y - a.z * b.z, a.w * b.x + a.x * b.w + a.y * b.z - a.z * b.y,
-            a.w * b.y - a.x * b.z + a.y * b.w + a.z * b.x, a.w * b.z + a.x * b.y - a.y * b.x + a.z * b.w};
-}
-
 // Sensor-to-world rotation at time t_s (seconds since the session start): yaw about world +Y at
 // a constant rate, then a pitch about the sensor's +X swinging sinusoidally.
-Quat orientation_at(double t_s) {
+firmware::Quatd orientation_at(double t_s) {
     const double yaw = kYawRateRadS * t_s;
     const double pitch = kPitchAmplitudeRad * std::sin(2.0 * std::numbers::pi * kPitchFrequencyHz * t_s);
-    const Quat q_yaw{std::cos(yaw / 2), 0, std::sin(yaw / 2), 0};
-    const Quat q_pitch{std::cos(pitch / 2), std::sin(pitch / 2), 0, 0};
-    Quat q = multiply(q_yaw, q_pitch);
-    if (q.w < 0) q = {-q.w, -q.x, -q.y, -q.z};  // PROTOCOL.md: senders send w >= 0
-    return q;
+    const firmware::Quatd q_yaw{std::cos(yaw / 2), 0, std::sin(yaw / 2), 0};
+    const firmware::Quatd q_pitch{std::cos(pitch / 2), std::sin(pitch / 2), 0, 0};
+    const firmware::Quatd q = q_yaw * q_pitch;
+    // PROTOCOL.md: senders send w >= 0.
+    return q.w < 0 ? firmware::Quatd{-q.w, -q.x, -q.y, -q.z} : q;
 }
 
 // World vector in sensor coordinates: conj(q) * v * q.
-std::array<double, 3> to_sensor(const Quat& q, std::array<double, 3> v) {
-    const Quat qc{q.w, -q.x, -q.y, -q.z};
-    const Quat r = multiply(multiply(qc, {0, v[0], v[1], v[2]}), q);
+std::array<double, 3> to_sensor(const firmware::Quatd& q, std::array<double, 3> v) {
+    const firmware::Quatd r = q.conj() * firmware::Quatd{0, v[0], v[1], v[2]} * q;
     return {r.x, r.y, r.z};
 }
 
@@ -101,7 +92,7 @@ std::vector<BoardMessage> board_schedule(const SessionOptions& o) {
     for (std::uint64_t k = 1;; ++k) {
         const std::uint64_t t = kBoardStartUs + k * 1'000'000 / o.orientation_hz;
         if (t >= end) break;
-        const Quat q = orientation_at(static_cast<double>(t - kBoardStartUs) * 1e-6);
+        const firmware::Quatd q = orientation_at(static_cast<double>(t - kBoardStartUs) * 1e-6);
         out.push_back({t, proto::Orientation{t, proto::to_q30(q.w), proto::to_q30(q.x), proto::to_q30(q.y),
                                              proto::to_q30(q.z)}});
     }
@@ -109,7 +100,7 @@ std::vector<BoardMessage> board_schedule(const SessionOptions& o) {
         const std::uint64_t t = kBoardStartUs + k * 1'000'000 / o.raw_imu_hz + 3'000;  // offset from orientation
         if (t >= end) break;
         const double s = static_cast<double>(t - kBoardStartUs) * 1e-6;
-        const Quat q = orientation_at(s);
+        const firmware::Quatd q = orientation_at(s);
         const double pitch = kPitchAmplitudeRad * std::sin(2.0 * std::numbers::pi * kPitchFrequencyHz * s);
         const double pitch_rate = kPitchAmplitudeRad * 2.0 * std::numbers::pi * kPitchFrequencyHz *
                                   std::cos(2.0 * std::numbers::pi * kPitchFrequencyHz * s);

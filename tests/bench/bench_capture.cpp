@@ -173,7 +173,7 @@ int main(int argc, char** argv) {
     const IntrinsicsResult intr = calibrate_intrinsics(open_session(c.out), {});
     const Intrinsics ti = load_calibration(c.out / "truth" / "calibration.json").intrinsics;
     const AlignmentResult al = calibrate_alignment(open_session(work / "courtyard"));
-    const double align_err = firmware::angle_between(al.sensor_from_camera, truth_cal.sensor_from_camera) * 180 / kPi;
+    const double align_err = angle_between(al.sensor_from_camera, truth_cal.sensor_from_camera) * 180 / kPi;
 
     std::time_t now = std::time(nullptr);
     char date[64];

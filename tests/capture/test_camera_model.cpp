@@ -23,8 +23,8 @@ TEST(CameraModel, ProjectionInvertsThePixelRayOverTheWholeImage) {
     const Intrinsics k = lens();
     for (double v : {0.0, 17.0, 179.5, 359.0})
         for (double u : {0.0, 100.25, 320.0, 639.0}) {
-            const Vec3 r = pixel_ray(k, u, v);
-            EXPECT_NEAR(std::sqrt(dot(r, r)), 1.0, 1e-12);
+            const glm::dvec3 r = pixel_ray(k, u, v);
+            EXPECT_NEAR(std::sqrt(glm::dot(r, r)), 1.0, 1e-12);
             EXPECT_LT(r.z, 0.0);
             const auto p = project(k, r);
             ASSERT_TRUE(p) << u << "," << v;

@@ -4,8 +4,8 @@
 #include <random>
 
 #include "appliance/capture/camera_simulator.hpp"
-#include "appliance/capture/drift_correction.hpp"
 #include "appliance/capture/global_adjustment.hpp"
+#include "appliance/capture/session_simulator.hpp"
 #include "appliance/core/errors.hpp"
 #include "appliance/core/exr_io.hpp"
 
@@ -13,10 +13,6 @@ namespace glint::capture {
 namespace {
 
 constexpr double kDeg = kPi / 180.0;
-
-Quatd look(double yaw_deg, double pitch_deg) {
-    return Quatd::from_axis_angle({0, 1, 0}, yaw_deg * kDeg) * Quatd::from_axis_angle({1, 0, 0}, pitch_deg * kDeg);
-}
 
 TEST(GlobalAdjustment, APairOfFramesAlignsToTheirTrueRelativeRotation) {
     // Two noisy, auto-exposed views of courtyard 30 degrees apart, started up to 1 degree off.
@@ -29,19 +25,20 @@ TEST(GlobalAdjustment, APairOfFramesAlignsToTheirTrueRelativeRotation) {
     cal.vignetting = {-0.22, 0.03, 0};
     cal.sensitivity = sensor.electrons_per_radiance_second / sensor.full_well_electrons;
     CameraSimulator sim(env, cal, sensor);
-    const Quatd ta = look(10, 5), tb = look(40, 0);
+    const glm::dquat ta = camera_look(10, 5), tb = camera_look(40, 0);
     const CameraFrame fa = sim.render(ta, 0), fb = sim.render(tb, 1);
     const AlignmentView va = make_alignment_view(fa, cal), vb = make_alignment_view(fb, cal);
-    const Quatd truth = firmware::normalized(ta * tb.conj());
+    const glm::dquat truth = unit_rotation(ta * glm::conjugate(tb));
     for (double start : {0.0, 0.3, 1.0}) {
-        const Quatd off = rotation_from_vector({0.6 * start * kDeg, 0.7 * start * kDeg, -0.4 * start * kDeg});
+        const glm::dquat off = rotation_from_vector({0.6 * start * kDeg, 0.7 * start * kDeg, -0.4 * start * kDeg});
         const auto m = align_pair(va, off * ta, vb, tb);
         ASSERT_TRUE(m.has_value()) << "start " << start;
-        EXPECT_LT(firmware::angle_between(m->relative, truth) / kDeg, 0.1) << "start " << start;
+        EXPECT_LT(angle_between(m->relative, truth) / kDeg, 0.1) << "start " << start;
         EXPECT_GT(m->points, 150);
     }
     // Frames that do not overlap are no pair.
-    EXPECT_FALSE(align_pair(va, ta, make_alignment_view(sim.render(look(190, 0), 2), cal), look(190, 0)).has_value());
+    const glm::dquat away = camera_look(190, 0);
+    EXPECT_FALSE(align_pair(va, ta, make_alignment_view(sim.render(away, 2), cal), away).has_value());
 }
 
 // A synthetic scan for the pose graph: the truth turns about +Y and tilts; the sensor drifts
@@ -49,7 +46,7 @@ TEST(GlobalAdjustment, APairOfFramesAlignsToTheirTrueRelativeRotation) {
 // exact up to 0.02 degrees; a "bracket" frame 2 ms after every tenth frame has no pair at all.
 struct Scan {
     std::vector<double> t;
-    std::vector<Quatd> truth, sensor;
+    std::vector<glm::dquat> truth, sensor;
     std::vector<PairMeasurement> pairs;
     std::vector<bool> bracket;
 };
@@ -61,17 +58,17 @@ Scan make_scan() {
     for (int k = 0; k < 180; ++k) {
         const double t = k / 3.0;
         const auto add = [&](double time, bool bracket) {
-            const Quatd truth = firmware::normalized(Quatd::from_axis_angle({0, 1, 0}, 0.6 * time) *
-                                                     Quatd::from_axis_angle({1, 0, 0}, 0.4 * std::sin(0.05 * time)));
+            const glm::dquat truth = unit_rotation(glm::angleAxis(0.6 * time, glm::dvec3(0, 1, 0)) *
+                                                   glm::angleAxis(0.4 * std::sin(0.05 * time), glm::dvec3(1, 0, 0)));
             const double n[3] = {fusion(rng), fusion(rng), fusion(rng)};
             // A bracket frame 2 ms later carries its parent's fusion error.
             static double last[3];
             const double* e = bracket ? last : n;
             if (!bracket) std::copy(n, n + 3, last);
-            const Quatd err = rotation_from_vector({e[0], -time / 60.0 * kDeg + e[1], e[2]});
+            const glm::dquat err = rotation_from_vector({e[0], -time / 60.0 * kDeg + e[1], e[2]});
             s.t.push_back(time);
             s.truth.push_back(truth);
-            s.sensor.push_back(firmware::normalized(err * truth));
+            s.sensor.push_back(unit_rotation(err * truth));
             s.bracket.push_back(bracket);
         };
         add(t, false);
@@ -80,15 +77,14 @@ Scan make_scan() {
     for (std::size_t i = 0; i < s.t.size(); ++i)
         for (std::size_t j = 0; j < i; ++j) {
             if (s.bracket[i] || s.bracket[j]) continue;
-            const firmware::Vec3d ai = s.truth[i].rotate(firmware::Vec3d{0, 0, -1}), aj = s.truth[j].rotate(firmware::Vec3d{0, 0, -1});
-            if (ai.x * aj.x + ai.y * aj.y + ai.z * aj.z < std::cos(40 * kDeg)) continue;
+            const glm::dvec3 forward(0, 0, -1);
+            if (glm::dot(s.truth[i] * forward, s.truth[j] * forward) < std::cos(40 * kDeg)) continue;
             PairMeasurement m;
             m.i = int(i);
             m.j = int(j);
-            m.relative = firmware::normalized(rotation_from_vector({pair_noise(rng), pair_noise(rng), pair_noise(rng)}) *
-                                              s.truth[i] * s.truth[j].conj());
-            const double info = 1.0 / std::pow(0.02 * kDeg, 2);
-            for (int p = 0; p < 3; ++p) m.information[p][p] = info;
+            m.relative = unit_rotation(rotation_from_vector({pair_noise(rng), pair_noise(rng), pair_noise(rng)}) *
+                                       s.truth[i] * glm::conjugate(s.truth[j]));
+            m.information = glm::dmat3(1.0 / std::pow(0.02 * kDeg, 2));
             s.pairs.push_back(m);
         }
     return s;
@@ -102,10 +98,10 @@ TEST(GlobalAdjustment, ThePoseGraphRemovesTheSensorsDriftAndKeepsItsFrame) {
     EXPECT_NEAR(r.drift_rate_rad_per_s.y * 60 / kDeg, 1.0, 0.05);
     double worst_sensor = 0, worst = 0, worst_bracket = 0;
     for (std::size_t i = 0; i < s.truth.size(); ++i) {
-        const double e = firmware::angle_between(r.orientations[i], s.truth[i]) / kDeg;
+        const double e = angle_between(r.orientations[i], s.truth[i]) / kDeg;
         worst = std::max(worst, e);
         if (s.bracket[i]) worst_bracket = std::max(worst_bracket, e);
-        if (s.t[i] > 50) worst_sensor = std::max(worst_sensor, firmware::angle_between(s.sensor[i], s.truth[i]) / kDeg);
+        if (s.t[i] > 50) worst_sensor = std::max(worst_sensor, angle_between(s.sensor[i], s.truth[i]) / kDeg);
     }
     EXPECT_GT(worst_sensor, 0.8);  // the sensor alone: the drift and the fusion noise
     EXPECT_LT(worst, 0.1);         // the gauge: the fusion noise averaged over every frame
@@ -118,7 +114,7 @@ TEST(GlobalAdjustment, WithoutPairsTheSensorStands) {
     const AdjustmentResult r = adjust_orientations(s.t, s.sensor, s.sensor, {});
     // Nothing ties frames far apart in time: the drift is not observable, so nothing moves much.
     for (std::size_t i = 0; i < s.truth.size(); ++i)
-        EXPECT_LT(firmware::angle_between(r.orientations[i], s.sensor[i]) / kDeg, 0.5);
+        EXPECT_LT(angle_between(r.orientations[i], s.sensor[i]) / kDeg, 0.5);
     EXPECT_THROW(adjust_orientations({0.0}, {}, {}, {}), InputError);
 }
 

@@ -52,17 +52,17 @@ TEST(GuidedCapture, JudgesTheExposureFromTheCodes) {
 TEST(GuidedCapture, PointsAtTheLargestUnseenPatchButNotAtTheFloor) {
     // Everything seen except a patch around azimuth 90 (east, +X) and elevation 20, and the floor.
     std::vector<std::uint32_t> s = all_covered();
-    const Vec3 patch = direction_from_angles(70 * kPi / 180, kPi / 2);
+    const glm::dvec3 patch = direction_from_angles(70 * kPi / 180, kPi / 2);
     for (int j = 0; j < kH; ++j)
         for (int i = 0; i < kW; ++i) {
-            const Vec3 d = texel_direction(i, j, kW, kH);
-            if (dot(d, patch) > std::cos(0.5) || row_theta(j, kH) > (90 + 80) * kPi / 180)
+            const glm::dvec3 d = texel_direction(i, j, kW, kH);
+            if (glm::dot(d, patch) > std::cos(0.5) || row_theta(j, kH) > (90 + 80) * kPi / 180)
                 s[std::size_t(j * kW + i)] = 0;
         }
     GuidedCapture g({}, camera());
     const GuidedStep step = g.update(grey_frame(0, 0.01), camera_look(0, 0), s, kW, kH);
-    EXPECT_GT(dot(step.next_target, patch), std::cos(15 * kPi / 180));  // the patch, not the floor
-    EXPECT_NEAR(step.turn_to_target_deg, std::acos(dot(patch, {0, 0, -1})) * 180 / kPi, 15.0);
+    EXPECT_GT(glm::dot(step.next_target, patch), std::cos(15 * kPi / 180));  // the patch, not the floor
+    EXPECT_NEAR(step.turn_to_target_deg, std::acos(glm::dot(patch, glm::dvec3(0, 0, -1))) * 180 / kPi, 15.0);
     EXPECT_EQ(step.state, GuidedState::Scanning);
     EXPECT_LT(step.progress, 1.0);
     EXPECT_GT(step.progress, 0.9);

@@ -4,6 +4,7 @@
 
 #include "appliance/capture/camera_simulator.hpp"
 #include "appliance/capture/hdr_accumulator.hpp"
+#include "appliance/capture/session_simulator.hpp"
 #include "appliance/core/equirect.hpp"
 #include "appliance/core/errors.hpp"
 
@@ -14,14 +15,14 @@ constexpr double kDeg = kPi / 180.0;
 
 // A smooth sky: brighter up, varying with azimuth; optionally a lamp (a disc of `lamp` times the
 // background around `lamp_dir`).
-HdrImage smooth_env(int w, int h, double lamp = 0, Vec3 lamp_dir = {0, 0, -1}, double lamp_radius = 0.15) {
+HdrImage smooth_env(int w, int h, double lamp = 0, glm::dvec3 lamp_dir = {0, 0, -1}, double lamp_radius = 0.15) {
     HdrImage env(w, h);
     for (int j = 0; j < h; ++j)
         for (int i = 0; i < w; ++i) {
-            const Vec3 d = texel_direction(i, j, w, h);
+            const glm::dvec3 d = texel_direction(i, j, w, h);
             const double phi = column_phi(i, w);
             double base = 0.4 + 0.3 * (d.y + 1) + 0.15 * std::sin(2 * phi);
-            if (lamp > 0 && dot(d, lamp_dir) > std::cos(lamp_radius)) base *= lamp;
+            if (lamp > 0 && glm::dot(d, lamp_dir) > std::cos(lamp_radius)) base *= lamp;
             env.set(i, j, {float(base), float(0.8 * base), float(0.6 * base + 0.05)});
         }
     return env;
@@ -35,14 +36,6 @@ CameraCalibration test_camera(const SensorModel& sensor) {
     cal.vignetting = {-0.25, 0.02, 0};
     cal.sensitivity = sensor.electrons_per_radiance_second / sensor.full_well_electrons;
     return cal;
-}
-
-Quatd look(double yaw_deg, double pitch_deg) {
-    // Yaw about world +Y (positive turns from -Z towards -X, right-handed), then pitch about the
-    // camera's X.
-    const Quatd yaw = Quatd::from_axis_angle({0, 1, 0}, yaw_deg * kDeg);
-    const Quatd pitch = Quatd::from_axis_angle({1, 0, 0}, pitch_deg * kDeg);
-    return yaw * pitch;
 }
 
 // Relative error of the captured radiance against the map, over texels sampled at least
@@ -76,8 +69,8 @@ TEST(HdrAccumulation, NoiselessRingRecoversTheSmoothSky) {
     CameraSimulator sim(env, cal, sensor);
     HdrAccumulator acc(256, 128);
     for (int k = 0; k < 18; ++k) {
-        const CameraFrame f = sim.render(look(20.0 * k, 0), k);
-        const FrameContribution c = acc.add_frame(f, cal, look(20.0 * k, 0));
+        const CameraFrame f = sim.render(camera_look(20.0 * k, 0), k);
+        const FrameContribution c = acc.add_frame(f, cal, camera_look(20.0 * k, 0));
         EXPECT_GT(c.texels_sampled, 0);
     }
     int compared = 0;
@@ -99,7 +92,7 @@ TEST(HdrAccumulation, ExposureBracketRecoversALampThatClipsInTheLongExposure) {
     HdrAccumulator acc(256, 128);
     for (double t : {2e-3, 2e-4, 2e-5, 2e-6, 5e-7}) {  // sky mid-grey at 2e-3, lamp at 1e-6
         sim.set_exposure(t, 1.0);
-        acc.add_frame(sim.render(look(0, 0), 0), cal, look(0, 0));
+        acc.add_frame(sim.render(camera_look(0, 0), 0), cal, camera_look(0, 0));
     }
     const HdrImage got = acc.radiance();
     const TexelCoord lamp = direction_to_texel({0, 0, -1}, 256, 128);
@@ -115,12 +108,12 @@ TEST(HdrAccumulation, ExposureBracketRecoversALampThatClipsInTheLongExposure) {
 }
 
 // Radiance x solid angle over the texels within `radius` of `dir`.
-double energy_in_cap(const HdrImage& map, Vec3 dir, double radius) {
+double energy_in_cap(const HdrImage& map, glm::dvec3 dir, double radius) {
     const std::vector<double> omega = row_solid_angles(map.width(), map.height());
     double e = 0;
     for (int j = 0; j < map.height(); ++j)
         for (int i = 0; i < map.width(); ++i)
-            if (dot(texel_direction(i, j, map.width(), map.height()), dir) > std::cos(radius)) {
+            if (glm::dot(texel_direction(i, j, map.width(), map.height()), dir) > std::cos(radius)) {
                 const Rgb v = map.at(i, j);
                 e += omega[std::size_t(j)] * (double(v.r) + v.g + v.b);
             }
@@ -129,7 +122,7 @@ double energy_in_cap(const HdrImage& map, Vec3 dir, double radius) {
 
 // A sun of three texels at 20000x a smooth sky, and a noiseless camera under manual exposure.
 struct SunScene {
-    static Vec3 sun_direction() {
+    static glm::dvec3 sun_direction() {
         const double norm = std::sqrt(0.3 * 0.3 + 0.1 * 0.1 + 1.0);
         return {0.3 / norm, 0.1 / norm, -1 / norm};
     }
@@ -148,7 +141,7 @@ struct SunScene {
         c.intrinsics = Intrinsics::from_fov(320, 180, 70 * kDeg);
         return c;
     }
-    Vec3 sun = sun_direction();
+    glm::dvec3 sun = sun_direction();
     HdrImage env = smooth_env(512, 256, 20000.0, sun, 0.6 * kDeg);
     CameraCalibration cal = camera();
     CameraSimulator sim{env, cal, noiseless(), manual()};
@@ -159,7 +152,8 @@ struct SunScene {
         for (double t : exposures) {
             sim.set_exposure(t, 1.0);
             const double off = t > 1e-4 ? long_offset_deg : 0.0;
-            for (double yaw : {-4.0, 0.0, 4.0}) acc.add_frame(sim.render(look(yaw, 0), 0), cal, look(yaw + off, off));
+            for (double yaw : {-4.0, 0.0, 4.0})
+                acc.add_frame(sim.render(camera_look(yaw, 0), 0), cal, camera_look(yaw + off, off));
         }
     }
     // Captured over true energy within 4 degrees of the sun.
@@ -201,7 +195,7 @@ TEST(HdrAccumulation, AClippedTexelGetsNoEstimateFromThatFrame) {
     CameraSimulator sim(env, cal, sensor, manual);
     sim.set_exposure(2e-3, 1.0);  // the sky is mid-grey, the lamp far past 255
     HdrAccumulator acc(256, 128);
-    acc.add_frame(sim.render(look(0, 0), 0), cal, look(0, 0));
+    acc.add_frame(sim.render(camera_look(0, 0), 0), cal, camera_look(0, 0));
     const TexelCoord lamp = direction_to_texel({0, 0, -1}, 256, 128);
     const std::size_t k = std::size_t(int(lamp.y)) * 256 + std::size_t(int(lamp.x));
     EXPECT_EQ(acc.samples()[k], 0u);
@@ -220,10 +214,10 @@ TEST(HdrAccumulation, NoisyAutoExposedFramesAverageDown) {
     HdrAccumulator acc(256, 128);
     double first_exposure = 0, last_exposure = 0;
     for (int k = 0; k < 36; ++k) {
-        const CameraFrame f = sim.render(look(10.0 * k, 0), k);
+        const CameraFrame f = sim.render(camera_look(10.0 * k, 0), k);
         if (k == 0) first_exposure = f.exposure_s;
         last_exposure = f.exposure_s;
-        acc.add_frame(f, cal, look(10.0 * k, 0));
+        acc.add_frame(f, cal, camera_look(10.0 * k, 0));
     }
     EXPECT_NE(first_exposure, last_exposure);  // the loop did move
     EXPECT_LT(worst_relative_error(acc, env, 4, 85, 95), 0.05);
@@ -235,8 +229,8 @@ TEST(HdrAccumulation, SimulatorIsDeterministicAndIndependentOfThreads) {
     const CameraCalibration cal = test_camera(sensor);
     CameraSimulator a(env, cal, sensor, {}, 3), b(env, cal, sensor, {}, 3);
     for (int k = 0; k < 3; ++k) {
-        const CameraFrame fa = a.render(look(15.0 * k, 10), k, 1);
-        const CameraFrame fb = b.render(look(15.0 * k, 10), k, 2);
+        const CameraFrame fa = a.render(camera_look(15.0 * k, 10), k, 1);
+        const CameraFrame fb = b.render(camera_look(15.0 * k, 10), k, 2);
         ASSERT_EQ(cv::norm(fa.rgb, fb.rgb, cv::NORM_INF), 0.0) << k;
         EXPECT_EQ(fa.exposure_s, fb.exposure_s);
     }
@@ -250,7 +244,7 @@ TEST(HdrAccumulation, RejectsAFrameOfTheWrongSize) {
     CameraFrame f;
     f.rgb = cv::Mat(10, 10, CV_8UC3, cv::Scalar(128, 128, 128));
     f.exposure_s = 0.01;
-    EXPECT_THROW(acc.add_frame(f, cal, look(0, 0)), InputError);
+    EXPECT_THROW(acc.add_frame(f, cal, camera_look(0, 0)), InputError);
 }
 
 }  // namespace
@@ -265,20 +259,19 @@ TEST(HdrAccumulation, RadianceInViewMatchesTheWholeMapThereAndLeavesTheRest) {
     for (double yaw : {0.0, 40.0, 80.0})
         for (double t : {2e-3, 2e-3 / 4096}) {
             scene.sim.set_exposure(t, 1.0);
-            acc.add_frame(scene.sim.render(look(yaw, 0), 0), scene.cal, look(yaw, 0));
+            acc.add_frame(scene.sim.render(camera_look(yaw, 0), 0), scene.cal, camera_look(yaw, 0));
         }
     const HdrImage whole = acc.radiance();
     HdrImage part(256, 128);
     for (int j = 0; j < 128; ++j)
         for (int i = 0; i < 256; ++i) part.set(i, j, {-1.0f, -1.0f, -1.0f});
-    const Quatd view = look(40, 0);
+    const glm::dquat view = camera_look(40, 0);
     acc.update_radiance_in_view(part, view, scene.cal.intrinsics, 3 * kDeg, 2);
     int inside = 0, outside = 0;
     for (int j = 0; j < 128; ++j)
         for (int i = 0; i < 256; ++i) {
-            const Vec3 d = texel_direction(i, j, 256, 128);
-            const firmware::Vec3d c = view.conj().rotate(firmware::Vec3d{d.x, d.y, d.z});
-            const bool in_frame = project(scene.cal.intrinsics, {c.x, c.y, c.z}).has_value();
+            const bool in_frame =
+                project(scene.cal.intrinsics, glm::conjugate(view) * texel_direction(i, j, 256, 128)).has_value();
             if (in_frame) {
                 ++inside;
                 EXPECT_EQ(part.at(i, j).g, whole.at(i, j).g) << i << "," << j;  // every texel the frame sees

@@ -30,9 +30,9 @@ protected:
         HdrImage env(128, 64);
         for (int j = 0; j < 64; ++j)
             for (int i = 0; i < 128; ++i) {
-                const Vec3 d = texel_direction(i, j, 128, 64);
+                const glm::dvec3 d = texel_direction(i, j, 128, 64);
                 double l = 0.3 + 0.4 * (d.y + 1) + 0.2 * std::exp(-20 * d.y * d.y);
-                if (dot(d, {0.6, 0.3, -0.74}) > 0.995) l *= 20;
+                if (glm::dot(d, glm::dvec3(0.6, 0.3, -0.74)) > 0.995) l *= 20;
                 env.set(i, j, {float(l), float(0.9 * l), float(0.7 * l)});
             }
         save_exr(dir_ / "env.exr", env);
@@ -241,8 +241,8 @@ TEST_F(SessionTest, AlignmentFromAScanComesCloserThanNoCalibration) {
     const Session s = open_session(dir_ / "session");
     const CameraCalibration truth = load_calibration(dir_ / "session" / "truth" / "calibration.json");
     const AlignmentResult r = calibrate_alignment(s);
-    const double off = firmware::angle_between(r.sensor_from_camera, truth.sensor_from_camera) * 180 / kPi;
-    const double uncalibrated = firmware::angle_between(Quatd::identity(), truth.sensor_from_camera) * 180 / kPi;
+    const double off = angle_between(r.sensor_from_camera, truth.sensor_from_camera) * 180 / kPi;
+    const double uncalibrated = angle_between(glm::dquat(1, 0, 0, 0), truth.sensor_from_camera) * 180 / kPi;
     std::printf("alignment: %d pairs, mounting off by %.3f degrees (%.3f uncalibrated), time offset %.1f ms, "
                 "median residual %.3f degrees\n",
                 r.pairs, off, uncalibrated, r.time_offset_s * 1e3, r.residual_deg);
@@ -264,7 +264,7 @@ TEST_F(SessionTest, IntrinsicsFromChArUcoViewsMatchTheTrueCamera) {
     double worst_px = 0;
     for (double v = 0; v < t.height; v += 20)
         for (double u = 0; u < t.width; u += 20) {
-            const Vec3 ray = pixel_ray(t, u, v);
+            const glm::dvec3 ray = pixel_ray(t, u, v);
             const auto p = project(k, ray, 50);
             ASSERT_TRUE(p) << u << "," << v;
             worst_px = std::max(worst_px, std::hypot(p->u - u, p->v - v));
@@ -291,7 +291,7 @@ TEST(CalibrationIo, RoundTripsAndRejectsBadValues) {
     EXPECT_EQ(back.intrinsics.width, 640);
     EXPECT_DOUBLE_EQ(back.intrinsics.k1, -0.1);
     EXPECT_DOUBLE_EQ(back.vignetting.a1, -0.2);
-    EXPECT_NEAR(firmware::angle_between(back.sensor_from_camera, c.sensor_from_camera), 0.0, 1e-9);
+    EXPECT_NEAR(angle_between(back.sensor_from_camera, c.sensor_from_camera), 0.0, 1e-9);
     EXPECT_DOUBLE_EQ(back.time_offset_s, 0.012);
     EXPECT_DOUBLE_EQ(back.response.inverse[200], c.response.inverse[200]);
     std::string text = calibration_to_json(c);

@@ -32,7 +32,7 @@ TEST_F(GpuAccumulation, AgreesWithTheCpuReference) {
     int k = 0;
     for (double pitch : {-40.0, 0.0, 40.0, 80.0})
         for (double yaw = 0; yaw < 360; yaw += 40, ++k) {
-            const Quatd q = camera_look(yaw + 7 * k, pitch, 3.0);
+            const glm::dquat q = camera_look(yaw + 7 * k, pitch, 3.0);
             const CameraFrame f = sim.render(q, k);
             cpu.add_frame(f, cal, q);
             gpu.add_frame(f, cal, q);

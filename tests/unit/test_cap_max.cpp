@@ -26,11 +26,11 @@ TEST(CapMax, QueryBoundsEveryTexelOfItsCap) {
     for (int row = 0; row < 16; ++row)
         for (int col = 0; col < 32; ++col) {
             const double theta = row_theta(row, 16), phi = column_phi(col, 32);
-            const Vec3 centre = direction_from_angles(theta, phi);
+            const glm::dvec3 centre = direction_from_angles(theta, phi);
             const double bound = cap.query(theta, phi);
             for (int j = 0; j < 32; ++j)
                 for (int i = 0; i < 64; ++i) {
-                    const Vec3 d = direction_from_angles(row_theta(j, 32), column_phi(i, 64));
+                    const glm::dvec3 d = direction_from_angles(row_theta(j, 32), column_phi(i, 64));
                     if (centre.x * d.x + centre.y * d.y + centre.z * d.z < std::cos(radius)) continue;
                     const Rgb l = img.at(i, j);
                     ASSERT_LE(std::max({l.r, l.g, l.b}), bound) << row << "," << col << " texel " << i << "," << j;

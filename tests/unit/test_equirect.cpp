@@ -17,8 +17,8 @@ TEST(Equirect, DirectionTexelRoundTripAtEveryTexelCentre) {
     for (const auto& [w, h] : kSizes) {
         for (int j = 0; j < h; ++j) {
             for (int i = 0; i < w; ++i) {
-                const Vec3 d = texel_direction(i, j, w, h);
-                ASSERT_NEAR(dot(d, d), 1.0, 1e-12);
+                const glm::dvec3 d = texel_direction(i, j, w, h);
+                ASSERT_NEAR(glm::dot(d, d), 1.0, 1e-12);
                 const TexelCoord t = direction_to_texel(d, w, h);
                 ASSERT_NEAR(t.x, i + 0.5, 1e-9) << w << "x" << h << " texel " << i << "," << j;
                 ASSERT_NEAR(t.y, j + 0.5, 1e-9) << w << "x" << h << " texel " << i << "," << j;
@@ -29,7 +29,7 @@ TEST(Equirect, DirectionTexelRoundTripAtEveryTexelCentre) {
 
 TEST(Equirect, AxesFollowTheConventions) {
     // Image centre (u = v = 0.5) looks along -Z.
-    const Vec3 centre = direction_from_angles(0.5 * kPi, kTwoPi * 0.5 - kPi);
+    const glm::dvec3 centre = direction_from_angles(0.5 * kPi, kTwoPi * 0.5 - kPi);
     EXPECT_NEAR(centre.x, 0.0, 1e-15);
     EXPECT_NEAR(centre.y, 0.0, 1e-15);
     EXPECT_NEAR(centre.z, -1.0, 1e-15);
@@ -38,7 +38,7 @@ TEST(Equirect, AxesFollowTheConventions) {
     EXPECT_NEAR(tc.y, 100.0, 1e-12);
 
     // u = 0.75 looks along +X.
-    const Vec3 right = direction_from_angles(0.5 * kPi, kTwoPi * 0.75 - kPi);
+    const glm::dvec3 right = direction_from_angles(0.5 * kPi, kTwoPi * 0.75 - kPi);
     EXPECT_NEAR(right.x, 1.0, 1e-15);
     EXPECT_NEAR(right.y, 0.0, 1e-15);
     EXPECT_NEAR(right.z, 0.0, 1e-15);
@@ -62,7 +62,8 @@ TEST(Equirect, AxesFollowTheConventions) {
 TEST(Equirect, SeamDirectionsMapIntoTheHalfOpenRange) {
     // +Z is phi = +pi (atan2(0, -1)), the same column boundary as phi = -pi: x must be 0, not W.
     for (const auto& [w, h] : kSizes) {
-        for (const Vec3& d : {Vec3{0, 0, 1}, Vec3{-0.0, 0, 1}, Vec3{0, 0.6, 0.8}, Vec3{-0.0, -0.6, 0.8}}) {
+        for (const glm::dvec3& d :
+             {glm::dvec3{0, 0, 1}, glm::dvec3{-0.0, 0, 1}, glm::dvec3{0, 0.6, 0.8}, glm::dvec3{-0.0, -0.6, 0.8}}) {
             const TexelCoord t = direction_to_texel(d, w, h);
             EXPECT_GE(t.x, 0.0) << w << "x" << h;
             EXPECT_LT(t.x, double(w)) << w << "x" << h;

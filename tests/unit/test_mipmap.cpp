@@ -169,7 +169,7 @@ TEST(MipmapConvolve, FractionalLevelsBlendTheTwoNeighbours) {
     const HdrImage out = mipmap_convolve(p, false, 24.0, 20, 10);
     for (int j = 0; j < 10; ++j)
         for (int i = 0; i < 20; ++i) {
-            const Vec3 d = texel_direction(i, j, 20, 10);
+            const glm::dvec3 d = texel_direction(i, j, 20, 10);
             const Rgb a = sample_bilinear(p.level(1), d);
             const Rgb b = sample_bilinear(p.level(2), d);
             const double er = (1 - t) * a.r + t * b.r;

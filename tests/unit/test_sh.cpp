@@ -57,7 +57,7 @@ ShCoefficients direct_projection(const HdrImage& img, int order, ShQuadrature q)
 }
 
 // sum_i kernel[l] c_i Y_i(d), one channel.
-double evaluate_at(const ShCoefficients& c, const std::vector<double>& kernel, const Vec3& d, int channel) {
+double evaluate_at(const ShCoefficients& c, const std::vector<double>& kernel, const glm::dvec3& d, int channel) {
     std::vector<double> y(std::size_t(c.order * c.order));
     sh_basis(c.order, d, y.data());
     double e = 0;
@@ -104,9 +104,9 @@ long double legendre_p(int l, long double x) {
 
 TEST(ShBasis, MatchesCartesianFormsOfLowBands) {
     const double pi = kPi;
-    const Vec3 d0{0.3, -0.5, 0.2};
-    const double r = std::sqrt(dot(d0, d0));
-    const Vec3 d{d0.x / r, d0.y / r, d0.z / r};
+    const glm::dvec3 d0{0.3, -0.5, 0.2};
+    const double r = std::sqrt(glm::dot(d0, d0));
+    const glm::dvec3 d{d0.x / r, d0.y / r, d0.z / r};
     std::vector<double> y(9);
     sh_basis(3, d0, y.data());  // not normalised on purpose
     const double c1 = std::sqrt(3 / (4 * pi));
@@ -519,7 +519,7 @@ TEST(ShReconstruct, SeparablePathMatchesBasis) {
         const ShAzimuthal a = w % 16 == 0 ? ShAzimuthal::Fft : ShAzimuthal::Direct;
         const std::vector<double> e = detail::sh_evaluate(c, ones, w, h, 2, a);
         for (auto [i, j] : {std::pair{0, 0}, std::pair{7, 3}, std::pair{w / 2, 10}, std::pair{w - 1, h - 1}}) {
-            const Vec3 d = texel_direction(i, j, w, h);
+            const glm::dvec3 d = texel_direction(i, j, w, h);
             for (int ch = 0; ch < 3; ++ch) {
                 const double want = evaluate_at(c, ones, d, ch);
                 EXPECT_NEAR(e[std::size_t((j * w + i) * 3 + ch)], want, 1e-12) << i << "," << j;
@@ -683,11 +683,11 @@ TEST(ShConvolution, BrightSpotMatchesDirectSum) {
     const double theta0 = row_theta(10, h), phi0 = column_phi(20, w);
     for (auto [dt, dp] : {std::pair{0.0, 0.0}, std::pair{0.1, 0.05}, std::pair{-0.2, 0.1}, std::pair{0.3, -0.3},
                           std::pair{0.6, 0.4}, std::pair{1.5, 2.0}}) {
-        const Vec3 r = direction_from_angles(theta0 + dt, phi0 + dp);
+        const glm::dvec3 r = direction_from_angles(theta0 + dt, phi0 + dp);
         double num[3] = {0, 0, 0}, den = 0;
         for (int j = 0; j < h; ++j)
             for (int i = 0; i < w; ++i) {
-                const double cosine = dot(r, texel_direction(i, j, w, h));
+                const double cosine = glm::dot(r, texel_direction(i, j, w, h));
                 if (cosine <= 0) continue;
                 const double f = std::pow(cosine, n) * row_solid_angle(j, w, h);
                 const Rgb l = img.at(i, j);
@@ -737,7 +737,7 @@ TEST(ShErrors, RejectsUnusableInput) {
     EXPECT_THROW(sh_evaluate(c, std::vector<double>(3, 1.0), 8, 4, 1), InputError);
     EXPECT_THROW(sh_reconstruct(c, std::vector<double>(4, 1.0), 0, 4, 1), InputError);
     std::vector<double> y(16);
-    EXPECT_THROW(sh_basis(4, Vec3{0, 0, 0}, y.data()), InputError);
+    EXPECT_THROW(sh_basis(4, glm::dvec3{0, 0, 0}, y.data()), InputError);
     const std::vector<double> wrong(7, 0.0);
     EXPECT_THROW(sh_project(wrong, 2, 2, 2, 1), InputError);
 }

@@ -44,15 +44,6 @@ double parse_number(const std::string& text, const std::string& source, std::siz
     return v;
 }
 
-// Rotation vector (axis * angle) of a unit quaternion, angle in [0, pi].
-Vec3d log_map(Quatd q) {
-    if (q.w < 0) q = {-q.w, -q.x, -q.y, -q.z};
-    const double s = norm(q.vec());
-    if (s < 1e-12) return {};
-    const double angle = 2 * std::atan2(s, q.w);
-    return (angle / s) * q.vec();
-}
-
 }  // namespace
 
 Quatd quat_from_ypr_deg(double yaw_deg, double pitch_deg, double roll_deg) {

@@ -8,6 +8,7 @@
 #include <mutex>
 #include <thread>
 
+#include "appliance/core/rotation.hpp"
 #include "firmware_bridge/firmware/sim/sensor_sim.hpp"
 #include "firmware_bridge/host/serial_source.hpp"
 #include "host_test_support.hpp"
@@ -31,7 +32,8 @@ TEST(EndToEnd, FirmwareOverAPtyToTheSerialDriverMatchesTheTruth) {
     std::mutex mutex;
     std::vector<double> errors_deg;
     source.set_sample_callback([&](const OrientationSample& s) {
-        const double e = firmware::angle_between(s.q, truth.at(s.board_us).world_from_sensor) * 180.0 / 3.14159265358979;
+        const glm::dquat t = to_glm(truth.at(s.board_us).world_from_sensor);
+        const double e = angle_between(s.world_from_sensor, t) * 180.0 / 3.14159265358979;
         const std::lock_guard lock(mutex);
         errors_deg.push_back(e);
     });

@@ -5,6 +5,7 @@
 
 #include <algorithm>
 
+#include "appliance/core/rotation.hpp"
 #include "firmware_bridge/firmware/sim/bno055_model.hpp"
 #include "firmware_bridge/firmware/sim/imu_physics.hpp"
 #include "firmware_bridge/firmware/sim/sim_i2c_bus.hpp"
@@ -45,8 +46,10 @@ struct Rig {
     double worst_error_deg(std::int64_t from_ns) const {
         double worst = 0;
         for (const OrientationSample& s : samples)
-            if (s.t_ns >= from_ns)
-                worst = std::max(worst, firmware::angle_between(s.q, truth.at(std::uint64_t(s.t_ns / 1000)).world_from_sensor));
+            if (s.t_ns >= from_ns) {
+                const glm::dquat t = to_glm(truth.at(std::uint64_t(s.t_ns / 1000)).world_from_sensor);
+                worst = std::max(worst, angle_between(s.world_from_sensor, t));
+            }
         return worst * 180.0 / 3.14159265358979;
     }
 };

@@ -5,6 +5,7 @@
 
 #include <mutex>
 
+#include "appliance/core/rotation.hpp"
 #include "firmware_bridge/host/modbus_head_sim.hpp"
 #include "firmware_bridge/host/modbus_head_source.hpp"
 #include "host_test_support.hpp"
@@ -36,9 +37,9 @@ struct Collector {
 
 TEST(ModbusHead, OrientationFollowsTheDocumentedFrame) {
     // Azimuth 90: looking east (+X); elevation 30: looking up.
-    const firmware::Vec3d east = head_orientation(90 * kDeg, 0).rotate(firmware::Vec3d{0, 0, -1});
+    const glm::dvec3 east = head_orientation(90 * kDeg, 0) * glm::dvec3(0, 0, -1);
     EXPECT_NEAR(east.x, 1.0, 1e-12);
-    const firmware::Vec3d up = head_orientation(0, 30 * kDeg).rotate(firmware::Vec3d{0, 0, -1});
+    const glm::dvec3 up = head_orientation(0, 30 * kDeg) * glm::dvec3(0, 0, -1);
     EXPECT_NEAR(up.y, 0.5, 1e-12);
     EXPECT_NEAR(up.z, -std::cos(30 * kDeg), 1e-12);
 }
@@ -53,10 +54,11 @@ TEST(ModbusHead, ReadsTheAnglesOverTcp) {
     c.attach(*src);
     src->start();
     ASSERT_TRUE(eventually([&] { return c.count() >= 10; })) << src->health().last_error;
-    EXPECT_NEAR(firmware::angle_between(c.last().q, head_orientation(123.45 * kDeg, -20.5 * kDeg)), 0.0, 0.01 * kDeg);
+    EXPECT_NEAR(angle_between(c.last().world_from_sensor, head_orientation(123.45 * kDeg, -20.5 * kDeg)), 0.0,
+                0.01 * kDeg);
     head->set_angles(-170, 45);
     ASSERT_TRUE(eventually([&] {
-        return firmware::angle_between(c.last().q, head_orientation(-170 * kDeg, 45 * kDeg)) < 0.01 * kDeg;
+        return angle_between(c.last().world_from_sensor, head_orientation(-170 * kDeg, 45 * kDeg)) < 0.01 * kDeg;
     }));
     const LinkHealth h = src->health();
     EXPECT_EQ(h.state, LinkState::Streaming);
@@ -72,7 +74,7 @@ TEST(ModbusHead, ReadsTheAnglesOverRtuOnAPty) {
     c.attach(*src);
     src->start();
     ASSERT_TRUE(eventually([&] { return c.count() >= 5; })) << src->health().last_error;
-    EXPECT_NEAR(firmware::angle_between(c.last().q, head_orientation(10 * kDeg, 5 * kDeg)), 0.0, 0.01 * kDeg);
+    EXPECT_NEAR(angle_between(c.last().world_from_sensor, head_orientation(10 * kDeg, 5 * kDeg)), 0.0, 0.01 * kDeg);
 }
 
 TEST(ModbusHead, AServerThatStopsAnsweringIsReportedAndRecovered) {
@@ -123,7 +125,7 @@ TEST(ModbusHead, RegisterValuesThatCannotBeAnOrientationAreNeverPublished) {
     head->freeze_heartbeat(false);
     const std::size_t before = c.count();
     ASSERT_TRUE(eventually([&] { return c.count() >= before + 3; }));
-    EXPECT_NEAR(firmware::angle_between(c.last().q, head_orientation(0, 0)), 0.0, 1e-9);
+    EXPECT_NEAR(angle_between(c.last().world_from_sensor, head_orientation(0, 0)), 0.0, 1e-9);
 }
 
 TEST(ModbusHead, NobodyListeningIsAClearError) {

@@ -14,7 +14,7 @@ public:
         : OrientationSource("manual:test", clock, options) {}
     void start() override { set_state(LinkState::Connecting); }
     void stop() override { set_state(LinkState::Stopped); }
-    bool feed(std::int64_t t_ns, Quatd q) { return publish({t_ns, q, 0}); }
+    bool feed(std::int64_t t_ns, glm::dquat q) { return publish({t_ns, q, 0}); }
     void disconnect() {
         set_state(LinkState::Disconnected);
         edit_health([](LinkHealth& h) { ++h.reconnects; });
@@ -30,11 +30,11 @@ TEST(OrientationSource, AppliesTheLatencyOffsetToEverySample) {
     std::vector<OrientationSample> seen;
     source.set_sample_callback([&](const OrientationSample& s) { seen.push_back(s); });
     source.start();
-    ASSERT_TRUE(source.feed(100'000'000, Quatd::identity()));
+    ASSERT_TRUE(source.feed(100'000'000, glm::dquat(1, 0, 0, 0)));
     ASSERT_EQ(seen.size(), 1u);
     EXPECT_EQ(seen[0].t_ns, 70'000'000);
-    EXPECT_TRUE(source.orientation_at(70'000'000).q);
-    EXPECT_FALSE(source.orientation_at(69'999'999).q);
+    EXPECT_TRUE(source.orientation_at(70'000'000).world_from_sensor);
+    EXPECT_FALSE(source.orientation_at(69'999'999).world_from_sensor);
 }
 
 TEST(OrientationSource, ReportsRateAgeAndAStallOncePerSilence) {
@@ -47,7 +47,7 @@ TEST(OrientationSource, ReportsRateAgeAndAStallOncePerSilence) {
     EXPECT_EQ(source.health().last_sample_age_ns, -1);
     for (int i = 0; i < 100; ++i) {  // 100 Hz for one second
         clock.advance_us(10'000);
-        ASSERT_TRUE(source.feed(static_cast<std::int64_t>(clock.now_us()) * 1000, Quatd::identity()));
+        ASSERT_TRUE(source.feed(static_cast<std::int64_t>(clock.now_us()) * 1000, glm::dquat(1, 0, 0, 0)));
     }
     LinkHealth h = source.health();
     EXPECT_EQ(h.state, LinkState::Streaming);
@@ -67,7 +67,7 @@ TEST(OrientationSource, ReportsRateAgeAndAStallOncePerSilence) {
     EXPECT_EQ(h.rate_hz, 0.0);
     EXPECT_EQ(h.stalls, 1u);
 
-    ASSERT_TRUE(source.feed(static_cast<std::int64_t>(clock.now_us()) * 1000, Quatd::identity()));
+    ASSERT_TRUE(source.feed(static_cast<std::int64_t>(clock.now_us()) * 1000, glm::dquat(1, 0, 0, 0)));
     EXPECT_EQ(source.health().state, LinkState::Streaming);
     clock.advance_us(300'000);
     EXPECT_EQ(source.health().stalls, 2u);
@@ -77,7 +77,7 @@ TEST(OrientationSource, ADisconnectIsNotCountedAsAStall) {
     recording::VirtualClock clock(0);
     ManualSource source(clock, {});
     source.start();
-    ASSERT_TRUE(source.feed(0, Quatd::identity()));
+    ASSERT_TRUE(source.feed(0, glm::dquat(1, 0, 0, 0)));
     source.disconnect();
     clock.advance_us(1'000'000);
     const LinkHealth h = source.health();
@@ -91,8 +91,8 @@ TEST(OrientationSource, CountsAnOutOfOrderSampleAsAFrameError) {
     recording::VirtualClock clock(0);
     ManualSource source(clock, {});
     source.start();
-    ASSERT_TRUE(source.feed(1000, Quatd::identity()));
-    EXPECT_FALSE(source.feed(500, Quatd::identity()));
+    ASSERT_TRUE(source.feed(1000, glm::dquat(1, 0, 0, 0)));
+    EXPECT_FALSE(source.feed(500, glm::dquat(1, 0, 0, 0)));
     const LinkHealth h = source.health();
     EXPECT_EQ(h.samples, 1u);
     EXPECT_EQ(h.frame_errors, 1u);

@@ -11,6 +11,7 @@
 #include <mutex>
 #include <random>
 
+#include "appliance/core/rotation.hpp"
 #include "firmware_bridge/host/replay_source.hpp"
 #include "firmware_bridge/host/serial_source.hpp"
 #include "host_test_support.hpp"
@@ -75,7 +76,7 @@ TEST_F(SerialSourceTest, ReadsOrientationsInTheWorldFrame) {
     const std::vector<OrientationSample> s = samples();
     for (int k = 0; k < 50; ++k) {
         EXPECT_EQ(s[std::size_t(k)].board_us, board[std::size_t(k)]);
-        EXPECT_NEAR(firmware::angle_between(s[std::size_t(k)].q, yaw(0.01 * k)), 0.0, 1e-6);
+        EXPECT_NEAR(angle_between(s[std::size_t(k)].world_from_sensor, to_glm(yaw(0.01 * k))), 0.0, 1e-6);
         if (k > 0) {
             EXPECT_GT(s[std::size_t(k)].t_ns, s[std::size_t(k - 1)].t_ns);
         }
@@ -84,7 +85,7 @@ TEST_F(SerialSourceTest, ReadsOrientationsInTheWorldFrame) {
     EXPECT_EQ(h.state, LinkState::Streaming);
     EXPECT_EQ(h.samples, 50u);
     EXPECT_EQ(h.crc_errors + h.frame_errors + h.lost_frames, 0u);
-    EXPECT_TRUE(src->orientation_at(s[10].t_ns + (s[11].t_ns - s[10].t_ns) / 2).q);
+    EXPECT_TRUE(src->orientation_at(s[10].t_ns + (s[11].t_ns - s[10].t_ns) / 2).world_from_sensor);
 }
 
 TEST_F(SerialSourceTest, GarbageFlippedBitsDroppedBytesAndLostFramesAreCountedAndSkipped) {
@@ -130,7 +131,8 @@ TEST_F(SerialSourceTest, GarbageFlippedBitsDroppedBytesAndLostFramesAreCountedAn
     EXPECT_GE(h.lost_frames, 5u);
     for (const OrientationSample& s : samples()) {
         ASSERT_TRUE(k_of_board.count(s.board_us)) << s.board_us;
-        EXPECT_NEAR(firmware::angle_between(s.q, yaw(0.001 * k_of_board[s.board_us])), 0.0, 1e-6);  // nothing silently wrong
+        // Nothing silently wrong.
+        EXPECT_NEAR(angle_between(s.world_from_sensor, to_glm(yaw(0.001 * k_of_board[s.board_us]))), 0.0, 1e-6);
     }
 }
 
@@ -165,7 +167,7 @@ TEST_F(SerialSourceTest, UnplugAndReplugReconnectsAndStreamsAgain) {
     const std::uint64_t reset_at = port_->board_now_us();
     for (int k = 0; k < 5; ++k) port_->orientation(port_->board_now_us() - reset_at, yaw(0.2), std::uint16_t(k));
     ASSERT_TRUE(eventually([&] { return count() == 10; })) << count();
-    EXPECT_NEAR(firmware::angle_between(samples().back().q, yaw(0.2)), 0.0, 1e-6);
+    EXPECT_NEAR(angle_between(samples().back().world_from_sensor, to_glm(yaw(0.2))), 0.0, 1e-6);
     EXPECT_EQ(src->health().state, LinkState::Streaming);
     EXPECT_EQ(src->health().lost_frames, 0u);  // a restart is not a loss
 }
@@ -241,10 +243,10 @@ TEST_F(SerialSourceTest, ARecordingOfTheLiveStreamReplaysToTheSameSamples) {
         EXPECT_EQ(replayed[k].t_ns, live[k].t_ns) << k;
         EXPECT_EQ(replayed[k].board_us, live[k].board_us) << k;
         // The same bytes through the same code: bit-identical quaternions.
-        EXPECT_EQ(replayed[k].q.w, live[k].q.w) << k;
-        EXPECT_EQ(replayed[k].q.x, live[k].q.x) << k;
-        EXPECT_EQ(replayed[k].q.y, live[k].q.y) << k;
-        EXPECT_EQ(replayed[k].q.z, live[k].q.z) << k;
+        EXPECT_EQ(replayed[k].world_from_sensor.w, live[k].world_from_sensor.w) << k;
+        EXPECT_EQ(replayed[k].world_from_sensor.x, live[k].world_from_sensor.x) << k;
+        EXPECT_EQ(replayed[k].world_from_sensor.y, live[k].world_from_sensor.y) << k;
+        EXPECT_EQ(replayed[k].world_from_sensor.z, live[k].world_from_sensor.z) << k;
     }
     EXPECT_EQ(replay.health().frame_errors + replay.health().crc_errors,
               src->health().frame_errors + src->health().crc_errors);
