@@ -116,7 +116,8 @@ struct FieldCodec<ConfigValue> {
 // ---- What each payload holds: one description per message, used in both directions --------
 //
 // describe(io, message) calls io(offset, field) for every field in wire order; the offsets are
-// those of PROTOCOL.md's tables and each field's C++ type picks its wire type (FieldCodec).
+// those of PROTOCOL.md's tables and each field's C++ type picks its wire type (FieldCodec), so a
+// struct field whose type changes size fails the compile-time LayoutCheck below.
 // `message` is const when encoding and mutable when decoding, hence the PayloadOf constraint.
 
 template <typename M, typename T>
@@ -211,6 +212,7 @@ constexpr void describe(Io& io, PayloadOf<ConfigSet> auto& s) {
 
 // ---- The walkers ---------------------------------------------------------------------------
 
+// Encode: each field to its offset in the payload (the caller checked the span's size).
 struct PayloadWriter {
     std::uint8_t* payload;
     template <typename T>
@@ -219,6 +221,7 @@ struct PayloadWriter {
     }
 };
 
+// Decode: each field from its offset in the payload (the caller checked the span's size).
 struct PayloadReader {
     const std::uint8_t* payload;
     template <typename T>
