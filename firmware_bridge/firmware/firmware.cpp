@@ -134,9 +134,7 @@ void Firmware::handle(const p::FrameEvent& event, std::uint64_t now_us) {
     if (event.status != p::FrameStatus::Ok) {
         ++stats_.rx_frames_bad;
         // One report per second at most: a babbling line must not flood the link back.
-        if (!rx_error_reported_ || now_us - last_rx_error_us_ >= kErrorRepeatUs) {
-            rx_error_reported_ = true;
-            last_rx_error_us_ = now_us;
+        if (rx_error_limit_.allow(now_us)) {
             if (event.status == p::FrameStatus::UnknownType) {
                 send_error(p::ErrorCode::ReceivedUnknownType, event.type, now_us);
             } else if (event.status == p::FrameStatus::BadLength) {
@@ -307,9 +305,7 @@ void Firmware::report_sensor_fault(ImuStatus status, std::uint64_t now_us) {
     ++stats_.sensor_faults;
     // First failure of an episode at once, then once a second while it lasts.
     const bool new_episode = last_imu_status_ == ImuStatus::Ok || last_imu_status_ == ImuStatus::Starting;
-    if (!new_episode && sensor_error_reported_ && now_us - last_sensor_error_us_ < kErrorRepeatUs) return;
-    sensor_error_reported_ = true;
-    last_sensor_error_us_ = now_us;
+    if (!sensor_error_limit_.allow(now_us, new_episode)) return;
     send_error(status == ImuStatus::NotResponding ? p::ErrorCode::SensorNotResponding
                                                   : p::ErrorCode::SensorReadFailed,
                imu_.last_fault_sensors(), now_us);

@@ -89,6 +89,24 @@ private:
     std::uint64_t count_ = 0;
 };
 
+// Rate limit of an ErrorReport kind: the first report at once, then at most one per
+// kErrorRepeatUs, so a lasting fault or a babbling line cannot flood the link.
+class ErrorReportLimit {
+public:
+    // True when a report may go out at `now_us` (it then counts as sent); `new_episode` lets it
+    // through regardless, for the first failure after a good spell.
+    bool allow(std::uint64_t now_us, bool new_episode = false) {
+        if (!new_episode && reported_ && now_us - last_us_ < kErrorRepeatUs) return false;
+        reported_ = true;
+        last_us_ = now_us;
+        return true;
+    }
+
+private:
+    bool reported_ = false;
+    std::uint64_t last_us_ = 0;
+};
+
 class Firmware {
 public:
     Firmware(const Hal& hal, ImuSource& imu, BoardInfo info, FirmwareSettings settings = {});
@@ -141,10 +159,8 @@ private:
     protocol::FusionMode last_sent_mode_ = protocol::FusionMode::Off;
 
     ImuStatus last_imu_status_ = ImuStatus::Starting;
-    std::uint64_t last_sensor_error_us_ = 0;
-    bool sensor_error_reported_ = false;
-    std::uint64_t last_rx_error_us_ = 0;
-    bool rx_error_reported_ = false;
+    ErrorReportLimit sensor_error_limit_;
+    ErrorReportLimit rx_error_limit_;
     std::uint32_t drops_unreported_ = 0;
 
     std::array<ButtonDebouncer, kMaxButtons> buttons_{};

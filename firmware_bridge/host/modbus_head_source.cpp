@@ -33,24 +33,30 @@ ModbusHeadSource::ModbusHeadSource(std::string name, recording::Clock& clock, So
 std::unique_ptr<ModbusHeadSource> ModbusHeadSource::tcp(std::string name, std::string host, int port,
                                                         recording::Clock& clock, SourceOptions options,
                                                         ModbusHeadOptions head) {
-    std::unique_ptr<ModbusHeadSource> s(new ModbusHeadSource(std::move(name), clock, options, head));
-    s->is_tcp_ = true;
-    s->endpoint_ = std::move(host);
-    s->port_or_baud_ = port;
-    s->ctx_ = modbus_new_tcp(s->endpoint_.c_str(), port);
-    if (!s->ctx_) throw SourceError(s->name() + ": libmodbus refused the endpoint: " + modbus_strerror(errno));
-    return s;
+    return open(true, std::move(name), std::move(host), port, clock, options, head);
 }
 
 std::unique_ptr<ModbusHeadSource> ModbusHeadSource::rtu(std::string name, std::string device, int baud,
                                                         recording::Clock& clock, SourceOptions options,
                                                         ModbusHeadOptions head) {
+    return open(false, std::move(name), std::move(device), baud, clock, options, head);
+}
+
+std::unique_ptr<ModbusHeadSource> ModbusHeadSource::open(bool is_tcp, std::string name, std::string endpoint,
+                                                         int port_or_baud, recording::Clock& clock,
+                                                         SourceOptions options, ModbusHeadOptions head) {
     std::unique_ptr<ModbusHeadSource> s(new ModbusHeadSource(std::move(name), clock, options, head));
-    s->is_tcp_ = false;
-    s->endpoint_ = std::move(device);
-    s->port_or_baud_ = baud;
-    s->ctx_ = modbus_new_rtu(s->endpoint_.c_str(), baud, 'N', 8, 1);
-    if (!s->ctx_) throw SourceError(s->name() + ": libmodbus refused the device: " + modbus_strerror(errno));
+    s->is_tcp_ = is_tcp;
+    s->endpoint_ = std::move(endpoint);
+    s->port_or_baud_ = port_or_baud;
+    // RTU framing is fixed at 8N1 (MODBUS.md).
+    s->ctx_ = is_tcp ? modbus_new_tcp(s->endpoint_.c_str(), port_or_baud)
+                     : modbus_new_rtu(s->endpoint_.c_str(), port_or_baud, 'N', 8, 1);
+    if (!s->ctx_) {
+        const int error = errno;  // before building the message can touch errno
+        throw SourceError(s->name() + ": libmodbus refused the " + (is_tcp ? "endpoint" : "device") + ": " +
+                          modbus_strerror(error));
+    }
     return s;
 }
 

@@ -69,6 +69,11 @@ public:
 
 private:
     ModbusHeadSource(std::string name, recording::Clock& clock, SourceOptions options, ModbusHeadOptions head);
+    // What tcp() and rtu() share: the source, its libmodbus context (TCP when is_tcp, else RTU on a
+    // serial device) and the error when libmodbus refuses the endpoint.
+    static std::unique_ptr<ModbusHeadSource> open(bool is_tcp, std::string name, std::string endpoint,
+                                                  int port_or_baud, recording::Clock& clock,
+                                                  SourceOptions options, ModbusHeadOptions head);
     void run();
     bool connect();
     void disconnect(const std::string& why);

@@ -132,10 +132,7 @@ void Bno055Model::refresh_outputs(std::uint64_t now_us) {
 I2cStatus Bno055Model::read_regs(std::uint8_t first_reg, std::span<std::uint8_t> out, std::uint64_t now_us) {
     if (busy(now_us)) return I2cStatus::Nack;
     refresh_outputs(now_us);
-    for (std::size_t i = 0; i < out.size(); ++i) {
-        const std::size_t reg = first_reg + i;
-        out[i] = reg < bno055::kRegisterCount ? pages_[page_][reg] : 0;
-    }
+    read_register_file(std::span(pages_[page_]).first(bno055::kRegisterCount), first_reg, out);
     return I2cStatus::Ok;
 }
 

@@ -20,15 +20,14 @@ std::int16_t saturate_i16(double v) {
 // ---- MPU-6050 ----
 
 Mpu6050Model::Mpu6050Model(ImuPhysics& physics, AxisRemap mounting)
-    : physics_(physics), mounting_(mounting) {
+    : RegisterFileModel(physics, mounting) {
     power_on_defaults();
 }
 
 void Mpu6050Model::power_on_defaults() {
-    regs_ = {};
+    clear_registers();
     regs_[mpu6050::kRegWhoAmI] = mpu6050::kWhoAmI;
     regs_[mpu6050::kRegPwrMgmt1] = 0x40;  // SLEEP after power-on (register map 4.28)
-    last_tick_ = UINT64_MAX;
 }
 
 I2cStatus Mpu6050Model::write_reg(std::uint8_t reg, std::uint8_t value, std::uint64_t now_us) {
@@ -49,8 +48,7 @@ void Mpu6050Model::refresh(std::uint64_t now_us) {
     const bool dlpf = (regs_[mpu6050::kRegConfig] & 0x07) != 0 && (regs_[mpu6050::kRegConfig] & 0x07) != 7;
     const std::uint64_t period_us = (dlpf ? 1000u : 125u) * (1u + regs_[mpu6050::kRegSmplrtDiv]);
     const std::uint64_t tick = now_us / period_us;
-    if (tick == last_tick_) return;
-    last_tick_ = tick;
+    if (!latch_tick(tick)) return;
     const SensorReadings r = physics_.read(tick * period_us);
     const double gyro_lsb_per_dps = 131.0 / static_cast<double>(1u << ((regs_[mpu6050::kRegGyroConfig] >> 3) & 3));
     const double accel_lsb_per_g = 16384.0 / static_cast<double>(1u << ((regs_[mpu6050::kRegAccelConfig] >> 3) & 3));
@@ -69,24 +67,20 @@ void Mpu6050Model::refresh(std::uint64_t now_us) {
 I2cStatus Mpu6050Model::read_regs(std::uint8_t first_reg, std::span<std::uint8_t> out, std::uint64_t now_us) {
     if (now_us < silent_until_us_) return I2cStatus::Nack;
     refresh(now_us);
-    for (std::size_t i = 0; i < out.size(); ++i) {
-        const std::size_t reg = first_reg + i;
-        out[i] = reg < regs_.size() ? regs_[reg] : 0;
-    }
+    read_registers(first_reg, out);
     return I2cStatus::Ok;
 }
 
 // ---- QMC5883L ----
 
 Qmc5883lModel::Qmc5883lModel(ImuPhysics& physics, AxisRemap mounting)
-    : physics_(physics), mounting_(mounting) {
+    : RegisterFileModel(physics, mounting) {
     power_on_defaults();
 }
 
 void Qmc5883lModel::power_on_defaults() {
-    regs_ = {};
+    clear_registers();
     regs_[qmc5883l::kRegChipId] = qmc5883l::kChipId;  // standby mode (CONTROL1 = 0)
-    last_tick_ = UINT64_MAX;
 }
 
 I2cStatus Qmc5883lModel::write_reg(std::uint8_t reg, std::uint8_t value, std::uint64_t now_us) {
@@ -97,7 +91,7 @@ I2cStatus Qmc5883lModel::write_reg(std::uint8_t reg, std::uint8_t value, std::ui
     }
     if (reg == qmc5883l::kRegControl1 && (value & 3) == 1 && (regs_[reg] & 3) != 1) {
         continuous_since_us_ = now_us;
-        last_tick_ = UINT64_MAX;
+        forget_tick();
     }
     regs_[reg] = value;
     return I2cStatus::Ok;
@@ -110,8 +104,7 @@ void Qmc5883lModel::refresh(std::uint64_t now_us) {
     const std::uint64_t period_us = kPeriodUs[(control >> 2) & 3];
     if (now_us < continuous_since_us_ + period_us) return;  // first conversion not done yet
     const std::uint64_t tick = (now_us - continuous_since_us_) / period_us;
-    if (tick == last_tick_) return;
-    last_tick_ = tick;
+    if (!latch_tick(tick)) return;
     const SensorReadings r = physics_.read(continuous_since_us_ + tick * period_us);
     const double lsb_per_ut = ((control >> 4) & 3) == 1 ? 30.0 : 120.0;  // 8 G : 2 G
     const Vec3d v = mounting_.to_chip(r.mag_ut) * lsb_per_ut;
@@ -125,13 +118,9 @@ void Qmc5883lModel::refresh(std::uint64_t now_us) {
 
 I2cStatus Qmc5883lModel::read_regs(std::uint8_t first_reg, std::span<std::uint8_t> out, std::uint64_t now_us) {
     refresh(now_us);
-    bool read_data = false;
-    for (std::size_t i = 0; i < out.size(); ++i) {
-        const std::size_t reg = first_reg + i;
-        out[i] = reg < regs_.size() ? regs_[reg] : 0;
-        read_data = read_data || reg <= 0x05;
-    }
-    // DRDY (and OVL with it) is cleared once the data registers have been read.
+    read_registers(first_reg, out);
+    // DRDY (and OVL with it) is cleared once the data registers (0x00..0x05) have been read.
+    const bool read_data = !out.empty() && first_reg <= 0x05;
     if (read_data) regs_[qmc5883l::kRegStatus] = 0;
     return I2cStatus::Ok;
 }

@@ -6,7 +6,9 @@
 #pragma once
 
 #include <array>
+#include <cstddef>
 #include <cstdint>
+#include <span>
 
 #include "firmware_bridge/firmware/raw_imu_registers.hpp"
 #include "firmware_bridge/firmware/sim/imu_physics.hpp"
@@ -14,7 +16,40 @@
 
 namespace glint::firmware::sim {
 
-class Mpu6050Model final : public I2cDevice {
+// What the MPU-6050 and QMC5883L models share: the physics they sample, how the chip sits on the
+// board, a flat register file, and which output sample is latched in it (so one is taken per
+// sample period, however often the driver reads).
+template <std::size_t kRegisterCount>
+class RegisterFileModel : public I2cDevice {
+protected:
+    RegisterFileModel(ImuPhysics& physics, AxisRemap mounting) : physics_(physics), mounting_(mounting) {}
+
+    // Power-on state before the chip's own defaults: every register 0, no sample latched.
+    void clear_registers() {
+        regs_ = {};
+        last_tick_ = UINT64_MAX;
+    }
+    // True once per sample period: `tick` (the period's number) was not latched yet, and now is.
+    bool latch_tick(std::uint64_t tick) {
+        if (tick == last_tick_) return false;
+        last_tick_ = tick;
+        return true;
+    }
+    // A new measurement run starts (e.g. continuous mode entered): the next read latches again.
+    void forget_tick() { last_tick_ = UINT64_MAX; }
+    void read_registers(std::uint8_t first_reg, std::span<std::uint8_t> out) const {
+        read_register_file(regs_, first_reg, out);
+    }
+
+    ImuPhysics& physics_;
+    AxisRemap mounting_;
+    std::array<std::uint8_t, kRegisterCount> regs_{};
+
+private:
+    std::uint64_t last_tick_ = UINT64_MAX;
+};
+
+class Mpu6050Model final : public RegisterFileModel<mpu6050::kRegisterCount> {
 public:
     Mpu6050Model(ImuPhysics& physics, AxisRemap mounting = {});
     I2cStatus write_reg(std::uint8_t reg, std::uint8_t value, std::uint64_t now_us) override;
@@ -25,14 +60,10 @@ private:
     void power_on_defaults();
     void refresh(std::uint64_t now_us);
 
-    ImuPhysics& physics_;
-    AxisRemap mounting_;
-    std::array<std::uint8_t, mpu6050::kRegisterCount> regs_{};
     std::uint64_t silent_until_us_ = 0;
-    std::uint64_t last_tick_ = UINT64_MAX;
 };
 
-class Qmc5883lModel final : public I2cDevice {
+class Qmc5883lModel final : public RegisterFileModel<qmc5883l::kRegisterCount> {
 public:
     Qmc5883lModel(ImuPhysics& physics, AxisRemap mounting = {});
     I2cStatus write_reg(std::uint8_t reg, std::uint8_t value, std::uint64_t now_us) override;
@@ -42,11 +73,7 @@ private:
     void power_on_defaults();
     void refresh(std::uint64_t now_us);
 
-    ImuPhysics& physics_;
-    AxisRemap mounting_;
-    std::array<std::uint8_t, qmc5883l::kRegisterCount> regs_{};
     std::uint64_t continuous_since_us_ = 0;
-    std::uint64_t last_tick_ = UINT64_MAX;
 };
 
 }  // namespace glint::firmware::sim

@@ -2,6 +2,7 @@
 // injection (every transfer to an address NACKed during a time window, like a loose connector).
 #pragma once
 
+#include <cstddef>
 #include <cstdint>
 #include <map>
 #include <span>
@@ -19,6 +20,16 @@ public:
     virtual I2cStatus read_regs(std::uint8_t first_reg, std::span<std::uint8_t> out,
                                 std::uint64_t now_us) = 0;
 };
+
+// A chip model's answer to a burst read with auto-increment: out[i] is register first_reg + i of
+// `registers`, and 0 past the end of the register map.
+inline void read_register_file(std::span<const std::uint8_t> registers, std::uint8_t first_reg,
+                               std::span<std::uint8_t> out) {
+    for (std::size_t i = 0; i < out.size(); ++i) {
+        const std::size_t reg = first_reg + i;
+        out[i] = reg < registers.size() ? registers[reg] : 0;
+    }
+}
 
 class SimI2cBus final : public I2cBus {
 public:
