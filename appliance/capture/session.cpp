@@ -1,6 +1,5 @@
 #include "appliance/capture/session.hpp"
 
-#include <cerrno>
 #include <cmath>
 #include <cstdlib>
 #include <fstream>
@@ -12,6 +11,7 @@
 
 #include "appliance/capture/calibration_io.hpp"
 #include "appliance/core/errors.hpp"
+#include "appliance/core/strict_number.hpp"
 
 namespace glint::capture {
 
@@ -34,24 +34,6 @@ std::vector<std::string> split_csv(const std::string& line) {
     while (std::getline(s, field, ',')) out.push_back(field);
     if (!line.empty() && line.back() == ',') out.emplace_back();
     return out;
-}
-
-double parse_double(const std::string& text, const std::string& where) {
-    char* end = nullptr;
-    errno = 0;
-    const double v = std::strtod(text.c_str(), &end);
-    if (text.empty() || end != text.c_str() + text.size() || errno == ERANGE || !std::isfinite(v))
-        throw InputError(where + ": '" + text + "' is not a finite number");
-    return v;
-}
-
-std::int64_t parse_int(const std::string& text, const std::string& where) {
-    char* end = nullptr;
-    errno = 0;
-    const long long v = std::strtoll(text.c_str(), &end, 10);
-    if (text.empty() || end != text.c_str() + text.size() || errno == ERANGE)
-        throw InputError(where + ": '" + text + "' is not a whole number");
-    return v;
 }
 
 // Lines of a CSV file after its header, which must equal `header`.
