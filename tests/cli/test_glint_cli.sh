@@ -268,10 +268,10 @@ rm -rf "$work/auto"
 # into place, and the exit code is 128 + the signal (GLINT_TEST_HOLD_STAGING_MS holds the staged
 # files long enough to signal the command then).
 for sig in TERM INT; do
-    GLINT_TEST_HOLD_STAGING_MS=5000 "$GLINT" convolve "$work/in.exr" --out "$work/sig" --irradiance \
+    GLINT_TEST_HOLD_STAGING_MS=60000 "$GLINT" convolve "$work/in.exr" --out "$work/sig" --irradiance \
         --size 16x8 --engine cpu >"$work/stdout" 2>"$work/stderr" &
     pid=$!
-    for _ in $(seq 100); do
+    for _ in $(seq 600); do
         [[ -n $(find "$work/sig" -name '.glint-staging*' -print 2>/dev/null) ]] && break
         sleep 0.05
     done
