@@ -1,4 +1,4 @@
-// `glint simulate` and `glint capture` (appliance/capture; docs/capture.md).
+// `glint simulate` and `glint capture` (appliance/capture, appliance/sim; docs/capture.md).
 #include <cmath>
 #include <cstdio>
 #include <memory>
@@ -7,18 +7,20 @@
 #include "appliance/app/commands.hpp"
 #include "appliance/capture/calibration.hpp"
 #include "appliance/capture/calibration_io.hpp"
+#include "appliance/capture/camera_factory.hpp"
 #include "appliance/capture/capture_pipeline.hpp"
 #include "appliance/capture/charuco.hpp"
 #include "appliance/capture/libcamera_source.hpp"
-#include "appliance/capture/session_simulator.hpp"
 #include "appliance/core/errors.hpp"
 #include "appliance/core/progress.hpp"
+#include "appliance/gl/gl_context.hpp"
+#include "appliance/sim/session_simulator.hpp"
 
 namespace glint::app {
 
 Command add_simulate_command(CLI::App& app) {
     struct Args {
-        capture::SimulateOptions o;
+        sim::SimulateOptions o;
         std::string env, out, size = "320x180", mount = "2,-1.5,0.5";
         bool no_camera_noise = false;
         int charuco = 0;
@@ -79,13 +81,13 @@ Command add_simulate_command(CLI::App& app) {
                 a->o.mount_pitch_deg = parse_number(m[1], "--mount");
                 a->o.mount_roll_deg = parse_number(m[2], "--mount");
                 if (a->charuco > 0) {
-                    const int n = capture::simulate_charuco_session(a->o, a->charuco);
+                    const int n = sim::simulate_charuco_session(a->o, a->charuco);
                     std::printf("session %s: %d ChArUco views\n", a->out.c_str(), n);
                     return 0;
                 }
                 if (a->env.empty()) throw InputError("--env is required (except with --charuco)");
                 std::unique_ptr<ProgressBar> bar;
-                const capture::SimulateSummary r = capture::simulate_session(a->o, [&](long long d, long long t) {
+                const sim::SimulateSummary r = sim::simulate_session(a->o, [&](long long d, long long t) {
                     if (!bar) bar = std::make_unique<ProgressBar>("simulate frames", t);
                     (void)d;
                     bar->advance(1);
@@ -267,21 +269,32 @@ Command add_capture_command(CLI::App& app) {
                     a->o.orientations = capture::OrientationInput::Truth;
                 else
                     throw InputError("--orientations must be sensors or truth");
-                if (a->engine == "gpu")
-                    a->o.engine = capture::CaptureEngine::Gpu;
-                else if (a->engine != "cpu")
-                    throw InputError("--engine must be cpu or gpu");
+                if (a->engine != "cpu" && a->engine != "gpu") throw InputError("--engine must be cpu or gpu");
                 a->o.drift_correction = !a->no_drift;
                 a->o.global_adjustment = !a->no_adjust;
+                // The session's frames come from a camera source made by the factory; the
+                // simulator's kind is registered here, where the binary's backends are chosen.
+                capture::CameraBackends backends = capture::capture_camera_backends();
+                sim::add_simulator_camera(backends);
+                host::VirtualClock clock;  // offline: frames as fast as they are read
+                const std::unique_ptr<capture::CameraSource> camera =
+                    capture::make_camera_source("replay:" + a->session, backends, clock);
+                // --engine gpu: the accumulation's context, on a surfaceless EGL display.
+                std::unique_ptr<gl::EglDisplay> display;
+                std::unique_ptr<gl::GlContext> context;
+                if (a->engine == "gpu") {
+                    display = std::make_unique<gl::EglDisplay>(gl::EglDisplay::surfaceless());
+                    context = std::make_unique<gl::GlContext>(*display);
+                }
                 std::unique_ptr<ProgressBar> bar;
-                const capture::CaptureSummary r = capture::run_capture(a->o, [&](long long d, long long t) {
+                const auto progress = [&](long long, long long t) {
                     if (!bar) bar = std::make_unique<ProgressBar>(a->o.global_adjustment && a->o.drift_correction
                                                                       ? "accumulate and adjust frames"
                                                                       : "accumulate frames",
                                                                   t);
-                    (void)d;
                     bar->advance(1);
-                });
+                };
+                const capture::CaptureSummary r = capture::run_capture(a->o, *camera, context.get(), progress);
                 if (bar) bar->finish();
                 if (a->o.drift_correction)
                     std::printf("drift correction: %d of %d frames corrected, median correction %.3f degrees, median "
