@@ -5,16 +5,21 @@
 
 #include "appliance/app/commands.hpp"
 #include "appliance/app/cli_util.hpp"
+#include "appliance/app/gpu_policy.hpp"
+#include "appliance/capture/camera_factory.hpp"
 #include "appliance/capture/capture_pipeline.hpp"
+#include "appliance/capture/gpu_accumulator.hpp"
 #include "appliance/core/errors.hpp"
 #include "appliance/core/progress.hpp"
+#include "appliance/sim/session_simulator.hpp"
 
 namespace glint::app {
 
 Command add_capture_command(CLI::App& app) {
     struct Args {
         capture::CaptureOptions o;
-        std::string session, out, size = "1024x512", orientations = "sensors", engine = "cpu";
+        std::string session, out, size = "1024x512", orientations = "sensors";
+        EngineChoice engine = EngineChoice::Auto;
         bool no_drift = false;
         bool no_adjust = false;
     };
@@ -40,9 +45,7 @@ Command add_capture_command(CLI::App& app) {
     cmd->add_option("--orientations-out", a->o.orientations_out,
                     "Write the orientations the map was made with (CSV index,t_ns,w,x,y,z, world_from_camera: the "
                     "format of a simulated session's truth/camera.csv)");
-    cmd->add_option("--engine", a->engine, "Accumulation engine: cpu or gpu")
-        ->check(CLI::IsMember({"cpu", "gpu"}))
-        ->capture_default_str();
+    add_engine_option(*cmd, a->engine, "the accumulation as a fragment shader");
     cmd->add_option("--orientations", a->orientations,
                     "sensors (the session's recorded sensor stream) or truth (a simulated session's true "
                     "orientations: isolates the accumulation's own error)")
@@ -61,18 +64,32 @@ Command add_capture_command(CLI::App& app) {
                 a->o.out = a->out;
                 a->o.orientations = a->orientations == "truth" ? capture::OrientationInput::Truth
                                                                : capture::OrientationInput::Sensors;
-                if (a->engine == "gpu") a->o.engine = capture::CaptureEngine::Gpu;
                 a->o.drift_correction = !a->no_drift;
                 a->o.global_adjustment = !a->no_adjust;
+                // The session's frames come from a camera source made by the factory; the
+                // simulator's kind is registered here, where the binary's backends are chosen.
+                capture::CameraBackends backends = capture::capture_camera_backends();
+                sim::add_simulator_camera(backends);
+                host::VirtualClock clock;  // offline: frames as fast as they are read
+                const std::unique_ptr<capture::CameraSource> camera =
+                    capture::make_camera_source("replay:" + a->session, backends, clock);
+                GpuChoice gpu(a->engine, "capture accumulation");
+                if (gpu.context()) {
+                    try {
+                        capture::check_gpu_accumulation(*gpu.context());
+                    } catch (const RuntimeError& e) {
+                        gpu.give_up(e.what());
+                    }
+                }
                 std::unique_ptr<ProgressBar> bar;
-                const capture::CaptureSummary r = capture::run_capture(a->o, [&](long long d, long long t) {
+                const auto progress = [&](long long, long long t) {
                     if (!bar) bar = std::make_unique<ProgressBar>(a->o.global_adjustment && a->o.drift_correction
                                                                       ? "accumulate and adjust frames"
                                                                       : "accumulate frames",
                                                                   t);
-                    (void)d;
                     bar->advance(1);
-                });
+                };
+                const capture::CaptureSummary r = capture::run_capture(a->o, *camera, gpu.context(), progress);
                 if (bar) bar->finish();
                 if (a->o.drift_correction)
                     std::printf("drift correction: %d of %d frames corrected, median correction %.3f degrees, median "

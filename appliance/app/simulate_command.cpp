@@ -1,21 +1,21 @@
 // `glint simulate`: a recorded capture session with ground truth, rendered from an HDR map
-// (appliance/capture; docs/capture.md).
+// (appliance/sim; docs/capture.md).
 #include <cstdio>
 #include <memory>
 
 #include "appliance/app/commands.hpp"
 #include "appliance/app/cli_util.hpp"
 #include "appliance/capture/charuco.hpp"
-#include "appliance/capture/session_simulator.hpp"
 #include "appliance/core/errors.hpp"
 #include "appliance/core/progress.hpp"
 #include "appliance/core/strict_number.hpp"
+#include "appliance/sim/session_simulator.hpp"
 
 namespace glint::app {
 
 Command add_simulate_command(CLI::App& app) {
     struct Args {
-        capture::SimulateOptions o;
+        sim::SimulateOptions o;
         std::string env, out, size = "320x180", mount = "2,-1.5,0.5";
         bool no_camera_noise = false;
         int charuco = 0;
@@ -77,13 +77,13 @@ Command add_simulate_command(CLI::App& app) {
                 a->o.mount_pitch_deg = parse_double(m[1], "--mount");
                 a->o.mount_roll_deg = parse_double(m[2], "--mount");
                 if (a->charuco > 0) {
-                    const int n = capture::simulate_charuco_session(a->o, a->charuco);
+                    const int n = sim::simulate_charuco_session(a->o, a->charuco);
                     std::printf("session %s: %d ChArUco views\n", a->out.c_str(), n);
                     return 0;
                 }
                 if (a->env.empty()) throw InputError("--env is required (except with --charuco)");
                 std::unique_ptr<ProgressBar> bar;
-                const capture::SimulateSummary r = capture::simulate_session(a->o, [&](long long d, long long t) {
+                const sim::SimulateSummary r = sim::simulate_session(a->o, [&](long long d, long long t) {
                     if (!bar) bar = std::make_unique<ProgressBar>("simulate frames", t);
                     (void)d;
                     bar->advance(1);

@@ -1,7 +1,8 @@
 // CameraSource: the one interface through which the capture pipeline (and later the kiosk) gets
 // camera frames. Backends: libcamera (the real camera), replay (a recorded session's frames on a
-// clock) and the simulator (frames rendered on demand from an HDR map along a trajectory). A
-// frame carries its appliance-monotonic timestamp, exposure time and gains (camera_frame.hpp).
+// clock) and the simulator (appliance/sim: frames rendered on demand from an HDR map along a
+// trajectory); camera_factory.hpp makes one from a spec. A frame carries its appliance-monotonic
+// timestamp, exposure time and gains (camera_frame.hpp).
 #pragma once
 
 #include <chrono>
@@ -11,6 +12,7 @@
 #include <string>
 
 #include "appliance/capture/camera_frame.hpp"
+#include "firmware_bridge/host/clock.hpp"
 
 namespace glint::capture {
 
@@ -48,5 +50,18 @@ public:
     virtual bool finished() const { return false; }
     virtual CameraHealth health() const = 0;
 };
+
+// For a source that delivers each frame when `clock` reaches the frame's due time (replay,
+// simulator): waits until `due_us` when that falls within `timeout`, else waits out the timeout
+// and returns false.
+inline bool wait_until_due(host::Clock& clock, std::uint64_t due_us, std::chrono::milliseconds timeout) {
+    const std::uint64_t deadline = clock.now_us() + std::uint64_t(timeout.count()) * 1000;
+    if (due_us > deadline) {
+        clock.sleep_until_us(deadline);
+        return false;
+    }
+    clock.sleep_until_us(due_us);
+    return true;
+}
 
 }  // namespace glint::capture

@@ -62,6 +62,23 @@ SensorTrack replay_sensors(const Session& s) {
     return t;
 }
 
+// Every frame of `camera` from start() until it is finished, in order, with its place in the
+// stream. A frame the source could not deliver (a damaged file) is an input error: an offline
+// capture is made of all of them.
+void for_each_frame(CameraSource& camera, const std::function<void(std::size_t, const CameraFrame&)>& use) {
+    camera.start();
+    std::size_t n = 0;
+    while (!camera.finished()) {
+        const std::uint64_t dropped = camera.health().dropped;
+        const std::optional<CameraFrame> f = camera.next_frame(std::chrono::seconds(1));
+        if (f)
+            use(n++, *f);
+        else if (camera.health().dropped != dropped)
+            throw InputError(camera.health().last_error);
+    }
+    camera.stop();
+}
+
 GroundTruthError compare_with_truth(const HdrImage& got, const std::vector<std::uint32_t>& samples, int min_samples,
                                     const HdrImage& truth_full) {
     const HdrImage truth = resample_bilinear(truth_full, got.width(), got.height());
@@ -94,7 +111,8 @@ GroundTruthError compare_with_truth(const HdrImage& got, const std::vector<std::
 
 }  // namespace
 
-CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(long long, long long)>& progress) {
+CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const gl::GlContext* gpu,
+                           const std::function<void(long long, long long)>& progress) {
     if (o.width < 8 || o.height < 4 || o.width > 16384 || o.height > 8192)
         throw InputError("--size must be between 8x4 and 16384x8192");
     if (o.min_samples < 1) throw InputError("--min-samples must be at least 1");
@@ -112,13 +130,13 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
     const CameraCalibration& cal = session.calibration;
     // The camera's orientation at a frame: the sensor's at the frame's time (shifted by the
     // calibrated offset), then the mounting.
-    const auto orientation_of = [&](const FrameRecord& r) -> std::optional<glm::dquat> {
+    const auto orientation_of = [&](const CameraFrame& f) -> std::optional<glm::dquat> {
         if (o.orientations == OrientationInput::Truth) {
-            const auto q = truth.find(r.index);
+            const auto q = truth.find(f.sequence);
             if (q == truth.end()) return std::nullopt;
             return q->second;
         }
-        const std::int64_t t = r.t_ns + std::int64_t(std::llround(cal.time_offset_s * 1e9));
+        const std::int64_t t = f.t_ns + std::int64_t(std::llround(cal.time_offset_s * 1e9));
         const host::HistoryAnswer a = sensors.history->at(t);
         if (!a.world_from_sensor) return std::nullopt;
         return unit_rotation(*a.world_from_sensor * cal.sensor_from_camera);
@@ -126,14 +144,8 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
     std::map<std::uint64_t, glm::dquat> true_poses;
     if (session.has_truth)
         for (const TruthPose& p : load_truth_poses(session)) true_poses[p.index] = p.world_from_camera;
-    // One face for both engines: the CPU reference, or the GPU path on a surfaceless EGL context
-    // (one context for every accumulation of the run).
-    std::unique_ptr<gl::EglDisplay> display;
-    std::unique_ptr<gl::GlContext> context;
-    if (o.engine == CaptureEngine::Gpu) {
-        display = std::make_unique<gl::EglDisplay>(gl::EglDisplay::surfaceless());
-        context = std::make_unique<gl::GlContext>(*display);
-    }
+    // One face for both engines: the CPU reference, or the GPU path on the caller's context (one
+    // context for every accumulation of the run).
     struct Engine {
         std::unique_ptr<HdrAccumulator> cpu;
         std::unique_ptr<GpuAccumulator> gpu;
@@ -150,7 +162,7 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
     const auto make_engine = [&] {
         auto e = std::make_unique<Engine>();
         e->threads = threads;
-        if (context) e->gpu = std::make_unique<GpuAccumulator>(*context, o.width, o.height);
+        if (gpu) e->gpu = std::make_unique<GpuAccumulator>(*gpu, o.width, o.height);
         else e->cpu = std::make_unique<HdrAccumulator>(o.width, o.height);
         return e;
     };
@@ -158,7 +170,9 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
     Engine& acc = *live;
     // What the global adjustment needs of each accumulated frame.
     struct UsedFrame {
-        const FrameRecord* record;
+        std::size_t place;       // in the camera's stream
+        std::uint64_t sequence;  // the frame's index in the session
+        std::int64_t t_ns;
         glm::dquat sensor, live;
     };
     std::vector<UsedFrame> used;
@@ -180,12 +194,13 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
         "sensor_error_x_deg,sensor_error_y_deg,sensor_error_z_deg\n";
     std::vector<double> drift_angles, drift_before, drift_after;
     double min_exposure = 1e30, max_exposure = 0;
-    for (const FrameRecord& r : session.frames) {
-        std::optional<glm::dquat> q = orientation_of(r);
+    std::optional<std::int64_t> first_t_ns;
+    for_each_frame(camera, [&](std::size_t place, const CameraFrame& f) {
+        if (!first_t_ns) first_t_ns = f.t_ns;
+        std::optional<glm::dquat> q = orientation_of(f);
         if (!q) {
             ++summary.frames_without_orientation;
         } else {
-            const CameraFrame f = load_frame(session, r);
             const glm::dquat sensor_q = *q;
             const auto t_drift = std::chrono::steady_clock::now();
             if (o.drift_correction && acc.frames() > 0) {
@@ -198,7 +213,7 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
                     live_sphere = acc.radiance();
                 const DriftEstimate e = drift.estimate(f, cal, *q, live_sphere, acc.samples());
                 const glm::dquat corrected = unit_rotation((e.applied ? e.correction : drift.carried()) * *q);
-                const auto t = true_poses.find(r.index);
+                const auto t = true_poses.find(f.sequence);
                 const auto err = [&](const glm::dquat& x) {
                     return t == true_poses.end() ? std::nan("") : angle_between(x, t->second) * 180.0 / kPi;
                 };
@@ -207,10 +222,9 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
                 if (t != true_poses.end()) ev = (180 / kPi) * rotation_vector(t->second * glm::conjugate(*q));
                 char line[320];
                 std::snprintf(line, sizeof line, "%llu,%.3f,%d,%.4f,%.5f,%.5f,%.5f,%d,%.4f,%.4f,%.4f,%.4f,%.4f\n",
-                              static_cast<unsigned long long>(r.index),
-                              double(r.t_ns - session.frames.front().t_ns) * 1e-9, e.pixels, e.angle_deg, e.sigma_deg,
-                              e.residual_before, e.residual_after, e.applied ? 1 : 0, err(*q), err(corrected), ev.x, ev.y,
-                              ev.z);
+                              static_cast<unsigned long long>(f.sequence), double(f.t_ns - *first_t_ns) * 1e-9,
+                              e.pixels, e.angle_deg, e.sigma_deg, e.residual_before, e.residual_after,
+                              e.applied ? 1 : 0, err(*q), err(corrected), ev.x, ev.y, ev.z);
                 drift_log += line;
                 ++summary.drift_considered;
                 if (e.applied) {
@@ -225,7 +239,7 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
             const auto t_acc = std::chrono::steady_clock::now();
             summary.drift_seconds += std::chrono::duration<double>(t_acc - t_drift).count();
             acc.add_frame(f, cal, *q);
-            used.push_back({&r, sensor_q, *q});
+            used.push_back({place, f.sequence, f.t_ns, sensor_q, *q});
             if (acc.gpu) glFinish();  // the draw's time, not just its submission
             summary.accumulate_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t_acc).count();
             const double et = f.exposure_s * f.total_gain();
@@ -241,7 +255,7 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
                 summary.guided_complete_after_s = g.elapsed_s;
         }
         if (progress) progress(++done, total);
-    }
+    });
     if (max_exposure > 0) summary.exposure_stops = std::log2(max_exposure / min_exposure);
     const auto median = [](std::vector<double> v) {
         if (v.empty()) return 0.0;
@@ -255,7 +269,7 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
 
     std::vector<glm::dquat> final_q;
     for (const UsedFrame& u : used) final_q.push_back(u.live);
-    const std::int64_t t_first = session.frames.front().t_ns;
+    const std::int64_t t_first = first_t_ns.value_or(0);
     std::unique_ptr<Engine> adjusted;  // the map made again from the adjusted orientations
     if (adjust) {
         // Global adjustment (global_adjustment.hpp): pairs of overlapping frames aligned to each
@@ -264,12 +278,15 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
         std::vector<AlignmentView> views(used.size());
         std::vector<double> t_s;
         std::vector<glm::dquat> sensor_q;
-        for (std::size_t i = 0; i < used.size(); ++i) {
-            views[i] = make_alignment_view(load_frame(session, *used[i].record), cal);
-            t_s.push_back(double(used[i].record->t_ns - t_first) * 1e-9);
-            sensor_q.push_back(used[i].sensor);
+        std::size_t next = 0;
+        for_each_frame(camera, [&](std::size_t place, const CameraFrame& f) {
+            if (next == used.size() || used[next].place != place) return;
+            views[next] = make_alignment_view(f, cal);
+            t_s.push_back(double(used[next].t_ns - t_first) * 1e-9);
+            sensor_q.push_back(used[next].sensor);
+            ++next;
             if (progress) progress(++done, total);
-        }
+        });
         const ScanAdjustment sa = adjust_scan(views, t_s, sensor_q, final_q, o.adjustment_rounds, threads, [&] {
             for (std::size_t i = 0; i < used.size(); ++i)
                 if (progress) progress(++done, total);
@@ -282,10 +299,12 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
         summary.adjust_drift_deg_per_min = glm::length(sa.result.drift_rate_rad_per_s) * 180.0 / kPi * 60.0;
         summary.adjust_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_adjust).count();
         adjusted = make_engine();
-        for (std::size_t i = 0; i < used.size(); ++i) {
-            adjusted->add_frame(load_frame(session, *used[i].record), cal, final_q[i]);
+        next = 0;
+        for_each_frame(camera, [&](std::size_t place, const CameraFrame& f) {
+            if (next == used.size() || used[next].place != place) return;
+            adjusted->add_frame(f, cal, final_q[next++]);
             if (progress) progress(++done, total);
-        }
+        });
     }
     // Orientation errors against a simulated session's truth: of the map's orientations, and of
     // the live pass (what the kiosk had while scanning).
@@ -293,10 +312,10 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
                             std::optional<double>& after_60s) {
         std::vector<double> e;
         for (std::size_t i = 0; i < used.size(); ++i) {
-            const auto t = true_poses.find(used[i].record->index);
+            const auto t = true_poses.find(used[i].sequence);
             if (t == true_poses.end()) continue;
             e.push_back(angle_between(qs[i], t->second) * 180.0 / kPi);
-            if (used[i].record->t_ns - t_first >= 60'000'000'000LL) after_60s = std::max(after_60s.value_or(0.0), e.back());
+            if (used[i].t_ns - t_first >= 60'000'000'000LL) after_60s = std::max(after_60s.value_or(0.0), e.back());
         }
         if (e.empty()) return;
         std::sort(e.begin(), e.end());
@@ -326,7 +345,7 @@ CaptureSummary run_capture(const CaptureOptions& o, const std::function<void(lon
     if (!o.orientations_out.empty()) {
         std::string csv = camera_poses_csv_header() + "\n";
         for (std::size_t i = 0; i < used.size(); ++i)
-            csv += camera_poses_csv_line({used[i].record->index, used[i].record->t_ns, final_q[i]}) + "\n";
+            csv += camera_poses_csv_line({used[i].sequence, used[i].t_ns, final_q[i]}) + "\n";
         write_text_atomically(o.orientations_out, csv);
     }
     return summary;

@@ -1,8 +1,8 @@
 // `glint capture`: a recorded or simulated session -> HDR environment map + coverage map, offline.
-// Frames are taken in order; each frame's orientation is the sensor's orientation at the frame's
-// time (plus the calibrated time offset), rotated by the calibrated alignment; the frame is
-// accumulated on the sphere (hdr_accumulator.hpp); at the end the unseen parts are filled by the
-// coverage rule (coverage.hpp) and both maps are saved atomically.
+// Frames are taken in order from a camera source; each frame's orientation is the sensor's
+// orientation at the frame's time (plus the calibrated time offset), rotated by the calibrated
+// alignment; the frame is accumulated on the sphere (hdr_accumulator.hpp); at the end the unseen
+// parts are filled by the coverage rule (coverage.hpp) and both maps are saved atomically.
 #pragma once
 
 #include <filesystem>
@@ -10,7 +10,12 @@
 #include <optional>
 #include <string>
 
+#include "appliance/capture/camera_source.hpp"
 #include "appliance/capture/coverage.hpp"
+
+namespace glint::gl {
+class GlContext;
+}  // namespace glint::gl
 
 namespace glint::capture {
 
@@ -19,10 +24,9 @@ enum class OrientationInput {
     Truth,    // a simulated session's true camera orientations (isolates the accumulation's error)
 };
 
-enum class CaptureEngine { Cpu, Gpu };
-
 struct CaptureOptions {
-    CaptureEngine engine = CaptureEngine::Cpu;  // gpu: gpu_accumulator.hpp on a surfaceless EGL context
+    // The session's calibration, sensor recording and (simulated sessions) truth; its frames come
+    // from the camera source given to run_capture.
     std::filesystem::path session;
     std::filesystem::path out;  // env.exr; the coverage map goes to <stem>.coverage.exr beside it
     int width = 1024, height = 512;
@@ -85,7 +89,12 @@ struct CaptureSummary {
 
 std::filesystem::path coverage_path_for(const std::filesystem::path& env_out);
 
-CaptureSummary run_capture(const CaptureOptions& options,
+// camera: the session's frames. It is read from start() until finished() once, and twice more
+// with the global adjustment (alignment views, then the final map), so it must give the same
+// frames again after start(): a replay of the session (camera_factory.hpp) or the simulator.
+// gpu: accumulate with gpu_accumulator.hpp on this context (current on the calling thread, made
+// by the caller); null: on the CPU.
+CaptureSummary run_capture(const CaptureOptions& options, CameraSource& camera, const gl::GlContext* gpu = nullptr,
                            const std::function<void(long long, long long)>& progress = {});
 
 }  // namespace glint::capture

@@ -8,10 +8,7 @@
 
 namespace glint::capture {
 
-namespace {
-// The accumulation needs float render targets and float blending; checked before any target is
-// made, so the error names the missing extension.
-void check_capabilities(const gl::GlContext& c) {
+void check_gpu_accumulation(const gl::GlContext& c) {
     if (!c.caps().float_color_buffer)
         throw RuntimeError("GPU accumulation: this GL context cannot render to float targets "
                            "(GL_EXT_color_buffer_float); use --engine cpu");
@@ -19,7 +16,6 @@ void check_capabilities(const gl::GlContext& c) {
         throw RuntimeError("GPU accumulation: this GL context cannot blend float targets (GL_EXT_float_blend); "
                            "use --engine cpu");
 }
-}  // namespace
 
 GpuAccumulator::GpuAccumulator(const gl::GlContext& context, int width, int height, AccumulationSettings settings)
     : width_(width),
@@ -27,7 +23,7 @@ GpuAccumulator::GpuAccumulator(const gl::GlContext& context, int width, int heig
       settings_(settings),
       program_("fullscreen.vert", "capture_accumulate.frag"),
       vao_(gl::GlVertexArray::create()) {
-    check_capabilities(context);
+    check_gpu_accumulation(context);
 }
 
 GpuAccumulator::Band& GpuAccumulator::band_for(double t) {

@@ -18,6 +18,10 @@
 
 namespace glint::capture {
 
+// The accumulation needs float render targets and float blending: throws RuntimeError naming the
+// missing extension. The constructor checks it first; a command calls it to choose its engine.
+void check_gpu_accumulation(const gl::GlContext& context);
+
 class GpuAccumulator {
 public:
     // The context must be current on the calling thread for every call.

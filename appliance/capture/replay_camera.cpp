@@ -4,7 +4,7 @@
 
 namespace glint::capture {
 
-ReplayCamera::ReplayCamera(Session session, recording::Clock& clock) : session_(std::move(session)), clock_(clock) {}
+ReplayCamera::ReplayCamera(Session session, host::Clock& clock) : session_(std::move(session)), clock_(clock) {}
 
 std::string ReplayCamera::describe() const {
     const Intrinsics& k = session_.calibration.intrinsics;
@@ -22,14 +22,10 @@ std::optional<CameraFrame> ReplayCamera::next_frame(std::chrono::milliseconds ti
     if (!running_ || finished()) return std::nullopt;
     const FrameRecord& r = session_.frames[next_];
     const std::int64_t since_first_ns = r.t_ns - session_.frames.front().t_ns;
-    const std::uint64_t due = start_us_ + std::uint64_t(since_first_ns / 1000);
-    const std::uint64_t deadline = clock_.now_us() + std::uint64_t(timeout.count()) * 1000;
-    if (due > deadline) {
-        clock_.sleep_until_us(deadline);
+    if (!wait_until_due(clock_, start_us_ + std::uint64_t(since_first_ns / 1000), timeout)) {
         ++health_.timeouts;
         return std::nullopt;
     }
-    clock_.sleep_until_us(due);
     try {
         CameraFrame f = load_frame(session_, r);
         ++next_;

@@ -1,15 +1,14 @@
 // Replay of a recorded session's frames as a camera: each frame is delivered when the clock
-// reaches its recorded time (relative to the first frame), so a SteadyClock plays at recorded
-// speed and a VirtualClock as fast as the reader takes them, deterministically, on the same
-// virtual timeline as the session's sensor recording (firmware_bridge/recording). Exposure
-// requests are recorded facts of the session and cannot be changed: set_exposure is ignored.
+// (host/clock.hpp) reaches its recorded time (relative to the first frame), so a SteadyClock
+// plays at recorded speed and a VirtualClock as fast as the reader takes them, deterministically,
+// on the same virtual timeline as the session's sensor recording. Exposure requests are recorded
+// facts of the session and cannot be changed: set_exposure is ignored.
 #pragma once
 
 #include <memory>
 
 #include "appliance/capture/camera_source.hpp"
 #include "appliance/capture/session.hpp"
-#include "firmware_bridge/recording/clock.hpp"
 
 namespace glint::capture {
 
@@ -17,7 +16,7 @@ class ReplayCamera final : public CameraSource {
 public:
     // `clock` paces the frames (microseconds); a frame recorded at t_ns is due at
     // start + (t_ns - first t_ns). Frame times keep their recorded values.
-    ReplayCamera(Session session, recording::Clock& clock);
+    ReplayCamera(Session session, host::Clock& clock);
     std::string describe() const override;
     void start() override;
     void stop() override { running_ = false; }
@@ -28,7 +27,7 @@ public:
 
 private:
     Session session_;
-    recording::Clock& clock_;
+    host::Clock& clock_;
     std::uint64_t start_us_ = 0;
     std::size_t next_ = 0;
     bool running_ = false;

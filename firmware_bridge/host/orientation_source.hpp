@@ -22,7 +22,7 @@
 #include <string>
 
 #include "firmware_bridge/host/orientation_history.hpp"
-#include "firmware_bridge/recording/clock.hpp"
+#include "firmware_bridge/host/clock.hpp"
 
 namespace glint::host {
 

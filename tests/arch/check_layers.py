@@ -59,7 +59,9 @@ RULES = {
     "firmware_bridge/protocol":     [],
     # The portable board firmware: no OS, so nothing host-side.
     "firmware_bridge/firmware":     ["firmware_bridge/protocol"],
-    "firmware_bridge/recording":    ["firmware_bridge/protocol"],
+    # The synthetic-session generator (glint-recording generate) rotates with the firmware's
+    # freestanding maths (firmware/rotation.hpp, header only) rather than a copy of its own.
+    "firmware_bridge/recording":    ["firmware_bridge/protocol", "firmware_bridge/firmware (public headers)"],
     # The appliance-side drivers reuse the firmware's maths, HAL interfaces and BNO055 driver,
     # and record what they receive.
     "firmware_bridge/host":         ["firmware_bridge/protocol", "firmware_bridge/firmware",

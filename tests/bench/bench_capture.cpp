@@ -15,12 +15,14 @@
 #include "appliance/capture/calibration_io.hpp"
 #include "appliance/capture/capture_pipeline.hpp"
 #include "appliance/capture/charuco.hpp"
+#include "appliance/capture/replay_camera.hpp"
 #include "appliance/capture/session.hpp"
-#include "appliance/capture/session_simulator.hpp"
 #include "appliance/convolution/convolution.hpp"
 #include "appliance/core/equirect.hpp"
 #include "appliance/core/error_metrics.hpp"
 #include "appliance/core/exr_io.hpp"
+#include "appliance/gl/gl_context.hpp"
+#include "appliance/sim/session_simulator.hpp"
 #include "tests/bench/bench_util.hpp"
 
 namespace fs = std::filesystem;
@@ -28,6 +30,11 @@ using namespace glint;
 using namespace glint::capture;
 
 namespace {
+
+using sim::simulate_charuco_session;
+using sim::simulate_session;
+using sim::SimulateOptions;
+using sim::SimulateSummary;
 
 const std::string kWorlds = "/usr/share/blender/datafiles/studiolights/world";
 
@@ -81,6 +88,8 @@ int main(int argc, char** argv) {
     fs::remove_all(work);
     fs::create_directories(work);
     std::vector<Row> rows;
+    const gl::EglDisplay display = gl::EglDisplay::surfaceless();
+    const gl::GlContext gpu(display);
     for (const char* name : {"courtyard", "studio", "sunset"}) {
         std::fprintf(stderr, "bench: %s\n", name);
         SimulateOptions so;
@@ -99,18 +108,19 @@ int main(int argc, char** argv) {
         CaptureOptions co;
         co.session = so.out;
         co.threads = 2;
+        host::VirtualClock clock;
+        ReplayCamera camera(open_session(so.out), clock);
         co.out = work / (std::string(name) + "-on.exr");
-        r.on = run_capture(co);
+        r.on = run_capture(co, camera);
         co.out = work / (std::string(name) + "-ref.exr");
         co.global_adjustment = false;
-        r.refined = run_capture(co);
+        r.refined = run_capture(co, camera);
         co.global_adjustment = true;
         co.out = work / (std::string(name) + "-off.exr");
         co.drift_correction = false;
-        r.off = run_capture(co);
+        r.off = run_capture(co, camera);
         co.out = work / (std::string(name) + "-gpu.exr");
-        co.engine = CaptureEngine::Gpu;
-        r.gpu = run_capture(co);
+        r.gpu = run_capture(co, camera, &gpu);
         const HdrImage truth = load_exr(so.env).image;
         const std::vector<HdrImage> want = downstream(truth);
         struct Variant {

@@ -4,13 +4,19 @@
 #include <fstream>
 #include <unistd.h>
 
+#include "appliance/capture/camera_factory.hpp"
 #include "appliance/capture/libcamera_source.hpp"
 #include "appliance/capture/replay_camera.hpp"
-#include "appliance/capture/session_simulator.hpp"
+#include "appliance/core/errors.hpp"
 #include "appliance/core/exr_io.hpp"
+#include "appliance/sim/camera_simulator.hpp"
+#include "appliance/sim/session_simulator.hpp"
 
 namespace glint::capture {
 namespace {
+
+using sim::simulate_session;
+using sim::SimulateOptions;
 
 namespace fs = std::filesystem;
 
@@ -60,7 +66,7 @@ protected:
 TEST_F(ReplayCameraTest, DeliversEveryFrameAtItsRecordedTimeOnTheVirtualClock) {
     const Session s = open_session(dir_ / "session");
     ASSERT_EQ(s.frames.size(), 5u);  // 0, 0.5, ..., 2 s
-    recording::VirtualClock clock(1'000'000);
+    host::VirtualClock clock(1'000'000);
     ReplayCamera cam(s, clock);
     cam.start();
     for (std::size_t k = 0; k < s.frames.size(); ++k) {
@@ -80,7 +86,7 @@ TEST_F(ReplayCameraTest, DeliversEveryFrameAtItsRecordedTimeOnTheVirtualClock) {
 TEST_F(ReplayCameraTest, WaitsNoLongerThanTheTimeoutAndSkipsADamagedFrame) {
     const Session s = open_session(dir_ / "session");
     std::ofstream(dir_ / "session" / s.frames[1].file) << "not a png";
-    recording::VirtualClock clock(0);
+    host::VirtualClock clock(0);
     ReplayCamera cam(s, clock);
     cam.start();
     ASSERT_TRUE(cam.next_frame(std::chrono::milliseconds(10)));
@@ -93,6 +99,86 @@ TEST_F(ReplayCameraTest, WaitsNoLongerThanTheTimeoutAndSkipsADamagedFrame) {
     const auto f2 = cam.next_frame(std::chrono::milliseconds(1000));
     ASSERT_TRUE(f2);
     EXPECT_EQ(f2->sequence, 2u);
+}
+
+// Every kind the app registers: capture's own two and the simulator's.
+CameraBackends all_backends() {
+    CameraBackends b = capture_camera_backends();
+    sim::add_simulator_camera(b);
+    return b;
+}
+
+TEST_F(ReplayCameraTest, TheFactoryPicksEachBackendByName) {
+    const CameraBackends backends = all_backends();
+    host::VirtualClock clock;
+    const auto libcamera = make_camera_source("libcamera:/base/no/such/camera@0", backends, clock);
+    EXPECT_NE(dynamic_cast<LibcameraSource*>(libcamera.get()), nullptr) << libcamera->describe();
+    const auto replay = make_camera_source("replay:" + (dir_ / "session").string(), backends, clock);
+    EXPECT_NE(dynamic_cast<ReplayCamera*>(replay.get()), nullptr) << replay->describe();
+    const auto simulator = make_camera_source("simulator:" + (dir_ / "env.exr").string(), backends, clock);
+    EXPECT_NE(dynamic_cast<sim::CameraSimulator*>(simulator.get()), nullptr) << simulator->describe();
+    // What the kind's argument names must exist.
+    EXPECT_THROW(make_camera_source("replay:" + (dir_ / "none").string(), backends, clock), InputError);
+}
+
+TEST(CameraFactory, ABadSpecIsAnErrorNamingItAndWhatIsAccepted) {
+    const CameraBackends backends = all_backends();
+    host::VirtualClock clock;
+    for (const std::string spec : {"webcam:0", "", "replay", "simulator:"}) {
+        try {
+            make_camera_source(spec, backends, clock);
+            FAIL() << "made a camera of '" << spec << "'";
+        } catch (const InputError& e) {
+            const std::string what = e.what();
+            EXPECT_NE(what.find("camera '" + spec + "'"), std::string::npos) << what;
+            if (spec == "webcam:0") {
+                for (const char* accepted : {"libcamera[:ID]", "replay:DIR", "simulator:ENV.exr"})
+                    EXPECT_NE(what.find(accepted), std::string::npos) << what;
+            }
+        }
+    }
+}
+
+TEST_F(ReplayCameraTest, TheSimulatorDeliversItsFramesAtTheirTimesThroughTheInterface) {
+    CameraCalibration cal;
+    cal.intrinsics = Intrinsics::from_fov(32, 18, 70 * kPi / 180);
+    sim::CameraRun run;
+    run.world_from_camera = [](double t_s) { return sim::camera_look(10 * t_s, 5); };
+    run.fps = 4;
+    run.frames = 5;
+    host::VirtualClock clock(1'000'000);
+    sim::CameraSimulator simulator(load_exr(dir_ / "env.exr").image, cal, run, clock);
+    CameraSource& cam = simulator;
+    EXPECT_NE(cam.describe().find("simulator"), std::string::npos) << cam.describe();
+    cam.start();
+    std::vector<cv::Mat> first_run;
+    for (int k = 0; k < 5; ++k) {
+        const auto f = cam.next_frame(std::chrono::milliseconds(1000));
+        ASSERT_TRUE(f) << k;
+        // Due k / fps after start(), stamped with the clock's time then.
+        const std::uint64_t due_us = 1'000'000 + std::uint64_t(k) * 250'000;
+        EXPECT_EQ(f->t_ns, std::int64_t(due_us) * 1000) << k;
+        EXPECT_EQ(clock.now_us(), due_us) << k;
+        EXPECT_EQ(f->sequence, std::uint64_t(k));
+        EXPECT_EQ(f->rgb.cols, 32);
+        EXPECT_EQ(f->rgb.rows, 18);
+        EXPECT_GT(f->exposure_s, 0);
+        first_run.push_back(f->rgb.clone());
+    }
+    EXPECT_TRUE(cam.finished());
+    EXPECT_FALSE(cam.next_frame(std::chrono::milliseconds(10)));
+    EXPECT_EQ(cam.health().frames, 5u);
+    // Started again, it runs again from the same state: the same frames, paced the same way.
+    cam.start();
+    for (int k = 0; k < 5; ++k) {
+        if (k > 0) {
+            EXPECT_FALSE(cam.next_frame(std::chrono::milliseconds(100))) << "frame " << k << " is 250 ms away";
+        }
+        const auto f = cam.next_frame(std::chrono::milliseconds(1000));
+        ASSERT_TRUE(f) << k;
+        EXPECT_EQ(cv::norm(f->rgb, first_run[std::size_t(k)], cv::NORM_INF), 0.0) << k;
+    }
+    EXPECT_EQ(cam.health().timeouts, 4u);
 }
 
 }  // namespace

@@ -3,14 +3,18 @@
 #include <cmath>
 #include <random>
 
-#include "appliance/capture/camera_simulator.hpp"
 #include "appliance/capture/global_adjustment.hpp"
-#include "appliance/capture/session_simulator.hpp"
 #include "appliance/core/errors.hpp"
 #include "appliance/core/exr_io.hpp"
+#include "appliance/sim/camera_simulator.hpp"
+#include "appliance/sim/session_simulator.hpp"
 
 namespace glint::capture {
 namespace {
+
+using sim::camera_look;
+using sim::CameraSimulator;
+using sim::SensorModel;
 
 constexpr double kDeg = kPi / 180.0;
 

@@ -3,10 +3,12 @@
 #include <cmath>
 
 #include "appliance/capture/guided_capture.hpp"
-#include "appliance/capture/session_simulator.hpp"
+#include "appliance/sim/session_simulator.hpp"
 
 namespace glint::capture {
 namespace {
+
+using sim::camera_look;
 
 constexpr int kW = 64, kH = 32;
 

@@ -2,14 +2,19 @@
 
 #include <cmath>
 
-#include "appliance/capture/camera_simulator.hpp"
 #include "appliance/capture/hdr_accumulator.hpp"
-#include "appliance/capture/session_simulator.hpp"
 #include "appliance/core/equirect.hpp"
 #include "appliance/core/errors.hpp"
+#include "appliance/sim/camera_simulator.hpp"
+#include "appliance/sim/session_simulator.hpp"
 
 namespace glint::capture {
 namespace {
+
+using sim::AutoExposureModel;
+using sim::camera_look;
+using sim::CameraSimulator;
+using sim::SensorModel;
 
 constexpr double kDeg = kPi / 180.0;
 

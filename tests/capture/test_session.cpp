@@ -9,16 +9,30 @@
 #include "appliance/capture/calibration_io.hpp"
 #include "appliance/capture/capture_pipeline.hpp"
 #include "appliance/capture/charuco.hpp"
+#include "appliance/capture/replay_camera.hpp"
 #include "appliance/capture/session.hpp"
-#include "appliance/capture/session_simulator.hpp"
 #include "appliance/core/errors.hpp"
 #include "appliance/core/exr_io.hpp"
+#include "appliance/sim/session_simulator.hpp"
 #include "firmware_bridge/recording/reader.hpp"
 
 namespace glint::capture {
 namespace {
 
+using sim::camera_look;
+using sim::simulate_charuco_session;
+using sim::simulate_session;
+using sim::SimulateOptions;
+using sim::SimulateSummary;
+
 namespace fs = std::filesystem;
+
+// As `glint capture` does it: the session's frames through a replay camera, as fast as read.
+CaptureSummary capture_session(const CaptureOptions& c) {
+    host::VirtualClock clock;
+    ReplayCamera camera(open_session(c.session), clock);
+    return run_capture(c, camera);
+}
 
 class SessionTest : public ::testing::Test {
 protected:
@@ -70,7 +84,7 @@ TEST_F(SessionTest, SimulateThenCaptureWithTrueOrientationsCoversAndMatchesTheSk
     c.height = 64;
     c.orientations = OrientationInput::Truth;
     c.drift_correction = false;  // the accumulation and the sensor path alone (drift: its own test)
-    const CaptureSummary r = run_capture(c);
+    const CaptureSummary r = capture_session(c);
     EXPECT_EQ(r.frames_used, sim.frames);
     // The guided scan sees everything but the floor under the stand (below about -80 degrees).
     EXPECT_GT(r.coverage.covered_fraction, 0.9);
@@ -87,7 +101,7 @@ TEST_F(SessionTest, SimulateThenCaptureWithTrueOrientationsCoversAndMatchesTheSk
     // decode path and clock mapping, then the mounting): what the appliance itself would do.
     c.orientations = OrientationInput::Sensors;
     c.out = dir_ / "env-from-sensors.exr";
-    const CaptureSummary viaSensors = run_capture(c);
+    const CaptureSummary viaSensors = capture_session(c);
     EXPECT_EQ(viaSensors.frames_used, sim.frames);
     ASSERT_TRUE(viaSensors.orientation_error_median_deg);
     EXPECT_LT(*viaSensors.orientation_error_median_deg, 1.0);
@@ -116,10 +130,10 @@ TEST_F(SessionTest, DriftCorrectionBringsTheCameraCloserToTheTruth) {
     c.height = 256;
     c.out = dir_ / "plain.exr";
     c.drift_correction = false;
-    const CaptureSummary plain = run_capture(c);
+    const CaptureSummary plain = capture_session(c);
     c.out = dir_ / "corrected.exr";
     c.drift_correction = true;
-    const CaptureSummary corrected = run_capture(c);
+    const CaptureSummary corrected = capture_session(c);
     ASSERT_TRUE(plain.orientation_error_median_deg && corrected.orientation_error_median_deg);
     std::printf("camera orientation error median: %.3f degrees from the sensor alone, %.3f with drift correction "
                 "(%d of %d frames corrected)\n",

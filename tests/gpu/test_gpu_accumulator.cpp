@@ -4,14 +4,18 @@
 
 #include <cmath>
 
-#include "appliance/capture/camera_simulator.hpp"
 #include "appliance/capture/gpu_accumulator.hpp"
-#include "appliance/capture/session_simulator.hpp"
 #include "appliance/core/exr_io.hpp"
+#include "appliance/sim/camera_simulator.hpp"
+#include "appliance/sim/session_simulator.hpp"
 #include "gpu_fixture.hpp"
 
 namespace glint::capture {
 namespace {
+
+using sim::camera_look;
+using sim::CameraSimulator;
+using sim::SensorModel;
 
 class GpuAccumulation : public test::GpuTest {};
 

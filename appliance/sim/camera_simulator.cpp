@@ -1,22 +1,25 @@
-#include "appliance/capture/camera_simulator.hpp"
+#include "appliance/sim/camera_simulator.hpp"
 
 #include <algorithm>
 #include <cmath>
-#include <stdexcept>
+#include <cstdio>
 
 #include "appliance/core/equirect.hpp"
 #include "appliance/core/errors.hpp"
 #include "appliance/core/parallel.hpp"
 
-namespace glint::capture {
+namespace glint::sim {
+
+using capture::CameraFrame;
+using capture::Intrinsics;
 
 namespace {
 constexpr std::size_t kSubsamples = 4;  // rays per pixel (2x2)
 }  // namespace
 
-CameraSimulator::CameraSimulator(const HdrImage& environment, CameraCalibration truth, SensorModel sensor,
+CameraSimulator::CameraSimulator(HdrImage environment, capture::CameraCalibration truth, SensorModel sensor,
                                  AutoExposureModel auto_exposure, std::uint64_t seed)
-    : env_(environment), truth_(std::move(truth)), sensor_(sensor), ae_(auto_exposure), seed_(seed) {
+    : env_(std::move(environment)), truth_(std::move(truth)), sensor_(sensor), ae_(auto_exposure), seed_(seed) {
     const Intrinsics& k = truth_.intrinsics;
     if (k.width < 2 || k.height < 2 || !(k.fx > 0) || !(k.fy > 0))
         throw InputError("camera simulator: intrinsics need a size of at least 2x2 and positive focal lengths");
@@ -31,10 +34,23 @@ CameraSimulator::CameraSimulator(const HdrImage& environment, CameraCalibration 
             // than a pixel (the sun) keeps its energy instead of being point-sampled in or out.
             for (int sy = 0; sy < 2; ++sy)
                 for (int sx = 0; sx < 2; ++sx)
-                    rays_[i * kSubsamples + std::size_t(sy * 2 + sx)] = pixel_ray(k, u - 0.25 + 0.5 * sx, v - 0.25 + 0.5 * sy);
+                    rays_[i * kSubsamples + std::size_t(sy * 2 + sx)] =
+                        capture::pixel_ray(k, u - 0.25 + 0.5 * sx, v - 0.25 + 0.5 * sy);
             vignette_[i] = truth_.vignetting.at(k, u, v);
         }
     exposure_s_ = std::clamp(exposure_s_, ae_.min_exposure_s, ae_.max_exposure_s);
+    run_exposure_s_ = exposure_s_;
+    run_gain_ = gain_;
+}
+
+CameraSimulator::CameraSimulator(HdrImage environment, capture::CameraCalibration truth, CameraRun run,
+                                 host::Clock& clock, SensorModel sensor, AutoExposureModel auto_exposure,
+                                 std::uint64_t seed)
+    : CameraSimulator(std::move(environment), std::move(truth), sensor, auto_exposure, seed) {
+    if (!(run.fps > 0) || run.frames < 0 || (run.frames > 0 && !run.world_from_camera))
+        throw InputError("camera simulator: a run needs a positive frame rate and a camera path");
+    run_ = std::move(run);
+    clock_ = &clock;
 }
 
 void CameraSimulator::set_exposure(double exposure_s, double gain) {
@@ -99,4 +115,42 @@ CameraFrame CameraSimulator::render(const glm::dquat& world_from_camera, std::in
     return frame;
 }
 
-}  // namespace glint::capture
+std::string CameraSimulator::describe() const {
+    const Intrinsics& k = truth_.intrinsics;
+    char text[96];
+    std::snprintf(text, sizeof text, "simulator: %dx%d, %d frames at %g fps", k.width, k.height, run_.frames,
+                  run_.fps);
+    return text;
+}
+
+void CameraSimulator::start() {
+    running_ = true;
+    next_ = 0;
+    frames_ = 0;
+    exposure_s_ = run_exposure_s_;
+    gain_ = run_gain_;
+    if (clock_) start_us_ = clock_->now_us();
+}
+
+std::optional<CameraFrame> CameraSimulator::next_frame(std::chrono::milliseconds timeout) {
+    if (!running_ || finished()) return std::nullopt;
+    const double t_s = next_ / run_.fps;
+    const std::uint64_t due_us = start_us_ + std::uint64_t(std::llround(t_s * 1e6));
+    if (!capture::wait_until_due(*clock_, due_us, timeout)) {
+        ++health_.timeouts;
+        return std::nullopt;
+    }
+    ++next_;
+    ++health_.frames;
+    return render(run_.world_from_camera(t_s), std::int64_t(due_us) * 1000, run_.threads);
+}
+
+void CameraSimulator::set_exposure(const capture::ExposureRequest& request) {
+    ae_.enabled = request.automatic;
+    if (request.automatic) return;
+    set_exposure(request.exposure_s, request.analogue_gain);
+    run_exposure_s_ = exposure_s_;
+    run_gain_ = gain_;
+}
+
+}  // namespace glint::sim

@@ -1,4 +1,4 @@
-#include "appliance/capture/session_simulator.hpp"
+#include "appliance/sim/session_simulator.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -9,13 +9,13 @@
 #include <opencv2/imgproc.hpp>
 
 #include "appliance/capture/calibration_io.hpp"
-#include "appliance/capture/camera_simulator.hpp"
 #include "appliance/capture/charuco.hpp"
 #include "appliance/capture/session.hpp"
 #include "appliance/core/atomic_file.hpp"
 #include "appliance/core/errors.hpp"
 #include "appliance/core/exr_io.hpp"
 #include "appliance/core/parallel.hpp"
+#include "appliance/sim/camera_simulator.hpp"
 #include "firmware_bridge/firmware/sim/sim_board.hpp"
 #include "firmware_bridge/firmware/sim/sim_hal.hpp"
 #include "firmware_bridge/host/orientation_history.hpp"
@@ -23,9 +23,12 @@
 #include "firmware_bridge/recording/clock.hpp"
 #include "firmware_bridge/recording/recorder.hpp"
 
-namespace glint::capture {
+namespace glint::sim {
 
 namespace fs = std::filesystem;
+using capture::CameraCalibration;
+using capture::CameraFrame;
+using capture::Intrinsics;
 using firmware::sim::TrajectorySample;
 
 namespace {
@@ -52,6 +55,24 @@ firmware::Quatd look(double yaw_deg, double pitch_deg, double roll_deg = 0) {
 // simulator's; what the camera renders and the truth it writes are the appliance's.
 glm::dquat world_from_camera_at(const firmware::sim::Trajectory& camera, std::uint64_t t_us) {
     return host::to_glm(camera.at(t_us).world_from_sensor);
+}
+
+// Frames of a scan along `camera` at `fps`, the first at its time 0.
+int scan_frames(const firmware::sim::Trajectory& camera, double fps) {
+    return int(std::floor(double(camera.end_us()) * 1e-6 * fps)) + 1;
+}
+
+// The true camera: a mild lens, vignetting, a gamma-like response, the sensor mounted with a
+// small error that calibration is supposed to find.
+CameraCalibration true_camera(const SimulateOptions& o, const SensorModel& sensor) {
+    CameraCalibration truth;
+    truth.intrinsics = Intrinsics::from_fov(o.width, o.height, o.horizontal_fov_deg * kDeg);
+    truth.intrinsics.k1 = -0.08;
+    truth.intrinsics.k2 = 0.012;
+    truth.vignetting = {-0.22, 0.03, 0};
+    truth.sensor_from_camera = host::to_glm(look(o.mount_yaw_deg, o.mount_pitch_deg, o.mount_roll_deg));
+    truth.sensitivity = sensor.electrons_per_radiance_second / sensor.full_well_electrons;
+    return truth;
 }
 
 }  // namespace
@@ -92,23 +113,13 @@ namespace {
 SimulateSummary write_session(const SimulateOptions& o, const HdrImage& env, const firmware::sim::Trajectory& camera,
                               const fs::path& partial, const std::function<void(long long, long long)>& progress) {
     const double duration_s = double(camera.end_us()) * 1e-6;
-
-    // The true camera: a mild lens, vignetting, a gamma-like response, the sensor mounted with a
-    // small error that calibration is supposed to find.
     SensorModel sensor;
     sensor.noise = o.camera_noise;
-    CameraCalibration truth;
-    truth.intrinsics = Intrinsics::from_fov(o.width, o.height, o.horizontal_fov_deg * kDeg);
-    truth.intrinsics.k1 = -0.08;
-    truth.intrinsics.k2 = 0.012;
-    truth.vignetting = {-0.22, 0.03, 0};
-    const firmware::Quatd sensor_from_camera = look(o.mount_yaw_deg, o.mount_pitch_deg, o.mount_roll_deg);
-    truth.sensor_from_camera = host::to_glm(sensor_from_camera);
-    truth.sensitivity = sensor.electrons_per_radiance_second / sensor.full_well_electrons;
+    const CameraCalibration truth = true_camera(o, sensor);
 
     // The sensor board rides on the camera: world_from_sensor = world_from_camera * camera_from_sensor,
     // held still for the board's boot (kLeadUs) before the camera's time 0.
-    const firmware::Quatd camera_from_sensor = sensor_from_camera.conj();
+    const firmware::Quatd camera_from_sensor = look(o.mount_yaw_deg, o.mount_pitch_deg, o.mount_roll_deg).conj();
     std::vector<TrajectorySample> sensor_path;
     for (std::uint64_t b = 0; b <= kLeadUs + camera.end_us() + 500'000; b += 5'000) {
         const std::uint64_t tc = b > kLeadUs ? b - kLeadUs : 0;
@@ -175,9 +186,9 @@ SimulateSummary write_session(const SimulateOptions& o, const HdrImage& env, con
     ae.enabled = o.bracket == 0;
     CameraSimulator cam(env, truth, sensor, ae, o.seed);
     const int threads = o.threads > 0 ? o.threads : hardware_threads();
-    const int frames = o.bracket > 0 ? o.bracket : int(std::floor(duration_s * o.fps)) + 1;
-    std::string frames_csv = frames_csv_header() + "\n";
-    std::string truth_csv = camera_poses_csv_header() + "\n";
+    const int frames = o.bracket > 0 ? o.bracket : scan_frames(camera, o.fps);
+    std::string frames_csv = capture::frames_csv_header() + "\n";
+    std::string truth_csv = capture::camera_poses_csv_header() + "\n";
     int written = 0;
     const auto emit = [&](const CameraFrame& f, const glm::dquat& q, std::int64_t t_ns) {
         char name[32];
@@ -185,9 +196,10 @@ SimulateSummary write_session(const SimulateOptions& o, const HdrImage& env, con
         cv::Mat bgr;
         cv::cvtColor(f.rgb, bgr, cv::COLOR_RGB2BGR);
         if (!cv::imwrite((partial / name).string(), bgr)) throw RuntimeError((partial / name).string() + ": cannot write");
-        frames_csv +=
-            frames_csv_line({std::uint64_t(written), t_ns, f.exposure_s, f.analogue_gain, f.digital_gain, name}) + "\n";
-        truth_csv += camera_poses_csv_line({std::uint64_t(written), t_ns, q}) + "\n";
+        const capture::FrameRecord record{std::uint64_t(written), t_ns, f.exposure_s, f.analogue_gain,
+                                          f.digital_gain, name};
+        frames_csv += capture::frames_csv_line(record) + "\n";
+        truth_csv += capture::camera_poses_csv_line({std::uint64_t(written), t_ns, q}) + "\n";
         ++written;
     };
     const auto clipped_share = [](const CameraFrame& f) {
@@ -227,10 +239,10 @@ SimulateSummary write_session(const SimulateOptions& o, const HdrImage& env, con
     }
     write_text(partial / "frames.csv", frames_csv);
     write_text(partial / "truth" / "camera.csv", truth_csv);
-    save_calibration(partial / "calibration.json", truth);
-    save_calibration(partial / "truth" / "calibration.json", truth);
+    capture::save_calibration(partial / "calibration.json", truth);
+    capture::save_calibration(partial / "truth" / "calibration.json", truth);
     save_exr(partial / "truth" / "env.exr", env);
-    write_text(partial / "session.json", session_json("glint simulate"));
+    write_text(partial / "session.json", capture::session_json("glint simulate"));
     if (fs::exists(o.out)) fs::remove_all(o.out);
     fs::rename(partial, o.out);
     summary.frames = written;
@@ -291,14 +303,14 @@ int simulate_charuco_session(const SimulateOptions& o, int views) {
     truth.intrinsics.k2 = 0.012;
     CameraCalibration guess;
     guess.intrinsics = Intrinsics::from_fov(o.width, o.height, o.horizontal_fov_deg * kDeg);
-    const CharucoSpec spec;
+    const capture::CharucoSpec spec;
     const double w = spec.squares_x * spec.square_m, h = spec.squares_y * spec.square_m;
     const fs::path partial = o.out.string() + ".partial";
     fs::remove_all(partial);
     fs::create_directories(partial / "frames");
     fs::create_directories(partial / "truth");
     try {
-        std::string frames_csv = frames_csv_header() + "\n";
+        std::string frames_csv = capture::frames_csv_header() + "\n";
         for (int k = 0; k < views; ++k) {
             // Poses spread over tilts, in-plane turns, distances and image positions (deterministic).
             const double a = 25 * std::sin(1.7 * k) * kDeg, b = 25 * std::cos(1.3 * k) * kDeg, c = 10 * std::sin(0.9 * k) * kDeg;
@@ -311,16 +323,17 @@ int simulate_charuco_session(const SimulateOptions& o, int views) {
             // distortion there is a guess.
             const cv::Vec3d centre(0.3 * std::sin(3.1 * k) * dist, 0.17 * std::cos(2.7 * k) * dist, dist);
             const cv::Vec3d origin = centre - R * cv::Vec3d(w / 2, h / 2, 0);
-            const cv::Mat rgb = render_charuco_view(spec, truth.intrinsics, R, origin);
+            const cv::Mat rgb = capture::render_charuco_view(spec, truth.intrinsics, R, origin);
             char name[32];
             std::snprintf(name, sizeof name, "frames/%06d.png", k);
             if (!cv::imwrite((partial / name).string(), rgb)) throw RuntimeError((partial / name).string() + ": cannot write");
-            frames_csv += frames_csv_line({std::uint64_t(k), std::int64_t(k + 1) * 1'000'000'000, 0.01, 1, 1, name}) + "\n";
+            const capture::FrameRecord record{std::uint64_t(k), std::int64_t(k + 1) * 1'000'000'000, 0.01, 1, 1, name};
+            frames_csv += capture::frames_csv_line(record) + "\n";
         }
         write_text(partial / "frames.csv", frames_csv);
-        save_calibration(partial / "calibration.json", guess);
-        save_calibration(partial / "truth" / "calibration.json", truth);
-        write_text(partial / "session.json", session_json("glint simulate --charuco"));
+        capture::save_calibration(partial / "calibration.json", guess);
+        capture::save_calibration(partial / "truth" / "calibration.json", truth);
+        write_text(partial / "session.json", capture::session_json("glint simulate --charuco"));
         if (fs::exists(o.out)) fs::remove_all(o.out);
         fs::rename(partial, o.out);
     } catch (...) {
@@ -331,4 +344,25 @@ int simulate_charuco_session(const SimulateOptions& o, int views) {
     return views;
 }
 
-}  // namespace glint::capture
+void add_simulator_camera(capture::CameraBackends& backends) {
+    backends["simulator"] = {
+        "simulator:ENV.exr", [](const std::string& spec, const std::string& env, host::Clock& clock) {
+            if (env.empty()) throw InputError("camera '" + spec + "': no environment map (simulator:ENV.exr)");
+            const SimulateOptions o;
+            const auto scan =
+                std::make_shared<const firmware::sim::Trajectory>(guided_camera_trajectory(o.guided_speed_deg_s));
+            CameraRun run;
+            run.world_from_camera = [scan](double t_s) {
+                return world_from_camera_at(*scan, std::uint64_t(std::llround(t_s * 1e6)));
+            };
+            run.fps = o.fps;
+            run.frames = scan_frames(*scan, o.fps);
+            run.threads = hardware_threads();
+            const SensorModel sensor;
+            return std::unique_ptr<capture::CameraSource>(std::make_unique<CameraSimulator>(
+                load_exr(env).image, true_camera(o, sensor), std::move(run), clock, sensor, AutoExposureModel{},
+                o.seed));
+        }};
+}
+
+}  // namespace glint::sim

@@ -11,10 +11,11 @@
 #include <string>
 #include <vector>
 
+#include "appliance/capture/camera_factory.hpp"
 #include "appliance/capture/camera_model.hpp"
 #include "firmware_bridge/firmware/sim/trajectory.hpp"
 
-namespace glint::capture {
+namespace glint::sim {
 
 struct SimulateOptions {
     std::filesystem::path env;       // equirect HDR map (EXR)
@@ -61,6 +62,11 @@ std::vector<firmware::sim::TrajectorySample> guided_camera_trajectory(double spe
 // world_from_camera = yaw about world +Y, then pitch about the camera's X, then roll about -Z.
 glm::dquat camera_look(double yaw_deg, double pitch_deg, double roll_deg = 0);
 
+// Adds the kind "simulator:ENV.exr" to a camera factory's table (capture/camera_factory.hpp):
+// the true camera of a default `glint simulate` (SimulateOptions: its size, field of view, lens,
+// noise and auto-exposure) rendering ENV.exr along the built-in guided scan at its frame rate.
+void add_simulator_camera(capture::CameraBackends& backends);
+
 // An intrinsics-calibration session: `views` frames of a ChArUco board (charuco.hpp) at varied
 // poses, 0.3-0.6 m away, through the true camera of `options` (size, field of view, the
 // simulator's lens distortion). calibration.json holds a distortion-free first guess from the
@@ -73,4 +79,4 @@ int simulate_charuco_session(const SimulateOptions& options, int views);
 SimulateSummary simulate_session(const SimulateOptions& options,
                                  const std::function<void(long long, long long)>& progress = {});
 
-}  // namespace glint::capture
+}  // namespace glint::sim

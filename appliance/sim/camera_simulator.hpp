@@ -1,0 +1,103 @@
+// Renders an equirect HDR environment through the camera model of camera_model.hpp: lens
+// distortion, vignetting, exposure and gain, shot and read noise, the response curve and 8-bit
+// quantisation, with an auto-exposure loop that lags behind the scene (so that overlapping
+// frames differ in exposure, as a phone's or a Pi camera's do). Deterministic for a seed.
+//
+// Two faces: the renderer (render(): any orientation at any time, what the session simulator
+// needs for its brackets), and a capture::CameraSource that takes frames along a CameraRun, paced
+// on a clock like a replay (camera_factory.hpp's "simulator:" kind, session_simulator.hpp).
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <random>
+#include <vector>
+
+#include "appliance/capture/camera_frame.hpp"
+#include "appliance/capture/camera_model.hpp"
+#include "appliance/capture/camera_source.hpp"
+#include "appliance/core/hdr_image.hpp"
+
+namespace glint::sim {
+
+struct SensorModel {
+    double electrons_per_radiance_second = 6.0e5;  // photo-electrons per unit radiance per second
+    double full_well_electrons = 6000;             // electrons at relative exposure 1 (gain 1)
+    double read_noise = 0.002;                     // relative exposure units, standard deviation
+    bool noise = true;
+};
+
+struct AutoExposureModel {
+    bool enabled = true;
+    double target = 0.18;        // mean relative exposure the loop aims at
+    double rate = 0.5;           // share of the (log) correction applied per frame: the lag
+    double min_exposure_s = 1e-4;
+    double max_exposure_s = 1.0 / 30.0;
+    double max_gain = 8;
+};
+
+// What the simulator does as a CameraSource: `frames` frames at `fps`, the k-th due k / fps
+// seconds after start() and looking along world_from_camera(k / fps).
+struct CameraRun {
+    std::function<glm::dquat(double t_s)> world_from_camera;
+    double fps = 4;
+    int frames = 0;
+    int threads = 1;  // render threads
+};
+
+class CameraSimulator final : public capture::CameraSource {
+public:
+    // The renderer alone: as a CameraSource it has no frames.
+    CameraSimulator(HdrImage environment, capture::CameraCalibration truth, SensorModel sensor = {},
+                    AutoExposureModel auto_exposure = {}, std::uint64_t seed = 1);
+    // A camera taking the frames of `run`, each when `clock` reaches its due time (a VirtualClock:
+    // as fast as they are read), stamped with that time.
+    CameraSimulator(HdrImage environment, capture::CameraCalibration truth, CameraRun run, host::Clock& clock,
+                    SensorModel sensor = {}, AutoExposureModel auto_exposure = {}, std::uint64_t seed = 1);
+
+    // Renders the frame seen with world_from_camera at the current exposure and gain, then lets
+    // the auto-exposure loop react to it (the next frame's settings). t_ns is copied into the frame.
+    capture::CameraFrame render(const glm::dquat& world_from_camera, std::int64_t t_ns, int threads = 1);
+
+    // Relative exposure (before noise and response) of one pixel: what a perfect sensor records.
+    double exposure_of(double radiance, double vignetting) const;
+
+    // Exposure and gain of the next rendered frame (the auto-exposure loop goes on from there).
+    void set_exposure(double exposure_s, double gain);
+    double exposure_s() const { return exposure_s_; }
+    double gain() const { return gain_; }
+    const capture::CameraCalibration& truth() const { return truth_; }
+
+    // capture::CameraSource. start() begins the run again from the same state (frame count,
+    // exposure), so a second run gives the same frames.
+    std::string describe() const override;
+    void start() override;
+    void stop() override { running_ = false; }
+    std::optional<capture::CameraFrame> next_frame(std::chrono::milliseconds timeout) override;
+    // Manual requests take effect from the next frame and are where every later run starts.
+    void set_exposure(const capture::ExposureRequest& request) override;
+    bool finished() const override { return next_ >= run_.frames; }
+    capture::CameraHealth health() const override { return health_; }
+
+private:
+    HdrImage env_;
+    capture::CameraCalibration truth_;
+    SensorModel sensor_;
+    AutoExposureModel ae_;
+    std::uint64_t seed_;
+    std::uint64_t frames_ = 0;
+    double exposure_s_ = 1.0 / 120.0;
+    double gain_ = 1;
+    std::vector<glm::dvec3> rays_;  // camera-frame ray per pixel (row-major)
+    std::vector<double> vignette_;  // V per pixel
+    // The CameraSource face.
+    CameraRun run_;
+    host::Clock* clock_ = nullptr;  // set whenever run_ has frames
+    double run_exposure_s_ = 0, run_gain_ = 1;  // where each run starts
+    int next_ = 0;
+    bool running_ = false;
+    std::uint64_t start_us_ = 0;
+    capture::CameraHealth health_;
+};
+
+}  // namespace glint::sim
