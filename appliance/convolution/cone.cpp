@@ -2,7 +2,7 @@
 // the brightest texels summed exactly and a per-row error bound that widens
 // the cone where a dark texel sits near bright ones.
 //
-// Cut-off (DESIGN.md): the normalised Phong lobe (n+1)/(2pi) cos^n holds
+// Cut-off (docs/convolution.md, "Cone"): the normalised Phong lobe (n+1)/(2pi) cos^n holds
 //   integral_{cos a < c} = c^(n+1)
 // of its energy outside the cone cos a >= c, so dropping a fraction e of the
 // lobe means c = e^(1/(n+1)).

@@ -1,5 +1,5 @@
-// The radiance convolution engine: one API over every method (DESIGN.md,
-// "Radiance convolution"). Input: an equirect HDR map. Output: the irradiance
+// The radiance convolution engine: one API over every method (docs/convolution.md).
+// Input: an equirect HDR map. Output: the irradiance
 // map E_d and the Phong reflection maps E_s^n of docs/conventions.md.
 #pragma once
 

@@ -1,6 +1,6 @@
 // The planner: for each wanted map, the method, input level, output size and
 // cut-off whose predicted error is within the tolerance at the least predicted
-// cost ("model only what the scene needs", DESIGN.md).
+// cost: only the maps the scene uses, each no finer than its lobe needs (docs/convolution.md).
 #pragma once
 
 #include <functional>
