@@ -28,7 +28,7 @@ struct CameraBackend {
 };
 
 // Backends by kind.
-using CameraBackends = std::map<std::string, CameraBackend, std::less<>>;
+using CameraBackends = std::map<std::string, CameraBackend>;
 
 // Capture's own backends: libcamera and replay.
 CameraBackends capture_camera_backends();
