@@ -232,7 +232,6 @@ run compare "$work/env-gpu.exr" "$work/env.exr"
 rms=$(awk '/weighted_rel_rms/ { print $2 }' "$work/stdout")
 python3 -c "import sys; sys.exit(0 if float('$rms') <= 1e-4 else 1)" || fail "GPU capture differs from the CPU's: $rms"
 pass "capture --engine gpu agrees with the CPU engine ($rms)"
-rm -rf "$work/session" "$work/env.exr" "$work/env.coverage.exr" "$work/env-gpu.exr" "$work/env-gpu.coverage.exr" "$work/turn.csv"
 
 # --help for every command and subcommand: exit 0, a usage line naming it, on stdout only.
 for cmd in convolve compare sensors simulate capture cameras calibrate "calibrate response" \
@@ -262,6 +261,25 @@ python3 -c "import json,sys; sys.exit(0 if json.load(open('$work/auto/report.jso
 run convolve "$work/in.exr" --out "$work/auto" --irradiance --size 16x8 --engine cpu
 [[ $rc -eq 0 ]] && ! grep -q "engine\|GL" "$work/stderr" || fail "convolve --engine cpu: exit $rc, stderr: $(stderr_text)"
 pass "engine auto runs the CPU and says why; engine cpu says nothing"
+# --engine gpu with no EGL at all (glvnd pointed at no vendor library): exit 1, one line, nothing
+# written; an explicit choice is never replaced by the CPU.
+for cmd in convolve capture; do
+    if [[ $cmd == convolve ]]; then
+        args=(convolve "$out/irradiance.exr" --out "$work/noegl" --irradiance --size 16x8 --engine gpu)
+    else
+        args=(capture --session "$work/session" --out "$work/noegl/env.exr" --size 64x32 --orientations truth
+              --no-drift-correction --engine gpu)
+    fi
+    rc=0
+    __EGL_VENDOR_LIBRARY_FILENAMES=/nonexistent.json "$GLINT" "${args[@]}" >"$work/stdout" 2>"$work/stderr" || rc=$?
+    [[ $rc -eq 1 ]] || fail "$cmd --engine gpu without EGL: exit code $rc, want 1 ($(stderr_text))"
+    [[ $(stderr_lines) -eq 1 ]] && grep -q -- "--engine gpu: .* cannot run on the GPU" "$work/stderr" ||
+        fail "$cmd --engine gpu without EGL: want one line saying why: $(stderr_text)"
+    [[ -z $(ls -A "$work/noegl" 2>/dev/null) ]] || fail "$cmd --engine gpu without EGL wrote $(ls -A "$work/noegl")"
+done
+pass "convolve and capture --engine gpu without an EGL context exit 1 with one line"
+rm -rf "$work/noegl"
+rm -rf "$work/session" "$work/env.exr" "$work/env.coverage.exr" "$work/env-gpu.exr" "$work/env-gpu.coverage.exr" "$work/turn.csv"
 rm -rf "$work/auto"
 
 # SIGTERM and SIGINT while the maps are staged: the staging directory is removed, nothing is moved
