@@ -170,7 +170,9 @@ int run_convolve(const ConvolveArgs& args) {
         if (std::isfinite(r.plan.predicted_error) && r.plan.predicted_error > options.tolerance)
             std::fprintf(stderr, "glint: warning: %s: predicted error %.3g exceeds --tolerance %.3g (%s)\n",
                          r.request.label.c_str(), r.plan.predicted_error, options.tolerance,
-                         options.size ? "--size is too coarse for this lobe" : "the plan cannot meet it");
+                         r.plan.method == convolution::Method::Sh && options.sh_order > 0
+                             ? "--sh-order is too low for this lobe"
+                             : "no plan within the output-size cap meets it");
     for (const auto& r : results) {
         const auto& p = r.plan;
         std::printf("%-16s %-6s level %d (%dx%d) -> %dx%d  predicted %.2g  %.3f s%s\n",
