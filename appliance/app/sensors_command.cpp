@@ -1,6 +1,6 @@
 // `glint sensors --source SPEC [--record FILE] [--print-csv] [--seconds S] [--latency-ms L]`:
 // reads (or replays) an orientation source and prints one line per sample on stdout and the
-// health figures on stderr once a second (firmware_bridge/host; issue 4, Part 5).
+// health figures on stderr once a second (firmware_bridge/host/README.md).
 #include <atomic>
 #include <chrono>
 #include <cmath>

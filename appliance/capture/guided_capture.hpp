@@ -1,4 +1,4 @@
-// The guided-capture logic of the kiosk (no drawing: the kiosk issue draws what this decides).
+// The guided-capture logic of the kiosk (no drawing: the kiosk's UI, not built yet, draws what this decides).
 // Fed after every accumulated frame, it says where the visitor should point next, whether they
 // turn too fast for a sharp frame, whether the exposure is usable, how far along the capture is,
 // and when it is done (enough of the sphere covered, or the time limit).

@@ -22,8 +22,8 @@ struct PlannerModel {
     double level_worst_coefficient = 0.3;
     double level_rms_coefficient = 0.03;
     double level_min_shininess = 5.0;
-    // The level's worst texel may use this multiple of tau (the target
-    // is a worst texel within 5 % when tau = 1 %; the cut-off bound takes
+    // The level's worst texel may use this multiple of tau (the benchmark's
+    // target is a worst texel within 5 % when tau = 1 %; the cut-off bound takes
     // another texel_cut_share of tau).
     double level_worst_share = 3.5;
     // Bilinear lookup of an output map with texel spacing h: (h^2 / 8) * n.

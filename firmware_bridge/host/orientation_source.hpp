@@ -9,7 +9,7 @@
 // the virtual clock passed in). The latency offset models a fixed delay of the whole sensor path
 // (fusion filter lag, transport): a sample published with time t is stored as t - latency, i.e.
 // "what the sensor reports now was true `latency` ago". It is calibrated against the camera
-// (capture issue) and configured per device.
+// (`glint calibrate alignment`, docs/capture.md) and configured per device.
 #pragma once
 
 #include <atomic>

@@ -1,4 +1,4 @@
-// Orientation sources named on the command line and in the appliance's config (issue 4, Part 5):
+// Orientation sources named on the command line and in the appliance's config (`glint sensors --source`; README.md):
 //   serial:PATH[:BAUD]            a sensor board on a serial port (default 115200)
 //   i2c:/dev/i2c-N[:ADDR]         a BNO055 read directly (ADDR 0x28 or 0x29; default 0x28)
 //   modbus-tcp:HOST:PORT          a Modbus pan/tilt head over TCP

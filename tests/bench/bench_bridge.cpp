@@ -1,4 +1,4 @@
-// firmware_bridge measurements (issue 4, Part 6): frame decoder throughput, the whole host decode
+// firmware_bridge measurements (firmware_bridge/host/README.md, "Measured"): frame decoder throughput, the whole host decode
 // path (decoder + board-clock mapping + publish), and the latency from a firmware sample to the
 // host callback over a pseudo-terminal in real time. Writes tests/bench/results/bridge.md.
 #include <benchmark/benchmark.h>

@@ -1,4 +1,4 @@
-// Capture accuracy and speed (issue 5, Part 5): for courtyard, studio and sunset, a guided scan
+// Capture accuracy and speed (docs/capture.md, "Benchmark"): for courtyard, studio and sunset, a guided scan
 // simulated with a heading drift of 1 deg/min, noise and auto-exposure; the captured map against
 // the true one (log luminance), the irradiance and n = 160 maps made from each, the calibrations,
 // the per-frame times, and the guided logic's completion. Writes tests/bench/results/capture.md.

@@ -1,6 +1,5 @@
-// Speed against error of every convolution method (issue: foundation and the
-// CPU engine, part 4). For each map and each target (irradiance, n in the
-// list) at the reference size, every method runs once as a Google Benchmark
+// Speed against error of every convolution method (docs/convolution.md). For
+// each map and each target (irradiance, n in the list) at the reference size, every method runs once as a Google Benchmark
 // with manual time; its error is measured against `exact` at the same size.
 //
 // Exact reference images are cached (they take minutes); the exact whole set
@@ -80,7 +79,7 @@ struct EnvMap {
     HdrImage image;
 };
 
-// The hard case of the issue at benchmark scale: one texel of 1e5 on a 1e-2
+// The hard case of a small sun at benchmark scale: one texel of 1e5 on a 1e-2
 // background, at a direction that is neither a pole nor the seam.
 HdrImage synthetic_sun() {
     HdrImage im(1024, 512);

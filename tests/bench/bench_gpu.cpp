@@ -1,4 +1,4 @@
-// GPU engine benchmark (issue: GPU convolution in tiles within a frame budget).
+// GPU engine benchmark (docs/gpu.md): convolution in tiles within a frame budget.
 //  (a) The whole set of the CPU benchmark (irradiance + 11 shininess values at
 //      the reference sizes, courtyard) by `auto` on the GPU engine against the
 //      CPU engine: wall time, and error against the cached exact references

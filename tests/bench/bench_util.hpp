@@ -31,7 +31,7 @@ inline std::string fmt(const char* format, double value) {
     return buffer;
 }
 
-// The whole set: the irradiance map and these shininess values...
+// The whole set: the irradiance map and these shininess values...
 inline const std::vector<double>& whole_set_shininess() {
     static const std::vector<double> ns{1, 10, 20, 40, 80, 160, 320, 640, 1280, 5120, 20480};
     return ns;

@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
-# Capture accuracy and speed on simulated sessions of courtyard, studio and sunset (issue 5,
-# Part 5); writes tests/bench/results/capture.md. Takes a few minutes on 2 cores.
+# Capture accuracy and speed on simulated sessions of courtyard, studio and sunset
+# (docs/capture.md, "Benchmark"); writes tests/bench/results/capture.md. Takes a few minutes on 2 cores.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 ./scripts/build.sh

@@ -64,7 +64,7 @@ Trajectory::Trajectory(std::vector<TrajectorySample> samples) : samples_(std::mo
 }
 
 Trajectory Trajectory::parse(const std::string& text, const std::string& source) {
-    // Seconds: the fixed format of the issue and of `glint simulate` (no format line): lines of
+    // Seconds: the fixed format (firmware/README.md, "Trajectory files") and of `glint simulate` (no format line): lines of
     // t_seconds,w,x,y,z. The two formats with a format line take times in microseconds.
     enum class Format { Unknown, Quaternion, YprDeg, Seconds } format = Format::Unknown;
     std::vector<TrajectorySample> samples;
