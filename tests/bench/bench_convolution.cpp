@@ -1,6 +1,7 @@
 // Speed against error of every convolution method (docs/convolution.md). For
 // each map and each target (irradiance, n in the list) at the reference size,
-// every method runs once as a Google Benchmark with manual time; its error is measured against `exact` at the same size.
+// every method runs once as a Google Benchmark with manual time; its error is
+// measured against `exact` at the same size.
 //
 // Exact reference images are cached (they take minutes); the exact whole set
 // of one map (--timing-map) is recomputed in every run so that the headline
