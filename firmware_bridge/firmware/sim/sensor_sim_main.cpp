@@ -113,7 +113,10 @@ int main(int argc, char** argv) {
     try {
         app.parse(argc, argv);
     } catch (const CLI::ParseError& e) {
-        return app.exit(e);
+        if (e.get_exit_code() == 0) return app.exit(e);  // --help
+        // Bad arguments: one line and exit code 2, as every Glint command.
+        std::fprintf(stderr, "glint-sensor-sim: error: %s (see glint-sensor-sim --help)\n", e.what());
+        return 2;
     }
 
     try {
