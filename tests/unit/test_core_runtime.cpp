@@ -1,0 +1,105 @@
+// The process-level helpers of appliance/core: the progress bar (drawn only on a terminal, at
+// most every 100 ms, a final line only for work that lasted) and keep_freed_memory (large
+// buffers come from the heap, not from a fresh mmap each time).
+#include <fcntl.h>
+#include <gtest/gtest.h>
+#include <malloc.h>
+#include <pty.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstdlib>
+#include <string>
+#include <thread>
+
+#include "appliance/core/memory.hpp"
+#include "appliance/core/progress.hpp"
+
+namespace {
+
+// Points stderr (fd 2) at `fd` for the life of the object.
+class StderrTo {
+public:
+    explicit StderrTo(int fd) : saved_(::dup(2)) { ::dup2(fd, 2); }
+    ~StderrTo() {
+        ::dup2(saved_, 2);
+        ::close(saved_);
+    }
+
+private:
+    int saved_;
+};
+
+// What is waiting on `fd` (non-blocking), as text.
+std::string drain(int fd) {
+    ::fcntl(fd, F_SETFL, ::fcntl(fd, F_GETFL) | O_NONBLOCK);
+    std::string text;
+    char buf[512];
+    for (ssize_t n; (n = ::read(fd, buf, sizeof buf)) > 0;) text.append(buf, std::size_t(n));
+    return text;
+}
+
+}  // namespace
+
+TEST(ProgressBar, DrawsOnATerminalAtMostEvery100MsAndEndsTheLineForLongWork) {
+    int master = -1, slave = -1;
+    ASSERT_EQ(::openpty(&master, &slave, nullptr, nullptr, nullptr), 0);
+    {
+        const StderrTo redirect(slave);
+        glint::ProgressBar bar("test work", 4);
+        bar.advance(1);  // within 100 ms of the start: not drawn
+        std::this_thread::sleep_for(std::chrono::milliseconds(120));
+        bar.advance(1);  // drawn: 2 of 4
+        bar.advance(1);  // within 100 ms of that draw: not drawn
+        std::this_thread::sleep_for(std::chrono::milliseconds(200));
+        bar.finish();  // over 300 ms of work: a final line at 3 of 4
+    }
+    const std::string shown = drain(master);
+    ::close(master);
+    ::close(slave);
+    // Two draws: 50 % (the second advance), then the final line at 75 % ending in a newline.
+    const auto first = shown.find("\rtest work");
+    ASSERT_NE(first, std::string::npos) << shown;
+    EXPECT_NE(shown.find("[###############...............]  50%"), std::string::npos) << shown;
+    EXPECT_NE(shown.find("[######################........]  75%"), std::string::npos) << shown;
+    EXPECT_EQ(shown.find(" 25%"), std::string::npos) << "drawn within 100 ms of the start: " << shown;
+    const auto second = shown.find("\rtest work", first + 1);
+    ASSERT_NE(second, std::string::npos) << "one draw only: " << shown;
+    EXPECT_EQ(shown.find("\rtest work", second + 1), std::string::npos) << "more than two draws: " << shown;
+    EXPECT_EQ(shown.back(), '\n') << shown;
+}
+
+TEST(ProgressBar, WritesNothingWhenStderrIsNotATerminal) {
+    int fds[2];
+    ASSERT_EQ(::pipe(fds), 0);
+    {
+        const StderrTo redirect(fds[1]);
+        glint::ProgressBar bar("piped work", 2);
+        std::this_thread::sleep_for(std::chrono::milliseconds(120));
+        bar.advance(2);
+        std::this_thread::sleep_for(std::chrono::milliseconds(200));
+        bar.finish();
+    }
+    ::close(fds[1]);
+    EXPECT_EQ(drain(fds[0]), "");
+    ::close(fds[0]);
+}
+
+TEST(KeepFreedMemory, LargeBuffersComeFromTheHeapNotFromMmap) {
+    glint::keep_freed_memory();
+    // 24 MiB: above glibc's default mmap threshold (128 KiB, raised dynamically only by frees of
+    // mmapped blocks) and below the 32 MiB the call sets, so it must come from the heap.
+    const std::size_t bytes = std::size_t(24) << 20;
+    const std::size_t mmapped_before = mallinfo2().hblkhd;
+    void* block = std::malloc(bytes);
+    ASSERT_NE(block, nullptr);
+    static_cast<volatile char*>(block)[0] = 1;
+    const std::size_t mmapped_after = mallinfo2().hblkhd;
+    std::free(block);
+    EXPECT_EQ(mmapped_after, mmapped_before) << "the 24 MiB block was mmapped";
+    // Freed, it stays in the process (the trim threshold is 1 GiB): a second one reuses it.
+    const std::size_t arena_before = mallinfo2().arena;
+    void* again = std::malloc(bytes);
+    EXPECT_EQ(mallinfo2().arena, arena_before) << "the heap grew again for a block it had freed";
+    std::free(again);
+}
