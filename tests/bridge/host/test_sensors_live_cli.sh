@@ -27,13 +27,23 @@ case "$port" in /dev/pts/*) ;; *) fail "first line is not a pty path: '$port'" ;
 # Until SIGINT: it must stop cleanly (exit 0) and close the recording.
 "$glint" sensors --source "serial:$port" --print-csv --record "$tmp/live.glrec" >"$tmp/live.csv" 2>"$tmp/live.err" &
 glint_pid=$!
-sleep 2
+# Wait for the event (>= 50 samples in the CSV, plus its header row), not for a fixed time: a
+# loaded machine may take longer than any guess, and an idle one need not wait. The 20 s limit
+# only ends a run whose board never streams (the sim's --duration is 6 s, the board boots in
+# 0.65 s and sends 100 Hz). Polled every 50 ms.
+want=50
+deadline=$(($(date +%s) + 20))
+while [ "$(($(wc -l <"$tmp/live.csv") - 1))" -lt "$want" ]; do
+    if ! kill -0 "$glint_pid" 2>/dev/null; then fail "glint sensors ended before $want samples"; break; fi
+    if [ "$(date +%s)" -ge "$deadline" ]; then fail "fewer than $want samples after 20 s"; break; fi
+    sleep 0.05
+done
 kill -INT "$glint_pid"
 wait "$glint_pid"
 rc=$?
 [ $rc -eq 0 ] || fail "glint sensors exited $rc after SIGINT: $(cat "$tmp/live.err")"
 lines=$(($(wc -l <"$tmp/live.csv") - 1))  # after the header row
-[ "$lines" -ge 50 ] || fail "only $lines samples in 2 s of a 100 Hz board (BNO055 boots in 0.65 s)"
+[ "$lines" -ge "$want" ] || fail "only $lines samples, SIGINT was sent after $want"
 grep -q "^health: streaming, " "$tmp/live.err" || fail "no streaming health line: $(cat "$tmp/live.err")"
 grep -q "crc errors 0, frame errors 0, lost 0" "$tmp/live.err" || fail "errors on a clean link: $(tail -1 "$tmp/live.err")"
 "$recording_tool" verify "$tmp/live.glrec" >/dev/null || fail "the recording does not verify"

@@ -146,7 +146,13 @@ TEST_F(SerialSourceTest, AStalledBoardShowsAsStalledWithinTheLimit) {
     const auto last = std::chrono::steady_clock::now();
     ASSERT_TRUE(eventually([&] { return src->health().state == LinkState::Stalled; }));
     const double after_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - last).count();
-    EXPECT_GE(after_ms, 195.0);
+    // Loose on both sides on purpose: the exact limit (no stall before 200 ms, one stall after)
+    // is checked on a virtual clock in test_orientation_source.cpp
+    // (ReportsRateAgeAndAStallOncePerSilence). Here, in real time, a scheduling delay may shift
+    // either timestamp by tens of milliseconds; what must hold is that the stall is not reported
+    // long before the limit (150 ms) nor missed (2 s is ten limits, far beyond any poll period).
+    EXPECT_GE(after_ms, 150.0);
+    EXPECT_LT(after_ms, 2000.0);
     EXPECT_EQ(src->health().stalls, 1u);
     std::printf("stall reported %.0f ms after the last sample (limit 200 ms, poll 20 ms)\n", after_ms);
     port_->orientation(port_->board_now_us(), yaw(0), 10);  // it talks again
