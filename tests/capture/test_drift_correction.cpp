@@ -210,14 +210,25 @@ TEST(DriftCorrector, DoesNotTrustWhatItCannotMeasure) {
     EXPECT_EQ(none.pixels, 0);
     EXPECT_EQ(angle_between(none.correction, glm::dquat(1, 0, 0, 0)), 0.0);
     EXPECT_EQ(angle_between(empty.carried(), glm::dquat(1, 0, 0, 0)), 0.0);
-    // An error beyond max_correction_deg (3): whatever the fit finds is not applied, and the
-    // carried correction stays where it was.
+    // A frame 6 degrees off: beyond what the fit can reach from no correction (measured: it
+    // stops 0.9 degrees along with a sigma of 0.06, over max_sigma_deg 0.02, and so at 3.5, 4
+    // and 5 degrees), so it is not applied, and the carried correction stays where it was.
     DriftCorrector far(unfused());
     const glm::dquat big = rotation_from_vector(glm::dvec3(0, 6, 0) * kDeg);
     const DriftEstimate e = far.estimate(s.frame, s.cal, big * s.truth, s.sphere, s.samples);
     EXPECT_FALSE(e.applied);
     EXPECT_EQ(angle_between(e.correction, glm::dquat(1, 0, 0, 0)), 0.0);
     EXPECT_EQ(angle_between(far.carried(), glm::dquat(1, 0, 0, 0)), 0.0);
+    // A well-measured offset beyond max_correction_deg is not trusted either: the 0.63-degree
+    // error above (estimated 0.61, sigma 0.006) against a limit of 0.3 degrees.
+    DriftSettings tight = unfused();
+    tight.max_correction_deg = 0.3;
+    DriftCorrector limited(tight);
+    const DriftEstimate over = limited.estimate(s.frame, s.cal, error * s.truth, s.sphere, s.samples);
+    EXPECT_FALSE(over.applied);
+    EXPECT_GT(over.angle_deg, 0.3);  // it was measured, then refused
+    EXPECT_EQ(angle_between(over.correction, glm::dquat(1, 0, 0, 0)), 0.0);
+    EXPECT_EQ(angle_between(limited.carried(), glm::dquat(1, 0, 0, 0)), 0.0);
 }
 
 }  // namespace
