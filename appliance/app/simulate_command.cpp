@@ -19,6 +19,7 @@ Command add_simulate_command(CLI::App& app) {
         std::string env, out, size = "320x180", mount = "2,-1.5,0.5";
         bool no_camera_noise = false;
         int charuco = 0;
+        double time_offset_ms = 0;
     };
     auto a = std::make_shared<Args>();
     CLI::App* cmd = app.add_subcommand("simulate", std::string(command_summary("simulate").summary));
@@ -42,6 +43,9 @@ Command add_simulate_command(CLI::App& app) {
     cmd->add_option("--mount", a->mount, "Sensor mounting error yaw,pitch,roll in degrees (sensor_from_camera)")
         ->capture_default_str();
     cmd->add_option("--clock-drift-ppm", a->o.clock_drift_ppm, "Board clock rate error against the appliance clock")
+        ->capture_default_str();
+    cmd->add_option("--time-offset-ms", a->time_offset_ms,
+                    "Camera-sensor time offset, ms (camera timestamp + offset = sensor time of the same instant)")
         ->capture_default_str();
     cmd->add_option("--seed", a->o.seed, "Seed of every noise source")->capture_default_str();
     cmd->add_option("--heading-drift", a->o.heading_drift_deg_per_min,
@@ -68,6 +72,7 @@ Command add_simulate_command(CLI::App& app) {
                 a->o.env = a->env;
                 a->o.out = a->out;
                 a->o.camera_noise = !a->no_camera_noise;
+                a->o.time_offset_s = a->time_offset_ms * 1e-3;
                 const convolution::Size s = parse_size(a->size, "--size");
                 a->o.width = s.width;
                 a->o.height = s.height;

@@ -72,6 +72,7 @@ CameraCalibration true_camera(const SimulateOptions& o, const SensorModel& senso
     truth.vignetting = {-0.22, 0.03, 0};
     truth.sensor_from_camera = host::to_glm(look(o.mount_yaw_deg, o.mount_pitch_deg, o.mount_roll_deg));
     truth.sensitivity = sensor.electrons_per_radiance_second / sensor.full_well_electrons;
+    truth.time_offset_s = o.time_offset_s;
     return truth;
 }
 
@@ -216,7 +217,10 @@ SimulateSummary write_session(const SimulateOptions& o, const HdrImage& env, con
         const glm::dquat q =
             o.bracket > 0 && o.trajectory == "guided" ? camera_look(0, 0) : world_from_camera_at(camera, tc);
         if (o.bracket > 0) cam.set_exposure(o.bracket_first_exposure_s * std::pow(2.0, k), 1.0);
-        const std::int64_t t_ns = std::int64_t(host_us(kLeadUs + std::uint64_t(std::llround(k / o.fps * 1e6)))) * 1000;
+        // The sensor's appliance time of the instant the frame shows, minus the time offset:
+        // camera timestamp + time_offset_s = sensor time (conventions.md, "Camera frame").
+        const std::int64_t t_ns = std::int64_t(host_us(kLeadUs + std::uint64_t(std::llround(k / o.fps * 1e6)))) * 1000 -
+                                  std::int64_t(std::llround(o.time_offset_s * 1e9));
         const CameraFrame f = cam.render(q, t_ns, threads);
         emit(f, q, t_ns);
         if (o.hdr_bracket && clipped_share(f) > 0.02) {
@@ -259,6 +263,7 @@ SimulateSummary simulate_session(const SimulateOptions& o, const std::function<v
     if (o.bracket > 0 && !(o.bracket_first_exposure_s > 0)) throw InputError("--bracket-first must be positive");
     if (o.width < 16 || o.height < 16 || o.width > 8192 || o.height > 8192)
         throw InputError("--size must be between 16x16 and 8192x8192");
+    if (!(std::abs(o.time_offset_s) <= 1.0)) throw InputError("--time-offset-ms must be in [-1000, 1000]");
     if (!(o.horizontal_fov_deg > 5 && o.horizontal_fov_deg < 150)) throw InputError("--fov must be in (5, 150) degrees");
     if (o.imu != "raw" && o.imu != "bno055") throw InputError("--imu must be raw or bno055");
     if (o.sensor_noise != "none" && o.sensor_noise != "default" && o.sensor_noise != "high")

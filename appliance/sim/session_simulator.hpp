@@ -30,6 +30,10 @@ struct SimulateOptions {
     bool camera_noise = true;
     double mount_yaw_deg = 2.0, mount_pitch_deg = -1.5, mount_roll_deg = 0.5;  // sensor_from_camera
     double clock_drift_ppm = 40;     // board clock rate against the appliance clock
+    // The camera-sensor time offset (CameraCalibration::time_offset_s: camera timestamp + offset =
+    // sensor time of the same instant): each frame is stamped this much before the sensor's time
+    // of the instant it shows. Written to calibration.json and truth/calibration.json.
+    double time_offset_s = 0;
     // A heading drift of the sensor's reported orientation, deg/min about world +Y, on top of its
     // own errors (a gyro bias the fusion does not see): the board is fed a world that turns.
     double heading_drift_deg_per_min = 0;

@@ -114,6 +114,38 @@ TEST_F(SessionTest, SimulateThenCaptureWithTrueOrientationsCoversAndMatchesTheSk
     EXPECT_LT(*viaSensors.guided_complete_after_s, sim.duration_s);
 }
 
+TEST_F(SessionTest, CaptureAppliesTheCalibratedTimeOffset) {
+    // Frames stamped 80 ms before the sensor's time of the instant they show, and the offset in
+    // the session's calibration: the capture must look the sensor up at frame time + offset. At
+    // the scan's 45 deg/s an ignored offset puts the camera about 3.6 degrees off, one applied
+    // the wrong way about 7.
+    SimulateOptions o = small_session();
+    o.time_offset_s = 0.080;
+    simulate_session(o);
+    CaptureOptions c;
+    c.session = dir_ / "session";
+    c.out = dir_ / "env.exr";
+    c.width = 128;
+    c.height = 64;
+    c.orientations = OrientationInput::Sensors;
+    c.drift_correction = false;  // the sensor path alone
+    const CaptureSummary with = capture_session(c);
+    // The same session with the offset taken out of its calibration.
+    CameraCalibration cal = load_calibration(dir_ / "session" / "calibration.json");
+    EXPECT_DOUBLE_EQ(cal.time_offset_s, 0.080);
+    cal.time_offset_s = 0;
+    save_calibration(dir_ / "session" / "calibration.json", cal);
+    const CaptureSummary without = capture_session(c);
+    ASSERT_TRUE(with.orientation_error_median_deg && without.orientation_error_median_deg);
+    std::printf("capture of a session with an 80 ms time offset: camera error median %.3f degrees with the offset "
+                "applied, %.3f without\n",
+                *with.orientation_error_median_deg, *without.orientation_error_median_deg);
+    // Measured 0.229 degrees with the offset (the sensor's own error, as with no offset) and 3.748
+    // without it.
+    EXPECT_LT(*with.orientation_error_median_deg, 1.0);
+    EXPECT_GT(*without.orientation_error_median_deg, 2.0);
+}
+
 TEST_F(SessionTest, DriftCorrectionBringsTheCameraCloserToTheTruth) {
     // A real room (blender-data's studio), seen through the raw IMU's Mahony fusion plus a heading
     // drift of 1 deg/min (issue 5, Part 5), which the overlapping frames of the scan can correct.
@@ -142,6 +174,32 @@ TEST_F(SessionTest, DriftCorrectionBringsTheCameraCloserToTheTruth) {
     EXPECT_GT(corrected.drift_applied, corrected.drift_considered / 2);
     EXPECT_LT(*corrected.orientation_error_median_deg, *plain.orientation_error_median_deg);
     EXPECT_LT(corrected.drift_residual_after, corrected.drift_residual_before);
+    std::printf("global adjustment: %d of %d pairs, pair RMS %.4f degrees, sensor RMS %.4f degrees, drift %.3f "
+                "deg/min (injected 1); live error median %.3f max %.3f, final median %.3f max %.3f degrees\n",
+                corrected.adjust_pairs, corrected.adjust_pairs_tried, corrected.adjust_pair_rms_deg,
+                corrected.adjust_sensor_rms_deg, corrected.adjust_drift_deg_per_min,
+                corrected.live_orientation_error_median_deg.value_or(-1),
+                corrected.live_orientation_error_max_deg.value_or(-1), *corrected.orientation_error_median_deg,
+                corrected.orientation_error_max_deg.value_or(-1));
+    // The global adjustment ran on the corrected capture only (it needs the drift correction).
+    EXPECT_EQ(plain.adjust_pairs, 0);
+    // Most candidate pairs of a scan this dense overlap well enough to be measured (664 of 731).
+    EXPECT_GT(corrected.adjust_pairs, corrected.adjust_pairs_tried / 2);
+    EXPECT_LE(corrected.adjust_pairs, corrected.adjust_pairs_tried);
+    // The drift rate it finds is the injected one. Measured 1.33 deg/min for the injected 1 (the
+    // summary holds its length only, so the sign is the unit test's job:
+    // GlobalAdjustment.ThePoseGraphRemovesTheSensorsDriftAndKeepsItsFrame); an adjustment that
+    // loses the drift term finds about 0.
+    EXPECT_NEAR(corrected.adjust_drift_deg_per_min, 1.0, 0.5);
+    // After the solve the pairs agree with the orientations to a fraction of a degree (0.17
+    // measured) and the orientations stay near the sensor's (0.48 RMS, its fusion noise).
+    EXPECT_LT(corrected.adjust_pair_rms_deg, 0.3);
+    EXPECT_LT(corrected.adjust_sensor_rms_deg, 0.8);
+    // The adjustment improves on the live pass where it is worst (1.07 -> 0.82 degrees measured)
+    // and does not make the typical frame worse (0.471 -> 0.463).
+    ASSERT_TRUE(corrected.live_orientation_error_max_deg && corrected.orientation_error_max_deg);
+    EXPECT_LT(*corrected.orientation_error_max_deg, *corrected.live_orientation_error_max_deg);
+    EXPECT_LE(*corrected.orientation_error_median_deg, *corrected.live_orientation_error_median_deg + 0.02);
 }
 
 TEST_F(SessionTest, RefusesToReplaceASessionWithoutForce) {
@@ -243,26 +301,51 @@ TEST_F(SessionTest, VignettingFromAFlatFieldFindsTheTrueFalloff) {
     EXPECT_LT(worst, 0.01);
 }
 
-TEST_F(SessionTest, AlignmentFromAScanComesCloserThanNoCalibration) {
-    // The simulator mounts the sensor 2 / -1.5 / 0.5 degrees (yaw / pitch / roll) off the camera:
-    // 2.55 degrees in all. Image rotations between frames of courtyard against the sensor's.
-    SimulateOptions o = small_session();
+// A rotation-only scan of courtyard for the camera-sensor alignment, its frames stamped
+// `time_offset_ms` off the sensor's clock (camera time + offset = sensor time).
+SimulateOptions alignment_scan(SimulateOptions o, double time_offset_ms) {
     o.env = std::string(GLINT_BLENDER_WORLDS) + "/courtyard.exr";
     o.width = 320;
     o.height = 180;
     o.fps = 3;
-    simulate_session(o);
+    o.time_offset_s = time_offset_ms * 1e-3;
+    return o;
+}
+
+// The time offset's tolerance. Measured: the estimate is 2.0 ms below the truth at -20, 0 and
+// +35 ms alike (a bias of the method, on its 1 ms grid); 5 ms leaves margin and is still far
+// below the 20 and 35 ms an estimator that ignores the offset would be off by.
+constexpr double kTimeOffsetToleranceMs = 5.0;
+
+TEST_F(SessionTest, AlignmentFromAScanComesCloserThanNoCalibration) {
+    // The simulator mounts the sensor 2 / -1.5 / 0.5 degrees (yaw / pitch / roll) off the camera:
+    // 2.55 degrees in all. Image rotations between frames of courtyard against the sensor's.
+    // The frames run 20 ms behind the sensor: a true offset of 0 would not catch an estimator
+    // that always answers 0 (issue 12).
+    simulate_session(alignment_scan(small_session(), -20));
     const Session s = open_session(dir_ / "session");
     const CameraCalibration truth = load_calibration(dir_ / "session" / "truth" / "calibration.json");
+    EXPECT_DOUBLE_EQ(truth.time_offset_s, -0.020);  // the truth the simulator wrote
     const AlignmentResult r = calibrate_alignment(s);
     const double off = angle_between(r.sensor_from_camera, truth.sensor_from_camera) * 180 / kPi;
     const double uncalibrated = angle_between(glm::dquat(1, 0, 0, 0), truth.sensor_from_camera) * 180 / kPi;
-    std::printf("alignment: %d pairs, mounting off by %.3f degrees (%.3f uncalibrated), time offset %.1f ms, "
-                "median residual %.3f degrees\n",
-                r.pairs, off, uncalibrated, r.time_offset_s * 1e3, r.residual_deg);
+    std::printf("alignment: %d pairs, mounting off by %.3f degrees (%.3f uncalibrated), time offset %.1f ms "
+                "(true %.1f), median residual %.3f degrees\n",
+                r.pairs, off, uncalibrated, r.time_offset_s * 1e3, truth.time_offset_s * 1e3, r.residual_deg);
     EXPECT_GT(r.pairs, 100);
     EXPECT_LT(off, 1.5);
-    EXPECT_LT(std::abs(r.time_offset_s - truth.time_offset_s), 0.015);
+    EXPECT_NEAR(r.time_offset_s * 1e3, -20.0, kTimeOffsetToleranceMs);
+}
+
+TEST_F(SessionTest, AlignmentRecoversAPositiveTimeOffset) {
+    // The other sign, and further out (the search covers +-50 ms): frames stamped 35 ms ahead.
+    simulate_session(alignment_scan(small_session(), 35));
+    const Session s = open_session(dir_ / "session");
+    EXPECT_DOUBLE_EQ(load_calibration(dir_ / "session" / "truth" / "calibration.json").time_offset_s, 0.035);
+    const AlignmentResult r = calibrate_alignment(s);
+    std::printf("alignment: true time offset +35 ms, estimated %+.1f ms (%d pairs)\n", r.time_offset_s * 1e3, r.pairs);
+    EXPECT_GT(r.pairs, 100);
+    EXPECT_NEAR(r.time_offset_s * 1e3, 35.0, kTimeOffsetToleranceMs);
 }
 
 TEST_F(SessionTest, IntrinsicsFromChArUcoViewsMatchTheTrueCamera) {
