@@ -1,4 +1,4 @@
-// Unit tests of the two pieces of the drift correction with known answers (issue 12): the
+// Unit tests of the two pieces of the drift correction with known answers: the
 // rotation fit on synthetic residuals of a known rotation, and DriftCorrector::estimate on a
 // sphere rendered from a known orientation with a frame whose orientation is off by a known
 // rotation. The session test (test_session.cpp) only shows that the correction helps on a

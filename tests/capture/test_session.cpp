@@ -148,7 +148,7 @@ TEST_F(SessionTest, CaptureAppliesTheCalibratedTimeOffset) {
 
 TEST_F(SessionTest, DriftCorrectionBringsTheCameraCloserToTheTruth) {
     // A real room (blender-data's studio), seen through the raw IMU's Mahony fusion plus a heading
-    // drift of 1 deg/min (issue 5, Part 5), which the overlapping frames of the scan can correct.
+    // drift of 1 deg/min (the capture benchmark's condition), which the overlapping frames of the scan can correct.
     SimulateOptions o = small_session();
     o.env = std::string(GLINT_BLENDER_WORLDS) + "/studio.exr";
     o.width = 160;
@@ -321,7 +321,7 @@ TEST_F(SessionTest, AlignmentFromAScanComesCloserThanNoCalibration) {
     // The simulator mounts the sensor 2 / -1.5 / 0.5 degrees (yaw / pitch / roll) off the camera:
     // 2.55 degrees in all. Image rotations between frames of courtyard against the sensor's.
     // The frames run 20 ms behind the sensor: a true offset of 0 would not catch an estimator
-    // that always answers 0 (issue 12).
+    // that always answers 0.
     simulate_session(alignment_scan(small_session(), -20));
     const Session s = open_session(dir_ / "session");
     const CameraCalibration truth = load_calibration(dir_ / "session" / "truth" / "calibration.json");

@@ -74,7 +74,7 @@ TEST(Trajectory, ErrorsNameFileAndLine) {
 }
 
 TEST(Trajectory, ReadsTheSecondsFormatWithoutAFormatLine) {
-    // The fixed format of the issue: t_seconds,w,x,y,z, camera/sensor to world.
+    // The fixed format (firmware/README.md, "Trajectory files"): t_seconds,w,x,y,z, camera/sensor to world.
     const Trajectory t = Trajectory::parse("# a quarter turn\n0,1,0,0,0\n2.5,0.70710678,0,0.70710678,0\n", "m.csv");
     ASSERT_EQ(t.samples().size(), 2u);
     EXPECT_EQ(t.samples()[1].time_us, 2'500'000u);
