@@ -148,7 +148,8 @@ TEST_F(SessionTest, CaptureAppliesTheCalibratedTimeOffset) {
 
 TEST_F(SessionTest, DriftCorrectionBringsTheCameraCloserToTheTruth) {
     // A real room (blender-data's studio), seen through the raw IMU's Mahony fusion plus a heading
-    // drift of 1 deg/min (the capture benchmark's condition), which the overlapping frames of the scan can correct.
+    // drift of 1 deg/min (the capture benchmark's condition), which the overlapping frames of the
+    // scan can correct.
     SimulateOptions o = small_session();
     o.env = std::string(GLINT_BLENDER_WORLDS) + "/studio.exr";
     o.width = 160;
