@@ -507,6 +507,11 @@ TEST_F(HardCases, NonPowerOfTwoMapWorksForEveryMethod) {
                 r.plan.predicted_error <= kTau) {
                 EXPECT_LE(e.weighted_relative_rms, kTau) << describe(method, r);
             }
+            // sh at the planner's order measures 3.0e-5 (irradiance), 5.8e-6 (phong_20) and 1.2e-5
+            // (phong_160) here: 1e-2 would let it get 300x worse unnoticed; 1e-4 is a 3x margin.
+            if (method == Method::Sh) {
+                EXPECT_LE(e.weighted_relative_rms, 1e-4) << describe(method, r);
+            }
         }
     }
     const auto automatic = run(env, maps, Method::Auto, out);
