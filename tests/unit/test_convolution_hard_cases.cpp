@@ -599,13 +599,24 @@ void expect_plan_filled(const MapResult& r, const HdrImage& env, double toleranc
     EXPECT_LT(p.cutoff_cos, 1.0) << what;
     EXPECT_TRUE(std::isfinite(p.predicted_error)) << what;
     EXPECT_GE(p.predicted_error, 0.0) << what;
-    // A plan may exceed the tolerance only where the lobe-sized output hit its cap.
-    const Size lobe = lobe_output_size(r.request.shininess, tolerance, {env.width(), env.height()}, PlannerModel{});
-    const bool capped = lobe.height == std::min(kMaxLobeOutputHeight,
-                                                std::max(64, kLobeOutputOversampling * env.height()));
-    if (!capped) {
-        EXPECT_LE(p.predicted_error, tolerance) << what << " (output " << p.output_size.width << "x"
-                                            << p.output_size.height << ")";
+    // A plan may predict more than the tolerance only where the lobe-sized output hit its cap
+    // (planner.hpp: 4x the input's height, at most 4096 rows; stated here, not asked of the
+    // planner). Such a plan says it misses tau (glint convolve warns with its prediction), so
+    // its prediction (an RMS over lookups anywhere) must bound what it really does: its map,
+    // looked up bilinearly at the centres of a map of 3/4 its size (offsets of 1/6, 1/2 and 5/6
+    // of a texel in each direction), against exact there. phong_1280 of
+    // PlannerSharpLobeOnCoarseInput: predicted 0.0251, real 0.0231 (0.0275 at the midpoints
+    // between its centres only, 0.0197 on a 342x171 grid).
+    if (p.predicted_error > tolerance) {
+        const int cap = std::min(4096, std::max(64, 4 * env.height()));
+        EXPECT_EQ(p.output_size.height, cap) << what << " predicts " << p.predicted_error << " without being capped";
+        const Size half{p.output_size.width * 3 / 4, p.output_size.height * 3 / 4};
+        const auto ref = run(env, {r.request}, Method::Exact, half, 0, tolerance);
+        const double real = compare_maps(r.image, ref[0].image).weighted_relative_rms;
+        std::printf("[  report  ] capped plan %-11s %s %dx%d predicted %.4f, real %.4f against exact at %dx%d\n",
+                    what.c_str(), to_string(p.method).c_str(), p.output_size.width, p.output_size.height,
+                    p.predicted_error, real, half.width, half.height);
+        EXPECT_LE(real, p.predicted_error) << what;
     }
     EXPECT_GT(p.predicted_cost, 0.0) << what;
     EXPECT_TRUE(std::isfinite(p.predicted_cost)) << what;
@@ -645,7 +656,9 @@ TEST_F(HardCases, PlannerOutputSizeFollowsTheLobe) {
 
 TEST_F(HardCases, PlannerSharpLobeOnCoarseInput) {
     // The irradiance map is smaller than phong_1280 and sizes never fall as n grows; the map of a
-    // lobe sharper than the input's texels is still a concrete plan that claims the tolerance.
+    // lobe sharper than the input's texels is still a concrete plan. phong_1280's output hits the
+    // size cap (512x256): it predicts 0.0251 > tau, and expect_plan_filled checks that this
+    // prediction bounds its real error against exact.
     const HdrImage env = smooth_random_map(128, 64, 17);
     std::vector<MapRequest> maps{MapRequest::make_irradiance()};
     for (const MapRequest& m : phong_requests({20, 160, 1280})) maps.push_back(m);
