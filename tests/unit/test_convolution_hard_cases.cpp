@@ -357,7 +357,20 @@ TEST_F(HardCases, LitFromBelowExactIrradianceIsDarkLookingUp) {
     EXPECT_LT(top, 1e-3 * peak);
     // Looking straight down sees only the lit half; looking sideways sees half of it.
     EXPECT_NEAR(max_of_rows(img, 31, 32), peak, 1e-6);
-    EXPECT_NEAR(img.at(0, 15).r, 0.5, 0.05);
+    // Away from the equator (where any kernel symmetric about the normal gives 1/2), the clamped
+    // cosine sees (1 - cos t) / 2 of the lit half at polar angle t: 0.078 at row 5, 0.93 at row
+    // 26. The uniform hemisphere (n = 0) would give t / pi (0.17, 0.83), n = 2 other values.
+    // Measured against the continuous value: within 9.1e-5 (the 128x64 input's discretisation).
+    double off_worst = 0;
+    for (int row : {2, 5, 10, 21, 26, 29}) {
+        const double t = row_theta(row, 32);
+        for (int col : {0, 17, 40}) {
+            const double want = 0.5 * (1.0 - std::cos(t));
+            off_worst = std::max(off_worst, std::abs(img.at(col, row).r - want));
+            EXPECT_NEAR(img.at(col, row).r, want, 2e-4) << "row " << row << " col " << col;
+        }
+    }
+    std::printf("[  report  ] lit from below: off-equator rows within %.3e of (1 - cos t) / 2\n", off_worst);
     EXPECT_EQ(count_bad_values(img, "exact irradiance"), 0);
 }
 
@@ -372,7 +385,11 @@ TEST_F(HardCases, LitFromBelowShNeverNegative) {
                     r.request.label.c_str(), r.clamped_texels);
         EXPECT_EQ(r.plan.sh_order, 32);
         EXPECT_EQ(count_bad_values(r.image, describe(Method::Sh, r)), 0);
-        EXPECT_GE(r.clamped_texels, 0);
+        // Clamping writes an exact 0 for each negative channel value, and an unclamped value of
+        // this map is never exactly 0: the count must be the number of zeros in the map.
+        long long zeros = 0;
+        for (float v : r.image.data()) zeros += v == 0.0f ? 1 : 0;
+        EXPECT_EQ(r.clamped_texels, zeros) << describe(Method::Sh, r);
     }
     EXPECT_GT(high[2].clamped_texels, 0) << "phong_1280 at order 32 on a hard edge must ring below 0";
     // The planner's own order, too.
@@ -620,7 +637,13 @@ void expect_plan_filled(const MapResult& r, const HdrImage& env, double toleranc
     }
     EXPECT_GT(p.predicted_cost, 0.0) << what;
     EXPECT_TRUE(std::isfinite(p.predicted_cost)) << what;
-    EXPECT_GE(r.seconds, 0.0) << what;
+    // The wall time is filled in for every map computed (a map copied from an identical one
+    // costs nothing and keeps 0). Not a timing bound: any computation reads a later clock.
+    if (p.shares_with.empty()) {
+        EXPECT_GT(r.seconds, 0.0) << what;
+    } else {
+        EXPECT_EQ(r.seconds, 0.0) << what;
+    }
 }
 
 TEST_F(HardCases, PlannerOutputSizeFollowsTheLobe) {
