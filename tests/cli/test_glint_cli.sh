@@ -185,12 +185,21 @@ gpu_out="$work/gpu"
 run convolve "$work/in.exr" --out "$gpu_out" --irradiance --shininess 20 --size 32x16 --method exact --engine gpu
 [[ $rc -eq 0 ]] || fail "convolve --engine gpu exited $rc: $(stderr_text)"
 [[ -f $gpu_out/irradiance.exr && -f $gpu_out/phong_20.exr ]] || fail "convolve --engine gpu: maps missing"
-python3 - "$gpu_out/report.json" <<'PY' || fail "report.json of the GPU run"
+# The renderer and version in report.json must be those of the context that ran, which glint
+# names on stderr ("glint: GL: EGL 1.5, OpenGL ES 3.2 Mesa ... (GLSL ...), llvmpipe (...); ..."):
+# any non-empty string would not do.
+python3 - "$gpu_out/report.json" "$work/stderr" <<'PY' || fail "report.json of the GPU run"
 import json, sys
 r = json.load(open(sys.argv[1]))
 assert r["engine"] == "gpu", r["engine"]
-assert r["gpu"]["tiles"] >= 1 and r["gpu"]["largest_tile_ms"] > 0, r["gpu"]
-assert "llvmpipe" in r["gpu"]["renderer"] or r["gpu"]["renderer"], r["gpu"]
+g = r["gpu"]
+assert g["tiles"] >= 1 and g["largest_tile_ms"] > 0, g
+assert g["version"].startswith("OpenGL ES 3."), g["version"]
+assert g["renderer"].strip(), g
+gl = [l for l in open(sys.argv[2]) if l.startswith("glint: GL: ")]
+assert len(gl) == 1, gl
+assert ", " + g["version"] + " (GLSL " in gl[0], (g["version"], gl[0])
+assert "), " + g["renderer"] + "; " in gl[0], (g["renderer"], gl[0])
 PY
 pass "convolve --engine gpu writes the maps and report.json (engine gpu)"
 run compare "$gpu_out/phong_20.exr" "$out/phong_20.exr"

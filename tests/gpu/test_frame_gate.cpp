@@ -47,22 +47,33 @@ TEST(FrameBudgetGate, JobRunsOnlyInsideGrantedSlices) {
 TEST(FrameBudgetGate, CancelEndsTheJobAtItsNextTile) {
     FrameBudgetGate gate(0.5);
     std::atomic<bool> cancelled{false};
+    std::atomic<int> tiles{0};
+    std::atomic<double> first_allowance{-1.0};
     std::thread job([&] {
         try {
             for (;;) {
-                gate.acquire();
-                gate.spent(1.0);
+                const double allowance = gate.acquire();
+                if (tiles == 0) first_allowance = allowance;
+                // Tiles report 1 s against a 2 s slice (as above: the slice's wall-clock
+                // deadline never decides the outcome): exactly two fit.
+                gate.spent(1000.0);
+                ++tiles;
             }
         } catch (const JobCancelled&) {
             cancelled = true;
         }
         gate.finish();
     });
-    gate.run_slice(2.0);
+    gate.run_slice(2000.0);
+    EXPECT_EQ(tiles.load(), 2) << "the slice's allowance";
     gate.cancel();
     job.join();
     EXPECT_TRUE(cancelled.load());
-    gate.run_slice(5.0);  // a finished job returns at once
+    EXPECT_EQ(first_allowance.load(), 2000.0) << "the first tile is offered the whole slice";
+    // No tile after cancel(), and a finished job gives a slice back at once: a slice of 10^9 ms
+    // (11 days) that waited for the job would hang the test (ctest's timeout fails it).
+    gate.run_slice(1e9);
+    EXPECT_EQ(tiles.load(), 2);
 }
 
 TEST(FrameBudgetGate, BusyJobDoesNotHoldTheFramePastItsSlice) {

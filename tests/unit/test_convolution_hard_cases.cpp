@@ -357,7 +357,20 @@ TEST_F(HardCases, LitFromBelowExactIrradianceIsDarkLookingUp) {
     EXPECT_LT(top, 1e-3 * peak);
     // Looking straight down sees only the lit half; looking sideways sees half of it.
     EXPECT_NEAR(max_of_rows(img, 31, 32), peak, 1e-6);
-    EXPECT_NEAR(img.at(0, 15).r, 0.5, 0.05);
+    // Away from the equator (where any kernel symmetric about the normal gives 1/2), the clamped
+    // cosine sees (1 - cos t) / 2 of the lit half at polar angle t: 0.078 at row 5, 0.93 at row
+    // 26. The uniform hemisphere (n = 0) would give t / pi (0.17, 0.83), n = 2 other values.
+    // Measured against the continuous value: within 9.1e-5 (the 128x64 input's discretisation).
+    double off_worst = 0;
+    for (int row : {2, 5, 10, 21, 26, 29}) {
+        const double t = row_theta(row, 32);
+        for (int col : {0, 17, 40}) {
+            const double want = 0.5 * (1.0 - std::cos(t));
+            off_worst = std::max(off_worst, std::abs(img.at(col, row).r - want));
+            EXPECT_NEAR(img.at(col, row).r, want, 2e-4) << "row " << row << " col " << col;
+        }
+    }
+    std::printf("[  report  ] lit from below: off-equator rows within %.3e of (1 - cos t) / 2\n", off_worst);
     EXPECT_EQ(count_bad_values(img, "exact irradiance"), 0);
 }
 
@@ -372,7 +385,11 @@ TEST_F(HardCases, LitFromBelowShNeverNegative) {
                     r.request.label.c_str(), r.clamped_texels);
         EXPECT_EQ(r.plan.sh_order, 32);
         EXPECT_EQ(count_bad_values(r.image, describe(Method::Sh, r)), 0);
-        EXPECT_GE(r.clamped_texels, 0);
+        // Clamping writes an exact 0 for each negative channel value, and an unclamped value of
+        // this map is never exactly 0: the count must be the number of zeros in the map.
+        long long zeros = 0;
+        for (float v : r.image.data()) zeros += v == 0.0f ? 1 : 0;
+        EXPECT_EQ(r.clamped_texels, zeros) << describe(Method::Sh, r);
     }
     EXPECT_GT(high[2].clamped_texels, 0) << "phong_1280 at order 32 on a hard edge must ring below 0";
     // The planner's own order, too.
@@ -507,6 +524,11 @@ TEST_F(HardCases, NonPowerOfTwoMapWorksForEveryMethod) {
                 r.plan.predicted_error <= kTau) {
                 EXPECT_LE(e.weighted_relative_rms, kTau) << describe(method, r);
             }
+            // sh at the planner's order measures 3.0e-5 (irradiance), 5.8e-6 (phong_20) and 1.2e-5
+            // (phong_160) here: 1e-2 would let it get 300x worse unnoticed; 1e-4 is a 3x margin.
+            if (method == Method::Sh) {
+                EXPECT_LE(e.weighted_relative_rms, 1e-4) << describe(method, r);
+            }
         }
     }
     const auto automatic = run(env, maps, Method::Auto, out);
@@ -594,17 +616,34 @@ void expect_plan_filled(const MapResult& r, const HdrImage& env, double toleranc
     EXPECT_LT(p.cutoff_cos, 1.0) << what;
     EXPECT_TRUE(std::isfinite(p.predicted_error)) << what;
     EXPECT_GE(p.predicted_error, 0.0) << what;
-    // A plan may exceed the tolerance only where the lobe-sized output hit its cap.
-    const Size lobe = lobe_output_size(r.request.shininess, tolerance, {env.width(), env.height()}, PlannerModel{});
-    const bool capped = lobe.height == std::min(kMaxLobeOutputHeight,
-                                                std::max(64, kLobeOutputOversampling * env.height()));
-    if (!capped) {
-        EXPECT_LE(p.predicted_error, tolerance) << what << " (output " << p.output_size.width << "x"
-                                            << p.output_size.height << ")";
+    // A plan may predict more than the tolerance only where the lobe-sized output hit its cap
+    // (planner.hpp: 4x the input's height, at most 4096 rows; stated here, not asked of the
+    // planner). Such a plan says it misses tau (glint convolve warns with its prediction), so
+    // its prediction (an RMS over lookups anywhere) must bound what it really does: its map,
+    // looked up bilinearly at the centres of a map of 3/4 its size (offsets of 1/6, 1/2 and 5/6
+    // of a texel in each direction), against exact there. phong_1280 of
+    // PlannerSharpLobeOnCoarseInput: predicted 0.0251, real 0.0231 (0.0275 at the midpoints
+    // between its centres only, 0.0197 on a 342x171 grid).
+    if (p.predicted_error > tolerance) {
+        const int cap = std::min(4096, std::max(64, 4 * env.height()));
+        EXPECT_EQ(p.output_size.height, cap) << what << " predicts " << p.predicted_error << " without being capped";
+        const Size half{p.output_size.width * 3 / 4, p.output_size.height * 3 / 4};
+        const auto ref = run(env, {r.request}, Method::Exact, half, 0, tolerance);
+        const double real = compare_maps(r.image, ref[0].image).weighted_relative_rms;
+        std::printf("[  report  ] capped plan %-11s %s %dx%d predicted %.4f, real %.4f against exact at %dx%d\n",
+                    what.c_str(), to_string(p.method).c_str(), p.output_size.width, p.output_size.height,
+                    p.predicted_error, real, half.width, half.height);
+        EXPECT_LE(real, p.predicted_error) << what;
     }
     EXPECT_GT(p.predicted_cost, 0.0) << what;
     EXPECT_TRUE(std::isfinite(p.predicted_cost)) << what;
-    EXPECT_GE(r.seconds, 0.0) << what;
+    // The wall time is filled in for every map computed (a map copied from an identical one
+    // costs nothing and keeps 0). Not a timing bound: any computation reads a later clock.
+    if (p.shares_with.empty()) {
+        EXPECT_GT(r.seconds, 0.0) << what;
+    } else {
+        EXPECT_EQ(r.seconds, 0.0) << what;
+    }
 }
 
 TEST_F(HardCases, PlannerOutputSizeFollowsTheLobe) {
@@ -640,7 +679,9 @@ TEST_F(HardCases, PlannerOutputSizeFollowsTheLobe) {
 
 TEST_F(HardCases, PlannerSharpLobeOnCoarseInput) {
     // The irradiance map is smaller than phong_1280 and sizes never fall as n grows; the map of a
-    // lobe sharper than the input's texels is still a concrete plan that claims the tolerance.
+    // lobe sharper than the input's texels is still a concrete plan. phong_1280's output hits the
+    // size cap (512x256): it predicts 0.0251 > tau, and expect_plan_filled checks that this
+    // prediction bounds its real error against exact.
     const HdrImage env = smooth_random_map(128, 64, 17);
     std::vector<MapRequest> maps{MapRequest::make_irradiance()};
     for (const MapRequest& m : phong_requests({20, 160, 1280})) maps.push_back(m);
