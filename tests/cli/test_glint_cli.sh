@@ -18,20 +18,8 @@ GLINT=$1
 WORLD=/usr/share/blender/datafiles/studiolights/world/studio.exr
 [[ -f $WORLD ]] || { echo "FAIL - $WORLD is missing (blender-data)" >&2; exit 1; }
 
-work=$(mktemp -d "${TMPDIR:-/tmp}/glint_cli.XXXXXX")
-trap 'rm -rf "$work"' EXIT
-
-checks=0
-pass() { checks=$((checks + 1)); echo "ok   - $*"; }
-fail() { echo "FAIL - $*"; exit 1; }
-
-# Runs glint with stdout/stderr captured in $work/stdout, $work/stderr; sets $rc.
-run() {
-    rc=0
-    "$GLINT" "$@" >"$work/stdout" 2>"$work/stderr" || rc=$?
-}
-stderr_lines() { awk 'END { print NR }' "$work/stderr"; }
-stderr_text() { tr '\n' ' ' <"$work/stderr"; }
+# shellcheck source=cli_test_lib.sh
+source "$(dirname "$0")/cli_test_lib.sh"
 
 # No *.tmp* or .glint-staging* anywhere under a directory.
 expect_no_leftovers() {

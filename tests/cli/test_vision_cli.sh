@@ -10,15 +10,8 @@ set -euo pipefail
 GLINT=$1
 WORLD=/usr/share/blender/datafiles/studiolights/world/courtyard.exr
 [[ -f $WORLD ]] || { echo "FAIL - $WORLD is missing (blender-data)"; exit 1; }
-work=$(mktemp -d "${TMPDIR:-/tmp}/glint_vision_cli.XXXXXX")
-trap 'rm -rf "$work"' EXIT
-checks=0
-pass() { checks=$((checks + 1)); echo "ok   - $*"; }
-fail() { echo "FAIL - $*"; exit 1; }
-run() {
-    rc=0
-    "$GLINT" "$@" >"$work/stdout" 2>"$work/stderr" || rc=$?
-}
+# shellcheck source=cli_test_lib.sh
+source "$(dirname "$0")/cli_test_lib.sh"
 # The number printed after `label` in stdout.
 number_after() { sed -n "s/.*$1 \([-0-9.]*\).*/\1/p" "$work/stdout" | head -1; }
 below() { python3 -c "import sys; sys.exit(0 if abs(float('$1')) < float('$2') else 1)"; }
