@@ -2,6 +2,9 @@
 
 #include <cmath>
 
+#include <opencv2/calib3d.hpp>
+#include <vector>
+
 #include "appliance/capture/camera_model.hpp"
 
 namespace glint::capture {
@@ -31,6 +34,32 @@ TEST(CameraModel, ProjectionInvertsThePixelRayOverTheWholeImage) {
             EXPECT_NEAR(p->u, u, 1e-6);
             EXPECT_NEAR(p->v, v, 1e-6);
         }
+}
+
+// The projection against OpenCV's own (cv::projectPoints with the same intrinsics and
+// distortion), not against our inverse: a slip shared by project() and pixel_ray() (a sign of a
+// tangential term, the order of k1/k2/k3) would pass the round trip above. OpenCV's camera
+// frame is ours turned by diag(1, -1, -1) (docs/conventions.md, "Camera frame and pixels").
+TEST(CameraModel, ProjectionMatchesOpenCvsProjectPoints) {
+    const Intrinsics k = lens();
+    std::vector<cv::Point3d> opencv_points;
+    std::vector<glm::dvec3> rays;
+    for (double y : {-0.45, -0.2, 0.0, 0.15, 0.4})
+        for (double x : {-0.7, -0.3, 0.0, 0.25, 0.6}) {
+            const glm::dvec3 d = glm::normalize(glm::dvec3(x, y, -1.0));
+            rays.push_back(d);
+            opencv_points.emplace_back(d.x, -d.y, -d.z);
+        }
+    const cv::Matx33d camera(k.fx, 0, k.cx, 0, k.fy, k.cy, 0, 0, 1);
+    const std::vector<double> distortion{k.k1, k.k2, k.p1, k.p2, k.k3};
+    std::vector<cv::Point2d> expected;
+    cv::projectPoints(opencv_points, cv::Vec3d(0, 0, 0), cv::Vec3d(0, 0, 0), camera, distortion, expected);
+    for (std::size_t i = 0; i < rays.size(); ++i) {
+        const auto p = project(k, rays[i], 1e6);  // no image bound: the corners reach outside
+        ASSERT_TRUE(p) << i;
+        EXPECT_NEAR(p->u, expected[i].x, 1e-9) << "ray " << i;
+        EXPECT_NEAR(p->v, expected[i].y, 1e-9) << "ray " << i;
+    }
 }
 
 TEST(CameraModel, FollowsTheWorldFrameHabit) {

@@ -86,6 +86,7 @@ TEST(Trajectory, LoadNamesAMissingFileAndReadsARealOne) {
     EXPECT_THROW(Trajectory::load("/nonexistent/dir/motion.csv"), std::runtime_error);
     try {
         load_trajectory("/nonexistent/dir/motion.csv");
+        ADD_FAILURE() << "a missing trajectory file was loaded without an error";
     } catch (const std::runtime_error& e) {
         EXPECT_EQ(std::string(e.what()), "/nonexistent/dir/motion.csv: cannot open trajectory file");
     }
