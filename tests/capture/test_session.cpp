@@ -28,6 +28,20 @@ using sim::SimulateSummary;
 namespace fs = std::filesystem;
 
 // As `glint capture` does it: the session's frames through a replay camera, as fast as read.
+// A capture of the test's session into `out` at width x height, drift correction off unless a
+// test turns it on.
+CaptureOptions capture_options(const fs::path& session, const fs::path& out, int width, int height,
+                               OrientationInput orientations) {
+    CaptureOptions c;
+    c.session = session;
+    c.out = out;
+    c.width = width;
+    c.height = height;
+    c.orientations = orientations;
+    c.drift_correction = false;
+    return c;
+}
+
 CaptureSummary capture_session(const CaptureOptions& c) {
     host::VirtualClock clock;
     ReplayCamera camera(open_session(c.session), clock);
@@ -77,13 +91,8 @@ TEST_F(SessionTest, SimulateThenCaptureWithTrueOrientationsCoversAndMatchesTheSk
     EXPECT_NO_THROW(recording::RecordingReader(s.sensors.string()));
     EXPECT_FALSE(fs::exists(dir_ / "session.partial"));
 
-    CaptureOptions c;
-    c.session = dir_ / "session";
-    c.out = dir_ / "env-captured.exr";
-    c.width = 128;
-    c.height = 64;
-    c.orientations = OrientationInput::Truth;
-    c.drift_correction = false;  // the accumulation and the sensor path alone (drift: its own test)
+    // The accumulation and the sensor path alone (drift correction: its own test).
+    CaptureOptions c = capture_options(dir_ / "session", dir_ / "env-captured.exr", 128, 64, OrientationInput::Truth);
     const CaptureSummary r = capture_session(c);
     EXPECT_EQ(r.frames_used, sim.frames);
     // The guided scan sees everything but the floor under the stand (below about -80 degrees).
@@ -122,13 +131,8 @@ TEST_F(SessionTest, CaptureAppliesTheCalibratedTimeOffset) {
     SimulateOptions o = small_session();
     o.time_offset_s = 0.080;
     simulate_session(o);
-    CaptureOptions c;
-    c.session = dir_ / "session";
-    c.out = dir_ / "env.exr";
-    c.width = 128;
-    c.height = 64;
-    c.orientations = OrientationInput::Sensors;
-    c.drift_correction = false;  // the sensor path alone
+    // The sensor path alone.
+    CaptureOptions c = capture_options(dir_ / "session", dir_ / "env.exr", 128, 64, OrientationInput::Sensors);
     const CaptureSummary with = capture_session(c);
     // The same session with the offset taken out of its calibration.
     CameraCalibration cal = load_calibration(dir_ / "session" / "calibration.json");
@@ -157,12 +161,7 @@ TEST_F(SessionTest, DriftCorrectionBringsTheCameraCloserToTheTruth) {
     o.heading_drift_deg_per_min = 1.0;
     o.fps = 3;  // 15 degrees between frames at the scan's 45 deg/s: most of a frame overlaps the last
     simulate_session(o);
-    CaptureOptions c;
-    c.session = dir_ / "session";
-    c.width = 512;
-    c.height = 256;
-    c.out = dir_ / "plain.exr";
-    c.drift_correction = false;
+    CaptureOptions c = capture_options(dir_ / "session", dir_ / "plain.exr", 512, 256, OrientationInput::Sensors);
     const CaptureSummary plain = capture_session(c);
     c.out = dir_ / "corrected.exr";
     c.drift_correction = true;
