@@ -1,0 +1,9 @@
+#!/usr/bin/env bash
+# Off-grid error of the auto planner's maps (its own output sizes) on courtyard, studio and
+# sunset: bilinear lookup at random directions against exact_at. Writes
+# tests/bench/results/offgrid.{md,csv}. Extra arguments go to the benchmark (see --help),
+# e.g. --maps courtyard --targets irradiance,1,5120 for a short run.
+set -euo pipefail
+cd "$(dirname "$0")/../.."
+./scripts/build.sh
+./build/tests/bench/glint_bench_offgrid --out tests/bench/results --threads 2 --samples 4096 "$@"
