@@ -27,18 +27,6 @@ void check_image(const HdrImage& image, const char* what) {
     if (image.empty()) throw InputError(std::string("off-grid judge: the ") + what + " map is empty");
 }
 
-// x^n for x in [0, 1]: binary exponentiation for whole n (as exact as pow to a
-// few ulps times log2 n, and several times faster), pow otherwise.
-double power(double x, double n, bool whole, std::uint64_t whole_n) {
-    if (!whole) return std::pow(x, n);
-    double result = 1.0, base = x;
-    for (std::uint64_t e = whole_n; e != 0; e >>= 1) {
-        if (e & 1u) result *= base;
-        base *= base;
-    }
-    return result;
-}
-
 // splitmix64: one small independent stream per sample, seeded from (seed, index).
 struct Stream {
     std::uint64_t state;
@@ -102,10 +90,10 @@ glm::dvec3 ExactAt::operator()(const glm::dvec3& r_in) const {
 
     // cmax: in each row the cosine falls with the azimuth distance, so the two
     // columns either side of r hold the row's largest (a third for rounding).
-    const long long i0 = (long long)std::floor(xr);
+    const long long i_near = (long long)std::floor(xr);
     double cmax = -std::numeric_limits<double>::infinity();
     for (int j = 0; j < h_; ++j)
-        for (long long i = i0 - 1; i <= i0 + 2; ++i) cmax = std::max(cmax, cosine(wrap(i), j));
+        for (long long i = i_near - 1; i <= i_near + 2; ++i) cmax = std::max(cmax, cosine(wrap(i), j));
     if (!(cmax > 0)) return {0, 0, 0};
 
     const bool whole = n_ == std::floor(n_) && n_ <= 4e18;
@@ -114,20 +102,70 @@ glm::dvec3 ExactAt::operator()(const glm::dvec3& r_in) const {
     const double c_lo = n_ > 0 ? cmax * std::exp(kLogNegligible / n_) : 0.0;
     constexpr double kSlack = 1e-12;  // rows and columns are bounded generously; each term is tested exactly
 
+    // One contiguous run of columns [i0, i1) of row j: the cosines, the weights
+    // (0 for the terms that do not take part) and the sums, each a plain loop the
+    // compiler vectorises (the sums keep two sets of partial accumulators).
+    thread_local std::vector<double> weight;
+    weight.resize(std::size_t(w_));
     double num[3] = {0, 0, 0}, den = 0;
-    auto add = [&](int i, int j, double omega) {
-        const double c = cosine(i, j);
-        if (!(c > 0) || c < c_lo) return;
-        double f;
-        if (n_ == 0) f = 1.0;
-        else if (n_ == 1) f = c / cmax;
-        else f = power(std::min(c / cmax, 1.0), n_, whole, whole_n);
-        f *= omega;
-        const float* p = input_->row(j) + 3 * i;
-        num[0] += f * p[0];
-        num[1] += f * p[1];
-        num[2] += f * p[2];
-        den += f;
+    auto add_run = [&](int j, int i0, int i1, double omega) {
+        const double st = sin_t_[std::size_t(j)], dyct = d.y * cos_t_[std::size_t(j)];
+        const double sx = st * d.x, sz = st * d.z;
+        double* f = weight.data();
+        const double* sp = sin_p_.data();
+        const double* cp = cos_p_.data();
+        const int count = i1 - i0;
+        for (int t = 0; t < count; ++t) {
+            const double c = (sx * sp[i0 + t] - sz * cp[i0 + t]) + dyct;
+            f[t] = (c > 0 && c >= c_lo) ? c / cmax : 0.0;
+        }
+        if (n_ == 0) {
+            for (int t = 0; t < count; ++t) f[t] = f[t] > 0 ? 1.0 : 0.0;
+        } else if (n_ != 1) {
+            if (whole) {
+                // x^n by binary exponentiation, the same steps for every term.
+                std::uint64_t e = whole_n;
+                double* base = f;
+                thread_local std::vector<double> result_buffer;
+                result_buffer.assign(std::size_t(count), 1.0);
+                double* result = result_buffer.data();
+                for (;;) {
+                    if (e & 1u)
+                        for (int t = 0; t < count; ++t) result[t] *= base[t];
+                    e >>= 1;
+                    if (e == 0) break;
+                    for (int t = 0; t < count; ++t) base[t] *= base[t];
+                }
+                std::copy(result, result + count, f);
+            } else {
+                for (int t = 0; t < count; ++t) f[t] = f[t] > 0 ? std::pow(std::min(f[t], 1.0), n_) : 0.0;
+            }
+        }
+        const float* p = input_->row(j) + 3 * i0;
+        double a0 = 0, a1 = 0;
+        double r0 = 0, g0 = 0, b0 = 0, r1 = 0, g1 = 0, b1 = 0;
+        int t = 0;
+        for (; t + 1 < count; t += 2) {
+            const double f0 = f[t], f1 = f[t + 1];
+            a0 += f0;
+            a1 += f1;
+            r0 += f0 * p[3 * t];
+            g0 += f0 * p[3 * t + 1];
+            b0 += f0 * p[3 * t + 2];
+            r1 += f1 * p[3 * t + 3];
+            g1 += f1 * p[3 * t + 4];
+            b1 += f1 * p[3 * t + 5];
+        }
+        if (t < count) {
+            a0 += f[t];
+            r0 += f[t] * p[3 * t];
+            g0 += f[t] * p[3 * t + 1];
+            b0 += f[t] * p[3 * t + 2];
+        }
+        num[0] += omega * (r0 + r1);
+        num[1] += omega * (g0 + g1);
+        num[2] += omega * (b0 + b1);
+        den += omega * (a0 + a1);
     };
     for (int j = 0; j < h_; ++j) {
         // Best cosine any direction of this row can have with r.
@@ -146,11 +184,20 @@ glm::dvec3 ExactAt::operator()(const glm::dvec3& r_in) const {
             if (2 * half + 1 >= w_) whole_row = true;
         }
         if (whole_row) {
-            for (int i = 0; i < w_; ++i) add(i, j, omega);
+            add_run(j, 0, w_, omega);
         } else {
             const long long first = (long long)std::ceil(xr - half);
             const long long last = (long long)std::floor(xr + half);
-            for (long long i = first; i <= last; ++i) add(wrap(i), j, omega);
+            if (last < first) continue;
+            // [first, last] wrapped into at most two runs.
+            const int f0 = wrap(first);
+            const long long run = last - first + 1;
+            if (f0 + run <= w_) {
+                add_run(j, f0, int(f0 + run), omega);
+            } else {
+                add_run(j, f0, w_, omega);
+                add_run(j, 0, int(f0 + run - w_), omega);
+            }
         }
     }
     if (!(den > 0)) return {0, 0, 0};

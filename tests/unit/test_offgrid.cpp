@@ -114,8 +114,12 @@ TEST(OffGrid, ExactAtMatchesALongDoubleSumOffGrid) {
     double worst = 0;
     for (double n : {0.0, 1.0, 2.5, 40.0, 2000.0, 1e5}) {
         const ExactAt judge(env, n);
-        for (int k = 0; k < 50; ++k) {
-            const glm::dvec3 d = random_direction(rng);
+        // Random directions, and the seam (phi = +-pi, +Z) and the poles, where the column runs wrap.
+        std::vector<glm::dvec3> dirs{glm::normalize(glm::dvec3{1e-3, 0.2, 1}), glm::normalize(glm::dvec3{-1e-3, -0.4, 1}),
+                                     glm::normalize(glm::dvec3{0.3, 0.1, 1}), {0, 1, 0}, {0, -1, 0},
+                                     glm::normalize(glm::dvec3{1e-4, 1, 2e-4})};
+        for (int k = 0; k < 50; ++k) dirs.push_back(random_direction(rng));
+        for (const glm::dvec3& d : dirs) {
             long double cmax = -2, num = 0, den = 0;
             for (int pass = 0; pass < 2; ++pass)
                 for (int j = 0; j < 8; ++j)
