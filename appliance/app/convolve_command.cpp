@@ -33,6 +33,8 @@ struct ConvolveArgs {
     std::string input;
     std::string out_dir;
     bool irradiance = false;
+    bool mirror = false;
+    bool allow_over_tolerance = false;
     std::string shininess;
     std::string method = "auto";
     double tolerance = 0.01;
@@ -46,6 +48,20 @@ struct ConvolveArgs {
 nlohmann::json number_or_null(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); }
 
 nlohmann::json size_json(convolution::Size s) { return {s.width, s.height}; }
+
+// A plan that predicts more than the tolerance (mipmap predicts nothing: it is a baseline).
+bool over_tolerance(const convolution::MapPlan& p, double tolerance) {
+    return std::isfinite(p.predicted_error) && p.predicted_error > tolerance;
+}
+
+std::string over_tolerance_cause(const convolution::MapResult& r, const convolution::Options& options) {
+    const convolution::MapPlan& p = r.plan;
+    if (p.method == convolution::Method::Sh && options.sh_order > 0) return "--sh-order is too low for this lobe";
+    if (p.lookup_error > 0.5 * p.predicted_error) return p.size_reason;
+    if (p.size_fixed) return "--size " + std::to_string(p.output_size.width) + "x" +
+                             std::to_string(p.output_size.height) + " with --method " + to_string(options.method);
+    return "the method's own error at this lobe";
+}
 
 int run_convolve(const ConvolveArgs& args) {
     convolution::Options options;
@@ -67,9 +83,16 @@ int run_convolve(const ConvolveArgs& args) {
         }
     }
 
+    if (args.mirror) maps.push_back(convolution::MapRequest::make_mirror());
+
     const fs::path out_dir(args.out_dir);
     ensure_writable_directory(out_dir);
+    const auto load_start = std::chrono::steady_clock::now();
     const LoadedExr loaded = load_exr(args.input);
+    const double load_seconds =
+        std::chrono::duration<double>(std::chrono::steady_clock::now() - load_start).count();
+    std::error_code size_error;
+    const double file_mb = double(fs::file_size(args.input, size_error)) / 1e6;
     convolution::validate_plan_inputs({loaded.image.width(), loaded.image.height()}, maps, options);
     if (loaded.sanitised.total() > 0)
         std::fprintf(stderr,
@@ -127,7 +150,11 @@ int run_convolve(const ConvolveArgs& args) {
                          {"largest_tile_ms", gpu_engine->stats().largest_ms},
                          {"tile_cap_ms", args.tile_cap_ms}};
     }
-    report["wall_seconds"] = total_seconds;
+    report["wall_seconds"] = total_seconds;  // convolve() alone: planning and every map
+    report["load_seconds"] = load_seconds;
+    report["load_mb_per_s"] = size_error || load_seconds <= 0 ? nlohmann::json() : nlohmann::json(file_mb / load_seconds);
+    report["load_megatexels_per_s"] =
+        load_seconds > 0 ? nlohmann::json(double(loaded.image.texel_count()) / 1e6 / load_seconds) : nlohmann::json();
     report["maps"] = nlohmann::json::array();
     for (const auto& r : results) {
         const auto& p = r.plan;
@@ -139,6 +166,9 @@ int run_convolve(const ConvolveArgs& args) {
             {"input_level", p.input_level},
             {"input_size", size_json(p.input_size)},
             {"output_size", size_json(p.output_size)},
+            {"sum_size", size_json(p.sum_size)},
+            {"size_reason", p.size_reason},
+            {"lookup_error", p.lookup_error},
             {"cutoff_energy", p.cutoff_energy()},
             {"cutoff_cos", p.cutoff_cos},
             {"bright_texels", p.bright_texels},
@@ -146,12 +176,30 @@ int run_convolve(const ConvolveArgs& args) {
             {"bright_split", p.bright_split},
             {"note", p.note.empty() ? nlohmann::json() : nlohmann::json(p.note)},
             {"predicted_error", number_or_null(p.predicted_error)},
+            {"over_tolerance", over_tolerance(p, options.tolerance)},
             {"predicted_cost", p.predicted_cost},
             {"wall_seconds", r.seconds},
             {"shares_with", p.shares_with.empty() ? nlohmann::json() : nlohmann::json(p.shares_with)},
             {"refined_texels", r.refined_texels},
             {"clamped_values", r.clamped_texels},
         });
+    }
+
+    // A map predicted to miss the tolerance is not delivered as if it met it: name each one and
+    // write nothing, unless asked to (then report.json marks them).
+    std::vector<const convolution::MapResult*> over;
+    for (const auto& r : results)
+        if (over_tolerance(r.plan, options.tolerance)) over.push_back(&r);
+    for (const auto* r : over)
+        std::fprintf(stderr, "glint: %s: %s: predicted error %.3g exceeds --tolerance %.3g (%s)\n",
+                     args.allow_over_tolerance ? "warning" : "error", r->request.label.c_str(),
+                     r->plan.predicted_error, options.tolerance, over_tolerance_cause(*r, options).c_str());
+    if (!over.empty() && !args.allow_over_tolerance) {
+        std::fprintf(stderr,
+                     "glint: wrote nothing to %s: %zu map(s) over the tolerance (give a larger --tolerance, "
+                     "or --allow-over-tolerance to write them marked in report.json)\n",
+                     out_dir.c_str(), over.size());
+        return 1;
     }
 
     // Stage every file, then move them into place together (interrupt.hpp: a signal removes the
@@ -166,13 +214,6 @@ int run_convolve(const ConvolveArgs& args) {
     });
     staging.commit(names);
 
-    for (const auto& r : results)
-        if (std::isfinite(r.plan.predicted_error) && r.plan.predicted_error > options.tolerance)
-            std::fprintf(stderr, "glint: warning: %s: predicted error %.3g exceeds --tolerance %.3g (%s)\n",
-                         r.request.label.c_str(), r.plan.predicted_error, options.tolerance,
-                         r.plan.method == convolution::Method::Sh && options.sh_order > 0
-                             ? "--sh-order is too low for this lobe"
-                             : "no plan within the output-size cap meets it");
     for (const auto& r : results) {
         const auto& p = r.plan;
         std::printf("%-16s %-6s level %d (%dx%d) -> %dx%d  predicted %.2g  %.3f s%s\n",
@@ -195,14 +236,19 @@ Command add_convolve_command(CLI::App& app) {
     cmd->add_option("--out", args->out_dir, "Output directory (created if missing)")->required();
     cmd->add_flag("--irradiance", args->irradiance, "Compute the irradiance map (irradiance.exr)");
     cmd->add_option("--shininess", args->shininess,
-                    "Comma-separated Phong exponents n >= 0, e.g. 20,60,160 (phong_<n>.exr)");
+                    "Comma-separated Phong exponents 0 <= n <= 1e7, e.g. 20,60,160 (phong_<n>.exr)");
+    cmd->add_flag("--mirror", args->mirror,
+                  "Compute the mirror map (n = infinity: the environment filtered to the output's texels; mirror.exr)");
+    cmd->add_flag("--allow-over-tolerance", args->allow_over_tolerance,
+                  "Write maps predicted to miss --tolerance too (marked over_tolerance in report.json); "
+                  "without it such a run writes nothing and exits 1");
     cmd->add_option("--method", args->method, "auto, exact, cone, sh or mipmap")
         ->check(CLI::IsMember({"auto", "exact", "cone", "sh", "mipmap"}))
         ->capture_default_str();
     cmd->add_option("--tolerance", args->tolerance,
                     "Target weighted relative RMS error against exact, in (0, 1): 0.01 = 1 %")
         ->capture_default_str();
-    cmd->add_option("--size", args->size, "Fix every output map's size, WxH (default: follows the lobe)")
+    cmd->add_option("--size", args->size, "Fix every output map's size, WxH (default: the lobe's and the map's own, see report.json size_reason)")
         ->check(size_validator());
     cmd->add_option("--sh-order", args->sh_order, "SH bands for --method sh, 1..1024; 0 = chosen from n and tolerance")
         ->capture_default_str();

@@ -12,7 +12,8 @@
 
 namespace glint::convolution {
 
-enum class Method { Auto, Exact, Cone, Sh, Mipmap };
+// Mirror is not a --method: a MapRequest::make_mirror() map is planned as one by every method.
+enum class Method { Auto, Exact, Cone, Sh, Mipmap, Mirror };
 
 std::string to_string(Method m);
 std::optional<Method> parse_method(const std::string& name);
@@ -25,12 +26,14 @@ struct Size {
 // looked up with the normal; it is its own request so files are named for it.
 struct MapRequest {
     bool irradiance = false;
-    double shininess = 1.0;  // n >= 0; 1 for the irradiance map
+    bool mirror = false;     // n = infinity: the environment filtered to the output's texels
+    double shininess = 1.0;  // n >= 0; 1 for the irradiance map; +infinity for the mirror
     std::string label;       // "irradiance" or "phong_<n as given>", the file stem
     std::optional<Size> size;  // fixes this map's output size (before Options::size)
 
     static MapRequest make_irradiance();
     static MapRequest make_phong(double n, const std::string& as_given);
+    static MapRequest make_mirror();
 };
 
 class MethodExecutor;  // methods.hpp: where the sums run (the GPU engine, gpu/gpu_engine.hpp)
@@ -67,7 +70,16 @@ struct MapPlan {
     Method method = Method::Exact;
     int input_level = 0;             // pyramid level read (0 = the input map)
     Size input_size;                 // size of that level
-    Size output_size;
+    Size output_size;                // the map delivered
+    // The grid the method sums on. Without a fixed size the planner sets both to the grid the
+    // lobe needs and the engine may then deliver a finer output_size, resampled from this one,
+    // where bilinear lookups into it would miss the tolerance (docs/convolution.md).
+    Size sum_size;
+    bool size_fixed = false;         // output_size was given (--size or MapRequest::size)
+    std::string size_reason;         // why output_size is what it is (report.json)
+    // Predicted weighted RMS of bilinear lookups between output texels (counted in
+    // predicted_error, measured on the map by estimate_lookup_error), 0 where not counted.
+    double lookup_error = 0;
     double cutoff_cos = -1;          // cos of the cut-off angle, -1 = whole sphere
     // The cone's settings for this lobe and tolerance: how a cone plan runs, and
     // how auto's sh with the bright split computes its rows that fail the

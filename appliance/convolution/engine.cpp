@@ -7,6 +7,7 @@
 #include <functional>
 #include <cmath>
 #include <map>
+#include <limits>
 #include <optional>
 #include <tuple>
 #include <memory>
@@ -15,6 +16,7 @@
 #include "appliance/convolution/convolution.hpp"
 #include "appliance/convolution/methods.hpp"
 #include "appliance/convolution/mipmap.hpp"
+#include "appliance/convolution/output_grid.hpp"
 #include "appliance/convolution/planner.hpp"
 #include "appliance/convolution/sh.hpp"
 #include "appliance/core/equirect.hpp"
@@ -30,6 +32,7 @@ std::string to_string(Method m) {
         case Method::Cone: return "cone";
         case Method::Sh: return "sh";
         case Method::Mipmap: return "mipmap";
+        case Method::Mirror: return "mirror";
     }
     return "unknown";
 }
@@ -40,10 +43,14 @@ std::optional<Method> parse_method(const std::string& name) {
     return std::nullopt;
 }
 
-MapRequest MapRequest::make_irradiance() { return {true, 1.0, "irradiance", std::nullopt}; }
+MapRequest MapRequest::make_irradiance() { return {true, false, 1.0, "irradiance", std::nullopt}; }
 
 MapRequest MapRequest::make_phong(double n, const std::string& as_given) {
-    return {false, n, "phong_" + as_given, std::nullopt};
+    return {false, false, n, "phong_" + as_given, std::nullopt};
+}
+
+MapRequest MapRequest::make_mirror() {
+    return {false, true, std::numeric_limits<double>::infinity(), "mirror", std::nullopt};
 }
 
 namespace {
@@ -210,8 +217,105 @@ void run_batches(std::vector<MapResult>& results, SharedInputs& shared, MethodEx
 bool same_plan(const MapResult& a, const MapResult& b) {
     return a.request.shininess == b.request.shininess && a.plan.method == b.plan.method &&
            a.plan.output_size.width == b.plan.output_size.width &&
-           a.plan.output_size.height == b.plan.output_size.height && a.plan.sh_order == b.plan.sh_order &&
+           a.plan.output_size.height == b.plan.output_size.height &&
+           a.plan.sum_size.height == b.plan.sum_size.height && a.plan.size_fixed == b.plan.size_fixed &&
+           a.plan.sh_order == b.plan.sh_order &&
            a.plan.bright_split == b.plan.bright_split && a.plan.input_level == b.plan.input_level;
+}
+
+std::string describe(Size s) { return std::to_string(s.width) + "x" + std::to_string(s.height); }
+
+std::string percent(double v) {
+    std::ostringstream s;
+    s.precision(2);
+    s << v * 100 << " %";
+    return s.str();
+}
+
+// Solid-angle mean of all channels of a map.
+double mean_value(const HdrImage& m) {
+    const std::vector<double> solid = row_solid_angles(m.width(), m.height());
+    double sum = 0;
+    for (int j = 0; j < m.height(); ++j) {
+        double row = 0;
+        for (int i = 0; i < 3 * m.width(); ++i) row += m.row(j)[i];
+        sum += row * solid[std::size_t(j)];
+    }
+    return sum / (3.0 * 4.0 * kPi);
+}
+
+// After a map is summed on its plan's sum grid: the size it is delivered at, the error of
+// bilinear lookups into it and why (docs/convolution.md, "Output size"). A finer grid is
+// made by 4-point resampling of the map without its bright texels (`bright`: those the plan
+// summed exactly, or null), which are then added back exactly on it; where resampling would
+// miss its share of tau, `sum_on` sums the plan again on the finer grid.
+void deliver_output(MapResult& r, Size input, double tau, const PlannerModel& model, int threads,
+                    const std::vector<BrightTexel>* bright, const std::function<HdrImage(Size)>& sum_on) {
+    MapPlan& p = r.plan;
+    if (p.method == Method::Mirror) return;
+    const bool resampled_fixed = p.size_fixed && (p.sum_size.width != p.output_size.width ||
+                                                  p.sum_size.height != p.output_size.height);
+    if (p.size_fixed && !resampled_fixed) return;  // the reference's own grid: nothing between texels counts
+    const double n = r.request.shininess;
+    const auto refine = [&](Size finer, const std::string& why) {
+        const bool split = bright && !bright->empty();
+        const double floor_value = mean_value(r.image);
+        HdrImage smooth;
+        if (split) {
+            smooth = r.image;
+            const HdrImage lobes = bright_lobes(*bright, n, p.sum_size, floor_value, threads);
+            for (std::size_t k = 0; k < smooth.data().size(); ++k) smooth.data()[k] -= lobes.data()[k];
+        }
+        const LookupError e = estimate_lookup_error(split ? smooth : r.image, threads);
+        if (e.cubic_rms <= model.resample_share * tau && e.cubic_worst <= model.resample_worst_share * tau) {
+            r.image = resample_cubic(split ? smooth : r.image, finer, threads, &r.clamped_texels);
+            if (split) {
+                const HdrImage lobes = bright_lobes(*bright, n, finer, floor_value, threads);
+                for (std::size_t k = 0; k < r.image.data().size(); ++k)
+                    r.image.data()[k] = std::max(0.0f, r.image.data()[k] + lobes.data()[k]);
+            }
+            p.predicted_error += e.cubic_rms;
+            p.size_reason = why + "; resampled 4-point from " + describe(p.sum_size) + " (predicted " +
+                            percent(e.cubic_rms) + ")" + (split ? ", bright texels added exactly" : "");
+        } else {
+            r.image = sum_on(finer);
+            p.size_reason = why + "; summed on it (4-point resampling from " + describe(p.sum_size) +
+                            " would err " + percent(e.cubic_rms) + " RMS, " + percent(e.cubic_worst) + " worst)";
+            p.sum_size = finer;
+        }
+        p.output_size = finer;
+    };
+    if (resampled_fixed) {
+        refine(p.output_size, "fixed by the request");
+        return;
+    }
+    if (lobe_narrower_than_input(n, input)) {
+        p.size_reason = "the input's grid: the lobe is within two of the input's texels, so lookups between "
+                        "them interpolate the input itself, as for the mirror";
+        return;
+    }
+    const LookupError e = estimate_lookup_error(r.image, threads);
+    const auto within = [&](int factor) {
+        const double f2 = double(factor) * factor;
+        return e.bilinear_rms / f2 <= model.output_share * tau &&
+               e.bilinear_worst / f2 <= model.output_worst_share * tau;
+    };
+    int factor = 1;
+    while (!within(factor) && factor * 2 <= model.max_refinement &&
+           p.sum_size.height * factor * 2 <= kMaxOutputHeight)
+        factor *= 2;
+    const std::string estimate = "bilinear lookups between texels of " + describe(p.sum_size) + " err " +
+                                 percent(e.bilinear_rms) + " RMS, " + percent(e.bilinear_worst) + " worst";
+    p.lookup_error = e.bilinear_rms / (double(factor) * factor);
+    p.predicted_error += p.lookup_error;
+    if (factor == 1) {
+        p.size_reason = "the lobe's sum grid: " + estimate +
+                        (within(1) ? "" : " (over the tolerance: no finer grid allowed)");
+        return;
+    }
+    refine({p.sum_size.width * factor, p.sum_size.height * factor},
+           estimate + ", " + std::to_string(factor) + "x finer: " + percent(p.lookup_error) +
+               (within(factor) ? "" : " (over the tolerance: the finest grid allowed)"));
 }
 
 // Computes map k with `threads` threads (results[k].image, .seconds, ...).
@@ -248,6 +352,7 @@ void prepare_shared(SharedInputs& shared, const std::vector<MapResult>& results,
                     max_sh_order = std::max(max_sh_order, p.sh_order);
                 }
                 break;
+            case Method::Mirror:
             case Method::Auto:
                 break;
         }
@@ -290,7 +395,7 @@ std::vector<MapResult> convolve(const HdrImage& env, const std::vector<MapReques
     for (std::size_t k = 0; k < maps.size(); ++k) results.push_back({maps[k], plans[k], {}, 0, 0, 0});
 
     long long total_rows = 0;
-    for (const MapResult& r : results) total_rows += r.plan.output_size.height;
+    for (const MapResult& r : results) total_rows += r.plan.sum_size.height;
     std::atomic<long long> done_rows{0};
     const RowProgress progress = [&](long long rows) {
         const long long d = done_rows.fetch_add(rows) + rows;
@@ -307,6 +412,7 @@ std::vector<MapResult> convolve(const HdrImage& env, const std::vector<MapReques
     for (std::size_t k = 0; k < results.size(); ++k) {
         if (batched[k]) {
             results[k].image = std::move(*batched[k]);
+            to_run.push_back(k);  // delivered below, not summed again
             continue;
         }
         for (std::size_t e = 0; e < k && !same_as[k]; ++e)
@@ -317,42 +423,58 @@ std::vector<MapResult> convolve(const HdrImage& env, const std::vector<MapReques
             to_run.push_back(k);
     }
 
-    const MapRunner run_map = [&](std::size_t k, int map_threads) {
-        MapResult& r = results[k];
-        const auto start = std::chrono::steady_clock::now();
+    // The plan's method summed on `grid` (its sum grid, or a finer one; output_grid.hpp).
+    const auto sum_on = [&](MapResult& r, Size grid, int map_threads, const RowProgress& rows) {
         const double n = r.request.shininess;
-        const Size out = r.plan.output_size;
         switch (r.plan.method) {
             case Method::Exact:
-                r.image = exact_convolve(shared.full_level(), n, out, map_threads, progress);
-                break;
-            case Method::Sh:
-                if (r.plan.bright_split)
+                return exact_convolve(shared.full_level(), n, grid, map_threads, rows);
+            case Method::Sh: {
+                if (r.plan.bright_split) {
                     run_sh_split(r, shared, options.executor, map_threads);
-                else
-                    r.image = sh_convolve(shared.sh(r.plan.sh_order, map_threads), {env.width(), env.height()}, n,
-                                          r.plan.sh_order, out, map_threads, &r.clamped_texels, options.executor);
-                progress(out.height);
-                break;
+                    rows(grid.height);
+                    return std::move(r.image);
+                }
+                HdrImage image = sh_convolve(shared.sh(r.plan.sh_order, map_threads), {env.width(), env.height()}, n,
+                                             r.plan.sh_order, grid, map_threads, &r.clamped_texels, options.executor);
+                rows(grid.height);
+                return image;
+            }
             case Method::Cone: {
                 ConeStats stats;
                 r.plan.bright_texels = int(shared.bright().texels.size());
                 const PreparedLevel& level = shared.cone_level(r.plan.input_level);
                 std::unique_ptr<ConeSumsBackend> backend;
-                if (options.executor) backend = options.executor->cone_sums(level, out, n, r.plan.cone);
-                r.image = cone_convolve(level, shared.bright().texels, n, out, r.plan.cone, map_threads, progress,
-                                        &stats, {}, backend.get());
-                r.refined_texels = stats.refined_texels;
-                break;
+                if (options.executor) backend = options.executor->cone_sums(level, grid, n, r.plan.cone);
+                HdrImage image = cone_convolve(level, shared.bright().texels, n, grid, r.plan.cone, map_threads, rows,
+                                               &stats, {}, backend.get());
+                r.refined_texels += stats.refined_texels;
+                return image;
             }
-            case Method::Mipmap:
-                r.image = mipmap_convolve(shared.mip_pyramid(), r.request.irradiance, n, out.width, out.height);
-                progress(out.height);
-                break;
+            case Method::Mipmap: {
+                HdrImage image = mipmap_convolve(shared.mip_pyramid(), r.request.irradiance, n, grid.width, grid.height);
+                rows(grid.height);
+                return image;
+            }
+            case Method::Mirror: {
+                HdrImage image = filter_to_footprint(env, grid, map_threads);
+                rows(grid.height);
+                return image;
+            }
             case Method::Auto:
-                throw RuntimeError("internal: a plan must name a concrete method");
+                break;
         }
-        r.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        throw RuntimeError("internal: a plan must name a concrete method");
+    };
+    const RowProgress no_progress = [](long long) {};
+    const MapRunner run_map = [&](std::size_t k, int map_threads) {
+        MapResult& r = results[k];
+        const auto start = std::chrono::steady_clock::now();
+        if (!batched[k]) r.image = sum_on(r, r.plan.sum_size, map_threads, progress);
+        const bool split = r.plan.method == Method::Cone || (r.plan.method == Method::Sh && r.plan.bright_split);
+        deliver_output(r, {env.width(), env.height()}, options.tolerance, model, map_threads,
+                       split ? &shared.bright().texels : nullptr, [&](Size grid) { return sum_on(r, grid, map_threads, no_progress); });
+        r.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     };
     if (options.executor || threads == 1) {
         // The GPU engine owns one context, driven from this thread: maps in order.
@@ -363,8 +485,15 @@ std::vector<MapResult> convolve(const HdrImage& env, const std::vector<MapReques
     }
     for (std::size_t k = 0; k < results.size(); ++k)
         if (same_as[k]) {
-            results[k].image = results[*same_as[k]].image;
-            progress(results[k].plan.output_size.height);
+            const MapResult& original = results[*same_as[k]];
+            MapPlan& p = results[k].plan;
+            results[k].image = original.image;
+            p.output_size = original.plan.output_size;
+            p.sum_size = original.plan.sum_size;
+            p.size_reason = original.plan.size_reason;
+            p.lookup_error = original.plan.lookup_error;
+            p.predicted_error = original.plan.predicted_error;
+            progress(p.sum_size.height);
         }
     return results;
 }

@@ -37,13 +37,27 @@ struct EnvironmentShape {
 
 double lobe_width(double n) { return n <= 1.0 ? 1.0 : 1.0 / std::sqrt(n); }
 
-Size lobe_output_size(double n, double tolerance, Size input, const PlannerModel& model) {
-    const double sigma = lobe_width(n);
-    const double h = sigma * std::sqrt(model.output_share * tolerance / model.output_error_coefficient);
-    int height = int(std::ceil(kPi / h));
-    const int cap = std::min(kMaxLobeOutputHeight, std::max(64, kLobeOutputOversampling * input.height));
-    height = std::clamp(height + (height & 1), 4, cap);
-    return {2 * height, height};
+Size sum_grid_size(double n, Size input, const PlannerModel& model) {
+    const int cap = input.height;
+    if (std::isinf(n)) return {2 * cap, cap};
+    const double spacing = model.sum_grid_spacing * lobe_width(n);
+    const int needed = std::max(model.min_output_height, int(std::ceil(kPi / spacing)));
+    if (needed >= cap) return {2 * cap, cap};
+    // The ladder: the input's height halved k times, and 3/4 of each (column classes
+    // gcd(W, W') stay few, so the sums stay unit-stride runs; lobe_sum.hpp).
+    int best = cap;
+    for (int h = cap; h >= 2; h /= 2) {
+        if (h >= needed && h < best) best = h;
+        if (h % 4 == 0 && 3 * h / 4 >= needed && 3 * h / 4 < best) best = 3 * h / 4;
+        if (h % 2) break;
+    }
+    if (best > needed * 2) best = needed + (needed & 1);  // an odd input height: no ladder below it
+    return {2 * best, best};
+}
+
+bool lobe_narrower_than_input(double n, Size input) {
+    const double two_texels = 2.0 * kPi / input.height;
+    return lobe_width(n) < two_texels;
 }
 
 double merged_arc_budget(double n, double tolerance, const PlannerModel& model) {
@@ -89,19 +103,36 @@ MapPlan plan_map(const MapRequest& request, const Options& options, const Enviro
     const ConeSettings& cone = plan.cone;
     const double cut_cos = cone_cut_cos(cone.cutoff_energy, n);
     const std::optional<Size> fixed = request.size ? request.size : options.size;
-    plan.output_size = fixed ? *fixed : lobe_output_size(n, tau, env.input, model);
-    const Size out = plan.output_size;
-    // Error of bilinear lookups into a map sized by the lobe; a fixed size is
-    // the reference's own grid, so it adds nothing to the comparison.
-    double output_error = 0;
-    if (!fixed) {
-        const double h = texel_spacing(out);
-        output_error = model.output_error_coefficient * h * h * std::max(n, 1.0);
-    }
+    const Size grid = sum_grid_size(n, env.input, model);
+    plan.size_fixed = bool(fixed);
+    plan.output_size = fixed ? *fixed : grid;
+    plan.sum_size = plan.output_size;
+    plan.size_reason = fixed ? "fixed by the request" : "the lobe's sum grid";
+    // The error of bilinear lookups between the output's texels is estimated on the
+    // computed map (engine, output_grid.hpp); a fixed size is the reference's own grid.
+    const double output_error = 0;
     plan.predicted_error = output_error;
+    if (request.mirror) {
+        plan.method = Method::Mirror;
+        plan.input_level = 0;
+        plan.input_size = env.input;
+        plan.cutoff_cos = -1;
+        plan.predicted_error = 0;  // the definition of the mirror map
+        plan.predicted_cost = double(texels(plan.output_size)) + double(texels(env.input));
+        plan.size_reason = fixed ? "fixed by the request" : "the input's grid (mirror)";
+        return plan;
+    }
+    // Only the cone sums at a coarser grid than a fixed output and resamples (exact and
+    // mipmap are what they are at the size asked; SH reconstructs at any size).
+    const bool may_resample = fixed && grid.height < fixed->height &&
+                              (options.method == Method::Auto || options.method == Method::Cone);
+    const Size out = plan.output_size;
+    const Size cone_grid = may_resample ? grid : out;  // where a cone plan sums
 
     const auto plan_exact = [&] {
         plan.method = Method::Exact;
+        plan.sum_size = plan.output_size;
+        if (fixed) plan.size_reason = "fixed by the request";
         plan.predicted_error = output_error;
         plan.input_level = 0;
         plan.input_size = env.input;
@@ -124,7 +155,7 @@ MapPlan plan_map(const MapRequest& request, const Options& options, const Enviro
         // Rows near the poles that read merged columns: a texel as wide as the
         // widest merged one, by the same model.
         const Size ls = env.cone_levels[std::size_t(level)];
-        const double widest = widest_merged_arc(ls.width, ls.height, out.width, cone.max_texel_arc);
+        const double widest = widest_merged_arc(ls.width, ls.height, cone_grid.width, cone.max_texel_arc);
         const double h_level = level > 0 ? texel_spacing(ls) : 0.0;
         if (widest > h_level)
             level_error = model.level_rms_coefficient * widest * widest * std::max(n, model.level_min_shininess);
@@ -133,11 +164,16 @@ MapPlan plan_map(const MapRequest& request, const Options& options, const Enviro
         plan.input_size = env.cone_levels[std::size_t(level)];
         plan.cutoff_cos = cut_cos;
         plan.predicted_error = output_error + level_error + cone.cutoff_energy;
-        plan.predicted_cost = lobe_cost(out, plan.input_size, cut_cos);
+        if (may_resample) {
+            plan.sum_size = grid;
+            plan.size_reason = "fixed by the request; summed on the lobe's grid and resampled";
+        }
+        plan.predicted_cost = lobe_cost(plan.sum_size, plan.input_size, cut_cos);
     };
 
     switch (options.method) {
         case Method::Exact:
+        case Method::Mirror:  // not an option: mirror maps are planned above
             plan_exact();
             break;
         case Method::Cone:
@@ -239,6 +275,7 @@ void choose_sh_split(const std::vector<MapRequest>& maps, std::vector<MapPlan>& 
     std::vector<Candidate> candidates;
     for (std::size_t k = 0; k < plans.size(); ++k) {
         const MapPlan& p = plans[k];
+        if (p.method == Method::Mirror) continue;
         const ShSplitPlan sh = plan_sh_split(maps[k].shininess, tau, p.output_size, shape, model);
         const double cone_s = predicted_seconds(p, model);
         if (sh.usable && sh.reconstruct_seconds < cone_s) candidates.push_back({k, sh, cone_s});
@@ -265,6 +302,8 @@ void choose_sh_split(const std::vector<MapRequest>& maps, std::vector<MapPlan>& 
         MapPlan& p = plans[c->index];
         p.method = Method::Sh;
         p.bright_split = true;
+        if (p.size_fixed) p.size_reason = "fixed by the request";
+        p.sum_size = p.output_size;  // SH reconstructs at any size
         p.sh_order = c->sh.order;
         p.projection_order = order;
         p.fallback_level = p.input_level;  // the cone's, for rows whose SH bound fails
@@ -290,11 +329,14 @@ void validate_plan_inputs(Size input, const std::vector<MapRequest>& maps, const
     if (input.width <= 0 || input.height <= 0) throw InputError("environment map is empty (0 texels)");
     if (input.width < 2 || input.height < 2)
         throw InputError("environment map " + size_text(input) + " is too small (needs at least 2x2)");
-    if (maps.empty()) throw InputError("no maps requested (give --irradiance and/or --shininess)");
+    if (maps.empty()) throw InputError("no maps requested (give --irradiance, --shininess and/or --mirror)");
     for (const MapRequest& m : maps) {
-        if (!std::isfinite(m.shininess) || m.shininess < 0)
+        if (!m.mirror && (!std::isfinite(m.shininess) || m.shininess < 0))
             throw InputError("shininess of " + m.label + " must be a finite number >= 0, not " +
                              number(m.shininess));
+        if (!m.mirror && m.shininess > kMaxShininess)
+            throw InputError("shininess of " + m.label + " must be at most " + number(kMaxShininess) + ", not " +
+                             number(m.shininess) + " (a sharper lobe is a mirror: ask for the mirror map)");
         if (m.size && (m.size->width < 2 || m.size->height < 2))
             throw InputError("output size of " + m.label + " must be at least 2x2, not " + size_text(*m.size));
     }

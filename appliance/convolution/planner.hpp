@@ -26,11 +26,23 @@ struct PlannerModel {
     // target is a worst texel within 5 % when tau = 1 %; the cut-off bound takes
     // another texel_cut_share of tau).
     double level_worst_share = 3.5;
-    // Bilinear lookup of an output map with texel spacing h: (h^2 / 8) * n.
-    double output_error_coefficient = 1.0 / 8.0;
+    // Output grids (output_grid.hpp). A map is summed on the coarsest grid of the ladder
+    // (sum_grid_height) whose spacing is within sum_grid_spacing lobe widths, at least
+    // min_output_height rows and never finer than the input. Its bilinear lookups may then
+    // err output_share * tau (weighted RMS) and output_worst_share * tau (worst texel), as
+    // estimated on the map; where they would err more, the map is resampled by 4-point
+    // interpolation to a grid up to max_refinement times finer (and kMaxOutputHeight rows),
+    // if that interpolation errs within resample_share * tau (RMS) and resample_worst_share *
+    // tau (worst), else summed again on that grid.
+    double sum_grid_spacing = 0.5;
+    int min_output_height = 32;
+    double output_worst_share = 10.0;
+    int max_refinement = 4;
+    double resample_share = 0.25;
+    double resample_worst_share = 2.0;
     // Shares of the tolerance.
     double level_share = 0.5;
-    double output_share = 0.25;
+    double output_share = 0.5;
     double texel_cut_share = 0.5;   // per-texel bound on the cut-off error
     double first_cut_energy = 0.1;  // first cone drops this fraction of tau of the lobe
     double bright_contrast = 64.0;  // texels brighter than this x mean are summed exactly
@@ -50,16 +62,25 @@ struct PlannerModel {
 // Lobe width in radians of cos^n (about 1/sqrt(n)); the hemisphere for n <= 1.
 double lobe_width(double shininess);
 
-// Output size that follows the lobe when the user did not fix one. It may
-// exceed the input's size: a lobe narrower than the input's texels still needs
-// output texels that small to be looked up bilinearly within tolerance. It is
-// capped at kLobeOutputOversampling times the input's height (beyond that the
-// map only resolves the input's texel edges more finely) and at
-// kMaxLobeOutputHeight rows; a capped plan predicts its own larger error, and
-// `glint convolve` warns when that exceeds the tolerance.
-inline constexpr int kLobeOutputOversampling = 4;
-inline constexpr int kMaxLobeOutputHeight = 4096;
-Size lobe_output_size(double shininess, double tolerance, Size input, const PlannerModel& model);
+// The grid a map of shininess n is summed on when no size is fixed: on the ladder of
+// sizes that share columns with the input (its height over powers of two, and 3/4 of those),
+// the coarsest whose texel spacing is within sum_grid_spacing lobe widths, at least
+// min_output_height rows and at most the input's height; width twice the height. A mirror
+// (n = infinity) is the input's size. Beyond the input's texels a finer grid would only
+// resolve the input's own texel edges; where bilinear lookups need finer texels than the
+// sum grid, the engine delivers a finer map (PlannerModel).
+inline constexpr int kMaxOutputHeight = 4096;
+// The sharpest finite lobe planned (tested); a sharper one is asked for as the mirror map.
+inline constexpr double kMaxShininess = 1e7;
+Size sum_grid_size(double shininess, Size input, const PlannerModel& model);
+
+// Lobe within two of the input's texels (width 1/sqrt(n) < 2 pi / H): between the input's
+// texel centres the exact sum is then mostly the input's own point sampling (for a lobe
+// narrower than a texel, the nearest texel: an edge no output grid resolves), not light the
+// input resolves. Such maps are delivered at the input's grid and bilinear lookups between
+// its texels are taken as the input's own interpolation, as for the mirror
+// (docs/convolution.md).
+bool lobe_narrower_than_input(double shininess, Size input);
 
 // The one check of the plan inputs (input size, maps, tolerance, sizes, SH order): throws
 // InputError saying what is accepted and what was given. plan_maps() calls it first; a command

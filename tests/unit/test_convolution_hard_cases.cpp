@@ -616,17 +616,15 @@ void expect_plan_filled(const MapResult& r, const HdrImage& env, double toleranc
     EXPECT_LT(p.cutoff_cos, 1.0) << what;
     EXPECT_TRUE(std::isfinite(p.predicted_error)) << what;
     EXPECT_GE(p.predicted_error, 0.0) << what;
-    // A plan may predict more than the tolerance only where the lobe-sized output hit its cap
-    // (planner.hpp: 4x the input's height, at most 4096 rows; stated here, not asked of the
-    // planner). Such a plan says it misses tau (glint convolve warns with its prediction), so
-    // its prediction (an RMS over lookups anywhere) must bound what it really does: its map,
+    // A plan may predict more than the tolerance only where its output could not be made fine
+    // enough for bilinear lookups (the refinement cap, PlannerModel::max_refinement); it says
+    // so in size_reason (glint convolve then exits 1 unless told otherwise), and its
+    // prediction (an RMS over lookups anywhere) must bound what it really does: its map,
     // looked up bilinearly at the centres of a map of 3/4 its size (offsets of 1/6, 1/2 and 5/6
-    // of a texel in each direction), against exact there. phong_1280 of
-    // PlannerSharpLobeOnCoarseInput: predicted 0.0251, real 0.0231 (0.0275 at the midpoints
-    // between its centres only, 0.0197 on a 342x171 grid).
+    // of a texel in each direction), against exact there.
     if (p.predicted_error > tolerance) {
-        const int cap = std::min(4096, std::max(64, 4 * env.height()));
-        EXPECT_EQ(p.output_size.height, cap) << what << " predicts " << p.predicted_error << " without being capped";
+        EXPECT_NE(p.size_reason.find("over the tolerance"), std::string::npos)
+            << what << " predicts " << p.predicted_error << ": " << p.size_reason;
         const Size half{p.output_size.width * 3 / 4, p.output_size.height * 3 / 4};
         const auto ref = run(env, {r.request}, Method::Exact, half, 0, tolerance);
         const double real = compare_maps(r.image, ref[0].image).weighted_relative_rms;
@@ -647,10 +645,10 @@ void expect_plan_filled(const MapResult& r, const HdrImage& env, double toleranc
 }
 
 TEST_F(HardCases, PlannerOutputSizeFollowsTheLobe) {
-    // 256x128 holds the lobe-sized maps of n <= 20 at tau = 1 % without clamping.
+    // 256x128 is finer than the sum grids of n <= 320 at tau = 1 %.
     const HdrImage env = smooth_random_map(256, 128, 13);
     std::vector<MapRequest> maps{MapRequest::make_irradiance()};
-    for (const MapRequest& m : phong_requests({1, 5, 20})) maps.push_back(m);
+    for (const MapRequest& m : phong_requests({1, 5, 20, 320})) maps.push_back(m);
     const auto r = run(env, maps, Method::Auto, std::nullopt);
     for (const MapResult& m : r) {
         std::printf("[  report  ] planner %-11s %-5s level %d (%dx%d) -> %dx%d predicted %.3g cut_cos %.3f\n",
@@ -659,11 +657,17 @@ TEST_F(HardCases, PlannerOutputSizeFollowsTheLobe) {
                     m.plan.output_size.height, m.plan.predicted_error, m.plan.cutoff_cos);
         expect_plan_filled(m, env, kTau);
     }
-    // Sizes grow with n; irradiance (n = 1 on the normal) equals phong_1.
+    // Sum grids never shrink as n grows and grow for a sharper lobe (at least 32 rows); the
+    // irradiance map (n = 1 on the normal) equals phong_1. Every size says why it is what it is.
     EXPECT_EQ(r[0].plan.output_size.height, r[1].plan.output_size.height);
-    EXPECT_LT(r[1].plan.output_size.height, r[2].plan.output_size.height);
-    EXPECT_LT(r[2].plan.output_size.height, r[3].plan.output_size.height);
-    for (const MapResult& m : r) EXPECT_EQ(m.plan.output_size.width, 2 * m.plan.output_size.height);
+    for (std::size_t k = 2; k < r.size(); ++k)
+        EXPECT_LE(r[k - 1].plan.sum_size.height, r[k].plan.sum_size.height) << r[k].request.label;
+    EXPECT_EQ(r[1].plan.sum_size.height, 32);
+    EXPECT_LT(r[1].plan.sum_size.height, r[4].plan.sum_size.height);
+    for (const MapResult& m : r) {
+        EXPECT_EQ(m.plan.output_size.width, 2 * m.plan.output_size.height);
+        EXPECT_FALSE(m.plan.size_reason.empty()) << m.request.label;
+    }
     // A looser tolerance allows smaller maps.
     const auto loose = run(env, maps, Method::Auto, std::nullopt, 0, 0.05);
     for (std::size_t k = 0; k < r.size(); ++k) {

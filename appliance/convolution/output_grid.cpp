@@ -1,0 +1,237 @@
+// Lookup-error estimates, 4-point resampling and the footprint filter of the mirror map.
+#include "appliance/convolution/output_grid.hpp"
+
+#include <algorithm>
+#include <array>
+#include <atomic>
+#include <cmath>
+#include <vector>
+
+#include "appliance/core/equirect.hpp"
+#include "appliance/core/parallel.hpp"
+
+namespace glint::convolution {
+namespace {
+
+// Row j + d of an equirect map continued across the poles: past the top (or bottom) row the
+// sphere goes on in the row mirrored about the pole, half a turn round.
+struct RowTap {
+    int row;
+    int shift;  // columns to add (mod width)
+};
+RowTap row_across_pole(int k, int height, int width) {
+    if (k < 0) return {std::min(-1 - k, height - 1), width / 2};
+    if (k >= height) return {std::max(2 * height - 1 - k, 0), width / 2};
+    return {k, 0};
+}
+
+int wrap(int i, int width) {
+    const int m = i % width;
+    return m < 0 ? m + width : m;
+}
+
+// 4-point Lagrange weights for taps at -1, 0, 1, 2 evaluated at t in [0, 1).
+std::array<double, 4> lagrange4(double t) {
+    return {-t * (t - 1.0) * (t - 2.0) / 6.0, (t + 1.0) * (t - 1.0) * (t - 2.0) / 2.0,
+            -(t + 1.0) * t * (t - 2.0) / 2.0, (t + 1.0) * t * (t - 1.0) / 6.0};
+}
+
+// Where an output texel centre falls on the input's grid of centres (in texels).
+struct Tap {
+    int first;  // index of the tap at -1
+    std::array<double, 4> weight;
+};
+Tap cubic_tap(int out_index, int out_count, int in_count) {
+    const double x = (out_index + 0.5) * double(in_count) / double(out_count) - 0.5;
+    const double base = std::floor(x);
+    return {int(base) - 1, lagrange4(x - base)};
+}
+
+}  // namespace
+
+LookupError estimate_lookup_error(const HdrImage& map, int threads) {
+    const int w = map.width(), h = map.height();
+    const std::vector<double> solid = row_solid_angles(w, h);
+    double sum = 0;
+    for (int j = 0; j < h; ++j) {
+        double row = 0;
+        const float* p = map.row(j);
+        for (int i = 0; i < 3 * w; ++i) row += std::abs(p[i]);
+        sum += row * solid[std::size_t(j)];
+    }
+    const double mean = sum / (3.0 * 4.0 * kPi);
+    struct RowSums {
+        double value2 = 0, bilinear2 = 0, cubic2 = 0, bilinear_worst = 0, cubic_worst = 0;
+    };
+    std::vector<RowSums> rows(static_cast<std::size_t>(h));
+    parallel_for(h, threads, [&](int j) {
+        std::array<RowTap, 5> taps;
+        for (int d = -2; d <= 2; ++d) taps[std::size_t(d + 2)] = row_across_pole(j + d, h, w);
+        RowSums s;
+        const float* centre = map.row(j);
+        for (int i = 0; i < w; ++i) {
+            for (int c = 0; c < 3; ++c) {
+                double th[5], ph[5];
+                for (int d = 0; d < 5; ++d) {
+                    th[d] = map.row(taps[std::size_t(d)].row)[3 * wrap(i + taps[std::size_t(d)].shift, w) + c];
+                    ph[d] = centre[3 * wrap(i + d - 2, w) + c];
+                }
+                const double v = th[2];
+                const double a = ph[1] - 2 * v + ph[3], b = th[1] - 2 * v + th[3];
+                const double d2 = std::abs(a) + std::abs(b);
+                const double d4 = std::abs(th[0] - 4 * th[1] + 6 * v - 4 * th[3] + th[4]) +
+                                  std::abs(ph[0] - 4 * ph[1] + 6 * v - 4 * ph[3] + ph[4]);
+                const double bilinear = d2 / 8.0, cubic = d4 * 3.0 / 128.0;
+                const double floor = std::max(std::abs(v), mean);
+                s.value2 += v * v;
+                // Mean square over the texel's cell of the bilinear error of a quadratic with these
+                // second differences, e = a t(1-t)/2 + b s(1-s)/2 for t, s uniform in [0, 1].
+                s.bilinear2 += (a * a + b * b) / 120.0 + a * b / 72.0;
+                s.cubic2 += cubic * cubic;
+                if (floor > 0) {
+                    s.bilinear_worst = std::max(s.bilinear_worst, bilinear / floor);
+                    s.cubic_worst = std::max(s.cubic_worst, cubic / floor);
+                }
+            }
+        }
+        rows[std::size_t(j)] = s;
+    });
+    double value2 = 0, bilinear2 = 0, cubic2 = 0;
+    LookupError e;
+    for (int j = 0; j < h; ++j) {
+        const RowSums& s = rows[std::size_t(j)];
+        const double a = solid[std::size_t(j)];
+        value2 += a * s.value2;
+        bilinear2 += a * s.bilinear2;
+        cubic2 += a * s.cubic2;
+        e.bilinear_worst = std::max(e.bilinear_worst, s.bilinear_worst);
+        e.cubic_worst = std::max(e.cubic_worst, s.cubic_worst);
+    }
+    if (value2 > 0) {
+        e.bilinear_rms = std::sqrt(bilinear2 / value2);
+        e.cubic_rms = std::sqrt(cubic2 / value2);
+    }
+    return e;
+}
+
+HdrImage resample_cubic(const HdrImage& map, Size out, int threads, long long* clamped) {
+    const int w = map.width(), h = map.height();
+    std::vector<Tap> columns;
+    for (int i = 0; i < out.width; ++i) columns.push_back(cubic_tap(i, out.width, w));
+    // Pass 1: every input row to the output's columns.
+    HdrImage across(out.width, h);
+    parallel_for(h, threads, [&](int j) {
+        const float* src = map.row(j);
+        float* dst = across.row(j);
+        for (int i = 0; i < out.width; ++i) {
+            const Tap& t = columns[std::size_t(i)];
+            for (int c = 0; c < 3; ++c) {
+                double v = 0;
+                for (int k = 0; k < 4; ++k) v += t.weight[std::size_t(k)] * src[3 * wrap(t.first + k, w) + c];
+                dst[3 * i + c] = float(v);
+            }
+        }
+    });
+    // Pass 2: down the columns, continuing across the poles.
+    HdrImage result(out.width, out.height);
+    std::atomic<long long> negative{0};
+    parallel_for(out.height, threads, [&](int j) {
+        const Tap t = cubic_tap(j, out.height, h);
+        std::array<RowTap, 4> taps;
+        for (int k = 0; k < 4; ++k) taps[std::size_t(k)] = row_across_pole(t.first + k, h, out.width);
+        float* dst = result.row(j);
+        long long below = 0;
+        for (int i = 0; i < out.width; ++i)
+            for (int c = 0; c < 3; ++c) {
+                double v = 0;
+                for (int k = 0; k < 4; ++k) {
+                    const RowTap& r = taps[std::size_t(k)];
+                    v += t.weight[std::size_t(k)] * across.row(r.row)[3 * wrap(i + r.shift, out.width) + c];
+                }
+                if (v < 0) {
+                    v = 0;
+                    ++below;
+                }
+                dst[3 * i + c] = float(v);
+            }
+        negative += below;
+    });
+    if (clamped) *clamped += negative.load();
+    return result;
+}
+
+HdrImage bright_lobes(const std::vector<BrightTexel>& bright, double n, Size out, double floor_value,
+                      int threads) {
+    HdrImage result(out.width, out.height);
+    if (bright.empty()) return result;
+    const BrightScatter scatter(bright, n, out, floor_value, 1e-6);
+    const double norm = (n + 1.0) / kTwoPi;
+    const std::vector<double> ones(1, 1.0);
+    parallel_for(out.height, threads, [&](int j) {
+        std::vector<double> sums(std::size_t(3 * out.width), 0.0);
+        scatter.add_row(j, ones.data(), 1, sums.data());
+        float* dst = result.row(j);
+        for (int i = 0; i < 3 * out.width; ++i) dst[i] = float(norm * sums[std::size_t(i)]);
+    });
+    return result;
+}
+
+HdrImage filter_to_footprint(const HdrImage& env, Size out, int threads) {
+    const int w = env.width(), h = env.height();
+    if (out.width == w && out.height == h) return env;
+    // Pass 1, azimuth: each output column averages the input columns it overlaps, by overlap
+    // length (texels of one row share their solid angle).
+    struct Span {
+        int first;
+        std::vector<double> weight;
+    };
+    const auto spans = [](int out_count, int in_count) {
+        std::vector<Span> s(static_cast<std::size_t>(out_count));
+        for (int o = 0; o < out_count; ++o) {
+            const double a = double(o) * in_count / out_count, b = double(o + 1) * in_count / out_count;
+            const int first = std::min(int(std::floor(a)), in_count - 1);
+            const int last = std::min(int(std::ceil(b)) - 1, in_count - 1);
+            s[std::size_t(o)].first = first;
+            for (int k = first; k <= last; ++k)
+                s[std::size_t(o)].weight.push_back(std::max(0.0, std::min(b, k + 1.0) - std::max(a, double(k))));
+        }
+        return s;
+    };
+    const std::vector<Span> cols = spans(out.width, w);
+    HdrImage across(out.width, h);
+    parallel_for(h, threads, [&](int j) {
+        for (int i = 0; i < out.width; ++i) {
+            const Span& s = cols[std::size_t(i)];
+            double v[3] = {0, 0, 0}, total = 0;
+            for (std::size_t k = 0; k < s.weight.size(); ++k) {
+                const float* p = env.row(j) + 3 * (s.first + int(k));
+                for (int c = 0; c < 3; ++c) v[c] += s.weight[k] * p[c];
+                total += s.weight[k];
+            }
+            for (int c = 0; c < 3; ++c) across.row(j)[3 * i + c] = float(v[c] / total);
+        }
+    });
+    // Pass 2, polar angle: each output row averages the input rows it overlaps, by the solid
+    // angle of the overlap (cos a - cos b of its polar-angle interval).
+    HdrImage result(out.width, out.height);
+    parallel_for(out.height, threads, [&](int j) {
+        const double a = kPi * j / out.height, b = kPi * (j + 1) / out.height;
+        const int first = std::min(int(std::floor(double(j) * h / out.height)), h - 1);
+        const int last = std::min(int(std::ceil(double(j + 1) * h / out.height)) - 1, h - 1);
+        std::vector<double> v(std::size_t(3 * out.width), 0.0);
+        double total = 0;
+        for (int k = first; k <= last; ++k) {
+            const double lo = std::max(a, kPi * k / h), hi = std::min(b, kPi * (k + 1) / h);
+            if (hi <= lo) continue;
+            const double weight = std::cos(lo) - std::cos(hi);
+            const float* p = across.row(k);
+            for (int i = 0; i < 3 * out.width; ++i) v[std::size_t(i)] += weight * p[i];
+            total += weight;
+        }
+        float* dst = result.row(j);
+        for (int i = 0; i < 3 * out.width; ++i) dst[i] = total > 0 ? float(v[std::size_t(i)] / total) : 0.0f;
+    });
+    return result;
+}
+
+}  // namespace glint::convolution

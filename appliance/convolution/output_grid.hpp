@@ -1,0 +1,53 @@
+// The grids maps are summed on and delivered at (docs/convolution.md, "Output size").
+//
+// A renderer reads a map by bilinear lookup at any direction, so a map's size is chosen for
+// the error of those lookups, which is estimated from the computed map itself: its second
+// differences bound the error of linear interpolation between texels, its fourth differences
+// that of 4-point (cubic) interpolation. A map whose lookups need finer texels than it was
+// summed on is resampled to them with 4-point interpolation instead of being summed again.
+#pragma once
+
+#include <vector>
+
+#include "appliance/convolution/convolution.hpp"
+#include "appliance/convolution/methods.hpp"
+#include "appliance/core/hdr_image.hpp"
+
+namespace glint::convolution {
+
+// Errors, relative as in docs/conventions.md (weighted RMS over texels and channels; worst
+// texel against max(|value|, solid-angle mean)), predicted for lookups into a map.
+struct LookupError {
+    double bilinear_rms = 0;    // bilinear lookup anywhere between the map's texel centres
+    double bilinear_worst = 0;
+    double cubic_rms = 0;       // 4-point interpolation of the map to a finer grid
+    double cubic_worst = 0;
+};
+
+// Per texel and channel, from the map's second differences a (in phi) and b (in theta): the
+// bilinear RMS counts the mean square error over the texel's cell of bilinear interpolation
+// of a quadratic with those differences, (a^2 + b^2)/120 + ab/72; the bilinear worst its
+// largest value, (|a| + |b|)/8. Cubic: 3/128 (|d4_phi| + |d4_theta|), the largest error of
+// 4-point interpolation, for both. Differences in theta continue across the poles (the
+// row's mirror, half a turn round), in phi around the seam.
+LookupError estimate_lookup_error(const HdrImage& map, int threads);
+
+// `map` at the texel centres of an `out`-sized grid by separable 4-point Lagrange
+// interpolation (exact for cubics), periodic in phi, across the poles in theta. Negative
+// results (overshoot next to a sharp edge) are clamped to 0 and counted in *clamped.
+HdrImage resample_cubic(const HdrImage& map, Size out, int threads, long long* clamped = nullptr);
+
+// The bright texels' part of a map of shininess n at the texel centres of an out-sized grid:
+// (n+1)/(2 pi) sum_b max(0, r.w_b)^n L_b dOmega_b, normalised by the continuous lobe. Terms
+// below 1e-6 floor_value are dropped. A map summed with its bright texels split out
+// (cone, sh with the bright split) is resampled without them and gets them back exactly here.
+HdrImage bright_lobes(const std::vector<BrightTexel>& bright, double shininess, Size out, double floor_value,
+                      int threads);
+
+// The mirror map (n = infinity): the environment averaged over each output texel's footprint,
+// weighted by solid angle (exact overlaps of the equirect cells). At the input's own size it
+// is the input; coarser, the solid-angle box filter; finer, each texel takes the input texel
+// it lies in.
+HdrImage filter_to_footprint(const HdrImage& environment, Size out, int threads);
+
+}  // namespace glint::convolution
