@@ -259,6 +259,9 @@ void deliver_output(MapResult& r, Size input, double tau, const PlannerModel& mo
     const double n = r.request.shininess;
     const auto refine = [&](Size finer, const std::string& why) {
         const bool split = bright && !bright->empty();
+        // Unfixed, a lobe within two input texels counts no remainder error between the
+        // input's texels; a fixed size is the reference's own grid, where everything counts.
+        const bool narrow = !p.size_fixed && lobe_narrower_than_input(n, input);
         const double floor_value = mean_value(r.image);
         HdrImage smooth;
         if (split) {
@@ -267,14 +270,16 @@ void deliver_output(MapResult& r, Size input, double tau, const PlannerModel& mo
             for (std::size_t k = 0; k < smooth.data().size(); ++k) smooth.data()[k] -= lobes.data()[k];
         }
         const LookupError e = estimate_lookup_error(split ? smooth : r.image, threads);
-        if (e.cubic_rms <= model.resample_share * tau && e.cubic_worst <= model.resample_worst_share * tau) {
+        // For a lobe within two input texels the remainder between the input's texels is the
+        // input's own interpolation: 4-point resampling is as good as any.
+        if (narrow || (e.cubic_rms <= model.resample_share * tau && e.cubic_worst <= model.resample_worst_share * tau)) {
             r.image = resample_cubic(split ? smooth : r.image, finer, threads, &r.clamped_texels);
             if (split) {
                 const HdrImage lobes = bright_lobes(*bright, n, finer, floor_value, threads);
                 for (std::size_t k = 0; k < r.image.data().size(); ++k)
                     r.image.data()[k] = std::max(0.0f, r.image.data()[k] + lobes.data()[k]);
             }
-            p.predicted_error += e.cubic_rms;
+            if (!narrow) p.predicted_error += e.cubic_rms;
             p.size_reason = why + "; resampled 4-point from " + describe(p.sum_size) + " (predicted " +
                             percent(e.cubic_rms) + ")" + (split ? ", bright texels added exactly" : "");
         } else {
@@ -289,12 +294,24 @@ void deliver_output(MapResult& r, Size input, double tau, const PlannerModel& mo
         refine(p.output_size, "fixed by the request");
         return;
     }
-    if (lobe_narrower_than_input(n, input)) {
+    const bool split = bright && !bright->empty();
+    const bool narrow = lobe_narrower_than_input(n, input);
+    // A lobe narrower than half an input texel: a bright texel is then an area light much
+    // larger than the lobe, not a point, and its lobe between texels is the input's own
+    // interpolation too.
+    const bool lights_resolved = lobe_width(n) >= 0.5 * kPi / input.height;
+    if (narrow && (!split || !lights_resolved)) {
         p.size_reason = "the input's grid: the lobe is within two of the input's texels, so lookups between "
                         "them interpolate the input itself, as for the mirror";
         return;
     }
-    const LookupError e = estimate_lookup_error(r.image, threads);
+    // A lobe within two input texels: between the input's texels the remainder is the input's
+    // own interpolation, but the bright texels are lights whose lobes are exact anywhere, and
+    // lookups must resolve those.
+    HdrImage bright_part;
+    if (narrow) bright_part = bright_lobes(*bright, n, p.sum_size, mean_value(r.image), threads);
+    const LookupError e = narrow ? estimate_lookup_error(bright_part, threads, &r.image)
+                                 : estimate_lookup_error(r.image, threads);
     const auto within = [&](int factor) {
         const double f2 = double(factor) * factor;
         return e.bilinear_rms / f2 <= model.output_share * tau &&
@@ -304,18 +321,20 @@ void deliver_output(MapResult& r, Size input, double tau, const PlannerModel& mo
     while (!within(factor) && factor * 2 <= model.max_refinement &&
            p.sum_size.height * factor * 2 <= kMaxOutputHeight)
         factor *= 2;
-    const std::string estimate = "bilinear lookups between texels of " + describe(p.sum_size) + " err " +
-                                 percent(e.bilinear_rms) + " RMS, " + percent(e.bilinear_worst) + " worst";
+    const std::string estimate = std::string(narrow ? "the input's grid for a lobe within two of its texels; "
+                                                      "bilinear lookups of its bright texels' lobes between texels of "
+                                                    : "bilinear lookups between texels of ") +
+                                 describe(p.sum_size) + " err " + percent(e.bilinear_rms) + " RMS, " +
+                                 percent(e.bilinear_worst) + " worst";
     p.lookup_error = e.bilinear_rms / (double(factor) * factor);
     p.predicted_error += p.lookup_error;
     if (factor == 1) {
-        p.size_reason = "the lobe's sum grid: " + estimate +
-                        (within(1) ? "" : " (over the tolerance: no finer grid allowed)");
+        p.size_reason = "the lobe's sum grid: " + estimate + (within(1) ? "" : " (no finer grid allowed)");
         return;
     }
     refine({p.sum_size.width * factor, p.sum_size.height * factor},
            estimate + ", " + std::to_string(factor) + "x finer: " + percent(p.lookup_error) +
-               (within(factor) ? "" : " (over the tolerance: the finest grid allowed)"));
+               (within(factor) ? "" : " (the finest grid allowed)"));
 }
 
 // Computes map k with `threads` threads (results[k].image, .seconds, ...).

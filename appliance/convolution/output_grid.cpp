@@ -49,13 +49,14 @@ Tap cubic_tap(int out_index, int out_count, int in_count) {
 
 }  // namespace
 
-LookupError estimate_lookup_error(const HdrImage& map, int threads) {
+LookupError estimate_lookup_error(const HdrImage& map, int threads, const HdrImage* relative_to) {
     const int w = map.width(), h = map.height();
+    const HdrImage& whole = relative_to ? *relative_to : map;
     const std::vector<double> solid = row_solid_angles(w, h);
     double sum = 0;
     for (int j = 0; j < h; ++j) {
         double row = 0;
-        const float* p = map.row(j);
+        const float* p = whole.row(j);
         for (int i = 0; i < 3 * w; ++i) row += std::abs(p[i]);
         sum += row * solid[std::size_t(j)];
     }
@@ -77,13 +78,14 @@ LookupError estimate_lookup_error(const HdrImage& map, int threads) {
                     ph[d] = centre[3 * wrap(i + d - 2, w) + c];
                 }
                 const double v = th[2];
+                const double value = whole.row(j)[3 * i + c];
                 const double a = ph[1] - 2 * v + ph[3], b = th[1] - 2 * v + th[3];
                 const double d2 = std::abs(a) + std::abs(b);
                 const double d4 = std::abs(th[0] - 4 * th[1] + 6 * v - 4 * th[3] + th[4]) +
                                   std::abs(ph[0] - 4 * ph[1] + 6 * v - 4 * ph[3] + ph[4]);
                 const double bilinear = d2 / 8.0, cubic = d4 * 3.0 / 128.0;
-                const double floor = std::max(std::abs(v), mean);
-                s.value2 += v * v;
+                const double floor = std::max(std::abs(value), mean);
+                s.value2 += value * value;
                 // Mean square over the texel's cell of the bilinear error of a quadratic with these
                 // second differences, e = a t(1-t)/2 + b s(1-s)/2 for t, s uniform in [0, 1].
                 s.bilinear2 += (a * a + b * b) / 120.0 + a * b / 72.0;
@@ -116,44 +118,60 @@ LookupError estimate_lookup_error(const HdrImage& map, int threads) {
 
 HdrImage resample_cubic(const HdrImage& map, Size out, int threads, long long* clamped) {
     const int w = map.width(), h = map.height();
+    // Per output column: its four input columns (wrapped) and weights.
     std::vector<Tap> columns;
-    for (int i = 0; i < out.width; ++i) columns.push_back(cubic_tap(i, out.width, w));
+    std::vector<std::array<int, 4>> column_index;
+    for (int i = 0; i < out.width; ++i) {
+        columns.push_back(cubic_tap(i, out.width, w));
+        std::array<int, 4> idx;
+        for (int k = 0; k < 4; ++k) idx[std::size_t(k)] = 3 * wrap(columns.back().first + k, w);
+        column_index.push_back(idx);
+    }
     // Pass 1: every input row to the output's columns.
     HdrImage across(out.width, h);
     parallel_for(h, threads, [&](int j) {
         const float* src = map.row(j);
         float* dst = across.row(j);
         for (int i = 0; i < out.width; ++i) {
-            const Tap& t = columns[std::size_t(i)];
-            for (int c = 0; c < 3; ++c) {
-                double v = 0;
-                for (int k = 0; k < 4; ++k) v += t.weight[std::size_t(k)] * src[3 * wrap(t.first + k, w) + c];
-                dst[3 * i + c] = float(v);
-            }
+            const std::array<double, 4>& wt = columns[std::size_t(i)].weight;
+            const std::array<int, 4>& idx = column_index[std::size_t(i)];
+            for (int c = 0; c < 3; ++c)
+                dst[3 * i + c] = float(wt[0] * src[idx[0] + c] + wt[1] * src[idx[1] + c] + wt[2] * src[idx[2] + c] +
+                                       wt[3] * src[idx[3] + c]);
         }
     });
-    // Pass 2: down the columns, continuing across the poles.
+    // Pass 2: down the columns, continuing across the poles (a tap row past a pole is read
+    // half a turn round: its row shifted by half the width, copied once).
     HdrImage result(out.width, out.height);
     std::atomic<long long> negative{0};
     parallel_for(out.height, threads, [&](int j) {
         const Tap t = cubic_tap(j, out.height, h);
-        std::array<RowTap, 4> taps;
-        for (int k = 0; k < 4; ++k) taps[std::size_t(k)] = row_across_pole(t.first + k, h, out.width);
+        std::array<const float*, 4> rows;
+        std::array<std::vector<float>, 4> turned;
+        for (int k = 0; k < 4; ++k) {
+            const RowTap r = row_across_pole(t.first + k, h, out.width);
+            if (r.shift == 0) {
+                rows[std::size_t(k)] = across.row(r.row);
+                continue;
+            }
+            std::vector<float>& copy = turned[std::size_t(k)];
+            copy.resize(std::size_t(3 * out.width));
+            const float* src = across.row(r.row);
+            for (int i = 0; i < out.width; ++i)
+                for (int c = 0; c < 3; ++c) copy[std::size_t(3 * i + c)] = src[3 * wrap(i + r.shift, out.width) + c];
+            rows[std::size_t(k)] = copy.data();
+        }
+        const std::array<double, 4>& wt = t.weight;
         float* dst = result.row(j);
         long long below = 0;
-        for (int i = 0; i < out.width; ++i)
-            for (int c = 0; c < 3; ++c) {
-                double v = 0;
-                for (int k = 0; k < 4; ++k) {
-                    const RowTap& r = taps[std::size_t(k)];
-                    v += t.weight[std::size_t(k)] * across.row(r.row)[3 * wrap(i + r.shift, out.width) + c];
-                }
-                if (v < 0) {
-                    v = 0;
-                    ++below;
-                }
-                dst[3 * i + c] = float(v);
+        for (int i = 0; i < 3 * out.width; ++i) {
+            double v = wt[0] * rows[0][i] + wt[1] * rows[1][i] + wt[2] * rows[2][i] + wt[3] * rows[3][i];
+            if (v < 0) {
+                v = 0;
+                ++below;
             }
+            dst[i] = float(v);
+        }
         negative += below;
     });
     if (clamped) *clamped += negative.load();

@@ -304,6 +304,45 @@ done
 pass "SIGTERM and SIGINT while staging remove the staging directory and leave the output directory empty"
 rm -rf "$work/sig"
 
+# A map predicted to miss --tolerance is not delivered as success: exit 1, each such map named
+# with its predicted error, nothing written. --allow-over-tolerance writes it, marked.
+run convolve "$work/in.exr" --out "$work/over" --shininess 100,5 --method sh --sh-order 2 --size 32x16
+[[ $rc -eq 1 ]] || fail "over tolerance: exit code $rc, want 1 (stderr: $(stderr_text))"
+grep -q "phong_100: predicted error .* exceeds --tolerance" "$work/stderr" ||
+    fail "over tolerance: stderr does not name phong_100 and its predicted error: $(stderr_text)"
+[[ ! -e $work/over || -z $(ls -A "$work/over") ]] || fail "over tolerance: files were written: $(ls -A "$work/over")"
+pass "a map over --tolerance: exit 1, named with its predicted error, nothing written"
+run convolve "$work/in.exr" --out "$work/over" --shininess 100 --method sh --sh-order 2 --size 32x16 \
+    --allow-over-tolerance
+[[ $rc -eq 0 ]] || fail "--allow-over-tolerance: exit code $rc, want 0 (stderr: $(stderr_text))"
+python3 - "$work/over/report.json" <<'EOF2' || fail "--allow-over-tolerance: report.json does not mark the map"
+import json, sys
+m = json.load(open(sys.argv[1]))["maps"][0]
+assert m["over_tolerance"] is True and m["predicted_error"] > 0.01, m
+EOF2
+pass "--allow-over-tolerance writes the map and marks it over_tolerance in report.json"
+expect_bad "--shininess 2e7" "mirror" "$work/bad16" \
+    convolve "$work/in.exr" --out "$work/bad16" --shininess 2e7 --size 32x16
+
+# The mirror map at the planner's size is the input itself; report.json says why each size.
+run convolve "$work/in.exr" --out "$work/mirror" --mirror --shininess 1e7
+[[ $rc -eq 0 ]] || fail "--mirror: exit code $rc (stderr: $(stderr_text))"
+run compare "$work/mirror/mirror.exr" "$work/in.exr"
+rms=$(awk '$1 == "weighted_rel_rms" { print $2 }' "$work/stdout")
+awk -v v="$rms" 'BEGIN { exit !(v + 0 < 1e-6) }' || fail "mirror.exr against the input: weighted_rel_rms '$rms'"
+python3 - "$work/mirror/report.json" <<'EOF2' || fail "--mirror: report.json (see above)"
+import json, sys
+r = json.load(open(sys.argv[1]))
+for m in r["maps"]:
+    assert m["size_reason"], m
+    assert m["output_size"] == [1024, 512], m
+    assert not m["over_tolerance"], m
+assert r["maps"][0]["method"] == "cone" and r["maps"][1]["method"] == "mirror", r["maps"]
+assert r["load_seconds"] > 0 and r["load_megatexels_per_s"] > 0, r
+EOF2
+pass "--mirror writes the input itself at its size; phong_1e7 too; load time and size reasons in report.json"
+rm -rf "$work/mirror" "$work/over"
+
 # The good output directory is still exactly what the good runs wrote.
 listing=$(ls -A "$out" | sort | tr '\n' ' ')
 [[ $listing == "irradiance.exr phong_20.exr report.json " ]] || fail "output directory changed: $listing"

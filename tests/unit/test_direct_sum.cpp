@@ -341,7 +341,7 @@ void check_cone_and_auto() {
     std::vector<MapRequest> maps{MapRequest::make_irradiance()};
     for (double n : kShininess) maps.push_back(MapRequest::make_phong(n, label(n)));
     double worst_rms[2] = {0, 0}, worst_texel[2] = {0, 0}, worst_claimed = 0;
-    int capped = 0, claimed = 0, misses = 0;
+    int capped = 0, claimed = 0, misses = 0, narrow = 0;
     for (const NamedMap& m : test_maps()) {
         // cone and auto mostly plan the same sizes: each reference is summed once.
         std::map<std::tuple<double, int, int>, Reference> refs;
@@ -366,6 +366,14 @@ void check_cone_and_auto() {
                                              to_string(r.plan.method) + ", out " + std::to_string(r.image.width()) +
                                              "x" + std::to_string(r.image.height()) + ", predicted " +
                                              std::to_string(r.plan.predicted_error) + ")";
+                    // Unfixed, a lobe within two of the input's texels is delivered on a grid where
+                    // the remainder between the input's texels is the input's own interpolation
+                    // (docs/convolution.md): its claim is about the lights, not these texels. The
+                    // fixed sizes above check the same lobes on grids of their own.
+                    if (!size && r.plan.size_reason.find("within two of") != std::string::npos) {
+                        ++narrow;
+                        continue;
+                    }
                     if (!(r.plan.predicted_error <= tau)) {
                         // A capped plan: it says it misses tau, and by how much at most.
                         ++capped;
@@ -389,8 +397,10 @@ void check_cone_and_auto() {
             }
     }
     std::printf("[  report  ] vs direct sum: cone rms %.3e worst texel %.3e; auto rms %.3e worst texel %.3e; "
-                "%d plans claim tau (worst rms %.3e without the %d known misses), %d capped\n",
-                worst_rms[0], worst_texel[0], worst_rms[1], worst_texel[1], claimed, worst_claimed, misses, capped);
+                "%d plans claim tau (worst rms %.3e without the %d known misses), %d capped, %d narrow lobes at "
+                "the input's grid\n",
+                worst_rms[0], worst_texel[0], worst_rms[1], worst_texel[1], claimed, worst_claimed, misses, capped,
+                narrow);
     // Plans that claim tau are exercised; on these tiny inputs the lobes of most n are within two
     // input texels, so maps are delivered at the input's grid and no plan is over tau.
     EXPECT_GE(claimed, 200);

@@ -1,0 +1,197 @@
+// Output grids (appliance/convolution/output_grid.hpp) and what convolve() delivers with them:
+// the lookup-error estimates against measured lookups, 4-point resampling, the bright lobes
+// added back exactly, the mirror map's footprint filter, and lobes up to n = 1e7.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "appliance/convolution/convolution.hpp"
+#include "appliance/convolution/offgrid.hpp"
+#include "appliance/convolution/output_grid.hpp"
+#include "appliance/convolution/planner.hpp"
+#include "appliance/core/equirect.hpp"
+#include "appliance/core/error_metrics.hpp"
+#include "appliance/core/errors.hpp"
+
+namespace glint::convolution {
+namespace {
+
+// A map holding f(d) at each texel centre.
+template <class F>
+HdrImage sampled(int w, int h, F f) {
+    HdrImage m(w, h);
+    for (int j = 0; j < h; ++j)
+        for (int i = 0; i < w; ++i) {
+            const glm::dvec3 d = texel_direction(i, j, w, h);
+            const double v = f(d);
+            m.set(i, j, {float(v), float(0.5 * v), float(0.25 * v + 0.1)});
+        }
+    return m;
+}
+
+// Smooth, but not low order: a few broad bumps over a floor.
+double smooth_field(const glm::dvec3& d) {
+    const glm::dvec3 a = glm::normalize(glm::dvec3(0.3, 0.8, -0.5)), b = glm::normalize(glm::dvec3(-0.7, -0.2, 0.4));
+    return 1.0 + 3.0 * std::exp(8.0 * (glm::dot(d, a) - 1.0)) + 2.0 * std::exp(5.0 * (glm::dot(d, b) - 1.0));
+}
+
+double weighted_rms(const HdrImage& a, const HdrImage& b) { return compare_maps(a, b).weighted_relative_rms; }
+
+TEST(OutputGrid, ResamplingToTheSameGridIsTheIdentity) {
+    const HdrImage m = sampled(48, 24, smooth_field);
+    const HdrImage r = resample_cubic(m, {48, 24}, 2);
+    ASSERT_EQ(r.data().size(), m.data().size());
+    for (std::size_t k = 0; k < m.data().size(); ++k) EXPECT_FLOAT_EQ(r.data()[k], m.data()[k]) << k;
+}
+
+TEST(OutputGrid, ResamplingASmoothMapMatchesSamplingItFinerWithinItsEstimate) {
+    // Resampled from 64x32 to 256x128 against the field sampled at 256x128: the error is
+    // small and within the estimate's bound (RMS and worst), and the estimate is not vacuous.
+    const HdrImage coarse = sampled(64, 32, smooth_field);
+    const HdrImage fine = sampled(256, 128, smooth_field);
+    const LookupError e = estimate_lookup_error(coarse, 2);
+    const HdrImage r = resample_cubic(coarse, {256, 128}, 2);
+    const MapError err = compare_maps(r, fine);
+    std::printf("[  report  ] resampled 64x32 -> 256x128: rms %.2e (estimate %.2e), worst %.2e (estimate %.2e)\n",
+                err.weighted_relative_rms, e.cubic_rms, err.worst_texel, e.cubic_worst);
+    EXPECT_LT(err.weighted_relative_rms, 2e-3);
+    EXPECT_LE(err.weighted_relative_rms, e.cubic_rms);
+    EXPECT_LE(err.worst_texel, e.cubic_worst);
+    EXPECT_LT(e.cubic_rms, 20 * err.weighted_relative_rms);
+}
+
+TEST(OutputGrid, BilinearEstimateFollowsMeasuredLookups) {
+    // The RMS estimate against bilinear lookups of the map at the centres of a 3x finer grid
+    // (against the field itself there): same order, and it falls as h^2.
+    for (int h : {16, 32, 64}) {
+        const HdrImage m = sampled(2 * h, h, smooth_field);
+        const LookupError e = estimate_lookup_error(m, 2);
+        const HdrImage truth = sampled(6 * h, 3 * h, smooth_field);
+        const double real = weighted_rms(resample_bilinear(m, 6 * h, 3 * h), truth);
+        std::printf("[  report  ] %dx%d: bilinear lookups rms %.2e, estimate %.2e\n", 2 * h, h, real, e.bilinear_rms);
+        EXPECT_GT(e.bilinear_rms, 0.5 * real) << h;
+        EXPECT_LT(e.bilinear_rms, 3.0 * real) << h;
+    }
+}
+
+TEST(OutputGrid, AConstantMapHasNoLookupError) {
+    const HdrImage m = sampled(32, 16, [](const glm::dvec3&) { return 2.0; });
+    const LookupError e = estimate_lookup_error(m, 1);
+    EXPECT_EQ(e.bilinear_rms, 0.0);
+    EXPECT_EQ(e.cubic_worst, 0.0);
+    const HdrImage r = resample_cubic(m, {100, 50}, 2);
+    for (float v : r.data()) EXPECT_NEAR(v, v > 1.5f ? 2.0f : (v > 0.9f ? 1.0f : 0.6f), 1e-6);
+}
+
+TEST(OutputGrid, FootprintFilterKeepsPowerAndIsTheIdentityAtTheInputSize) {
+    std::mt19937 rng(3);
+    std::uniform_real_distribution<double> u(0.0, 10.0);
+    HdrImage env(64, 32);
+    for (float& v : env.data()) v = float(u(rng));
+    const HdrImage same = filter_to_footprint(env, {64, 32}, 2);
+    EXPECT_EQ(same.data(), env.data());
+    const auto power = [](const HdrImage& m) {
+        const std::vector<double> solid = row_solid_angles(m.width(), m.height());
+        double p = 0;
+        for (int j = 0; j < m.height(); ++j)
+            for (int i = 0; i < 3 * m.width(); ++i) p += m.row(j)[i] * solid[std::size_t(j)];
+        return p;
+    };
+    for (const Size s : {Size{32, 16}, Size{20, 10}, Size{128, 64}, Size{50, 27}}) {
+        const HdrImage f = filter_to_footprint(env, s, 2);
+        EXPECT_NEAR(power(f), power(env), 1e-5 * power(env)) << s.width << "x" << s.height;
+    }
+    // Halving averages each 2x2 block by solid angle.
+    const HdrImage half = filter_to_footprint(env, {32, 16}, 1);
+    const double a0 = row_solid_angle(0, 64, 32), a1 = row_solid_angle(1, 64, 32);
+    const double want = (a0 * (env.at(0, 0).r + env.at(1, 0).r) + a1 * (env.at(0, 1).r + env.at(1, 1).r)) /
+                        (2 * (a0 + a1));
+    EXPECT_NEAR(half.at(0, 0).r, want, 1e-5 * want);
+}
+
+TEST(OutputGrid, BrightLobeAtItsOwnDirectionIsTheNormalisedPeak) {
+    const double n = 500;
+    BrightTexel t;
+    const glm::dvec3 d = texel_direction(10, 7, 64, 32);
+    t.x = d.x, t.y = d.y, t.z = d.z;
+    t.theta = row_theta(7, 32), t.phi = column_phi(10, 64);
+    t.r = 2.0, t.g = 1.0, t.b = 0.5;
+    const HdrImage lobes = bright_lobes({t}, n, {64, 32}, 1.0, 1);
+    EXPECT_NEAR(lobes.at(10, 7).r, (n + 1) / (2 * kPi) * 2.0, 1e-4 * (n + 1));
+    // Half a lobe width away it is exp(-1/8) of the peak (cos^n of 0.5/sqrt(n)).
+    EXPECT_EQ(lobes.at(40, 7).r, 0.0f);
+}
+
+// A map with one bright texel on a smooth field: the sharpest content a lobe gets.
+HdrImage field_with_sun(int w, int h) {
+    HdrImage m = sampled(w, h, smooth_field);
+    m.set(w / 3, h / 3, {4000.f, 3000.f, 2000.f});
+    return m;
+}
+
+TEST(OutputGrid, DeliveredMapsAreWithinTheirPredictionOffGrid) {
+    // Without a fixed size, each map's bilinear lookups at random directions are within what
+    // its plan predicts (plus the judge's statistical error), and its size says why.
+    const HdrImage env = field_with_sun(256, 128);
+    std::vector<MapRequest> maps{MapRequest::make_irradiance()};
+    for (double n : {20.0, 300.0, 2000.0}) maps.push_back(MapRequest::make_phong(n, std::to_string(int(n))));
+    Options o;
+    o.threads = 2;
+    for (const MapResult& r : convolve(env, maps, o)) {
+        const OffGridError e = measure_offgrid_error(env, r.image, r.request.shininess, 1024, 7, 2);
+        std::printf("[  report  ] %-11s %dx%d predicted %.4f off-grid %.4f +- %.4f worst %.3f (%s)\n",
+                    r.request.label.c_str(), r.image.width(), r.image.height(), r.plan.predicted_error,
+                    e.weighted_relative_rms, e.rms_standard_error, e.worst_texel, r.plan.size_reason.c_str());
+        EXPECT_LE(r.plan.predicted_error, o.tolerance) << r.request.label;
+        EXPECT_LE(e.weighted_relative_rms, o.tolerance + 3 * e.rms_standard_error) << r.request.label;
+        EXPECT_FALSE(r.plan.size_reason.empty());
+    }
+}
+
+TEST(OutputGrid, MirrorIsTheEnvironmentFilteredToTheOutput) {
+    const HdrImage env = field_with_sun(64, 32);
+    Options o;
+    const auto at_input = convolve(env, {MapRequest::make_mirror()}, o);
+    EXPECT_EQ(at_input[0].plan.method, Method::Mirror);
+    EXPECT_EQ(at_input[0].image.data(), env.data());
+    EXPECT_EQ(at_input[0].plan.predicted_error, 0.0);
+    o.size = Size{32, 16};
+    for (Method m : {Method::Auto, Method::Exact, Method::Cone, Method::Sh}) {
+        o.method = m;
+        const auto half = convolve(env, {MapRequest::make_mirror()}, o);
+        EXPECT_EQ(half[0].image.data(), filter_to_footprint(env, {32, 16}, 1).data()) << to_string(m);
+    }
+}
+
+TEST(OutputGrid, SharpestLobesStayFiniteAndMatchExactAtOddSizes) {
+    // n = 1e6 and 1e7 on a map whose texels are far wider than the lobe, at output sizes whose
+    // centres fall between the input's: the nearest texels, never 0/0, within tau of exact.
+    const HdrImage env = field_with_sun(64, 32);
+    for (double n : {1e6, 1e7})
+        for (const Size s : {Size{50, 25}, Size{64, 32}, Size{13, 7}}) {
+            Options o;
+            o.size = s;
+            const MapRequest req = MapRequest::make_phong(n, "big");
+            const auto a = convolve(env, {req}, o);
+            o.method = Method::Exact;
+            const auto x = convolve(env, {req}, o);
+            for (float v : a[0].image.data()) ASSERT_TRUE(std::isfinite(v));
+            const MapError err = compare_maps(a[0].image, x[0].image);
+            EXPECT_LE(err.weighted_relative_rms, 0.01) << n << " " << s.width << "x" << s.height;
+            EXPECT_LE(err.worst_texel, 0.05) << n << " " << s.width << "x" << s.height;
+        }
+}
+
+TEST(OutputGrid, ShininessAboveTheLimitIsRefusedNamingTheMirror) {
+    const HdrImage env = sampled(16, 8, smooth_field);
+    try {
+        convolve(env, {MapRequest::make_phong(2e7, "2e7")}, Options{});
+        FAIL() << "n = 2e7 was accepted";
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("mirror"), std::string::npos) << e.what();
+    }
+}
+
+}  // namespace
+}  // namespace glint::convolution
