@@ -88,7 +88,9 @@ int run_convolve(const ConvolveArgs& args) {
     const fs::path out_dir(args.out_dir);
     ensure_writable_directory(out_dir);
     const auto load_start = std::chrono::steady_clock::now();
-    const LoadedExr loaded = load_exr(args.input);
+    LoadedExr loaded = load_exr(args.input);
+    const convolution::Size input_size{loaded.image.width(), loaded.image.height()};
+    const std::size_t input_texels = loaded.image.texel_count();
     const double load_seconds =
         std::chrono::duration<double>(std::chrono::steady_clock::now() - load_start).count();
     std::error_code size_error;
@@ -126,13 +128,13 @@ int run_convolve(const ConvolveArgs& args) {
     }
     options.executor = gpu_engine.get();
     const auto start = std::chrono::steady_clock::now();
-    const std::vector<convolution::MapResult> results = convolution::convolve(loaded.image, maps, options);
+    const std::vector<convolution::MapResult> results = convolution::convolve(std::move(loaded.image), maps, options);
     const double total_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     if (live) live->finish();
 
     nlohmann::json report;
     report["input"] = {{"path", args.input},
-                       {"size", {loaded.image.width(), loaded.image.height()}},
+                       {"size", {input_size.width, input_size.height}},
                        {"luminance_only", loaded.luminance_only},
                        {"sanitised", {{"nan", loaded.sanitised.nan},
                                       {"pos_inf", loaded.sanitised.pos_inf},
@@ -154,7 +156,7 @@ int run_convolve(const ConvolveArgs& args) {
     report["load_seconds"] = load_seconds;
     report["load_mb_per_s"] = size_error || load_seconds <= 0 ? nlohmann::json() : nlohmann::json(file_mb / load_seconds);
     report["load_megatexels_per_s"] =
-        load_seconds > 0 ? nlohmann::json(double(loaded.image.texel_count()) / 1e6 / load_seconds) : nlohmann::json();
+        load_seconds > 0 ? nlohmann::json(double(input_texels) / 1e6 / load_seconds) : nlohmann::json();
     report["maps"] = nlohmann::json::array();
     for (const auto& r : results) {
         const auto& p = r.plan;

@@ -11,7 +11,12 @@
 
 namespace glint::convolution {
 
-BrightSplit split_bright(const HdrImage& input, double contrast, int max_count, int threads) {
+BrightSplit split_bright(HdrImage image, double contrast, int max_count, int threads) {
+    // The remainder is the map itself with its bright texels zeroed: no copy when the caller
+    // hands the map over.
+    BrightSplit split;
+    split.remainder = std::move(image);
+    const HdrImage& input = split.remainder;
     const int w = input.width();
     const int h = input.height();
     const std::vector<double> omega = row_solid_angles(w, h);
@@ -29,13 +34,10 @@ BrightSplit split_bright(const HdrImage& input, double contrast, int max_count, 
     for (double p : row_power) power += p;
     const double mean = power / (4.0 * kPi);
 
-    BrightSplit split;
     split.threshold = contrast * mean;
-    split.remainder = HdrImage(w, h);
     std::vector<std::vector<Candidate>> row_candidates(static_cast<std::size_t>(h));
     parallel_for(h, threads, [&](int j) {
         const float* row = input.row(j);
-        std::copy(row, row + 3 * std::size_t(w), split.remainder.row(j));
         if (!(mean > 0) || max_count <= 0) return;
         for (int i = 0; i < w; ++i) {
             const float v = std::max({row[3 * i], row[3 * i + 1], row[3 * i + 2]});

@@ -114,5 +114,9 @@ struct MapResult {
 // order), from the planner, before any map is computed.
 std::vector<MapResult> convolve(const HdrImage& environment, const std::vector<MapRequest>& maps,
                                 const Options& options);
+// The same, with the map handed over: where no plan reads it whole, the bright split zeroes
+// its bright texels in place instead of copying it, and the full-resolution remainder is freed
+// once coarser levels are built if no plan reads it (peak memory at 8192x4096).
+std::vector<MapResult> convolve(HdrImage&& environment, const std::vector<MapRequest>& maps, const Options& options);
 
 }  // namespace glint::convolution

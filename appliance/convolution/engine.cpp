@@ -61,15 +61,30 @@ public:
     SharedInputs(const HdrImage& env, const PlannerModel& model, int threads)
         : env_(env), model_(model), threads_(threads) {}
 
-    const HdrImage& full_image() const { return env_; }
+    const HdrImage& full_image() const {
+        if (consumed_) throw RuntimeError("internal: the input map was handed to the bright split and is read again");
+        return env_;
+    }
+    // The caller handed the map over and no plan reads it whole: the bright split may zero its
+    // bright texels in place instead of copying it (a 8192x4096 map is 400 MB).
+    void allow_consuming(HdrImage* owned) { consumable_ = owned; }
+    // No plan reads the remainder's full-resolution level: freed once the coarser ones are built.
+    void release_level0_after_pyramid() { release_level0_ = true; }
     const PreparedLevel& full_level() {
-        if (!full_) full_ = std::make_unique<PreparedLevel>(env_, threads_);
+        if (!full_) full_ = std::make_unique<PreparedLevel>(full_image(), threads_);
         return *full_;
     }
     const BrightSplit& bright() {
-        if (!bright_)
-            bright_ = std::make_unique<BrightSplit>(
-                split_bright(env_, model_.bright_contrast, model_.max_bright_texels, threads_));
+        if (!bright_) {
+            if (consumable_) {
+                consumed_ = true;
+                bright_ = std::make_unique<BrightSplit>(
+                    split_bright(std::move(*consumable_), model_.bright_contrast, model_.max_bright_texels, threads_));
+            } else {
+                bright_ = std::make_unique<BrightSplit>(
+                    split_bright(env_, model_.bright_contrast, model_.max_bright_texels, threads_));
+            }
+        }
         return *bright_;
     }
     const Pyramid& cone_pyramid() {
@@ -77,6 +92,7 @@ public:
         if (!cone_pyramid_) {
             bright();
             cone_pyramid_ = std::make_unique<Pyramid>(std::move(bright_->remainder), threads_);
+            if (release_level0_) cone_pyramid_->release_level(0);
         }
         return *cone_pyramid_;
     }
@@ -86,7 +102,7 @@ public:
         return *slot;
     }
     const Pyramid& mip_pyramid() {
-        if (!mip_pyramid_) mip_pyramid_ = std::make_unique<Pyramid>(env_, threads_);
+        if (!mip_pyramid_) mip_pyramid_ = std::make_unique<Pyramid>(full_image(), threads_);
         return *mip_pyramid_;
     }
     // SH of pyramid level k of the remainder (bright texels removed), at least
@@ -122,15 +138,12 @@ public:
     }
     const ShCoefficients& sh(int order, int threads) {
         if (!sh_ || sh_->order < order)
-            sh_ = std::make_unique<ShCoefficients>(sh_project(env_, order, threads));
+            sh_ = std::make_unique<ShCoefficients>(sh_project(full_image(), order, threads));
         return *sh_;
     }
-    std::vector<Size> cone_level_sizes() {
-        std::vector<Size> sizes;
-        for (int k = 0; k < cone_pyramid().levels(); ++k)
-            sizes.push_back({cone_pyramid().level(k).width(), cone_pyramid().level(k).height()});
-        return sizes;
-    }
+    // Computed, not built: the bright split waits until the plans say whether it may consume
+    // the input.
+    std::vector<Size> cone_level_sizes() const { return Pyramid::level_sizes({env_.width(), env_.height()}); }
 
 private:
     const HdrImage& env_;
@@ -147,6 +160,9 @@ private:
     std::map<int, std::vector<double>> remainder_ones_;
     std::unique_ptr<ShLegendre> legendre_;
     int remainder_sh_level_ = -1;
+    HdrImage* consumable_ = nullptr;
+    bool consumed_ = false;
+    bool release_level0_ = false;
 };
 
 // Auto's SH with the bright split for one map; rows where its truncation bound
@@ -403,13 +419,28 @@ void run_maps_in_parallel(const std::vector<MapResult>& results, std::vector<std
 
 }  // namespace
 
-std::vector<MapResult> convolve(const HdrImage& env, const std::vector<MapRequest>& maps,
-                                const Options& options) {
+namespace {
+
+std::vector<MapResult> convolve_map(const HdrImage& env, HdrImage* consumable, const std::vector<MapRequest>& maps,
+                                    const Options& options) {
     const int threads = options.threads > 0 ? options.threads : hardware_threads();
     const PlannerModel model;
+    const Size input_size{env.width(), env.height()};  // env may be handed to the bright split below
     SharedInputs shared(env, model, threads);
+    // Planning needs the pyramid's sizes only; the size of level 0 is the input's.
     const std::vector<MapPlan> plans =
-        plan_maps({env.width(), env.height()}, maps, options, [&] { return shared.cone_level_sizes(); }, model);
+        plan_maps(input_size, maps, options, [&] { return shared.cone_level_sizes(); }, model);
+    bool reads_whole = options.executor != nullptr, reads_level0 = false;
+    for (const MapPlan& p : plans) {
+        if (p.method == Method::Exact || p.method == Method::Mipmap || p.method == Method::Mirror ||
+            (p.method == Method::Sh && !p.bright_split))
+            reads_whole = true;
+        if ((p.method == Method::Cone && p.input_level == 0) ||
+            (p.method == Method::Sh && p.bright_split && (p.input_level == 0 || p.fallback_level == 0)))
+            reads_level0 = true;
+    }
+    if (consumable && !reads_whole) shared.allow_consuming(consumable);
+    if (!reads_level0) shared.release_level0_after_pyramid();
     std::vector<MapResult> results;
     for (std::size_t k = 0; k < maps.size(); ++k) results.push_back({maps[k], plans[k], {}, 0, 0, 0});
 
@@ -450,11 +481,12 @@ std::vector<MapResult> convolve(const HdrImage& env, const std::vector<MapReques
                 return exact_convolve(shared.full_level(), n, grid, map_threads, rows);
             case Method::Sh: {
                 if (r.plan.bright_split) {
+                    r.plan.output_size = grid;  // run_sh_split reconstructs at the plan's size
                     run_sh_split(r, shared, options.executor, map_threads);
                     rows(grid.height);
                     return std::move(r.image);
                 }
-                HdrImage image = sh_convolve(shared.sh(r.plan.sh_order, map_threads), {env.width(), env.height()}, n,
+                HdrImage image = sh_convolve(shared.sh(r.plan.sh_order, map_threads), input_size, n,
                                              r.plan.sh_order, grid, map_threads, &r.clamped_texels, options.executor);
                 rows(grid.height);
                 return image;
@@ -476,7 +508,7 @@ std::vector<MapResult> convolve(const HdrImage& env, const std::vector<MapReques
                 return image;
             }
             case Method::Mirror: {
-                HdrImage image = filter_to_footprint(env, grid, map_threads);
+                HdrImage image = filter_to_footprint(shared.full_image(), grid, map_threads);
                 rows(grid.height);
                 return image;
             }
@@ -491,7 +523,7 @@ std::vector<MapResult> convolve(const HdrImage& env, const std::vector<MapReques
         const auto start = std::chrono::steady_clock::now();
         if (!batched[k]) r.image = sum_on(r, r.plan.sum_size, map_threads, progress);
         const bool split = r.plan.method == Method::Cone || (r.plan.method == Method::Sh && r.plan.bright_split);
-        deliver_output(r, {env.width(), env.height()}, options.tolerance, model, map_threads,
+        deliver_output(r, input_size, options.tolerance, model, map_threads,
                        split ? &shared.bright().texels : nullptr, [&](Size grid) { return sum_on(r, grid, map_threads, no_progress); });
         r.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     };
@@ -514,7 +546,22 @@ std::vector<MapResult> convolve(const HdrImage& env, const std::vector<MapReques
             p.predicted_error = original.plan.predicted_error;
             progress(p.sum_size.height);
         }
+    for (const MapResult& r : results)
+        if (r.image.width() != r.plan.output_size.width || r.image.height() != r.plan.output_size.height)
+            throw RuntimeError("internal: " + r.request.label + " was made at " + describe({r.image.width(), r.image.height()}) +
+                               ", its plan says " + describe(r.plan.output_size));
     return results;
+}
+
+}  // namespace
+
+std::vector<MapResult> convolve(const HdrImage& environment, const std::vector<MapRequest>& maps,
+                                const Options& options) {
+    return convolve_map(environment, nullptr, maps, options);
+}
+
+std::vector<MapResult> convolve(HdrImage&& environment, const std::vector<MapRequest>& maps, const Options& options) {
+    return convolve_map(environment, &environment, maps, options);
 }
 
 }  // namespace glint::convolution

@@ -37,7 +37,8 @@ struct BrightSplit {
 };
 // Texels whose largest channel exceeds `contrast` times the solid-angle mean of
 // the map, brightest first, at most max_count of them.
-BrightSplit split_bright(const HdrImage& input, double contrast, int max_count, int threads = 1);
+// The remainder is `input` itself (moved in, or copied by the caller) with those texels zeroed.
+BrightSplit split_bright(HdrImage input, double contrast, int max_count, int threads = 1);
 
 // The bright texels' terms (r.w_b / cmax)^n L_b dOmega_b for the output texels
 // of an out-sized grid where they are not negligible: a term below `tolerance`

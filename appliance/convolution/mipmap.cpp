@@ -43,6 +43,13 @@ HdrImage halve(const HdrImage& fine, int threads) {
 
 }  // namespace
 
+namespace {
+void level_index_check(int k, int levels) {
+    if (k < 0 || k >= levels)
+        throw std::out_of_range("pyramid level " + std::to_string(k) + " of " + std::to_string(levels));
+}
+}  // namespace
+
 Pyramid::Pyramid(HdrImage level0, int threads) {
     if (level0.empty()) throw InputError("cannot build a pyramid of an empty map");
     levels_.push_back(std::move(level0));
@@ -52,12 +59,30 @@ Pyramid::Pyramid(HdrImage level0, int threads) {
         HdrImage next = halve(last, threads);  // separate statement: push_back may move `last`
         levels_.push_back(std::move(next));
     }
+    sizes_ = level_sizes({levels_[0].width(), levels_[0].height()});
+}
+
+std::vector<Size> Pyramid::level_sizes(Size level0) {
+    std::vector<Size> sizes{level0};
+    while (sizes.back().width % 2 == 0 && sizes.back().height % 2 == 0)
+        sizes.push_back({sizes.back().width / 2, sizes.back().height / 2});
+    return sizes;
+}
+
+Size Pyramid::size(int k) const {
+    level_index_check(k, levels());
+    return sizes_[std::size_t(k)];
+}
+
+void Pyramid::release_level(int k) {
+    level_index_check(k, levels());
+    levels_[std::size_t(k)] = HdrImage();
 }
 
 const HdrImage& Pyramid::level(int k) const {
-    if (k < 0 || k >= levels())
-        throw std::out_of_range("pyramid level " + std::to_string(k) + " of " +
-                                std::to_string(levels()));
+    level_index_check(k, levels());
+    if (levels_[std::size_t(k)].empty())
+        throw std::logic_error("pyramid level " + std::to_string(k) + " was released and is read again");
     return levels_[std::size_t(k)];
 }
 

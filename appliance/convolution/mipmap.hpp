@@ -3,6 +3,7 @@
 
 #include <vector>
 
+#include "appliance/convolution/convolution.hpp"
 #include "appliance/core/hdr_image.hpp"
 
 namespace glint::convolution {
@@ -16,13 +17,20 @@ namespace glint::convolution {
 // a height of 1): 300x200 -> 150x100 -> 75x50, 1024x512 -> ... -> 2x1.
 class Pyramid {
 public:
+    // The sizes of the levels a pyramid of a level0-sized map has, without building it.
+    static std::vector<Size> level_sizes(Size level0);
     // Throws InputError on an empty image; threads: for the halving.
     explicit Pyramid(HdrImage level0, int threads = 1);
     int levels() const { return int(levels_.size()); }
-    const HdrImage& level(int k) const;  // 0 = the input; throws std::out_of_range
+    const HdrImage& level(int k) const;  // 0 = the input; throws std::out_of_range, or logic_error once released
+    Size size(int k) const;              // kept after release_level
+    // Frees level k's texels (a level no plan reads: the full-resolution remainder of a large
+    // input, once the coarser levels are built).
+    void release_level(int k);
 
 private:
     std::vector<HdrImage> levels_;
+    std::vector<Size> sizes_;
 };
 
 // Thesis eq. 4.1-4.3 with the equirect height (the polar resolution) as N:

@@ -34,7 +34,7 @@ struct PlannerModel {
     // interpolation to a grid up to max_refinement times finer (and kMaxOutputHeight rows),
     // if that interpolation errs within resample_share * tau (RMS) and resample_worst_share *
     // tau (worst), else summed again on that grid.
-    double sum_grid_spacing = 0.5;
+    double sum_grid_spacing = 0.75;
     int min_output_height = 32;
     double output_worst_share = 10.0;
     int max_refinement = 4;
