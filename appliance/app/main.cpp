@@ -2,12 +2,16 @@
 // core, convolution, GL and the sensor bridge, so it starts in milliseconds; the commands that
 // need OpenCV or libcamera run in glint-vision (commands.hpp), started from here.
 #include <cstdio>
+#include <cstring>
 #include <exception>
 
 #include "appliance/app/command_line.hpp"
 #include "appliance/core/memory.hpp"
 
 int main(int argc, char** argv) {
+    // The convolution's buffers fault in 2 MiB pages (memory.hpp); other commands start faster
+    // without the re-exec.
+    if (argc > 1 && std::strcmp(argv[1], "convolve") == 0) glint::reexec_with_huge_pages(argv);
     try {
         glint::app::exec_vision_command_if_named(argc, argv);
     } catch (const std::exception& e) {

@@ -275,9 +275,6 @@ void deliver_output(MapResult& r, Size input, double tau, const PlannerModel& mo
     const double n = r.request.shininess;
     const auto refine = [&](Size finer, const std::string& why) {
         const bool split = bright && !bright->empty();
-        // Unfixed, a lobe within two input texels counts no remainder error between the
-        // input's texels; a fixed size is the reference's own grid, where everything counts.
-        const bool narrow = !p.size_fixed && lobe_narrower_than_input(n, input);
         const double floor_value = mean_value(r.image);
         HdrImage smooth;
         if (split) {
@@ -286,22 +283,26 @@ void deliver_output(MapResult& r, Size input, double tau, const PlannerModel& mo
             for (std::size_t k = 0; k < smooth.data().size(); ++k) smooth.data()[k] -= lobes.data()[k];
         }
         const LookupError e = estimate_lookup_error(split ? smooth : r.image, threads);
-        // For a lobe within two input texels the remainder between the input's texels is the
-        // input's own interpolation: 4-point resampling is as good as any.
-        if (narrow || (e.cubic_rms <= model.resample_share * tau && e.cubic_worst <= model.resample_worst_share * tau)) {
+        // The fourth differences predict 4-point interpolation only where the sum grid resolves
+        // the lobe (its spacing within sum_grid_spacing lobe widths); a grid capped at a coarser
+        // input's resolution is summed again instead.
+        const bool resolved = kPi / p.sum_size.height <= model.sum_grid_spacing * lobe_width(n) * 1.0001;
+        if (resolved && e.cubic_rms <= model.resample_share * tau && e.cubic_worst <= model.resample_worst_share * tau) {
             r.image = resample_cubic(split ? smooth : r.image, finer, threads, &r.clamped_texels);
             if (split) {
                 const HdrImage lobes = bright_lobes(*bright, n, finer, floor_value, threads);
                 for (std::size_t k = 0; k < r.image.data().size(); ++k)
                     r.image.data()[k] = std::max(0.0f, r.image.data()[k] + lobes.data()[k]);
             }
-            if (!narrow) p.predicted_error += e.cubic_rms;
+            p.predicted_error += e.cubic_rms;
             p.size_reason = why + "; resampled 4-point from " + describe(p.sum_size) + " (predicted " +
                             percent(e.cubic_rms) + ")" + (split ? ", bright texels added exactly" : "");
         } else {
             r.image = sum_on(finer);
-            p.size_reason = why + "; summed on it (4-point resampling from " + describe(p.sum_size) +
-                            " would err " + percent(e.cubic_rms) + " RMS, " + percent(e.cubic_worst) + " worst)";
+            p.size_reason = why + "; summed on it (" +
+                            (resolved ? "4-point resampling from " + describe(p.sum_size) + " would err " +
+                                            percent(e.cubic_rms) + " RMS, " + percent(e.cubic_worst) + " worst)"
+                                      : describe(p.sum_size) + " does not resolve the lobe for 4-point resampling)");
             p.sum_size = finer;
         }
         p.output_size = finer;
@@ -310,24 +311,14 @@ void deliver_output(MapResult& r, Size input, double tau, const PlannerModel& mo
         refine(p.output_size, "fixed by the request");
         return;
     }
-    const bool split = bright && !bright->empty();
-    const bool narrow = lobe_narrower_than_input(n, input);
-    // A lobe narrower than half an input texel: a bright texel is then an area light much
-    // larger than the lobe, not a point, and its lobe between texels is the input's own
-    // interpolation too.
-    const bool lights_resolved = lobe_width(n) >= 0.5 * kPi / input.height;
-    if (narrow && (!split || !lights_resolved)) {
-        p.size_reason = "the input's grid: the lobe is within two of the input's texels, so lookups between "
-                        "them interpolate the input itself, as for the mirror";
+    if (lobe_narrower_than_input(n, input)) {
+        // A bright texel is then an area light much larger than the lobe, not a point: its
+        // lobe between texels is the input's own interpolation too.
+        p.size_reason = "the input's grid: the lobe is narrower than half the input's texel spacing, so lookups "
+                        "between texels interpolate the input itself, as for the mirror";
         return;
     }
-    // A lobe within two input texels: between the input's texels the remainder is the input's
-    // own interpolation, but the bright texels are lights whose lobes are exact anywhere, and
-    // lookups must resolve those.
-    HdrImage bright_part;
-    if (narrow) bright_part = bright_lobes(*bright, n, p.sum_size, mean_value(r.image), threads);
-    const LookupError e = narrow ? estimate_lookup_error(bright_part, threads, &r.image)
-                                 : estimate_lookup_error(r.image, threads);
+    const LookupError e = estimate_lookup_error(r.image, threads);
     const auto within = [&](int factor) {
         const double f2 = double(factor) * factor;
         return e.bilinear_rms / f2 <= model.output_share * tau &&
@@ -337,10 +328,7 @@ void deliver_output(MapResult& r, Size input, double tau, const PlannerModel& mo
     while (!within(factor) && factor * 2 <= model.max_refinement &&
            p.sum_size.height * factor * 2 <= kMaxOutputHeight)
         factor *= 2;
-    const std::string estimate = std::string(narrow ? "the input's grid for a lobe within two of its texels; "
-                                                      "bilinear lookups of its bright texels' lobes between texels of "
-                                                    : "bilinear lookups between texels of ") +
-                                 describe(p.sum_size) + " err " + percent(e.bilinear_rms) + " RMS, " +
+    const std::string estimate = "bilinear lookups between texels of " + describe(p.sum_size) + " err " + percent(e.bilinear_rms) + " RMS, " +
                                  percent(e.bilinear_worst) + " worst";
     p.lookup_error = e.bilinear_rms / (double(factor) * factor);
     p.predicted_error += p.lookup_error;
@@ -351,6 +339,16 @@ void deliver_output(MapResult& r, Size input, double tau, const PlannerModel& mo
     refine({p.sum_size.width * factor, p.sum_size.height * factor},
            estimate + ", " + std::to_string(factor) + "x finer: " + percent(p.lookup_error) +
                (within(factor) ? "" : " (the finest grid allowed)"));
+    if (p.sum_size.height == p.output_size.height) {
+        // Summed again on the finer grid: its own differences measure its lookups (the coarse
+        // grid's, scaled, under-predict where it did not resolve the lobe).
+        const LookupError fine = estimate_lookup_error(r.image, threads);
+        if (fine.bilinear_rms > p.lookup_error) {
+            p.predicted_error += fine.bilinear_rms - p.lookup_error;
+            p.lookup_error = fine.bilinear_rms;
+            p.size_reason += "; measured on it: " + percent(fine.bilinear_rms);
+        }
+    }
 }
 
 // Computes map k with `threads` threads (results[k].image, .seconds, ...).

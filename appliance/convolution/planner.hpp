@@ -63,7 +63,7 @@ struct PlannerModel {
 double lobe_width(double shininess);
 
 // The grid a map of shininess n is summed on when no size is fixed: on the ladder of
-// sizes that share columns with the input (its height over powers of two, and 3/4 of those),
+// sizes that share columns with the input (its height over powers of two),
 // the coarsest whose texel spacing is within sum_grid_spacing lobe widths, at least
 // min_output_height rows and at most the input's height; width twice the height. A mirror
 // (n = infinity) is the input's size. Beyond the input's texels a finer grid would only
@@ -74,12 +74,11 @@ inline constexpr int kMaxOutputHeight = 4096;
 inline constexpr double kMaxShininess = 1e7;
 Size sum_grid_size(double shininess, Size input, const PlannerModel& model);
 
-// Lobe within two of the input's texels (width 1/sqrt(n) < 2 pi / H): between the input's
-// texel centres the exact sum is then mostly the input's own point sampling (for a lobe
-// narrower than a texel, the nearest texel: an edge no output grid resolves), not light the
-// input resolves. Such maps are delivered at the input's grid and bilinear lookups between
-// its texels are taken as the input's own interpolation, as for the mirror
-// (docs/convolution.md).
+// Lobe narrower than half the input's texel spacing (width 1/sqrt(n) < pi / (2 H)): between
+// the input's texel centres the exact sum is then the nearest input texel, a step at every
+// texel edge that no output grid resolves for bilinear lookups. Such maps are delivered at
+// the input's grid, and lookups between its texels are taken as the input's own
+// interpolation, as for the mirror (docs/convolution.md).
 bool lobe_narrower_than_input(double shininess, Size input);
 
 // The one check of the plan inputs (input size, maps, tolerance, sizes, SH order): throws

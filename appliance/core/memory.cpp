@@ -1,5 +1,10 @@
 #include "appliance/core/memory.hpp"
 
+#include <unistd.h>
+
+#include <cstdlib>
+#include <string>
+
 #include <malloc.h>
 
 namespace glint {
@@ -10,6 +15,17 @@ void keep_freed_memory() {
     // 1 GiB is free at its top.
     mallopt(M_MMAP_THRESHOLD, 32 << 20);
     mallopt(M_TRIM_THRESHOLD, 1 << 30);
+}
+
+void reexec_with_huge_pages(char** argv) {
+    constexpr const char* kTunable = "glibc.malloc.hugetlb";
+    const char* current = std::getenv("GLIBC_TUNABLES");
+    const std::string tunables = current ? current : "";
+    if (tunables.find(kTunable) != std::string::npos) return;
+    const std::string wanted = tunables.empty() ? std::string(kTunable) + "=1" : tunables + ":" + kTunable + "=1";
+    if (setenv("GLIBC_TUNABLES", wanted.c_str(), 1) != 0) return;
+    execv("/proc/self/exe", argv);
+    // Still here: run as we are (the variable stays set for children, which is harmless).
 }
 
 }  // namespace glint

@@ -370,7 +370,7 @@ void check_cone_and_auto() {
                     // the remainder between the input's texels is the input's own interpolation
                     // (docs/convolution.md): its claim is about the lights, not these texels. The
                     // fixed sizes above check the same lobes on grids of their own.
-                    if (!size && r.plan.size_reason.find("within two of") != std::string::npos) {
+                    if (!size && r.plan.size_reason.find("narrower than half") != std::string::npos) {
                         ++narrow;
                         continue;
                     }
