@@ -751,7 +751,8 @@ int main(int argc, char** argv) {
                        << r.failure << " | |\n";
                     continue;
                 }
-                md << na("%.2f", r.load_s) << " | " << na("%.2f", r.convolve_s) << " | " << na("%.2f", r.process_s)
+                md << na("%.2f", r.load_s)
+                   << (std::isfinite(r.load_mb_per_s) ? " (" + fmt("%.0f", r.load_mb_per_s) + " MB/s)" : "") << " | " << na("%.2f", r.convolve_s) << " | " << na("%.2f", r.process_s)
                    << " | " << na("%.0f", r.peak_mib) << " | " << na("%.2e", r.worst_rms) << " (" << r.worst_rms_map
                    << ") | " << na("%.2f %%", 100 * r.worst_texel) << " (" << r.worst_texel_map << ") |\n";
             }
@@ -862,31 +863,37 @@ int main(int argc, char** argv) {
                 d << "\n\n";
             }
         }
-        const fs::path gp = cfg.cache / "scaling_plot.gp";
-        {
-            std::ofstream g(gp);
-            g << "set terminal png size 1000,650 font ',11'\n"
-              << "set output '" << (cfg.images / "convolution_scaling.png").string() << "'\n"
-              << "set logscale xy\nset format x '10^{%L}'\nset format y '10^{%L}'\n"
-              << "set xlabel 'input texels (256x128 ... 8192x4096)'\n"
-              << "set ylabel 'wall time, whole set (irradiance + 11 reflection maps) [s], " << cfg.threads
-              << " threads'\n"
-              << "set title 'glint convolve: time against input size (" << date << ")'\n"
-              << "set key top left box opaque\nset grid\n"
-              << "plot ";
-            const char* colours[] = {"#1f77b4", "#d62728", "#2ca02c"};
-            for (std::size_t k = 0; k < maps_run.size(); ++k) {
-                const std::string c = colours[k % 3];
-                g << (k ? ", " : "") << "'" << dat.string() << "' index " << k
-                  << " using 1:2 with linespoints pt 7 lw 2 lc rgb '" << c << "' title '" << maps_run[k]
-                  << " convolve', '" << dat.string() << "' index " << k
-                  << " using 1:3 with linespoints pt 4 lw 2 dt 2 lc rgb '" << c << "' title '" << maps_run[k]
-                  << " process wall'";
-            }
-            g << '\n';
+        // The script without its terminal line: pngcairo draws the process-wall
+        // lines dashed; plain png where cairo is missing.
+        std::ostringstream g;
+        g << "set output '" << (cfg.images / "convolution_scaling.png").string() << "'\n"
+          << "set logscale xy\nset format x '10^{%L}'\nset format y '10^{%L}'\n"
+          << "set xlabel 'input texels (256x128 ... 8192x4096)'\n"
+          << "set ylabel 'wall time, whole set (irradiance + 11 reflection maps) [s], " << cfg.threads
+          << " threads'\n"
+          << "set title 'glint convolve: time against input size (" << date << ")'\n"
+          << "set key top left box opaque\nset grid\n"
+          << "plot ";
+        const char* colours[] = {"#1f77b4", "#d62728", "#2ca02c"};
+        for (std::size_t k = 0; k < maps_run.size(); ++k) {
+            const std::string c = colours[k % 3];
+            g << (k ? ", " : "") << "'" << dat.string() << "' index " << k
+              << " using 1:2 with linespoints pt 7 lw 2 lc rgb '" << c << "' title '" << maps_run[k]
+              << " convolve', '" << dat.string() << "' index " << k
+              << " using 1:3 with linespoints pt 4 lw 2 dt 2 lc rgb '" << c << "' title '" << maps_run[k]
+              << " process wall'";
         }
-        if (std::system(("gnuplot " + gp.string()).c_str()) != 0)
-            std::fprintf(stderr, "bench_scaling: gnuplot failed; the plot was not written\n");
+        g << '\n';
+        const fs::path gp = cfg.cache / "scaling_plot.gp";
+        bool plotted = false;
+        for (const char* terminal : {"pngcairo", "png"}) {
+            std::ofstream(gp) << "set terminal " << terminal << " size 1000,650 font ',11'\n" << g.str();
+            if (std::system(("gnuplot " + gp.string() + " 2>/dev/null").c_str()) == 0) {
+                plotted = true;
+                break;
+            }
+        }
+        if (!plotted) std::fprintf(stderr, "bench_scaling: gnuplot failed; the plot was not written\n");
         std::fprintf(stderr, "bench_scaling: wrote %s, %s in %.0f s\n", (cfg.out / "scaling.md").c_str(),
                      (cfg.out / "scaling.csv").c_str(), total_s);
         for (const RunRow& r : rows)
