@@ -545,6 +545,14 @@ Fit fit_power(const std::vector<std::pair<double, double>>& xy) {
     return f;
 }
 
+// A CSV field: empty when the value is missing (load times of an older glint).
+std::string csv_number(double v) {
+    if (!std::isfinite(v)) return "";
+    std::ostringstream s;
+    s << v;
+    return s.str();
+}
+
 // The 1, 5 and 15 minute load averages: the machine may be shared.
 std::string loadavg() {
     std::ifstream in("/proc/loadavg");
@@ -609,6 +617,16 @@ int main(int argc, char** argv) {
         }
     }
     if (!explicit_runs.empty()) {
+        // In table order (map, then size), each once.
+        const auto rank = [](const Run& r) {
+            const auto m = std::find(kMaps.begin(), kMaps.end(), r.map) - kMaps.begin();
+            return std::make_pair(m, r.input.width);
+        };
+        std::sort(explicit_runs.begin(), explicit_runs.end(),
+                  [&](const Run& a, const Run& b) { return rank(a) < rank(b); });
+        explicit_runs.erase(std::unique(explicit_runs.begin(), explicit_runs.end(),
+                                        [&](const Run& a, const Run& b) { return rank(a) == rank(b); }),
+                            explicit_runs.end());
         cfg.runs = explicit_runs;
     } else {
         for (const std::string& map : kMaps)
@@ -698,8 +716,8 @@ int main(int argc, char** argv) {
             }
             for (const MapRow& m : r.maps)
                 csv << r.run.map << ',' << r.run.input.width << ',' << r.run.input.height << ','
-                    << std::size_t(texels(r.run.input)) << ',' << r.load_s << ',' << r.load_mb_per_s << ','
-                    << r.convolve_s << ',' << r.process_s << ',' << r.peak_mib << ',' << m.target.label << ','
+                    << std::size_t(texels(r.run.input)) << ',' << csv_number(r.load_s) << ','
+                    << csv_number(r.load_mb_per_s) << ',' << r.convolve_s << ',' << r.process_s << ',' << r.peak_mib << ',' << m.target.label << ','
                     << m.target.n << ',' << m.output.width << ',' << m.output.height << ',' << m.method << ','
                     << m.input_level << ',' << m.predicted << ',' << m.seconds << ','
                     << m.error.weighted_relative_rms << ',' << m.error.worst_texel << '\n';
