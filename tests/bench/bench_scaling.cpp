@@ -376,6 +376,7 @@ struct RunRow {
     std::vector<MapRow> maps;
     double worst_rms = NAN, worst_texel = NAN;
     std::string worst_rms_map, worst_texel_map;
+    std::vector<std::string> warnings;  // glint's own warnings (e.g. a plan predicted above tolerance)
 };
 
 double number_or_nan(const nlohmann::json& j, const char* key) {
@@ -402,6 +403,12 @@ RunRow run_one(const Config& cfg, const Run& run, const std::vector<HdrImage>& r
         row.failure = "glint convolve " + input.string() + ": " + p.failure + " (log " + log.string() + ")";
         std::fprintf(stderr, "bench_scaling: %s; its last lines:\n%s", row.failure.c_str(), tail_of(log, 8).c_str());
         return row;
+    }
+    {
+        std::ifstream in(log);
+        std::string line;
+        while (std::getline(in, line))
+            if (line.find("warning") != std::string::npos) row.warnings.push_back(line);
     }
     nlohmann::json report;
     try {
@@ -774,6 +781,16 @@ int main(int argc, char** argv) {
                    << " | " << na("%.0f", r.peak_mib) << " | " << na("%.2e", r.worst_rms) << " (" << r.worst_rms_map
                    << ") | " << na("%.2f %%", 100 * r.worst_texel) << " (" << r.worst_texel_map << ") |\n";
             }
+            md << '\n';
+        }
+
+        bool any_warning = false;
+        for (const RunRow& r : rows) any_warning = any_warning || !r.warnings.empty();
+        if (any_warning) {
+            md << "Warnings printed by `glint convolve`:\n\n";
+            for (const RunRow& r : rows)
+                for (const std::string& w : r.warnings)
+                    md << "- " << r.run.map << ' ' << size_str(r.run.input) << ": `" << w << "`\n";
             md << '\n';
         }
 
