@@ -113,8 +113,8 @@ const char* kHelp =
     "                    [--quadrature-map NAME] [--no-quadrature] [--keep-outputs]\n"
     "\n"
     "How `glint convolve` scales with the input size. For each (map, input size) the whole set\n"
-    "(--irradiance --shininess 1,10,20,40,80,160,320,640,1280,5120,20480, the planner's own\n"
-    "output sizes) runs as a subprocess; wall time, peak RSS (wait4), report.json's load and\n"
+    "(--irradiance --shininess 1,10,20,40,80,160,320,640,1280,5120,20480 --allow-over-tolerance,\n"
+    "the planner's own output sizes) runs as a subprocess; wall time, peak RSS (wait4), report.json's load and\n"
     "convolution times, and every map's error against exact are reported.\n"
     "\n"
     "  --run MAP:SIZES   a map (courtyard, studio, sunset) at the listed input sizes, comma\n"
@@ -360,7 +360,8 @@ std::string tail_of(const fs::path& file, std::size_t lines) {
 struct MapRow {
     Target target;
     bool have = false;
-    Size output{};
+    Size output{}, sum{};  // sum: the grid the sums ran on (report.json sum_size; 0x0 if not reported)
+    bool over_tolerance = false;
     std::string method;
     int input_level = 0;
     double predicted = NAN, seconds = NAN;
@@ -393,9 +394,11 @@ RunRow run_one(const Config& cfg, const Run& run, const std::vector<HdrImage>& r
     fs::remove_all(dir);
     fs::create_directories(dir);
     const fs::path log = cfg.cache / "runs" / (run.map + "_" + size_str(run.input) + ".log");
-    std::vector<std::string> args{cfg.glint, "convolve",       input.string(), "--irradiance",
-                                  "--shininess", shininess_list(), "--out",   dir.string(),
-                                  "--threads",   std::to_string(cfg.threads)};
+    // --allow-over-tolerance: a map predicted to miss the tolerance is written and
+    // marked (over_tolerance in report.json) instead of failing the whole run.
+    std::vector<std::string> args{cfg.glint,     "convolve",      input.string(), "--irradiance",
+                                  "--shininess", shininess_list(), "--out",       dir.string(),
+                                  "--threads",   std::to_string(cfg.threads), "--allow-over-tolerance"};
     const ProcessOutcome p = run_process(args, log);
     row.process_s = p.wall_seconds;
     row.peak_mib = p.peak_mib;
@@ -439,6 +442,10 @@ RunRow run_one(const Config& cfg, const Run& run, const std::vector<HdrImage>& r
         if (m.contains("shares_with") && m["shares_with"].is_string()) r.shares_with = m["shares_with"].get<std::string>();
         if (m.contains("output_size") && m["output_size"].is_array() && m["output_size"].size() == 2)
             r.output = {m["output_size"][0].get<int>(), m["output_size"][1].get<int>()};
+        if (m.contains("sum_size") && m["sum_size"].is_array() && m["sum_size"].size() == 2)
+            r.sum = {m["sum_size"][0].get<int>(), m["sum_size"][1].get<int>()};
+        r.over_tolerance = m.contains("over_tolerance") && m["over_tolerance"].is_boolean() &&
+                           m["over_tolerance"].get<bool>();
         const fs::path file = dir / m.value("file", label + ".exr");
         try {
             r.error = compare_maps(load_exr(file).image, reference[std::size_t(it - targets.begin())]);
@@ -712,21 +719,22 @@ int main(int argc, char** argv) {
         // ---- csv ----
         std::ofstream csv(cfg.out / "scaling.csv");
         csv << "map,input_width,input_height,input_texels,load_s,load_mb_per_s,convolve_s,process_s,peak_mib,"
-               "target,n,output_width,output_height,method,input_level,predicted_error,map_seconds,"
-               "weighted_rel_rms,worst_texel\n";
+               "target,n,output_width,output_height,sum_width,sum_height,method,input_level,predicted_error,"
+               "over_tolerance,map_seconds,weighted_rel_rms,worst_texel\n";
         for (const RunRow& r : rows) {
             if (r.maps.empty()) {
                 csv << r.run.map << ',' << r.run.input.width << ',' << r.run.input.height << ','
                     << std::size_t(texels(r.run.input)) << ",,,," << r.process_s << ',' << r.peak_mib
-                    << ",failed,,,,,,,,,\n";
+                    << ",failed,,,,,,,,,,,,\n";
                 continue;
             }
             for (const MapRow& m : r.maps)
                 csv << r.run.map << ',' << r.run.input.width << ',' << r.run.input.height << ','
                     << std::size_t(texels(r.run.input)) << ',' << csv_number(r.load_s) << ','
                     << csv_number(r.load_mb_per_s) << ',' << r.convolve_s << ',' << r.process_s << ',' << r.peak_mib << ',' << m.target.label << ','
-                    << m.target.n << ',' << m.output.width << ',' << m.output.height << ',' << m.method << ','
-                    << m.input_level << ',' << m.predicted << ',' << m.seconds << ','
+                    << m.target.n << ',' << m.output.width << ',' << m.output.height << ',' << m.sum.width << ','
+                    << m.sum.height << ',' << m.method << ',' << m.input_level << ',' << m.predicted << ','
+                    << (m.over_tolerance ? 1 : 0) << ',' << m.seconds << ','
                     << m.error.weighted_relative_rms << ',' << m.error.worst_texel << '\n';
         }
 
@@ -747,7 +755,7 @@ int main(int argc, char** argv) {
            << " the machine was shared and the times are inflated.\n\n"
            << "Each run is `glint convolve INPUT --irradiance --shininess " << shininess_list()
            << " --out DIR --threads " << cfg.threads
-           << "` in its own process, without `--size` (the planner's own output sizes). "
+           << " --allow-over-tolerance` in its own process, without `--size` (the planner's own output sizes). "
               "*process* is the wall time of that process (EXR load, planning, convolution, writing 12 maps), "
               "*convolve* is report.json's `wall_seconds` (the `convolve()` call), *load* its `load_seconds` "
               "(n/a when glint does not report it), peak RSS is the child's `ru_maxrss` (wait4).\n\n"
@@ -863,14 +871,17 @@ int main(int argc, char** argv) {
         const std::string detail_map =
             std::find(maps_run.begin(), maps_run.end(), "courtyard") != maps_run.end() ? "courtyard" : maps_run.front();
         md << "## " << detail_map << ": the planner's choice per map\n\n"
-           << "| input | target | reference | output | method | level | predicted | map s | weighted RMS | "
-              "worst texel |\n|---|---|---|---|---|---|---|---|---|---|\n";
+           << "*sum* is the grid the sums ran on (report.json `sum_size`), *predicted* the planner's predicted "
+              "error (marked *over* where report.json says `over_tolerance`).\n\n"
+           << "| input | target | reference | output | sum | method | level | predicted | map s | weighted RMS | "
+              "worst texel |\n|---|---|---|---|---|---|---|---|---|---|---|\n";
         for (const RunRow& r : rows) {
             if (r.run.map != detail_map) continue;
             for (const MapRow& m : r.maps) {
                 md << "| " << size_str(r.run.input) << " | " << m.target.label << " | " << size_str(m.target.size)
-                   << " | " << size_str(m.output) << " | " << m.method << " | " << m.input_level << " | "
-                   << na("%.2g", m.predicted) << " | " << na("%.3f", m.seconds)
+                   << " | " << size_str(m.output) << " | " << (m.sum.width ? size_str(m.sum) : "n/a") << " | "
+                   << m.method << " | " << m.input_level << " | " << na("%.2g", m.predicted)
+                   << (m.over_tolerance ? " over" : "") << " | " << na("%.3f", m.seconds)
                    << (m.shares_with.empty() ? "" : " (= " + m.shares_with + ")") << " | "
                    << na("%.2e", m.error.weighted_relative_rms) << " | " << na("%.2f %%", 100 * m.error.worst_texel)
                    << " |\n";
