@@ -367,6 +367,10 @@ struct MapRow {
     double predicted = NAN, seconds = NAN;
     std::string shares_with;
     MapError error{NAN, NAN, NAN, NAN};
+    // Exact on the candidate's own output grid, compared with the reference the
+    // same way: the error of bilinear lookups on that grid alone (detail map only).
+    MapError lookup_floor{NAN, NAN, NAN, NAN};
+    std::string floor_note;  // why there is none
 };
 
 struct RunRow {
@@ -472,6 +476,44 @@ RunRow run_one(const Config& cfg, const Run& run, const std::vector<HdrImage>& r
     }
     if (!cfg.keep_outputs) fs::remove_all(dir);
     return row;
+}
+
+// Multiply-adds of exact for `out` output texels of lobe n over `in` input texels:
+// only the cap where the relative weight stays above the smallest normal double
+// (cos >= exp(-708.39 / n)) is summed, the hemisphere for n <= 1.
+double exact_cost(Size out, Size in, double n) {
+    const double cap = n <= 1 ? 0.5 : 0.5 * (1 - std::exp(-708.39 / n));
+    return texels(out) * texels(in) * cap;
+}
+
+// Over this many multiply-adds (~10-20 s on 2 cores) the lookup floor is not computed.
+constexpr double kFloorBudget = 6e10;
+
+// The lookup floor of every map of `row` whose output grid is not the reference's.
+void lookup_floors(const Config& cfg, RunRow& row, const std::vector<HdrImage>& reference) {
+    const Size src = reference_source(row.run.input);
+    std::vector<Target> ts;
+    std::vector<std::size_t> index;
+    for (std::size_t k = 0; k < row.maps.size(); ++k) {
+        MapRow& m = row.maps[k];
+        if (!m.have || m.output.width == 0) continue;
+        if (same(m.output, m.target.size)) {
+            m.floor_note = "same grid";
+            continue;
+        }
+        Target t = m.target;
+        t.size = m.output;
+        if (exact_cost(t.size, src, t.n) > kFloorBudget) {
+            m.floor_note = "not computed (exact too slow)";
+            continue;
+        }
+        ts.push_back(t);
+        index.push_back(k);
+    }
+    if (ts.empty()) return;
+    const ExactSet e = exact_set(cfg, row.run.map, src, nullptr, ts);
+    for (std::size_t i = 0; i < ts.size(); ++i)
+        row.maps[index[i]].lookup_floor = compare_maps(e.images[i], reference[index[i]]);
 }
 
 // ---------------------------------------------------------------- quadrature check
@@ -707,6 +749,19 @@ int main(int argc, char** argv) {
                              row.worst_rms_map.c_str(), 100 * row.worst_texel, row.worst_texel_map.c_str());
         }
 
+        // The lookup floors of the detail map (the table per map below).
+        std::vector<std::string> maps_run;
+        for (const Run& r : cfg.runs)
+            if (std::find(maps_run.begin(), maps_run.end(), r.map) == maps_run.end()) maps_run.push_back(r.map);
+        const std::string detail_map =
+            std::find(maps_run.begin(), maps_run.end(), "courtyard") != maps_run.end() ? "courtyard" : maps_run.front();
+        for (RunRow& r : rows)
+            if (r.run.map == detail_map && r.ok) {
+                std::fprintf(stderr, "bench_scaling: lookup floors of %s %s\n", r.run.map.c_str(),
+                             size_str(r.run.input).c_str());
+                lookup_floors(cfg, r, references.at({r.run.map, reference_source(r.run.input).width}));
+            }
+
         std::vector<QuadRow> quad;
         if (cfg.quadrature) {
             std::fprintf(stderr, "bench_scaling: quadrature check on %s 2048x1024 (NN) against 1024x512\n",
@@ -720,12 +775,12 @@ int main(int argc, char** argv) {
         std::ofstream csv(cfg.out / "scaling.csv");
         csv << "map,input_width,input_height,input_texels,load_s,load_mb_per_s,convolve_s,process_s,peak_mib,"
                "target,n,output_width,output_height,sum_width,sum_height,method,input_level,predicted_error,"
-               "over_tolerance,map_seconds,weighted_rel_rms,worst_texel\n";
+               "over_tolerance,map_seconds,weighted_rel_rms,worst_texel,lookup_floor_rms,lookup_floor_worst\n";
         for (const RunRow& r : rows) {
             if (r.maps.empty()) {
                 csv << r.run.map << ',' << r.run.input.width << ',' << r.run.input.height << ','
                     << std::size_t(texels(r.run.input)) << ",,,," << r.process_s << ',' << r.peak_mib
-                    << ",failed,,,,,,,,,,,,\n";
+                    << ",failed,,,,,,,,,,,,,,\n";
                 continue;
             }
             for (const MapRow& m : r.maps)
@@ -735,17 +790,15 @@ int main(int argc, char** argv) {
                     << m.target.n << ',' << m.output.width << ',' << m.output.height << ',' << m.sum.width << ','
                     << m.sum.height << ',' << m.method << ',' << m.input_level << ',' << m.predicted << ','
                     << (m.over_tolerance ? 1 : 0) << ',' << m.seconds << ','
-                    << m.error.weighted_relative_rms << ',' << m.error.worst_texel << '\n';
+                    << m.error.weighted_relative_rms << ',' << m.error.worst_texel << ','
+                    << csv_number(m.lookup_floor.weighted_relative_rms) << ','
+                    << csv_number(m.lookup_floor.worst_texel) << '\n';
         }
 
         // ---- md ----
         char date[64];
         const std::time_t now = std::time(nullptr);
         std::strftime(date, sizeof date, "%Y-%m-%d %H:%M UTC", std::gmtime(&now));
-        std::vector<std::string> maps_run;
-        for (const Run& r : cfg.runs)
-            if (std::find(maps_run.begin(), maps_run.end(), r.map) == maps_run.end()) maps_run.push_back(r.map);
-
         std::ofstream md(cfg.out / "scaling.md");
         md << "# Convolution: scaling with the input size\n\n"
            << "Generated by `tests/bench/run_scaling_bench.sh` (`" << command << "`) on " << date << ", "
@@ -868,13 +921,14 @@ int main(int argc, char** argv) {
                   "narrow lobes), it measures the reference as much as `glint convolve`.\n\n";
         }
 
-        const std::string detail_map =
-            std::find(maps_run.begin(), maps_run.end(), "courtyard") != maps_run.end() ? "courtyard" : maps_run.front();
         md << "## " << detail_map << ": the planner's choice per map\n\n"
            << "*sum* is the grid the sums ran on (report.json `sum_size`), *predicted* the planner's predicted "
-              "error (marked *over* where report.json says `over_tolerance`).\n\n"
+              "error (marked *over* where report.json says `over_tolerance`). *lookup floor* is `exact` "
+              "computed on the map's own output grid (from the reference's source) and compared with the "
+              "reference like the map itself: the error that bilinear lookups on that grid make by themselves, "
+              "whatever the sums; the map's error minus it is the sums' share.\n\n"
            << "| input | target | reference | output | sum | method | level | predicted | map s | weighted RMS | "
-              "worst texel |\n|---|---|---|---|---|---|---|---|---|---|---|\n";
+              "worst texel | lookup floor RMS / worst |\n|---|---|---|---|---|---|---|---|---|---|---|---|\n";
         for (const RunRow& r : rows) {
             if (r.run.map != detail_map) continue;
             for (const MapRow& m : r.maps) {
@@ -884,6 +938,10 @@ int main(int argc, char** argv) {
                    << (m.over_tolerance ? " over" : "") << " | " << na("%.3f", m.seconds)
                    << (m.shares_with.empty() ? "" : " (= " + m.shares_with + ")") << " | "
                    << na("%.2e", m.error.weighted_relative_rms) << " | " << na("%.2f %%", 100 * m.error.worst_texel)
+                   << " | "
+                   << (m.floor_note.empty() ? na("%.2e", m.lookup_floor.weighted_relative_rms) + " / " +
+                                                  na("%.2f %%", 100 * m.lookup_floor.worst_texel)
+                                            : m.floor_note)
                    << " |\n";
             }
         }
