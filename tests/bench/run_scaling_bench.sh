@@ -1,0 +1,13 @@
+#!/usr/bin/env bash
+# Time, peak memory and error of `glint convolve` (the whole set, the planner's own output sizes)
+# against the input's size, 256x128 to 8192x4096; writes tests/bench/results/scaling.{md,csv} and
+# images/convolution_scaling.png. Inputs and exact references are cached in
+# build/bench-cache/scaling; the exact maps of the 1024x512 inputs are reused from
+# build/bench-cache when run_convolution_bench.sh made them.
+# Takes ~3 minutes on 2 cores (18 runs; the first run also makes the inputs and exact maps).
+# Arguments are passed on (--help lists them; e.g. --preset issue, --run courtyard:256x128,1024x512).
+set -euo pipefail
+cd "$(dirname "$0")/../.."
+./scripts/build.sh
+./build/tests/bench/glint_bench_scaling --cache build/bench-cache/scaling --exact-cache build/bench-cache \
+    --out tests/bench/results --images images --glint build/appliance/app/glint --threads 2 "$@"
