@@ -77,8 +77,9 @@ struct MapPlan {
     Size sum_size;
     bool size_fixed = false;         // output_size was given (--size or MapRequest::size)
     std::string size_reason;         // why output_size is what it is (report.json)
-    // Predicted weighted RMS of bilinear lookups between output texels (counted in
-    // predicted_error, measured on the map by estimate_lookup_error), 0 where not counted.
+    // Predicted weighted RMS of bilinear lookups between output texels (measured on the map by
+    // estimate_lookup_error; counted in predicted_error except for a lobe narrower than half the
+    // input's texels, where size_reason says so; 0 for a fixed size or the mirror).
     double lookup_error = 0;
     double cutoff_cos = -1;          // cos of the cut-off angle, -1 = whole sphere
     // The cone's settings for this lobe and tolerance: how a cone plan runs, and

@@ -284,9 +284,9 @@ void deliver_output(MapResult& r, Size input, double tau, const PlannerModel& mo
         }
         const LookupError e = estimate_lookup_error(split ? smooth : r.image, threads);
         // The fourth differences predict 4-point interpolation only where the sum grid resolves
-        // the lobe (its spacing within sum_grid_spacing lobe widths); a grid capped at a coarser
-        // input's resolution is summed again instead.
-        const bool resolved = kPi / p.sum_size.height <= model.sum_grid_spacing * lobe_width(n) * 1.0001;
+        // the lobe (its spacing within one lobe width; a Gaussian sampled coarser aliases); a
+        // grid capped at a coarser input's resolution is summed again instead.
+        const bool resolved = kPi / p.sum_size.height <= lobe_width(n) * 1.0001;
         if (resolved && e.cubic_rms <= model.resample_share * tau && e.cubic_worst <= model.resample_worst_share * tau) {
             r.image = resample_cubic(split ? smooth : r.image, finer, threads, &r.clamped_texels);
             if (split) {
@@ -313,9 +313,13 @@ void deliver_output(MapResult& r, Size input, double tau, const PlannerModel& mo
     }
     if (lobe_narrower_than_input(n, input)) {
         // A bright texel is then an area light much larger than the lobe, not a point: its
-        // lobe between texels is the input's own interpolation too.
+        // lobe between texels is the input's own interpolation too. The estimate is reported
+        // (lookup_error) but not counted in the prediction.
+        const LookupError step = estimate_lookup_error(r.image, threads);
+        p.lookup_error = step.bilinear_rms;
         p.size_reason = "the input's grid: the lobe is narrower than half the input's texel spacing, so lookups "
-                        "between texels interpolate the input itself, as for the mirror";
+                        "between texels interpolate the input itself, as for the mirror (not counted: against the "
+                        "point-sampled sum they err " + percent(step.bilinear_rms) + " RMS)";
         return;
     }
     const LookupError e = estimate_lookup_error(r.image, threads);

@@ -64,25 +64,42 @@ LookupError estimate_lookup_error(const HdrImage& map, int threads, const HdrIma
     struct RowSums {
         double value2 = 0, bilinear2 = 0, cubic2 = 0, bilinear_worst = 0, cubic_worst = 0;
     };
-    std::vector<RowSums> rows(static_cast<std::size_t>(h));
+    std::vector<RowSums> rows_sums(static_cast<std::size_t>(h));
+    // Column indices (times 3) of each texel's neighbours i-2 .. i+2, wrapped once.
+    std::vector<std::array<int, 5>> cols(static_cast<std::size_t>(w));
+    for (int i = 0; i < w; ++i)
+        for (int d = 0; d < 5; ++d) cols[std::size_t(i)][std::size_t(d)] = 3 * wrap(i + d - 2, w);
     parallel_for(h, threads, [&](int j) {
-        std::array<RowTap, 5> taps;
-        for (int d = -2; d <= 2; ++d) taps[std::size_t(d + 2)] = row_across_pole(j + d, h, w);
+        // Rows j-2 .. j+2, those past a pole turned half a turn (copied once per row).
+        std::array<const float*, 5> rows;
+        std::array<std::vector<float>, 5> turned;
+        for (int d = 0; d < 5; ++d) {
+            const RowTap t = row_across_pole(j + d - 2, h, w);
+            if (t.shift == 0) {
+                rows[std::size_t(d)] = map.row(t.row);
+                continue;
+            }
+            std::vector<float>& copy = turned[std::size_t(d)];
+            copy.resize(std::size_t(3 * w));
+            for (int i = 0; i < w; ++i)
+                for (int c = 0; c < 3; ++c) copy[std::size_t(3 * i + c)] = map.row(t.row)[3 * wrap(i + t.shift, w) + c];
+            rows[std::size_t(d)] = copy.data();
+        }
         RowSums s;
         const float* centre = map.row(j);
+        const float* whole_row = whole.row(j);
         for (int i = 0; i < w; ++i) {
+            const std::array<int, 5>& ci = cols[std::size_t(i)];
             for (int c = 0; c < 3; ++c) {
-                double th[5], ph[5];
-                for (int d = 0; d < 5; ++d) {
-                    th[d] = map.row(taps[std::size_t(d)].row)[3 * wrap(i + taps[std::size_t(d)].shift, w) + c];
-                    ph[d] = centre[3 * wrap(i + d - 2, w) + c];
-                }
-                const double v = th[2];
-                const double value = whole.row(j)[3 * i + c];
-                const double a = ph[1] - 2 * v + ph[3], b = th[1] - 2 * v + th[3];
+                const int k = 3 * i + c;
+                const double v = centre[k];
+                const double value = whole_row[k];
+                const double th1 = rows[1][k], th3 = rows[3][k];
+                const double ph1 = centre[ci[1] + c], ph3 = centre[ci[3] + c];
+                const double a = ph1 - 2 * v + ph3, b = th1 - 2 * v + th3;
                 const double d2 = std::abs(a) + std::abs(b);
-                const double d4 = std::abs(th[0] - 4 * th[1] + 6 * v - 4 * th[3] + th[4]) +
-                                  std::abs(ph[0] - 4 * ph[1] + 6 * v - 4 * ph[3] + ph[4]);
+                const double d4 = std::abs(rows[0][k] - 4 * th1 + 6 * v - 4 * th3 + rows[4][k]) +
+                                  std::abs(centre[ci[0] + c] - 4 * ph1 + 6 * v - 4 * ph3 + centre[ci[4] + c]);
                 const double bilinear = d2 / 8.0, cubic = d4 * 3.0 / 128.0;
                 const double floor = std::max(std::abs(value), mean);
                 s.value2 += value * value;
@@ -96,12 +113,12 @@ LookupError estimate_lookup_error(const HdrImage& map, int threads, const HdrIma
                 }
             }
         }
-        rows[std::size_t(j)] = s;
+        rows_sums[std::size_t(j)] = s;
     });
     double value2 = 0, bilinear2 = 0, cubic2 = 0;
     LookupError e;
     for (int j = 0; j < h; ++j) {
-        const RowSums& s = rows[std::size_t(j)];
+        const RowSums& s = rows_sums[std::size_t(j)];
         const double a = solid[std::size_t(j)];
         value2 += a * s.value2;
         bilinear2 += a * s.bilinear2;

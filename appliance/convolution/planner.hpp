@@ -36,7 +36,7 @@ struct PlannerModel {
     // tau (worst), else summed again on that grid.
     double sum_grid_spacing = 0.75;
     int min_output_height = 32;
-    double output_worst_share = 10.0;
+    double output_worst_share = 4.0;
     int max_refinement = 4;
     double resample_share = 0.25;
     double resample_worst_share = 2.0;

@@ -6,5 +6,8 @@
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 ./scripts/build.sh
+# The same heap as `glint convolve`, which re-executes itself with huge pages (docs/convolution.md,
+# "Large inputs: loading and memory").
+export GLIBC_TUNABLES=glibc.malloc.hugetlb=1
 ./build/tests/bench/glint_bench_convolution --cache build/bench-cache --out tests/bench/results \
     --images images --threads 2 "$@"

@@ -6,4 +6,7 @@
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 ./scripts/build.sh
+# The same heap as `glint convolve`, which re-executes itself with huge pages (docs/convolution.md,
+# "Large inputs: loading and memory").
+export GLIBC_TUNABLES=glibc.malloc.hugetlb=1
 ./build/tests/bench/glint_bench_offgrid --out tests/bench/results --threads 2 --samples 4096 "$@"
