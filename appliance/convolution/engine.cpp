@@ -273,37 +273,52 @@ void deliver_output(MapResult& r, Size input, double tau, const PlannerModel& mo
                                                   p.sum_size.height != p.output_size.height);
     if (p.size_fixed && !resampled_fixed) return;  // the reference's own grid: nothing between texels counts
     const double n = r.request.shininess;
+    // Makes the map on `finer`: 4-point resampling of the map summed on the current sum grid
+    // (without its bright texels, which are added back exactly) where that is predicted within
+    // its share of tau; else the plan is summed on a grid twice as fine and tried again from
+    // there, up to summing on `finer` itself.
     const auto refine = [&](Size finer, const std::string& why) {
         const bool split = bright && !bright->empty();
-        const double floor_value = mean_value(r.image);
-        HdrImage smooth;
-        if (split) {
-            smooth = r.image;
-            const HdrImage lobes = bright_lobes(*bright, n, p.sum_size, floor_value, threads);
-            for (std::size_t k = 0; k < smooth.data().size(); ++k) smooth.data()[k] -= lobes.data()[k];
-        }
-        const LookupError e = estimate_lookup_error(split ? smooth : r.image, threads);
-        // The fourth differences predict 4-point interpolation only where the sum grid resolves
-        // the lobe (its spacing within one lobe width; a Gaussian sampled coarser aliases); a
-        // grid capped at a coarser input's resolution is summed again instead.
-        const bool resolved = kPi / p.sum_size.height <= lobe_width(n) * 1.0001;
-        if (resolved && e.cubic_rms <= model.resample_share * tau && e.cubic_worst <= model.resample_worst_share * tau) {
-            r.image = resample_cubic(split ? smooth : r.image, finer, threads, &r.clamped_texels);
+        std::string steps;
+        for (;;) {
+            const double floor_value = mean_value(r.image);
+            HdrImage smooth;
             if (split) {
-                const HdrImage lobes = bright_lobes(*bright, n, finer, floor_value, threads);
-                for (std::size_t k = 0; k < r.image.data().size(); ++k)
-                    r.image.data()[k] = std::max(0.0f, r.image.data()[k] + lobes.data()[k]);
+                smooth = r.image;
+                const HdrImage lobes = bright_lobes(*bright, n, p.sum_size, floor_value, threads);
+                for (std::size_t k = 0; k < smooth.data().size(); ++k) smooth.data()[k] -= lobes.data()[k];
             }
-            p.predicted_error += e.cubic_rms;
-            p.size_reason = why + "; resampled 4-point from " + describe(p.sum_size) + " (predicted " +
-                            percent(e.cubic_rms) + ")" + (split ? ", bright texels added exactly" : "");
-        } else {
-            r.image = sum_on(finer);
-            p.size_reason = why + "; summed on it (" +
-                            (resolved ? "4-point resampling from " + describe(p.sum_size) + " would err " +
-                                            percent(e.cubic_rms) + " RMS, " + percent(e.cubic_worst) + " worst)"
-                                      : describe(p.sum_size) + " does not resolve the lobe for 4-point resampling)");
-            p.sum_size = finer;
+            const LookupError e = estimate_lookup_error(split ? smooth : r.image, threads);
+            // The fourth differences predict 4-point interpolation only where the sum grid
+            // resolves the lobe (its spacing within one lobe width; a Gaussian sampled coarser
+            // aliases); a grid capped at a coarser input's resolution is summed again instead.
+            const bool resolved = kPi / p.sum_size.height <= lobe_width(n) * 1.0001;
+            if (resolved && e.cubic_rms <= model.resample_share * tau &&
+                e.cubic_worst <= model.resample_worst_share * tau) {
+                r.image = resample_cubic(split ? smooth : r.image, finer, threads, &r.clamped_texels);
+                if (split) {
+                    const HdrImage lobes = bright_lobes(*bright, n, finer, floor_value, threads);
+                    for (std::size_t k = 0; k < r.image.data().size(); ++k)
+                        r.image.data()[k] = std::max(0.0f, r.image.data()[k] + lobes.data()[k]);
+                }
+                p.predicted_error += e.cubic_rms;
+                p.size_reason = why + steps + "; resampled 4-point from " + describe(p.sum_size) + " (predicted " +
+                                percent(e.cubic_rms) + ")" + (split ? ", bright texels added exactly" : "");
+                break;
+            }
+            const Size next = 2 * p.sum_size.height >= finer.height
+                                  ? finer
+                                  : Size{2 * p.sum_size.width, 2 * p.sum_size.height};
+            steps += "; summed on " + describe(next) + " (" +
+                     (resolved ? "4-point resampling from " + describe(p.sum_size) + " would err " +
+                                     percent(e.cubic_rms) + " RMS, " + percent(e.cubic_worst) + " worst)"
+                               : describe(p.sum_size) + " does not resolve the lobe)");
+            r.image = sum_on(next);
+            p.sum_size = next;
+            if (next.height == finer.height) {
+                p.size_reason = why + steps;
+                break;
+            }
         }
         p.output_size = finer;
     };
