@@ -248,18 +248,6 @@ std::string percent(double v) {
     return s.str();
 }
 
-// Solid-angle mean of all channels of a map.
-double mean_value(const HdrImage& m) {
-    const std::vector<double> solid = row_solid_angles(m.width(), m.height());
-    double sum = 0;
-    for (int j = 0; j < m.height(); ++j) {
-        double row = 0;
-        for (int i = 0; i < 3 * m.width(); ++i) row += m.row(j)[i];
-        sum += row * solid[std::size_t(j)];
-    }
-    return sum / (3.0 * 4.0 * kPi);
-}
-
 // After a map is summed on its plan's sum grid: the size it is delivered at, the error of
 // bilinear lookups into it and why (docs/convolution.md, "Output size"). A finer grid is
 // made by 4-point resampling of the map without its bright texels (`bright`: those the plan
@@ -281,7 +269,7 @@ void deliver_output(MapResult& r, Size input, double tau, const PlannerModel& mo
         const bool split = bright && !bright->empty();
         std::string steps;
         for (;;) {
-            const double floor_value = mean_value(r.image);
+            const double floor_value = solid_angle_mean(r.image);
             HdrImage smooth;
             if (split) {
                 smooth = r.image;

@@ -49,18 +49,23 @@ Tap cubic_tap(int out_index, int out_count, int in_count) {
 
 }  // namespace
 
+double solid_angle_mean(const HdrImage& map) {
+    const std::vector<double> solid = row_solid_angles(map.width(), map.height());
+    double sum = 0;
+    for (int j = 0; j < map.height(); ++j) {
+        double row = 0;
+        const float* p = map.row(j);
+        for (int i = 0; i < 3 * map.width(); ++i) row += std::abs(p[i]);
+        sum += row * solid[std::size_t(j)];
+    }
+    return sum / (3.0 * 4.0 * kPi);
+}
+
 LookupError estimate_lookup_error(const HdrImage& map, int threads, const HdrImage* relative_to) {
     const int w = map.width(), h = map.height();
     const HdrImage& whole = relative_to ? *relative_to : map;
     const std::vector<double> solid = row_solid_angles(w, h);
-    double sum = 0;
-    for (int j = 0; j < h; ++j) {
-        double row = 0;
-        const float* p = whole.row(j);
-        for (int i = 0; i < 3 * w; ++i) row += std::abs(p[i]);
-        sum += row * solid[std::size_t(j)];
-    }
-    const double mean = sum / (3.0 * 4.0 * kPi);
+    const double mean = solid_angle_mean(whole);
     struct RowSums {
         double value2 = 0, bilinear2 = 0, cubic2 = 0, bilinear_worst = 0, cubic_worst = 0;
     };

@@ -24,6 +24,10 @@ struct LookupError {
     double cubic_worst = 0;
 };
 
+// Solid-angle mean of a map over its texels and three channels (the floor of the worst-texel
+// metric, docs/conventions.md).
+double solid_angle_mean(const HdrImage& map);
+
 // Per texel and channel, from the map's second differences a (in phi) and b (in theta): the
 // bilinear RMS counts the mean square error over the texel's cell of bilinear interpolation
 // of a quadratic with those differences, (a^2 + b^2)/120 + ab/72; the bilinear worst its
