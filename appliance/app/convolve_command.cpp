@@ -211,7 +211,9 @@ int run_convolve(const ConvolveArgs& args) {
     for (const auto& r : results) names.push_back(r.request.label + ".exr");
     names.push_back("report.json");
     staging.write([&] {
-        for (const auto& r : results) save_exr(staging.file(r.request.label + ".exr"), r.image);
+        // Uncompressed: the maps' float noise does not compress (docs/convolution.md).
+        for (const auto& r : results)
+            save_exr(staging.file(r.request.label + ".exr"), r.image, ExrCompression::None);
         write_text_atomically(staging.file("report.json"), report.dump(2) + "\n");
     });
     staging.commit(names);

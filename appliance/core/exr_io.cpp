@@ -82,12 +82,16 @@ LoadedExr load_exr(const std::filesystem::path& path) {
     return out;
 }
 
-void save_exr(const std::filesystem::path& path, const HdrImage& image) {
+void save_exr(const std::filesystem::path& path, const HdrImage& image, ExrCompression compression) {
     if (image.empty()) throw RuntimeError("refusing to save an empty image to " + path.string());
     write_file_atomically(path, [&](const std::filesystem::path& tmp) {
         try {
             Imf::Header header(image.width(), image.height());
-            header.compression() = Imf::ZIP_COMPRESSION;
+            header.compression() =
+                compression == ExrCompression::Zip ? Imf::ZIP_COMPRESSION : Imf::NO_COMPRESSION;
+            // zlib's fastest level: float radiance compresses little at any level, and the
+            // default level (6) took most of a large write's time.
+            header.zipCompressionLevel() = 1;
             for (const char* name : {"R", "G", "B"})
                 header.channels().insert(name, Imf::Channel(Imf::FLOAT));
             Imf::OutputFile file(tmp.c_str(), header, codec_threads());

@@ -19,7 +19,12 @@ struct LoadedExr {
 // file on a missing, corrupt, truncated or channel-less file.
 LoadedExr load_exr(const std::filesystem::path& path);
 
-// Saves R, G, B as FLOAT with ZIP compression, atomically (temp, fsync, rename).
-void save_exr(const std::filesystem::path& path, const HdrImage& image);
+enum class ExrCompression { Zip, None };
+
+// Saves R, G, B as FLOAT, atomically (temp, fsync, rename). ZIP (zlib level 1) by default;
+// None for maps whose float noise does not compress: `glint convolve`'s outputs were 7 %
+// smaller with ZIP and took 4.6x longer to write (docs/convolution.md).
+void save_exr(const std::filesystem::path& path, const HdrImage& image,
+              ExrCompression compression = ExrCompression::Zip);
 
 }  // namespace glint
