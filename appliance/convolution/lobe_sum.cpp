@@ -178,10 +178,17 @@ PreparedLevel::PreparedLevel(const PreparedLevel& parent, int m)
 }
 
 const PreparedLevel& PreparedLevel::merged_columns(int m) const {
+    {
+        std::lock_guard lock(merged_mutex_);
+        const auto it = merged_.find(m);
+        if (it != merged_.end()) return *it->second;
+    }
+    // An even m from the level with m/2 merged, two columns at a time: the powers of two the
+    // summer asks for then take half-size passes instead of full ones each.
+    const bool halves = m > 2 && m % 2 == 0;
+    auto built = std::make_unique<PreparedLevel>(halves ? merged_columns(m / 2) : *this, halves ? 2 : m);
     std::lock_guard lock(merged_mutex_);
-    std::unique_ptr<PreparedLevel>& slot = merged_[m];
-    if (!slot) slot = std::make_unique<PreparedLevel>(*this, m);
-    return *slot;
+    return *merged_.try_emplace(m, std::move(built)).first->second;
 }
 
 const UninitVector<float>& PreparedLevel::phases(int step, int per_class) const {
