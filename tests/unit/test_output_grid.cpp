@@ -149,6 +149,33 @@ TEST(OutputGrid, DeliveredMapsAreWithinTheirPredictionOffGrid) {
     }
 }
 
+TEST(OutputGrid, OddAndNonSquareInputsGetGridsThatKeepTheirPrediction) {
+    // Input sizes off the power-of-two ladder, odd widths (no half-turn column across the pole)
+    // and a 4:1 aspect: every map finite, twice as wide as high, and, where its lookups are
+    // counted, within its prediction off-grid.
+    for (const Size in : {Size{90, 45}, Size{100, 50}, Size{128, 32}, Size{33, 17}}) {
+        const HdrImage env = field_with_sun(in.width, in.height);
+        std::vector<MapRequest> maps{MapRequest::make_irradiance(), MapRequest::make_mirror()};
+        for (double n : {10.0, 200.0, 3000.0}) maps.push_back(MapRequest::make_phong(n, std::to_string(int(n))));
+        Options o;
+        o.threads = 2;
+        for (const MapResult& r : convolve(env, maps, o)) {
+            const std::string what = std::to_string(in.width) + "x" + std::to_string(in.height) + " " + r.request.label;
+            for (float v : r.image.data()) ASSERT_TRUE(std::isfinite(v) && v >= 0) << what;
+            EXPECT_EQ(r.image.width(), r.plan.output_size.width) << what;
+            EXPECT_FALSE(r.plan.size_reason.empty()) << what;
+            if (r.request.mirror || r.plan.size_reason.find("narrower than half") != std::string::npos) continue;
+            const OffGridError e = measure_offgrid_error(env, r.image, r.request.shininess, 512, 3, 2);
+            std::printf("[  report  ] %-14s %dx%d predicted %.4f off-grid %.4f +- %.4f\n", what.c_str(),
+                        r.image.width(), r.image.height(), r.plan.predicted_error, e.weighted_relative_rms,
+                        e.rms_standard_error);
+            EXPECT_LE(e.weighted_relative_rms, std::max(o.tolerance, 1.25 * r.plan.predicted_error) +
+                                                   3 * e.rms_standard_error)
+                << what;
+        }
+    }
+}
+
 TEST(OutputGrid, MirrorIsTheEnvironmentFilteredToTheOutput) {
     const HdrImage env = field_with_sun(64, 32);
     Options o;
