@@ -176,6 +176,27 @@ TEST(OutputGrid, OddAndNonSquareInputsGetGridsThatKeepTheirPrediction) {
     }
 }
 
+TEST(OutputGrid, AHandedOverMapGivesTheSameMaps) {
+    // convolve(HdrImage&&) splits the map in place and frees the remainder's level 0 when no
+    // plan reads them; the maps must be bit-identical to those of the copying call, with and
+    // without plans that read level 0 or the whole map (the mirror).
+    const HdrImage env = field_with_sun(256, 128);
+    const std::vector<std::vector<MapRequest>> sets{
+        {MapRequest::make_irradiance(), MapRequest::make_phong(20, "20")},
+        {MapRequest::make_irradiance(), MapRequest::make_phong(3000, "3000")},
+        {MapRequest::make_phong(40, "40"), MapRequest::make_mirror()}};
+    Options o;
+    o.threads = 2;
+    for (const auto& maps : sets) {
+        const auto copied = convolve(env, maps, o);
+        HdrImage handed = env;
+        const auto moved = convolve(std::move(handed), maps, o);
+        ASSERT_EQ(copied.size(), moved.size());
+        for (std::size_t k = 0; k < copied.size(); ++k)
+            EXPECT_EQ(copied[k].image.data(), moved[k].image.data()) << copied[k].request.label;
+    }
+}
+
 TEST(OutputGrid, MirrorIsTheEnvironmentFilteredToTheOutput) {
     const HdrImage env = field_with_sun(64, 32);
     Options o;
