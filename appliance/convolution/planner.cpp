@@ -42,6 +42,11 @@ Size sum_grid_size(double n, Size input, const PlannerModel& model) {
     if (std::isinf(n)) return {2 * cap, cap};
     const double spacing = model.sum_grid_spacing * lobe_width(n);
     const int needed = std::max(model.min_output_height, int(std::ceil(kPi / spacing)));
+    // A lobe the input's grid does not resolve (but not one narrower than half its texels,
+    // which stays on the input's grid) is summed on twice the input's height: its lookups need
+    // finer texels anyway, and a sum on the input's grid would only be resampled or summed again.
+    if (needed > cap && needed >= model.min_output_height * 2 && !lobe_narrower_than_input(n, input))
+        return {4 * cap, 2 * cap};
     if (needed >= cap) return {2 * cap, cap};
     // The ladder: the input's height halved k times, so the level's columns fall in few
     // phase classes of the output's (one where the widths divide), and the sums stay

@@ -65,11 +65,11 @@ double lobe_width(double shininess);
 // The grid a map of shininess n is summed on when no size is fixed: on the ladder of
 // sizes that share columns with the input (its height over powers of two),
 // the coarsest whose texel spacing is within sum_grid_spacing lobe widths, at least
-// min_output_height rows and at most the input's height; width twice the height. A mirror
-// (n = infinity) is the input's size. Beyond the input's texels a finer grid would only
-// resolve the input's own texel edges; where bilinear lookups need finer texels than the
-// sum grid, the engine delivers a finer map (PlannerModel).
-inline constexpr int kMaxOutputHeight = 4096;
+// min_output_height rows and at most the input's height, or twice the input's height for a
+// lobe the input's grid does not resolve (unless it is narrower than half the input's texels);
+// width twice the height. A mirror (n = infinity) is the input's size. Where bilinear lookups
+// need finer texels than the sum grid, the engine delivers a finer map (PlannerModel).
+inline constexpr int kMaxOutputHeight = 2048;
 // The sharpest finite lobe planned (tested); a sharper one is asked for as the mirror map.
 inline constexpr double kMaxShininess = 1e7;
 Size sum_grid_size(double shininess, Size input, const PlannerModel& model);
