@@ -7,9 +7,10 @@ namespace glint {
 // kernel. The convolution engine allocates and frees buffers of 1-20 MiB for
 // every map (sums, levels, SH tables); with glibc's defaults each comes from a
 // fresh mmap and its first touch costs a page fault per 4 KiB (measured: 14 %
-// of the auto whole set's wall time). The appliance's working set is bounded
-// (peak under 100 MiB for the whole set, docs/convolution.md), so holding on
-// to it is cheap. Call once at start, before any thread is created.
+// of the auto whole set's wall time). Freed blocks above 32 MiB still go back
+// to the kernel, so the largest buffers (maps of 4096x2048 and inputs up to
+// 8192x4096) do not stay resident; the rest is a bounded working set.
+// Call once at start, before any thread is created.
 void keep_freed_memory();
 
 // Transparent huge pages for malloc's memory, which glibc (2.35+) takes only from its start-up
