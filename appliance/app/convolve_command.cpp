@@ -58,8 +58,8 @@ std::string over_tolerance_cause(const convolution::MapResult& r, const convolut
     const convolution::MapPlan& p = r.plan;
     if (p.method == convolution::Method::Sh && options.sh_order > 0) return "--sh-order is too low for this lobe";
     if (p.lookup_error > 0.5 * p.predicted_error) return p.size_reason;
-    if (p.size_fixed) return "--size " + std::to_string(p.output_size.width) + "x" +
-                             std::to_string(p.output_size.height) + " with --method " + to_string(options.method);
+    if (p.size_fixed) return "--size " + convolution::to_string(p.output_size) + " with --method " +
+                             to_string(options.method);
     return "the method's own error at this lobe";
 }
 
@@ -95,7 +95,7 @@ int run_convolve(const ConvolveArgs& args) {
         std::chrono::duration<double>(std::chrono::steady_clock::now() - load_start).count();
     std::error_code size_error;
     const double file_mb = double(fs::file_size(args.input, size_error)) / 1e6;
-    convolution::validate_plan_inputs({loaded.image.width(), loaded.image.height()}, maps, options);
+    convolution::validate_plan_inputs(input_size, maps, options);
     if (loaded.sanitised.total() > 0)
         std::fprintf(stderr,
                      "glint: warning: %s: sanitised %zu channel values (NaN %zu, +Inf %zu, -Inf %zu, "

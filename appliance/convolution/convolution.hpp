@@ -22,6 +22,9 @@ struct Size {
     int width = 0, height = 0;
 };
 
+// "WxH", as the CLI takes and reports sizes.
+std::string to_string(Size s);
+
 // One wanted map. The irradiance map is, by the conventions, the n = 1 lobe
 // looked up with the normal; it is its own request so files are named for it.
 struct MapRequest {

@@ -37,6 +37,8 @@ std::string to_string(Method m) {
     return "unknown";
 }
 
+std::string to_string(Size s) { return std::to_string(s.width) + "x" + std::to_string(s.height); }
+
 std::optional<Method> parse_method(const std::string& name) {
     for (Method m : {Method::Auto, Method::Exact, Method::Cone, Method::Sh, Method::Mipmap})
         if (to_string(m) == name) return m;
@@ -165,11 +167,10 @@ private:
     bool release_level0_ = false;
 };
 
-// Auto's SH with the bright split for one map; rows where its truncation bound
-// does not hold are computed by the plan's cone, which bounds them.
-void run_sh_split(MapResult& r, SharedInputs& shared, MethodExecutor* executor, int threads) {
+// Auto's SH with the bright split for one map on an `out`-sized grid; rows where its
+// truncation bound does not hold are computed by the plan's cone, which bounds them.
+HdrImage run_sh_split(MapResult& r, SharedInputs& shared, MethodExecutor* executor, int threads, Size out) {
     const double n = r.request.shininess;
-    const Size out = r.plan.output_size;
     const ConeSettings& settings = r.plan.cone;
     const int level = r.plan.input_level;
     const int bands = r.plan.projection_order;
@@ -179,17 +180,18 @@ void run_sh_split(MapResult& r, SharedInputs& shared, MethodExecutor* executor, 
                           shared.remainder_mean(level), shared.bright().texels, n, r.plan.sh_order, out,
                           settings.texel_tolerance, settings.bright_tolerance, threads, executor);
     r.plan.bright_texels = int(shared.bright().texels.size());
-    r.image = split.image;
+    HdrImage image = split.image;
     r.clamped_texels = split.clamped;
-    if (split.failed_rows.empty()) return;
+    if (split.failed_rows.empty()) return image;
     ConeStats stats;
     const HdrImage rows = cone_convolve(shared.cone_level(r.plan.fallback_level), shared.bright().texels, n, out,
                                         settings, threads, nullptr, &stats, split.failed_rows);
-    for (int row : split.failed_rows) std::copy(rows.row(row), rows.row(row) + 3 * out.width, r.image.row(row));
+    for (int row : split.failed_rows) std::copy(rows.row(row), rows.row(row) + 3 * out.width, image.row(row));
     r.refined_texels = stats.refined_texels;
     r.plan.note = "sh truncation bound not met for " + std::to_string(split.failed_values) + " channel values; their " +
                   std::to_string(split.failed_rows.size()) + " rows computed by cone at level " +
                   std::to_string(r.plan.fallback_level);
+    return image;
 }
 
 // `exact` and `mipmap` maps on the executor, grouped by method and output size
@@ -239,8 +241,6 @@ bool same_plan(const MapResult& a, const MapResult& b) {
            a.plan.bright_split == b.plan.bright_split && a.plan.input_level == b.plan.input_level;
 }
 
-std::string describe(Size s) { return std::to_string(s.width) + "x" + std::to_string(s.height); }
-
 std::string percent(double v) {
     std::ostringstream s;
     s.precision(2);
@@ -265,7 +265,8 @@ void deliver_output(MapResult& r, Size input, double tau, const PlannerModel& mo
     // (without its bright texels, which are added back exactly) where that is predicted within
     // its share of tau; else the plan is summed on a grid twice as fine and tried again from
     // there, up to summing on `finer` itself.
-    const auto refine = [&](Size finer, const std::string& why) {
+    // `known`: the estimate of the map as it stands, if the caller has it.
+    const auto refine = [&](Size finer, const std::string& why, const LookupError* known) {
         const bool split = bright && !bright->empty();
         std::string steps;
         for (;;) {
@@ -276,7 +277,8 @@ void deliver_output(MapResult& r, Size input, double tau, const PlannerModel& mo
                 const HdrImage lobes = bright_lobes(*bright, n, p.sum_size, floor_value, threads);
                 for (std::size_t k = 0; k < smooth.data().size(); ++k) smooth.data()[k] -= lobes.data()[k];
             }
-            const LookupError e = estimate_lookup_error(split ? smooth : r.image, threads);
+            const LookupError e = !split && known ? *known : estimate_lookup_error(split ? smooth : r.image, threads);
+            known = nullptr;  // the map changes if it is summed again
             // The fourth differences predict 4-point interpolation only where the sum grid
             // resolves the lobe (its spacing within one lobe width; a Gaussian sampled coarser
             // aliases); a grid capped at a coarser input's resolution is summed again instead.
@@ -290,17 +292,17 @@ void deliver_output(MapResult& r, Size input, double tau, const PlannerModel& mo
                         r.image.data()[k] = std::max(0.0f, r.image.data()[k] + lobes.data()[k]);
                 }
                 p.predicted_error += e.cubic_rms;
-                p.size_reason = why + steps + "; resampled 4-point from " + describe(p.sum_size) + " (predicted " +
+                p.size_reason = why + steps + "; resampled 4-point from " + to_string(p.sum_size) + " (predicted " +
                                 percent(e.cubic_rms) + ")" + (split ? ", bright texels added exactly" : "");
                 break;
             }
             const Size next = 2 * p.sum_size.height >= finer.height
                                   ? finer
                                   : Size{2 * p.sum_size.width, 2 * p.sum_size.height};
-            steps += "; summed on " + describe(next) + " (" +
-                     (resolved ? "4-point resampling from " + describe(p.sum_size) + " would err " +
+            steps += "; summed on " + to_string(next) + " (" +
+                     (resolved ? "4-point resampling from " + to_string(p.sum_size) + " would err " +
                                      percent(e.cubic_rms) + " RMS, " + percent(e.cubic_worst) + " worst)"
-                               : describe(p.sum_size) + " does not resolve the lobe)");
+                               : to_string(p.sum_size) + " does not resolve the lobe)");
             r.image = sum_on(next);
             p.sum_size = next;
             if (next.height == finer.height) {
@@ -311,7 +313,7 @@ void deliver_output(MapResult& r, Size input, double tau, const PlannerModel& mo
         p.output_size = finer;
     };
     if (resampled_fixed) {
-        refine(p.output_size, "fixed by the request");
+        refine(p.output_size, "fixed by the request", nullptr);
         return;
     }
     if (lobe_narrower_than_input(n, input)) {
@@ -335,8 +337,8 @@ void deliver_output(MapResult& r, Size input, double tau, const PlannerModel& mo
     while (!within(factor) && factor * 2 <= model.max_refinement &&
            p.sum_size.height * factor * 2 <= kMaxOutputHeight)
         factor *= 2;
-    const std::string estimate = "bilinear lookups between texels of " + describe(p.sum_size) + " err " + percent(e.bilinear_rms) + " RMS, " +
-                                 percent(e.bilinear_worst) + " worst";
+    const std::string estimate = "bilinear lookups between texels of " + to_string(p.sum_size) + " err " +
+                                 percent(e.bilinear_rms) + " RMS, " + percent(e.bilinear_worst) + " worst";
     p.lookup_error = e.bilinear_rms / (double(factor) * factor);
     p.predicted_error += p.lookup_error;
     if (factor == 1) {
@@ -345,7 +347,8 @@ void deliver_output(MapResult& r, Size input, double tau, const PlannerModel& mo
     }
     refine({p.sum_size.width * factor, p.sum_size.height * factor},
            estimate + ", " + std::to_string(factor) + "x finer: " + percent(p.lookup_error) +
-               (within(factor) ? "" : " (the finest grid allowed)"));
+               (within(factor) ? "" : " (the finest grid allowed)"),
+           &e);
     if (p.sum_size.height == p.output_size.height) {
         // Summed again on the finer grid: its own differences measure its lookups (the coarse
         // grid's, scaled, under-predict where it did not resolve the lobe).
@@ -486,10 +489,9 @@ std::vector<MapResult> convolve_map(const HdrImage& env, HdrImage* consumable, c
                 return exact_convolve(shared.full_level(), n, grid, map_threads, rows);
             case Method::Sh: {
                 if (r.plan.bright_split) {
-                    r.plan.output_size = grid;  // run_sh_split reconstructs at the plan's size
-                    run_sh_split(r, shared, options.executor, map_threads);
+                    HdrImage image = run_sh_split(r, shared, options.executor, map_threads, grid);
                     rows(grid.height);
-                    return std::move(r.image);
+                    return image;
                 }
                 HdrImage image = sh_convolve(shared.sh(r.plan.sh_order, map_threads), input_size, n,
                                              r.plan.sh_order, grid, map_threads, &r.clamped_texels, options.executor);
@@ -553,8 +555,8 @@ std::vector<MapResult> convolve_map(const HdrImage& env, HdrImage* consumable, c
         }
     for (const MapResult& r : results)
         if (r.image.width() != r.plan.output_size.width || r.image.height() != r.plan.output_size.height)
-            throw RuntimeError("internal: " + r.request.label + " was made at " + describe({r.image.width(), r.image.height()}) +
-                               ", its plan says " + describe(r.plan.output_size));
+            throw RuntimeError("internal: " + r.request.label + " was made at " + to_string({r.image.width(), r.image.height()}) +
+                               ", its plan says " + to_string(r.plan.output_size));
     return results;
 }
 

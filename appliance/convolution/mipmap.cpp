@@ -59,7 +59,6 @@ Pyramid::Pyramid(HdrImage level0, int threads) {
         HdrImage next = halve(last, threads);  // separate statement: push_back may move `last`
         levels_.push_back(std::move(next));
     }
-    sizes_ = level_sizes({levels_[0].width(), levels_[0].height()});
 }
 
 std::vector<Size> Pyramid::level_sizes(Size level0) {
@@ -67,11 +66,6 @@ std::vector<Size> Pyramid::level_sizes(Size level0) {
     while (sizes.back().width % 2 == 0 && sizes.back().height % 2 == 0)
         sizes.push_back({sizes.back().width / 2, sizes.back().height / 2});
     return sizes;
-}
-
-Size Pyramid::size(int k) const {
-    level_index_check(k, levels());
-    return sizes_[std::size_t(k)];
 }
 
 void Pyramid::release_level(int k) {

@@ -23,14 +23,12 @@ public:
     explicit Pyramid(HdrImage level0, int threads = 1);
     int levels() const { return int(levels_.size()); }
     const HdrImage& level(int k) const;  // 0 = the input; throws std::out_of_range, or logic_error once released
-    Size size(int k) const;              // kept after release_level
     // Frees level k's texels (a level no plan reads: the full-resolution remainder of a large
     // input, once the coarser levels are built).
     void release_level(int k);
 
 private:
     std::vector<HdrImage> levels_;
-    std::vector<Size> sizes_;
 };
 
 // Thesis eq. 4.1-4.3 with the equirect height (the polar resolution) as N:

@@ -30,6 +30,19 @@ int wrap(int i, int width) {
     return m < 0 ? m + width : m;
 }
 
+// Row k of `map` continued across the poles (row_across_pole): a pointer into the map, or, for
+// a row past a pole, into `scratch`, which receives the mirrored row turned half a turn.
+const float* continued_row(const HdrImage& map, int k, std::vector<float>& scratch) {
+    const int w = map.width();
+    const RowTap t = row_across_pole(k, map.height(), w);
+    if (t.shift == 0) return map.row(t.row);
+    scratch.resize(std::size_t(3 * w));
+    const float* src = map.row(t.row);
+    for (int i = 0; i < w; ++i)
+        for (int c = 0; c < 3; ++c) scratch[std::size_t(3 * i + c)] = src[3 * wrap(i + t.shift, w) + c];
+    return scratch.data();
+}
+
 // 4-point Lagrange weights for taps at -1, 0, 1, 2 evaluated at t in [0, 1).
 std::array<double, 4> lagrange4(double t) {
     return {-t * (t - 1.0) * (t - 2.0) / 6.0, (t + 1.0) * (t - 1.0) * (t - 2.0) / 2.0,
@@ -61,11 +74,10 @@ double solid_angle_mean(const HdrImage& map) {
     return sum / (3.0 * 4.0 * kPi);
 }
 
-LookupError estimate_lookup_error(const HdrImage& map, int threads, const HdrImage* relative_to) {
+LookupError estimate_lookup_error(const HdrImage& map, int threads) {
     const int w = map.width(), h = map.height();
-    const HdrImage& whole = relative_to ? *relative_to : map;
     const std::vector<double> solid = row_solid_angles(w, h);
-    const double mean = solid_angle_mean(whole);
+    const double mean = solid_angle_mean(map);
     struct RowSums {
         double value2 = 0, bilinear2 = 0, cubic2 = 0, bilinear_worst = 0, cubic_worst = 0;
     };
@@ -75,30 +87,17 @@ LookupError estimate_lookup_error(const HdrImage& map, int threads, const HdrIma
     for (int i = 0; i < w; ++i)
         for (int d = 0; d < 5; ++d) cols[std::size_t(i)][std::size_t(d)] = 3 * wrap(i + d - 2, w);
     parallel_for(h, threads, [&](int j) {
-        // Rows j-2 .. j+2, those past a pole turned half a turn (copied once per row).
+        // Rows j-2 .. j+2, continued across the poles.
         std::array<const float*, 5> rows;
         std::array<std::vector<float>, 5> turned;
-        for (int d = 0; d < 5; ++d) {
-            const RowTap t = row_across_pole(j + d - 2, h, w);
-            if (t.shift == 0) {
-                rows[std::size_t(d)] = map.row(t.row);
-                continue;
-            }
-            std::vector<float>& copy = turned[std::size_t(d)];
-            copy.resize(std::size_t(3 * w));
-            for (int i = 0; i < w; ++i)
-                for (int c = 0; c < 3; ++c) copy[std::size_t(3 * i + c)] = map.row(t.row)[3 * wrap(i + t.shift, w) + c];
-            rows[std::size_t(d)] = copy.data();
-        }
+        for (int d = 0; d < 5; ++d) rows[std::size_t(d)] = continued_row(map, j + d - 2, turned[std::size_t(d)]);
         RowSums s;
         const float* centre = map.row(j);
-        const float* whole_row = whole.row(j);
         for (int i = 0; i < w; ++i) {
             const std::array<int, 5>& ci = cols[std::size_t(i)];
             for (int c = 0; c < 3; ++c) {
                 const int k = 3 * i + c;
                 const double v = centre[k];
-                const double value = whole_row[k];
                 const double th1 = rows[1][k], th3 = rows[3][k];
                 const double ph1 = centre[ci[1] + c], ph3 = centre[ci[3] + c];
                 const double a = ph1 - 2 * v + ph3, b = th1 - 2 * v + th3;
@@ -106,8 +105,8 @@ LookupError estimate_lookup_error(const HdrImage& map, int threads, const HdrIma
                 const double d4 = std::abs(rows[0][k] - 4 * th1 + 6 * v - 4 * th3 + rows[4][k]) +
                                   std::abs(centre[ci[0] + c] - 4 * ph1 + 6 * v - 4 * ph3 + centre[ci[4] + c]);
                 const double bilinear = d2 / 8.0, cubic = d4 * 3.0 / 128.0;
-                const double floor = std::max(std::abs(value), mean);
-                s.value2 += value * value;
+                const double floor = std::max(std::abs(v), mean);
+                s.value2 += v * v;
                 // Mean square over the texel's cell of the bilinear error of a quadratic with these
                 // second differences, e = a t(1-t)/2 + b s(1-s)/2 for t, s uniform in [0, 1].
                 s.bilinear2 += (a * a + b * b) / 120.0 + a * b / 72.0;
@@ -162,27 +161,14 @@ HdrImage resample_cubic(const HdrImage& map, Size out, int threads, long long* c
                                        wt[3] * src[idx[3] + c]);
         }
     });
-    // Pass 2: down the columns, continuing across the poles (a tap row past a pole is read
-    // half a turn round: its row shifted by half the width, copied once).
+    // Pass 2: down the columns, continuing across the poles.
     HdrImage result(out.width, out.height);
     std::atomic<long long> negative{0};
     parallel_for(out.height, threads, [&](int j) {
         const Tap t = cubic_tap(j, out.height, h);
         std::array<const float*, 4> rows;
         std::array<std::vector<float>, 4> turned;
-        for (int k = 0; k < 4; ++k) {
-            const RowTap r = row_across_pole(t.first + k, h, out.width);
-            if (r.shift == 0) {
-                rows[std::size_t(k)] = across.row(r.row);
-                continue;
-            }
-            std::vector<float>& copy = turned[std::size_t(k)];
-            copy.resize(std::size_t(3 * out.width));
-            const float* src = across.row(r.row);
-            for (int i = 0; i < out.width; ++i)
-                for (int c = 0; c < 3; ++c) copy[std::size_t(3 * i + c)] = src[3 * wrap(i + r.shift, out.width) + c];
-            rows[std::size_t(k)] = copy.data();
-        }
+        for (int k = 0; k < 4; ++k) rows[std::size_t(k)] = continued_row(across, t.first + k, turned[std::size_t(k)]);
         const std::array<double, 4>& wt = t.weight;
         float* dst = result.row(j);
         long long below = 0;

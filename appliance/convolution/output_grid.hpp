@@ -34,9 +34,7 @@ double solid_angle_mean(const HdrImage& map);
 // largest value, (|a| + |b|)/8. Cubic: 3/128 (|d4_phi| + |d4_theta|), the largest error of
 // 4-point interpolation, for both. Differences in theta continue across the poles (the
 // row's mirror, half a turn round), in phi around the seam.
-// With `relative_to`, the errors are those of `map`'s interpolation relative to the values of
-// `relative_to` (a map of the same size): the error of one part of a map, against the whole.
-LookupError estimate_lookup_error(const HdrImage& map, int threads, const HdrImage* relative_to = nullptr);
+LookupError estimate_lookup_error(const HdrImage& map, int threads);
 
 // `map` at the texel centres of an `out`-sized grid by separable 4-point Lagrange
 // interpolation (exact for cubics), periodic in phi, across the poles in theta. Negative

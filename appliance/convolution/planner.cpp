@@ -114,10 +114,8 @@ MapPlan plan_map(const MapRequest& request, const Options& options, const Enviro
     plan.output_size = fixed ? *fixed : grid;
     plan.sum_size = plan.output_size;
     plan.size_reason = fixed ? "fixed by the request" : "the lobe's sum grid";
-    // The error of bilinear lookups between the output's texels is estimated on the
-    // computed map (engine, output_grid.hpp); a fixed size is the reference's own grid.
-    const double output_error = 0;
-    plan.predicted_error = output_error;
+    // The error of bilinear lookups between the output's texels is not planned: the engine
+    // measures it on the computed map (output_grid.hpp) and adds it to predicted_error.
     if (request.mirror) {
         plan.method = Method::Mirror;
         plan.input_level = 0;
@@ -139,7 +137,7 @@ MapPlan plan_map(const MapRequest& request, const Options& options, const Enviro
         plan.method = Method::Exact;
         plan.sum_size = plan.output_size;
         if (fixed) plan.size_reason = "fixed by the request";
-        plan.predicted_error = output_error;
+        plan.predicted_error = 0;
         plan.input_level = 0;
         plan.input_size = env.input;
         plan.cutoff_cos = 0.0;
@@ -169,7 +167,7 @@ MapPlan plan_map(const MapRequest& request, const Options& options, const Enviro
         plan.input_level = level;
         plan.input_size = env.cone_levels[std::size_t(level)];
         plan.cutoff_cos = cut_cos;
-        plan.predicted_error = output_error + level_error + cone.cutoff_energy;
+        plan.predicted_error = level_error + cone.cutoff_energy;
         if (may_resample) {
             plan.sum_size = grid;
             plan.size_reason = "fixed by the request; summed on the lobe's grid and resampled";
@@ -327,14 +325,12 @@ std::string number(double v) {
     return s.str();
 }
 
-std::string size_text(Size s) { return std::to_string(s.width) + "x" + std::to_string(s.height); }
-
 }  // namespace
 
 void validate_plan_inputs(Size input, const std::vector<MapRequest>& maps, const Options& options) {
     if (input.width <= 0 || input.height <= 0) throw InputError("environment map is empty (0 texels)");
     if (input.width < 2 || input.height < 2)
-        throw InputError("environment map " + size_text(input) + " is too small (needs at least 2x2)");
+        throw InputError("environment map " + to_string(input) + " is too small (needs at least 2x2)");
     if (maps.empty()) throw InputError("no maps requested (give --irradiance, --shininess and/or --mirror)");
     for (const MapRequest& m : maps) {
         if (!m.mirror && (!std::isfinite(m.shininess) || m.shininess < 0))
@@ -344,12 +340,12 @@ void validate_plan_inputs(Size input, const std::vector<MapRequest>& maps, const
             throw InputError("shininess of " + m.label + " must be at most " + number(kMaxShininess) + ", not " +
                              number(m.shininess) + " (a sharper lobe is a mirror: ask for the mirror map)");
         if (m.size && (m.size->width < 2 || m.size->height < 2))
-            throw InputError("output size of " + m.label + " must be at least 2x2, not " + size_text(*m.size));
+            throw InputError("output size of " + m.label + " must be at least 2x2, not " + to_string(*m.size));
     }
     if (!(options.tolerance > 0) || !(options.tolerance < 1))
         throw InputError("--tolerance must be in (0, 1), e.g. 0.01 for 1 %, not " + number(options.tolerance));
     if (options.size && (options.size->width < 2 || options.size->height < 2))
-        throw InputError("--size must be at least 2x2, not " + size_text(*options.size));
+        throw InputError("--size must be at least 2x2, not " + to_string(*options.size));
     if (options.sh_order < 0 || options.sh_order > 1024)
         throw InputError("--sh-order must be in [1, 1024] (0: the planner's choice), not " +
                          std::to_string(options.sh_order));

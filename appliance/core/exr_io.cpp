@@ -9,11 +9,11 @@
 #include <ImfThreading.h>
 
 #include <limits>
-#include <thread>
 #include <string>
 
 #include "appliance/core/atomic_file.hpp"
 #include "appliance/core/errors.hpp"
+#include "appliance/core/parallel.hpp"
 
 namespace glint {
 namespace {
@@ -21,12 +21,6 @@ namespace {
 // Guards against absurd headers before we allocate: 1 Gi texels is far beyond any
 // environment map the appliance will see.
 constexpr long long kMaxTexels = 1LL << 30;
-
-// OpenEXR decodes and encodes line blocks on its own thread pool; one thread per core.
-int codec_threads() {
-    const unsigned cores = std::thread::hardware_concurrency();
-    return cores > 0 ? int(cores) : 1;
-}
 
 }  // namespace
 
@@ -36,7 +30,8 @@ LoadedExr load_exr(const std::filesystem::path& path) {
         throw InputError("input " + path.string() + " does not exist or is not a file");
     LoadedExr out;
     try {
-        Imf::InputFile file(path.c_str(), codec_threads());
+        // OpenEXR decodes line blocks on its own thread pool: one thread per core.
+        Imf::InputFile file(path.c_str(), hardware_threads());
         const Imath::Box2i dw = file.header().dataWindow();
         const long long w = (long long)dw.max.x - dw.min.x + 1;
         const long long h = (long long)dw.max.y - dw.min.y + 1;
@@ -94,7 +89,7 @@ void save_exr(const std::filesystem::path& path, const HdrImage& image, ExrCompr
             header.zipCompressionLevel() = 1;
             for (const char* name : {"R", "G", "B"})
                 header.channels().insert(name, Imf::Channel(Imf::FLOAT));
-            Imf::OutputFile file(tmp.c_str(), header, codec_threads());
+            Imf::OutputFile file(tmp.c_str(), header, hardware_threads());  // encodes on its pool too
             Imf::FrameBuffer fb;
             char* base = const_cast<char*>(reinterpret_cast<const char*>(image.data().data()));
             const std::size_t xs = 3 * sizeof(float);

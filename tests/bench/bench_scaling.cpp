@@ -67,7 +67,7 @@ const std::vector<std::string> kMaps{"courtyard", "studio", "sunset"};
 const std::vector<Size> kSizes{{256, 128}, {512, 256}, {1024, 512}, {2048, 1024}, {4096, 2048}, {8192, 4096}};
 constexpr Size kSourceSize{1024, 512};
 
-std::string size_str(Size s) { return std::to_string(s.width) + "x" + std::to_string(s.height); }
+std::string size_str(Size s) { return glint::convolution::to_string(s); }
 bool same(Size a, Size b) { return a.width == b.width && a.height == b.height; }
 double texels(Size s) { return double(s.width) * double(s.height); }
 

@@ -160,7 +160,7 @@ TEST(OutputGrid, OddAndNonSquareInputsGetGridsThatKeepTheirPrediction) {
         Options o;
         o.threads = 2;
         for (const MapResult& r : convolve(env, maps, o)) {
-            const std::string what = std::to_string(in.width) + "x" + std::to_string(in.height) + " " + r.request.label;
+            const std::string what = to_string(in) + " " + r.request.label;
             for (float v : r.image.data()) ASSERT_TRUE(std::isfinite(v) && v >= 0) << what;
             EXPECT_EQ(r.image.width(), r.plan.output_size.width) << what;
             EXPECT_FALSE(r.plan.size_reason.empty()) << what;
