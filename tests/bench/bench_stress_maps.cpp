@@ -1,0 +1,80 @@
+// Generated maps that none of the planner's constants were set on, through the whole set at the
+// planner's own sizes, each map judged off-grid (offgrid.hpp): a 3-texel checkerboard at 100:1
+// with 50 suns of 1e4, one 1e6 sun on a 1e-3 floor, and 2000x1000 noise (off the power-of-two
+// ladder). Prints a table; no files. Run: build/tests/bench/glint_bench_stress_maps
+// (with GLIBC_TUNABLES=glibc.malloc.hugetlb=1 for the heap glint convolve uses).
+#include <chrono>
+#include <cstdio>
+#include <random>
+#include <string>
+
+#include "appliance/convolution/convolution.hpp"
+#include "appliance/convolution/offgrid.hpp"
+#include "appliance/core/memory.hpp"
+
+using namespace glint;
+using namespace glint::convolution;
+
+namespace {
+
+enum class Kind { CheckerWithSuns, OneSun, Noise };
+
+HdrImage make_map(Kind kind, Size size) {
+    HdrImage m(size.width, size.height);
+    std::mt19937 rng(unsigned(kind) * 7 + 1);
+    std::uniform_real_distribution<float> u(0, 1);
+    for (int j = 0; j < size.height; ++j)
+        for (int i = 0; i < size.width; ++i) {
+            float v = 0.2f + u(rng) * u(rng) * 3;
+            if (kind == Kind::CheckerWithSuns) v = ((i / 3 + j / 3) % 2) ? 1.0f : 0.01f;
+            if (kind == Kind::OneSun) v = 1e-3f;
+            m.set(i, j, {v, 0.7f * v, 0.4f * v});
+        }
+    if (kind == Kind::CheckerWithSuns)
+        for (int s = 0; s < 50; ++s) m.set(int(rng() % unsigned(size.width)), int(rng() % unsigned(size.height)), {1e4f, 9e3f, 8e3f});
+    if (kind == Kind::OneSun) m.set(size.width / 3, size.height / 4, {1e6f, 1e6f, 9e5f});
+    return m;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    if (argc > 1) {
+        const std::string a = argv[1];
+        if (a != "--help" && a != "-h") {
+            std::fprintf(stderr, "glint_bench_stress_maps: unknown argument '%s' (it takes none; --help)\n", a.c_str());
+            return 2;
+        }
+        std::printf("glint_bench_stress_maps: the whole set (irradiance, n = 10, 160, 1280, 5120, 20480) of three\n"
+                    "generated maps at the planner's sizes, each map's bilinear lookups judged at 1024 random\n"
+                    "directions against the conventions' sum (predicted, off-grid RMS +- its standard error, worst).\n");
+        return 0;
+    }
+    keep_freed_memory();
+    const struct {
+        Kind kind;
+        const char* name;
+        Size size;
+    } cases[] = {{Kind::CheckerWithSuns, "checkerboard 100:1 with 50 suns", {1024, 512}},
+                 {Kind::OneSun, "one 1e6 sun on 1e-3", {1024, 512}},
+                 {Kind::Noise, "noise", {2000, 1000}}};
+    for (const auto& c : cases) {
+        const HdrImage env = make_map(c.kind, c.size);
+        std::vector<MapRequest> maps{MapRequest::make_irradiance()};
+        for (double n : {10.0, 160.0, 1280.0, 5120.0, 20480.0})
+            maps.push_back(MapRequest::make_phong(n, std::to_string(int(n))));
+        Options o;
+        o.threads = 2;
+        const auto start = std::chrono::steady_clock::now();
+        const std::vector<MapResult> results = convolve(env, maps, o);
+        const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        std::printf("%s %s: whole set %.2f s\n", c.name, to_string(c.size).c_str(), seconds);
+        for (const MapResult& r : results) {
+            const OffGridError e = measure_offgrid_error(env, r.image, r.request.shininess, 1024, 5, 2);
+            std::printf("  %-11s %-9s predicted %.4f  off-grid %.4f +- %.4f  worst %.3f%s\n", r.request.label.c_str(),
+                        to_string(r.plan.output_size).c_str(), r.plan.predicted_error, e.weighted_relative_rms,
+                        e.rms_standard_error, e.worst_texel, r.plan.predicted_error > o.tolerance ? "  over" : "");
+        }
+    }
+    return 0;
+}
