@@ -183,6 +183,7 @@ int run_convolve(const ConvolveArgs& args) {
             {"wall_seconds", r.seconds},
             {"shares_with", p.shares_with.empty() ? nlohmann::json() : nlohmann::json(p.shares_with)},
             {"refined_texels", r.refined_texels},
+            {"patched_texels", r.patched_texels},
             {"clamped_values", r.clamped_texels},
         });
     }

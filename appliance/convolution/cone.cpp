@@ -16,6 +16,7 @@
 
 #include "appliance/convolution/methods.hpp"
 #include "appliance/core/equirect.hpp"
+#include "appliance/core/errors.hpp"
 #include "appliance/core/parallel.hpp"
 
 namespace glint::convolution {
@@ -26,14 +27,16 @@ namespace {
 // The cone's sums on the CPU: LobeSummer with float runs and merged polar columns.
 class CpuConeSums final : public ConeSumsBackend {
 public:
-    CpuConeSums(const PreparedLevel& level, Size out, double n, const ConeSettings& settings, int threads)
+    // columns: per row of first_pass's rows, the texels summed (null: all).
+    CpuConeSums(const PreparedLevel& level, Size out, double n, const ConeSettings& settings, int threads,
+                const std::vector<LobeSummer::ColumnRuns>* columns)
         : summer_(level, out.width, out.height, n, Accumulation::FloatRuns, settings.max_texel_arc),
-          threads_(threads) {}
+          threads_(threads), columns_(columns) {}
 
     LobeSums first_pass(const std::vector<int>& rows, double c0, const RowProgress& progress) override {
         LobeSums sums = summer_.make_sums();
         parallel_for(int(rows.size()), threads_, [&](int k) {
-            summer_.sum_row(rows[std::size_t(k)], c0, sums);
+            summer_.sum_row(rows[std::size_t(k)], c0, sums, columns_ ? &(*columns_)[std::size_t(k)] : nullptr);
             if (progress) progress(1);
         });
         return sums;
@@ -61,6 +64,7 @@ public:
 private:
     LobeSummer summer_;
     int threads_;
+    const std::vector<LobeSummer::ColumnRuns>* columns_;
 };
 
 }  // namespace
@@ -72,14 +76,21 @@ double cone_cut_cos(double energy, double n) {
 HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel>& bright,
                        double n, Size out, const ConeSettings& settings, int threads,
                        const RowProgress& progress, ConeStats* stats, const std::vector<int>& only_rows,
-                       ConeSumsBackend* backend) {
-    // The output rows computed: all, or only_rows (the others stay 0).
+                       ConeSumsBackend* backend, const std::vector<LobeSummer::ColumnRuns>* only_columns) {
+    // The output rows computed: all, or only_rows (the others stay 0), and in each the
+    // columns of only_columns (or all).
     std::vector<int> rows = only_rows;
     if (rows.empty())
         for (int row = 0; row < out.height; ++row) rows.push_back(row);
+    if (only_columns && only_columns->size() != rows.size())
+        throw RuntimeError("internal: cone_convolve needs one column list per row");
+    const LobeSummer::ColumnRuns whole_row{{0, out.width}};
+    const auto columns_of = [&](std::size_t k) -> const LobeSummer::ColumnRuns& {
+        return only_columns ? (*only_columns)[k] : whole_row;
+    };
     std::unique_ptr<CpuConeSums> cpu;
     if (!backend) {
-        cpu = std::make_unique<CpuConeSums>(level, out, n, settings, threads);
+        cpu = std::make_unique<CpuConeSums>(level, out, n, settings, threads, only_columns);
         backend = cpu.get();
     }
     const auto cut_cos = [n](double energy) { return cone_cut_cos(energy, n); };
@@ -134,11 +145,12 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
         std::vector<double> row_floor(over.size(), INFINITY);
         parallel_for(int(over.size()), threads, [&](int k) {
             double f = INFINITY, v[3];
-            for (int col = 0; col < out.width; ++col) {
-                values(over[std::size_t(k)], col, nb_now, v);
-                for (double x : v)
-                    if (x > 0) f = std::min(f, x);
-            }
+            for (const auto& [first, last] : columns_of(std::size_t(k)))
+                for (int col = first; col < last; ++col) {
+                    values(over[std::size_t(k)], col, nb_now, v);
+                    for (double x : v)
+                        if (x > 0) f = std::min(f, x);
+                }
             row_floor[std::size_t(k)] = f;
         });
         double f = INFINITY;
@@ -182,7 +194,8 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
         double need_row = settings.cutoff_energy;
         const double target = 0.999 * settings.cutoff_energy;
         const double share = 0.9 * settings.texel_tolerance;
-        for (int i = 0; i < out.width; ++i) {
+        for (const auto& [first, last] : columns_of(std::size_t(k)))
+        for (int i = first; i < last; ++i) {
             double v[3];
             values(row, i, nb, v);
             // The cut-off fraction this texel allows if the remainder outside the
@@ -254,10 +267,11 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
         const int row = rows[std::size_t(k)];
         float* o = result.row(row);
         double v[3];
-        for (int col = 0; col < out.width; ++col) {
-            values(row, col, nb, v);
-            for (int c = 0; c < 3; ++c) o[3 * col + c] = float(std::max(0.0, v[c]));
-        }
+        for (const auto& [first, last] : columns_of(std::size_t(k)))
+            for (int col = first; col < last; ++col) {
+                values(row, col, nb, v);
+                for (int c = 0; c < 3; ++c) o[3 * col + c] = float(std::max(0.0, v[c]));
+            }
     });
     return result;
 }

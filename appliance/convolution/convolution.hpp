@@ -110,6 +110,7 @@ struct MapResult {
     HdrImage image;
     double seconds = 0;              // wall time for this map
     long long refined_texels = 0;    // cone: texels recomputed with a wider cone
+    long long patched_texels = 0;    // output texels summed exactly where 4-point resampling would miss
     long long clamped_texels = 0;    // sh: negative channel values clamped to 0
 };
 

@@ -252,9 +252,12 @@ std::string percent(double v) {
 // bilinear lookups into it and why (docs/convolution.md, "Output size"). A finer grid is
 // made by 4-point resampling of the map without its bright texels (`bright`: those the plan
 // summed exactly, or null), which are then added back exactly on it; where resampling would
-// miss its share of tau, `sum_on` sums the plan again on the finer grid.
+// miss its share of tau, `sum_on` sums the plan again on the finer grid, or, where that
+// happens near few texels, `sum_texels` (if given) sums just the finer grid's texels there.
+using TexelSummer = std::function<HdrImage(Size, const TexelSelection&)>;
 void deliver_output(MapResult& r, Size input, double tau, const PlannerModel& model, int threads,
-                    const std::vector<BrightTexel>* bright, const std::function<HdrImage(Size)>& sum_on) {
+                    const std::vector<BrightTexel>* bright, const std::function<HdrImage(Size)>& sum_on,
+                    const TexelSummer& sum_texels) {
     MapPlan& p = r.plan;
     if (p.method == Method::Mirror) return;
     const bool resampled_fixed = p.size_fixed && (p.sum_size.width != p.output_size.width ||
@@ -283,22 +286,53 @@ void deliver_output(MapResult& r, Size input, double tau, const PlannerModel& mo
             // resolves the lobe (its spacing within one lobe width; a Gaussian sampled coarser
             // aliases); a grid capped at a coarser input's resolution is summed again instead.
             const bool resolved = kPi / p.sum_size.height <= lobe_width(n) * 1.0001;
-            if (resolved && e.cubic_rms <= model.resample_share * tau &&
-                e.cubic_worst <= model.resample_worst_share * tau) {
+            const auto resample = [&] {
                 r.image = resample_cubic(split ? smooth : r.image, finer, threads, &r.clamped_texels);
                 if (split) {
                     const HdrImage lobes = bright_lobes(*bright, n, finer, floor_value, threads);
                     for (std::size_t k = 0; k < r.image.data().size(); ++k)
                         r.image.data()[k] = std::max(0.0f, r.image.data()[k] + lobes.data()[k]);
                 }
+            };
+            const std::string resampled = "; resampled 4-point from " + to_string(p.sum_size);
+            const std::string added = split ? ", bright texels added exactly" : "";
+            if (resolved && e.cubic_rms <= model.resample_share * tau &&
+                e.cubic_worst <= model.resample_worst_share * tau) {
+                resample();
                 p.predicted_error += e.cubic_rms;
-                p.size_reason = why + steps + "; resampled 4-point from " + to_string(p.sum_size) + " (predicted " +
-                                percent(e.cubic_rms) + ")" + (split ? ", bright texels added exactly" : "");
+                p.size_reason = why + steps + resampled + " (predicted " + percent(e.cubic_rms) + ")" + added;
                 break;
             }
             const Size next = 2 * p.sum_size.height >= finer.height
                                   ? finer
                                   : Size{2 * p.sum_size.width, 2 * p.sum_size.height};
+            if (resolved && sum_texels) {
+                // Resampling misses its share near few texels (a small bright light, an edge):
+                // the finer grid's texels there are summed exactly, if that is fewer texels than
+                // summing the next grid would be.
+                const ResamplePatches patches = plan_resample_patches(
+                    split ? smooth : r.image, model.resample_share * tau, model.resample_worst_share * tau, threads);
+                const TexelSelection selection = fine_texels_near(patches.texels, p.sum_size, finer);
+                if (2 * selection.texels <= static_cast<long long>(next.width) * next.height) {
+                    resample();
+                    const HdrImage exact = sum_texels(finer, selection);
+                    for (std::size_t k = 0; k < selection.rows.size(); ++k) {
+                        const float* src = exact.row(selection.rows[k]);
+                        float* dst = r.image.row(selection.rows[k]);
+                        for (const auto& [first, last] : selection.runs[k])
+                            std::copy(src + 3 * first, src + 3 * last, dst + 3 * first);
+                    }
+                    r.patched_texels = selection.texels;
+                    p.predicted_error += patches.remaining_rms;
+                    p.size_reason = why + steps + resampled + " (predicted " + percent(patches.remaining_rms) +
+                                    " RMS, " + percent(patches.remaining_worst) + " worst)" + added + ", and summed on " +
+                                    to_string(finer) + " at the " + std::to_string(selection.texels) +
+                                    " texels near the " + std::to_string(patches.count) + " of " +
+                                    to_string(p.sum_size) + " where it would err more (" + percent(e.cubic_rms) +
+                                    " RMS, " + percent(e.cubic_worst) + " worst)";
+                    break;
+                }
+            }
             steps += "; summed on " + to_string(next) + " (" +
                      (resolved ? "4-point resampling from " + to_string(p.sum_size) + " would err " +
                                      percent(e.cubic_rms) + " RMS, " + percent(e.cubic_worst) + " worst)"
@@ -530,8 +564,23 @@ std::vector<MapResult> convolve_map(const HdrImage& env, HdrImage* consumable, c
         const auto start = std::chrono::steady_clock::now();
         if (!batched[k]) r.image = sum_on(r, r.plan.sum_size, map_threads, progress);
         const bool split = r.plan.method == Method::Cone || (r.plan.method == Method::Sh && r.plan.bright_split);
+        // Texels of a finer grid, summed by the plan's cone (an SH plan's is the one for the rows
+        // its bound fails).
+        const TexelSummer sum_texels = [&](Size grid, const TexelSelection& selection) {
+            const PreparedLevel& level =
+                shared.cone_level(r.plan.method == Method::Cone ? r.plan.input_level : r.plan.fallback_level);
+            std::unique_ptr<ConeSumsBackend> backend;
+            if (options.executor) backend = options.executor->cone_sums(level, grid, r.request.shininess, r.plan.cone);
+            ConeStats stats;
+            HdrImage image = cone_convolve(level, shared.bright().texels, r.request.shininess, grid, r.plan.cone,
+                                           map_threads, no_progress, &stats, selection.rows, backend.get(),
+                                           &selection.runs);
+            r.refined_texels += stats.refined_texels;
+            return image;
+        };
         deliver_output(r, input_size, options.tolerance, model, map_threads,
-                       split ? &shared.bright().texels : nullptr, [&](Size grid) { return sum_on(r, grid, map_threads, no_progress); });
+                       split ? &shared.bright().texels : nullptr, [&](Size grid) { return sum_on(r, grid, map_threads, no_progress); },
+                       split ? sum_texels : TexelSummer{});
         r.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     };
     if (options.executor || threads == 1) {

@@ -78,7 +78,9 @@ double cone_cut_cos(double energy, double shininess);
 //   |E - E'| <= e * max(Lmax - E', E')   (e: lobe energy outside the cone,
 //   Lmax: the largest remainder radiance near the texel, see cone.cpp)
 // exceeds texel_tolerance * E' is summed again with a cone that meets it.
-// With only_rows, just those output rows are computed (the rest of the image is 0).
+// With only_rows, just those output rows are computed (the rest of the image is 0); with
+// only_columns too (one list of column runs per row of only_rows), just those texels (the
+// CPU sums only them; a backend may sum whole rows).
 // Where the cone's sums are computed: the CPU (the default, LobeSummer) or
 // the GPU engine (gpu/). The cone's logic around them (bright cut-offs, the
 // per-texel bound, widening, normalisation) is the same for both.
@@ -122,7 +124,8 @@ public:
 HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel>& bright,
                        double shininess, Size out, const ConeSettings& settings, int threads,
                        const RowProgress& progress, ConeStats* stats, const std::vector<int>& only_rows = {},
-                       ConeSumsBackend* backend = nullptr);
+                       ConeSumsBackend* backend = nullptr,
+                       const std::vector<LobeSummer::ColumnRuns>* only_columns = nullptr);
 
 struct ShCoefficients;
 class ShLegendre;

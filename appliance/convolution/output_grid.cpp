@@ -74,6 +74,48 @@ double solid_angle_mean(const HdrImage& map) {
     return sum / (3.0 * 4.0 * kPi);
 }
 
+namespace {
+
+// The second and fourth differences of channel c of texel i (rows: j-2 .. j+2, continued
+// across the poles; cols: 3 * the columns i-2 .. i+2, wrapped) that the estimates read.
+struct Differences {
+    double a, b;  // second differences in phi and theta
+    double d4;    // |fourth difference in phi| + |fourth difference in theta|
+};
+Differences differences(const std::array<const float*, 5>& rows, const std::array<int, 5>& cols, int i, int c) {
+    const float* centre = rows[2];
+    const int k = 3 * i + c;
+    const double v = centre[k];
+    const double th1 = rows[1][k], th3 = rows[3][k];
+    const double ph1 = centre[cols[1] + c], ph3 = centre[cols[3] + c];
+    return {ph1 - 2 * v + ph3, th1 - 2 * v + th3,
+            std::abs(rows[0][k] - 4 * th1 + 6 * v - 4 * th3 + rows[4][k]) +
+                std::abs(centre[cols[0] + c] - 4 * ph1 + 6 * v - 4 * ph3 + centre[cols[4] + c])};
+}
+
+// 3 * the columns i-2 .. i+2 of every texel i of a row of `width`, wrapped once.
+std::vector<std::array<int, 5>> neighbour_columns(int width) {
+    std::vector<std::array<int, 5>> cols(static_cast<std::size_t>(width));
+    for (int i = 0; i < width; ++i)
+        for (int d = 0; d < 5; ++d) cols[std::size_t(i)][std::size_t(d)] = 3 * wrap(i + d - 2, width);
+    return cols;
+}
+
+// Calls visit(j, rows) for every row j of `map` with rows j-2 .. j+2 continued across the poles.
+template <typename Visit>
+void for_each_row_window(const HdrImage& map, int threads, const Visit& visit) {
+    parallel_for(map.height(), threads, [&](int j) {
+        std::array<const float*, 5> rows;
+        std::array<std::vector<float>, 5> turned;
+        for (int d = 0; d < 5; ++d) rows[std::size_t(d)] = continued_row(map, j + d - 2, turned[std::size_t(d)]);
+        visit(j, rows);
+    });
+}
+
+constexpr double kCubicCoefficient = 3.0 / 128.0;  // largest 4-point error per unit of d4
+
+}  // namespace
+
 LookupError estimate_lookup_error(const HdrImage& map, int threads) {
     const int w = map.width(), h = map.height();
     const std::vector<double> solid = row_solid_angles(w, h);
@@ -82,34 +124,19 @@ LookupError estimate_lookup_error(const HdrImage& map, int threads) {
         double value2 = 0, bilinear2 = 0, cubic2 = 0, bilinear_worst = 0, cubic_worst = 0;
     };
     std::vector<RowSums> rows_sums(static_cast<std::size_t>(h));
-    // Column indices (times 3) of each texel's neighbours i-2 .. i+2, wrapped once.
-    std::vector<std::array<int, 5>> cols(static_cast<std::size_t>(w));
-    for (int i = 0; i < w; ++i)
-        for (int d = 0; d < 5; ++d) cols[std::size_t(i)][std::size_t(d)] = 3 * wrap(i + d - 2, w);
-    parallel_for(h, threads, [&](int j) {
-        // Rows j-2 .. j+2, continued across the poles.
-        std::array<const float*, 5> rows;
-        std::array<std::vector<float>, 5> turned;
-        for (int d = 0; d < 5; ++d) rows[std::size_t(d)] = continued_row(map, j + d - 2, turned[std::size_t(d)]);
+    const std::vector<std::array<int, 5>> cols = neighbour_columns(w);
+    for_each_row_window(map, threads, [&](int j, const std::array<const float*, 5>& rows) {
         RowSums s;
-        const float* centre = map.row(j);
         for (int i = 0; i < w; ++i) {
-            const std::array<int, 5>& ci = cols[std::size_t(i)];
             for (int c = 0; c < 3; ++c) {
-                const int k = 3 * i + c;
-                const double v = centre[k];
-                const double th1 = rows[1][k], th3 = rows[3][k];
-                const double ph1 = centre[ci[1] + c], ph3 = centre[ci[3] + c];
-                const double a = ph1 - 2 * v + ph3, b = th1 - 2 * v + th3;
-                const double d2 = std::abs(a) + std::abs(b);
-                const double d4 = std::abs(rows[0][k] - 4 * th1 + 6 * v - 4 * th3 + rows[4][k]) +
-                                  std::abs(centre[ci[0] + c] - 4 * ph1 + 6 * v - 4 * ph3 + centre[ci[4] + c]);
-                const double bilinear = d2 / 8.0, cubic = d4 * 3.0 / 128.0;
+                const double v = rows[2][3 * i + c];
+                const Differences d = differences(rows, cols[std::size_t(i)], i, c);
+                const double bilinear = (std::abs(d.a) + std::abs(d.b)) / 8.0, cubic = d.d4 * kCubicCoefficient;
                 const double floor = std::max(std::abs(v), mean);
                 s.value2 += v * v;
                 // Mean square over the texel's cell of the bilinear error of a quadratic with these
                 // second differences, e = a t(1-t)/2 + b s(1-s)/2 for t, s uniform in [0, 1].
-                s.bilinear2 += (a * a + b * b) / 120.0 + a * b / 72.0;
+                s.bilinear2 += (d.a * d.a + d.b * d.b) / 120.0 + d.a * d.b / 72.0;
                 s.cubic2 += cubic * cubic;
                 if (floor > 0) {
                     s.bilinear_worst = std::max(s.bilinear_worst, bilinear / floor);
@@ -135,6 +162,110 @@ LookupError estimate_lookup_error(const HdrImage& map, int threads) {
         e.cubic_rms = std::sqrt(cubic2 / value2);
     }
     return e;
+}
+
+ResamplePatches plan_resample_patches(const HdrImage& map, double rms_budget, double worst_budget, int threads) {
+    const int w = map.width(), h = map.height();
+    const std::vector<double> solid = row_solid_angles(w, h);
+    const double mean = solid_angle_mean(map);
+    const std::vector<std::array<int, 5>> cols = neighbour_columns(w);
+    const std::size_t texels = std::size_t(w) * std::size_t(h);
+    // Per texel: the largest relative 4-point error over its channels, and its weighted share
+    // of the squared error; per row: the weighted sum of squared values.
+    std::vector<float> relative(texels);
+    std::vector<double> square(texels), row_value2(static_cast<std::size_t>(h));
+    for_each_row_window(map, threads, [&](int j, const std::array<const float*, 5>& rows) {
+        double value2 = 0;
+        for (int i = 0; i < w; ++i) {
+            double rel = 0, sq = 0;
+            for (int c = 0; c < 3; ++c) {
+                const double v = rows[2][3 * i + c];
+                const double cubic = differences(rows, cols[std::size_t(i)], i, c).d4 * kCubicCoefficient;
+                const double floor = std::max(std::abs(v), mean);
+                if (floor > 0) rel = std::max(rel, cubic / floor);
+                sq += cubic * cubic;
+                value2 += v * v;
+            }
+            const std::size_t t = std::size_t(j) * std::size_t(w) + std::size_t(i);
+            relative[t] = float(rel);
+            square[t] = sq * solid[std::size_t(j)];
+        }
+        row_value2[std::size_t(j)] = value2 * solid[std::size_t(j)];
+    });
+    double value2 = 0;
+    for (double v : row_value2) value2 += v;
+    ResamplePatches result;
+    std::vector<char> marked(texels, 0);
+    double rest = 0;  // weighted squared error of the unmarked texels
+    for (std::size_t t = 0; t < texels; ++t) {
+        if (relative[t] > worst_budget) {
+            marked[t] = 1;
+            ++result.count;
+        } else {
+            rest += square[t];
+        }
+    }
+    // Then the largest contributions to the RMS until the rest is within its budget.
+    const double allowed = rms_budget * rms_budget * value2;
+    if (rest > allowed) {
+        std::vector<std::size_t> order;
+        for (std::size_t t = 0; t < texels; ++t)
+            if (!marked[t]) order.push_back(t);
+        std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return square[a] > square[b]; });
+        for (std::size_t t : order) {
+            if (rest <= allowed) break;
+            marked[t] = 1;
+            ++result.count;
+            rest -= square[t];
+        }
+    }
+    for (std::size_t t = 0; t < texels; ++t)
+        if (!marked[t]) result.remaining_worst = std::max(result.remaining_worst, double(relative[t]));
+    result.remaining_rms = value2 > 0 ? std::sqrt(std::max(0.0, rest) / value2) : 0.0;
+    // A texel's error estimate covers the cells around it: its neighbours are marked too
+    // (across the seam and the poles).
+    result.texels.assign(texels, 0);
+    for (int j = 0; j < h; ++j)
+        for (int i = 0; i < w; ++i) {
+            if (!marked[std::size_t(j) * std::size_t(w) + std::size_t(i)]) continue;
+            for (int dj = -1; dj <= 1; ++dj) {
+                const RowTap r = row_across_pole(j + dj, h, w);
+                for (int di = -1; di <= 1; ++di)
+                    result.texels[std::size_t(r.row) * std::size_t(w) + std::size_t(wrap(i + di + r.shift, w))] = 1;
+            }
+        }
+    return result;
+}
+
+TexelSelection fine_texels_near(const std::vector<char>& marked, Size coarse, Size fine) {
+    // The coarse columns (and rows) whose cells an output texel centre lies between.
+    const auto base = [](int index, int out_count, int in_count) {
+        return int(std::floor((index + 0.5) * double(in_count) / double(out_count) - 0.5));
+    };
+    TexelSelection selection;
+    for (int jf = 0; jf < fine.height; ++jf) {
+        const int b = base(jf, fine.height, coarse.height);
+        const RowTap r0 = row_across_pole(b, coarse.height, coarse.width);
+        const RowTap r1 = row_across_pole(b + 1, coarse.height, coarse.width);
+        const auto is_marked = [&](const RowTap& r, int col) {
+            return marked[std::size_t(r.row) * std::size_t(coarse.width) +
+                          std::size_t(wrap(col + r.shift, coarse.width))] != 0;
+        };
+        LobeSummer::ColumnRuns runs;
+        for (int i = 0; i < fine.width; ++i) {
+            const int c = base(i, fine.width, coarse.width);
+            if (!(is_marked(r0, c) || is_marked(r0, c + 1) || is_marked(r1, c) || is_marked(r1, c + 1))) continue;
+            if (!runs.empty() && runs.back().second == i)
+                runs.back().second = i + 1;
+            else
+                runs.emplace_back(i, i + 1);
+            ++selection.texels;
+        }
+        if (runs.empty()) continue;
+        selection.rows.push_back(jf);
+        selection.runs.push_back(std::move(runs));
+    }
+    return selection;
 }
 
 HdrImage resample_cubic(const HdrImage& map, Size out, int threads, long long* clamped) {

@@ -10,6 +10,7 @@
 #include <vector>
 
 #include "appliance/convolution/convolution.hpp"
+#include "appliance/convolution/lobe_sum.hpp"
 #include "appliance/convolution/methods.hpp"
 #include "appliance/core/hdr_image.hpp"
 
@@ -35,6 +36,27 @@ double solid_angle_mean(const HdrImage& map);
 // 4-point interpolation, for both. Differences in theta continue across the poles (the
 // row's mirror, half a turn round), in phi around the seam.
 LookupError estimate_lookup_error(const HdrImage& map, int threads);
+
+// Where 4-point resampling of `map` to a finer grid would miss its budget: the texels whose
+// predicted relative error (as in estimate_lookup_error) exceeds worst_budget, then those
+// with the largest shares of the weighted RMS until the rest is within rms_budget. The
+// finer grid's texels near them are summed exactly instead (fine_texels_near).
+struct ResamplePatches {
+    std::vector<char> texels;  // per texel of `map`: 1 if marked or next to a marked texel
+    long long count = 0;       // texels marked (before their neighbours are added)
+    double remaining_rms = 0;  // predicted RMS and worst of 4-point resampling elsewhere
+    double remaining_worst = 0;
+};
+ResamplePatches plan_resample_patches(const HdrImage& map, double rms_budget, double worst_budget, int threads);
+
+// The texels of an equirect grid `fine` whose centres lie in a cell of `coarse` (between
+// its four nearest texel centres, across the seam and the poles) with a marked corner.
+struct TexelSelection {
+    std::vector<int> rows;                       // rows with at least one texel, ascending
+    std::vector<LobeSummer::ColumnRuns> runs;    // per row of `rows`: half-open column runs
+    long long texels = 0;
+};
+TexelSelection fine_texels_near(const std::vector<char>& marked, Size coarse, Size fine);
 
 // `map` at the texel centres of an `out`-sized grid by separable 4-point Lagrange
 // interpolation (exact for cubics), periodic in phi, across the poles in theta. Negative

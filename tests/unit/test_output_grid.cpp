@@ -7,6 +7,8 @@
 #include <random>
 
 #include "appliance/convolution/convolution.hpp"
+#include "appliance/convolution/lobe_sum.hpp"
+#include "appliance/convolution/methods.hpp"
 #include "appliance/convolution/offgrid.hpp"
 #include "appliance/convolution/output_grid.hpp"
 #include "appliance/convolution/planner.hpp"
@@ -195,6 +197,143 @@ TEST(OutputGrid, AHandedOverMapGivesTheSameMaps) {
         for (std::size_t k = 0; k < copied.size(); ++k)
             EXPECT_EQ(copied[k].image.data(), moved[k].image.data()) << copied[k].request.label;
     }
+}
+
+// A smooth field with a narrow, bright bump at `centre`: too sharp for 4-point resampling
+// from a coarse grid near the bump, easy elsewhere.
+double field_with_bump(const glm::dvec3& d, const glm::dvec3& centre) {
+    return smooth_field(d) + 200.0 * std::exp(600.0 * (glm::dot(d, centre) - 1.0));
+}
+
+TEST(OutputGrid, PatchesMarkTheTexelsNearASharpBumpAndLeaveTheRestWithinBudget) {
+    // Resampled from 64x32 to 256x128, the fine texels outside the selection are within the
+    // worst budget of the field sampled there (the estimate predicts them), the selection is
+    // a small part of the fine grid, and it holds the bump.
+    const glm::dvec3 c = glm::normalize(glm::dvec3(0.4, 0.3, 0.8));
+    const auto f = [&](const glm::dvec3& d) { return field_with_bump(d, c); };
+    const HdrImage coarse = sampled(64, 32, f);
+    const HdrImage fine = sampled(256, 128, f);
+    const double rms_budget = 0.0025, worst_budget = 0.02;
+    const LookupError whole = estimate_lookup_error(coarse, 2);
+    ASSERT_GT(whole.cubic_worst, worst_budget) << "the test needs a field that 4-point resampling misses";
+    const ResamplePatches patches = plan_resample_patches(coarse, rms_budget, worst_budget, 2);
+    EXPECT_GT(patches.count, 0);
+    EXPECT_LE(patches.remaining_rms, rms_budget);
+    EXPECT_LE(patches.remaining_worst, worst_budget);
+    const TexelSelection selection = fine_texels_near(patches.texels, {64, 32}, {256, 128});
+    EXPECT_LT(selection.texels, 256 * 128 / 10);
+    std::vector<char> selected(std::size_t(256 * 128), 0);
+    for (std::size_t k = 0; k < selection.rows.size(); ++k)
+        for (const auto& [first, last] : selection.runs[k])
+            for (int i = first; i < last; ++i) selected[std::size_t(selection.rows[k]) * 256 + std::size_t(i)] = 1;
+    const HdrImage r = resample_cubic(coarse, {256, 128}, 2);
+    const double mean = solid_angle_mean(fine);
+    double worst_outside = 0;
+    bool bump_selected = false;
+    for (int j = 0; j < 128; ++j)
+        for (int i = 0; i < 256; ++i) {
+            const bool sel = selected[std::size_t(j) * 256 + std::size_t(i)] != 0;
+            if (glm::dot(texel_direction(i, j, 256, 128), c) > 0.9995) bump_selected = bump_selected || sel;
+            if (sel) continue;
+            for (int ch = 0; ch < 3; ++ch) {
+                const double want = fine.row(j)[3 * i + ch];
+                worst_outside =
+                    std::max(worst_outside, std::abs(r.row(j)[3 * i + ch] - want) / std::max(std::abs(want), mean));
+            }
+        }
+    std::printf("[  report  ] %lld coarse texels marked, %lld fine texels selected; worst outside %.4f "
+                "(budget %.3f, whole map predicted %.3f)\n",
+                patches.count, selection.texels, worst_outside, worst_budget, whole.cubic_worst);
+    EXPECT_TRUE(bump_selected);
+    EXPECT_LE(worst_outside, worst_budget);
+}
+
+TEST(OutputGrid, FineTexelsNearAMarkedTexelFollowTheSeamAndThePole) {
+    // Coarse texel (0, 0) of 16x8 marked: the fine 64x32 texels between it and its neighbours
+    // are selected, on both sides of the seam, and across the pole half a turn round; a texel
+    // far away is not.
+    std::vector<char> marked(16 * 8, 0);
+    marked[0] = 1;
+    const TexelSelection s = fine_texels_near(marked, {16, 8}, {64, 32});
+    const auto has = [&](int i, int j) {
+        for (std::size_t k = 0; k < s.rows.size(); ++k)
+            if (s.rows[k] == j)
+                for (const auto& [first, last] : s.runs[k])
+                    if (i >= first && i < last) return true;
+        return false;
+    };
+    EXPECT_TRUE(has(0, 0));
+    EXPECT_TRUE(has(63, 0));   // across the seam
+    EXPECT_TRUE(has(3, 3));    // towards (1, 1) of the coarse grid
+    EXPECT_TRUE(has(32, 0));   // across the pole: coarse row -1 is row 0 half a turn round
+    EXPECT_FALSE(has(16, 16));
+    EXPECT_FALSE(has(32, 8));
+    long long counted = 0;
+    for (const auto& runs : s.runs)
+        for (const auto& [first, last] : runs) counted += last - first;
+    EXPECT_EQ(counted, s.texels);
+}
+
+TEST(OutputGrid, ConeOnSelectedTexelsMatchesTheWholeGridThere) {
+    // cone_convolve restricted to column runs gives, at those texels, the whole grid's values
+    // within the cone's bound of the exact sum (the cut-off's widening may differ: its floor is
+    // the smallest value over the texels computed), and 0 elsewhere.
+    const HdrImage env = field_with_sun(128, 64);
+    const PreparedLevel level(env, 2);
+    ConeSettings settings;
+    const std::vector<BrightTexel> none;
+    const Size out{256, 128};
+    const HdrImage whole = cone_convolve(level, none, 800.0, out, settings, 2, nullptr, nullptr);
+    const std::vector<int> rows{0, 5, 40, 127};
+    const std::vector<LobeSummer::ColumnRuns> runs{{{0, 3}, {250, 256}}, {{17, 18}}, {{100, 140}}, {{128, 130}}};
+    const HdrImage part = cone_convolve(level, none, 800.0, out, settings, 2, nullptr, nullptr, rows, nullptr, &runs);
+    for (std::size_t k = 0; k < rows.size(); ++k) {
+        std::vector<char> in(256, 0);
+        for (const auto& [first, last] : runs[k])
+            for (int i = first; i < last; ++i) in[std::size_t(i)] = 1;
+        for (int i = 0; i < 256; ++i)
+            for (int c = 0; c < 3; ++c) {
+                const float got = part.row(rows[k])[3 * i + c];
+                if (in[std::size_t(i)]) {
+                    const double want = exact_at_double(env, 800.0, texel_direction(i, rows[k], 256, 128))[c];
+                    EXPECT_NEAR(got, want, settings.texel_tolerance * want) << rows[k] << " " << i;
+                    EXPECT_NEAR(got, whole.row(rows[k])[3 * i + c], 1e-3 * want) << rows[k] << " " << i;
+                } else
+                    EXPECT_EQ(got, 0.0f);
+            }
+    }
+}
+
+TEST(OutputGrid, PatchedMapsAreWithinTheToleranceOffGrid) {
+    // Small very bright lights (a few texels, 1e3-1e5 times the field) on a textured field:
+    // sharp lobes are resampled with the texels near the lights summed exactly. Some map
+    // takes that route, and every map's lookups at random directions are within tolerance.
+    HdrImage env = sampled(256, 128, [](const glm::dvec3& d) {
+        return smooth_field(d) * (1.0 + 0.5 * std::sin(9.0 * d.x) * std::cos(7.0 * d.y + 2.0 * d.z));
+    });
+    std::mt19937 rng(11);
+    std::uniform_int_distribution<int> col(0, 255), row(0, 127);
+    for (int k = 0; k < 6; ++k) {
+        const int i = col(rng), j = row(rng);
+        const float v = float(std::pow(10.0, 3 + k % 3));
+        env.set(i, j, {v, 0.8f * v, 0.6f * v});
+        env.set((i + 1) % 256, j, {0.5f * v, 0.4f * v, 0.3f * v});
+    }
+    std::vector<MapRequest> maps;
+    for (double n : {200.0, 800.0, 3000.0}) maps.push_back(MapRequest::make_phong(n, std::to_string(int(n))));
+    Options o;
+    o.threads = 2;
+    long long patched = 0;
+    for (const MapResult& r : convolve(env, maps, o)) {
+        patched += r.patched_texels;
+        const OffGridError e = measure_offgrid_error(env, r.image, r.request.shininess, 2048, 5, 2);
+        std::printf("[  report  ] %-5s %dx%d patched %lld predicted %.4f off-grid %.4f +- %.4f (%s)\n",
+                    r.request.label.c_str(), r.image.width(), r.image.height(), r.patched_texels,
+                    r.plan.predicted_error, e.weighted_relative_rms, e.rms_standard_error, r.plan.size_reason.c_str());
+        EXPECT_LE(r.plan.predicted_error, o.tolerance) << r.request.label;
+        EXPECT_LE(e.weighted_relative_rms, o.tolerance + 3 * e.rms_standard_error) << r.request.label;
+    }
+    EXPECT_GT(patched, 0) << "no map took the patched route; the test does not test it";
 }
 
 TEST(OutputGrid, MirrorIsTheEnvironmentFilteredToTheOutput) {
