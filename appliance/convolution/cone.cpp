@@ -76,7 +76,8 @@ double cone_cut_cos(double energy, double n) {
 HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel>& bright,
                        double n, Size out, const ConeSettings& settings, int threads,
                        const RowProgress& progress, ConeStats* stats, const std::vector<int>& only_rows,
-                       ConeSumsBackend* backend, const std::vector<LobeSummer::ColumnRuns>* only_columns) {
+                       ConeSumsBackend* backend, const std::vector<LobeSummer::ColumnRuns>* only_columns,
+                       HdrImage* into) {
     // The output rows computed: all, or only_rows (the others stay 0), and in each the
     // columns of only_columns (or all).
     std::vector<int> rows = only_rows;
@@ -262,10 +263,14 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
     for (char f : widened) local.refined_texels += f;
     if (stats) *stats = local;
 
-    HdrImage result(out.width, out.height);
+    if (into && (into->width() != out.width || into->height() != out.height))
+        throw RuntimeError("internal: cone_convolve's destination is not " + std::to_string(out.width) + "x" +
+                           std::to_string(out.height));
+    HdrImage result = into ? HdrImage() : HdrImage(out.width, out.height);
+    HdrImage& destination = into ? *into : result;
     parallel_for(int(rows.size()), threads, [&](int k) {
         const int row = rows[std::size_t(k)];
-        float* o = result.row(row);
+        float* o = destination.row(row);
         double v[3];
         for (const auto& [first, last] : columns_of(std::size_t(k)))
             for (int col = first; col < last; ++col) {

@@ -254,7 +254,7 @@ std::string percent(double v) {
 // summed exactly, or null), which are then added back exactly on it; where resampling would
 // miss its share of tau, `sum_on` sums the plan again on the finer grid, or, where that
 // happens near few texels, `sum_texels` (if given) sums just the finer grid's texels there.
-using TexelSummer = std::function<HdrImage(Size, const TexelSelection&)>;
+using TexelSummer = std::function<void(Size, const TexelSelection&, HdrImage& into)>;
 void deliver_output(MapResult& r, Size input, double tau, const PlannerModel& model, int threads,
                     const std::vector<BrightTexel>* bright, const std::function<HdrImage(Size)>& sum_on,
                     const TexelSummer& sum_texels) {
@@ -274,25 +274,18 @@ void deliver_output(MapResult& r, Size input, double tau, const PlannerModel& mo
         std::string steps;
         for (;;) {
             const double floor_value = solid_angle_mean(r.image);
-            HdrImage smooth;
-            if (split) {
-                smooth = r.image;
-                const HdrImage lobes = bright_lobes(*bright, n, p.sum_size, floor_value, threads);
-                for (std::size_t k = 0; k < smooth.data().size(); ++k) smooth.data()[k] -= lobes.data()[k];
-            }
-            const LookupError e = !split && known ? *known : estimate_lookup_error(split ? smooth : r.image, threads);
+            // With the split, the map without its bright texels, in place: what is resampled
+            // (if the plan is summed again instead, the sum replaces it).
+            if (split) add_bright_lobes(*bright, n, floor_value, LobeOp::Subtract, r.image, threads);
+            const LookupError e = !split && known ? *known : estimate_lookup_error(r.image, threads);
             known = nullptr;  // the map changes if it is summed again
             // The fourth differences predict 4-point interpolation only where the sum grid
             // resolves the lobe (its spacing within one lobe width; a Gaussian sampled coarser
             // aliases); a grid capped at a coarser input's resolution is summed again instead.
             const bool resolved = kPi / p.sum_size.height <= lobe_width(n) * 1.0001;
             const auto resample = [&] {
-                r.image = resample_cubic(split ? smooth : r.image, finer, threads, &r.clamped_texels);
-                if (split) {
-                    const HdrImage lobes = bright_lobes(*bright, n, finer, floor_value, threads);
-                    for (std::size_t k = 0; k < r.image.data().size(); ++k)
-                        r.image.data()[k] = std::max(0.0f, r.image.data()[k] + lobes.data()[k]);
-                }
+                r.image = resample_cubic(r.image, finer, threads, &r.clamped_texels);
+                if (split) add_bright_lobes(*bright, n, floor_value, LobeOp::AddClamped, r.image, threads);
             };
             const std::string resampled = "; resampled 4-point from " + to_string(p.sum_size);
             const std::string added = split ? ", bright texels added exactly" : "";
@@ -311,17 +304,11 @@ void deliver_output(MapResult& r, Size input, double tau, const PlannerModel& mo
                 // the finer grid's texels there are summed exactly, if that is fewer texels than
                 // summing the next grid would be.
                 const ResamplePatches patches = plan_resample_patches(
-                    split ? smooth : r.image, model.resample_share * tau, model.resample_worst_share * tau, threads);
+                    r.image, model.resample_share * tau, model.resample_worst_share * tau, threads);
                 const TexelSelection selection = fine_texels_near(patches.texels, p.sum_size, finer);
                 if (2 * selection.texels <= static_cast<long long>(next.width) * next.height) {
                     resample();
-                    const HdrImage exact = sum_texels(finer, selection);
-                    for (std::size_t k = 0; k < selection.rows.size(); ++k) {
-                        const float* src = exact.row(selection.rows[k]);
-                        float* dst = r.image.row(selection.rows[k]);
-                        for (const auto& [first, last] : selection.runs[k])
-                            std::copy(src + 3 * first, src + 3 * last, dst + 3 * first);
-                    }
+                    sum_texels(finer, selection, r.image);
                     r.patched_texels = selection.texels;
                     p.predicted_error += patches.remaining_rms;
                     p.size_reason = why + steps + resampled + " (predicted " + percent(patches.remaining_rms) +
@@ -566,17 +553,15 @@ std::vector<MapResult> convolve_map(const HdrImage& env, HdrImage* consumable, c
         const bool split = r.plan.method == Method::Cone || (r.plan.method == Method::Sh && r.plan.bright_split);
         // Texels of a finer grid, summed by the plan's cone (an SH plan's is the one for the rows
         // its bound fails).
-        const TexelSummer sum_texels = [&](Size grid, const TexelSelection& selection) {
+        const TexelSummer sum_texels = [&](Size grid, const TexelSelection& selection, HdrImage& into) {
             const PreparedLevel& level =
                 shared.cone_level(r.plan.method == Method::Cone ? r.plan.input_level : r.plan.fallback_level);
             std::unique_ptr<ConeSumsBackend> backend;
             if (options.executor) backend = options.executor->cone_sums(level, grid, r.request.shininess, r.plan.cone);
             ConeStats stats;
-            HdrImage image = cone_convolve(level, shared.bright().texels, r.request.shininess, grid, r.plan.cone,
-                                           map_threads, no_progress, &stats, selection.rows, backend.get(),
-                                           &selection.runs);
+            cone_convolve(level, shared.bright().texels, r.request.shininess, grid, r.plan.cone, map_threads,
+                          no_progress, &stats, selection.rows, backend.get(), &selection.runs, &into);
             r.refined_texels += stats.refined_texels;
-            return image;
         };
         deliver_output(r, input_size, options.tolerance, model, map_threads,
                        split ? &shared.bright().texels : nullptr, [&](Size grid) { return sum_on(r, grid, map_threads, no_progress); },

@@ -80,7 +80,8 @@ double cone_cut_cos(double energy, double shininess);
 // exceeds texel_tolerance * E' is summed again with a cone that meets it.
 // With only_rows, just those output rows are computed (the rest of the image is 0); with
 // only_columns too (one list of column runs per row of only_rows), just those texels (the
-// CPU sums only them; a backend may sum whole rows).
+// CPU sums only them; a backend may sum whole rows). With `into` (an `out`-sized map), the
+// texels computed are written into it and an empty image is returned.
 // Where the cone's sums are computed: the CPU (the default, LobeSummer) or
 // the GPU engine (gpu/). The cone's logic around them (bright cut-offs, the
 // per-texel bound, widening, normalisation) is the same for both.
@@ -125,7 +126,7 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
                        double shininess, Size out, const ConeSettings& settings, int threads,
                        const RowProgress& progress, ConeStats* stats, const std::vector<int>& only_rows = {},
                        ConeSumsBackend* backend = nullptr,
-                       const std::vector<LobeSummer::ColumnRuns>* only_columns = nullptr);
+                       const std::vector<LobeSummer::ColumnRuns>* only_columns = nullptr, HdrImage* into = nullptr);
 
 struct ShCoefficients;
 class ShLegendre;

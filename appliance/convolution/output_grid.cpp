@@ -317,20 +317,22 @@ HdrImage resample_cubic(const HdrImage& map, Size out, int threads, long long* c
     return result;
 }
 
-HdrImage bright_lobes(const std::vector<BrightTexel>& bright, double n, Size out, double floor_value,
-                      int threads) {
-    HdrImage result(out.width, out.height);
-    if (bright.empty()) return result;
+void add_bright_lobes(const std::vector<BrightTexel>& bright, double n, double floor_value, LobeOp op,
+                      HdrImage& map, int threads) {
+    if (bright.empty()) return;
+    const Size out{map.width(), map.height()};
     const BrightScatter scatter(bright, n, out, floor_value, 1e-6);
-    const double norm = (n + 1.0) / kTwoPi;
+    const double norm = (op == LobeOp::Subtract ? -1.0 : 1.0) * (n + 1.0) / kTwoPi;
     const std::vector<double> ones(1, 1.0);
     parallel_for(out.height, threads, [&](int j) {
         std::vector<double> sums(std::size_t(3 * out.width), 0.0);
         scatter.add_row(j, ones.data(), 1, sums.data());
-        float* dst = result.row(j);
-        for (int i = 0; i < 3 * out.width; ++i) dst[i] = float(norm * sums[std::size_t(i)]);
+        float* dst = map.row(j);
+        for (int i = 0; i < 3 * out.width; ++i) {
+            const float v = float(double(dst[i]) + norm * sums[std::size_t(i)]);
+            dst[i] = op == LobeOp::AddClamped ? std::max(0.0f, v) : v;
+        }
     });
-    return result;
 }
 
 HdrImage filter_to_footprint(const HdrImage& env, Size out, int threads) {

@@ -63,12 +63,14 @@ TexelSelection fine_texels_near(const std::vector<char>& marked, Size coarse, Si
 // results (overshoot next to a sharp edge) are clamped to 0 and counted in *clamped.
 HdrImage resample_cubic(const HdrImage& map, Size out, int threads, long long* clamped = nullptr);
 
-// The bright texels' part of a map of shininess n at the texel centres of an out-sized grid:
-// (n+1)/(2 pi) sum_b max(0, r.w_b)^n L_b dOmega_b, normalised by the continuous lobe. Terms
-// below 1e-6 floor_value are dropped. A map summed with its bright texels split out
-// (cone, sh with the bright split) is resampled without them and gets them back exactly here.
-HdrImage bright_lobes(const std::vector<BrightTexel>& bright, double shininess, Size out, double floor_value,
-                      int threads);
+// The bright texels' part of a map of shininess n at the texel centres of `map`'s grid,
+// (n+1)/(2 pi) sum_b max(0, r.w_b)^n L_b dOmega_b, normalised by the continuous lobe, taken
+// from the map (Subtract) or added to it with negative sums clamped to 0 (AddClamped), in
+// place. Terms below 1e-6 floor_value are dropped. A map summed with its bright texels split
+// out (cone, sh with the bright split) is resampled without them and gets them back here.
+enum class LobeOp { Subtract, AddClamped };
+void add_bright_lobes(const std::vector<BrightTexel>& bright, double shininess, double floor_value, LobeOp op,
+                      HdrImage& map, int threads);
 
 // The mirror map (n = infinity): the environment averaged over each output texel's footprint,
 // weighted by solid angle (exact overlaps of the equirect cells). At the input's own size it

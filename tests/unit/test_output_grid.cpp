@@ -119,7 +119,8 @@ TEST(OutputGrid, BrightLobeAtItsOwnDirectionIsTheNormalisedPeak) {
     t.x = d.x, t.y = d.y, t.z = d.z;
     t.theta = row_theta(7, 32), t.phi = column_phi(10, 64);
     t.r = 2.0, t.g = 1.0, t.b = 0.5;
-    const HdrImage lobes = bright_lobes({t}, n, {64, 32}, 1.0, 1);
+    HdrImage lobes(64, 32);
+    add_bright_lobes({t}, n, 1.0, LobeOp::AddClamped, lobes, 1);
     EXPECT_NEAR(lobes.at(10, 7).r, (n + 1) / (2 * kPi) * 2.0, 1e-4 * (n + 1));
     // Half a lobe width away it is exp(-1/8) of the peak (cos^n of 0.5/sqrt(n)).
     EXPECT_EQ(lobes.at(40, 7).r, 0.0f);
