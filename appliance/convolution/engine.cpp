@@ -7,6 +7,7 @@
 #include <functional>
 #include <cmath>
 #include <map>
+#include <mutex>
 #include <limits>
 #include <optional>
 #include <tuple>
@@ -98,10 +99,20 @@ public:
         }
         return *cone_pyramid_;
     }
+    // Level k of the remainder laid out for the cone. Slots are fixed once the pyramid exists,
+    // so one map may build or release its level while others read theirs.
     const PreparedLevel& cone_level(int k) {
-        auto& slot = cone_levels_[k];
+        if (cone_levels_.empty()) cone_levels_.resize(std::size_t(cone_pyramid().levels()));
+        auto& slot = cone_levels_.at(std::size_t(k));
         if (!slot) slot = std::make_unique<PreparedLevel>(cone_pyramid().level(k), threads_);
         return *slot;
+    }
+    // No map still to run reads level k of the remainder: its layouts (planes, phase copies,
+    // merged columns) and its pyramid level are freed (a 4096x2048 level with its layouts
+    // for two output widths is ~500 MB).
+    void release_cone_level(int k) {
+        if (std::size_t(k) < cone_levels_.size()) cone_levels_[std::size_t(k)].reset();
+        if (cone_pyramid_ && !cone_pyramid_->released(k)) cone_pyramid_->release_level(k);
     }
     const Pyramid& mip_pyramid() {
         if (!mip_pyramid_) mip_pyramid_ = std::make_unique<Pyramid>(full_image(), threads_);
@@ -154,7 +165,7 @@ private:
     std::unique_ptr<PreparedLevel> full_;
     std::unique_ptr<BrightSplit> bright_;
     std::unique_ptr<Pyramid> cone_pyramid_;
-    std::map<int, std::unique_ptr<PreparedLevel>> cone_levels_;
+    std::vector<std::unique_ptr<PreparedLevel>> cone_levels_;
     std::unique_ptr<Pyramid> mip_pyramid_;
     std::unique_ptr<ShCoefficients> sh_;
     std::unique_ptr<ShCoefficients> remainder_sh_;
@@ -546,6 +557,15 @@ std::vector<MapResult> convolve_map(const HdrImage& env, HdrImage* consumable, c
         throw RuntimeError("internal: a plan must name a concrete method");
     };
     const RowProgress no_progress = [](long long) {};
+    // Maps still to run per level of the remainder they read (cone, SH with the split): a
+    // level is freed when its last map is done.
+    std::map<int, int> level_readers;
+    const auto reads_level = [](const MapPlan& p) {
+        return p.method == Method::Cone || (p.method == Method::Sh && p.bright_split) ? p.input_level : -1;
+    };
+    for (std::size_t k : to_run)
+        if (!batched[k] && reads_level(results[k].plan) >= 0) ++level_readers[reads_level(results[k].plan)];
+    std::mutex level_readers_mutex;
     const MapRunner run_map = [&](std::size_t k, int map_threads) {
         MapResult& r = results[k];
         const auto start = std::chrono::steady_clock::now();
@@ -567,6 +587,10 @@ std::vector<MapResult> convolve_map(const HdrImage& env, HdrImage* consumable, c
                        split ? &shared.bright().texels : nullptr, [&](Size grid) { return sum_on(r, grid, map_threads, no_progress); },
                        split ? sum_texels : TexelSummer{});
         r.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
+        if (const int level = reads_level(r.plan); level >= 0 && !batched[k]) {
+            const std::lock_guard lock(level_readers_mutex);
+            if (--level_readers[level] == 0) shared.release_cone_level(level);
+        }
     };
     if (options.executor || threads == 1) {
         // The GPU engine owns one context, driven from this thread: maps in order.

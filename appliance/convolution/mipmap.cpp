@@ -73,6 +73,11 @@ void Pyramid::release_level(int k) {
     levels_[std::size_t(k)] = HdrImage();
 }
 
+bool Pyramid::released(int k) const {
+    level_index_check(k, levels());
+    return levels_[std::size_t(k)].empty();
+}
+
 const HdrImage& Pyramid::level(int k) const {
     level_index_check(k, levels());
     if (levels_[std::size_t(k)].empty())

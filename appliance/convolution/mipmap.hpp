@@ -26,6 +26,7 @@ public:
     // Frees level k's texels (a level no plan reads: the full-resolution remainder of a large
     // input, once the coarser levels are built).
     void release_level(int k);
+    bool released(int k) const;
 
 private:
     std::vector<HdrImage> levels_;
