@@ -316,7 +316,7 @@ void deliver_output(MapResult& r, Size input, double tau, const PlannerModel& mo
                 // summing the next grid would be.
                 const ResamplePatches patches = plan_resample_patches(
                     r.image, model.resample_share * tau, model.resample_worst_share * tau, threads);
-                const TexelSelection selection = fine_texels_near(patches.texels, p.sum_size, finer);
+                const TexelSelection selection = fine_texels_near(patches.texels, p.sum_size, finer, threads);
                 if (2 * selection.texels <= static_cast<long long>(next.width) * next.height) {
                     resample();
                     sum_texels(finer, selection, r.image);

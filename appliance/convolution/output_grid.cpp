@@ -205,14 +205,38 @@ ResamplePatches plan_resample_patches(const HdrImage& map, double rms_budget, do
             rest += square[t];
         }
     }
-    // Then the largest contributions to the RMS until the rest is within its budget.
+    // Then the largest contributions to the RMS until the rest is within its budget: the
+    // contributions binned by their power of two, whole bins marked from the top, and the
+    // bin where the budget is crossed sorted (a sort of every texel took a tenth of a map's
+    // delivery at 4096x2048).
     const double allowed = rms_budget * rms_budget * value2;
     if (rest > allowed) {
-        std::vector<std::size_t> order;
+        constexpr int kLowest = -1100, kBins = 2200;  // 2^-1100 .. 2^1100 covers every double
+        const auto bin = [&](double sq) {
+            return sq > 0 ? std::clamp(std::ilogb(sq) - kLowest, 0, kBins - 1) : 0;
+        };
+        std::vector<double> bin_sum(kBins, 0.0);
         for (std::size_t t = 0; t < texels; ++t)
-            if (!marked[t]) order.push_back(t);
-        std::sort(order.begin(), order.end(), [&](std::size_t a, std::size_t b) { return square[a] > square[b]; });
-        for (std::size_t t : order) {
+            if (!marked[t]) bin_sum[std::size_t(bin(square[t]))] += square[t];
+        // The lowest bins whose sum stays within the budget are kept; `cross` is the first
+        // bin that would exceed it.
+        double kept = 0;
+        int cross = 0;
+        while (cross < kBins && kept + bin_sum[std::size_t(cross)] <= allowed) kept += bin_sum[std::size_t(cross++)];
+        std::vector<std::size_t> crossing;
+        for (std::size_t t = 0; t < texels; ++t) {
+            if (marked[t]) continue;
+            const int b = bin(square[t]);
+            if (b > cross) {
+                marked[t] = 1;
+                ++result.count;
+                rest -= square[t];
+            } else if (b == cross) {
+                crossing.push_back(t);
+            }
+        }
+        std::sort(crossing.begin(), crossing.end(), [&](std::size_t a, std::size_t b) { return square[a] > square[b]; });
+        for (std::size_t t : crossing) {
             if (rest <= allowed) break;
             marked[t] = 1;
             ++result.count;
@@ -237,31 +261,46 @@ ResamplePatches plan_resample_patches(const HdrImage& map, double rms_budget, do
     return result;
 }
 
-TexelSelection fine_texels_near(const std::vector<char>& marked, Size coarse, Size fine) {
-    // The coarse columns (and rows) whose cells an output texel centre lies between.
+TexelSelection fine_texels_near(const std::vector<char>& marked, Size coarse, Size fine, int threads) {
+    // The coarse column (and row) at or left of an output texel centre: its cell lies between
+    // that centre and the next.
     const auto base = [](int index, int out_count, int in_count) {
         return int(std::floor((index + 0.5) * double(in_count) / double(out_count) - 0.5));
     };
-    TexelSelection selection;
-    for (int jf = 0; jf < fine.height; ++jf) {
+    std::vector<int> column_base(static_cast<std::size_t>(fine.width));
+    for (int i = 0; i < fine.width; ++i) column_base[std::size_t(i)] = wrap(base(i, fine.width, coarse.width), coarse.width);
+    std::vector<LobeSummer::ColumnRuns> row_runs(static_cast<std::size_t>(fine.height));
+    parallel_for(fine.height, threads, [&](int jf) {
+        // The two coarse rows around this output row (continued across the poles), OR-ed
+        // column by column; a cell is marked if either of its columns is.
         const int b = base(jf, fine.height, coarse.height);
-        const RowTap r0 = row_across_pole(b, coarse.height, coarse.width);
-        const RowTap r1 = row_across_pole(b + 1, coarse.height, coarse.width);
-        const auto is_marked = [&](const RowTap& r, int col) {
-            return marked[std::size_t(r.row) * std::size_t(coarse.width) +
-                          std::size_t(wrap(col + r.shift, coarse.width))] != 0;
-        };
-        LobeSummer::ColumnRuns runs;
+        std::vector<char> either(static_cast<std::size_t>(coarse.width), 0);
+        bool any = false;
+        for (const RowTap r : {row_across_pole(b, coarse.height, coarse.width),
+                               row_across_pole(b + 1, coarse.height, coarse.width)}) {
+            const char* m = marked.data() + std::size_t(r.row) * std::size_t(coarse.width);
+            for (int c = 0; c < coarse.width; ++c) {
+                const char v = m[wrap(c + r.shift, coarse.width)];
+                either[std::size_t(c)] |= v;
+                any = any || v;
+            }
+        }
+        if (!any) return;
+        LobeSummer::ColumnRuns& runs = row_runs[std::size_t(jf)];
         for (int i = 0; i < fine.width; ++i) {
-            const int c = base(i, fine.width, coarse.width);
-            if (!(is_marked(r0, c) || is_marked(r0, c + 1) || is_marked(r1, c) || is_marked(r1, c + 1))) continue;
+            const int c = column_base[std::size_t(i)];
+            if (!(either[std::size_t(c)] || either[std::size_t(c + 1 == coarse.width ? 0 : c + 1)])) continue;
             if (!runs.empty() && runs.back().second == i)
                 runs.back().second = i + 1;
             else
                 runs.emplace_back(i, i + 1);
-            ++selection.texels;
         }
+    });
+    TexelSelection selection;
+    for (int jf = 0; jf < fine.height; ++jf) {
+        LobeSummer::ColumnRuns& runs = row_runs[std::size_t(jf)];
         if (runs.empty()) continue;
+        for (const auto& [first, last] : runs) selection.texels += last - first;
         selection.rows.push_back(jf);
         selection.runs.push_back(std::move(runs));
     }

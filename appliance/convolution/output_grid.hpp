@@ -56,7 +56,7 @@ struct TexelSelection {
     std::vector<LobeSummer::ColumnRuns> runs;    // per row of `rows`: half-open column runs
     long long texels = 0;
 };
-TexelSelection fine_texels_near(const std::vector<char>& marked, Size coarse, Size fine);
+TexelSelection fine_texels_near(const std::vector<char>& marked, Size coarse, Size fine, int threads);
 
 // `map` at the texel centres of an `out`-sized grid by separable 4-point Lagrange
 // interpolation (exact for cubics), periodic in phi, across the poles in theta. Negative

@@ -221,7 +221,7 @@ TEST(OutputGrid, PatchesMarkTheTexelsNearASharpBumpAndLeaveTheRestWithinBudget) 
     EXPECT_GT(patches.count, 0);
     EXPECT_LE(patches.remaining_rms, rms_budget);
     EXPECT_LE(patches.remaining_worst, worst_budget);
-    const TexelSelection selection = fine_texels_near(patches.texels, {64, 32}, {256, 128});
+    const TexelSelection selection = fine_texels_near(patches.texels, {64, 32}, {256, 128}, 2);
     EXPECT_LT(selection.texels, 256 * 128 / 10);
     std::vector<char> selected(std::size_t(256 * 128), 0);
     for (std::size_t k = 0; k < selection.rows.size(); ++k)
@@ -255,7 +255,7 @@ TEST(OutputGrid, FineTexelsNearAMarkedTexelFollowTheSeamAndThePole) {
     // far away is not.
     std::vector<char> marked(16 * 8, 0);
     marked[0] = 1;
-    const TexelSelection s = fine_texels_near(marked, {16, 8}, {64, 32});
+    const TexelSelection s = fine_texels_near(marked, {16, 8}, {64, 32}, 2);
     const auto has = [&](int i, int j) {
         for (std::size_t k = 0; k < s.rows.size(); ++k)
             if (s.rows[k] == j)
