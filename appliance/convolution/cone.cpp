@@ -34,7 +34,7 @@ public:
           threads_(threads), columns_(columns) {}
 
     LobeSums first_pass(const std::vector<int>& rows, double c0, const RowProgress& progress) override {
-        LobeSums sums = summer_.make_sums();
+        LobeSums sums = summer_.make_sums(&rows);
         parallel_for(int(rows.size()), threads_, [&](int k) {
             summer_.sum_row(rows[std::size_t(k)], c0, sums, columns_ ? &(*columns_)[std::size_t(k)] : nullptr);
             if (progress) progress(1);
@@ -43,7 +43,7 @@ public:
     }
     LobeSums annulus(const std::vector<int>& rows, const std::vector<LobeSummer::ColumnRuns>& runs,
                      const std::vector<double>& cut, double c_inner) override {
-        LobeSums sums = summer_.make_sums();
+        LobeSums sums = summer_.make_sums(&rows);
         parallel_for(int(rows.size()), threads_, [&](int k) {
             summer_.sum_row(rows[std::size_t(k)], cut[std::size_t(k)], sums, &runs[std::size_t(k)], c_inner);
         });
@@ -54,7 +54,7 @@ public:
         const std::size_t row_values = std::size_t(sums.out_w) * 3;
         parallel_for(int(rows.size()), threads_, [&](int k) {
             const int row = rows[std::size_t(k)];
-            double* nb_row = nb.data() + std::size_t(row) * row_values;
+            double* nb_row = nb.data() + sums.texel(row, 0) * 3;
             std::fill(nb_row, nb_row + row_values, 0.0);
             scatter.add_row(row, sums.cmax.data() + std::size_t(row) * std::size_t(sums.classes), sums.classes,
                             nb_row);
@@ -98,7 +98,9 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
     const double c0 = cut_cos(settings.cutoff_energy);
     LobeSums sums = backend->first_pass(rows, c0, progress);
 
-    const std::size_t texels = std::size_t(out.width) * std::size_t(out.height);
+    // Texels stored by the first pass (its rows only when a few were asked for): `widened`
+    // and the bright terms share its layout.
+    const std::size_t texels = sums.num.size() / 3;
     // Texels whose cut-off bound fails are summed again, with the cone their row
     // needs (wide_cut), into `wide`; `widened` marks them.
     LobeSums wide;
@@ -131,14 +133,15 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
     // terms, summed over the whole sphere, are divided by the whole lobe weight.
     // The three channel values of output texel (row, col).
     const auto values = [&](int row, int col, const UninitVector<double>& nb, double* v) {
-        const std::size_t t = std::size_t(row) * std::size_t(out.width) + std::size_t(col);
+        const std::size_t t = sums.texel(row, col);
         const std::size_t rc = std::size_t(row) * std::size_t(sums.classes) +
                                std::size_t(sums.classes == 1 ? 0 : sums.class_of(col));
         const bool w = widened[t] != 0;
         const LobeSums& src = w ? wide : sums;
+        const std::size_t ts = w ? wide.texel(row, col) : t;
         const Denominators& d = w ? wide_den : narrow_den;
         for (std::size_t c = 0; c < 3; ++c)
-            v[c] = src.num[3 * t + c] * d.inv[rc] + (nb.empty() ? 0.0 : nb[3 * t + c] * d.inv_full[rc]);
+            v[c] = src.num[3 * ts + c] * d.inv[rc] + (nb.empty() ? 0.0 : nb[3 * t + c] * d.inv_full[rc]);
     };
 
     // Smallest positive value over the given output rows (parallel by row).
@@ -214,7 +217,7 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
             if (need_for(global_max) >= target || need_for(band_max) >= target) continue;
             const double need = need_for(cap_max.query(band, column_phi(i, out.width)));
             if (need < target) {
-                widened[std::size_t(row) * std::size_t(out.width) + std::size_t(i)] = 1;
+                widened[sums.texel(row, i)] = 1;
                 need_row = std::min(need_row, need);
             }
         }
@@ -232,7 +235,7 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
         for (std::size_t k = 0; k < refine_rows.size(); ++k) {
             const int row = refine_rows[k];
             cuts[k] = wide_cut[std::size_t(row)];
-            const char* flags = widened.data() + std::size_t(row) * std::size_t(out.width);
+            const char* flags = widened.data() + sums.texel(row, 0);
             for (int i = 0; i < out.width;) {
                 if (!flags[i]) {
                     ++i;
@@ -253,10 +256,12 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
                 const std::size_t rc = std::size_t(row) * std::size_t(wide.classes) + std::size_t(cls);
                 wide.den[rc] += sums.den[rc];
             }
-            const std::size_t first = std::size_t(row) * std::size_t(out.width);
-            for (std::size_t t = first; t < first + std::size_t(out.width); ++t)
-                if (widened[t])
-                    for (std::size_t c = 0; c < 3; ++c) wide.num[3 * t + c] += sums.num[3 * t + c];
+            for (int col = 0; col < out.width; ++col) {
+                const std::size_t t = sums.texel(row, col);
+                if (!widened[t]) continue;
+                const std::size_t tw = wide.texel(row, col);
+                for (std::size_t c = 0; c < 3; ++c) wide.num[3 * tw + c] += sums.num[3 * t + c];
+            }
         });
         wide_den = denominators(wide, wide_cut);
     }

@@ -297,12 +297,20 @@ double CapMax::query(const Band& band, double phi) const {
     return best;
 }
 
-LobeSums LobeSummer::make_sums() const {
+LobeSums LobeSummer::make_sums(const std::vector<int>* rows) const {
     LobeSums s;
     s.out_w = out_w_;
     s.out_h = out_h_;
     s.classes = classes_;
-    s.num.resize(std::size_t(out_w_) * std::size_t(out_h_) * 3);
+    std::size_t stored = std::size_t(out_h_);
+    if (rows && int(rows->size()) < out_h_) {
+        s.slot.assign(std::size_t(out_h_), -1);
+        int next = 0;
+        for (int row : *rows)
+            if (s.slot[std::size_t(row)] < 0) s.slot[std::size_t(row)] = next++;
+        stored = std::size_t(next);
+    }
+    s.num.resize(std::size_t(out_w_) * stored * 3);
     s.den.assign(std::size_t(classes_) * std::size_t(out_h_), 0.0);
     s.cmax.assign(std::size_t(classes_) * std::size_t(out_h_), 0.0);
     return s;
@@ -594,7 +602,7 @@ void LobeSummer::sum_row(int out_row, double c_min, LobeSums& sums, const Column
         for (const auto& [q0, q1] : q_runs)
         for (int q_idx = q0; q_idx < q1; ++q_idx) {
             const int col = q_idx * classes_ + cls;
-            double* o = sums.num.data() + (std::size_t(out_row) * std::size_t(out_w_) + std::size_t(col)) * 3;
+            double* o = sums.num.data() + sums.texel(out_row, col) * 3;
             o[0] = acc_r[q_idx];
             o[1] = acc_g[q_idx];
             o[2] = acc_b[q_idx];
@@ -638,11 +646,12 @@ void raise_to_power(double* x, int count, double n) {
 HdrImage finish_sums(const LobeSums& sums) {
     HdrImage out(sums.out_w, sums.out_h);
     for (int j = 0; j < sums.out_h; ++j) {
+        if (!sums.stored(j)) continue;
         float* row = out.row(j);
         for (int i = 0; i < sums.out_w; ++i) {
             const double den = sums.den[std::size_t(j) * std::size_t(sums.classes) +
                                         std::size_t(sums.class_of(i))];
-            const double* num = sums.num.data() + (std::size_t(j) * std::size_t(sums.out_w) + std::size_t(i)) * 3;
+            const double* num = sums.num.data() + sums.texel(j, i) * 3;
             for (int c = 0; c < 3; ++c)
                 row[3 * i + c] = den > 0 ? float(std::max(0.0, num[c] / den)) : 0.0f;
         }

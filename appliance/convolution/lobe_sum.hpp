@@ -125,9 +125,18 @@ private:
 // Per-texel partial sums for an output grid of out_w x out_h.
 struct LobeSums {
     int out_w = 0, out_h = 0, classes = 0;
-    // 3 per output texel; not zeroed: sum_row writes the texels it sums, and
-    // only those may be read.
+    // 3 per output texel of the rows stored; not zeroed: sum_row writes the
+    // texels it sums, and only those may be read.
     UninitVector<double> num;
+    // Rows stored in num: slot[row] is a row's place (-1: not stored); empty
+    // when every row is, in order. A few rows of a fine grid (the exact patches)
+    // then take memory for those rows only.
+    std::vector<int> slot;
+    std::size_t texel(int row, int col) const {
+        const std::size_t r = slot.empty() ? std::size_t(row) : std::size_t(slot[std::size_t(row)]);
+        return r * std::size_t(out_w) + std::size_t(col);
+    }
+    bool stored(int row) const { return slot.empty() || slot[std::size_t(row)] >= 0; }
     std::vector<double> den;   // per (output row, class)
     std::vector<double> cmax;  // per (output row, class)
     int class_of(int column) const { return column % classes; }
@@ -171,7 +180,8 @@ public:
     // by the caller to the sums of a pass with c_min = c_inner.
     void sum_row(int out_row, double c_min, LobeSums& sums, const ColumnRuns* columns = nullptr,
                  double c_inner = 2.0) const;
-    LobeSums make_sums() const;
+    // Sums for every output row, or (rows given) for those rows only.
+    LobeSums make_sums(const std::vector<int>* rows = nullptr) const;
 
     // Largest cosine between the direction of output texel (row, class) and any
     // texel centre of the level.

@@ -147,7 +147,7 @@ public:
         return s;
     }
 
-    void bright(const BrightScatter& scatter, const LobeSums&, const std::vector<int>& rows,
+    void bright(const BrightScatter& scatter, const LobeSums& layout, const std::vector<int>& rows,
                 UninitVector<double>& nb) override {
         const auto& texels = scatter.texels();
         std::vector<float> data(texels.size() * 8);
@@ -191,7 +191,8 @@ public:
         for (int row : rows)
             for (int i = 0; i < out_.width; ++i) {
                 const std::size_t t = std::size_t(row) * std::size_t(out_.width) + std::size_t(i);
-                for (std::size_t c = 0; c < 3; ++c) nb[3 * t + c] = double(values[4 * t + c]);
+                const std::size_t at = layout.texel(row, i);
+                for (std::size_t c = 0; c < 3; ++c) nb[3 * at + c] = double(values[4 * t + c]);
             }
     }
 
