@@ -4,6 +4,7 @@
 #include <cmath>
 #include <cstdio>
 #include <chrono>
+#include <cstdlib>
 #include <map>
 
 #include "appliance/capture/drift_correction.hpp"
@@ -267,6 +268,11 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
     summary.drift_residual_after = median(drift_after);
     if (summary.frames_used == 0) throw InputError(o.session.string() + ": no frame has an orientation");
 
+    // From the last frame of the scan to the finished map (what a visitor waits for).
+    const auto t_last_frame = std::chrono::steady_clock::now();
+    const auto since = [](std::chrono::steady_clock::time_point a) {
+        return std::chrono::duration<double>(std::chrono::steady_clock::now() - a).count();
+    };
     std::vector<glm::dquat> final_q;
     for (const UsedFrame& u : used) final_q.push_back(u.live);
     const std::int64_t t_first = first_t_ns.value_or(0);
@@ -287,6 +293,7 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
             ++next;
             if (progress) progress(++done, total);
         });
+        summary.adjust_views_seconds = since(t_adjust);
         const ScanAdjustment sa = adjust_scan(views, t_s, sensor_q, final_q, o.adjustment_rounds, threads, [&] {
             for (std::size_t i = 0; i < used.size(); ++i)
                 if (progress) progress(++done, total);
@@ -297,7 +304,9 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
         summary.adjust_pair_rms_deg = sa.result.pair_rms_deg;
         summary.adjust_sensor_rms_deg = sa.result.sensor_rms_deg;
         summary.adjust_drift_deg_per_min = glm::length(sa.result.drift_rate_rad_per_s) * 180.0 / kPi * 60.0;
+        summary.adjust_profile = sa.profile;
         summary.adjust_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_adjust).count();
+        const auto t_final = std::chrono::steady_clock::now();
         adjusted = make_engine();
         next = 0;
         for_each_frame(camera, [&](std::size_t place, const CameraFrame& f) {
@@ -305,6 +314,7 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
             adjusted->add_frame(f, cal, final_q[next++]);
             if (progress) progress(++done, total);
         });
+        summary.final_accumulate_seconds = since(t_final);
     }
     // Orientation errors against a simulated session's truth: of the map's orientations, and of
     // the live pass (what the kiosk had while scanning).
@@ -334,13 +344,25 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
     HdrImage env = map_acc.radiance();
     const std::vector<std::uint32_t> samples = map_acc.samples();
     summary.coverage = measure_coverage(samples, o.width, o.height, o.min_samples);
+    const auto t_truth = std::chrono::steady_clock::now();
     if (session.has_truth && fs::exists(truth_env_path(session)))
         summary.truth_error = compare_with_truth(env, samples, o.min_samples, load_exr(truth_env_path(session)).image);
+    const double truth_seconds = since(t_truth);  // a measurement, not the appliance's work
     summary.filled_texels = fill_uncovered(env, samples, o.min_samples);
+    summary.last_frame_to_map_seconds = since(t_last_frame) - truth_seconds;
     summary.coverage_path = coverage_path_for(o.out);
     // Coverage first: a reader that finds env.exr finds its coverage map too.
     save_exr(summary.coverage_path, coverage_image(samples, map_acc.weights(), o.width, o.height, o.min_samples));
     save_exr(o.out, env);
+    summary.last_frame_to_saved_seconds = since(t_last_frame) - truth_seconds;
+    if (std::getenv("GLINT_CAPTURE_PROFILE"))
+        std::fprintf(stderr,
+                     "profile: last frame -> map %.3f s (saved %.3f s): views %.3f, adjustment %.3f (%s), final "
+                     "accumulation %.3f; live drift %.3f s, accumulation %.3f s over the scan\n",
+                     summary.last_frame_to_map_seconds, summary.last_frame_to_saved_seconds,
+                     summary.adjust_views_seconds, summary.adjust_seconds - summary.adjust_views_seconds,
+                     summary.adjust_profile.c_str(), summary.final_accumulate_seconds, summary.drift_seconds,
+                     summary.accumulate_seconds);
     if (!o.drift_log.empty()) write_text_atomically(o.drift_log, drift_log);
     if (!o.orientations_out.empty()) {
         std::string csv = camera_poses_csv_header() + "\n";

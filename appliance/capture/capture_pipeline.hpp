@@ -70,6 +70,12 @@ struct CaptureSummary {
     // the solve, the drift rate found, wall time (alignment and solve, not the final map).
     int adjust_pairs_tried = 0, adjust_pairs = 0;
     double adjust_pair_rms_deg = 0, adjust_sensor_rms_deg = 0, adjust_drift_deg_per_min = 0, adjust_seconds = 0;
+    // Wall times after the last frame of the scan: the alignment views, the final accumulation,
+    // and from the last frame to the finished map (radiance merged and filled) and to it saved;
+    // adjust_profile: the adjustment's own breakdown (pair selection, alignment, solve).
+    double adjust_views_seconds = 0, final_accumulate_seconds = 0, last_frame_to_map_seconds = 0,
+           last_frame_to_saved_seconds = 0;
+    std::string adjust_profile;
     // Drift correction (when on): frames it corrected, the median correction, and the median
     // RMS log-luminance residual against the sphere before and after it.
     // The guided-capture logic run over the session as if live (guided_capture.hpp): when it would

@@ -1,6 +1,8 @@
 #include "appliance/capture/global_adjustment.hpp"
 
 #include <algorithm>
+#include <chrono>
+#include <cstdio>
 #include <cmath>
 #include <opencv2/core.hpp>
 
@@ -187,6 +189,14 @@ ScanAdjustment adjust_scan(const std::vector<AlignmentView>& views, const std::v
                            int threads,
                            const std::function<void()>& round_done, const PairSettings& pair_settings,
                            const AdjustmentSettings& settings) {
+    auto clock = std::chrono::steady_clock::now();
+    const auto lap = [&] {
+        const auto now = std::chrono::steady_clock::now();
+        const double s = std::chrono::duration<double>(now - clock).count();
+        clock = now;
+        return s;
+    };
+    char text[96];
     const std::size_t n = views.size();
     if (t_s.size() != n || sensor.size() != n || initial.size() != n)
         throw InputError("adjust_scan: inputs of different lengths");
@@ -216,6 +226,8 @@ ScanAdjustment adjust_scan(const std::vector<AlignmentView>& views, const std::v
     }
     ScanAdjustment out;
     out.pairs_tried = int(candidates.size());
+    std::snprintf(text, sizeof text, "select %.3f", lap());
+    out.profile = text;
     out.result.orientations = initial;
     for (int round = 0; round < rounds; ++round) {
         std::vector<std::optional<PairMeasurement>> measured(candidates.size());
@@ -233,7 +245,10 @@ ScanAdjustment adjust_scan(const std::vector<AlignmentView>& views, const std::v
         std::vector<PairMeasurement> pairs;
         for (const auto& m : measured)
             if (m) pairs.push_back(*m);
+        const double align_s = lap();
         out.result = adjust_orientations(t_s, sensor, out.result.orientations, pairs, settings);
+        std::snprintf(text, sizeof text, ", round %d align %.3f solve %.3f", round + 1, align_s, lap());
+        out.profile += text;
         if (round_done) round_done();
     }
     return out;

@@ -21,6 +21,7 @@
 
 #include <functional>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include "appliance/capture/camera_frame.hpp"
@@ -95,6 +96,7 @@ AdjustmentResult adjust_orientations(const std::vector<double>& t_s, const std::
 struct ScanAdjustment {
     AdjustmentResult result;  // of the last round
     int pairs_tried = 0;      // candidate pairs
+    std::string profile;      // wall times: pair selection, then alignment and solve per round
 };
 
 ScanAdjustment adjust_scan(const std::vector<AlignmentView>& views, const std::vector<double>& t_s,
