@@ -112,8 +112,13 @@ GroundTruthError compare_with_truth(const HdrImage& got, const std::vector<std::
 
 }  // namespace
 
-CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const gl::GlContext* gpu,
+CaptureSummary run_capture(const CaptureOptions& options, CameraSource& camera, const gl::GlContext* gpu,
                            const std::function<void(long long, long long)>& progress) {
+    CaptureOptions o = options;  // EXPERIMENT
+    if (const char* e = std::getenv("GLINT_ADJ_ONLINE")) o.online_adjustment = std::atoi(e) != 0;
+    if (const char* e = std::getenv("GLINT_ADJ_REALIGN_PER_FRAME")) o.realign_per_frame = std::atoi(e);
+    if (const char* e = std::getenv("GLINT_ADJ_REALIGN_DEG")) o.realign_deg = std::atof(e);
+    if (const char* e = std::getenv("GLINT_ADJ_FINAL_PASSES")) o.final_realign_passes = std::atoi(e);
     if (o.width < 8 || o.height < 4 || o.width > 16384 || o.height > 8192)
         throw InputError("--size must be between 8x4 and 16384x8192");
     if (o.min_samples < 1) throw InputError("--min-samples must be at least 1");
@@ -180,8 +185,14 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
     CaptureSummary summary;
     // Progress: the live pass, then (global adjustment) the views, the pairs and the final map.
     const bool adjust = o.drift_correction && o.global_adjustment;
-    const long long total = (long long)session.frames.size() * (adjust ? 3 : 1) +
-                            (adjust ? (long long)session.frames.size() * o.adjustment_rounds : 0);
+    const bool online = adjust && o.online_adjustment;
+    const long long total = online  ? (long long)session.frames.size() * 2
+                            : adjust ? (long long)session.frames.size() * (3 + o.adjustment_rounds)
+                                     : (long long)session.frames.size();
+    // The global adjustment while the scan runs (global_adjustment.hpp, OnlineAdjustment): each
+    // frame's pairs are aligned in the frame loop, and the frames are kept for the final map.
+    OnlineAdjustment online_adjustment(threads);
+    std::vector<CameraFrame> kept;
     long long done = 0;
     GuidedCapture guide({}, cal.intrinsics);
     DriftSettings drift_settings;
@@ -242,7 +253,20 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
             acc.add_frame(f, cal, *q);
             used.push_back({place, f.sequence, f.t_ns, sensor_q, *q});
             if (acc.gpu) glFinish();  // the draw's time, not just its submission
-            summary.accumulate_seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - t_acc).count();
+            const auto t_online = std::chrono::steady_clock::now();
+            summary.accumulate_seconds += std::chrono::duration<double>(t_online - t_acc).count();
+            if (online) {
+                // This frame's pairs, a solve from the last solution, then the pairs the solution
+                // moved most aligned again: the spare time of the frame loop.
+                kept.push_back({f.rgb.clone(), f.t_ns, f.exposure_s, f.analogue_gain, f.digital_gain, f.sequence});
+                online_adjustment.add_frame(make_alignment_view(f, cal), double(f.t_ns - *first_t_ns) * 1e-9, sensor_q,
+                                            *q);
+                online_adjustment.solve();
+                online_adjustment.realign(o.realign_per_frame, o.realign_deg);
+                const double spent = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_online).count();
+                summary.online_seconds += spent;
+                summary.online_max_frame_seconds = std::max(summary.online_max_frame_seconds, spent);
+            }
             const double et = f.exposure_s * f.total_gain();
             min_exposure = std::min(min_exposure, et);
             max_exposure = std::max(max_exposure, et);
@@ -277,7 +301,37 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
     for (const UsedFrame& u : used) final_q.push_back(u.live);
     const std::int64_t t_first = first_t_ns.value_or(0);
     std::unique_ptr<Engine> adjusted;  // the map made again from the adjusted orientations
-    if (adjust) {
+    if (online) {
+        // After the last frame: solve, then align again what the solution moved since (most of
+        // it the last frames' pairs), until nothing moved more than the threshold.
+        const auto t_adjust = std::chrono::steady_clock::now();
+        online_adjustment.solve();
+        int passes = 0;
+        for (; passes < o.final_realign_passes; ++passes) {
+            if (online_adjustment.realign(-1, o.realign_deg) == 0) break;
+            online_adjustment.solve();
+        }
+        final_q = online_adjustment.orientations();
+        const AdjustmentResult& r = online_adjustment.result();
+        summary.adjust_pairs_tried = online_adjustment.pairs_tried();
+        summary.adjust_pairs = r.pairs_used;
+        summary.adjust_pair_rms_deg = r.pair_rms_deg;
+        summary.adjust_sensor_rms_deg = r.sensor_rms_deg;
+        summary.adjust_drift_deg_per_min = glm::length(r.drift_rate_rad_per_s) * 180.0 / kPi * 60.0;
+        summary.adjust_alignments = online_adjustment.alignments();
+        summary.adjust_seconds = since(t_adjust);
+        char text[160];
+        std::snprintf(text, sizeof text, "final passes %d, largest pair change left %.4f deg, %lld alignments in all",
+                      passes, online_adjustment.largest_pair_change_deg(), online_adjustment.alignments());
+        summary.adjust_profile = text;
+        const auto t_final = std::chrono::steady_clock::now();
+        adjusted = make_engine();
+        for (std::size_t k = 0; k < kept.size(); ++k) {
+            adjusted->add_frame(kept[k], cal, final_q[k]);
+            if (progress) progress(++done, total);
+        }
+        summary.final_accumulate_seconds = since(t_final);
+    } else if (adjust) {
         // Global adjustment (global_adjustment.hpp): pairs of overlapping frames aligned to each
         // other, then one pose graph with the sensor and its drift line, in rounds.
         const auto t_adjust = std::chrono::steady_clock::now();
@@ -358,11 +412,12 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
     if (std::getenv("GLINT_CAPTURE_PROFILE"))
         std::fprintf(stderr,
                      "profile: last frame -> map %.3f s (saved %.3f s): views %.3f, adjustment %.3f (%s), final "
-                     "accumulation %.3f; live drift %.3f s, accumulation %.3f s over the scan\n",
+                     "accumulation %.3f; live drift %.3f s, accumulation %.3f s, online adjustment %.3f s (max %.3f s in a "
+                     "frame) over the scan\n",
                      summary.last_frame_to_map_seconds, summary.last_frame_to_saved_seconds,
                      summary.adjust_views_seconds, summary.adjust_seconds - summary.adjust_views_seconds,
                      summary.adjust_profile.c_str(), summary.final_accumulate_seconds, summary.drift_seconds,
-                     summary.accumulate_seconds);
+                     summary.accumulate_seconds, summary.online_seconds, summary.online_max_frame_seconds);
     if (!o.drift_log.empty()) write_text_atomically(o.drift_log, drift_log);
     if (!o.orientations_out.empty()) {
         std::string csv = camera_poses_csv_header() + "\n";

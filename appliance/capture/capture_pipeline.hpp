@@ -35,8 +35,17 @@ struct CaptureOptions {
     double drift_gain = 0.1;       // low-pass gain of the drift correction (DriftSettings::gain)
     // The global adjustment after the scan (global_adjustment.hpp); only with drift correction on.
     bool global_adjustment = true;
-    // Rounds of pair alignment and solve, each from the last solution.
+    // Rounds of pair alignment and solve, each from the last solution (after the scan; only
+    // without online_adjustment).
     int adjustment_rounds = 4;
+    // The adjustment while the scan runs (OnlineAdjustment): pairs aligned in the frame loop, and
+    // again whenever the solution moved their start more than realign_deg, at most
+    // realign_per_frame per frame; after the last frame up to final_realign_passes passes of
+    // aligning again what moved, each followed by a solve.
+    bool online_adjustment = true;
+    int realign_per_frame = 24;
+    double realign_deg = 0.01;
+    int final_realign_passes = 3;
     // Per-frame log of the drift estimates (CSV: index,t_s,pixels,estimate_deg,sigma_deg,
     // residual_before,residual_after,applied,error_before_deg,error_after_deg; the errors against a
     // simulated session's truth, NaN otherwise); empty = none.
@@ -76,6 +85,10 @@ struct CaptureSummary {
     double adjust_views_seconds = 0, final_accumulate_seconds = 0, last_frame_to_map_seconds = 0,
            last_frame_to_saved_seconds = 0;
     std::string adjust_profile;
+    // The online adjustment's work in the frame loop: summed over the scan and the most of one
+    // frame (seconds), and the pair alignments it did in all.
+    double online_seconds = 0, online_max_frame_seconds = 0;
+    long long adjust_alignments = 0;
     // Drift correction (when on): frames it corrected, the median correction, and the median
     // RMS log-luminance residual against the sphere before and after it.
     // The guided-capture logic run over the session as if live (guided_capture.hpp): when it would
