@@ -193,6 +193,7 @@ CaptureSummary run_capture(const CaptureOptions& options, CameraSource& camera, 
     // frame's pairs are aligned in the frame loop, and the frames are kept for the final map.
     OnlineAdjustment online_adjustment(threads);
     std::vector<CameraFrame> kept;
+    std::vector<std::vector<glm::dquat>> snapshots;  // EXPERIMENT
     long long done = 0;
     GuidedCapture guide({}, cal.intrinsics);
     DriftSettings drift_settings;
@@ -263,6 +264,8 @@ CaptureSummary run_capture(const CaptureOptions& options, CameraSource& camera, 
                                             *q);
                 online_adjustment.solve();
                 online_adjustment.realign(o.realign_per_frame, o.realign_deg);
+                if (std::getenv("GLINT_ADJ_SNAP") && online_adjustment.frames() % 30 == 0)  // EXPERIMENT
+                    snapshots.push_back(online_adjustment.orientations());
                 const double spent = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_online).count();
                 summary.online_seconds += spent;
                 summary.online_max_frame_seconds = std::max(summary.online_max_frame_seconds, spent);
@@ -312,6 +315,33 @@ CaptureSummary run_capture(const CaptureOptions& options, CameraSource& camera, 
             online_adjustment.solve();
         }
         final_q = online_adjustment.orientations();
+        for (const auto& snap : snapshots) {  // EXPERIMENT
+            std::vector<double> d;
+            for (std::size_t k = 0; k < snap.size(); ++k) d.push_back(angle_between(snap[k], final_q[k]) * 180 / kPi);
+            std::vector<double> sorted = d;
+            std::sort(sorted.begin(), sorted.end());
+            std::fprintf(stderr, "snapshot at %zu frames: deviation from final median %.3f max %.3f; by thirds max",
+                         snap.size(), sorted[sorted.size() / 2], sorted.back());
+            for (int part = 0; part < 3; ++part)
+                std::fprintf(stderr, " %.3f",
+                             *std::max_element(d.begin() + std::ptrdiff_t(d.size() * std::size_t(part) / 3),
+                                               d.begin() + std::ptrdiff_t(d.size() * std::size_t(part + 1) / 3)));
+            std::fprintf(stderr, "\n");
+        }
+        if (const char* dump = std::getenv("GLINT_ADJ_DUMP")) {  // EXPERIMENT
+            FILE* fp = std::fopen(dump, "w");
+            std::fprintf(fp, "si,sj,w,x,y,z,sigma_deg,maha\n");
+            for (const PairMeasurement& m : online_adjustment.measured_pairs()) {
+                const glm::dvec3 e = glm::conjugate(final_q[std::size_t(m.j)]) *
+                                     rotation_vector(final_q[std::size_t(m.i)] * glm::conjugate(m.relative) *
+                                                     glm::conjugate(final_q[std::size_t(m.j)]));
+                std::fprintf(fp, "%llu,%llu,%.12f,%.12f,%.12f,%.12f,%.5f,%.3f\n",
+                             (unsigned long long)used[std::size_t(m.i)].sequence,
+                             (unsigned long long)used[std::size_t(m.j)].sequence, m.relative.w, m.relative.x,
+                             m.relative.y, m.relative.z, m.sigma_deg, std::sqrt(glm::dot(e, m.information * e)));
+            }
+            std::fclose(fp);
+        }
         const AdjustmentResult& r = online_adjustment.result();
         summary.adjust_pairs_tried = online_adjustment.pairs_tried();
         summary.adjust_pairs = r.pairs_used;

@@ -74,6 +74,12 @@ struct AdjustmentSettings {
     double relative_sigma_deg_per_s = 0.3;    // ... growing with dt
     double relative_max_dt_s = 0.5;           // frames closer than this get the sensor's relative constraint
     int iterations = 4;
+    // Robust weight of a pair whose error is m of its own standard deviations (Mahalanobis):
+    // Huber, 1 up to pair_robust_k and k / m beyond; with pair_cauchy, 1 / (1 + (m / k)^2).
+    double pair_robust_k = 3;
+    bool pair_cauchy = false;
+    // Reweight from the first iteration (a warm start); otherwise the first takes every pair whole.
+    bool robust_from_start = false;
 };
 
 struct AdjustmentResult {
@@ -142,6 +148,8 @@ public:
     long long alignments() const { return alignments_; }  // align_pair calls so far
     const std::vector<glm::dquat>& orientations() const { return q_; }
     const AdjustmentResult& result() const { return result_; }
+    // The pairs measured (the ones the last alignment trusted).
+    std::vector<PairMeasurement> measured_pairs() const;
     // The largest starting change of a pair since it was last aligned, degrees.
     double largest_pair_change_deg() const;
 
