@@ -40,12 +40,22 @@ struct CaptureOptions {
     int adjustment_rounds = 4;
     // The adjustment while the scan runs (OnlineAdjustment): pairs aligned in the frame loop, and
     // again whenever the solution moved their start more than realign_deg, at most
-    // realign_per_frame per frame; after the last frame up to final_realign_passes passes of
-    // aligning again what moved, each followed by a solve.
+    // realign_per_frame per frame; after the last frame final_realign_passes more such steps
+    // (a solve, at most realign_per_frame pairs aligned again), then a solve.
     bool online_adjustment = true;
     int realign_per_frame = 24;
     double realign_deg = 0.01;
-    int final_realign_passes = 3;
+    int final_realign_passes = 1;
+    // The adjusted map kept during the scan (online adjustment only): frames older than the last
+    // map_tail_frames accumulated with the current solution, the map made again, at most
+    // map_rebuild_per_frame frames per frame, when the solution moved one of its frames more than
+    // map_rebuild_deg; after the last frame a rebuild with at most map_finish_max_frames left is
+    // finished, then the tail is added. Off: every frame accumulated again after the scan.
+    bool keep_map = true;
+    int map_tail_frames = 24;
+    double map_rebuild_deg = 0.05;
+    int map_rebuild_per_frame = 6;
+    int map_finish_max_frames = 24;
     // Per-frame log of the drift estimates (CSV: index,t_s,pixels,estimate_deg,sigma_deg,
     // residual_before,residual_after,applied,error_before_deg,error_after_deg; the errors against a
     // simulated session's truth, NaN otherwise); empty = none.
@@ -89,6 +99,12 @@ struct CaptureSummary {
     // frame (seconds), and the pair alignments it did in all.
     double online_seconds = 0, online_max_frame_seconds = 0;
     long long adjust_alignments = 0;
+    // The kept map: its work in the frame loop (summed, most in one frame), how often it was made
+    // again, how far its frames' orientations ended from the final solution (degrees), and the
+    // final solution's own error after 60 s (the map's is orientation_error_after_60s_max_deg).
+    double map_seconds = 0, map_max_frame_seconds = 0, map_deviation_deg = 0;
+    int map_rebuilds = 0;
+    std::optional<double> adjusted_after_60s_max_deg;
     // Drift correction (when on): frames it corrected, the median correction, and the median
     // RMS log-luminance residual against the sphere before and after it.
     // The guided-capture logic run over the session as if live (guided_capture.hpp): when it would
