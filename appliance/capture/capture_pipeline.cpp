@@ -114,16 +114,7 @@ GroundTruthError compare_with_truth(const HdrImage& got, const std::vector<std::
 
 CaptureSummary run_capture(const CaptureOptions& options, CameraSource& camera, const gl::GlContext* gpu,
                            const std::function<void(long long, long long)>& progress) {
-    CaptureOptions o = options;  // EXPERIMENT
-    if (const char* e = std::getenv("GLINT_ADJ_ONLINE")) o.online_adjustment = std::atoi(e) != 0;
-    if (const char* e = std::getenv("GLINT_ADJ_REALIGN_PER_FRAME")) o.realign_per_frame = std::atoi(e);
-    if (const char* e = std::getenv("GLINT_ADJ_REALIGN_DEG")) o.realign_deg = std::atof(e);
-    if (const char* e = std::getenv("GLINT_ADJ_FINAL_PASSES")) o.final_realign_passes = std::atoi(e);
-    if (const char* e = std::getenv("GLINT_ADJ_KEEP_MAP")) o.keep_map = std::atoi(e) != 0;
-    if (const char* e = std::getenv("GLINT_ADJ_TAIL")) o.map_tail_frames = std::atoi(e);
-    if (const char* e = std::getenv("GLINT_ADJ_REBUILD_DEG")) o.map_rebuild_deg = std::atof(e);
-    if (const char* e = std::getenv("GLINT_ADJ_REBUILD_K")) o.map_rebuild_per_frame = std::atoi(e);
-    if (const char* e = std::getenv("GLINT_ADJ_FINISH_MAX")) o.map_finish_max_frames = std::atoi(e);
+    const CaptureOptions& o = options;
     if (o.width < 8 || o.height < 4 || o.width > 16384 || o.height > 8192)
         throw InputError("--size must be between 8x4 and 16384x8192");
     if (o.min_samples < 1) throw InputError("--min-samples must be at least 1");
@@ -198,7 +189,6 @@ CaptureSummary run_capture(const CaptureOptions& options, CameraSource& camera, 
     // frame's pairs are aligned in the frame loop, and the frames are kept for the final map.
     OnlineAdjustment online_adjustment(threads);
     std::vector<CameraFrame> kept;
-    std::vector<std::vector<glm::dquat>> snapshots;  // EXPERIMENT
     // The adjusted map, kept during the scan: frames accumulated with the current solution once
     // they are older than the last map_tail_frames, and the whole map accumulated again (a few
     // frames per loop, map_rebuild_per_frame) whenever the solution has moved one of its frames
@@ -310,8 +300,6 @@ CaptureSummary run_capture(const CaptureOptions& options, CameraSource& camera, 
                                             *q);
                 online_adjustment.solve();
                 online_adjustment.realign(o.realign_per_frame, o.realign_deg);
-                if (std::getenv("GLINT_ADJ_SNAP") && online_adjustment.frames() % 30 == 0)  // EXPERIMENT
-                    snapshots.push_back(online_adjustment.orientations());
                 const auto t_map = std::chrono::steady_clock::now();
                 const double spent = std::chrono::duration<double>(t_map - t_online).count();
                 summary.online_seconds += spent;
@@ -372,33 +360,6 @@ CaptureSummary run_capture(const CaptureOptions& options, CameraSource& camera, 
             online_adjustment.solve();
         }
         final_q = online_adjustment.orientations();
-        for (const auto& snap : snapshots) {  // EXPERIMENT
-            std::vector<double> d;
-            for (std::size_t k = 0; k < snap.size(); ++k) d.push_back(angle_between(snap[k], final_q[k]) * 180 / kPi);
-            std::vector<double> sorted = d;
-            std::sort(sorted.begin(), sorted.end());
-            std::fprintf(stderr, "snapshot at %zu frames: deviation from final median %.3f max %.3f; by thirds max",
-                         snap.size(), sorted[sorted.size() / 2], sorted.back());
-            for (int part = 0; part < 3; ++part)
-                std::fprintf(stderr, " %.3f",
-                             *std::max_element(d.begin() + std::ptrdiff_t(d.size() * std::size_t(part) / 3),
-                                               d.begin() + std::ptrdiff_t(d.size() * std::size_t(part + 1) / 3)));
-            std::fprintf(stderr, "\n");
-        }
-        if (const char* dump = std::getenv("GLINT_ADJ_DUMP")) {  // EXPERIMENT
-            FILE* fp = std::fopen(dump, "w");
-            std::fprintf(fp, "si,sj,w,x,y,z,sigma_deg,maha\n");
-            for (const PairMeasurement& m : online_adjustment.measured_pairs()) {
-                const glm::dvec3 e = glm::conjugate(final_q[std::size_t(m.j)]) *
-                                     rotation_vector(final_q[std::size_t(m.i)] * glm::conjugate(m.relative) *
-                                                     glm::conjugate(final_q[std::size_t(m.j)]));
-                std::fprintf(fp, "%llu,%llu,%.12f,%.12f,%.12f,%.12f,%.5f,%.3f\n",
-                             (unsigned long long)used[std::size_t(m.i)].sequence,
-                             (unsigned long long)used[std::size_t(m.j)].sequence, m.relative.w, m.relative.x,
-                             m.relative.y, m.relative.z, m.sigma_deg, std::sqrt(glm::dot(e, m.information * e)));
-            }
-            std::fclose(fp);
-        }
         const AdjustmentResult& r = online_adjustment.result();
         summary.adjust_pairs_tried = online_adjustment.pairs_tried();
         summary.adjust_pairs = r.pairs_used;
@@ -416,10 +377,11 @@ CaptureSummary run_capture(const CaptureOptions& options, CameraSource& camera, 
             // A rebuild under way is finished when little of it is left; then the held-back tail
             // with the final solution. The map's orientations are what its frames were accumulated
             // with, a little off the final solution where it moved after they were.
-            if (rebuilding && rolling_q.size() >= rebuilding_q.size() + std::size_t(std::max(0, o.map_finish_max_frames)) ) {
+            if (rebuilding && (max_deviation_deg(rolling_q, final_q) <= o.map_accept_deg ||
+                               rolling_q.size() >= rebuilding_q.size() + std::size_t(std::max(0, o.map_finish_max_frames))))
                 rebuilding.reset();
-            }
             if (rebuilding) {
+                summary.map_final_frames += int(rolling_q.size() - rebuilding_q.size());
                 while (rebuilding_q.size() < rolling_q.size()) {
                     const std::size_t k = rebuilding_q.size();
                     rebuilding->add_frame(kept[k], cal, final_q[k]);
@@ -429,6 +391,7 @@ CaptureSummary run_capture(const CaptureOptions& options, CameraSource& camera, 
                 rolling_q = std::move(rebuilding_q);
             }
             summary.map_deviation_deg = max_deviation_deg(rolling_q, final_q);
+            summary.map_final_frames += int(kept.size() - rolling_q.size());
             while (rolling_q.size() < kept.size()) {
                 const std::size_t k = rolling_q.size();
                 rolling->add_frame(kept[k], cal, final_q[k]);
@@ -522,7 +485,9 @@ CaptureSummary run_capture(const CaptureOptions& options, CameraSource& camera, 
                summary.orientation_error_after_60s_max_deg);
     }
     const Engine& map_acc = adjusted ? *adjusted : acc;
+    const auto t_radiance = std::chrono::steady_clock::now();
     HdrImage env = map_acc.radiance();
+    summary.radiance_seconds = since(t_radiance);
     const std::vector<std::uint32_t> samples = map_acc.samples();
     summary.coverage = measure_coverage(samples, o.width, o.height, o.min_samples);
     const auto t_truth = std::chrono::steady_clock::now();
@@ -539,15 +504,16 @@ CaptureSummary run_capture(const CaptureOptions& options, CameraSource& camera, 
     if (std::getenv("GLINT_CAPTURE_PROFILE"))
         std::fprintf(stderr,
                      "profile: last frame -> map %.3f s (saved %.3f s): views %.3f, adjustment %.3f (%s), final "
-                     "accumulation %.3f; live drift %.3f s, accumulation %.3f s, online adjustment %.3f s (max %.3f s in a "
-                     "frame) and map kept %.3f s (max %.3f s), %d rebuilds, map off the final solution by %.3f deg, the "
-                     "solution's own error after 60 s %.3f deg\n",
+                     "accumulation %.3f (%d frames), radiance %.3f; over the scan: live drift %.3f s, accumulation "
+                     "%.3f s, online adjustment %.3f s (max %.3f s in a frame), map kept %.3f s (max %.3f s), %d "
+                     "rebuilds; map off the final solution by %.3f deg, the solution's own error after 60 s %.3f deg\n",
                      summary.last_frame_to_map_seconds, summary.last_frame_to_saved_seconds,
                      summary.adjust_views_seconds, summary.adjust_seconds - summary.adjust_views_seconds,
-                     summary.adjust_profile.c_str(), summary.final_accumulate_seconds, summary.drift_seconds,
-                     summary.accumulate_seconds, summary.online_seconds, summary.online_max_frame_seconds,
-                     summary.map_seconds, summary.map_max_frame_seconds, summary.map_rebuilds,
-                     summary.map_deviation_deg, summary.adjusted_after_60s_max_deg.value_or(-1));
+                     summary.adjust_profile.c_str(), summary.final_accumulate_seconds, summary.map_final_frames,
+                     summary.radiance_seconds, summary.drift_seconds, summary.accumulate_seconds,
+                     summary.online_seconds, summary.online_max_frame_seconds, summary.map_seconds,
+                     summary.map_max_frame_seconds, summary.map_rebuilds, summary.map_deviation_deg,
+                     summary.adjusted_after_60s_max_deg.value_or(-1));
     if (!o.drift_log.empty()) write_text_atomically(o.drift_log, drift_log);
     if (!o.orientations_out.empty()) {
         std::string csv = camera_poses_csv_header() + "\n";

@@ -49,13 +49,15 @@ struct CaptureOptions {
     // The adjusted map kept during the scan (online adjustment only): frames older than the last
     // map_tail_frames accumulated with the current solution, the map made again, at most
     // map_rebuild_per_frame frames per frame, when the solution moved one of its frames more than
-    // map_rebuild_deg; after the last frame a rebuild with at most map_finish_max_frames left is
-    // finished, then the tail is added. Off: every frame accumulated again after the scan.
+    // map_rebuild_deg; after the last frame a rebuild under way is finished only when the map is
+    // more than map_accept_deg off the final solution and fewer than map_finish_max_frames are
+    // left, then the tail is added. Off: every frame accumulated again after the scan.
     bool keep_map = true;
-    int map_tail_frames = 24;
+    int map_tail_frames = 12;
     double map_rebuild_deg = 0.05;
     int map_rebuild_per_frame = 6;
-    int map_finish_max_frames = 24;
+    double map_accept_deg = 0.1;
+    int map_finish_max_frames = 12;
     // Per-frame log of the drift estimates (CSV: index,t_s,pixels,estimate_deg,sigma_deg,
     // residual_before,residual_after,applied,error_before_deg,error_after_deg; the errors against a
     // simulated session's truth, NaN otherwise); empty = none.
@@ -103,7 +105,8 @@ struct CaptureSummary {
     // again, how far its frames' orientations ended from the final solution (degrees), and the
     // final solution's own error after 60 s (the map's is orientation_error_after_60s_max_deg).
     double map_seconds = 0, map_max_frame_seconds = 0, map_deviation_deg = 0;
-    int map_rebuilds = 0;
+    int map_rebuilds = 0, map_final_frames = 0;  // frames accumulated after the last frame
+    double radiance_seconds = 0;                 // merging the map's exposure bands at the end
     std::optional<double> adjusted_after_60s_max_deg;
     // Drift correction (when on): frames it corrected, the median correction, and the median
     // RMS log-luminance residual against the sphere before and after it.
