@@ -222,12 +222,13 @@ CaptureSummary run_capture(const CaptureOptions& options, CameraSource& camera, 
                 rolling_q = std::move(rebuilding_q);
                 rebuilding_q.clear();
             }
-        } else {
-            while (rolling_q.size() < settled) {
-                const std::size_t k = rolling_q.size();
-                rolling->add_frame(kept[k], cal, qs[k]);
-                rolling_q.push_back(qs[k]);
-            }
+        }
+        // The current map stays complete up to the settled frames while a rebuild runs, so that
+        // one unfinished at the end can be dropped.
+        while (rolling_q.size() < settled) {
+            const std::size_t k = rolling_q.size();
+            rolling->add_frame(kept[k], cal, qs[k]);
+            rolling_q.push_back(qs[k]);
         }
     };
     long long done = 0;
