@@ -23,6 +23,7 @@ packages=(
   libopencv-dev                        # capture: frames, calibration, features (appliance/capture)
   libcamera-dev                        # capture: the real camera source (appliance/capture)
   libglm-dev                           # the appliance's vectors, quaternions and matrices (appliance/core/rotation.hpp)
+  libeigen3-dev                        # capture: the global adjustment's sparse Cholesky (appliance/capture)
 )
 
 missing=()

@@ -35,8 +35,29 @@ struct CaptureOptions {
     double drift_gain = 0.1;       // low-pass gain of the drift correction (DriftSettings::gain)
     // The global adjustment after the scan (global_adjustment.hpp); only with drift correction on.
     bool global_adjustment = true;
-    // Rounds of pair alignment and solve, each from the last solution.
+    // Rounds of pair alignment and solve, each from the last solution (after the scan; only
+    // without online_adjustment).
     int adjustment_rounds = 4;
+    // The adjustment while the scan runs (OnlineAdjustment): pairs aligned in the frame loop, and
+    // again whenever the solution moved their start more than realign_deg, at most
+    // realign_per_frame per frame; after the last frame final_realign_passes more such steps
+    // (a solve, at most realign_per_frame pairs aligned again), then a solve.
+    bool online_adjustment = true;
+    int realign_per_frame = 24;
+    double realign_deg = 0.01;
+    int final_realign_passes = 1;
+    // The adjusted map kept during the scan (online adjustment only): frames older than the last
+    // map_tail_frames accumulated with the current solution, the map made again, at most
+    // map_rebuild_per_frame frames per frame, when the solution moved one of its frames more than
+    // map_rebuild_deg; after the last frame a rebuild under way is finished only when the map is
+    // more than map_accept_deg off the final solution and fewer than map_finish_max_frames are
+    // left, then the tail is added. Off: every frame accumulated again after the scan.
+    bool keep_map = true;
+    int map_tail_frames = 12;
+    double map_rebuild_deg = 0.05;
+    int map_rebuild_per_frame = 6;
+    double map_accept_deg = 0.1;
+    int map_finish_max_frames = 12;
     // Per-frame log of the drift estimates (CSV: index,t_s,pixels,estimate_deg,sigma_deg,
     // residual_before,residual_after,applied,error_before_deg,error_after_deg; the errors against a
     // simulated session's truth, NaN otherwise); empty = none.
@@ -70,6 +91,23 @@ struct CaptureSummary {
     // the solve, the drift rate found, wall time (alignment and solve, not the final map).
     int adjust_pairs_tried = 0, adjust_pairs = 0;
     double adjust_pair_rms_deg = 0, adjust_sensor_rms_deg = 0, adjust_drift_deg_per_min = 0, adjust_seconds = 0;
+    // Wall times after the last frame of the scan: the alignment views, the final accumulation,
+    // and from the last frame to the finished map (radiance merged and filled) and to it saved;
+    // adjust_profile: the adjustment's own breakdown (pair selection, alignment, solve).
+    double adjust_views_seconds = 0, final_accumulate_seconds = 0, last_frame_to_map_seconds = 0,
+           last_frame_to_saved_seconds = 0;
+    std::string adjust_profile;
+    // The online adjustment's work in the frame loop: summed over the scan and the most of one
+    // frame (seconds), and the pair alignments it did in all.
+    double online_seconds = 0, online_max_frame_seconds = 0;
+    long long adjust_alignments = 0;
+    // The kept map: its work in the frame loop (summed, most in one frame), how often it was made
+    // again, how far its frames' orientations ended from the final solution (degrees), and the
+    // final solution's own error after 60 s (the map's is orientation_error_after_60s_max_deg).
+    double map_seconds = 0, map_max_frame_seconds = 0, map_deviation_deg = 0;
+    int map_rebuilds = 0, map_final_frames = 0;  // frames accumulated after the last frame
+    double radiance_seconds = 0;                 // merging the map's exposure bands at the end
+    std::optional<double> adjusted_after_60s_max_deg;
     // Drift correction (when on): frames it corrected, the median correction, and the median
     // RMS log-luminance residual against the sphere before and after it.
     // The guided-capture logic run over the session as if live (guided_capture.hpp): when it would

@@ -12,8 +12,8 @@
 //     a degree, and a drift that grows linearly (a gyro bias residual), zero at the start of the
 //     capture by definition of the appliance's world frame.
 // Unknowns: each frame's world_from_camera and the drift rate b. Cost:
-//   sum over pairs  e_ij^T L_ij e_ij,     e_ij = log(R_i R_j^-1 M_ij^-1)   (M_ij measured)
-// + sum over close frames |log(R_i R_j^-1 (S_i S_j^-1)^-1)|^2 / sigma_rel(dt)^2
+//   sum over pairs  e_ij^T L_ij e_ij,     e_ij = log(R_i C_ij^-1 R_j^-1)   (C_ij = R_j^-1 R_i measured)
+// + sum over close frames |log(R_i (S_j^-1 S_i)^-1 R_j^-1)|^2 / sigma_rel(dt)^2
 // + sum over frames |log(R_f S_f^-1) - b t_f|^2 / sigma_sensor^2
 // Frame-to-mosaic alignment (drift_correction.hpp) cannot do this: the mosaic inherits the drift
 // of the frames that painted it, a warp the mosaic is consistent with.
@@ -21,6 +21,7 @@
 
 #include <functional>
 #include <optional>
+#include <string>
 #include <vector>
 
 #include "appliance/capture/camera_frame.hpp"
@@ -46,8 +47,11 @@ AlignmentView make_alignment_view(const CameraFrame& frame, const CameraCalibrat
 
 struct PairMeasurement {
     int i = 0, j = 0;                      // frame indices (i is the one aligned)
-    glm::dquat relative{1, 0, 0, 0};       // measured R_i R_j^-1 (world frame)
-    glm::dmat3 information{0};             // of the error log(R_i R_j^-1 M^-1), rad^-2 (symmetric)
+    // Measured R_j^-1 R_i: camera j from camera i. The images know only this; a world-frame
+    // R_i R_j^-1 would tie the pair to the absolute orientations it was measured at (for frames
+    // 30 degrees apart, a common 0.5 degree rotation changes it by 0.25 degrees).
+    glm::dquat relative{1, 0, 0, 0};
+    glm::dmat3 information{0};             // of the error, expressed in camera j's frame, rad^-2 (symmetric)
     double sigma_deg = 0;
     int points = 0;
 };
@@ -70,6 +74,12 @@ struct AdjustmentSettings {
     double relative_sigma_deg_per_s = 0.3;    // ... growing with dt
     double relative_max_dt_s = 0.5;           // frames closer than this get the sensor's relative constraint
     int iterations = 4;
+    // Robust weight of a pair whose error is m of its own standard deviations (Mahalanobis):
+    // Huber, 1 up to pair_robust_k and k / m beyond; with pair_cauchy, 1 / (1 + (m / k)^2).
+    double pair_robust_k = 3;
+    bool pair_cauchy = false;
+    // Reweight from the first iteration (a warm start); otherwise the first takes every pair whole.
+    bool robust_from_start = false;
 };
 
 struct AdjustmentResult {
@@ -86,15 +96,22 @@ AdjustmentResult adjust_orientations(const std::vector<double>& t_s, const std::
                                      const std::vector<glm::dquat>& initial, const std::vector<PairMeasurement>& pairs,
                                      const AdjustmentSettings& settings = {});
 
-// A whole scan: candidate pairs (for each frame that has enough valid samples, the two frames
-// before it within half the field of view, and up to four frames more than 3 s earlier, another
-// row or the sweep's start, nearest in direction), then `rounds` of aligning every candidate
+// Candidate pairs of a scan, from the frames' orientations: for each frame that has enough valid
+// samples, the two frames before it within half the field of view, and up to four frames more
+// than 3 s earlier (another row, or the sweep's start) nearest in direction. Causal: frame i's
+// pairs depend only on frames 0..i.
+std::vector<std::pair<int, int>> candidate_pairs_of_frame(const std::vector<AlignmentView>& views,
+                                                          const std::vector<double>& t_s,
+                                                          const std::vector<glm::dquat>& orientations, int i,
+                                                          const PairSettings& pair_settings = {});
+
+// A whole scan after the fact: the candidate pairs, then `rounds` of aligning every candidate
 // from the current orientations and solving. A pair's alignment keeps part of its starting error
-// along the directions the images pin down weakly, so each round starts from the last solution
-// (measured: sunset's error after 60 s 0.70 -> 0.52 -> 0.47 degrees over the first three).
+// along the directions the images pin down weakly, so each round starts from the last solution.
 struct ScanAdjustment {
     AdjustmentResult result;  // of the last round
     int pairs_tried = 0;      // candidate pairs
+    std::string profile;      // wall times: pair selection, then alignment and solve per round
 };
 
 ScanAdjustment adjust_scan(const std::vector<AlignmentView>& views, const std::vector<double>& t_s,
@@ -102,5 +119,58 @@ ScanAdjustment adjust_scan(const std::vector<AlignmentView>& views, const std::v
                            int threads,
                            const std::function<void()>& round_done = {}, const PairSettings& pair_settings = {},
                            const AdjustmentSettings& settings = {});
+
+// The same adjustment while the scan runs (docs/capture.md "Global adjustment"): each frame's
+// candidate pairs are aligned as it arrives, from the current solution; after each frame the
+// pose graph is solved again (warm, sparse) and the pairs whose starting relative rotation the
+// solution has moved most are aligned again, a few per frame. The rounds of adjust_scan become a
+// standing rule: a pair is aligned again whenever its start has moved more than a threshold
+// since it was last aligned. After the last frame only what moved since is left to do.
+class OnlineAdjustment {
+public:
+    explicit OnlineAdjustment(int threads, const PairSettings& pair_settings = {},
+                              const AdjustmentSettings& settings = {});
+
+    // The next frame, in time order: its view, seconds from the first frame, the sensor's
+    // world_from_camera and the live pass's. Its candidate pairs (chosen by the live
+    // orientations) are aligned from the current solution, the frame itself started from its
+    // live orientation carried by the last frame's correction.
+    void add_frame(AlignmentView view, double t_s, const glm::dquat& sensor, const glm::dquat& live);
+    // Aligns again, most moved first, up to max_pairs (all when negative) candidate pairs whose
+    // starting relative rotation moved more than min_change_deg since they were last aligned.
+    // Returns how many it aligned.
+    int realign(int max_pairs, double min_change_deg);
+    // Solves the pose graph from the current solution.
+    void solve();
+
+    int frames() const { return int(q_.size()); }
+    int pairs_tried() const { return int(pairs_.size()); }
+    long long alignments() const { return alignments_; }  // align_pair calls so far
+    const std::vector<glm::dquat>& orientations() const { return q_; }
+    const AdjustmentResult& result() const { return result_; }
+    // The pairs measured (the ones the last alignment trusted).
+    std::vector<PairMeasurement> measured_pairs() const;
+    // The largest starting change of a pair since it was last aligned, degrees.
+    double largest_pair_change_deg() const;
+
+private:
+    struct Pair {
+        int i = 0, j = 0;
+        glm::dquat start{1, 0, 0, 0};  // R_j^-1 R_i it was last aligned from
+        std::optional<PairMeasurement> measured;
+    };
+    void align(const std::vector<std::size_t>& which);
+    double change_deg(const Pair& p) const;
+
+    int threads_;
+    PairSettings pair_settings_;
+    AdjustmentSettings settings_;
+    std::vector<AlignmentView> views_;
+    std::vector<double> t_s_;
+    std::vector<glm::dquat> sensor_, live_, q_;
+    std::vector<Pair> pairs_;
+    AdjustmentResult result_;
+    long long alignments_ = 0;
+};
 
 }  // namespace glint::capture
