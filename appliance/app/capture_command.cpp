@@ -36,8 +36,9 @@ Command add_capture_command(CLI::App& app) {
     cmd->add_flag("--no-global-adjustment", a->no_adjust,
                   "Keep the live pass's orientations: no pose graph of frame pairs and the sensor after the scan");
     cmd->add_option("--adjustment-rounds", a->o.adjustment_rounds,
-                    "Rounds of the global adjustment: frame pairs aligned again from each solution, then solved")
-        ->capture_default_str();
+                    "Run the global adjustment after the scan instead of during it, in this many rounds (frame "
+                    "pairs aligned again from each solution, then solved): the mode before the adjustment ran "
+                    "with the scan, kept for comparison");
     cmd->add_option("--drift-log", a->o.drift_log,
                     "Write every frame's drift estimate (CSV: index, time, overlapping points, estimate and its "
                     "standard deviation in degrees, residual before and after, applied; on a simulated session also "
@@ -56,7 +57,7 @@ Command add_capture_command(CLI::App& app) {
     cmd->add_option("--threads", a->o.threads, "Threads; 0 = all cores")
         ->check(CLI::NonNegativeNumber)
         ->capture_default_str();
-    return {cmd, [a] {
+    return {cmd, [a, cmd] {
                 const convolution::Size s = parse_size(a->size, "--size");
                 a->o.width = s.width;
                 a->o.height = s.height;
@@ -66,6 +67,7 @@ Command add_capture_command(CLI::App& app) {
                                                                : capture::OrientationInput::Sensors;
                 a->o.drift_correction = !a->no_drift;
                 a->o.global_adjustment = !a->no_adjust;
+                a->o.online_adjustment = cmd->count("--adjustment-rounds") == 0;
                 // The session's frames come from a camera source made by the factory; the
                 // simulator's kind is registered here, where the binary's backends are chosen.
                 capture::CameraBackends backends = capture::capture_camera_backends();
@@ -97,10 +99,12 @@ Command add_capture_command(CLI::App& app) {
                                 r.drift_applied, r.drift_considered, r.drift_median_deg, r.drift_residual_before,
                                 r.drift_residual_after);
                 if (a->o.drift_correction && a->o.global_adjustment)
-                    std::printf("global adjustment: %d rounds, %d of %d frame pairs aligned in the last, pair error "
-                                "%.3f degrees RMS, sensor error %.3f degrees RMS, drift %.3f deg/min, %.1f s\n",
-                                a->o.adjustment_rounds, r.adjust_pairs, r.adjust_pairs_tried, r.adjust_pair_rms_deg,
-                                r.adjust_sensor_rms_deg, r.adjust_drift_deg_per_min, r.adjust_seconds);
+                    std::printf("global adjustment (%s): %d of %d frame pairs used, pair error %.3f degrees RMS, "
+                                "sensor error %.3f degrees RMS, drift %.3f deg/min, %.2f s after the last frame for it\n",
+                                a->o.online_adjustment ? "during the scan"
+                                                       : (std::to_string(a->o.adjustment_rounds) + " rounds after the scan").c_str(),
+                                r.adjust_pairs, r.adjust_pairs_tried, r.adjust_pair_rms_deg, r.adjust_sensor_rms_deg,
+                                r.adjust_drift_deg_per_min, r.adjust_seconds);
                 const glm::dvec3& g = r.coverage.largest_gap;
                 std::printf("%s: %d frames, coverage %.1f %% of the sphere, largest gap %.2f sr around "
                             "(%.3f, %.3f, %.3f), %lld texels filled\n",

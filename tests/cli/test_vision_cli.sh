@@ -114,7 +114,7 @@ awk -F, 'NR > 1 { n = $3*$3 + $4*$4 + $5*$5 + $6*$6; if (n < 0.999999 || n > 1.0
     fail "--orientations-out: a quaternion is not unit"
 head -1 "$work/drift.csv" | grep -q "^index,t_s,pixels,estimate_deg,sigma_deg" || fail "--drift-log header: $(head -1 "$work/drift.csv")"
 [[ $(($(wc -l <"$work/drift.csv") - 1)) -ge $((frames - 1)) ]] || fail "--drift-log: $(wc -l <"$work/drift.csv") lines for $frames frames"
-grep -q "^global adjustment: 2 rounds" "$work/stdout" || fail "--adjustment-rounds 2 not reported: $(grep 'global' "$work/stdout")"
+grep -q "^global adjustment (2 rounds after the scan)" "$work/stdout" || fail "--adjustment-rounds 2 not reported: $(grep 'global' "$work/stdout")"
 run capture --session "$work/scan" --out "$work/env2.exr" --size 128x64 --no-global-adjustment
 [[ $rc -eq 0 ]] || fail "capture --no-global-adjustment: exit $rc"
 ! grep -q "^global adjustment" "$work/stdout" || fail "--no-global-adjustment still adjusted"
