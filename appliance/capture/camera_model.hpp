@@ -75,6 +75,10 @@ struct Response {
 // clipping make the exposure unreliable; exactly 0 at 0 and 255.
 double code_weight(int z);
 
+// 20 microseconds: at the simulator's 6e5 electrons per unit radiance per second and a full well of
+// 6000, radiance 500 saturates at gain 1 in the centre of the image.
+inline constexpr double kDefaultMinExposureS = 20e-6;
+
 // Everything stored per camera (docs/capture.md "Calibration").
 struct CameraCalibration {
     Intrinsics intrinsics;
@@ -85,6 +89,12 @@ struct CameraCalibration {
     // Relative exposure per unit radiance per second at gain 1: divides it out, so maps come out
     // in radiance units. Photometric calibration is not built; 1 gives relative radiance.
     double sensitivity = 1;
+    // The sensor's shortest exposure time, seconds (docs/capture.md "Camera model"). A real rolling
+    // shutter has one of tens of microseconds; the sun clips even there. The simulator clamps to it;
+    // the accumulator knows that a region still clipped in a frame this short cannot be measured by
+    // a shorter one and estimates its energy instead (hdr_accumulator.hpp). Not stored by
+    // calibration_io yet: every calibration has this default.
+    double min_exposure_s = kDefaultMinExposureS;
 };
 
 }  // namespace glint::capture

@@ -54,7 +54,8 @@ CameraSimulator::CameraSimulator(HdrImage environment, capture::CameraCalibratio
 }
 
 void CameraSimulator::set_exposure(double exposure_s, double gain) {
-    exposure_s_ = exposure_s;
+    // The sensor cannot expose shorter than its shortest exposure time.
+    exposure_s_ = std::max(exposure_s, truth_.min_exposure_s);
     gain_ = gain;
 }
 
@@ -109,7 +110,7 @@ CameraFrame CameraSimulator::render(const glm::dquat& world_from_camera, std::in
         // Multiplicative correction in log space, only part of the way: the loop lags the scene.
         const double wanted = exposure_s_ * gain_ * ae_.target / std::max(mean, 1e-4);
         const double next = exposure_s_ * gain_ * std::pow(wanted / (exposure_s_ * gain_), ae_.rate);
-        exposure_s_ = std::clamp(next, ae_.min_exposure_s, ae_.max_exposure_s);
+        exposure_s_ = std::clamp(next, std::max(ae_.min_exposure_s, truth_.min_exposure_s), ae_.max_exposure_s);
         gain_ = std::clamp(next / exposure_s_, 1.0, ae_.max_gain);
     }
     return frame;
