@@ -215,6 +215,98 @@ int downstream(const std::string& truth_path, const std::string& captured_path) 
     return 0;
 }
 
+// Radial profile around each source: captured and true red per 0.25 degree bin, and the glare a
+// uniform disc of the source's size puts there (2 %, 1 degree Gaussian, flat approximation).
+int profile(const std::string& truth_path, const std::string& captured_path, const std::string& sources) {
+    const HdrImage truth = load_exr(truth_path).image, got = load_exr(captured_path).image;
+    const double sigma = 1.0 * kDeg, eta = 0.02;
+    for (const Source& s : read_sources(sources)) {
+        std::printf("source %.0e sr peak %.0e %s (radius %.2f deg)\n  d_deg   captured      truth   truth+glare\n", s.omega,
+                    s.peak, s.where.c_str(), s.radius / kDeg);
+        for (int b = 0; b < 32; ++b) {
+            const double d0 = b * 0.25 * kDeg, d1 = d0 + 0.25 * kDeg;
+            double a = 0, t = 0;
+            int n = 0;
+            for (int j = 0; j < got.height(); ++j)
+                for (int i = 0; i < got.width(); ++i) {
+                    const double d = std::acos(std::clamp(glm::dot(texel_direction(i, j, got.width(), got.height()), s.dir), -1.0, 1.0));
+                    if (d < d0 || d >= d1) continue;
+                    a += got.at(i, j).r;
+                    const Rgb tv = sample_bilinear(truth, texel_direction(i, j, got.width(), got.height()));
+                    t += tv.r;
+                    ++n;
+                }
+            if (!n) continue;
+            // glare of the disc at the bin's centre (midpoint quadrature over the disc)
+            const double dc = 0.5 * (d0 + d1);
+            double g = 0;
+            const int nr = 40, na = 80;
+            for (int p = 0; p < nr; ++p)
+                for (int q = 0; q < na; ++q) {
+                    const double r = s.radius * (p + 0.5) / nr, ph = kTwoPi * (q + 0.5) / na;
+                    const double dx = r * std::cos(ph) - dc, dy = r * std::sin(ph);
+                    g += r * std::exp(-(dx * dx + dy * dy) / (2 * sigma * sigma));
+                }
+            g *= (s.radius / nr) * (kTwoPi / na) / (kTwoPi * sigma * sigma);
+            std::printf("  %5.2f %10.4g %10.4g %10.4g\n", dc / kDeg, a / n, t / n, t / n + eta * s.peak * g);
+        }
+    }
+    return 0;
+}
+
+// Radial profile in the shortest frame that holds source number `which` whole: radiance per
+// 0.25 degree bin (clipped pixels left out) against the true map's plus the modelled glare.
+int frame_profile(const std::string& session_dir, const std::string& sources, int which) {
+    using namespace glint::capture;
+    const Session session = open_session(session_dir);
+    const std::vector<TruthPose> poses = load_truth_poses(session);
+    const CameraCalibration cal = session.calibration;
+    const Intrinsics& k = cal.intrinsics;
+    const HdrImage truth = load_exr(truth_env_path(session)).image;
+    const Source s = read_sources(sources).at(std::size_t(which));
+    std::size_t best = session.frames.size();
+    for (std::size_t f = 0; f < session.frames.size(); ++f) {
+        const glm::dvec3 c = glm::conjugate(poses[f].world_from_camera) * s.dir;
+        const auto px = project(k, c, 0.0);
+        if (!px || px->u < 40 || px->u > k.width - 41 || px->v < 40 || px->v > k.height - 41) continue;
+        if (best == session.frames.size() || session.frames[f].exposure_s < session.frames[best].exposure_s) best = f;
+    }
+    if (best == session.frames.size()) return 1;
+    const FrameRecord& rec = session.frames[best];
+    const CameraFrame frame = load_frame(session, rec);
+    const double t = rec.exposure_s * rec.analogue_gain * rec.digital_gain * cal.sensitivity;
+    std::printf("frame %zu exposure %.3g s\n", best, rec.exposure_s);
+    double a[40] = {}, tr[40] = {};
+    int n[40] = {}, nc[40] = {};
+    for (int v = 0; v < k.height; ++v)
+        for (int u = 0; u < k.width; ++u) {
+            const glm::dvec3 d = poses[best].world_from_camera * pixel_ray(k, u, v);
+            const int b = int(std::acos(std::clamp(glm::dot(d, s.dir), -1.0, 1.0)) / (0.25 * kDeg));
+            if (b >= 40) continue;
+            const std::uint8_t z = frame.rgb.ptr<std::uint8_t>(v)[3 * u];
+            if (z == 255) { ++nc[b]; continue; }
+            a[b] += cal.response.inverse[z] / cal.vignetting.at(k, u, v) / t;
+            tr[b] += sample_bilinear(truth, d).r;
+            ++n[b];
+        }
+    const double sigma = kDeg;
+    for (int b = 0; b < 40; ++b) {
+        const double dc = (b + 0.5) * 0.25 * kDeg;
+        double g = 0;
+        const int nr = 40, na = 80;
+        for (int p = 0; p < nr; ++p)
+            for (int q = 0; q < na; ++q) {
+                const double r = s.radius * (p + 0.5) / nr, ph = kTwoPi * (q + 0.5) / na;
+                const double dx = r * std::cos(ph) - dc, dy = r * std::sin(ph);
+                g += r * std::exp(-(dx * dx + dy * dy) / (2 * sigma * sigma));
+            }
+        g *= (s.radius / nr) * (kTwoPi / na) / (kTwoPi * sigma * sigma);
+        std::printf("  %5.2f clipped %4d  frame %10.4g  truth %10.4g  truth+glare %10.4g\n", dc / kDeg, nc[b],
+                    n[b] ? a[b] / n[b] : 0.0, n[b] ? tr[b] / n[b] : 0.0, (n[b] ? tr[b] / n[b] : 0.0) + 0.02 * s.peak * g);
+    }
+    return 0;
+}
+
 int frames(const std::string& session_dir, const std::string& sources) {
     using namespace glint::capture;
     const Session session = open_session(session_dir);
@@ -311,6 +403,8 @@ int main(int argc, char** argv) {
         if (a.size() == 2 && a[0] == "make") return make(a[1]);
         if (a.size() == 3 && a[0] == "frames") return frames(a[1], a[2]);
         if (a.size() == 4 && a[0] == "map") return map(a[1], a[2], a[3]);
+        if (a.size() == 4 && a[0] == "frameprofile") return frame_profile(a[1], a[2], std::stoi(a[3]));
+        if (a.size() == 4 && a[0] == "profile") return profile(a[1], a[2], a[3]);
         if (a.size() == 3 && a[0] == "downstream") return downstream(a[1], a[2]);
         std::fprintf(stderr, "usage: glint_bench_bright_sources make OUTDIR | frames SESSION SOURCES | map TRUTH CAPTURED SOURCES\n");
         return 2;

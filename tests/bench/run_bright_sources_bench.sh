@@ -17,7 +17,7 @@ NAMES=${*:-"dim_1e+02 dim_1e+03 dim_1e+04 dim_1e+05 dim_1e+06 bright_1e+02 brigh
 for n in $NAMES; do
   case $n in *.exr) env=$n; n=$(basename "$n" .exr); src= ;; *) env=$W/maps/$n.exr; src=$W/maps/$n.sources ;; esac
   echo "== $n"
-  $G simulate --env "$env" --trajectory guided --hdr-bracket --heading-drift 1 --guided-speed 35 --fps 3 \
+  [ -n "$SKIPSIM" ] || $G simulate --env "$env" --trajectory guided --hdr-bracket --heading-drift 1 --guided-speed 35 --fps 3 \
      --out "$W/s_$n" --force --threads 2 ${SIMFLAGS} | tail -1
   $G capture --session "$W/s_$n" --out "$W/c_$n.exr" --size 1024x512 --orientations truth --no-drift-correction \
      --no-global-adjustment --threads 2 ${CAPFLAGS} | grep -v '^camera orientation\|^coverage map\|^guided'
