@@ -117,12 +117,46 @@ void HdrAccumulator::texel_box(std::vector<float>& planes, int pw, int ph, doubl
     std::vector<double> wk(std::size_t(2 * r + 1));
     for (int q = -r; q <= r; ++q)
         wk[std::size_t(q + r)] = std::max(0.0, std::min(q + 0.5, b / 2) - std::max(q - 0.5, -b / 2)) / b;
-    std::vector<float> tmp(planes.size());
+    // Only round compact bright features, where point reads alias energy: cells 8 times brighter
+    // (brightest channel) than the dimmest of their 3x3 neighbours, or clipped, and every cell
+    // within R + 1 of one. Elsewhere the frame keeps its detail: boxing the whole frame cost drift
+    // correction a third of its corrected frames on studio (100 -> 63 of 154).
+    const auto xmax = [&](int u, int v) {
+        const float* c = planes.data() + (std::size_t(v) * std::size_t(pw) + std::size_t(u)) * kPlaneFloats;
+        return c[6] > 0 ? 1e30 : std::max({double(c[0]), double(c[1]), double(c[2])});
+    };
+    std::vector<std::uint8_t> hot(std::size_t(pw) * std::size_t(ph), 0);
+    bool any = false;
+    for (int v = 0; v < ph; ++v)
+        for (int u = 0; u < pw; ++u) {
+            double lo = 1e30;
+            for (int dv = -1; dv <= 1; ++dv)
+                for (int du = -1; du <= 1; ++du)
+                    lo = std::min(lo, xmax(std::clamp(u + du, 0, pw - 1), std::clamp(v + dv, 0, ph - 1)));
+            if (xmax(u, v) > 8 * lo + 1e-6) {
+                hot[std::size_t(v) * std::size_t(pw) + std::size_t(u)] = 1;
+                any = true;
+            }
+        }
+    if (!any) return;
+    std::vector<std::uint8_t> zone(hot.size(), 0);
+    const int reach = r + 1;
+    for (int v = 0; v < ph; ++v)
+        for (int u = 0; u < pw; ++u) {
+            if (!hot[std::size_t(v) * std::size_t(pw) + std::size_t(u)]) continue;
+            for (int dv = -reach; dv <= reach; ++dv)
+                for (int du = -reach; du <= reach; ++du) {
+                    const int uu = u + du, vv = v + dv;
+                    if (uu >= 0 && uu < pw && vv >= 0 && vv < ph) zone[std::size_t(vv) * std::size_t(pw) + std::size_t(uu)] = 1;
+                }
+        }
+    std::vector<float> tmp(planes);
     for (int pass = 0; pass < 2; ++pass) {
         const std::vector<float>& in = pass == 0 ? planes : tmp;
         std::vector<float>& out = pass == 0 ? tmp : planes;
         for (int v = 0; v < ph; ++v)
             for (int u = 0; u < pw; ++u) {
+                if (!zone[std::size_t(v) * std::size_t(pw) + std::size_t(u)]) continue;
                 double acc[6] = {0, 0, 0, 0, 0, 0}, wsum = 0;
                 float invalid = 0;
                 for (int q = -r; q <= r; ++q) {
