@@ -75,6 +75,13 @@ struct Response {
 // clipping make the exposure unreliable; exactly 0 at 0 and 255.
 double code_weight(int z);
 
+// 20 microseconds: at the simulator's 6e5 electrons per unit radiance per second and a full well of
+// 6000, radiance 500 saturates at gain 1 in the centre of the image.
+inline constexpr double kDefaultMinExposureS = 20e-6;
+// 2 % of the light in a Gaussian halo of 1 degree.
+inline constexpr double kDefaultGlareFraction = 0.02;
+inline constexpr double kDefaultGlareSigmaRad = 0.017453292519943295;
+
 // Everything stored per camera (docs/capture.md "Calibration").
 struct CameraCalibration {
     Intrinsics intrinsics;
@@ -85,6 +92,19 @@ struct CameraCalibration {
     // Relative exposure per unit radiance per second at gain 1: divides it out, so maps come out
     // in radiance units. Photometric calibration is not built; 1 gives relative radiance.
     double sensitivity = 1;
+    // The sensor's shortest exposure time, seconds (docs/capture.md "Camera model"). A real rolling
+    // shutter has one of tens of microseconds; the sun clips even there. The simulator clamps to it;
+    // the accumulator knows that a region still clipped in a frame this short cannot be measured by
+    // a shorter one and estimates its energy instead (hdr_accumulator.hpp). Not stored by
+    // calibration_io yet: every calibration has this default.
+    double min_exposure_s = kDefaultMinExposureS;
+    // The lens's point spread beyond the pixel: a share `glare_fraction` of the light reaching a
+    // pixel is spread as a Gaussian of `glare_sigma_rad` (veiling glare), the rest stays. What
+    // makes a source still clipped at the shortest exposure measurable: its halo, unclipped, is
+    // proportional to its energy (hdr_accumulator.hpp "Estimated sources"). Not stored by
+    // calibration_io yet: every calibration has these defaults, which are the simulator's.
+    double glare_fraction = kDefaultGlareFraction;
+    double glare_sigma_rad = kDefaultGlareSigmaRad;
 };
 
 }  // namespace glint::capture

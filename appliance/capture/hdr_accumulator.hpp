@@ -41,6 +41,17 @@ struct AccumulationSettings {
     double min_weight = 0.02;     // a frame counts as a sample of a texel when its W reaches this
 };
 
+// A source still clipped in a frame at the sensor's shortest exposure: its energy cannot be
+// measured, so it is estimated from its glare halo in the map (see "Estimated sources" below).
+struct EstimatedSource {
+    glm::dvec3 direction{0, 0, -1};  // centroid of the clipped region
+    double clipped_solid_angle = 0;  // sr, the region filled with the estimate
+    double source_radius_rad = 0;    // the fitted disc
+    Rgb energy;                      // estimated sum L dOmega of the source (radiance x sr)
+    Rgb lower_bound;                 // the clip level over the disc the region holds: what is certain
+    bool fitted = false;             // false: the halo did not say more than the lower bound
+};
+
 struct FrameContribution {
     long long texels_in_view = 0;  // texels whose centre projects into the frame
     long long texels_sampled = 0;  // ... with a usable weight (counted as samples)
@@ -84,9 +95,27 @@ public:
     static double grid_coordinate(double pixel, int s) { return (pixel - 0.5 * (s - 1)) / s; }
     // The factor s for a camera and a map width.
     static int auto_downscale(const Intrinsics& k, int map_width);
+    // After the integer box of s: the rest of a texel's footprint, a box of fractional width
+    // (a texel's height in cells at the image centre, 1.6 at 320 pixels over 70 degrees and
+    // 1024x512), so that a texel averages the frame over its footprint instead of reading it at
+    // one point. Without it a source smaller than a pixel kept 61-144 % of its energy depending
+    // on where it fell between texel centres (docs/capture.md "Accumulation"). CPU path only:
+    // gpu_accumulator.cpp does not apply it yet.
+    static double texel_box_width(const Intrinsics& k, int map_width, int s);
+    static void texel_box(std::vector<float>& planes, int width, int height, double cells);
 
     // Exposure bands that hold frames, shortest first.
     int bands() const { return int(bands_.size()); }
+
+    // Estimated sources (docs/capture.md "Estimated sources"). A texel read clipped in a frame at
+    // the calibration's shortest exposure (exposure x gain <= min_exposure_s) counts as a sample:
+    // no exposure can measure it. radiance() fills each connected region of such texels with an
+    // estimate: the source as a uniform disc whose glare halo (glare_fraction, glare_sigma_rad of
+    // the calibration) is fitted to the map around the region, the halo then taken out of the map
+    // and the disc's energy put into the region. The sources of the last radiance() call:
+    const std::vector<EstimatedSource>& estimated_sources() const { return estimated_; }
+    // Texels clipped at the shortest exposure (row-major, 0/1).
+    const std::vector<std::uint8_t>& clipped_at_shortest() const { return clipped_short_; }
 
 private:
     struct Band {
@@ -109,6 +138,12 @@ private:
     std::vector<std::uint32_t> samples_;
     std::vector<float> weight_sum_;
     int frames_ = 0;
+    std::vector<std::uint8_t> clipped_short_;
+    double clip_radiance_ = 0;  // radiance that clips at the shortest exposure (centre of the image)
+    double glare_fraction_ = 0, glare_sigma_rad_ = 0, pixel_rad_ = 0;
+    bool box_spreads_ = false;  // the texel box spreads a clipped cell to its neighbours
+    mutable std::vector<EstimatedSource> estimated_;
+    void estimate_clipped_sources(HdrImage& image) const;
 };
 
 }  // namespace glint::capture

@@ -4,6 +4,8 @@
 #include <cmath>
 #include <cstdio>
 
+#include <opencv2/imgproc.hpp>
+
 #include "appliance/core/equirect.hpp"
 #include "appliance/core/errors.hpp"
 #include "appliance/core/parallel.hpp"
@@ -38,6 +40,22 @@ CameraSimulator::CameraSimulator(HdrImage environment, capture::CameraCalibratio
                         capture::pixel_ray(k, u - 0.25 + 0.5 * sx, v - 0.25 + 0.5 * sy);
             vignette_[i] = truth_.vignetting.at(k, u, v);
         }
+    // The glare's width in pixels at each pixel (glare_sigma_rad over the pixel's angular size),
+    // as a mix of the narrowest and the widest.
+    std::vector<double> px_sigma(std::size_t(k.width) * std::size_t(k.height));
+    for (int v = 0; v < k.height; ++v)
+        for (int u = 0; u < k.width; ++u) {
+            const glm::dvec3 a = capture::pixel_ray(k, u + 0.5, v) - capture::pixel_ray(k, u - 0.5, v);
+            const glm::dvec3 b = capture::pixel_ray(k, u, v + 0.5) - capture::pixel_ray(k, u, v - 0.5);
+            px_sigma[std::size_t(v) * std::size_t(k.width) + std::size_t(u)] =
+                truth_.glare_sigma_rad / std::sqrt(glm::length(glm::cross(a, b)));
+        }
+    glare_px_min_ = *std::min_element(px_sigma.begin(), px_sigma.end());
+    glare_px_max_ = *std::max_element(px_sigma.begin(), px_sigma.end());
+    glare_mix_.resize(px_sigma.size());
+    for (std::size_t i = 0; i < px_sigma.size(); ++i)
+        glare_mix_[i] = glare_px_max_ > glare_px_min_ * 1.001
+                            ? (px_sigma[i] - glare_px_min_) / (glare_px_max_ - glare_px_min_) : 0.0;
     exposure_s_ = std::clamp(exposure_s_, ae_.min_exposure_s, ae_.max_exposure_s);
     run_exposure_s_ = exposure_s_;
     run_gain_ = gain_;
@@ -54,7 +72,8 @@ CameraSimulator::CameraSimulator(HdrImage environment, capture::CameraCalibratio
 }
 
 void CameraSimulator::set_exposure(double exposure_s, double gain) {
-    exposure_s_ = exposure_s;
+    // The sensor cannot expose shorter than its shortest exposure time.
+    exposure_s_ = std::max(exposure_s, truth_.min_exposure_s);
     gain_ = gain;
 }
 
@@ -74,12 +93,11 @@ CameraFrame CameraSimulator::render(const glm::dquat& world_from_camera, std::in
     const double e_scale = exposure_s_ * sensor_.electrons_per_radiance_second;  // electrons per radiance
     const double to_relative = gain_ / sensor_.full_well_electrons;
     std::vector<double> row_sums(std::size_t(k.height), 0.0);
+    // The light reaching each pixel (radiance x vignetting), then the lens's glare: a share of it
+    // spread as a Gaussian (camera_model.hpp; reflected at the image's edges).
+    cv::Mat light(k.height, k.width, CV_64FC3);
     parallel_for(k.height, threads, [&](int v) {
-        // One generator per (frame, row): the same frame whatever the thread count.
-        std::mt19937_64 rng(seed_ * 0x9E3779B97F4A7C15ULL + frames_ * 100003ULL + std::uint64_t(v));
-        std::normal_distribution<double> normal(0.0, 1.0);
-        std::uint8_t* out = frame.rgb.ptr<std::uint8_t>(v);
-        double sum = 0;
+        double* out = light.ptr<double>(v);
         for (int u = 0; u < k.width; ++u) {
             const std::size_t i = std::size_t(v) * std::size_t(k.width) + std::size_t(u);
             double radiance[3] = {0, 0, 0};
@@ -89,8 +107,39 @@ CameraFrame CameraSimulator::render(const glm::dquat& world_from_camera, std::in
                 radiance[1] += l.g / double(kSubsamples);
                 radiance[2] += l.b / double(kSubsamples);
             }
+            for (int c = 0; c < 3; ++c) out[3 * u + c] = radiance[c] * vignette_[i];
+        }
+    });
+    if (truth_.glare_fraction > 0) {
+        // The glare's width is an angle: a pixel off the axis spans less of it (cos^2 of the
+        // off-axis angle for a pinhole), so its width in pixels grows there. Two blurs, at the
+        // narrowest and the widest width in pixels, blended per pixel by its own width.
+        cv::Mat narrow, wide;
+        cv::GaussianBlur(light, narrow, cv::Size(0, 0), glare_px_min_, glare_px_min_, cv::BORDER_REFLECT);
+        if (glare_px_max_ > glare_px_min_ * 1.001)
+            cv::GaussianBlur(light, wide, cv::Size(0, 0), glare_px_max_, glare_px_max_, cv::BORDER_REFLECT);
+        const double eta = truth_.glare_fraction;
+        for (int v = 0; v < k.height; ++v) {
+            double* l = light.ptr<double>(v);
+            const double* a = narrow.ptr<double>(v);
+            const double* b = wide.empty() ? a : wide.ptr<double>(v);
+            for (int u = 0; u < k.width; ++u) {
+                const double m = glare_mix_[std::size_t(v) * std::size_t(k.width) + std::size_t(u)];
+                for (int c = 0; c < 3; ++c)
+                    l[3 * u + c] = (1 - eta) * l[3 * u + c] + eta * ((1 - m) * a[3 * u + c] + m * b[3 * u + c]);
+            }
+        }
+    }
+    parallel_for(k.height, threads, [&](int v) {
+        // One generator per (frame, row): the same frame whatever the thread count.
+        std::mt19937_64 rng(seed_ * 0x9E3779B97F4A7C15ULL + frames_ * 100003ULL + std::uint64_t(v));
+        std::normal_distribution<double> normal(0.0, 1.0);
+        std::uint8_t* out = frame.rgb.ptr<std::uint8_t>(v);
+        const double* in = light.ptr<double>(v);
+        double sum = 0;
+        for (int u = 0; u < k.width; ++u) {
             for (int c = 0; c < 3; ++c) {
-                double electrons = radiance[c] * vignette_[i] * e_scale;
+                double electrons = in[3 * u + c] * e_scale;
                 if (sensor_.noise) electrons = std::max(0.0, electrons + std::sqrt(electrons) * normal(rng));
                 double x = electrons * to_relative;
                 if (sensor_.noise) x += sensor_.read_noise * normal(rng);
@@ -109,7 +158,7 @@ CameraFrame CameraSimulator::render(const glm::dquat& world_from_camera, std::in
         // Multiplicative correction in log space, only part of the way: the loop lags the scene.
         const double wanted = exposure_s_ * gain_ * ae_.target / std::max(mean, 1e-4);
         const double next = exposure_s_ * gain_ * std::pow(wanted / (exposure_s_ * gain_), ae_.rate);
-        exposure_s_ = std::clamp(next, ae_.min_exposure_s, ae_.max_exposure_s);
+        exposure_s_ = std::clamp(next, std::max(ae_.min_exposure_s, truth_.min_exposure_s), ae_.max_exposure_s);
         gain_ = std::clamp(next / exposure_s_, 1.0, ae_.max_gain);
     }
     return frame;

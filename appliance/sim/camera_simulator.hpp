@@ -90,6 +90,8 @@ private:
     double gain_ = 1;
     std::vector<glm::dvec3> rays_;  // camera-frame ray per pixel (row-major)
     std::vector<double> vignette_;  // V per pixel
+    double glare_px_min_ = 0, glare_px_max_ = 0;  // the glare's width in pixels, narrowest and widest
+    std::vector<double> glare_mix_;                // per pixel: 0 narrowest .. 1 widest
     // The CameraSource face.
     CameraRun run_;
     host::Clock* clock_ = nullptr;  // set whenever run_ has frames

@@ -223,19 +223,22 @@ SimulateSummary write_session(const SimulateOptions& o, const HdrImage& env, con
                                   std::int64_t(std::llround(o.time_offset_s * 1e9));
         const CameraFrame f = cam.render(q, t_ns, threads);
         emit(f, q, t_ns);
-        if (o.hdr_bracket && clipped_share(f) > 0.02) {
+        if (o.hdr_bracket && clipped_share(f) > 0) {
             // What the kiosk's capture does when the guided logic says "too bright": frames at
-            // 1/64, 1/4096, ... of the exposure, 2 ms apart, until no pixel clips (at most four),
-            // then back to auto-exposure.
+            // 1/64, 1/4096, ... of the exposure x gain (at gain 1), 2 ms apart, until no pixel clips
+            // (at most four) or the sensor's shortest exposure is reached, then back to
+            // auto-exposure. Any clipped pixel starts it: a source of 1e-4 sr is 7 pixels of 57600,
+            // and a share threshold (2 % until 2026-12-02) never bracketed it.
             const double e = cam.exposure_s(), g = cam.gain();
             for (int b = 1; b <= 4; ++b) {
                 const std::uint64_t tb = tc + std::uint64_t(b) * 2000;
                 const glm::dquat qb = world_from_camera_at(camera, tb);
                 const std::int64_t tb_ns = t_ns + std::int64_t(b) * 2'000'000;
-                cam.set_exposure(f.exposure_s * std::pow(64.0, -b), f.analogue_gain);
+                const double want = f.exposure_s * f.analogue_gain * std::pow(64.0, -b);
+                cam.set_exposure(want, 1.0);  // clamped to the shortest exposure
                 const CameraFrame fb = cam.render(qb, tb_ns, threads);
                 emit(fb, qb, tb_ns);
-                if (clipped_share(fb) == 0) break;
+                if (clipped_share(fb) == 0 || fb.exposure_s <= truth.min_exposure_s) break;
             }
             cam.set_exposure(e, g);
         }

@@ -1,0 +1,415 @@
+// Small, very bright sources through simulate + capture: where does their energy go?
+//
+//   glint_bench_bright_sources make OUTDIR
+//       writes the stress maps OUTDIR/<name>.exr (2048x1024) and OUTDIR/<name>.sources: a dim and a
+//       bright room, each with eight sources (1e-5 to 1e-2 sr) of one peak (1e2 to 1e6) at the north
+//       pole, near the south pole (as far down as the guided scan sees), on the seam and in the open.
+//   glint_bench_bright_sources frames SESSION SOURCES
+//       per source, the energy each frame holds (its pixels linearised, divided by t x sensitivity,
+//       times each pixel's solid angle, over the source region) against the truth's; clipped pixels
+//       and the shortest exposure that sees it. Stage (a) and (b) of the loss.
+//   glint_bench_bright_sources map TRUTH.exr CAPTURED.exr SOURCES
+//       per source, captured energy against the truth's over the source region plus a margin, and
+//       the peak; stage (c) + (d) once (a) and (b) are known.
+//
+// The energy of a region is sum L dOmega over the texels (or pixels) whose centre lies within
+// radius + margin of the source's centre, red channel (the sources are white; the rooms are not).
+// Run by tests/bench/run_bright_sources_bench.sh.
+#include <cmath>
+#include <cstdio>
+#include <fstream>
+#include <random>
+#include <sstream>
+#include <string>
+#include <vector>
+
+#include "appliance/capture/session.hpp"
+#include "appliance/convolution/convolution.hpp"
+#include "appliance/core/error_metrics.hpp"
+#include "appliance/core/equirect.hpp"
+#include "appliance/core/exr_io.hpp"
+
+using namespace glint;
+
+namespace {
+
+constexpr double kDeg = kPi / 180.0;
+constexpr double kMargin = 1.5 * kDeg;  // around a source: the captured map's blur
+
+struct Source {
+    glm::dvec3 dir;
+    double radius = 0;  // rad (a disc of solid angle omega)
+    double omega = 0;   // sr
+    double peak = 0;
+    std::string where;
+};
+
+glm::dvec3 look_dir(double az_deg, double el_deg) {
+    // The simulator's camera_look convention: yaw about +Y from -Z, pitch up.
+    const double a = az_deg * kDeg, e = el_deg * kDeg;
+    return glm::normalize(glm::dvec3(-std::sin(a) * std::cos(e), std::sin(e), -std::cos(a) * std::cos(e)));
+}
+
+double disc_radius(double omega) { return std::acos(1 - omega / kTwoPi); }
+
+HdrImage make_room(bool bright, int w, int h) {
+    HdrImage m(w, h);
+    std::mt19937 rng(bright ? 7 : 3);
+    std::uniform_real_distribution<double> u(0, 1);
+    const double scale = bright ? 3.0 : 0.08;
+    for (int j = 0; j < h; ++j)
+        for (int i = 0; i < w; ++i) {
+            const glm::dvec3 d = texel_direction(i, j, w, h);
+            double v = scale * (0.6 + 0.5 * d.y + 0.25 * std::sin(3 * column_phi(i, w)) * std::cos(2 * row_theta(j, h)));
+            // Window-like panels: a few brighter rectangles, sharp edges.
+            if (std::fmod(column_phi(i, w) + 10, 1.3) < 0.35 && std::abs(d.y - 0.1) < 0.25) v *= 3;
+            m.set(i, j, {float(v), float(0.85 * v), float(0.7 * v)});
+        }
+    return m;
+}
+
+// Adds a disc of solid angle omega and radiance peak (white), with exact area coverage per texel
+// (8x8 sub-samples), so the map's sum L dOmega is the source's energy plus the room it covers.
+void add_source(HdrImage& m, const Source& s) {
+    const int w = m.width(), h = m.height();
+    const double cos_r = std::cos(s.radius);
+    const double reach = s.radius + 3.0 * kPi / h;
+    for (int j = 0; j < h; ++j) {
+        const double theta = row_theta(j, h);
+        const double theta_c = std::acos(std::clamp(s.dir.y, -1.0, 1.0));
+        if (std::abs(theta - theta_c) > reach + kPi / h) continue;
+        for (int i = 0; i < w; ++i) {
+            const glm::dvec3 d = texel_direction(i, j, w, h);
+            if (glm::dot(d, s.dir) < std::cos(std::min(kPi, reach + 2 * kTwoPi / w / std::max(0.05, std::sin(theta)))))
+                continue;
+            int in = 0;
+            for (int b = 0; b < 8; ++b)
+                for (int a = 0; a < 8; ++a) {
+                    const double th = kPi * (j + (b + 0.5) / 8) / h;
+                    const double ph = kTwoPi * (i + (a + 0.5) / 8) / w - kPi;
+                    in += glm::dot(direction_from_angles(th, ph), s.dir) >= cos_r;
+                }
+            if (in == 0) continue;
+            // Area within the row is not uniform in theta; 8 rows of sub-samples weighted by sin.
+            double cover = 0, total = 0;
+            for (int b = 0; b < 8; ++b) {
+                const double th = kPi * (j + (b + 0.5) / 8) / h;
+                int n = 0;
+                for (int a = 0; a < 8; ++a) {
+                    const double ph = kTwoPi * (i + (a + 0.5) / 8) / w - kPi;
+                    n += glm::dot(direction_from_angles(th, ph), s.dir) >= cos_r;
+                }
+                cover += std::sin(th) * n;
+                total += std::sin(th) * 8;
+            }
+            const double f = cover / total;
+            Rgb c = m.at(i, j);
+            c.r = float(c.r * (1 - f) + s.peak * f);
+            c.g = float(c.g * (1 - f) + s.peak * f);
+            c.b = float(c.b * (1 - f) + s.peak * f);
+            m.set(i, j, c);
+        }
+    }
+}
+
+std::vector<Source> read_sources(const std::string& path) {
+    std::ifstream in(path);
+    if (!in) throw std::runtime_error(path + ": cannot read");
+    std::vector<Source> out;
+    Source s;
+    while (in >> s.dir.x >> s.dir.y >> s.dir.z >> s.radius >> s.omega >> s.peak >> s.where) out.push_back(s);
+    return out;
+}
+
+// Red energy of the map over the source's region.
+double region_energy(const HdrImage& m, const Source& s, double* peak = nullptr) {
+    const int w = m.width(), h = m.height();
+    const double c = std::cos(s.radius + kMargin);
+    const std::vector<double> dw = row_solid_angles(w, h);
+    double e = 0, p = 0;
+    for (int j = 0; j < h; ++j)
+        for (int i = 0; i < w; ++i) {
+            if (glm::dot(texel_direction(i, j, w, h), s.dir) < c) continue;
+            const double r = m.at(i, j).r;
+            e += r * dw[std::size_t(j)];
+            p = std::max(p, r);
+        }
+    if (peak) *peak = p;
+    return e;
+}
+
+int make(const std::string& dir) {
+    const double omegas[] = {1e-5, 1e-4, 1e-3, 1e-2};
+    const double peaks[] = {1e2, 1e3, 1e4, 1e5, 1e6};
+    struct Place {
+        double az, el;
+        const char* where;
+    } places[] = {{0, 90, "pole-N"},   {100, -72, "pole-S"},  {180, 20, "seam"},   {180, -40, "seam"},
+                  {45, 10, "open"},    {-90, 35, "open"},     {135, -15, "open"},  {-30, -50, "open"}};
+    for (int room = 0; room < 2; ++room)
+        for (int p = 0; p < 5; ++p) {
+            HdrImage m = make_room(room == 1, 2048, 1024);
+            char name[64];
+            std::snprintf(name, sizeof name, "%s_%.0e", room ? "bright" : "dim", peaks[p]);
+            std::ofstream list(dir + "/" + name + ".sources");
+            for (int k = 0; k < 8; ++k) {
+                Source s;
+                s.dir = look_dir(places[k].az, places[k].el);
+                s.omega = omegas[(k + p) % 4];
+                s.radius = disc_radius(s.omega);
+                s.peak = peaks[p];
+                s.where = places[k].where;
+                add_source(m, s);
+                char line[256];
+                std::snprintf(line, sizeof line, "%.9f %.9f %.9f %.9e %.9e %.9e %s\n", s.dir.x, s.dir.y, s.dir.z,
+                              s.radius, s.omega, s.peak, s.where.c_str());
+                list << line;
+            }
+            save_exr(dir + "/" + name + ".exr", m);
+            std::printf("%s\n", name);
+        }
+    return 0;
+}
+
+int map(const std::string& truth_path, const std::string& captured_path, const std::string& sources) {
+    const HdrImage truth = load_exr(truth_path).image, got = load_exr(captured_path).image;
+    std::printf("%-8s %-7s %-8s %12s %12s %8s %12s %12s\n", "omega", "peak", "where", "E_true", "E_captured",
+                "error%", "peak_true", "peak_capt");
+    for (const Source& s : read_sources(sources)) {
+        double pt = 0, pg = 0;
+        const double et = region_energy(truth, s, &pt), eg = region_energy(got, s, &pg);
+        std::printf("%-8.0e %-7.0e %-8s %12.5g %12.5g %+8.2f %12.5g %12.5g\n", s.omega, s.peak, s.where.c_str(), et, eg,
+                    100 * (eg / et - 1), pt, pg);
+    }
+    return 0;
+}
+
+// Irradiance (128x64) and n = 160 (256x128) of a map, by the auto engine (as bench_capture.cpp).
+std::vector<HdrImage> downstream_maps(const HdrImage& env) {
+    std::vector<convolution::MapRequest> r{convolution::MapRequest::make_irradiance(),
+                                           convolution::MapRequest::make_phong(160, "160")};
+    r[0].size = convolution::Size{128, 64};
+    r[1].size = convolution::Size{256, 128};
+    convolution::Options o;
+    o.threads = 2;
+    std::vector<HdrImage> out;
+    for (auto& m : convolution::convolve(env, r, o)) out.push_back(m.image);
+    return out;
+}
+
+double total_red(const HdrImage& m) {
+    const std::vector<double> dw = row_solid_angles(m.width(), m.height());
+    double e = 0;
+    for (int j = 0; j < m.height(); ++j)
+        for (int i = 0; i < m.width(); ++i) e += m.at(i, j).r * dw[std::size_t(j)];
+    return e;
+}
+
+int downstream(const std::string& truth_path, const std::string& captured_path) {
+    const HdrImage truth = load_exr(truth_path).image, got = load_exr(captured_path).image;
+    const std::vector<HdrImage> want = downstream_maps(truth), have = downstream_maps(got);
+    std::printf("mean red: true %.5g captured %.5g (%+.2f %%); irradiance %.2f %%, n = 160 %.2f %% (weighted relative RMS)\n",
+                total_red(truth) / (4 * kPi), total_red(got) / (4 * kPi), 100 * (total_red(got) / total_red(truth) - 1),
+                100 * compare_maps(have[0], want[0]).weighted_relative_rms,
+                100 * compare_maps(have[1], want[1]).weighted_relative_rms);
+    return 0;
+}
+
+// Radial profile around each source: captured and true red per 0.25 degree bin, and the glare a
+// uniform disc of the source's size puts there (2 %, 1 degree Gaussian, flat approximation).
+int profile(const std::string& truth_path, const std::string& captured_path, const std::string& sources) {
+    const HdrImage truth = load_exr(truth_path).image, got = load_exr(captured_path).image;
+    const double sigma = 1.0 * kDeg, eta = 0.02;
+    for (const Source& s : read_sources(sources)) {
+        std::printf("source %.0e sr peak %.0e %s (radius %.2f deg)\n  d_deg   captured      truth   truth+glare\n", s.omega,
+                    s.peak, s.where.c_str(), s.radius / kDeg);
+        for (int b = 0; b < 32; ++b) {
+            const double d0 = b * 0.25 * kDeg, d1 = d0 + 0.25 * kDeg;
+            double a = 0, t = 0;
+            int n = 0;
+            for (int j = 0; j < got.height(); ++j)
+                for (int i = 0; i < got.width(); ++i) {
+                    const double d = std::acos(std::clamp(glm::dot(texel_direction(i, j, got.width(), got.height()), s.dir), -1.0, 1.0));
+                    if (d < d0 || d >= d1) continue;
+                    a += got.at(i, j).r;
+                    const Rgb tv = sample_bilinear(truth, texel_direction(i, j, got.width(), got.height()));
+                    t += tv.r;
+                    ++n;
+                }
+            if (!n) continue;
+            // glare of the disc at the bin's centre (midpoint quadrature over the disc)
+            const double dc = 0.5 * (d0 + d1);
+            double g = 0;
+            const int nr = 40, na = 80;
+            for (int p = 0; p < nr; ++p)
+                for (int q = 0; q < na; ++q) {
+                    const double r = s.radius * (p + 0.5) / nr, ph = kTwoPi * (q + 0.5) / na;
+                    const double dx = r * std::cos(ph) - dc, dy = r * std::sin(ph);
+                    g += r * std::exp(-(dx * dx + dy * dy) / (2 * sigma * sigma));
+                }
+            g *= (s.radius / nr) * (kTwoPi / na) / (kTwoPi * sigma * sigma);
+            std::printf("  %5.2f %10.4g %10.4g %10.4g\n", dc / kDeg, a / n, t / n, t / n + eta * s.peak * g);
+        }
+    }
+    return 0;
+}
+
+// Radial profile in the shortest frame that holds source number `which` whole: radiance per
+// 0.25 degree bin (clipped pixels left out) against the true map's plus the modelled glare.
+int frame_profile(const std::string& session_dir, const std::string& sources, int which) {
+    using namespace glint::capture;
+    const Session session = open_session(session_dir);
+    const std::vector<TruthPose> poses = load_truth_poses(session);
+    const CameraCalibration cal = session.calibration;
+    const Intrinsics& k = cal.intrinsics;
+    const HdrImage truth = load_exr(truth_env_path(session)).image;
+    const Source s = read_sources(sources).at(std::size_t(which));
+    std::size_t best = session.frames.size();
+    for (std::size_t f = 0; f < session.frames.size(); ++f) {
+        const glm::dvec3 c = glm::conjugate(poses[f].world_from_camera) * s.dir;
+        const auto px = project(k, c, 0.0);
+        if (!px || px->u < 40 || px->u > k.width - 41 || px->v < 40 || px->v > k.height - 41) continue;
+        if (best == session.frames.size() || session.frames[f].exposure_s < session.frames[best].exposure_s) best = f;
+    }
+    if (best == session.frames.size()) return 1;
+    const FrameRecord& rec = session.frames[best];
+    const CameraFrame frame = load_frame(session, rec);
+    const double t = rec.exposure_s * rec.analogue_gain * rec.digital_gain * cal.sensitivity;
+    std::printf("frame %zu exposure %.3g s\n", best, rec.exposure_s);
+    double a[40] = {}, tr[40] = {};
+    int n[40] = {}, nc[40] = {};
+    for (int v = 0; v < k.height; ++v)
+        for (int u = 0; u < k.width; ++u) {
+            const glm::dvec3 d = poses[best].world_from_camera * pixel_ray(k, u, v);
+            const int b = int(std::acos(std::clamp(glm::dot(d, s.dir), -1.0, 1.0)) / (0.25 * kDeg));
+            if (b >= 40) continue;
+            const std::uint8_t z = frame.rgb.ptr<std::uint8_t>(v)[3 * u];
+            if (z == 255) { ++nc[b]; continue; }
+            a[b] += cal.response.inverse[z] / cal.vignetting.at(k, u, v) / t;
+            tr[b] += sample_bilinear(truth, d).r;
+            ++n[b];
+        }
+    const double sigma = kDeg;
+    for (int b = 0; b < 40; ++b) {
+        const double dc = (b + 0.5) * 0.25 * kDeg;
+        double g = 0;
+        const int nr = 40, na = 80;
+        for (int p = 0; p < nr; ++p)
+            for (int q = 0; q < na; ++q) {
+                const double r = s.radius * (p + 0.5) / nr, ph = kTwoPi * (q + 0.5) / na;
+                const double dx = r * std::cos(ph) - dc, dy = r * std::sin(ph);
+                g += r * std::exp(-(dx * dx + dy * dy) / (2 * sigma * sigma));
+            }
+        g *= (s.radius / nr) * (kTwoPi / na) / (kTwoPi * sigma * sigma);
+        std::printf("  %5.2f clipped %4d  frame %10.4g  truth %10.4g  truth+glare %10.4g\n", dc / kDeg, nc[b],
+                    n[b] ? a[b] / n[b] : 0.0, n[b] ? tr[b] / n[b] : 0.0, (n[b] ? tr[b] / n[b] : 0.0) + 0.02 * s.peak * g);
+    }
+    return 0;
+}
+
+int frames(const std::string& session_dir, const std::string& sources) {
+    using namespace glint::capture;
+    const Session session = open_session(session_dir);
+    const std::vector<TruthPose> poses = load_truth_poses(session);
+    CameraCalibration cal = session.calibration;
+    const Intrinsics& k = cal.intrinsics;
+    const HdrImage truth = load_exr(truth_env_path(session)).image;
+    const std::vector<Source> list = read_sources(sources);
+    // Solid angle per pixel, from the rays at its edges.
+    std::vector<double> pixel_omega(std::size_t(k.width) * std::size_t(k.height));
+    for (int v = 0; v < k.height; ++v)
+        for (int u = 0; u < k.width; ++u) {
+            const glm::dvec3 a = pixel_ray(k, u + 0.5, v) - pixel_ray(k, u - 0.5, v);
+            const glm::dvec3 b = pixel_ray(k, u, v + 0.5) - pixel_ray(k, u, v - 0.5);
+            pixel_omega[std::size_t(v) * std::size_t(k.width) + std::size_t(u)] = glm::length(glm::cross(a, b));
+        }
+    struct Stat {
+        int seen = 0, clipped_frames = 0;
+        double sum = 0, sum2 = 0, lo = 1e30, hi = 0, t_short_seen = 1e30, t_short_unclipped = 1e30;
+        int unclipped = 0;
+    };
+    std::vector<Stat> stat(list.size());
+    std::vector<double> e_true(list.size());
+    for (std::size_t n = 0; n < list.size(); ++n) e_true[n] = region_energy(truth, list[n]);
+    for (std::size_t f = 0; f < session.frames.size(); ++f) {
+        const FrameRecord& rec = session.frames[f];
+        const glm::dquat camera_from_world = glm::conjugate(poses[f].world_from_camera);
+        bool any = false;
+        for (const Source& s : list) any = any || project(k, camera_from_world * s.dir, -8.0 - 0.0).has_value();
+        if (!any) continue;
+        const CameraFrame frame = load_frame(session, rec);
+        const double t = rec.exposure_s * rec.analogue_gain * rec.digital_gain * cal.sensitivity;
+        for (std::size_t n = 0; n < list.size(); ++n) {
+            const Source& s = list[n];
+            // The whole region inside the image, with a pixel to spare.
+            const double reach = s.radius + kMargin;
+            const glm::dvec3 c = camera_from_world * s.dir;
+            if (!project(k, c, 0.0)) continue;
+            bool inside = true;
+            for (int q = 0; q < 8 && inside; ++q) {
+                const glm::dvec3 axis = glm::normalize(glm::cross(c, q % 2 ? glm::dvec3(0, 1, 0) : glm::dvec3(1, 0, 0)));
+                const glm::dvec3 d = glm::angleAxis(reach + 0.01, axis) * c;
+                const glm::dvec3 d2 = glm::angleAxis(-(reach + 0.01), axis) * c;
+                inside = project(k, d, -1.0).has_value() && project(k, d2, -1.0).has_value();
+            }
+            if (!inside) continue;
+            const double cr = std::cos(reach);
+            double e = 0;
+            int clipped = 0;
+            for (int v = 0; v < k.height; ++v) {
+                const std::uint8_t* row = frame.rgb.ptr<std::uint8_t>(v);
+                for (int u = 0; u < k.width; ++u) {
+                    if (glm::dot(pixel_ray(k, u, v), c) < cr) continue;
+                    const std::uint8_t z = row[3 * u];
+                    clipped += z == 255;
+                    e += cal.response.inverse[z] / cal.vignetting.at(k, u, v) / t *
+                         pixel_omega[std::size_t(v) * std::size_t(k.width) + std::size_t(u)];
+                }
+            }
+            Stat& st = stat[n];
+            ++st.seen;
+            st.t_short_seen = std::min(st.t_short_seen, rec.exposure_s);
+            if (clipped) {
+                ++st.clipped_frames;
+                continue;
+            }
+            const double r = e / e_true[n];
+            ++st.unclipped;
+            st.sum += r;
+            st.sum2 += r * r;
+            st.lo = std::min(st.lo, r);
+            st.hi = std::max(st.hi, r);
+            st.t_short_unclipped = std::min(st.t_short_unclipped, rec.exposure_s);
+        }
+    }
+    std::printf("%-8s %-7s %-8s %5s %7s %9s %8s %8s %8s %10s\n", "omega", "peak", "where", "seen", "clipped",
+                "unclipped", "mean%", "sd%", "min..max%", "t_short");
+    for (std::size_t n = 0; n < list.size(); ++n) {
+        const Stat& st = stat[n];
+        const double mean = st.unclipped ? st.sum / st.unclipped : 0;
+        const double sd = st.unclipped > 1 ? std::sqrt(std::max(0.0, st.sum2 / st.unclipped - mean * mean)) : 0;
+        std::printf("%-8.0e %-7.0e %-8s %5d %7d %9d %+8.2f %8.2f %+.1f..%+.1f %10.3g\n", list[n].omega, list[n].peak,
+                    list[n].where.c_str(), st.seen, st.clipped_frames, st.unclipped, 100 * (mean - 1), 100 * sd,
+                    st.unclipped ? 100 * (st.lo - 1) : 0.0, st.unclipped ? 100 * (st.hi - 1) : 0.0, st.t_short_seen);
+    }
+    return 0;
+}
+
+}  // namespace
+
+int main(int argc, char** argv) {
+    try {
+        const std::vector<std::string> a(argv + 1, argv + argc);
+        if (a.size() == 2 && a[0] == "make") return make(a[1]);
+        if (a.size() == 3 && a[0] == "frames") return frames(a[1], a[2]);
+        if (a.size() == 4 && a[0] == "map") return map(a[1], a[2], a[3]);
+        if (a.size() == 4 && a[0] == "frameprofile") return frame_profile(a[1], a[2], std::stoi(a[3]));
+        if (a.size() == 4 && a[0] == "profile") return profile(a[1], a[2], a[3]);
+        if (a.size() == 3 && a[0] == "downstream") return downstream(a[1], a[2]);
+        std::fprintf(stderr, "usage: glint_bench_bright_sources make OUTDIR | frames SESSION SOURCES | map TRUTH CAPTURED SOURCES\n");
+        return 2;
+    } catch (const std::exception& e) {
+        std::fprintf(stderr, "glint_bench_bright_sources: %s\n", e.what());
+        return 1;
+    }
+}
