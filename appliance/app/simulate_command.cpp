@@ -54,8 +54,12 @@ Command add_simulate_command(CLI::App& app) {
     cmd->add_option("--guided-speed", a->o.guided_speed_deg_s, "Yaw speed of the built-in scan, deg/s")
         ->capture_default_str();
     cmd->add_flag("--hdr-bracket", a->o.hdr_bracket,
-                  "After a frame with more than 2 % clipped, add frames at 1/64, 1/4096, ... of its exposure until "
-                  "none clips (at most four)");
+                  "After a frame with any pixel clipped, add frames at 1/64, 1/4096, ... of its exposure until "
+                  "none clips (at most four, none shorter than the sensor's shortest exposure)");
+    cmd->add_flag("--sensor-limits", a->o.sensor_limits,
+                  "Model the sensor's shortest exposure (20 us) and the lens's glare (2 % in 1 degree), and write "
+                  "them to the session's calibration; sources still clipped at the shortest exposure are then "
+                  "estimated by glint capture (not reliable yet: docs/capture.md)");
     cmd->add_option("--threads", a->o.threads, "Render threads; 0 = all cores")
         ->check(CLI::NonNegativeNumber)
         ->capture_default_str();

@@ -51,6 +51,8 @@ std::string calibration_to_json(const CameraCalibration& c) {
     j["sensor_from_camera"] = {q.w, q.x, q.y, q.z};
     j["time_offset_s"] = c.time_offset_s;
     j["sensitivity"] = c.sensitivity;
+    j["shortest_exposure_s"] = c.min_exposure_s;
+    j["glare"] = {{"fraction", c.glare_fraction}, {"sigma_rad", c.glare_sigma_rad}};
     return j.dump(2) + "\n";
 }
 
@@ -111,6 +113,19 @@ CameraCalibration calibration_from_json(const std::string& text, const std::stri
     c.time_offset_s = number(j, "time_offset_s", source, "");
     c.sensitivity = number(j, "sensitivity", source, "");
     if (!(c.sensitivity > 0)) bad(source, "sensitivity", "must be positive");
+    // The sensor's limits, optional (files before 2026-12-02 have none: no shortest exposure, no
+    // glare).
+    if (j.contains("shortest_exposure_s")) {
+        c.min_exposure_s = number(j, "shortest_exposure_s", source, "");
+        if (!(c.min_exposure_s >= 0 && c.min_exposure_s < 1)) bad(source, "shortest_exposure_s", "must be 0 to 1 s");
+    }
+    if (j.contains("glare")) {
+        const json& g = member(j, "glare", source, "");
+        c.glare_fraction = number(g, "fraction", source, "glare");
+        c.glare_sigma_rad = number(g, "sigma_rad", source, "glare");
+        if (!(c.glare_fraction >= 0 && c.glare_fraction < 1)) bad(source, "glare.fraction", "must be 0 to 1");
+        if (!(c.glare_sigma_rad > 0 && c.glare_sigma_rad < 1)) bad(source, "glare.sigma_rad", "must be 0 to 1 rad");
+    }
     return c;
 }
 

@@ -75,12 +75,16 @@ struct Response {
 // clipping make the exposure unreliable; exactly 0 at 0 and 255.
 double code_weight(int z);
 
-// 20 microseconds: at the simulator's 6e5 electrons per unit radiance per second and a full well of
-// 6000, radiance 500 saturates at gain 1 in the centre of the image.
-inline constexpr double kDefaultMinExposureS = 20e-6;
-// 2 % of the light in a Gaussian halo of 1 degree.
-inline constexpr double kDefaultGlareFraction = 0.02;
-inline constexpr double kDefaultGlareSigmaRad = 0.017453292519943295;
+// A modelled rolling-shutter sensor's limits (`glint simulate --sensor-limits`): a shortest
+// exposure of 20 microseconds (at the simulator's 6e5 electrons per unit radiance per second and
+// a full well of 6000, radiance 500 saturates at gain 1 in the centre of the image) and 2 % of
+// the light in a Gaussian glare halo of 1 degree. A calibration without them (the default, and
+// every file written before 2026-12-02) has no shortest exposure and no glare: the estimate of
+// a source still clipped at the shortest exposure is not reliable yet (docs/capture.md,
+// "Estimated sources": sunset's sun clips and its sky's glow is taken for glare).
+inline constexpr double kModelledMinExposureS = 20e-6;
+inline constexpr double kModelledGlareFraction = 0.02;
+inline constexpr double kModelledGlareSigmaRad = 0.017453292519943295;
 
 // Everything stored per camera (docs/capture.md "Calibration").
 struct CameraCalibration {
@@ -96,15 +100,15 @@ struct CameraCalibration {
     // shutter has one of tens of microseconds; the sun clips even there. The simulator clamps to it;
     // the accumulator knows that a region still clipped in a frame this short cannot be measured by
     // a shorter one and estimates its energy instead (hdr_accumulator.hpp). Not stored by
-    // calibration_io yet: every calibration has this default.
-    double min_exposure_s = kDefaultMinExposureS;
+    // 0: no limit. Stored as calibration.json's "shortest_exposure_s".
+    double min_exposure_s = 0;
     // The lens's point spread beyond the pixel: a share `glare_fraction` of the light reaching a
     // pixel is spread as a Gaussian of `glare_sigma_rad` (veiling glare), the rest stays. What
     // makes a source still clipped at the shortest exposure measurable: its halo, unclipped, is
-    // proportional to its energy (hdr_accumulator.hpp "Estimated sources"). Not stored by
-    // calibration_io yet: every calibration has these defaults, which are the simulator's.
-    double glare_fraction = kDefaultGlareFraction;
-    double glare_sigma_rad = kDefaultGlareSigmaRad;
+    // proportional to its energy (hdr_accumulator.hpp "Estimated sources"). 0: none. Stored as
+    // calibration.json's "glare": {"fraction", "sigma_rad"}.
+    double glare_fraction = 0;
+    double glare_sigma_rad = kModelledGlareSigmaRad;
 };
 
 }  // namespace glint::capture

@@ -73,6 +73,11 @@ CameraCalibration true_camera(const SimulateOptions& o, const SensorModel& senso
     truth.sensor_from_camera = host::to_glm(look(o.mount_yaw_deg, o.mount_pitch_deg, o.mount_roll_deg));
     truth.sensitivity = sensor.electrons_per_radiance_second / sensor.full_well_electrons;
     truth.time_offset_s = o.time_offset_s;
+    if (o.sensor_limits) {
+        truth.min_exposure_s = capture::kModelledMinExposureS;
+        truth.glare_fraction = capture::kModelledGlareFraction;
+        truth.glare_sigma_rad = capture::kModelledGlareSigmaRad;
+    }
     return truth;
 }
 

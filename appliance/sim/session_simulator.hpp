@@ -38,10 +38,13 @@ struct SimulateOptions {
     // own errors (a gyro bias the fusion does not see): the board is fed a world that turns.
     double heading_drift_deg_per_min = 0;
     double guided_speed_deg_s = 45;  // yaw speed of the built-in scan
-    // When more than 2 % of a frame is clipped, add frames at 1/64, 1/4096, ... of its exposure
-    // until none clips (at most four): what the kiosk's capture does when the guided logic says
-    // "too bright".
+    // When any pixel of a frame is clipped, add frames at 1/64, 1/4096, ... of its exposure until
+    // none clips (at most four, none shorter than the sensor's shortest exposure): what the
+    // kiosk's capture does when the guided logic says "too bright".
     bool hdr_bracket = false;
+    // The modelled sensor's limits (camera_model.hpp kModelled*): a shortest exposure of 20 us,
+    // where the brackets stop, and lens glare. Off: no shortest exposure, no glare.
+    bool sensor_limits = false;
     std::uint64_t seed = 1;
     int threads = 0;
     // A calibration session instead of a scan: `bracket` frames of one still view (the

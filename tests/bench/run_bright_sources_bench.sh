@@ -4,7 +4,9 @@
 # source the energy in the frames and in the map against the truth. Prints; writes nothing in
 # the repo. Usage: tests/bench/run_bright_sources_bench.sh [WORKDIR] [MAP-NAME...]
 #   (maps: dim_1e+02 .. dim_1e+06, bright_1e+02 .. bright_1e+06; also any .exr path, e.g. the
-#   studio lights' courtyard/studio/sunset, for which only the downstream errors are printed)
+#   studio lights' courtyard/studio/sunset, for which only the downstream errors are printed).
+# SIMFLAGS=--sensor-limits models the sensor's shortest exposure (20 us) and glare: sources still
+# clipped there are estimated (docs/capture.md, "Estimated sources").
 set -e
 BUILD=${BUILD:-build}
 G=$BUILD/appliance/app/glint

@@ -40,10 +40,8 @@ CameraCalibration test_camera(const SensorModel& sensor) {
     cal.intrinsics.k2 = 0.02;
     cal.vignetting = {-0.25, 0.02, 0};
     cal.sensitivity = sensor.electrons_per_radiance_second / sensor.full_well_electrons;
-    // These tests are about the accumulation: no shortest exposure and no glare unless a test
-    // asks for the sensor's (BrightSources below).
-    cal.min_exposure_s = 1e-12;
-    cal.glare_fraction = 0;
+    // These tests are about the accumulation: no shortest exposure and no glare (the default)
+    // unless a test asks for the modelled sensor's (BrightSources below).
     return cal;
 }
 
@@ -326,6 +324,10 @@ struct BrightSourceScene {
         cal.intrinsics.k1 = -0.08;
         cal.vignetting = {-0.22, 0.03, 0};
         cal.sensitivity = sensor.electrons_per_radiance_second / sensor.full_well_electrons;
+        // The modelled sensor's limits (glint simulate --sensor-limits).
+        cal.min_exposure_s = kModelledMinExposureS;
+        cal.glare_fraction = kModelledGlareFraction;
+        cal.glare_sigma_rad = kModelledGlareSigmaRad;
         true_energy = red_energy(env);
     }
     double red_energy(const HdrImage& map) const {
@@ -389,7 +391,7 @@ TEST(BrightSources, TheSimulatorCannotExposeShorterThanTheSensorsShortestExposur
     CameraSimulator sim(scene.env, scene.cal);
     sim.set_exposure(1e-7, 1.0);
     EXPECT_DOUBLE_EQ(sim.exposure_s(), scene.cal.min_exposure_s);
-    EXPECT_DOUBLE_EQ(sim.render(camera_look(0, 0), 0).exposure_s, kDefaultMinExposureS);
+    EXPECT_DOUBLE_EQ(sim.render(camera_look(0, 0), 0).exposure_s, kModelledMinExposureS);
 }
 
 }  // namespace
