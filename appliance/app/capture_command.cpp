@@ -105,6 +105,14 @@ Command add_capture_command(CLI::App& app) {
                                                        : (std::to_string(a->o.adjustment_rounds) + " rounds after the scan").c_str(),
                                 r.adjust_pairs, r.adjust_pairs_tried, r.adjust_pair_rms_deg, r.adjust_sensor_rms_deg,
                                 r.adjust_drift_deg_per_min, r.adjust_seconds);
+                // A source clipped even at the sensor's shortest exposure is in the map by an
+                // estimate, never a measurement: said so, with what is certain.
+                for (const capture::EstimatedSource& source : r.estimated_sources)
+                    std::printf("estimated source (clipped at the shortest exposure): direction (%.3f, %.3f, %.3f), "
+                                "%.3g sr, energy %.4g (red, radiance x sr; at least %.4g)%s\n",
+                                source.direction.x, source.direction.y, source.direction.z,
+                                source.clipped_solid_angle, source.energy.r, source.lower_bound.r,
+                                source.fitted ? "" : ", the lower bound: its halo said no more");
                 const glm::dvec3& g = r.coverage.largest_gap;
                 std::printf("%s: %d frames, coverage %.1f %% of the sphere, largest gap %.2f sr around "
                             "(%.3f, %.3f, %.3f), %lld texels filled\n",

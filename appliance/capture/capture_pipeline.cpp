@@ -489,6 +489,7 @@ CaptureSummary run_capture(const CaptureOptions& options, CameraSource& camera, 
     const auto t_radiance = std::chrono::steady_clock::now();
     HdrImage env = map_acc.radiance();
     summary.radiance_seconds = since(t_radiance);
+    if (map_acc.cpu) summary.estimated_sources = map_acc.cpu->estimated_sources();
     const std::vector<std::uint32_t> samples = map_acc.samples();
     summary.coverage = measure_coverage(samples, o.width, o.height, o.min_samples);
     const auto t_truth = std::chrono::steady_clock::now();

@@ -9,9 +9,11 @@
 #include <functional>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "appliance/capture/camera_source.hpp"
 #include "appliance/capture/coverage.hpp"
+#include "appliance/capture/hdr_accumulator.hpp"
 
 namespace glint::gl {
 class GlContext;
@@ -108,6 +110,9 @@ struct CaptureSummary {
     int map_rebuilds = 0, map_final_frames = 0;  // frames accumulated after the last frame
     double radiance_seconds = 0;                 // merging the map's exposure bands at the end
     std::optional<double> adjusted_after_60s_max_deg;
+    // Sources still clipped at the calibration's shortest exposure, whose energy in the map is
+    // an estimate (hdr_accumulator.hpp; CPU engine only; none without a shortest exposure).
+    std::vector<EstimatedSource> estimated_sources;
     // Drift correction (when on): frames it corrected, the median correction, and the median
     // RMS log-luminance residual against the sphere before and after it.
     // The guided-capture logic run over the session as if live (guided_capture.hpp): when it would
