@@ -28,6 +28,7 @@
 #include "appliance/core/error_metrics.hpp"
 #include "appliance/core/equirect.hpp"
 #include "appliance/core/exr_io.hpp"
+#include "tests/bench/bench_util.hpp"
 
 using namespace glint;
 
@@ -184,17 +185,18 @@ int map(const std::string& truth_path, const std::string& captured_path, const s
     return 0;
 }
 
-// Irradiance (128x64) and n = 160 (256x128) of a map, by the auto engine (as bench_capture.cpp).
-std::vector<HdrImage> downstream_maps(const HdrImage& env) {
-    std::vector<convolution::MapRequest> r{convolution::MapRequest::make_irradiance(),
-                                           convolution::MapRequest::make_phong(160, "160")};
-    r[0].size = convolution::Size{128, 64};
-    r[1].size = convolution::Size{256, 128};
-    convolution::Options o;
-    o.threads = 2;
-    std::vector<HdrImage> out;
-    for (auto& m : convolution::convolve(env, r, o)) out.push_back(m.image);
-    return out;
+// Glare of a uniform disc of `radius` (and unit radiance) at angle `offset` from its centre, for
+// a Gaussian point spread of `sigma` (all radians; midpoint quadrature over the disc).
+double disc_glare(double radius, double offset, double sigma) {
+    double g = 0;
+    const int nr = 40, na = 80;
+    for (int p = 0; p < nr; ++p)
+        for (int q = 0; q < na; ++q) {
+            const double r = radius * (p + 0.5) / nr, ph = kTwoPi * (q + 0.5) / na;
+            const double dx = r * std::cos(ph) - offset, dy = r * std::sin(ph);
+            g += r * std::exp(-(dx * dx + dy * dy) / (2 * sigma * sigma));
+        }
+    return g * (radius / nr) * (kTwoPi / na) / (kTwoPi * sigma * sigma);
 }
 
 double total_red(const HdrImage& m) {
@@ -207,7 +209,7 @@ double total_red(const HdrImage& m) {
 
 int downstream(const std::string& truth_path, const std::string& captured_path) {
     const HdrImage truth = load_exr(truth_path).image, got = load_exr(captured_path).image;
-    const std::vector<HdrImage> want = downstream_maps(truth), have = downstream_maps(got);
+    const std::vector<HdrImage> want = bench::downstream_maps(truth), have = bench::downstream_maps(got);
     std::printf("mean red: true %.5g captured %.5g (%+.2f %%); irradiance %.2f %%, n = 160 %.2f %% (weighted relative RMS)\n",
                 total_red(truth) / (4 * kPi), total_red(got) / (4 * kPi), 100 * (total_red(got) / total_red(truth) - 1),
                 100 * compare_maps(have[0], want[0]).weighted_relative_rms,
@@ -237,17 +239,9 @@ int profile(const std::string& truth_path, const std::string& captured_path, con
                     ++n;
                 }
             if (!n) continue;
-            // glare of the disc at the bin's centre (midpoint quadrature over the disc)
+            // glare of the disc at the bin's centre
             const double dc = 0.5 * (d0 + d1);
-            double g = 0;
-            const int nr = 40, na = 80;
-            for (int p = 0; p < nr; ++p)
-                for (int q = 0; q < na; ++q) {
-                    const double r = s.radius * (p + 0.5) / nr, ph = kTwoPi * (q + 0.5) / na;
-                    const double dx = r * std::cos(ph) - dc, dy = r * std::sin(ph);
-                    g += r * std::exp(-(dx * dx + dy * dy) / (2 * sigma * sigma));
-                }
-            g *= (s.radius / nr) * (kTwoPi / na) / (kTwoPi * sigma * sigma);
+            const double g = disc_glare(s.radius, dc, sigma);
             std::printf("  %5.2f %10.4g %10.4g %10.4g\n", dc / kDeg, a / n, t / n, t / n + eta * s.peak * g);
         }
     }
@@ -292,15 +286,7 @@ int frame_profile(const std::string& session_dir, const std::string& sources, in
     const double sigma = kDeg;
     for (int b = 0; b < 40; ++b) {
         const double dc = (b + 0.5) * 0.25 * kDeg;
-        double g = 0;
-        const int nr = 40, na = 80;
-        for (int p = 0; p < nr; ++p)
-            for (int q = 0; q < na; ++q) {
-                const double r = s.radius * (p + 0.5) / nr, ph = kTwoPi * (q + 0.5) / na;
-                const double dx = r * std::cos(ph) - dc, dy = r * std::sin(ph);
-                g += r * std::exp(-(dx * dx + dy * dy) / (2 * sigma * sigma));
-            }
-        g *= (s.radius / nr) * (kTwoPi / na) / (kTwoPi * sigma * sigma);
+        const double g = disc_glare(s.radius, dc, sigma);
         std::printf("  %5.2f clipped %4d  frame %10.4g  truth %10.4g  truth+glare %10.4g\n", dc / kDeg, nc[b],
                     n[b] ? a[b] / n[b] : 0.0, n[b] ? tr[b] / n[b] : 0.0, (n[b] ? tr[b] / n[b] : 0.0) + 0.02 * s.peak * g);
     }

@@ -56,19 +56,6 @@ double log_luminance_rms(const HdrImage& got, const HdrImage& truth_full, const 
     return den > 0 ? std::sqrt(num / den) : 0;
 }
 
-// Irradiance (128x64) and n = 160 (256x128) of a map, by the auto engine.
-std::vector<HdrImage> downstream(const HdrImage& env) {
-    std::vector<convolution::MapRequest> r{convolution::MapRequest::make_irradiance(),
-                                           convolution::MapRequest::make_phong(160, "160")};
-    r[0].size = convolution::Size{128, 64};
-    r[1].size = convolution::Size{256, 128};
-    convolution::Options o;
-    o.threads = 2;
-    std::vector<HdrImage> out;
-    for (auto& m : convolution::convolve(env, r, o)) out.push_back(m.image);
-    return out;
-}
-
 struct Row {
     std::string map;
     CaptureSummary on, off, gpu, refined;
@@ -122,7 +109,7 @@ int main(int argc, char** argv) {
         co.out = work / (std::string(name) + "-gpu.exr");
         r.gpu = run_capture(co, camera, &gpu);
         const HdrImage truth = load_exr(so.env).image;
-        const std::vector<HdrImage> want = downstream(truth);
+        const std::vector<HdrImage> want = bench::downstream_maps(truth);
         struct Variant {
             const char* suffix;
             double *log_rms, *irr, *n160;
@@ -133,7 +120,7 @@ int main(int argc, char** argv) {
             const fs::path map = work / (std::string(name) + v.suffix);
             const HdrImage got = load_exr(map).image;
             const HdrImage cov = load_exr(coverage_path_for(map)).image;
-            const std::vector<HdrImage> have = downstream(got);
+            const std::vector<HdrImage> have = bench::downstream_maps(got);
             *v.log_rms = log_luminance_rms(got, truth, cov);
             *v.irr = compare_maps(have[0], want[0]).weighted_relative_rms;
             *v.n160 = compare_maps(have[1], want[1]).weighted_relative_rms;

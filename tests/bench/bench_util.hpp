@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "appliance/convolution/convolution.hpp"
+#include "appliance/core/hdr_image.hpp"
 
 namespace glint::bench {
 
@@ -43,6 +44,20 @@ inline convolution::Size reference_size(double n) {
     if (n <= 40) return {128, 64};
     if (n <= 320) return {256, 128};
     return {512, 256};
+}
+
+// The capture benchmarks' downstream maps: irradiance (128x64) and n = 160 (256x128) of a map,
+// by the auto engine on 2 threads.
+inline std::vector<HdrImage> downstream_maps(const HdrImage& env) {
+    std::vector<convolution::MapRequest> r{convolution::MapRequest::make_irradiance(),
+                                           convolution::MapRequest::make_phong(160, "160")};
+    r[0].size = convolution::Size{128, 64};
+    r[1].size = convolution::Size{256, 128};
+    convolution::Options o;
+    o.threads = 2;
+    std::vector<HdrImage> out;
+    for (auto& m : convolution::convolve(env, r, o)) out.push_back(m.image);
+    return out;
 }
 
 }  // namespace glint::bench
