@@ -377,6 +377,38 @@ TEST_F(SessionTest, IntrinsicsFromChArUcoViewsMatchTheTrueCamera) {
     EXPECT_LT(worst_px, 2.5);  // at the image corners, which the views reach least (1.6 px with 32 views)
 }
 
+TEST(CalibrationIo, SensorLimitsAreOptionalAndRoundTrip) {
+    // A file without "shortest_exposure_s" and "glare" (every file before 2026-12-02) reads as
+    // no shortest exposure and no glare; with them, they come back; out of range is refused.
+    CameraCalibration c;
+    c.intrinsics = Intrinsics::from_fov(320, 180, 1.2);
+    std::string text = calibration_to_json(c);
+    const std::string old = std::regex_replace(
+        std::regex_replace(text, std::regex(",\\s*\"shortest_exposure_s\": [0-9.e+-]+"), ""),
+        std::regex(",\\s*\"glare\": \\{[^}]*\\}"), "");
+    ASSERT_EQ(old.find("shortest_exposure_s"), std::string::npos);
+    ASSERT_EQ(old.find("glare"), std::string::npos);
+    const CameraCalibration plain = calibration_from_json(old, "old.json");
+    EXPECT_EQ(plain.min_exposure_s, 0.0);
+    EXPECT_EQ(plain.glare_fraction, 0.0);
+    c.min_exposure_s = kModelledMinExposureS;
+    c.glare_fraction = kModelledGlareFraction;
+    c.glare_sigma_rad = kModelledGlareSigmaRad;
+    text = calibration_to_json(c);
+    const CameraCalibration back = calibration_from_json(text, "c.json");
+    EXPECT_DOUBLE_EQ(back.min_exposure_s, kModelledMinExposureS);
+    EXPECT_DOUBLE_EQ(back.glare_fraction, kModelledGlareFraction);
+    EXPECT_DOUBLE_EQ(back.glare_sigma_rad, kModelledGlareSigmaRad);
+    EXPECT_THROW(calibration_from_json(std::regex_replace(text, std::regex("\"fraction\": [0-9.e+-]+"),
+                                                          "\"fraction\": -0.5"),
+                                       "c.json"),
+                 InputError);
+    EXPECT_THROW(calibration_from_json(std::regex_replace(text, std::regex("\"shortest_exposure_s\": [0-9.e+-]+"),
+                                                          "\"shortest_exposure_s\": 5"),
+                                       "c.json"),
+                 InputError);
+}
+
 TEST(CalibrationIo, RoundTripsAndRejectsBadValues) {
     CameraCalibration c;
     c.intrinsics = Intrinsics::from_fov(640, 480, 1.2);
