@@ -93,7 +93,7 @@ frames=$(($(wc -l <"$work/scan/frames.csv") - 1))
 # loose: it catches a broken command, not a weak estimate.
 run calibrate alignment --session "$work/scan" --calibration "$work/cal.json"
 [[ $rc -eq 0 ]] || fail "calibrate alignment: exit $rc: $(cat "$work/stderr")"
-off=$(number_after "mounting off by")
+off=$(number_after "mounting against the session's truth:")
 below "$off" 15 || fail "calibrate alignment: mounting $off degrees off the truth"
 python3 - "$work/cal.json" <<'PY' || fail "calibrate alignment: cal.json lacks the mounting or the offset"
 import json, sys
