@@ -42,13 +42,13 @@ void calibrate_alignment(const capture::Session& s, capture::CameraCalibration& 
     const capture::AlignmentResult r = capture::calibrate_alignment(s);
     cal.sensor_from_camera = r.sensor_from_camera;
     cal.time_offset_s = r.time_offset_s;
-    std::printf("alignment from %d frame pairs: time offset %.3f s, median residual %.3f degrees -> %s\n", r.pairs,
+    std::printf("alignment from %d frame pairs: time offset %.4f s, median residual %.3f degrees -> %s\n", r.pairs,
                 r.time_offset_s, r.residual_deg, file.c_str());
     if (s.has_truth) {
         const capture::CameraCalibration truth = capture::truth_calibration(s);
-        std::printf("against the session's truth: mounting off by %.3f degrees, time offset by %.1f ms\n",
-                    capture::mounting_error_deg(r.sensor_from_camera, truth.sensor_from_camera),
-                    (r.time_offset_s - truth.time_offset_s) * 1e3);
+        std::printf("mounting against the session's truth: %.3f degrees\n",
+                    capture::mounting_error_deg(r.sensor_from_camera, truth.sensor_from_camera));
+        std::printf("time offset against the session's truth: %.2f ms\n", (r.time_offset_s - truth.time_offset_s) * 1e3);
     }
 }
 
@@ -75,9 +75,9 @@ constexpr StepSpec kSteps[] = {
      "Vignetting from flat-field frames (a uniformly lit view filling the frame), using the calibration's response",
      "Session holding the flat-field frames", calibrate_vignetting},
     {"alignment",
-     "Camera-to-sensor rotation and time offset from a scan (rotation-only motion): image rotations between "
-     "consecutive frames against the sensor's",
-     "Session of a scan with its sensor recording", calibrate_alignment},
+     "Camera-to-sensor rotation and time offset from rotation-only motion (best: glint simulate --trajectory "
+     "alignment, turns about all three axes): image rotations between consecutive frames against the sensor's",
+     "Session of the calibration motion (or a scan) with its sensor recording", calibrate_alignment},
     {"intrinsics",
      "Focal lengths, principal point and distortion from views of a ChArUco board (7x5 squares of 4 cm, 3 cm "
      "markers, DICT_5X5_100), with the RMS reprojection error",

@@ -25,7 +25,9 @@ Command add_simulate_command(CLI::App& app) {
     CLI::App* cmd = app.add_subcommand("simulate", std::string(command_summary("simulate").summary));
     cmd->add_option("--env", a->env, "Equirect HDR environment map (OpenEXR); not with --charuco");
     cmd->add_option("--trajectory", a->o.trajectory,
-                    "guided (the built-in scan: rings at -60..60 degrees and the zenith, ~52 s) or a file of "
+                    "guided (the built-in scan: rings at -60..60 degrees and the zenith, ~52 s), alignment (the "
+                    "calibration motion for glint calibrate alignment: +-25 degree sweeps about yaw, pitch and roll "
+                    "in turn, ~19 s) or a file of "
                     "lines t_seconds,w,x,y,z (camera-to-world, conventions' frame)")
         ->capture_default_str();
     cmd->add_option("--out", a->out, "Session directory to create")->required();

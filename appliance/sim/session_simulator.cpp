@@ -114,6 +114,30 @@ std::vector<TrajectorySample> guided_camera_trajectory(double speed_deg_s) {
     return out;
 }
 
+std::vector<TrajectorySample> alignment_camera_trajectory(double amplitude_deg, double period_s, int cycles) {
+    std::vector<TrajectorySample> out;
+    const double step_s = 0.01;
+    double t = 0;
+    const auto add = [&](double yaw, double pitch, double roll) {
+        out.push_back({std::uint64_t(std::llround(t * 1e6)), look(yaw, pitch, roll)});
+        t += step_s;
+    };
+    // Still at the horizon first (the board settles), then yaw, pitch and roll in turn: sinusoidal
+    // sweeps (the speed changes all the time, which is what makes the time offset observable),
+    // each axis back at 0 before the next, and a short still at the end.
+    const int hold = int(0.5 / step_s);
+    for (int k = 0; k < hold; ++k) add(0, 0, 0);
+    const int steps = int(std::lround(cycles * period_s / step_s));
+    for (int axis = 0; axis < 3; ++axis) {
+        for (int k = 0; k < steps; ++k) {
+            const double a = amplitude_deg * std::sin(2 * kPi * k * step_s / period_s);
+            add(axis == 0 ? a : 0, axis == 1 ? a : 0, axis == 2 ? a : 0);
+        }
+    }
+    for (int k = 0; k <= hold; ++k) add(0, 0, 0);
+    return out;
+}
+
 namespace {
 
 SimulateSummary write_session(const SimulateOptions& o, const HdrImage& env, const firmware::sim::Trajectory& camera,
@@ -282,6 +306,7 @@ SimulateSummary simulate_session(const SimulateOptions& o, const std::function<v
 
     const firmware::sim::Trajectory camera = [&] {
         if (o.trajectory == "guided") return firmware::sim::Trajectory(guided_camera_trajectory(o.guided_speed_deg_s));
+        if (o.trajectory == "alignment") return firmware::sim::Trajectory(alignment_camera_trajectory());
         try {
             return firmware::sim::Trajectory::load(o.trajectory);
         } catch (const std::runtime_error& e) {

@@ -19,7 +19,7 @@ namespace glint::sim {
 
 struct SimulateOptions {
     std::filesystem::path env;       // equirect HDR map (EXR)
-    std::string trajectory = "guided";  // "guided" or a file: t_seconds,w,x,y,z (world_from_camera)
+    std::string trajectory = "guided";  // "guided", "alignment" or a file: t_seconds,w,x,y,z (world_from_camera)
     std::filesystem::path out;       // session directory (must not exist unless overwrite)
     bool overwrite = false;
     double fps = 4;                  // frames per second of camera time
@@ -65,6 +65,14 @@ struct SimulateSummary {
 // degrees at elevations -60, -30, 0, 30 and 60 degrees at 45 deg/s, 1.5 s pitch moves between
 // them, and a last sweep looking up at 85 degrees; about 52 s.
 std::vector<firmware::sim::TrajectorySample> guided_camera_trajectory(double speed_deg_s = 45);
+
+// The built-in alignment motion (`--trajectory alignment`, for glint calibrate alignment): from
+// the horizon, sinusoidal sweeps of +-`amplitude_deg` about yaw, then pitch, then roll (`cycles`
+// periods of `period_s` each; 25 degrees over 3 s peaks at 52 deg/s), with 0.5 s still at both
+// ends; about 19 s. Turning about all three axes makes every axis of the mounting observable,
+// and the ever-changing speed the time offset. A technician can follow it with on-screen prompts.
+std::vector<firmware::sim::TrajectorySample> alignment_camera_trajectory(double amplitude_deg = 25, double period_s = 3,
+                                                                         int cycles = 2);
 
 // world_from_camera = yaw about world +Y, then pitch about the camera's X, then roll about -Z.
 glm::dquat camera_look(double yaw_deg, double pitch_deg, double roll_deg = 0);
