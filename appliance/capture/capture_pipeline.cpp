@@ -112,9 +112,8 @@ GroundTruthError compare_with_truth(const HdrImage& got, const std::vector<std::
 
 }  // namespace
 
-CaptureSummary run_capture(const CaptureOptions& options, CameraSource& camera, const gl::GlContext* gpu,
+CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const gl::GlContext* gpu,
                            const std::function<void(long long, long long)>& progress) {
-    const CaptureOptions& o = options;
     if (o.width < 8 || o.height < 4 || o.width > 16384 || o.height > 8192)
         throw InputError("--size must be between 8x4 and 16384x8192");
     if (o.min_samples < 1) throw InputError("--min-samples must be at least 1");
@@ -196,40 +195,46 @@ CaptureSummary run_capture(const CaptureOptions& options, CameraSource& camera, 
     // a new map; the solution settles as the scan goes on (sunset: the frames of the first 30
     // frames' solution end 0.45 degrees from the final one, those of 180 frames' 0.02 in the
     // median), so late in the scan the rebuilds stop.
-    std::unique_ptr<Engine> rolling, rebuilding;
-    std::vector<glm::dquat> rolling_q, rebuilding_q;  // what their frames were accumulated with
-    int rebuilds = 0;
-    const auto max_deviation_deg = [](const std::vector<glm::dquat>& used_q, const std::vector<glm::dquat>& now) {
-        double worst = 0;
-        for (std::size_t k = 0; k < used_q.size(); ++k) worst = std::max(worst, angle_between(used_q[k], now[k]));
-        return worst * 180.0 / kPi;
+    // A map of the first kept frames and the orientations they were accumulated with.
+    struct KeptMap {
+        std::unique_ptr<Engine> engine;
+        std::vector<glm::dquat> q;
+        // Accumulates kept frames q.size() .. n - 1 with orientations `now` (all of them by
+        // default), calling after(k) for each.
+        void extend(const std::vector<CameraFrame>& frames, const CameraCalibration& c, const std::vector<glm::dquat>& now,
+                    std::size_t n, const std::function<void(std::size_t)>& after = {}) {
+            while (q.size() < n) {
+                const std::size_t k = q.size();
+                engine->add_frame(frames[k], c, now[k]);
+                q.push_back(now[k]);
+                if (after) after(k);
+            }
+        }
+        // The largest angle between the orientations its frames were accumulated with and `now`.
+        double deviation_deg(const std::vector<glm::dquat>& now) const {
+            double worst = 0;
+            for (std::size_t k = 0; k < q.size(); ++k) worst = std::max(worst, angle_between(q[k], now[k]));
+            return worst * 180.0 / kPi;
+        }
     };
+    KeptMap rolling, rebuilding;
+    int rebuilds = 0;
     const auto keep_map = [&](const std::vector<glm::dquat>& qs, std::size_t settled) {
-        if (!rolling) rolling = make_engine();
-        if (!rebuilding && max_deviation_deg(rolling_q, qs) > o.map_rebuild_deg) {
-            rebuilding = make_engine();
-            rebuilding_q.clear();
+        if (!rolling.engine) rolling.engine = make_engine();
+        if (!rebuilding.engine && rolling.deviation_deg(qs) > o.map_rebuild_deg) {
+            rebuilding = {make_engine(), {}};
             ++rebuilds;
         }
-        if (rebuilding) {
-            for (int n = 0; n < o.map_rebuild_per_frame && rebuilding_q.size() < settled; ++n) {
-                const std::size_t k = rebuilding_q.size();
-                rebuilding->add_frame(kept[k], cal, qs[k]);
-                rebuilding_q.push_back(qs[k]);
-            }
-            if (rebuilding_q.size() >= settled) {
+        if (rebuilding.engine) {
+            rebuilding.extend(kept, cal, qs, std::min(settled, rebuilding.q.size() + std::size_t(std::max(0, o.map_rebuild_per_frame))));
+            if (rebuilding.q.size() >= settled) {
                 rolling = std::move(rebuilding);
-                rolling_q = std::move(rebuilding_q);
-                rebuilding_q.clear();
+                rebuilding = {};
             }
         }
         // The current map stays complete up to the settled frames while a rebuild runs, so that
         // one unfinished at the end can be dropped.
-        while (rolling_q.size() < settled) {
-            const std::size_t k = rolling_q.size();
-            rolling->add_frame(kept[k], cal, qs[k]);
-            rolling_q.push_back(qs[k]);
-        }
+        rolling.extend(kept, cal, qs, settled);
     };
     long long done = 0;
     GuidedCapture guide({}, cal.intrinsics);
@@ -345,6 +350,22 @@ CaptureSummary run_capture(const CaptureOptions& options, CameraSource& camera, 
     const auto since = [](std::chrono::steady_clock::time_point a) {
         return std::chrono::duration<double>(std::chrono::steady_clock::now() - a).count();
     };
+    // Orientation errors against a simulated session's truth: of the map's orientations, and of
+    // the live pass (what the kiosk had while scanning).
+    const auto errors = [&](const std::vector<glm::dquat>& qs, std::optional<double>& med, std::optional<double>& max,
+                            std::optional<double>& after_60s) {
+        std::vector<double> e;
+        for (std::size_t i = 0; i < used.size(); ++i) {
+            const auto t = true_poses.find(used[i].sequence);
+            if (t == true_poses.end()) continue;
+            e.push_back(angle_between(qs[i], t->second) * 180.0 / kPi);
+            if (used[i].t_ns - t_first >= 60'000'000'000LL) after_60s = std::max(after_60s.value_or(0.0), e.back());
+        }
+        if (e.empty()) return;
+        std::sort(e.begin(), e.end());
+        med = e[e.size() / 2];
+        max = e.back();
+    };
     std::vector<glm::dquat> final_q;
     for (const UsedFrame& u : used) final_q.push_back(u.live);
     std::unique_ptr<Engine> adjusted;  // the map made again from the adjusted orientations
@@ -374,52 +395,35 @@ CaptureSummary run_capture(const CaptureOptions& options, CameraSource& camera, 
                       passes, online_adjustment.largest_pair_change_deg(), online_adjustment.alignments());
         summary.adjust_profile = text;
         const auto t_final = std::chrono::steady_clock::now();
-        if (o.keep_map && rolling) {
+        const auto count_progress = [&](std::size_t) {
+            if (progress) progress(++done, total);
+        };
+        if (o.keep_map && rolling.engine) {
             // A rebuild under way is finished when little of it is left; then the held-back tail
             // with the final solution. The map's orientations are what its frames were accumulated
             // with, a little off the final solution where it moved after they were.
-            if (rebuilding && (max_deviation_deg(rolling_q, final_q) <= o.map_accept_deg ||
-                               rolling_q.size() >= rebuilding_q.size() + std::size_t(std::max(0, o.map_finish_max_frames))))
-                rebuilding.reset();
-            if (rebuilding) {
-                summary.map_final_frames += int(rolling_q.size() - rebuilding_q.size());
-                while (rebuilding_q.size() < rolling_q.size()) {
-                    const std::size_t k = rebuilding_q.size();
-                    rebuilding->add_frame(kept[k], cal, final_q[k]);
-                    rebuilding_q.push_back(final_q[k]);
-                }
+            if (rebuilding.engine &&
+                (rolling.deviation_deg(final_q) <= o.map_accept_deg ||
+                 rolling.q.size() >= rebuilding.q.size() + std::size_t(std::max(0, o.map_finish_max_frames))))
+                rebuilding = {};
+            if (rebuilding.engine) {
+                summary.map_final_frames += int(rolling.q.size() - rebuilding.q.size());
+                rebuilding.extend(kept, cal, final_q, rolling.q.size());
                 rolling = std::move(rebuilding);
-                rolling_q = std::move(rebuilding_q);
             }
-            summary.map_deviation_deg = max_deviation_deg(rolling_q, final_q);
-            summary.map_final_frames += int(kept.size() - rolling_q.size());
-            while (rolling_q.size() < kept.size()) {
-                const std::size_t k = rolling_q.size();
-                rolling->add_frame(kept[k], cal, final_q[k]);
-                rolling_q.push_back(final_q[k]);
-                if (progress) progress(++done, total);
-            }
-            summary.adjusted_after_60s_max_deg = std::nullopt;
-            {
-                std::optional<double> med, max;
-                // The adjusted solution's own error (the map's is reported below).
-                std::vector<double> e;
-                for (std::size_t i = 0; i < used.size(); ++i) {
-                    const auto t = true_poses.find(used[i].sequence);
-                    if (t == true_poses.end() || used[i].t_ns - t_first < 60'000'000'000LL) continue;
-                    e.push_back(angle_between(final_q[i], t->second) * 180.0 / kPi);
-                }
-                if (!e.empty()) summary.adjusted_after_60s_max_deg = *std::max_element(e.begin(), e.end());
-            }
+            summary.map_deviation_deg = rolling.deviation_deg(final_q);
+            summary.map_final_frames += int(kept.size() - rolling.q.size());
+            rolling.extend(kept, cal, final_q, kept.size(), count_progress);
+            // The adjusted solution's own error (the map's is reported below).
+            std::optional<double> median_unused, max_unused;
+            errors(final_q, median_unused, max_unused, summary.adjusted_after_60s_max_deg);
             summary.map_rebuilds = rebuilds;
-            final_q = rolling_q;
-            adjusted = std::move(rolling);
+            final_q = rolling.q;
+            adjusted = std::move(rolling.engine);
         } else {
-            adjusted = make_engine();
-            for (std::size_t k = 0; k < kept.size(); ++k) {
-                adjusted->add_frame(kept[k], cal, final_q[k]);
-                if (progress) progress(++done, total);
-            }
+            KeptMap all{make_engine(), {}};
+            all.extend(kept, cal, final_q, kept.size(), count_progress);
+            adjusted = std::move(all.engine);
         }
         summary.final_accumulate_seconds = since(t_final);
     } else if (adjust) {
@@ -461,22 +465,6 @@ CaptureSummary run_capture(const CaptureOptions& options, CameraSource& camera, 
         });
         summary.final_accumulate_seconds = since(t_final);
     }
-    // Orientation errors against a simulated session's truth: of the map's orientations, and of
-    // the live pass (what the kiosk had while scanning).
-    const auto errors = [&](const std::vector<glm::dquat>& qs, std::optional<double>& med, std::optional<double>& max,
-                            std::optional<double>& after_60s) {
-        std::vector<double> e;
-        for (std::size_t i = 0; i < used.size(); ++i) {
-            const auto t = true_poses.find(used[i].sequence);
-            if (t == true_poses.end()) continue;
-            e.push_back(angle_between(qs[i], t->second) * 180.0 / kPi);
-            if (used[i].t_ns - t_first >= 60'000'000'000LL) after_60s = std::max(after_60s.value_or(0.0), e.back());
-        }
-        if (e.empty()) return;
-        std::sort(e.begin(), e.end());
-        med = e[e.size() / 2];
-        max = e.back();
-    };
     {
         std::vector<glm::dquat> live_q;
         for (const UsedFrame& u : used) live_q.push_back(u.live);
