@@ -46,10 +46,8 @@ void GpuAccumulator::add_frame(const CameraFrame& frame, const CameraCalibration
         throw InputError("frame " + std::to_string(frame.sequence) + ": exposure x gain must be positive");
     const int s = settings_.downscale > 0 ? settings_.downscale : HdrAccumulator::auto_downscale(k, width_);
     int pw = 0, ph = 0;
-    std::vector<float> planes = HdrAccumulator::filtered_planes(frame, cal, s, pw, ph);
-    // The CPU's texel box round compact bright features (hdr_accumulator.hpp), on the same planes.
-    if (settings_.downscale <= 0)
-        HdrAccumulator::texel_box(planes, pw, ph, HdrAccumulator::texel_box_width(k, width_, s));
+    const std::vector<float> planes =
+        HdrAccumulator::accumulation_planes(frame, cal, s, settings_.downscale <= 0, width_, pw, ph);
     std::vector<float> p(std::size_t(pw) * std::size_t(ph) * 4), w(p.size());
     constexpr std::size_t n = HdrAccumulator::kPlaneFloats;
     for (std::size_t i = 0; i < std::size_t(pw) * std::size_t(ph); ++i) {

@@ -2,7 +2,7 @@
 // sampling, as a fragment shader over the map's texels (shaders/capture_accumulate.frag) adding
 // into three float32 render targets per exposure band (exposure_bands.hpp) by blending; the bands
 // are read back and merged by the CPU's rule. The frame's linearised, box-filtered planes are
-// computed on the CPU (HdrAccumulator::filtered_planes) and uploaded; the texel loop, the
+// computed on the CPU (HdrAccumulator::accumulation_planes) and uploaded; the texel loop, the
 // projection and the bilinear reads run on the GPU. Needs float render targets and
 // GL_EXT_float_blend (both checked, with a clear error).
 #pragma once

@@ -105,6 +105,13 @@ double HdrAccumulator::texel_box_width(const Intrinsics& k, int map_width, int s
     return kTwoPi / map_width * std::sqrt(k.fx * k.fy) / s;
 }
 
+std::vector<float> HdrAccumulator::accumulation_planes(const CameraFrame& frame, const CameraCalibration& cal, int s,
+                                                      bool automatic_downscale, int map_width, int& pw, int& ph) {
+    std::vector<float> planes = filtered_planes(frame, cal, s, pw, ph);
+    if (automatic_downscale) texel_box(planes, pw, ph, texel_box_width(cal.intrinsics, map_width, s));
+    return planes;
+}
+
 void HdrAccumulator::texel_box(std::vector<float>& planes, int pw, int ph, double b) {
     // Box of width b cells, separable: cell k (|k| <= R) weighs the length of [k - 0.5, k + 0.5]
     // inside [-b / 2, b / 2], divided by b. An invalid (clipped) cell that weighs at least 10 % in
@@ -202,9 +209,8 @@ FrameContribution HdrAccumulator::add_frame(const CameraFrame& frame, const Came
     out.downscale = settings_.downscale > 0 ? settings_.downscale : auto_downscale(k, width_);
     const int s = out.downscale;
     int pw = 0, ph = 0;
-    std::vector<float> planes = filtered_planes(frame, cal, s, pw, ph);
+    const std::vector<float> planes = accumulation_planes(frame, cal, s, settings_.downscale <= 0, width_, pw, ph);
     if (pw < 2 || ph < 2) throw InputError("frame too small for a downscale of " + std::to_string(s));
-    if (settings_.downscale <= 0) texel_box(planes, pw, ph, texel_box_width(k, width_, s));
 
     const glm::dvec3 fwd = world_from_camera * glm::dvec3(0, 0, -1);
     const double cos_limit = std::max(-1.0, min_cos_to_axis(k) - 0.02);

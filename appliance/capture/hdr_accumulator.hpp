@@ -99,10 +99,15 @@ public:
     // (a texel's height in cells at the image centre, 1.6 at 320 pixels over 70 degrees and
     // 1024x512), so that a texel averages the frame over its footprint instead of reading it at
     // one point. Without it a source smaller than a pixel kept 61-144 % of its energy depending
-    // on where it fell between texel centres (docs/capture.md "Accumulation"). CPU path only:
-    // gpu_accumulator.cpp does not apply it yet.
+    // on where it fell between texel centres (docs/capture.md "Accumulation").
     static double texel_box_width(const Intrinsics& k, int map_width, int s);
     static void texel_box(std::vector<float>& planes, int width, int height, double cells);
+    // What an accumulator of a map_width-wide map reads of a frame (the CPU's and the GPU's):
+    // filtered_planes for the factor s, then, when s was chosen automatically
+    // (AccumulatorSettings::downscale <= 0), the texel box.
+    static std::vector<float> accumulation_planes(const CameraFrame& frame, const CameraCalibration& calibration,
+                                                  int s, bool automatic_downscale, int map_width, int& out_width,
+                                                  int& out_height);
 
     // Exposure bands that hold frames, shortest first.
     int bands() const { return int(bands_.size()); }
