@@ -29,146 +29,24 @@
 #include "appliance/core/equirect.hpp"
 #include "appliance/core/exr_io.hpp"
 #include "tests/bench/bench_util.hpp"
+#include "tests/bench/light_sources.hpp"
 
 using namespace glint;
 
 namespace {
 
 constexpr double kDeg = kPi / 180.0;
-constexpr double kMargin = 1.5 * kDeg;  // around a source: the captured map's blur
+constexpr double kMargin = bench::kSourceMarginRad;  // around a source: the captured map's blur
 
-struct Source {
-    glm::dvec3 dir;
-    double radius = 0;  // rad (a disc of solid angle omega)
-    double omega = 0;   // sr
-    double peak = 0;
-    std::string where;
-};
+using Source = bench::LightSource;
+using bench::read_sources;
 
-glm::dvec3 look_dir(double az_deg, double el_deg) {
-    // The simulator's camera_look convention: yaw about +Y from -Z, pitch up.
-    const double a = az_deg * kDeg, e = el_deg * kDeg;
-    return glm::normalize(glm::dvec3(-std::sin(a) * std::cos(e), std::sin(e), -std::cos(a) * std::cos(e)));
-}
-
-double disc_radius(double omega) { return std::acos(1 - omega / kTwoPi); }
-
-HdrImage make_room(bool bright, int w, int h) {
-    HdrImage m(w, h);
-    std::mt19937 rng(bright ? 7 : 3);
-    std::uniform_real_distribution<double> u(0, 1);
-    const double scale = bright ? 3.0 : 0.08;
-    for (int j = 0; j < h; ++j)
-        for (int i = 0; i < w; ++i) {
-            const glm::dvec3 d = texel_direction(i, j, w, h);
-            double v = scale * (0.6 + 0.5 * d.y + 0.25 * std::sin(3 * column_phi(i, w)) * std::cos(2 * row_theta(j, h)));
-            // Window-like panels: a few brighter rectangles, sharp edges.
-            if (std::fmod(column_phi(i, w) + 10, 1.3) < 0.35 && std::abs(d.y - 0.1) < 0.25) v *= 3;
-            m.set(i, j, {float(v), float(0.85 * v), float(0.7 * v)});
-        }
-    return m;
-}
-
-// Adds a disc of solid angle omega and radiance peak (white), with exact area coverage per texel
-// (8x8 sub-samples), so the map's sum L dOmega is the source's energy plus the room it covers.
-void add_source(HdrImage& m, const Source& s) {
-    const int w = m.width(), h = m.height();
-    const double cos_r = std::cos(s.radius);
-    const double reach = s.radius + 3.0 * kPi / h;
-    for (int j = 0; j < h; ++j) {
-        const double theta = row_theta(j, h);
-        const double theta_c = std::acos(std::clamp(s.dir.y, -1.0, 1.0));
-        if (std::abs(theta - theta_c) > reach + kPi / h) continue;
-        for (int i = 0; i < w; ++i) {
-            const glm::dvec3 d = texel_direction(i, j, w, h);
-            if (glm::dot(d, s.dir) < std::cos(std::min(kPi, reach + 2 * kTwoPi / w / std::max(0.05, std::sin(theta)))))
-                continue;
-            int in = 0;
-            for (int b = 0; b < 8; ++b)
-                for (int a = 0; a < 8; ++a) {
-                    const double th = kPi * (j + (b + 0.5) / 8) / h;
-                    const double ph = kTwoPi * (i + (a + 0.5) / 8) / w - kPi;
-                    in += glm::dot(direction_from_angles(th, ph), s.dir) >= cos_r;
-                }
-            if (in == 0) continue;
-            // Area within the row is not uniform in theta; 8 rows of sub-samples weighted by sin.
-            double cover = 0, total = 0;
-            for (int b = 0; b < 8; ++b) {
-                const double th = kPi * (j + (b + 0.5) / 8) / h;
-                int n = 0;
-                for (int a = 0; a < 8; ++a) {
-                    const double ph = kTwoPi * (i + (a + 0.5) / 8) / w - kPi;
-                    n += glm::dot(direction_from_angles(th, ph), s.dir) >= cos_r;
-                }
-                cover += std::sin(th) * n;
-                total += std::sin(th) * 8;
-            }
-            const double f = cover / total;
-            Rgb c = m.at(i, j);
-            c.r = float(c.r * (1 - f) + s.peak * f);
-            c.g = float(c.g * (1 - f) + s.peak * f);
-            c.b = float(c.b * (1 - f) + s.peak * f);
-            m.set(i, j, c);
-        }
-    }
-}
-
-std::vector<Source> read_sources(const std::string& path) {
-    std::ifstream in(path);
-    if (!in) throw std::runtime_error(path + ": cannot read");
-    std::vector<Source> out;
-    Source s;
-    while (in >> s.dir.x >> s.dir.y >> s.dir.z >> s.radius >> s.omega >> s.peak >> s.where) out.push_back(s);
-    return out;
-}
-
-// Red energy of the map over the source's region.
 double region_energy(const HdrImage& m, const Source& s, double* peak = nullptr) {
-    const int w = m.width(), h = m.height();
-    const double c = std::cos(s.radius + kMargin);
-    const std::vector<double> dw = row_solid_angles(w, h);
-    double e = 0, p = 0;
-    for (int j = 0; j < h; ++j)
-        for (int i = 0; i < w; ++i) {
-            if (glm::dot(texel_direction(i, j, w, h), s.dir) < c) continue;
-            const double r = m.at(i, j).r;
-            e += r * dw[std::size_t(j)];
-            p = std::max(p, r);
-        }
-    if (peak) *peak = p;
-    return e;
+    return bench::source_energy(m, s, kMargin, peak);
 }
 
 int make(const std::string& dir) {
-    const double omegas[] = {1e-5, 1e-4, 1e-3, 1e-2};
-    const double peaks[] = {1e2, 1e3, 1e4, 1e5, 1e6};
-    struct Place {
-        double az, el;
-        const char* where;
-    } places[] = {{0, 90, "pole-N"},   {100, -72, "pole-S"},  {180, 20, "seam"},   {180, -40, "seam"},
-                  {45, 10, "open"},    {-90, 35, "open"},     {135, -15, "open"},  {-30, -50, "open"}};
-    for (int room = 0; room < 2; ++room)
-        for (int p = 0; p < 5; ++p) {
-            HdrImage m = make_room(room == 1, 2048, 1024);
-            char name[64];
-            std::snprintf(name, sizeof name, "%s_%.0e", room ? "bright" : "dim", peaks[p]);
-            std::ofstream list(dir + "/" + name + ".sources");
-            for (int k = 0; k < 8; ++k) {
-                Source s;
-                s.dir = look_dir(places[k].az, places[k].el);
-                s.omega = omegas[(k + p) % 4];
-                s.radius = disc_radius(s.omega);
-                s.peak = peaks[p];
-                s.where = places[k].where;
-                add_source(m, s);
-                char line[256];
-                std::snprintf(line, sizeof line, "%.9f %.9f %.9f %.9e %.9e %.9e %s\n", s.dir.x, s.dir.y, s.dir.z,
-                              s.radius, s.omega, s.peak, s.where.c_str());
-                list << line;
-            }
-            save_exr(dir + "/" + name + ".exr", m);
-            std::printf("%s\n", name);
-        }
+    for (const std::string& name : bench::make_stress_maps(dir)) std::printf("%s\n", name.c_str());
     return 0;
 }
 
