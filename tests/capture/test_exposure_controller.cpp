@@ -1,8 +1,11 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <deque>
+#include <optional>
 #include <string>
+#include <utility>
 #include <vector>
 
 #include "appliance/capture/exposure_controller.hpp"
@@ -203,8 +206,11 @@ TEST(ExposureController, ASourceClippedAtTheShortestExposureEndsTheBracketThere)
         EXPECT_EQ(controller.counters().bracket_frames, 2u);
         EXPECT_EQ(controller.counters().clipped_at_shortest, 1u);
         // No request is ever shorter than the shortest exposure.
-        for (const Step& x : s)
-            if (x.request && !x.request->automatic) EXPECT_GE(x.request->exposure_s, 20e-6);
+        for (const Step& x : s) {
+            if (x.request && !x.request->automatic) {
+                EXPECT_GE(x.request->exposure_s, 20e-6);
+            }
+        }
     }
 }
 
