@@ -125,8 +125,8 @@ ExposureRequest ExposureController::finish(BracketOutcome outcome) {
         case BracketOutcome::Unclipped: ++counters_.unclipped; break;
         case BracketOutcome::ClippedAtShortest: ++counters_.clipped_at_shortest; break;
         case BracketOutcome::ClippedAfterAllSteps: ++counters_.clipped_after_all_steps; break;
-        case BracketOutcome::TimedOut:
-        case BracketOutcome::NotResumed: ++counters_.timeouts; break;
+        case BracketOutcome::TimedOut: ++counters_.timeouts; break;
+        case BracketOutcome::NotResumed: ++counters_.not_resumed; break;
         case BracketOutcome::None: break;
     }
     status_.state = ExposureControlState::Preview;
@@ -177,7 +177,7 @@ std::optional<ExposureRequest> ExposureController::on_frame(const CameraFrame& f
             // on treat its frames as views.
             status_.waited_frames = leftover_frames_;
             status_.last = BracketOutcome::NotResumed;
-            ++counters_.timeouts;
+            ++counters_.not_resumed;
             leftover_.reset();
             return automatic();
         }

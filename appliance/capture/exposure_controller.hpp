@@ -30,9 +30,10 @@ struct ExposureControlSettings {
     // 6 stops, less than the 8 bits' useful range (code 255 down to the read noise), so that what
     // clipped in one frame is well exposed in the next and the frames overlap in what they measure.
     double step_factor = 64;
-    // At most this many bracket frames per clipped frame: 64^4 = 2^24 below the clipped frame,
-    // from a 1/120 s preview to 0.5 us, shorter than any sensor's shortest exposure; each frame
-    // costs the scan time and a frame of the pipeline's throughput.
+    // At most this many bracket frames per clipped frame: 64^4 = 2^24 below it, from a 1/120 s
+    // preview down to 0.5 ns. A real sensor's shortest exposure (tens of us) ends a bracket after
+    // two; the limit bounds a camera without one (the simulator without --sensor-limits) and the
+    // scan time and throughput a bracket costs.
     int max_steps = 4;
     // A pixel is clipped when any channel is at this code. 255: the response's top code, where the
     // radiance is unknown (the accumulator drops such pixels, hdr_accumulator.hpp).
@@ -94,9 +95,11 @@ struct ExposureControlCounters {
     std::uint64_t bracket_frames = 0;  // delivered frames recognised as the bracket frame asked for
     std::uint64_t waited_frames = 0;   // frames not acted on: not the one waited for, or a bracket's leftovers
     std::uint64_t requests = 0;        // requests returned (manual and automatic)
-    // How brackets ended (sum = brackets, less one still running).
+    // How brackets ended (the four add up to brackets, less one still running). A clipped frame
+    // already at the shortest exposure counts as a bracket clipped at the shortest, of no frames.
     std::uint64_t unclipped = 0, clipped_at_shortest = 0, clipped_after_all_steps = 0;
-    std::uint64_t timeouts = 0;        // TimedOut and NotResumed
+    std::uint64_t timeouts = 0;     // TimedOut: the camera did not deliver a requested exposure
+    std::uint64_t not_resumed = 0;  // NotResumed: it stayed on a bracket's exposure after it
 };
 
 class ExposureController {

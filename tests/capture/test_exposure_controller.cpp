@@ -28,7 +28,8 @@ public:
         : delay_(delay), source_(source), min_exposure_s_(min_exposure_s) {}
 
     void set_exposure(const ExposureRequest& r) {
-        if (!ignore_requests) pending_.push_back({delivered_ + delay_, r});
+        if (ignore_requests || (ignore_automatic && r.automatic)) return;
+        pending_.push_back({delivered_ + delay_, r});
     }
 
     CameraFrame next_frame() {
@@ -57,6 +58,7 @@ public:
     }
 
     bool ignore_requests = false;
+    bool ignore_automatic = false;  // stays on the last manual request
     bool source_in_view = true;
 
 private:
@@ -237,6 +239,26 @@ TEST(ExposureController, ACameraThatIgnoresTheRequestTimesOutSaysSoAndPreviewRes
     cam.source_in_view = false;
     s = run(controller, cam, 5);
     EXPECT_TRUE(request_frames(s).empty());
+    EXPECT_FALSE(controller.bracketing());
+}
+
+TEST(ExposureController, ACameraThatStaysOnTheBracketsExposureIsNamedAfterTheWait) {
+    FakeCamera cam(0, 1e5);
+    cam.ignore_automatic = true;
+    ExposureController controller;
+    const std::vector<Step> s = run(controller, cam, 12);
+    // Brackets after frames 0 and 1; automatic after frame 2 (unclipped), ignored: frames 3-10
+    // stay on 1/4096 and are waited through, then the status says so and asks again.
+    EXPECT_EQ(request_frames(s), (std::vector<int>{0, 1, 2, 10}));
+    EXPECT_TRUE(s[10].request->automatic);
+    EXPECT_DOUBLE_EQ(s[10].exposure_gain, s[0].exposure_gain / 4096);
+    EXPECT_EQ(controller.status().last, BracketOutcome::NotResumed);
+    EXPECT_EQ(controller.counters().not_resumed, 1u);
+    EXPECT_EQ(controller.counters().timeouts, 0u);
+    EXPECT_NE(controller.status().text().find("automatic exposure not resumed"), std::string::npos)
+        << controller.status().text();
+    // Still on 1/4096: frame 11 is a view now, and does not clip.
+    EXPECT_FALSE(s[11].request);
     EXPECT_FALSE(controller.bracketing());
 }
 
