@@ -56,8 +56,13 @@ Command add_simulate_command(CLI::App& app) {
     cmd->add_option("--guided-speed", a->o.guided_speed_deg_s, "Yaw speed of the built-in scan, deg/s")
         ->capture_default_str();
     cmd->add_flag("--hdr-bracket", a->o.hdr_bracket,
-                  "After a frame with any pixel clipped, add frames at 1/64, 1/4096, ... of its exposure until "
-                  "none clips (at most four, none shorter than the sensor's shortest exposure)");
+                  "Record what the capture pipeline's exposure controller asks for: after a frame with any pixel "
+                  "clipped, frames 2 ms apart at 1/64, 1/4096, ... of its exposure x gain until none clips (at "
+                  "most four, none shorter than the sensor's shortest exposure), then auto-exposure again");
+    cmd->add_option("--control-delay", a->o.control_delay_frames,
+                    "With --hdr-bracket: frames an exposure request takes to apply (a real camera's 2-3); 0 = "
+                    "the next frame. The frames in between are recorded too")
+        ->capture_default_str();
     cmd->add_flag("--sensor-limits", a->o.sensor_limits,
                   "Model the sensor's shortest exposure (20 us) and the lens's glare (2 % in 1 degree), and write "
                   "them to the session's calibration; sources still clipped at the shortest exposure are then "

@@ -2,14 +2,18 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
+#include <deque>
 #include <fstream>
+#include <optional>
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
 
 #include "appliance/capture/calibration_io.hpp"
 #include "appliance/capture/charuco.hpp"
+#include "appliance/capture/exposure_controller.hpp"
 #include "appliance/capture/session.hpp"
 #include "appliance/core/atomic_file.hpp"
 #include "appliance/core/errors.hpp"
@@ -232,13 +236,61 @@ SimulateSummary write_session(const SimulateOptions& o, const HdrImage& env, con
         truth_csv += capture::camera_poses_csv_line({std::uint64_t(written), t_ns, q}) + "\n";
         ++written;
     };
-    const auto clipped_share = [](const CameraFrame& f) {
-        long long n = 0;
-        for (int v = 0; v < f.rgb.rows; ++v) {
-            const std::uint8_t* row = f.rgb.ptr<std::uint8_t>(v);
-            for (int u = 0; u < f.rgb.cols; ++u) n += (row[3 * u] == 255 || row[3 * u + 1] == 255 || row[3 * u + 2] == 255);
+    // With --hdr-bracket the capture pipeline's exposure controller decides the brackets
+    // (capture/exposure_controller.hpp, default settings, the true shortest exposure), and the
+    // camera does what it asks `control_delay_frames` frames later. The requests reach the
+    // renderer's exposure (set_exposure(exposure, gain)), not its CameraSource face: a camera's
+    // auto-exposure keeps its own state while a manual exposure is in force and resumes from it,
+    // which is what the sessions have recorded since --hdr-bracket exists, while
+    // CameraSimulator::set_exposure(ExposureRequest) resumes from the bracket's exposure.
+    std::optional<capture::ExposureController> controller;
+    if (o.hdr_bracket) {
+        capture::ExposureControlSettings settings;
+        settings.min_exposure_s = truth.min_exposure_s;
+        controller.emplace(settings);
+    }
+    struct PendingRequest {
+        long long from_frame;  // applies to the frame of this index (frames rendered so far) and later
+        capture::ExposureRequest request;
+    };
+    std::deque<PendingRequest> pending;
+    long long rendered = 0;
+    bool manual = false;  // a manual request is in force
+    double manual_exposure_s = 0, manual_gain = 1;
+    double resume_exposure_s = 0, resume_gain = 1;  // where the auto-exposure loop goes on from
+    const auto apply = [&](const capture::ExposureRequest& r) {
+        if (r.automatic) {
+            if (manual) cam.set_exposure(resume_exposure_s, resume_gain);
+            manual = false;
+            return;
         }
-        return double(n) / double(f.rgb.rows * f.rgb.cols);
+        if (!manual) {
+            resume_exposure_s = cam.exposure_s();
+            resume_gain = cam.gain();
+        }
+        manual = true;
+        manual_exposure_s = r.exposure_s;
+        manual_gain = r.analogue_gain;
+    };
+    // One frame: rendered, written, shown to the controller; its requests queued, those due
+    // applied, and a manual exposure held (render() let the auto-exposure loop move it).
+    const auto take = [&](const glm::dquat& q, std::int64_t t_ns) {
+        const CameraFrame f = cam.render(q, t_ns, threads);
+        ++rendered;
+        emit(f, q, t_ns);
+        if (!controller) return;
+        if (const auto r = controller->on_frame(f)) pending.push_back({rendered + o.control_delay_frames, *r});
+        while (!pending.empty() && pending.front().from_frame <= rendered) {
+            apply(pending.front().request);
+            pending.pop_front();
+        }
+        if (manual) cam.set_exposure(manual_exposure_s, manual_gain);
+    };
+    // The sensor's appliance time of the instant frame k shows, minus the time offset:
+    // camera timestamp + time_offset_s = sensor time (conventions.md, "Camera frame").
+    const auto frame_t_ns = [&](int k) {
+        return std::int64_t(host_us(kLeadUs + std::uint64_t(std::llround(k / o.fps * 1e6)))) * 1000 -
+               std::int64_t(std::llround(o.time_offset_s * 1e9));
     };
     for (int k = 0; k < frames; ++k) {
         const std::uint64_t tc = o.bracket > 0 ? 0 : std::uint64_t(std::llround(k / o.fps * 1e6));
@@ -246,30 +298,16 @@ SimulateSummary write_session(const SimulateOptions& o, const HdrImage& env, con
         const glm::dquat q =
             o.bracket > 0 && o.trajectory == "guided" ? camera_look(0, 0) : world_from_camera_at(camera, tc);
         if (o.bracket > 0) cam.set_exposure(o.bracket_first_exposure_s * std::pow(2.0, k), 1.0);
-        // The sensor's appliance time of the instant the frame shows, minus the time offset:
-        // camera timestamp + time_offset_s = sensor time (conventions.md, "Camera frame").
-        const std::int64_t t_ns = std::int64_t(host_us(kLeadUs + std::uint64_t(std::llround(k / o.fps * 1e6)))) * 1000 -
-                                  std::int64_t(std::llround(o.time_offset_s * 1e9));
-        const CameraFrame f = cam.render(q, t_ns, threads);
-        emit(f, q, t_ns);
-        if (o.hdr_bracket && clipped_share(f) > 0) {
-            // What the kiosk's capture does when the guided logic says "too bright": frames at
-            // 1/64, 1/4096, ... of the exposure x gain (at gain 1), 2 ms apart, until no pixel clips
-            // (at most four) or the sensor's shortest exposure is reached, then back to
-            // auto-exposure. Any clipped pixel starts it: a source of 1e-4 sr is 7 pixels of 57600,
-            // and a share threshold (2 % until 2026-12-02) never bracketed it.
-            const double e = cam.exposure_s(), g = cam.gain();
-            for (int b = 1; b <= 4; ++b) {
-                const std::uint64_t tb = tc + std::uint64_t(b) * 2000;
-                const glm::dquat qb = world_from_camera_at(camera, tb);
-                const std::int64_t tb_ns = t_ns + std::int64_t(b) * 2'000'000;
-                const double want = f.exposure_s * f.analogue_gain * std::pow(64.0, -b);
-                cam.set_exposure(want, 1.0);  // clamped to the shortest exposure
-                const CameraFrame fb = cam.render(qb, tb_ns, threads);
-                emit(fb, qb, tb_ns);
-                if (clipped_share(fb) == 0 || fb.exposure_s <= truth.min_exposure_s) break;
-            }
-            cam.set_exposure(e, g);
+        const std::int64_t t_ns = frame_t_ns(k);
+        take(q, t_ns);
+        // While the controller brackets (waits for a requested exposure or takes the next), the
+        // camera takes frames 2 ms apart, a burst that sees nearly its first frame's view; the
+        // scan's next frame comes when the burst would reach its time (times must increase).
+        const std::int64_t next_t_ns = k + 1 < frames ? frame_t_ns(k + 1) : INT64_MAX;
+        for (int b = 1; controller && controller->bracketing(); ++b) {
+            const std::int64_t tb_ns = t_ns + std::int64_t(b) * 2'000'000;
+            if (tb_ns >= next_t_ns) break;
+            take(world_from_camera_at(camera, tc + std::uint64_t(b) * 2000), tb_ns);
         }
         if (progress) progress(k + 1, frames);
     }
@@ -291,6 +329,9 @@ SimulateSummary write_session(const SimulateOptions& o, const HdrImage& env, con
 SimulateSummary simulate_session(const SimulateOptions& o, const std::function<void(long long, long long)>& progress) {
     if (!(o.fps > 0 && o.fps <= 120)) throw InputError("--fps must be in (0, 120]");
     if (o.bracket < 0 || o.bracket > 30) throw InputError("--bracket must be in [0, 30] frames");
+    if (o.control_delay_frames < 0 || o.control_delay_frames > 30)
+        throw InputError("--control-delay must be in [0, 30] frames");
+    if (o.control_delay_frames > 0 && !o.hdr_bracket) throw InputError("--control-delay needs --hdr-bracket");
     if (!(o.guided_speed_deg_s >= 5 && o.guided_speed_deg_s <= 180)) throw InputError("--guided-speed must be 5..180 deg/s");
     if (o.bracket > 0 && !(o.bracket_first_exposure_s > 0)) throw InputError("--bracket-first must be positive");
     if (o.width < 16 || o.height < 16 || o.width > 8192 || o.height > 8192)

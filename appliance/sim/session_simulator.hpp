@@ -38,10 +38,14 @@ struct SimulateOptions {
     // own errors (a gyro bias the fusion does not see): the board is fed a world that turns.
     double heading_drift_deg_per_min = 0;
     double guided_speed_deg_s = 45;  // yaw speed of the built-in scan
-    // When any pixel of a frame is clipped, add frames at 1/64, 1/4096, ... of its exposure until
-    // none clips (at most four, none shorter than the sensor's shortest exposure): what the
-    // kiosk's capture does when the guided logic says "too bright".
+    // Record what the capture pipeline's exposure controller (capture/exposure_controller.hpp, its
+    // default settings) asks for: after a frame with any clipped pixel, frames 2 ms apart at 1/64,
+    // 1/4096, ... of its exposure x gain until none clips (at most four, none shorter than the
+    // sensor's shortest exposure), then back to auto-exposure.
     bool hdr_bracket = false;
+    // With hdr_bracket: frames an exposure request takes to apply, as on a real camera (libcamera:
+    // 2-3). 0: from the next frame (the burst). The frames in between are recorded too.
+    int control_delay_frames = 0;
     // The modelled sensor's limits (camera_model.hpp kModelled*): a shortest exposure of 20 us,
     // where the brackets stop, and lens glare. Off: no shortest exposure, no glare.
     bool sensor_limits = false;

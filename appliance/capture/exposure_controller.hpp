@@ -1,0 +1,139 @@
+// ExposureController: decides each frame's exposure request in the capture pipeline. Fed every
+// frame the camera delivers (with its real exposure and gain metadata), it says what to ask the
+// camera next through CameraSource::set_exposure, or nothing (docs/capture.md "Exposure control"):
+// - preview: automatic exposure (the camera's own loop) for the viewfinder and the scan;
+// - bracketing: after a frame with a clipped pixel, frames at 1/64, 1/4096, ... of that frame's
+//   exposure x gain (at gain 1), until one clips nowhere, the shortest exposure still clips, or
+//   four were taken; then back to automatic exposure.
+//
+// A real camera applies a control a few frames late (libcamera pipelines: 2-3 frames) and may
+// drop frames, so a bracket frame is recognised by its metadata (exposure x gain within a
+// tolerance of what was asked), never by counting frames since the request. A camera that does
+// not deliver what was asked within `max_wait_frames` frames times out, and the status says so.
+// Frames that are not the one waited for (the pipeline's frames still on the old exposure) are
+// left to the caller to use like any other; the controller only does not act on them.
+#pragma once
+
+#include <cstdint>
+#include <optional>
+#include <string>
+
+#include <opencv2/core.hpp>
+
+#include "appliance/capture/camera_frame.hpp"
+#include "appliance/capture/camera_source.hpp"
+
+namespace glint::capture {
+
+struct ExposureControlSettings {
+    // Each bracket frame is 1/step_factor of the previous (of the clipped frame for the first):
+    // 6 stops, less than the 8 bits' useful range (code 255 down to the read noise), so that what
+    // clipped in one frame is well exposed in the next and the frames overlap in what they measure.
+    double step_factor = 64;
+    // At most this many bracket frames per clipped frame: 64^4 = 2^24 below it, from a 1/120 s
+    // preview down to 0.5 ns. A real sensor's shortest exposure (tens of us) ends a bracket after
+    // two; the limit bounds a camera without one (the simulator without --sensor-limits) and the
+    // scan time and throughput a bracket costs.
+    int max_steps = 4;
+    // A pixel is clipped when any channel is at this code. 255: the response's top code, where the
+    // radiance is unknown (the accumulator drops such pixels, hdr_accumulator.hpp).
+    int clip_code = 255;
+    // A frame clips when at least this many pixels are clipped. 1: a source of 1e-4 sr is about 7
+    // pixels of 320x180, and the share threshold used until 2026-12-02 (2 %) never bracketed it.
+    long long min_clipped_pixels = 1;
+    // The sensor's shortest exposure time, seconds: CameraCalibration::min_exposure_s (or what the
+    // source reports). Requests are never shorter (the camera would clamp, and its frame would not
+    // match the request), and a bracket frame at it that still clips ends the bracket: nothing
+    // shorter can be asked for. 0 = unknown, no limit.
+    double min_exposure_s = 0;
+    // Analogue gain of the bracket frames. 1: the lowest noise per unit of exposure x gain, and the
+    // brackets only ever shorten the exposure.
+    double bracket_gain = 1;
+    // A frame is the bracket frame asked for when its exposure x analogue gain is within a factor
+    // (1 + match_tolerance) of the request's. Real sensors round the exposure to whole lines
+    // (around 10-30 us) and the gain to register steps, so an exact match would miss; the brackets
+    // are a factor 64 apart and the frames in between stay near the preview's exposure, so a
+    // quarter is far too narrow to take one for another.
+    double match_tolerance = 0.25;
+    // Frames to wait for a requested exposure before giving up (timeout): libcamera applies a
+    // control 2-3 frames late, and a frame or two may be dropped on the way.
+    int max_wait_frames = 8;
+};
+
+enum class ExposureControlState : std::uint8_t { Preview, Bracketing };
+
+// How the last bracket ended (None before the first).
+enum class BracketOutcome : std::uint8_t {
+    None,
+    Unclipped,             // its last frame clipped nowhere
+    ClippedAtShortest,     // still clipped at the shortest exposure (min_exposure_s)
+    ClippedAfterAllSteps,  // still clipped after max_steps frames
+    TimedOut,              // the camera did not deliver the requested exposure within max_wait_frames
+    NotResumed,            // after it, the camera stayed on the bracket's exposure for max_wait_frames
+};
+
+const char* exposure_control_state_name(ExposureControlState s);
+const char* bracket_outcome_name(BracketOutcome o);
+
+// What the UI can show.
+struct ExposureControlStatus {
+    ExposureControlState state = ExposureControlState::Preview;
+    int step = 0;           // bracketing: the bracket frame waited for, 1..steps
+    int steps = 0;          // bracketing: at most this many (ExposureControlSettings::max_steps)
+    double asked_exposure_s = 0, asked_gain = 1;  // bracketing: the request waited for
+    int waited_frames = 0;  // bracketing: frames delivered since that request that were not it
+    BracketOutcome last = BracketOutcome::None;
+    // "preview", "bracketing 2 of 4", "preview; clipped at the shortest exposure (2e-05 s)",
+    // "preview; timed out: the camera did not deliver 2.03e-06 s at gain 1 within 8 frames", ...
+    std::string text() const;
+};
+
+struct ExposureControlCounters {
+    std::uint64_t frames = 0;          // fed
+    std::uint64_t clipped_frames = 0;  // judged clipped (previews that started a bracket, clipped bracket frames)
+    std::uint64_t brackets = 0;        // started
+    std::uint64_t bracket_frames = 0;  // delivered frames recognised as the bracket frame asked for
+    std::uint64_t waited_frames = 0;   // frames not acted on: not the one waited for, or a bracket's leftovers
+    std::uint64_t requests = 0;        // requests returned (manual and automatic)
+    // How brackets ended (the four add up to brackets, less one still running). A clipped frame
+    // already at the shortest exposure counts as a bracket clipped at the shortest, of no frames.
+    std::uint64_t unclipped = 0, clipped_at_shortest = 0, clipped_after_all_steps = 0;
+    std::uint64_t timeouts = 0;     // TimedOut: the camera did not deliver a requested exposure
+    std::uint64_t not_resumed = 0;  // NotResumed: it stayed on a bracket's exposure after it
+};
+
+class ExposureController {
+public:
+    // Throws InputError naming the setting at fault. Assumes the camera starts on automatic exposure.
+    explicit ExposureController(ExposureControlSettings settings = {});
+
+    // One delivered frame, in delivery order. Returns the request to send to the camera now
+    // (CameraSource::set_exposure), or nullopt: no change.
+    std::optional<ExposureRequest> on_frame(const CameraFrame& frame);
+
+    bool bracketing() const { return status_.state == ExposureControlState::Bracketing; }
+    const ExposureControlStatus& status() const { return status_; }
+    const ExposureControlCounters& counters() const { return counters_; }
+    const ExposureControlSettings& settings() const { return settings_; }
+
+    // Pixels of an 8-bit RGB frame with a channel at `clip_code` or above, counting up to `stop_at`.
+    static long long clipped_pixels(const cv::Mat& rgb, int clip_code, long long stop_at);
+
+private:
+    bool clipped(const CameraFrame& frame) const;
+    bool matches(const CameraFrame& frame, double exposure_s, double gain) const;
+    ExposureRequest bracket_request(int step) const;
+    ExposureRequest finish(BracketOutcome outcome);
+    ExposureRequest automatic();
+
+    ExposureControlSettings settings_;
+    ExposureControlStatus status_;
+    ExposureControlCounters counters_;
+    double parent_exposure_gain_ = 0;  // exposure x total gain of the frame that started the bracket
+    // After a bracket: the last manual request, whose frames may still come while the camera
+    // returns to automatic exposure. They are not a new view to bracket.
+    std::optional<ExposureRequest> leftover_;
+    int leftover_frames_ = 0;
+};
+
+}  // namespace glint::capture
