@@ -16,7 +16,9 @@ packages=(
   python3                              # JSON checks in tests/cli
   libmodbus-dev                        # Modbus pan/tilt head (firmware_bridge/host)
   libgpiod-dev                         # buttons and lamps, libgpiod 1.6 C++ API (firmware_bridge/host)
-  libegl-dev libgles-dev libgbm-dev libdrm-dev   # EGL/GLES3 platform, KMS (appliance/render)
+  libegl-dev libgles-dev libgbm-dev libdrm-dev   # EGL/GLES3 platform, KMS display (appliance/gl)
+  libx11-dev                           # the window display (appliance/gl/display_window.cpp)
+  xvfb                                 # the window display's tests: an X server without a screen
   libegl-mesa0 libgl1-mesa-dri         # Mesa llvmpipe: the GPU of tests and CI
   zlib1g-dev                           # PNG screenshots of the GPU benchmark
   clang libclang-rt-14-dev             # libFuzzer targets with ASan/UBSan (scripts/run-fuzz.sh)

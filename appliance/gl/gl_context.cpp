@@ -4,12 +4,13 @@
 #include <GLES3/gl3.h>
 
 #include <algorithm>
+#include <map>
+#include <mutex>
 #include <sstream>
 
 #include "appliance/core/errors.hpp"
 
 namespace glint::gl {
-namespace {
 
 std::string egl_error_name(EGLint e) {
     switch (e) {
@@ -30,6 +31,8 @@ std::string egl_error_name(EGLint e) {
         }
     }
 }
+
+namespace {
 
 std::string gl_error_name(GLenum e) {
     switch (e) {
@@ -79,8 +82,34 @@ EglDisplay EglDisplay::surfaceless() {
     return EglDisplay(display);
 }
 
+namespace {
+
+// Live EglDisplay objects per handle. Never destroyed: an EglDisplay held by a static (a test
+// fixture's) is destroyed after every function-local static made later.
+std::mutex& display_mutex() {
+    static auto* m = new std::mutex;
+    return *m;
+}
+std::map<EGLDisplay, int>& display_users() {
+    static auto* users = new std::map<EGLDisplay, int>;
+    return *users;
+}
+
+}  // namespace
+
+EglDisplay::EglDisplay(EGLDisplay display) : display_(display) {
+    if (display_ == EGL_NO_DISPLAY) return;
+    const std::lock_guard<std::mutex> lock(display_mutex());
+    ++display_users()[display_];
+}
+
 EglDisplay::~EglDisplay() {
-    if (display_ != EGL_NO_DISPLAY) eglTerminate(display_);
+    if (display_ == EGL_NO_DISPLAY) return;
+    const std::lock_guard<std::mutex> lock(display_mutex());
+    auto it = display_users().find(display_);
+    if (it != display_users().end() && --it->second > 0) return;
+    if (it != display_users().end()) display_users().erase(it);
+    eglTerminate(display_);
 }
 
 GlContext::GlContext(const EglDisplay& display, EGLConfig config, const GlContext* share)
@@ -127,6 +156,11 @@ GlContext::~GlContext() {
 void GlContext::make_current() const {
     if (!eglMakeCurrent(display_, EGL_NO_SURFACE, EGL_NO_SURFACE, context_))
         throw RuntimeError("EGL: eglMakeCurrent failed (" + egl_error_name(eglGetError()) + ")");
+}
+
+void GlContext::make_current(EGLSurface surface) const {
+    if (!eglMakeCurrent(display_, surface, surface, context_))
+        throw RuntimeError("EGL: eglMakeCurrent with a surface failed (" + egl_error_name(eglGetError()) + ")");
 }
 
 std::string GlContext::describe() const {

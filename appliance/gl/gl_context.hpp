@@ -24,7 +24,9 @@ struct GlCapabilities {
     bool has(const std::string& extension) const;
 };
 
-// An initialised EGL display; eglTerminate on destruction.
+// An initialised EGL display; eglTerminate when the last EglDisplay of that handle goes. EGL hands
+// out one handle per platform and native display, and one eglTerminate ends it for everyone: a
+// headless display opened and closed beside the engines' context must not take theirs down.
 class EglDisplay {
 public:
     // Mesa's surfaceless platform (EGL_PLATFORM_SURFACELESS_MESA): rendering
@@ -32,7 +34,7 @@ public:
     // headless runs and tests use. Throws RuntimeError naming what is missing.
     static EglDisplay surfaceless();
     // Takes over an initialised display made elsewhere (KMS, window).
-    explicit EglDisplay(EGLDisplay display) : display_(display) {}
+    explicit EglDisplay(EGLDisplay display);
     EglDisplay(EglDisplay&& other) noexcept : display_(other.display_) { other.display_ = EGL_NO_DISPLAY; }
     EglDisplay& operator=(EglDisplay&&) = delete;
     EglDisplay(const EglDisplay&) = delete;
@@ -57,6 +59,8 @@ public:
 
     // Makes the context current on the calling thread (with no surface).
     void make_current() const;
+    // ... drawing into and reading from `surface` (a window's or a GBM surface's).
+    void make_current(EGLSurface surface) const;
     const GlCapabilities& caps() const { return caps_; }
     // One line: versions, renderer, and the extensions Glint uses.
     std::string describe() const;
@@ -68,6 +72,9 @@ private:
     EGLContext context_ = EGL_NO_CONTEXT;
     GlCapabilities caps_;
 };
+
+// "EGL_BAD_MATCH", or the code in hex.
+std::string egl_error_name(EGLint error);
 
 // Throws RuntimeError("<what>: GL error <name>") if glGetError reports one
 // (all pending errors are drained).

@@ -1,0 +1,84 @@
+// Where the appliance's frames go: one interface over three displays (docs/architecture.md,
+// "Displays"), so the renderer and the kiosk never know which one runs.
+// - kms: the appliance itself. A DRM card found by enumeration, its connected connector and
+//   preferred mode (the config may name others), a GBM surface with EGL, page flips (legacy
+//   drmModePageFlip), the previous CRTC restored on exit.
+// - window: an X11 window with EGL, for development; keyboard input.
+// - headless: EGL surfaceless and an offscreen framebuffer; frames to PNG on request (tests, CI,
+//   `glint replay`).
+// `auto` tries them in that order and logs each attempt with its reason; falling back from kms
+// marks the display degraded (the kiosk shows it in the maintenance menu).
+#pragma once
+
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "appliance/gl/gl_context.hpp"
+#include "appliance/gl/png_writer.hpp"
+
+namespace glint::gl {
+
+enum class DisplayKind { Kms, Window, Headless };
+const char* display_kind_name(DisplayKind kind);
+
+struct DisplayConfig {
+    std::string kind = "auto";  // "auto", "kms", "window" or "headless"
+    // kms: the card ("" = the first /dev/dri/card* with a connected connector), the connector
+    // ("" = the first connected) and the mode ("" = preferred; "1920x1080" or "1920x1080@60").
+    std::string card, connector, mode;
+    // window and headless: the frame's size in pixels.
+    int width = 1280, height = 720;
+    bool fullscreen = false;  // window: ask the window manager for full screen
+};
+
+// One try of `auto` (or the one of an explicit kind).
+struct DisplayAttempt {
+    DisplayKind kind = DisplayKind::Headless;
+    bool ok = false;
+    std::string detail;  // what was opened, or why not (one line)
+};
+
+// A key from the window (X11 keysym names: "Escape", "space", "Return", "m", "F1") or replayed.
+struct InputEvent {
+    enum class Type { KeyDown, KeyUp, Quit } type = Type::KeyDown;
+    std::string key;
+};
+
+class Display {
+public:
+    virtual ~Display() = default;
+    virtual DisplayKind kind() const = 0;
+    virtual std::string describe() const = 0;  // "kms: /dev/dri/card0 HDMI-A-1 1920x1080@60.00"
+    virtual int width() const = 0;
+    virtual int height() const = 0;
+    // The context every frame is drawn with, current on the thread that opened the display.
+    virtual const GlContext& context() const = 0;
+    // Binds the framebuffer the next frame is drawn into and sets the viewport to the whole of it.
+    virtual void bind_frame() = 0;
+    // Shows the frame drawn since the last present: a swap (window), a page flip that is waited
+    // for (kms: at most one flip in flight), or the end of the GL work (headless).
+    virtual void present() = 0;
+    // Input since the last call (window: keys, the close button; others: none).
+    virtual std::vector<InputEvent> poll_events() { return {}; }
+    // Fell back from the kind asked for (auto without KMS).
+    bool degraded() const { return degraded_; }
+    void set_degraded(bool degraded) { degraded_ = degraded; }
+
+    // The frame drawn since the last present (call before present()), rows top first.
+    RgbImage read_frame();
+
+private:
+    bool degraded_ = false;
+};
+
+// Opens the display of `config`. Every attempt is appended to `attempts` (when given). Throws
+// RuntimeError with the reason of the last attempt when none opened.
+std::unique_ptr<Display> open_display(const DisplayConfig& config, std::vector<DisplayAttempt>* attempts = nullptr);
+
+// The single kinds (open_display calls these).
+std::unique_ptr<Display> open_headless_display(const DisplayConfig& config);
+std::unique_ptr<Display> open_window_display(const DisplayConfig& config);  // needs $DISPLAY
+std::unique_ptr<Display> open_kms_display(const DisplayConfig& config);
+
+}  // namespace glint::gl

@@ -1,0 +1,307 @@
+// The KMS display (display.hpp): the appliance's own screen, with no display server. A DRM card
+// found by enumeration, the connector and mode of choose_kms_output, a GBM surface that EGL draws
+// into, and page flips through the legacy KMS API (drmModeSetCrtc for the first frame,
+// drmModePageFlip after), one in flight at a time. The CRTC's previous state is restored on exit,
+// so the console comes back.
+#include <fcntl.h>
+#include <poll.h>
+#include <unistd.h>
+
+#include <EGL/egl.h>
+#include <EGL/eglext.h>
+#include <GLES3/gl3.h>
+#include <gbm.h>
+#include <xf86drm.h>
+#include <xf86drmMode.h>
+
+#include <cerrno>
+#include <algorithm>
+#include <cstring>
+#include <filesystem>
+#include <memory>
+#include <optional>
+
+#include "appliance/core/errors.hpp"
+#include "appliance/gl/display.hpp"
+#include "appliance/gl/kms_output.hpp"
+
+namespace glint::gl {
+
+namespace {
+
+std::string connector_name(const drmModeConnector& c) {
+    const char* type = drmModeGetConnectorTypeName(c.connector_type);
+    return std::string(type ? type : "Unknown") + "-" + std::to_string(c.connector_type_id);
+}
+
+double refresh_hz(const drmModeModeInfo& m) {
+    if (m.htotal == 0 || m.vtotal == 0) return m.vrefresh;
+    double hz = double(m.clock) * 1000.0 / (double(m.htotal) * double(m.vtotal));
+    if (m.flags & DRM_MODE_FLAG_INTERLACE) hz *= 2;
+    if (m.flags & DRM_MODE_FLAG_DBLSCAN) hz /= 2;
+    return hz;
+}
+
+// The card's connectors as KmsCard (kms_output.hpp), and each connector's raw modes beside it.
+KmsCard read_card(int fd, const std::string& path, std::vector<std::vector<drmModeModeInfo>>& raw_modes) {
+    drmModeRes* res = drmModeGetResources(fd);
+    if (!res) throw RuntimeError(path + ": not a KMS device (drmModeGetResources: " + std::strerror(errno) + ")");
+    KmsCard card;
+    card.path = path;
+    for (int i = 0; i < res->count_connectors; ++i) {
+        drmModeConnector* c = drmModeGetConnector(fd, res->connectors[i]);
+        if (!c) continue;
+        KmsConnector k;
+        k.id = c->connector_id;
+        k.name = connector_name(*c);
+        k.connected = c->connection == DRM_MODE_CONNECTED;
+        std::vector<drmModeModeInfo> modes;
+        for (int m = 0; m < c->count_modes; ++m) {
+            const drmModeModeInfo& info = c->modes[m];
+            k.modes.push_back({int(info.hdisplay), int(info.vdisplay), refresh_hz(info),
+                               (info.type & DRM_MODE_TYPE_PREFERRED) != 0, m});
+            modes.push_back(info);
+        }
+        if (c->encoder_id) {
+            if (drmModeEncoder* e = drmModeGetEncoder(fd, c->encoder_id)) {
+                k.current_crtc = e->crtc_id;
+                drmModeFreeEncoder(e);
+            }
+        }
+        for (int e = 0; e < c->count_encoders; ++e) {
+            drmModeEncoder* enc = drmModeGetEncoder(fd, c->encoders[e]);
+            if (!enc) continue;
+            for (int j = 0; j < res->count_crtcs && j < 32; ++j)
+                if ((enc->possible_crtcs & (1u << j)) &&
+                    std::find(k.possible_crtcs.begin(), k.possible_crtcs.end(), res->crtcs[j]) == k.possible_crtcs.end())
+                    k.possible_crtcs.push_back(res->crtcs[j]);
+            drmModeFreeEncoder(enc);
+        }
+        card.connectors.push_back(std::move(k));
+        raw_modes.push_back(std::move(modes));
+        drmModeFreeConnector(c);
+    }
+    drmModeFreeResources(res);
+    return card;
+}
+
+class KmsDisplay final : public Display {
+public:
+    KmsDisplay(int fd, std::string path, const KmsConnector& connector, const drmModeModeInfo& mode, std::uint32_t crtc)
+        : fd_(fd), path_(std::move(path)), connector_id_(connector.id), connector_name_(connector.name), mode_(mode),
+          crtc_(crtc) {
+        try {
+            saved_crtc_ = drmModeGetCrtc(fd_, crtc_);
+            gbm_ = gbm_create_device(fd_);
+            if (!gbm_) throw RuntimeError(path_ + ": gbm_create_device failed");
+            surface_gbm_ = gbm_surface_create(gbm_, mode_.hdisplay, mode_.vdisplay, GBM_FORMAT_XRGB8888,
+                                              GBM_BO_USE_SCANOUT | GBM_BO_USE_RENDERING);
+            if (!surface_gbm_) throw RuntimeError(path_ + ": gbm_surface_create failed for " + describe_raw_mode());
+            const auto get_platform_display =
+                reinterpret_cast<PFNEGLGETPLATFORMDISPLAYEXTPROC>(eglGetProcAddress("eglGetPlatformDisplayEXT"));
+            EGLDisplay d = get_platform_display ? get_platform_display(EGL_PLATFORM_GBM_KHR, gbm_, nullptr)
+                                                : eglGetDisplay(reinterpret_cast<EGLNativeDisplayType>(gbm_));
+            if (d == EGL_NO_DISPLAY) throw RuntimeError(path_ + ": EGL has no display for GBM");
+            EGLint major = 0, minor = 0;
+            if (!eglInitialize(d, &major, &minor))
+                throw RuntimeError(path_ + ": eglInitialize on GBM failed (" + egl_error_name(eglGetError()) + ")");
+            egl_.emplace(d);
+            const EGLConfig cfg = choose_config();
+            context_ = std::make_unique<GlContext>(*egl_, cfg);
+            surface_ = eglCreateWindowSurface(d, cfg, reinterpret_cast<EGLNativeWindowType>(surface_gbm_), nullptr);
+            if (surface_ == EGL_NO_SURFACE)
+                throw RuntimeError(path_ + ": eglCreateWindowSurface on GBM failed (" + egl_error_name(eglGetError()) + ")");
+            context_->make_current(surface_);
+            renderer_ = context_->caps().renderer;
+        } catch (...) {
+            release(false);  // the caller still owns the card's descriptor
+            throw;
+        }
+    }
+    ~KmsDisplay() override { release(true); }
+
+    DisplayKind kind() const override { return DisplayKind::Kms; }
+    std::string describe() const override {
+        return "kms: " + path_ + " " + connector_name_ + " " + describe_raw_mode() + ", " + renderer_;
+    }
+    int width() const override { return mode_.hdisplay; }
+    int height() const override { return mode_.vdisplay; }
+    const GlContext& context() const override { return *context_; }
+    void bind_frame() override {
+        glBindFramebuffer(GL_FRAMEBUFFER, 0);
+        glViewport(0, 0, mode_.hdisplay, mode_.vdisplay);
+    }
+    void present() override {
+        if (!eglSwapBuffers(egl_->handle(), surface_))
+            throw RuntimeError(path_ + ": eglSwapBuffers failed (" + egl_error_name(eglGetError()) + ")");
+        gbm_bo* bo = gbm_surface_lock_front_buffer(surface_gbm_);
+        if (!bo) throw RuntimeError(path_ + ": no front buffer to show");
+        const std::uint32_t fb = framebuffer_of(bo);
+        if (!mode_set_) {
+            std::uint32_t connector = connector_id_;
+            if (drmModeSetCrtc(fd_, crtc_, fb, 0, 0, &connector, 1, &mode_) != 0) {
+                const int e = errno;
+                gbm_surface_release_buffer(surface_gbm_, bo);
+                throw RuntimeError(path_ + (e == EACCES || e == EPERM ? ": not DRM master (another program drives the card)"
+                                                                      : ": drmModeSetCrtc failed: " + std::string(std::strerror(e))));
+            }
+            mode_set_ = true;
+        } else {
+            flip_pending_ = true;
+            if (drmModePageFlip(fd_, crtc_, fb, DRM_MODE_PAGE_FLIP_EVENT, this) != 0) {
+                const int e = errno;
+                flip_pending_ = false;
+                gbm_surface_release_buffer(surface_gbm_, bo);
+                throw RuntimeError(path_ + ": drmModePageFlip failed: " + std::strerror(e));
+            }
+            wait_for_flip();
+        }
+        // The buffer shown until now goes back to GBM; the new one stays locked while on screen.
+        if (shown_) gbm_surface_release_buffer(surface_gbm_, shown_);
+        shown_ = bo;
+    }
+
+private:
+    std::string describe_raw_mode() const {
+        return describe_mode({mode_.hdisplay, mode_.vdisplay, refresh_hz(mode_), false, 0});
+    }
+
+    EGLConfig choose_config() {
+        const EGLint wanted[] = {EGL_SURFACE_TYPE, EGL_WINDOW_BIT, EGL_RENDERABLE_TYPE, EGL_OPENGL_ES3_BIT,
+                                 EGL_RED_SIZE, 8, EGL_GREEN_SIZE, 8, EGL_BLUE_SIZE, 8, EGL_DEPTH_SIZE, 24,
+                                 EGL_STENCIL_SIZE, 8, EGL_NONE};
+        EGLint count = 0;
+        eglChooseConfig(egl_->handle(), wanted, nullptr, 0, &count);
+        std::vector<EGLConfig> configs(std::size_t(std::max(count, 0)));
+        if (count > 0) eglChooseConfig(egl_->handle(), wanted, configs.data(), count, &count);
+        // The config whose native format is the GBM surface's: others fail at surface creation.
+        for (EGLConfig c : configs) {
+            EGLint id = 0;
+            if (eglGetConfigAttrib(egl_->handle(), c, EGL_NATIVE_VISUAL_ID, &id) && std::uint32_t(id) == GBM_FORMAT_XRGB8888)
+                return c;
+        }
+        throw RuntimeError(path_ + ": no EGL config renders into an XRGB8888 GBM surface");
+    }
+
+    // A KMS framebuffer per GBM buffer, made once and kept with the buffer (GBM reuses a few).
+    std::uint32_t framebuffer_of(gbm_bo* bo) {
+        if (void* data = gbm_bo_get_user_data(bo)) return std::uint32_t(reinterpret_cast<std::uintptr_t>(data));
+        std::uint32_t fb = 0;
+        const std::uint32_t handles[4] = {gbm_bo_get_handle(bo).u32, 0, 0, 0};
+        const std::uint32_t strides[4] = {gbm_bo_get_stride(bo), 0, 0, 0};
+        const std::uint32_t offsets[4] = {0, 0, 0, 0};
+        if (drmModeAddFB2(fd_, gbm_bo_get_width(bo), gbm_bo_get_height(bo), GBM_FORMAT_XRGB8888, handles, strides,
+                          offsets, &fb, 0) != 0)
+            throw RuntimeError(path_ + ": drmModeAddFB2 failed: " + std::strerror(errno));
+        gbm_bo_set_user_data(bo, reinterpret_cast<void*>(std::uintptr_t(fb)), [](gbm_bo* b, void* d) {
+            gbm_device* dev = gbm_bo_get_device(b);
+            drmModeRmFB(gbm_device_get_fd(dev), std::uint32_t(reinterpret_cast<std::uintptr_t>(d)));
+        });
+        return fb;
+    }
+
+    void wait_for_flip() {
+        drmEventContext events{};
+        events.version = 2;
+        events.page_flip_handler = [](int, unsigned, unsigned, unsigned, void* self) {
+            static_cast<KmsDisplay*>(self)->flip_pending_ = false;
+        };
+        while (flip_pending_) {
+            pollfd p{fd_, POLLIN, 0};
+            // A flip is due within a refresh; a second without one means the display is gone.
+            const int r = poll(&p, 1, 1000);
+            if (r < 0 && errno == EINTR) continue;
+            if (r <= 0) throw RuntimeError(path_ + ": no page flip completed within 1 s");
+            if (drmHandleEvent(fd_, &events) != 0) throw RuntimeError(path_ + ": drmHandleEvent failed");
+        }
+    }
+
+    void release(bool close_card) {
+        if (flip_pending_) {
+            try {
+                wait_for_flip();
+            } catch (...) {
+            }
+        }
+        if (saved_crtc_ && mode_set_) {
+            std::uint32_t connector = connector_id_;
+            drmModeSetCrtc(fd_, saved_crtc_->crtc_id, saved_crtc_->buffer_id, saved_crtc_->x, saved_crtc_->y, &connector,
+                           1, &saved_crtc_->mode);
+        }
+        if (saved_crtc_) drmModeFreeCrtc(saved_crtc_);
+        saved_crtc_ = nullptr;
+        if (egl_ && surface_ != EGL_NO_SURFACE) {
+            eglMakeCurrent(egl_->handle(), EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
+            eglDestroySurface(egl_->handle(), surface_);
+            surface_ = EGL_NO_SURFACE;
+        }
+        context_.reset();
+        egl_.reset();
+        if (shown_ && surface_gbm_) gbm_surface_release_buffer(surface_gbm_, shown_);
+        shown_ = nullptr;
+        if (surface_gbm_) gbm_surface_destroy(surface_gbm_);
+        surface_gbm_ = nullptr;
+        if (gbm_) gbm_device_destroy(gbm_);
+        gbm_ = nullptr;
+        if (close_card && fd_ >= 0) close(fd_);
+        fd_ = -1;
+    }
+
+    int fd_;
+    std::string path_;
+    std::uint32_t connector_id_;
+    std::string connector_name_, renderer_;
+    drmModeModeInfo mode_;
+    std::uint32_t crtc_;
+    drmModeCrtc* saved_crtc_ = nullptr;
+    gbm_device* gbm_ = nullptr;
+    gbm_surface* surface_gbm_ = nullptr;
+    std::optional<EglDisplay> egl_;
+    std::unique_ptr<GlContext> context_;
+    EGLSurface surface_ = EGL_NO_SURFACE;
+    gbm_bo* shown_ = nullptr;
+    bool mode_set_ = false, flip_pending_ = false;
+};
+
+}  // namespace
+
+std::unique_ptr<Display> open_kms_display(const DisplayConfig& config) {
+    std::vector<std::string> cards;
+    if (!config.card.empty()) {
+        cards.push_back(config.card);
+    } else {
+        for (int i = 0; i < 16; ++i) {
+            const std::string p = "/dev/dri/card" + std::to_string(i);
+            if (std::filesystem::exists(p)) cards.push_back(p);
+        }
+        if (cards.empty()) throw RuntimeError("no DRM card (/dev/dri/card* does not exist)");
+    }
+    std::string reasons;
+    for (const std::string& path : cards) {
+        try {
+            const int fd = open(path.c_str(), O_RDWR | O_CLOEXEC);
+            if (fd < 0) throw RuntimeError(path + ": cannot open: " + std::strerror(errno));
+            try {
+                // The screen belongs to one program: without master rights the mode set fails later
+                // with a less clear error.
+                if (!drmIsMaster(fd) && drmSetMaster(fd) != 0)
+                    throw RuntimeError(path + ": not DRM master (another program, e.g. a desktop, drives the card)");
+                std::vector<std::vector<drmModeModeInfo>> raw;
+                const KmsCard card = read_card(fd, path, raw);
+                const KmsChoice choice = choose_kms_output(card, {config.connector, config.mode});
+                const KmsConnector& c = card.connectors[choice.connector];
+                return std::make_unique<KmsDisplay>(fd, path, c, raw[choice.connector][choice.mode], choice.crtc);
+            } catch (...) {
+                close(fd);
+                throw;
+            }
+        } catch (const RuntimeError& e) {
+            // With a named card its reason is the answer; enumerating, the next card may do.
+            if (!config.card.empty()) throw;
+            reasons += (reasons.empty() ? "" : "; ") + std::string(e.what());
+        }
+    }
+    throw RuntimeError(reasons);
+}
+
+}  // namespace glint::gl
