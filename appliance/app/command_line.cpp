@@ -29,6 +29,10 @@ constexpr CommandSummary kSummaries[] = {
      "Read or replay an orientation source: one line per sample on stdout (appliance monotonic time), the health "
      "figures on stderr once a second",
      false},
+    {"render",
+     "Render an object lit by an environment map's irradiance and Phong reflection maps on a display (headless by "
+     "default): PNG frame, AOVs (radiance, normal, reflection EXR), frame-time statistics",
+     false},
     {"simulate",
      "Render a recorded capture session with ground truth from an equirect HDR map: camera frames through a camera "
      "model (distortion, vignetting, response, noise, auto-exposure) along a trajectory, and the sensor board's "

@@ -1,0 +1,221 @@
+// `glint render`: one object lit by an environment map's irradiance and reflection maps, on a
+// display (headless by default), with its AOVs and frame times (docs/render.md).
+//
+// It lives in `glint`, not glint-vision: it needs GL, the displays, the convolution and core, and
+// no OpenCV or libcamera (docs/architecture.md, "Commands: two executables").
+#include <algorithm>
+#include <chrono>
+#include <cmath>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <nlohmann/json.hpp>
+
+#include "appliance/app/cli_util.hpp"
+#include "appliance/app/commands.hpp"
+#include "appliance/core/atomic_file.hpp"
+#include "appliance/core/errors.hpp"
+#include "appliance/core/exr_io.hpp"
+#include "appliance/gl/display.hpp"
+#include "appliance/render/maps.hpp"
+#include "appliance/render/material.hpp"
+#include "appliance/render/mesh.hpp"
+#include "appliance/render/renderer.hpp"
+
+namespace glint::app {
+namespace {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+struct RenderArgs {
+    std::string env;
+    std::string maps;
+    std::string model = "sphere";
+    std::string material = "matte";
+    std::string background = "env";
+    std::string size = "1280x720";
+    std::string out;
+    std::string aov;
+    bool no_ao = false;
+    int frames = 1;
+    std::string stats;
+    std::string display = "headless";
+    double key = 0.18;
+    int threads = 0;
+};
+
+render::Mesh load_model(const std::string& model) {
+    if (model == "sphere") return render::make_uv_sphere();
+    if (model == "teapot")
+        throw InputError("--model teapot: not built (no Newell patch data of a known licence ships yet; "
+                         "docs/render.md); use sphere or an OBJ file");
+    const fs::path path(model);
+    std::string ext = path.extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+    if (ext == ".obj") {
+        render::Mesh mesh = render::load_obj(path);
+        render::normalise_to_unit_sphere(mesh);
+        return mesh;
+    }
+    if (ext == ".gltf" || ext == ".glb")
+        throw InputError("--model " + model + ": glTF is not built yet (docs/render.md); use an OBJ file");
+    throw InputError("--model " + model + ": want sphere, teapot or an .obj file");
+}
+
+// Nearest-rank percentile of sorted values.
+double percentile(const std::vector<double>& sorted, double p) {
+    if (sorted.empty()) return 0;
+    const std::size_t rank = std::size_t(std::ceil(p / 100.0 * double(sorted.size())));
+    return sorted[std::min(sorted.size() - 1, rank == 0 ? 0 : rank - 1)];
+}
+
+double median(const std::vector<double>& sorted) {
+    if (sorted.empty()) return 0;
+    const std::size_t n = sorted.size();
+    return n % 2 ? sorted[n / 2] : 0.5 * (sorted[n / 2 - 1] + sorted[n / 2]);
+}
+
+int run_render(const RenderArgs& args) {
+    // Everything the user typed is checked before any work.
+    const render::Material material = render::parse_material(args.material, "--material");
+    const convolution::Size size = parse_size(args.size, "--size");
+    if (args.frames < 1) throw InputError("--frames: must be at least 1");
+    if (!(args.key > 0 && args.key < 1)) throw InputError("--key: must be in (0, 1)");
+    std::optional<gl::RgbImage> background_image;
+    if (args.background != "env" && args.background != "black") {
+        if (fs::path(args.background).extension() != ".png")
+            throw InputError("--background " + args.background + ": want env, black or a .png image");
+        background_image = gl::load_png(args.background);
+    }
+    render::Mesh mesh = load_model(args.model);
+
+    LoadedExr env = load_exr(args.env);
+    if (env.sanitised.total() > 0)
+        std::fprintf(stderr, "glint: warning: %s: %zu channel values sanitised (NaN %zu, +Inf %zu, -Inf %zu, negative %zu)\n",
+                     args.env.c_str(), env.sanitised.total(), env.sanitised.nan, env.sanitised.pos_inf,
+                     env.sanitised.neg_inf, env.sanitised.negative);
+
+    const auto t_maps = Clock::now();
+    render::ShadingMaps maps;
+    if (!args.maps.empty()) {
+        maps = render::load_maps(args.maps, material);
+    } else {
+        convolution::Options options;
+        options.tolerance = 0.01;
+        options.threads = args.threads;
+        maps = render::convolve_maps(env.image, material, options);
+    }
+    const double maps_s = std::chrono::duration<double>(Clock::now() - t_maps).count();
+    if (maps.irradiance) std::printf("irradiance: %s\n", maps.irradiance_from.c_str());
+    if (maps.reflection) std::printf("reflection: %s\n", maps.reflection_from.c_str());
+
+    gl::DisplayConfig config;
+    config.kind = args.display;
+    config.width = size.width;
+    config.height = size.height;
+    std::vector<gl::DisplayAttempt> attempts;
+    std::unique_ptr<gl::Display> display = gl::open_display(config, &attempts);
+    for (const auto& a : attempts)
+        if (!a.ok) std::fprintf(stderr, "glint: display %s: %s\n", gl::display_kind_name(a.kind), a.detail.c_str());
+    std::printf("display: %s\n", display->describe().c_str());
+
+    render::Renderer renderer(mesh, material, maps, display->width(), display->height());
+    renderer.set_ambient_occlusion(!args.no_ao);
+    if (args.background == "env") renderer.set_background_environment(env.image);
+    else if (background_image) renderer.set_background_image(*background_image);
+    else renderer.set_background_black();
+
+    // The scene is still, so the tone map is metered once, before the timed frames.
+    renderer.draw_scene();
+    const render::ToneMap& tone = renderer.meter(args.key);
+    std::printf("tone map: Reinhard, key %.3g, log-average luminance %.6g, white %.6g (scaled), %lld pixels metered\n",
+                tone.key, tone.log_average, tone.white, tone.pixels);
+
+    std::vector<double> frame_ms;
+    for (int f = 0; f < args.frames; ++f) {
+        const auto t0 = Clock::now();
+        renderer.draw_scene();
+        display->bind_frame();
+        renderer.composite();
+        display->present();
+        frame_ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+        for (const auto& e : display->poll_events())
+            if (e.type == gl::InputEvent::Type::Quit || (e.type == gl::InputEvent::Type::KeyDown && e.key == "Escape"))
+                f = args.frames;
+    }
+
+    // One more frame, untimed, for the files: the read-backs are not part of a frame's cost.
+    if (!args.out.empty() || !args.aov.empty()) {
+        renderer.draw_scene();
+        display->bind_frame();
+        renderer.composite();
+        if (!args.out.empty()) gl::save_png(args.out, display->read_frame());
+        display->present();
+        if (!args.aov.empty()) render::save_aovs(args.aov, renderer.read_aovs());
+    }
+
+    std::vector<double> sorted = frame_ms;
+    std::sort(sorted.begin(), sorted.end());
+    const double med = median(sorted), p99 = percentile(sorted, 99), max = sorted.back();
+    std::printf("%zu frames at %dx%d: median %.3f ms, p99 %.3f ms, max %.3f ms (%zu triangles)\n", frame_ms.size(),
+                display->width(), display->height(), med, p99, max, mesh.triangle_count());
+    if (!args.stats.empty()) {
+        nlohmann::json s;
+        s["frames"] = frame_ms.size();
+        s["width"] = display->width();
+        s["height"] = display->height();
+        s["display"] = display->describe();
+        s["degraded"] = display->degraded();
+        s["renderer"] = display->context().caps().renderer;
+        s["model"] = mesh.source;
+        s["triangles"] = mesh.triangle_count();
+        s["material"] = material.spec;
+        s["maps_seconds"] = maps_s;
+        s["irradiance"] = maps.irradiance ? nlohmann::json(maps.irradiance_from) : nlohmann::json();
+        s["reflection"] = maps.reflection ? nlohmann::json(maps.reflection_from) : nlohmann::json();
+        s["tone_map"] = {{"operator", "reinhard"}, {"key", tone.key}, {"log_average", tone.log_average},
+                         {"white_scaled", tone.white}, {"delta", tone.delta}};
+        s["frame_ms"] = {{"median", med}, {"p99", p99}, {"max", max}};
+        s["frame_ms_all"] = frame_ms;
+        write_text_atomically(args.stats, s.dump(2) + "\n");
+    }
+    if (!args.out.empty()) std::printf("wrote %s\n", args.out.c_str());
+    if (!args.aov.empty()) std::printf("wrote radiance.exr, normal.exr, reflect.exr to %s\n", args.aov.c_str());
+    return 0;
+}
+
+}  // namespace
+
+Command add_render_command(CLI::App& app) {
+    auto args = std::make_shared<RenderArgs>();
+    CLI::App* cmd = app.add_subcommand("render", std::string(command_summary("render").summary));
+    cmd->add_option("--env", args->env, "Equirectangular HDR environment map (OpenEXR)")->required();
+    cmd->add_option("--maps", args->maps,
+                    "Directory written by glint convolve (report.json names the maps); without it the maps the "
+                    "material needs are convolved first (CPU, tolerance 1 %)");
+    cmd->add_option("--model", args->model, "sphere, teapot (not built) or an OBJ file")->capture_default_str();
+    cmd->add_option("--material", args->material,
+                    "matte, glossy:N, mirror or 'kd=R,G,B;ks=R,G,B;n=N' (Phong: kd E_d(N) ao + ks E_s^n(R))")
+        ->capture_default_str();
+    cmd->add_option("--background", args->background, "env (the environment through the camera), black or IMAGE.png")
+        ->capture_default_str();
+    cmd->add_option("--size", args->size, "Frame size WxH (headless and window; kms uses its mode)")
+        ->check(size_validator())
+        ->capture_default_str();
+    cmd->add_option("--out", args->out, "Write the displayed frame as PNG");
+    cmd->add_option("--aov", args->aov, "Write radiance.exr (RGBA), normal.exr, reflect.exr into this directory");
+    cmd->add_flag("--no-ao", args->no_ao, "Turn ambient occlusion off (no baked occlusion is built yet: ao = 1 either way)");
+    cmd->add_option("--frames", args->frames, "Frames to render and time")->check(CLI::PositiveNumber)->capture_default_str();
+    cmd->add_option("--stats", args->stats, "Write frame-time statistics (median, p99, max ms) as JSON");
+    cmd->add_option("--display", args->display, "headless, window, kms or auto")
+        ->check(CLI::IsMember({"headless", "window", "kms", "auto"}))
+        ->capture_default_str();
+    cmd->add_option("--key", args->key, "Reinhard key value (middle grey), in (0, 1)")->capture_default_str();
+    cmd->add_option("--threads", args->threads, "Worker threads of the convolution; 0 = all cores")
+        ->check(CLI::NonNegativeNumber)
+        ->capture_default_str();
+    return {cmd, [args] { return run_render(*args); }};
+}
+
+}  // namespace glint::app

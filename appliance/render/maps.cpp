@@ -1,0 +1,82 @@
+#include "appliance/render/maps.hpp"
+
+#include <cmath>
+#include <fstream>
+#include <nlohmann/json.hpp>
+
+#include "appliance/core/errors.hpp"
+#include "appliance/core/exr_io.hpp"
+
+namespace glint::render {
+namespace {
+
+namespace fs = std::filesystem;
+
+std::string describe_plan(const convolution::MapResult& r) {
+    return "convolved (" + convolution::to_string(r.plan.method) + ", " + convolution::to_string(r.plan.output_size) +
+           ")";
+}
+
+}  // namespace
+
+ShadingMaps load_maps(const fs::path& dir, const Material& material) {
+    const fs::path report_path = dir / "report.json";
+    std::ifstream in(report_path);
+    if (!in) throw InputError("--maps " + dir.string() + ": no report.json (write the maps with glint convolve)");
+    nlohmann::json report;
+    try {
+        report = nlohmann::json::parse(in);
+    } catch (const std::exception& e) {
+        throw InputError(report_path.string() + ": not JSON: " + e.what());
+    }
+    if (!report.contains("maps") || !report["maps"].is_array())
+        throw InputError(report_path.string() + ": has no \"maps\" list");
+
+    ShadingMaps out;
+    for (const convolution::MapRequest& want : needed_maps(material)) {
+        std::string file;
+        std::string listed;
+        for (const auto& entry : report["maps"]) {
+            const std::string label = entry.value("map", "");
+            listed += (listed.empty() ? "" : ", ") + label;
+            bool match = false;
+            if (want.irradiance) match = label == "irradiance";
+            else if (want.mirror) match = label == "mirror";
+            else match = label.rfind("phong_", 0) == 0 && entry.contains("shininess") &&
+                         entry["shininess"].is_number() && entry["shininess"].get<double>() == want.shininess;
+            if (match && file.empty()) file = entry.value("file", label + ".exr");
+        }
+        if (file.empty())
+            throw InputError("--maps " + dir.string() + ": report.json lists no " + want.label + " map (it lists: " +
+                             (listed.empty() ? "none" : listed) + ")");
+        const fs::path path = dir / file;
+        HdrImage image = load_exr(path).image;
+        if (want.irradiance) {
+            out.irradiance = std::move(image);
+            out.irradiance_from = path.string();
+        } else {
+            out.reflection = std::move(image);
+            out.reflection_from = path.string();
+        }
+    }
+    return out;
+}
+
+ShadingMaps convolve_maps(const HdrImage& environment, const Material& material,
+                          const convolution::Options& options) {
+    const auto requests = needed_maps(material);
+    std::vector<convolution::MapResult> results = convolution::convolve(environment, requests, options);
+    ShadingMaps out;
+    for (auto& r : results) {
+        if (r.request.irradiance) {
+            out.irradiance_from = describe_plan(r);
+            out.irradiance = std::move(r.image);
+        } else {
+            out.reflection_from = describe_plan(r);
+            out.reflection = std::move(r.image);
+        }
+    }
+    return out;
+}
+
+}  // namespace glint::render

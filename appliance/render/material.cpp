@@ -1,0 +1,110 @@
+#include "appliance/render/material.hpp"
+
+#include <cmath>
+#include <cstdio>
+
+#include "appliance/core/errors.hpp"
+#include "appliance/core/strict_number.hpp"
+
+namespace glint::render {
+namespace {
+
+// Shininess accepted: the range `glint convolve --shininess` takes.
+constexpr double kMaxShininess = 1e7;
+
+double parse_shininess(std::string_view text, const std::string& where) {
+    const double n = parse_double(text, where);
+    if (n < 0 || n > kMaxShininess)
+        throw InputError(where + ": shininess " + std::string(text) + " is outside [0, 1e7]");
+    return n;
+}
+
+glm::dvec3 parse_albedo(std::string_view text, const std::string& where) {
+    std::vector<double> v;
+    std::size_t k = 0;
+    while (true) {
+        const std::size_t comma = text.find(',', k);
+        const std::string_view item = text.substr(k, comma == std::string_view::npos ? comma : comma - k);
+        const double x = parse_double(item, where);
+        if (x < 0) throw InputError(where + ": albedo " + std::string(item) + " is negative");
+        v.push_back(x);
+        if (comma == std::string_view::npos) break;
+        k = comma + 1;
+    }
+    if (v.size() == 1) return glm::dvec3(v[0]);
+    if (v.size() != 3) throw InputError(where + ": want R,G,B or one number, got '" + std::string(text) + "'");
+    return {v[0], v[1], v[2]};
+}
+
+}  // namespace
+
+std::string phong_label(double n) {
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "phong_%g", n);
+    return buf;
+}
+
+Material parse_material(const std::string& text, const std::string& flag) {
+    const std::string where = flag + " '" + text + "'";
+    Material m;
+    m.spec = text;
+    if (text == "matte") {
+        m.kd = glm::dvec3(1);
+        m.ks = glm::dvec3(0);
+        return m;
+    }
+    if (text == "mirror") {
+        m.kd = glm::dvec3(0);
+        m.ks = glm::dvec3(1);
+        m.mirror = true;
+        return m;
+    }
+    if (text.rfind("glossy:", 0) == 0) {
+        m.kd = glm::dvec3(0);
+        m.ks = glm::dvec3(1);
+        m.n = parse_shininess(std::string_view(text).substr(7), where);
+        return m;
+    }
+    if (text.find('=') == std::string::npos)
+        throw InputError(where + ": not a material (want matte, glossy:N, mirror or kd=R,G,B;ks=R,G,B;n=N)");
+    m.kd = glm::dvec3(0);
+    m.ks = glm::dvec3(0);
+    bool seen_kd = false, seen_ks = false, seen_n = false;
+    std::size_t k = 0;
+    while (k <= text.size()) {
+        const std::size_t semi = text.find(';', k);
+        const std::string item = text.substr(k, semi == std::string::npos ? std::string::npos : semi - k);
+        k = semi == std::string::npos ? text.size() + 1 : semi + 1;
+        if (item.empty()) continue;
+        const std::size_t eq = item.find('=');
+        if (eq == std::string::npos) throw InputError(where + ": '" + item + "' is not key=value");
+        const std::string key = item.substr(0, eq);
+        const std::string_view value = std::string_view(item).substr(eq + 1);
+        bool* seen = key == "kd" ? &seen_kd : key == "ks" ? &seen_ks : key == "n" ? &seen_n : nullptr;
+        if (!seen) throw InputError(where + ": unknown key '" + key + "' (kd, ks, n)");
+        if (*seen) throw InputError(where + ": '" + key + "' given twice");
+        *seen = true;
+        if (key == "kd") m.kd = parse_albedo(value, where);
+        else if (key == "ks") m.ks = parse_albedo(value, where);
+        else m.n = parse_shininess(value, where);
+    }
+    if (!m.diffuse() && !m.specular()) throw InputError(where + ": kd and ks are both 0 (a black object)");
+    return m;
+}
+
+std::vector<convolution::MapRequest> needed_maps(const Material& material) {
+    std::vector<convolution::MapRequest> maps;
+    if (material.diffuse()) maps.push_back(convolution::MapRequest::make_irradiance());
+    if (material.specular()) {
+        if (material.mirror) {
+            maps.push_back(convolution::MapRequest::make_mirror());
+        } else {
+            char buf[64];
+            std::snprintf(buf, sizeof buf, "%g", material.n);
+            maps.push_back(convolution::MapRequest::make_phong(material.n, buf));
+        }
+    }
+    return maps;
+}
+
+}  // namespace glint::render

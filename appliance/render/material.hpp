@@ -1,0 +1,38 @@
+// Phong materials as the 2015 paper's seeds shade them (docs/conventions.md, "Shading"):
+//   L_o = kd * E_d(N) * ao + ks * E_s^n(R)
+// with E_d the irradiance map and E_s^n the normalised Phong reflection map of shininess n.
+#pragma once
+
+#include <string>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "appliance/convolution/convolution.hpp"
+
+namespace glint::render {
+
+struct Material {
+    glm::dvec3 kd{1.0};   // diffuse albedo per channel, >= 0
+    glm::dvec3 ks{0.0};   // specular albedo per channel, >= 0
+    double n = 1.0;       // Phong shininess, >= 0 (ignored for a mirror)
+    bool mirror = false;  // n = infinity: the mirror map (convolution's MapRequest::make_mirror)
+    std::string spec;     // the text it was parsed from
+
+    bool diffuse() const { return kd.x > 0 || kd.y > 0 || kd.z > 0; }
+    bool specular() const { return ks.x > 0 || ks.y > 0 || ks.z > 0; }
+};
+
+// `matte` (kd 1, ks 0), `glossy:N` (kd 0, ks 1, shininess N), `mirror` (kd 0, ks 1, n = infinity)
+// or `kd=R,G,B;ks=R,G,B;n=N` (keys in any order; a key left out is 0, n defaults to 1; one number
+// stands for all three channels). Throws InputError naming `flag` and the text at fault.
+Material parse_material(const std::string& text, const std::string& flag = "--material");
+
+// The maps the material shades with, each lobe once: the irradiance map when kd > 0, the Phong
+// map of n (or the mirror map) when ks > 0.
+std::vector<convolution::MapRequest> needed_maps(const Material& material);
+
+// "phong_160" for n = 160: the label and file stem `glint convolve --shininess 160` uses.
+std::string phong_label(double n);
+
+}  // namespace glint::render

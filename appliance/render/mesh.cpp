@@ -1,0 +1,169 @@
+#include "appliance/render/mesh.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <fstream>
+#include <map>
+#include <sstream>
+#include <utility>
+
+#include "appliance/core/equirect.hpp"
+#include "appliance/core/errors.hpp"
+#include "appliance/core/strict_number.hpp"
+
+namespace glint::render {
+
+Mesh make_uv_sphere(int stacks, int slices) {
+    if (stacks < 2 || slices < 3) throw InputError("sphere: needs at least 2 stacks and 3 slices");
+    Mesh m;
+    m.source = "sphere";
+    // Vertices on a (stacks + 1) x (slices + 1) grid; the seam and the poles are duplicated so
+    // that every quad has its own corners (the normals are exact, so nothing is averaged).
+    for (int j = 0; j <= stacks; ++j) {
+        const double theta = kPi * j / stacks;
+        for (int i = 0; i <= slices; ++i) {
+            const double phi = kTwoPi * i / slices - kPi;
+            const glm::vec3 d(direction_from_angles(theta, phi));
+            m.positions.push_back(d);
+            m.normals.push_back(glm::normalize(d));
+        }
+    }
+    const auto at = [slices](int j, int i) { return std::uint32_t(j * (slices + 1) + i); };
+    for (int j = 0; j < stacks; ++j)
+        for (int i = 0; i < slices; ++i) {
+            // Two triangles per quad; at the poles one of them has two equal corners and is left out.
+            if (j != 0) m.indices.insert(m.indices.end(), {at(j, i), at(j + 1, i), at(j, i + 1)});
+            if (j != stacks - 1) m.indices.insert(m.indices.end(), {at(j, i + 1), at(j + 1, i), at(j + 1, i + 1)});
+        }
+    return m;
+}
+
+namespace {
+
+std::vector<std::string_view> split_ws(std::string_view line) {
+    std::vector<std::string_view> out;
+    std::size_t k = 0;
+    while (k < line.size()) {
+        while (k < line.size() && (line[k] == ' ' || line[k] == '\t' || line[k] == '\r')) ++k;
+        std::size_t e = k;
+        while (e < line.size() && line[e] != ' ' && line[e] != '\t' && line[e] != '\r') ++e;
+        if (e > k) out.push_back(line.substr(k, e - k));
+        k = e;
+    }
+    return out;
+}
+
+// An OBJ index (1-based, or negative from the end) into a list of `count`, as 0-based.
+std::size_t obj_index(std::string_view text, std::size_t count, const std::string& where, const char* what) {
+    const std::int64_t k = parse_int(text, where);
+    std::int64_t i = k > 0 ? k - 1 : std::int64_t(count) + k;
+    if (k == 0 || i < 0 || i >= std::int64_t(count))
+        throw InputError(where + ": " + what + " index " + std::string(text) + " is out of range (" +
+                         std::to_string(count) + " defined so far)");
+    return std::size_t(i);
+}
+
+}  // namespace
+
+Mesh load_obj(const std::filesystem::path& path) {
+    std::ifstream in(path);
+    if (!in) throw InputError(path.string() + ": cannot open the OBJ file");
+    std::vector<glm::vec3> v, vn;
+    // Corners keyed by (position, normal or -1): one output vertex each.
+    std::map<std::pair<std::size_t, std::int64_t>, std::uint32_t> corners;
+    std::vector<std::size_t> corner_position;  // per output vertex
+    std::vector<bool> has_normal;
+    Mesh m;
+    m.source = path.string();
+    std::string line;
+    int line_no = 0;
+    while (std::getline(in, line)) {
+        ++line_no;
+        const std::string where = path.string() + ":" + std::to_string(line_no);
+        const std::size_t hash = line.find('#');
+        const auto words = split_ws(std::string_view(line).substr(0, hash));
+        if (words.empty()) continue;
+        const std::string_view key = words[0];
+        if (key == "v" || key == "vn") {
+            if (words.size() < 4 || (key == "vn" && words.size() != 4) || words.size() > 5)
+                throw InputError(where + ": '" + std::string(key) + "' needs 3 numbers" +
+                                 (key == "v" ? " (and an optional w)" : "") + ", got " +
+                                 std::to_string(words.size() - 1));
+            const glm::vec3 p(float(parse_double(words[1], where)), float(parse_double(words[2], where)),
+                              float(parse_double(words[3], where)));
+            if (key == "v") {
+                v.push_back(p);
+            } else {
+                const float len = glm::length(p);
+                if (!(len > 0)) throw InputError(where + ": normal of zero length");
+                vn.push_back(p / len);
+            }
+        } else if (key == "f") {
+            if (words.size() < 4)
+                throw InputError(where + ": a face needs at least 3 vertices, got " + std::to_string(words.size() - 1));
+            std::vector<std::uint32_t> face;
+            for (std::size_t k = 1; k < words.size(); ++k) {
+                const std::string_view c = words[k];
+                const std::size_t s1 = c.find('/');
+                const std::string_view vs = c.substr(0, s1);
+                std::int64_t ni = -1;
+                if (s1 != std::string_view::npos) {
+                    const std::size_t s2 = c.find('/', s1 + 1);
+                    if (s2 != std::string_view::npos) {
+                        const std::string_view ns = c.substr(s2 + 1);
+                        if (!ns.empty()) ni = std::int64_t(obj_index(ns, vn.size(), where, "normal"));
+                    }
+                }
+                if (vs.empty()) throw InputError(where + ": face corner '" + std::string(c) + "' has no position");
+                const std::size_t vi = obj_index(vs, v.size(), where, "vertex");
+                const auto [it, inserted] = corners.try_emplace({vi, ni}, std::uint32_t(m.positions.size()));
+                if (inserted) {
+                    m.positions.push_back(v[vi]);
+                    m.normals.push_back(ni >= 0 ? vn[std::size_t(ni)] : glm::vec3(0));
+                    corner_position.push_back(vi);
+                    has_normal.push_back(ni >= 0);
+                }
+                face.push_back(it->second);
+            }
+            for (std::size_t k = 1; k + 1 < face.size(); ++k)
+                m.indices.insert(m.indices.end(), {face[0], face[k], face[k + 1]});
+        }
+    }
+    if (in.bad()) throw InputError(path.string() + ": read error");
+    if (m.indices.empty()) throw InputError(path.string() + ": no faces ('f' lines) in the OBJ file");
+
+    // Corners without a normal: area-weighted face normals summed per position.
+    if (std::find(has_normal.begin(), has_normal.end(), false) != has_normal.end()) {
+        std::vector<glm::dvec3> sum(v.size(), glm::dvec3(0));
+        for (std::size_t t = 0; t < m.indices.size(); t += 3) {
+            const glm::dvec3 a(m.positions[m.indices[t]]), b(m.positions[m.indices[t + 1]]),
+                c(m.positions[m.indices[t + 2]]);
+            const glm::dvec3 n = glm::cross(b - a, c - a);  // length = 2 * area
+            for (int k = 0; k < 3; ++k) sum[corner_position[m.indices[t + std::size_t(k)]]] += n;
+        }
+        for (std::size_t i = 0; i < m.positions.size(); ++i) {
+            if (has_normal[i]) continue;
+            const glm::dvec3 n = sum[corner_position[i]];
+            const double len = glm::length(n);
+            // A position only on degenerate faces keeps an arbitrary unit normal.
+            m.normals[i] = len > 0 ? glm::vec3(n / len) : glm::vec3(0, 1, 0);
+        }
+    }
+    return m;
+}
+
+void normalise_to_unit_sphere(Mesh& mesh) {
+    if (mesh.positions.empty()) return;
+    glm::vec3 lo = mesh.positions[0], hi = mesh.positions[0];
+    for (const auto& p : mesh.positions) {
+        lo = glm::min(lo, p);
+        hi = glm::max(hi, p);
+    }
+    const glm::vec3 centre = 0.5f * (lo + hi);
+    float radius = 0;
+    for (const auto& p : mesh.positions) radius = std::max(radius, glm::length(p - centre));
+    const float scale = radius > 0 ? 1.0f / radius : 1.0f;
+    for (auto& p : mesh.positions) p = (p - centre) * scale;
+}
+
+}  // namespace glint::render

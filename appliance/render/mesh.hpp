@@ -1,0 +1,39 @@
+// Triangle meshes for the renderer: a procedural UV sphere and OBJ files (docs/render.md).
+// Positions and normals are in the model's own frame; the renderer places the model so that its
+// bounding sphere is the unit sphere at the world origin (normalise_to_unit_sphere).
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+namespace glint::render {
+
+struct Mesh {
+    std::vector<glm::vec3> positions;
+    std::vector<glm::vec3> normals;      // one per position, unit length
+    std::vector<std::uint32_t> indices;  // three per triangle
+    std::string source;                  // "sphere", or the file it came from
+
+    std::size_t triangle_count() const { return indices.size() / 3; }
+};
+
+// A UV sphere of radius 1 at the origin: `stacks` rings from pole to pole, `slices` around the
+// +Y axis; the normals are the exact sphere normals (not averaged faces).
+Mesh make_uv_sphere(int stacks = 96, int slices = 192);
+
+// A Wavefront OBJ file: `v` (x y z [w]), `vn`, and `f` with any of the forms v, v/vt, v//vn,
+// v/vt/vn (negative indices count back from the end); polygons are triangulated as fans. Corners
+// without a normal get the area-weighted mean of the normals of the faces around their position.
+// Every other statement (vt, o, g, s, usemtl, mtllib, l, p, ...) is ignored. Throws InputError
+// "FILE:LINE: what" on a malformed line, an index out of range or a file without faces.
+Mesh load_obj(const std::filesystem::path& path);
+
+// Moves and scales the mesh so that its axis-aligned bounding box is centred on the origin and
+// the farthest vertex is at distance 1 (the camera of renderer.hpp frames the unit sphere).
+void normalise_to_unit_sphere(Mesh& mesh);
+
+}  // namespace glint::render

@@ -1,0 +1,296 @@
+#include "appliance/render/renderer.hpp"
+
+#include <ImfChannelList.h>
+#include <ImfFrameBuffer.h>
+#include <ImfHeader.h>
+#include <ImfOutputFile.h>
+
+#include <algorithm>
+#include <cmath>
+#include <glm/gtc/matrix_transform.hpp>
+#include <glm/gtc/type_ptr.hpp>
+
+#include "appliance/core/atomic_file.hpp"
+#include "appliance/core/errors.hpp"
+#include "appliance/core/exr_io.hpp"
+#include "appliance/gl/gl_context.hpp"
+#include "appliance/gl/gl_targets.hpp"
+
+namespace glint::render {
+namespace {
+
+constexpr int kTargets = 4;  // radiance, normal, reflect, HDR frame
+enum Target { kRadiance = 0, kNormal = 1, kReflect = 2, kHdr = 3 };
+
+double luminance(const float* rgb) { return 0.2126 * rgb[0] + 0.7152 * rgb[1] + 0.0722 * rgb[2]; }
+
+gl::GlTexture upload_map(const HdrImage& image, const char* what) {
+    if (image.empty()) throw RuntimeError(std::string("renderer: the ") + what + " map is empty");
+    return gl::upload_image(image);
+}
+
+glm::dmat4 view_matrix(const Camera& c) { return glm::lookAt(c.eye, c.target, c.up); }
+
+glm::dmat4 projection_matrix(const Camera& c, int width, int height) {
+    return glm::perspective(glm::radians(c.fov_y_deg), double(width) / double(height), c.near, c.far);
+}
+
+// RGBA rows top first: the frame's 4-float image as an RGB HdrImage (alpha dropped).
+HdrImage rgb_of(const std::vector<float>& rgba, int width, int height) {
+    HdrImage out(width, height);
+    for (std::size_t k = 0; k < out.texel_count(); ++k)
+        for (int c = 0; c < 3; ++c) out.data()[3 * k + std::size_t(c)] = rgba[4 * k + std::size_t(c)];
+    return out;
+}
+
+void save_rgba_exr(const std::filesystem::path& path, const std::vector<float>& rgba, int width, int height) {
+    write_file_atomically(path, [&](const std::filesystem::path& tmp) {
+        try {
+            Imf::Header header(width, height);
+            header.compression() = Imf::ZIP_COMPRESSION;
+            for (const char* name : {"R", "G", "B", "A"}) header.channels().insert(name, Imf::Channel(Imf::FLOAT));
+            Imf::OutputFile file(tmp.c_str(), header);
+            Imf::FrameBuffer fb;
+            char* base = const_cast<char*>(reinterpret_cast<const char*>(rgba.data()));
+            const std::size_t xs = 4 * sizeof(float);
+            const std::size_t ys = xs * std::size_t(width);
+            const char* names[4] = {"R", "G", "B", "A"};
+            for (int c = 0; c < 4; ++c) fb.insert(names[c], Imf::Slice(Imf::FLOAT, base + c * sizeof(float), xs, ys));
+            file.setFrameBuffer(fb);
+            file.writePixels(height);
+        } catch (const std::exception& e) {
+            throw RuntimeError("cannot write " + path.string() + ": " + e.what());
+        }
+    });
+}
+
+}  // namespace
+
+ToneMap meter_reinhard(const std::vector<float>& rgba, double key, double delta) {
+    ToneMap t;
+    t.key = key;
+    t.delta = delta;
+    double sum_log = 0, max_l = 0;
+    long long count = 0;
+    for (std::size_t k = 0; k + 3 < rgba.size(); k += 4) {
+        if (!(rgba[k + 3] > 0)) continue;
+        const double l = std::max(0.0, luminance(&rgba[k]));
+        sum_log += std::log(delta + l);
+        max_l = std::max(max_l, l);
+        ++count;
+    }
+    t.pixels = count;
+    if (count == 0) {
+        t.log_average = key;
+        t.white = 1.0;
+        return t;
+    }
+    t.log_average = std::exp(sum_log / double(count));
+    t.white = std::max(1e-6, t.scale() * max_l);
+    return t;
+}
+
+void save_aovs(const std::filesystem::path& dir, const Aovs& aovs) {
+    std::error_code ec;
+    std::filesystem::create_directories(dir, ec);
+    if (ec) throw RuntimeError("--aov " + dir.string() + ": cannot create the directory: " + ec.message());
+    save_rgba_exr(dir / "radiance.exr", aovs.radiance, aovs.width, aovs.height);
+    save_exr(dir / "normal.exr", rgb_of(aovs.normal, aovs.width, aovs.height));
+    save_exr(dir / "reflect.exr", rgb_of(aovs.reflect, aovs.width, aovs.height));
+}
+
+Renderer::Renderer(const Mesh& mesh, const Material& material, const ShadingMaps& maps, int width, int height,
+                   const Camera& camera)
+    : width_(width), height_(height), camera_(camera), material_(material) {
+    if (width < 1 || height < 1) throw InputError("renderer: frame size must be positive");
+    if (mesh.indices.empty()) throw InputError("renderer: the mesh " + mesh.source + " has no triangles");
+    if (material.diffuse() && !maps.irradiance) throw RuntimeError("renderer: the material needs the irradiance map");
+    if (material.specular() && !maps.reflection) throw RuntimeError("renderer: the material needs a reflection map");
+
+    scene_program_ = gl::GlProgram("render_scene.vert", "render_scene.frag");
+    background_program_ = gl::GlProgram("fullscreen.vert", "render_background.frag");
+    composite_program_ = gl::GlProgram("fullscreen.vert", "render_composite.frag");
+
+    // The mesh: interleaved position and normal, 32-bit indices.
+    std::vector<float> interleaved;
+    interleaved.reserve(mesh.positions.size() * 6);
+    for (std::size_t i = 0; i < mesh.positions.size(); ++i) {
+        const glm::vec3 p = mesh.positions[i], n = mesh.normals[i];
+        interleaved.insert(interleaved.end(), {p.x, p.y, p.z, n.x, n.y, n.z});
+    }
+    vao_ = gl::GlVertexArray::create();
+    vertices_ = gl::GlBuffer::create();
+    indices_ = gl::GlBuffer::create();
+    glBindVertexArray(vao_.id());
+    glBindBuffer(GL_ARRAY_BUFFER, vertices_.id());
+    glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(interleaved.size() * sizeof(float)), interleaved.data(), GL_STATIC_DRAW);
+    glEnableVertexAttribArray(0);
+    glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float), nullptr);
+    glEnableVertexAttribArray(1);
+    glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float), reinterpret_cast<const void*>(3 * sizeof(float)));
+    glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, indices_.id());
+    glBufferData(GL_ELEMENT_ARRAY_BUFFER, GLsizeiptr(mesh.indices.size() * sizeof(std::uint32_t)),
+                 mesh.indices.data(), GL_STATIC_DRAW);
+    glBindVertexArray(0);
+    index_count_ = mesh.indices.size();
+    empty_vao_ = gl::GlVertexArray::create();
+
+    if (material.diffuse()) irradiance_ = upload_map(*maps.irradiance, "irradiance");
+    if (material.specular()) reflection_ = upload_map(*maps.reflection, "reflection");
+
+    // The float targets and a depth buffer (the object may hide parts of itself).
+    framebuffer_ = gl::GlFramebuffer::create();
+    glBindFramebuffer(GL_FRAMEBUFFER, framebuffer_.id());
+    GLenum buffers[kTargets];
+    for (int k = 0; k < kTargets; ++k) {
+        targets_[k] = gl::make_float_texture(width, height, nullptr);
+        glFramebufferTexture2D(GL_FRAMEBUFFER, GLenum(GL_COLOR_ATTACHMENT0 + k), GL_TEXTURE_2D, targets_[k].id(), 0);
+        buffers[k] = GLenum(GL_COLOR_ATTACHMENT0 + k);
+    }
+    depth_ = gl::GlName<RenderbufferTraits>::create();
+    glBindRenderbuffer(GL_RENDERBUFFER, depth_.id());
+    glRenderbufferStorage(GL_RENDERBUFFER, GL_DEPTH_COMPONENT24, width, height);
+    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, depth_.id());
+    glDrawBuffers(kTargets, buffers);
+    const GLenum status = glCheckFramebufferStatus(GL_FRAMEBUFFER);
+    if (status != GL_FRAMEBUFFER_COMPLETE)
+        throw RuntimeError("renderer: " + std::to_string(kTargets) + " RGBA32F targets of " + std::to_string(width) +
+                           "x" + std::to_string(height) + " with depth are not complete (status " +
+                           std::to_string(status) + "; needs GL_EXT_color_buffer_float)");
+    gl::check_gl("creating the renderer");
+}
+
+void Renderer::set_background_environment(const HdrImage& environment) {
+    environment_ = upload_map(environment, "environment");
+    background_ = Background::Environment;
+}
+
+void Renderer::set_background_image(const gl::RgbImage& image) {
+    if (image.width < 1 || image.height < 1) throw InputError("--background: the image is empty");
+    image_ = gl::GlTexture::create();
+    glBindTexture(GL_TEXTURE_2D, image_.id());
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+    glTexImage2D(GL_TEXTURE_2D, 0, GL_RGB8, image.width, image.height, 0, GL_RGB, GL_UNSIGNED_BYTE,
+                 image.pixels.data());
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+    gl::check_gl("uploading the background image");
+    background_ = Background::Image;
+}
+
+void Renderer::set_background_black() { background_ = Background::Black; }
+
+void Renderer::draw_scene() {
+    glBindFramebuffer(GL_FRAMEBUFFER, framebuffer_.id());
+    glViewport(0, 0, width_, height_);
+    glDisable(GL_BLEND);
+    glDisable(GL_SCISSOR_TEST);
+    glDisable(GL_CULL_FACE);
+    glDepthMask(GL_TRUE);
+    glClearColor(0, 0, 0, 0);
+    glClearDepthf(1.0f);
+    glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
+
+    const glm::dmat4 view = view_matrix(camera_);
+    const glm::dmat3 world_from_camera = glm::transpose(glm::dmat3(view));  // the view's rotation inverted
+
+    if (background_ == Background::Environment) {
+        glDisable(GL_DEPTH_TEST);
+        glDepthMask(GL_FALSE);
+        background_program_.use();
+        const double ty = std::tan(glm::radians(camera_.fov_y_deg) / 2);
+        glUniform2f(background_program_.uniform("u_size"), float(width_), float(height_));
+        glUniform2f(background_program_.uniform("u_tan_half_fov"), float(ty * width_ / height_), float(ty));
+        const glm::mat3 wfc(world_from_camera);
+        glUniformMatrix3fv(background_program_.uniform("u_world_from_camera"), 1, GL_FALSE, glm::value_ptr(wfc));
+        glActiveTexture(GL_TEXTURE0);
+        glBindTexture(GL_TEXTURE_2D, environment_.id());
+        glUniform1i(background_program_.uniform("u_environment"), 0);
+        glBindVertexArray(empty_vao_.id());
+        glDrawArrays(GL_TRIANGLES, 0, 3);
+        glDepthMask(GL_TRUE);
+    }
+
+    glEnable(GL_DEPTH_TEST);
+    glDepthFunc(GL_LESS);
+    scene_program_.use();
+    const glm::mat4 model(1.0f);
+    const glm::mat3 normal_matrix = glm::transpose(glm::inverse(glm::mat3(model)));
+    const glm::mat4 view_projection(projection_matrix(camera_, width_, height_) * view);
+    glUniformMatrix4fv(scene_program_.uniform("u_model"), 1, GL_FALSE, glm::value_ptr(model));
+    glUniformMatrix3fv(scene_program_.uniform("u_normal_matrix"), 1, GL_FALSE, glm::value_ptr(normal_matrix));
+    glUniformMatrix4fv(scene_program_.uniform("u_view_projection"), 1, GL_FALSE, glm::value_ptr(view_projection));
+    glUniform3f(scene_program_.uniform("u_eye"), float(camera_.eye.x), float(camera_.eye.y), float(camera_.eye.z));
+    glUniform3f(scene_program_.uniform("u_kd"), float(material_.kd.x), float(material_.kd.y), float(material_.kd.z));
+    glUniform3f(scene_program_.uniform("u_ks"), float(material_.ks.x), float(material_.ks.y), float(material_.ks.z));
+    glUniform1f(scene_program_.uniform("u_ao"), 1.0f);  // no baked occlusion: ao = 1 with or without --no-ao
+    glUniform1i(scene_program_.uniform("u_diffuse"), material_.diffuse() ? 1 : 0);
+    glUniform1i(scene_program_.uniform("u_specular"), material_.specular() ? 1 : 0);
+    glActiveTexture(GL_TEXTURE0);
+    glBindTexture(GL_TEXTURE_2D, irradiance_.id());
+    glUniform1i(scene_program_.uniform("u_irradiance"), 0);
+    glActiveTexture(GL_TEXTURE1);
+    glBindTexture(GL_TEXTURE_2D, reflection_.id());
+    glUniform1i(scene_program_.uniform("u_reflection"), 1);
+    glBindVertexArray(vao_.id());
+    glDrawElements(GL_TRIANGLES, GLsizei(index_count_), GL_UNSIGNED_INT, nullptr);
+    glBindVertexArray(0);
+    glActiveTexture(GL_TEXTURE0);
+    glDisable(GL_DEPTH_TEST);
+    gl::check_gl("drawing the scene");
+}
+
+std::vector<float> Renderer::read_target(int k) const {
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, framebuffer_.id());
+    glReadBuffer(GLenum(GL_COLOR_ATTACHMENT0 + k));
+    std::vector<float> bottom_up(std::size_t(width_) * std::size_t(height_) * 4);
+    glReadPixels(0, 0, width_, height_, GL_RGBA, GL_FLOAT, bottom_up.data());
+    gl::check_gl("reading a render target back");
+    // GL's rows start at the bottom; images and EXR files at the top.
+    std::vector<float> out(bottom_up.size());
+    const std::size_t row = std::size_t(width_) * 4;
+    for (int y = 0; y < height_; ++y)
+        std::copy_n(bottom_up.begin() + std::ptrdiff_t(std::size_t(height_ - 1 - y) * row), row,
+                    out.begin() + std::ptrdiff_t(std::size_t(y) * row));
+    return out;
+}
+
+const ToneMap& Renderer::meter(double key) {
+    tone_ = meter_reinhard(read_target(kHdr), key);
+    return tone_;
+}
+
+void Renderer::composite() const {
+    glDisable(GL_DEPTH_TEST);
+    glDisable(GL_BLEND);
+    composite_program_.use();
+    glActiveTexture(GL_TEXTURE0);
+    glBindTexture(GL_TEXTURE_2D, targets_[kHdr].id());
+    glUniform1i(composite_program_.uniform("u_hdr"), 0);
+    glActiveTexture(GL_TEXTURE1);
+    glBindTexture(GL_TEXTURE_2D, image_.id());
+    glUniform1i(composite_program_.uniform("u_image"), 1);
+    glUniform1i(composite_program_.uniform("u_has_image"), background_ == Background::Image ? 1 : 0);
+    glUniform2f(composite_program_.uniform("u_size"), float(width_), float(height_));
+    glUniform1f(composite_program_.uniform("u_scale"), float(tone_.scale()));
+    glUniform1f(composite_program_.uniform("u_white_sq"), float(tone_.white * tone_.white));
+    glBindVertexArray(empty_vao_.id());
+    glDrawArrays(GL_TRIANGLES, 0, 3);
+    glBindVertexArray(0);
+    glActiveTexture(GL_TEXTURE0);
+    gl::check_gl("compositing the frame");
+}
+
+Aovs Renderer::read_aovs() const {
+    Aovs a;
+    a.width = width_;
+    a.height = height_;
+    a.radiance = read_target(kRadiance);
+    a.normal = read_target(kNormal);
+    a.reflect = read_target(kReflect);
+    return a;
+}
+
+}  // namespace glint::render

@@ -1,0 +1,121 @@
+// The renderer of `glint render` (docs/render.md): one object, shaded from the maps, into float
+// targets (radiance, normal, reflection direction, the frame's HDR radiance), then composited into
+// the display's frame over a background with Reinhard's tone mapping.
+//
+// Frames (docs/conventions.md): world +Y up, -Z forward. The object's bounding sphere is the unit
+// sphere at the origin (mesh.hpp, normalise_to_unit_sphere); the camera sits on +Z and looks
+// towards -Z at the origin, +Y up, with a vertical field of view of 40 degrees.
+//
+// Everything GL runs on the thread whose context is current (the display's), as gl/ requires.
+#pragma once
+
+#include <filesystem>
+#include <vector>
+
+#include <glm/glm.hpp>
+
+#include "appliance/core/hdr_image.hpp"
+#include "appliance/gl/gl_objects.hpp"
+#include "appliance/gl/gl_program.hpp"
+#include "appliance/gl/png_writer.hpp"  // gl::RgbImage (the struct only)
+#include "appliance/render/maps.hpp"
+#include "appliance/render/material.hpp"
+#include "appliance/render/mesh.hpp"
+
+namespace glint::render {
+
+struct Camera {
+    glm::dvec3 eye{0.0, 0.0, 3.5};  // the unit sphere spans 79 % of the frame's height
+    glm::dvec3 target{0.0};
+    glm::dvec3 up{0.0, 1.0, 0.0};
+    double fov_y_deg = 40.0;         // vertical; horizontal follows the frame's aspect
+    double near = 0.1, far = 100.0;  // world units (the object's radius is 1)
+};
+
+enum class Background { Environment, Black, Image };
+
+// Reinhard's global operator (Reinhard, Stark, Shirley, Ferwerda 2002, eq. 1, 2 and 4):
+//   L_avg = exp(mean(log(delta + L))) over the metered pixels,  L_s = key / L_avg * L,
+//   L_d = L_s (1 + L_s / L_white^2) / (1 + L_s),  with L_white the largest L_s metered (so the
+// brightest pixel maps to 1) and L the Rec. 709 luminance.
+struct ToneMap {
+    double key = 0.18;
+    double delta = 1e-4;
+    double log_average = 1.0;  // L_avg
+    double white = 1.0;        // L_white, in scaled luminance L_s
+    long long pixels = 0;      // pixels metered
+    double scale() const { return key / log_average; }
+};
+
+// Meters RGBA pixels (alpha > 0 counts: the object, and the environment when it is the
+// background). No pixel counted gives L_avg = key (scale 1) and L_white = 1.
+ToneMap meter_reinhard(const std::vector<float>& rgba, double key = 0.18, double delta = 1e-4);
+
+// The arbitrary output variables of a frame, rows top first, 4 floats a pixel.
+struct Aovs {
+    int width = 0, height = 0;
+    std::vector<float> radiance;  // RGB before any tone mapping, A = 1 on the object, all 0 off it
+    std::vector<float> normal;    // unit world-space normal (A = 1 on the object)
+    std::vector<float> reflect;   // unit world-space reflection direction (A = 1 on the object)
+};
+
+// Writes radiance.exr (R, G, B, A), normal.exr and reflect.exr (R, G, B = x, y, z) into `dir`
+// (created if missing), each atomically. normal and reflect hold signed values: core's load_exr
+// clamps negatives (it reads radiance), so read them with OpenEXR directly.
+void save_aovs(const std::filesystem::path& dir, const Aovs& aovs);
+
+// RAII for the depth buffer (gl_objects.hpp has no renderbuffer).
+struct RenderbufferTraits {
+    static GLuint create() { GLuint id = 0; glGenRenderbuffers(1, &id); return id; }
+    static void destroy(GLuint id) { glDeleteRenderbuffers(1, &id); }
+};
+
+class Renderer {
+public:
+    // The maps must hold what the material needs (needed_maps). width, height: the frame's.
+    Renderer(const Mesh& mesh, const Material& material, const ShadingMaps& maps, int width, int height,
+             const Camera& camera = {});
+    Renderer(const Renderer&) = delete;
+    Renderer& operator=(const Renderer&) = delete;
+
+    void set_background_environment(const HdrImage& environment);
+    void set_background_image(const gl::RgbImage& image);
+    void set_background_black();
+    // ao = 1 either way today (no baked occlusion; docs/render.md); kept so --no-ao has its place.
+    void set_ambient_occlusion(bool on) { ao_ = on; }
+
+    // Draws the background and the object into the float targets.
+    void draw_scene();
+    // Meters the HDR target of the last draw_scene (a read-back) and keeps the result.
+    const ToneMap& meter(double key = 0.18);
+    void set_tone_map(const ToneMap& tone) { tone_ = tone; }
+    const ToneMap& tone_map() const { return tone_; }
+    // Draws the frame into the bound framebuffer, whose viewport must be width x height.
+    void composite() const;
+    // The targets of the last draw_scene.
+    Aovs read_aovs() const;
+
+    int width() const { return width_; }
+    int height() const { return height_; }
+    const Camera& camera() const { return camera_; }
+
+private:
+    std::vector<float> read_target(int k) const;  // rows top first
+
+    int width_, height_;
+    Camera camera_;
+    Material material_;
+    Background background_ = Background::Black;
+    bool ao_ = true;
+    ToneMap tone_;
+    std::size_t index_count_ = 0;
+    gl::GlProgram scene_program_, background_program_, composite_program_;
+    gl::GlVertexArray vao_, empty_vao_;
+    gl::GlBuffer vertices_, indices_;
+    gl::GlTexture irradiance_, reflection_, environment_, image_;
+    gl::GlTexture targets_[4];
+    gl::GlName<RenderbufferTraits> depth_;
+    gl::GlFramebuffer framebuffer_;
+};
+
+}  // namespace glint::render

@@ -1,0 +1,25 @@
+#version 300 es
+// The environment seen through the camera, behind the object (with fullscreen.vert): each pixel's
+// ray in world space (the camera looks along -Z with +Y up; docs/render.md), the environment
+// looked up bilinearly along it. Only the HDR target gets it; radiance, normal and reflection
+// stay 0 off the object.
+precision highp float;
+#include "equirect.glsl"
+#include "render_lookup.glsl"
+uniform highp sampler2D u_environment;
+uniform vec2 u_size;          // the frame in pixels
+uniform vec2 u_tan_half_fov;  // tan(fov_x / 2), tan(fov_y / 2)
+uniform mat3 u_world_from_camera;
+layout(location = 0) out vec4 o_radiance;
+layout(location = 1) out vec4 o_normal;
+layout(location = 2) out vec4 o_reflect;
+layout(location = 3) out vec4 o_hdr;
+
+void main() {
+    vec2 ndc = gl_FragCoord.xy / u_size * 2.0 - 1.0;
+    vec3 ray = normalize(u_world_from_camera * vec3(ndc * u_tan_half_fov, -1.0));
+    o_radiance = vec4(0.0);
+    o_normal = vec4(0.0);
+    o_reflect = vec4(0.0);
+    o_hdr = vec4(equirect_bilinear(u_environment, ray), 1.0);
+}

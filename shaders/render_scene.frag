@@ -1,0 +1,35 @@
+#version 300 es
+// The object's shading (docs/conventions.md, "Shading"; docs/render.md):
+//   L_o = kd * E_d(N) * ao + ks * E_s^n(R),   R = reflect(V, N), V from the eye to the surface,
+// into four float targets: the radiance (alpha 1 on the object), the unit world-space normal,
+// the unit reflection direction, and the frame's HDR radiance (what the tone map reads).
+precision highp float;
+#include "equirect.glsl"
+#include "render_lookup.glsl"
+uniform highp sampler2D u_irradiance;
+uniform highp sampler2D u_reflection;
+uniform bool u_diffuse;   // kd > 0: the irradiance map is bound
+uniform bool u_specular;  // ks > 0: the reflection map is bound
+uniform vec3 u_eye;
+uniform vec3 u_kd;
+uniform vec3 u_ks;
+uniform float u_ao;  // no baked occlusion yet: 1 (docs/render.md)
+in vec3 v_normal;
+in vec3 v_world;
+layout(location = 0) out vec4 o_radiance;
+layout(location = 1) out vec4 o_normal;
+layout(location = 2) out vec4 o_reflect;
+layout(location = 3) out vec4 o_hdr;
+
+void main() {
+    vec3 n = normalize(v_normal);
+    vec3 v = normalize(v_world - u_eye);
+    vec3 r = normalize(reflect(v, n));
+    vec3 radiance = vec3(0.0);
+    if (u_diffuse) radiance += u_kd * equirect_bilinear(u_irradiance, n) * u_ao;
+    if (u_specular) radiance += u_ks * equirect_bilinear(u_reflection, r);
+    o_radiance = vec4(radiance, 1.0);
+    o_normal = vec4(n, 1.0);
+    o_reflect = vec4(r, 1.0);
+    o_hdr = vec4(radiance, 1.0);
+}
