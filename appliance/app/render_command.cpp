@@ -90,17 +90,16 @@ int run_render(const RenderArgs& args) {
     }
     render::Mesh mesh = load_model(args.model);
 
+    const auto t_maps = Clock::now();
+    render::ShadingMaps maps;
+    if (!args.maps.empty()) maps = render::load_maps(args.maps, material);  // before the environment: a missing map is bad input, found first
     LoadedExr env = load_exr(args.env);
     if (env.sanitised.total() > 0)
         std::fprintf(stderr, "glint: warning: %s: %zu channel values sanitised (NaN %zu, +Inf %zu, -Inf %zu, negative %zu)\n",
                      args.env.c_str(), env.sanitised.total(), env.sanitised.nan, env.sanitised.pos_inf,
                      env.sanitised.neg_inf, env.sanitised.negative);
 
-    const auto t_maps = Clock::now();
-    render::ShadingMaps maps;
-    if (!args.maps.empty()) {
-        maps = render::load_maps(args.maps, material);
-    } else {
+    if (args.maps.empty()) {
         convolution::Options options;
         options.tolerance = 0.01;
         options.threads = args.threads;

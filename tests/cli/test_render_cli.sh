@@ -1,0 +1,84 @@
+#!/usr/bin/env bash
+# End-to-end checks of `glint render` (docs/render.md): help, a small headless run (PNG, AOVs,
+# stats), maps from `glint convolve`, and bad input: exit 2 with one line on stderr naming the
+# flag or file, nothing written.
+#
+# Usage: test_render_cli.sh /path/to/glint
+set -euo pipefail
+
+if [[ $# -ne 1 ]]; then
+    echo "usage: $0 /path/to/glint" >&2
+    exit 2
+fi
+GLINT=$1
+[[ -x $GLINT ]] || { echo "FAIL - $GLINT is not an executable" >&2; exit 1; }
+WORLD=/usr/share/blender/datafiles/studiolights/world/studio.exr
+[[ -f $WORLD ]] || { echo "FAIL - $WORLD is missing (blender-data)" >&2; exit 1; }
+
+# shellcheck source=cli_test_lib.sh
+source "$(dirname "$0")/cli_test_lib.sh"
+
+# expect_bad NAME NEEDLE ARGS...: exit 2, exactly one stderr line containing NEEDLE, no frame written.
+expect_bad() {
+    local name=$1 needle=$2
+    shift 2
+    rm -f "$work/bad.png"
+    run "$@" --out "$work/bad.png"
+    [[ $rc -eq 2 ]] || fail "$name: exit code $rc, want 2 (stderr: $(stderr_text))"
+    [[ $(stderr_lines) -eq 1 ]] || fail "$name: want exactly 1 line on stderr: $(stderr_text)"
+    grep -qF -- "$needle" "$work/stderr" || fail "$name: stderr does not name '$needle': $(stderr_text)"
+    [[ ! -e $work/bad.png ]] || fail "$name: wrote a frame"
+    pass "$name: exit 2, $(head -n 1 "$work/stderr")"
+}
+
+# --- help ---------------------------------------------------------------------------------------
+run --help
+[[ $rc -eq 0 ]] || fail "glint --help: exit code $rc"
+grep -q "render" "$work/stdout" || fail "glint --help does not list render"
+run render --help
+[[ $rc -eq 0 ]] || fail "glint render --help: exit code $rc, want 0"
+for flag in --env --maps --model --material --background --size --out --aov --no-ao --frames --stats --display; do
+    grep -qF -- "$flag" "$work/stdout" || fail "glint render --help does not describe $flag"
+done
+pass "glint --help lists render; glint render --help exits 0 and describes every flag"
+
+# --- a small real run ---------------------------------------------------------------------------
+run render --env "$WORLD" --model sphere --material glossy:40 --size 64x48 --out "$work/f.png" --aov "$work/aov" \
+    --frames 3 --stats "$work/stats.json" --display headless
+[[ $rc -eq 0 ]] || fail "render: exit code $rc (stderr: $(stderr_text))"
+for f in f.png aov/radiance.exr aov/normal.exr aov/reflect.exr stats.json; do
+    [[ -s $work/$f ]] || fail "render did not write $f"
+done
+python3 - "$work/stats.json" <<'EOF2' || fail "stats.json is not what it should be"
+import json, sys
+s = json.load(open(sys.argv[1]))
+assert s["frames"] == 3 and s["width"] == 64 and s["height"] == 48, s
+t = s["frame_ms"]
+assert 0 < t["median"] <= t["p99"] <= t["max"], t
+assert s["material"] == "glossy:40" and s["irradiance"] is None and s["reflection"], s
+assert s["tone_map"]["operator"] == "reinhard" and s["tone_map"]["key"] == 0.18, s
+EOF2
+pass "render writes the PNG, the three AOVs and stats.json (3 frames, median <= p99 <= max)"
+
+# --- maps from glint convolve -------------------------------------------------------------------
+run convolve "$WORLD" --out "$work/maps" --irradiance
+[[ $rc -eq 0 ]] || fail "convolve --irradiance: exit code $rc"
+run render --env "$WORLD" --maps "$work/maps" --material matte --size 32x32 --out "$work/m.png" --background black
+[[ $rc -eq 0 ]] || fail "render --maps: exit code $rc (stderr: $(stderr_text))"
+grep -qF "irradiance: $work/maps/irradiance.exr" "$work/stdout" || fail "render --maps did not use irradiance.exr"
+pass "render --maps uses the irradiance map glint convolve wrote"
+expect_bad "--maps without the phong_160 map" "phong_160" render --env "$WORLD" --maps "$work/maps" --material glossy:160
+
+# --- bad input ----------------------------------------------------------------------------------
+expect_bad "bad --material" "--material" render --env "$WORLD" --material shiny
+expect_bad "bad --material value" "--material" render --env "$WORLD" --material glossy:-3
+expect_bad "missing --env" "--env" render --model sphere
+expect_bad "missing environment file" "$work/nope.exr" render --env "$work/nope.exr"
+expect_bad "--model teapot (not built)" "teapot" render --env "$WORLD" --model teapot
+printf 'v 0 0 0\nv 1 0 0\nf 1 2 3\n' >"$work/bad.obj"
+expect_bad "OBJ with a bad index" "bad.obj:3" render --env "$WORLD" --model "$work/bad.obj"
+expect_bad "bad --size" "--size" render --env "$WORLD" --size 12
+expect_bad "bad --display" "--display" render --env "$WORLD" --display projector
+expect_bad "bad --background" "--background" render --env "$WORLD" --background grey
+
+echo "all $checks checks passed"
