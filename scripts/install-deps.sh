@@ -26,6 +26,7 @@ packages=(
   libcamera-dev                        # capture: the real camera source (appliance/capture)
   libglm-dev                           # the appliance's vectors, quaternions and matrices (appliance/core/rotation.hpp)
   libeigen3-dev                        # capture: the global adjustment's sparse Cholesky (appliance/capture)
+  libtinygltf-dev                      # glTF 2.0 models for glint render (appliance/render)
 )
 
 missing=()

@@ -58,9 +58,12 @@ render::Mesh load_model(const std::string& model) {
         render::normalise_to_unit_sphere(mesh);
         return mesh;
     }
-    if (ext == ".gltf" || ext == ".glb")
-        throw InputError("--model " + model + ": glTF is not built yet (docs/render.md); use an OBJ file");
-    throw InputError("--model " + model + ": want sphere, teapot or an .obj file");
+    if (ext == ".gltf" || ext == ".glb") {
+        render::Mesh mesh = render::load_gltf(path);
+        render::normalise_to_unit_sphere(mesh);
+        return mesh;
+    }
+    throw InputError("--model " + model + ": want sphere, teapot, an .obj, .gltf or .glb file");
 }
 
 // Nearest-rank percentile of sorted values.
@@ -193,7 +196,7 @@ Command add_render_command(CLI::App& app) {
     cmd->add_option("--maps", args->maps,
                     "Directory written by glint convolve (report.json names the maps); without it the maps the "
                     "material needs are convolved first (CPU, tolerance 1 %)");
-    cmd->add_option("--model", args->model, "sphere, teapot (not built) or an OBJ file")->capture_default_str();
+    cmd->add_option("--model", args->model, "sphere, teapot (not built), or an .obj, .gltf or .glb file")->capture_default_str();
     cmd->add_option("--material", args->material,
                     "matte, glossy:N, mirror or 'kd=R,G,B;ks=R,G,B;n=N' (Phong: kd E_d(N) ao + ks E_s^n(R))")
         ->capture_default_str();

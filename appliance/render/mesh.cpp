@@ -72,7 +72,6 @@ Mesh load_obj(const std::filesystem::path& path) {
     // Corners keyed by (position, normal or -1): one output vertex each.
     std::map<std::pair<std::size_t, std::int64_t>, std::uint32_t> corners;
     std::vector<std::size_t> corner_position;  // per output vertex
-    std::vector<bool> has_normal;
     Mesh m;
     m.source = path.string();
     std::string line;
@@ -121,7 +120,6 @@ Mesh load_obj(const std::filesystem::path& path) {
                     m.positions.push_back(v[vi]);
                     m.normals.push_back(ni >= 0 ? vn[std::size_t(ni)] : glm::vec3(0));
                     corner_position.push_back(vi);
-                    has_normal.push_back(ni >= 0);
                 }
                 face.push_back(it->second);
             }
@@ -132,24 +130,26 @@ Mesh load_obj(const std::filesystem::path& path) {
     if (in.bad()) throw InputError(path.string() + ": read error");
     if (m.indices.empty()) throw InputError(path.string() + ": no faces ('f' lines) in the OBJ file");
 
-    // Corners without a normal: area-weighted face normals summed per position.
-    if (std::find(has_normal.begin(), has_normal.end(), false) != has_normal.end()) {
-        std::vector<glm::dvec3> sum(v.size(), glm::dvec3(0));
-        for (std::size_t t = 0; t < m.indices.size(); t += 3) {
-            const glm::dvec3 a(m.positions[m.indices[t]]), b(m.positions[m.indices[t + 1]]),
-                c(m.positions[m.indices[t + 2]]);
-            const glm::dvec3 n = glm::cross(b - a, c - a);  // length = 2 * area
-            for (int k = 0; k < 3; ++k) sum[corner_position[m.indices[t + std::size_t(k)]]] += n;
-        }
-        for (std::size_t i = 0; i < m.positions.size(); ++i) {
-            if (has_normal[i]) continue;
-            const glm::dvec3 n = sum[corner_position[i]];
-            const double len = glm::length(n);
-            // A position only on degenerate faces keeps an arbitrary unit normal.
-            m.normals[i] = len > 0 ? glm::vec3(n / len) : glm::vec3(0, 1, 0);
-        }
-    }
+    // Corners without a normal (left at 0 above): area-weighted face normals per position.
+    fill_missing_normals(m, corner_position, v.size());
     return m;
+}
+
+void fill_missing_normals(Mesh& mesh, const std::vector<std::size_t>& position_of, std::size_t position_count) {
+    std::vector<glm::dvec3> sum(position_count, glm::dvec3(0));
+    for (std::size_t t = 0; t + 2 < mesh.indices.size(); t += 3) {
+        const glm::dvec3 a(mesh.positions[mesh.indices[t]]), b(mesh.positions[mesh.indices[t + 1]]),
+            c(mesh.positions[mesh.indices[t + 2]]);
+        const glm::dvec3 n = glm::cross(b - a, c - a);  // length = 2 * area
+        for (int k = 0; k < 3; ++k) sum[position_of[mesh.indices[t + std::size_t(k)]]] += n;
+    }
+    for (std::size_t i = 0; i < mesh.positions.size(); ++i) {
+        if (mesh.normals[i] != glm::vec3(0)) continue;
+        const glm::dvec3 n = sum[position_of[i]];
+        const double len = glm::length(n);
+        // A position only on degenerate faces keeps an arbitrary unit normal.
+        mesh.normals[i] = len > 0 ? glm::vec3(n / len) : glm::vec3(0, 1, 0);
+    }
 }
 
 void normalise_to_unit_sphere(Mesh& mesh) {

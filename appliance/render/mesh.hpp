@@ -32,6 +32,18 @@ Mesh make_uv_sphere(int stacks = 96, int slices = 192);
 // "FILE:LINE: what" on a malformed line, an index out of range or a file without faces.
 Mesh load_obj(const std::filesystem::path& path);
 
+// A glTF 2.0 file (.gltf with its buffers, or .glb) through Debian's TinyGLTF: the triangles of
+// every mesh of the default scene (the first scene, or every mesh when there is none), each placed
+// by its node's transform (matrix or translation, rotation, scale, down the node tree). POSITION
+// and, when present, NORMAL (float VEC3); indices of any unsigned type or none. Primitives that are
+// not triangle lists are skipped; materials are not read (the material comes from --material).
+// Vertices without normals get area-weighted face normals. Throws InputError naming the file.
+Mesh load_gltf(const std::filesystem::path& path);
+
+// Gives every vertex whose normal is (0, 0, 0) the area-weighted mean of the normals of the
+// triangles around its position (`position_of[v]`: the position shared by vertex v's corners).
+void fill_missing_normals(Mesh& mesh, const std::vector<std::size_t>& position_of, std::size_t position_count);
+
 // Moves and scales the mesh so that its axis-aligned bounding box is centred on the origin and
 // the farthest vertex is at distance 1 (the camera of renderer.hpp frames the unit sphere).
 void normalise_to_unit_sphere(Mesh& mesh);

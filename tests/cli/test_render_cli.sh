@@ -77,6 +77,8 @@ expect_bad "missing environment file" "$work/nope.exr" render --env "$work/nope.
 expect_bad "--model teapot (not built)" "teapot" render --env "$WORLD" --model teapot
 printf 'v 0 0 0\nv 1 0 0\nf 1 2 3\n' >"$work/bad.obj"
 expect_bad "OBJ with a bad index" "bad.obj:3" render --env "$WORLD" --model "$work/bad.obj"
+printf '{ "asset": ' >"$work/bad.gltf"
+expect_bad "unreadable glTF" "bad.gltf" render --env "$WORLD" --model "$work/bad.gltf"
 expect_bad "bad --size" "--size" render --env "$WORLD" --size 12
 expect_bad "bad --display" "--display" render --env "$WORLD" --display projector
 expect_bad "bad --background" "--background" render --env "$WORLD" --background grey

@@ -11,6 +11,8 @@
 #include <ImfInputFile.h>
 
 #include <cmath>
+#include <cstring>
+#include <functional>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -394,6 +396,60 @@ TEST(RenderMesh, ObjQuadsAreTriangulatedAndMissingNormalsComputed) {
     float r = 0;
     for (const auto& q : m.positions) r = std::max(r, glm::length(q));
     EXPECT_NEAR(r, 1.0f, 1e-6f);
+    fs::remove_all(dir);
+}
+
+std::string base64(const std::vector<unsigned char>& bytes) {
+    static const char* abc = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789+/";
+    std::string out;
+    for (std::size_t k = 0; k < bytes.size(); k += 3) {
+        const unsigned v = unsigned(bytes[k]) << 16 | (k + 1 < bytes.size() ? unsigned(bytes[k + 1]) << 8 : 0u) |
+                           (k + 2 < bytes.size() ? unsigned(bytes[k + 2]) : 0u);
+        out += abc[v >> 18 & 63];
+        out += abc[v >> 12 & 63];
+        out += k + 1 < bytes.size() ? abc[v >> 6 & 63] : '=';
+        out += k + 2 < bytes.size() ? abc[v & 63] : '=';
+    }
+    return out;
+}
+
+// A tetrahedron with outward winding and no normals, placed by a node (scale 2, then +5 in x).
+TEST(RenderMesh, GltfTrianglesAreReadWithTheirNodeTransform) {
+    const fs::path dir = temp_dir("gltf");
+    const float pos[12] = {0, 0, 0, 1, 0, 0, 0, 1, 0, 0, 0, 1};
+    const std::uint16_t idx[12] = {0, 2, 1, 0, 1, 3, 0, 3, 2, 1, 2, 3};
+    std::vector<unsigned char> bytes(sizeof pos + sizeof idx);
+    std::memcpy(bytes.data(), pos, sizeof pos);
+    std::memcpy(bytes.data() + sizeof pos, idx, sizeof idx);
+    const std::string gltf =
+        R"({"asset": {"version": "2.0"}, "scene": 0, "scenes": [{"nodes": [0]}],
+            "nodes": [{"mesh": 0, "translation": [5, 0, 0], "scale": [2, 2, 2]}],
+            "meshes": [{"primitives": [{"attributes": {"POSITION": 0}, "indices": 1}]}],
+            "buffers": [{"byteLength": 72, "uri": "data:application/octet-stream;base64,)" +
+        base64(bytes) + R"("}],
+            "bufferViews": [{"buffer": 0, "byteOffset": 0, "byteLength": 48},
+                            {"buffer": 0, "byteOffset": 48, "byteLength": 24}],
+            "accessors": [{"bufferView": 0, "componentType": 5126, "count": 4, "type": "VEC3",
+                           "min": [0, 0, 0], "max": [1, 1, 1]},
+                          {"bufferView": 1, "componentType": 5123, "count": 12, "type": "SCALAR"}]})";
+    const render::Mesh m = render::load_gltf(write_file(dir, "tetra.gltf", gltf));
+    ASSERT_EQ(m.triangle_count(), 4u);
+    ASSERT_EQ(m.positions.size(), 4u);
+    EXPECT_EQ(m.positions[1], glm::vec3(7, 0, 0));
+    EXPECT_EQ(m.positions[3], glm::vec3(5, 0, 2));
+    const glm::vec3 centre(5.5f, 0.5f, 0.5f);
+    for (std::size_t i = 0; i < 4; ++i) {
+        EXPECT_NEAR(glm::length(m.normals[i]), 1.0f, 1e-6f);
+        EXPECT_GT(glm::dot(m.normals[i], m.positions[i] - centre), 0.0f) << "vertex " << i << " normal points inwards";
+    }
+    const std::string e = error_of([&] { render::load_gltf(write_file(dir, "broken.gltf", "{ not json")); });
+    EXPECT_NE(e.find("broken.gltf"), std::string::npos) << e;
+    const std::string range = error_of([&] {
+        std::string bad = gltf;
+        bad.replace(bad.find("\"count\": 12"), 11, "\"count\": 13");
+        render::load_gltf(write_file(dir, "range.gltf", bad));
+    });
+    EXPECT_NE(range.find("range.gltf"), std::string::npos) << range;
     fs::remove_all(dir);
 }
 

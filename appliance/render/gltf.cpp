@@ -1,0 +1,167 @@
+// glTF 2.0 meshes through Debian's TinyGLTF (libtinygltf-dev, a shared library: nothing here
+// defines TINYGLTF_IMPLEMENTATION).
+#include <tiny_gltf.h>
+
+#include <cstring>
+#include <functional>
+
+#include <glm/gtc/matrix_transform.hpp>
+#include <glm/gtc/quaternion.hpp>
+#include <glm/gtc/type_ptr.hpp>
+
+#include "appliance/core/errors.hpp"
+#include "appliance/render/mesh.hpp"
+
+namespace glint::render {
+namespace {
+
+// The node's local transform: its matrix, or translation * rotation * scale (glTF 2.0, 5.25).
+glm::dmat4 local_transform(const tinygltf::Node& node) {
+    if (node.matrix.size() == 16) return glm::make_mat4(node.matrix.data());  // column-major, as GLM
+    glm::dmat4 m(1.0);
+    if (node.translation.size() == 3)
+        m = glm::translate(m, glm::dvec3(node.translation[0], node.translation[1], node.translation[2]));
+    if (node.rotation.size() == 4)  // x, y, z, w
+        m *= glm::mat4_cast(glm::dquat(node.rotation[3], node.rotation[0], node.rotation[1], node.rotation[2]));
+    if (node.scale.size() == 3) m = glm::scale(m, glm::dvec3(node.scale[0], node.scale[1], node.scale[2]));
+    return m;
+}
+
+class Reader {
+public:
+    Reader(const tinygltf::Model& model, const std::string& file) : model_(model), file_(file) {}
+
+    // Element k of an accessor as `n` doubles (float or unsigned integer components).
+    template <typename F>
+    void read(int accessor_index, int want_components, const char* what, F&& each) const {
+        if (accessor_index < 0 || accessor_index >= int(model_.accessors.size()))
+            fail(std::string(what) + ": no accessor " + std::to_string(accessor_index));
+        const tinygltf::Accessor& a = model_.accessors[std::size_t(accessor_index)];
+        if (a.sparse.isSparse) fail(std::string(what) + ": sparse accessors are not supported");
+        if (a.bufferView < 0 || a.bufferView >= int(model_.bufferViews.size()))
+            fail(std::string(what) + ": accessor without a buffer view");
+        const int components = tinygltf::GetNumComponentsInType(std::uint32_t(a.type));
+        if (components != want_components)
+            fail(std::string(what) + ": want " + std::to_string(want_components) + " components, got " +
+                 std::to_string(components));
+        const int size = tinygltf::GetComponentSizeInBytes(std::uint32_t(a.componentType));
+        if (size <= 0) fail(std::string(what) + ": unknown component type");
+        const tinygltf::BufferView& view = model_.bufferViews[std::size_t(a.bufferView)];
+        if (view.buffer < 0 || view.buffer >= int(model_.buffers.size())) fail(std::string(what) + ": no buffer");
+        const std::vector<unsigned char>& data = model_.buffers[std::size_t(view.buffer)].data;
+        const std::size_t element = std::size_t(size) * std::size_t(components);
+        const std::size_t stride = view.byteStride ? view.byteStride : element;
+        const std::size_t begin = view.byteOffset + a.byteOffset;
+        if (a.count > 0 && (begin + stride * (a.count - 1) + element > view.byteOffset + view.byteLength ||
+                            view.byteOffset + view.byteLength > data.size()))
+            fail(std::string(what) + ": accessor reads past its buffer");
+        double v[4];
+        for (std::size_t k = 0; k < a.count; ++k) {
+            const unsigned char* p = data.data() + begin + stride * k;
+            for (int c = 0; c < components; ++c) {
+                const unsigned char* q = p + std::size_t(c * size);
+                switch (a.componentType) {
+                    case TINYGLTF_COMPONENT_TYPE_FLOAT: { float f; std::memcpy(&f, q, 4); v[c] = f; break; }
+                    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE: v[c] = *q; break;
+                    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT: { std::uint16_t u; std::memcpy(&u, q, 2); v[c] = u; break; }
+                    case TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT: { std::uint32_t u; std::memcpy(&u, q, 4); v[c] = u; break; }
+                    default: fail(std::string(what) + ": component type " + std::to_string(a.componentType) + " is not supported");
+                }
+            }
+            each(k, v);
+        }
+    }
+    std::size_t count(int accessor_index) const {
+        return accessor_index >= 0 && accessor_index < int(model_.accessors.size())
+                   ? model_.accessors[std::size_t(accessor_index)].count : 0;
+    }
+    [[noreturn]] void fail(const std::string& what) const { throw InputError(file_ + ": " + what); }
+
+private:
+    const tinygltf::Model& model_;
+    std::string file_;
+};
+
+}  // namespace
+
+Mesh load_gltf(const std::filesystem::path& path) {
+    tinygltf::TinyGLTF loader;
+    tinygltf::Model model;
+    std::string err, warn;
+    const std::string file = path.string();
+    const bool binary = path.extension() == ".glb";
+    const bool ok = binary ? loader.LoadBinaryFromFile(&model, &err, &warn, file)
+                           : loader.LoadASCIIFromFile(&model, &err, &warn, file);
+    if (!ok) {
+        while (!err.empty() && (err.back() == '\n' || err.back() == '\r')) err.pop_back();
+        for (char& c : err)
+            if (c == '\n') c = ' ';
+        throw InputError(file + ": not a readable glTF 2.0 file: " + (err.empty() ? "unknown error" : err));
+    }
+    const Reader reader(model, file);
+    Mesh mesh;
+    mesh.source = file;
+    std::vector<std::size_t> position_of;
+    int skipped = 0;
+
+    const auto add_mesh = [&](int mesh_index, const glm::dmat4& world) {
+        if (mesh_index < 0 || mesh_index >= int(model.meshes.size())) reader.fail("node names no mesh " + std::to_string(mesh_index));
+        const glm::dmat3 normal_matrix = glm::transpose(glm::inverse(glm::dmat3(world)));
+        for (const tinygltf::Primitive& prim : model.meshes[std::size_t(mesh_index)].primitives) {
+            if (prim.mode != -1 && prim.mode != TINYGLTF_MODE_TRIANGLES) {
+                ++skipped;
+                continue;
+            }
+            const auto pos = prim.attributes.find("POSITION");
+            if (pos == prim.attributes.end()) reader.fail("a primitive has no POSITION");
+            const std::size_t base = mesh.positions.size();
+            const std::size_t n = reader.count(pos->second);
+            reader.read(pos->second, 3, "POSITION", [&](std::size_t, const double* v) {
+                mesh.positions.push_back(glm::vec3(world * glm::dvec4(v[0], v[1], v[2], 1.0)));
+                mesh.normals.push_back(glm::vec3(0));
+                position_of.push_back(position_of.size());
+            });
+            const auto nor = prim.attributes.find("NORMAL");
+            if (nor != prim.attributes.end()) {
+                if (reader.count(nor->second) != n) reader.fail("NORMAL and POSITION counts differ");
+                reader.read(nor->second, 3, "NORMAL", [&](std::size_t k, const double* v) {
+                    const glm::dvec3 d = normal_matrix * glm::dvec3(v[0], v[1], v[2]);
+                    const double len = glm::length(d);
+                    mesh.normals[base + k] = len > 0 ? glm::vec3(d / len) : glm::vec3(0);
+                });
+            }
+            const std::size_t first_index = mesh.indices.size();
+            if (prim.indices >= 0) {
+                reader.read(prim.indices, 1, "indices", [&](std::size_t, const double* v) {
+                    if (v[0] >= double(n)) reader.fail("index " + std::to_string(std::size_t(v[0])) + " >= " + std::to_string(n) + " vertices");
+                    mesh.indices.push_back(std::uint32_t(base + std::size_t(v[0])));
+                });
+            } else {
+                for (std::size_t k = 0; k < n; ++k) mesh.indices.push_back(std::uint32_t(base + k));
+            }
+            if ((mesh.indices.size() - first_index) % 3 != 0) reader.fail("a triangle list whose index count is not a multiple of 3");
+        }
+    };
+
+    const std::function<void(int, const glm::dmat4&, int)> visit = [&](int node_index, const glm::dmat4& parent, int depth) {
+        if (node_index < 0 || node_index >= int(model.nodes.size())) reader.fail("no node " + std::to_string(node_index));
+        if (depth > 256) reader.fail("the node tree is deeper than 256 (a cycle?)");
+        const tinygltf::Node& node = model.nodes[std::size_t(node_index)];
+        const glm::dmat4 world = parent * local_transform(node);
+        if (node.mesh >= 0) add_mesh(node.mesh, world);
+        for (int child : node.children) visit(child, world, depth + 1);
+    };
+    if (!model.scenes.empty()) {
+        const int scene = model.defaultScene >= 0 && model.defaultScene < int(model.scenes.size()) ? model.defaultScene : 0;
+        for (int node : model.scenes[std::size_t(scene)].nodes) visit(node, glm::dmat4(1.0), 0);
+    } else {
+        for (int k = 0; k < int(model.meshes.size()); ++k) add_mesh(k, glm::dmat4(1.0));
+    }
+    if (mesh.indices.empty())
+        reader.fail(skipped > 0 ? "no triangle lists (" + std::to_string(skipped) + " primitives of other modes skipped)"
+                                : "no triangles in the default scene");
+    fill_missing_normals(mesh, position_of, position_of.size());
+    return mesh;
+}
+
+}  // namespace glint::render
