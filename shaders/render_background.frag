@@ -1,8 +1,8 @@
 #version 300 es
-// The environment seen through the camera, behind the object (with fullscreen.vert): each pixel's
-// ray in world space (the camera looks along -Z with +Y up; docs/render.md), the environment
-// looked up bilinearly along it. Only the HDR target gets it; radiance, normal and reflection
-// stay 0 off the object.
+// The environment seen through the camera, behind the object, into the HDR target that the tone
+// map meters (with fullscreen.vert): each pixel's ray in world space (the camera looks along -Z
+// with +Y up; docs/render.md), the environment looked up bilinearly along it. Radiance, normal
+// and reflection stay 0 off the object. (Frames look the environment up in render_composite.frag.)
 precision highp float;
 #include "equirect.glsl"
 #include "render_lookup.glsl"

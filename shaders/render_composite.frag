@@ -1,13 +1,23 @@
 #version 300 es
-// The display's frame (with fullscreen.vert): Reinhard's global operator (Reinhard et al. 2002,
-// eq. 2 and 4) on the HDR target, then the sRGB transfer curve; pixels the HDR target does not
-// cover (alpha 0: no object, no environment background) show the background image, or black.
+// The display's frame (with fullscreen.vert): the object's radiance where it covers the pixel
+// (alpha 1 in the radiance target), else the environment seen through the camera (the same ray
+// and lookup as render_background.frag) when it is the background, both through Reinhard's
+// global operator (Reinhard et al. 2002, eq. 2 and 4) and the sRGB transfer curve; else the
+// background image as it is (already display-encoded), or black.
 //   L_s = key / L_avg * L,   L_d = L_s (1 + L_s / L_white^2) / (1 + L_s),   rgb_d = rgb * L_d / L
+// The environment is looked up here rather than drawn into a float target first: one full-screen
+// float target less to write and read each frame.
 precision highp float;
-uniform highp sampler2D u_hdr;
-uniform mediump sampler2D u_image;  // the background image (sRGB-encoded), when u_has_image
+#include "equirect.glsl"
+#include "render_lookup.glsl"
+uniform highp sampler2D u_radiance;
+uniform highp sampler2D u_environment;
+uniform mediump sampler2D u_image;
+uniform bool u_has_environment;
 uniform bool u_has_image;
 uniform vec2 u_size;
+uniform vec2 u_tan_half_fov;  // tan(fov_x / 2), tan(fov_y / 2)
+uniform mat3 u_world_from_camera;
 uniform float u_scale;      // key / L_avg
 uniform float u_white_sq;   // L_white^2, in scaled luminance
 out vec4 o_color;
@@ -18,16 +28,22 @@ vec3 srgb_encode(vec3 c) {
 }
 
 void main() {
-    vec4 hdr = texelFetch(u_hdr, ivec2(gl_FragCoord.xy), 0);
-    if (hdr.a == 0.0) {
+    vec4 object = texelFetch(u_radiance, ivec2(gl_FragCoord.xy), 0);
+    vec3 hdr;
+    if (object.a > 0.0) {
+        hdr = object.rgb;
+    } else if (u_has_environment) {
+        vec2 ndc = gl_FragCoord.xy / u_size * 2.0 - 1.0;
+        hdr = equirect_bilinear(u_environment, normalize(u_world_from_camera * vec3(ndc * u_tan_half_fov, -1.0)));
+    } else {
         // The image's rows are top first; the frame's y grows upwards.
         vec2 uv = vec2(gl_FragCoord.x / u_size.x, 1.0 - gl_FragCoord.y / u_size.y);
         o_color = u_has_image ? vec4(texture(u_image, uv).rgb, 1.0) : vec4(0.0, 0.0, 0.0, 1.0);
         return;
     }
-    float l = dot(hdr.rgb, vec3(0.2126, 0.7152, 0.0722));
+    float l = dot(hdr, vec3(0.2126, 0.7152, 0.0722));
     float ls = u_scale * l;
     float ld = ls * (1.0 + ls / u_white_sq) / (1.0 + ls);
-    vec3 rgb = l > 0.0 ? hdr.rgb * (ld / l) : vec3(0.0);
+    vec3 rgb = l > 0.0 ? hdr * (ld / l) : vec3(0.0);
     o_color = vec4(srgb_encode(rgb), 1.0);
 }

@@ -129,7 +129,6 @@ int run_render(const RenderArgs& args) {
     else renderer.set_background_black();
 
     // The scene is still, so the tone map is metered once, before the timed frames.
-    renderer.draw_scene();
     const render::ToneMap& tone = renderer.meter(args.key);
     std::printf("tone map: Reinhard, key %.3g, log-average luminance %.6g, white %.6g (scaled), %lld pixels metered\n",
                 tone.key, tone.log_average, tone.white, tone.pixels);

@@ -182,8 +182,14 @@ void Renderer::set_background_image(const gl::RgbImage& image) {
 
 void Renderer::set_background_black() { background_ = Background::Black; }
 
-void Renderer::draw_scene() {
+void Renderer::draw_scene() { draw(false); }
+
+void Renderer::draw(bool with_hdr) {
     glBindFramebuffer(GL_FRAMEBUFFER, framebuffer_.id());
+    // Frames write three targets; metering adds the HDR frame.
+    const GLenum buffers[kTargets] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1, GL_COLOR_ATTACHMENT2,
+                                      with_hdr ? GLenum(GL_COLOR_ATTACHMENT3) : GLenum(GL_NONE)};
+    glDrawBuffers(kTargets, buffers);
     glViewport(0, 0, width_, height_);
     glDisable(GL_BLEND);
     glDisable(GL_SCISSOR_TEST);
@@ -194,17 +200,12 @@ void Renderer::draw_scene() {
     glClear(GL_COLOR_BUFFER_BIT | GL_DEPTH_BUFFER_BIT);
 
     const glm::dmat4 view = view_matrix(camera_);
-    const glm::dmat3 world_from_camera = glm::transpose(glm::dmat3(view));  // the view's rotation inverted
 
-    if (background_ == Background::Environment) {
+    if (with_hdr && background_ == Background::Environment) {
         glDisable(GL_DEPTH_TEST);
         glDepthMask(GL_FALSE);
         background_program_.use();
-        const double ty = std::tan(glm::radians(camera_.fov_y_deg) / 2);
-        glUniform2f(background_program_.uniform("u_size"), float(width_), float(height_));
-        glUniform2f(background_program_.uniform("u_tan_half_fov"), float(ty * width_ / height_), float(ty));
-        const glm::mat3 wfc(world_from_camera);
-        glUniformMatrix3fv(background_program_.uniform("u_world_from_camera"), 1, GL_FALSE, glm::value_ptr(wfc));
+        set_camera_ray_uniforms(background_program_);
         glActiveTexture(GL_TEXTURE0);
         glBindTexture(GL_TEXTURE_2D, environment_.id());
         glUniform1i(background_program_.uniform("u_environment"), 0);
@@ -257,7 +258,16 @@ std::vector<float> Renderer::read_target(int k) const {
     return out;
 }
 
+void Renderer::set_camera_ray_uniforms(const gl::GlProgram& program) const {
+    const glm::mat3 world_from_camera(glm::transpose(glm::dmat3(view_matrix(camera_))));  // the view's rotation inverted
+    const double ty = std::tan(glm::radians(camera_.fov_y_deg) / 2);
+    glUniform2f(program.uniform("u_size"), float(width_), float(height_));
+    glUniform2f(program.uniform("u_tan_half_fov"), float(ty * width_ / height_), float(ty));
+    glUniformMatrix3fv(program.uniform("u_world_from_camera"), 1, GL_FALSE, glm::value_ptr(world_from_camera));
+}
+
 const ToneMap& Renderer::meter(double key) {
+    draw(true);
     tone_ = meter_reinhard(read_target(kHdr), key);
     return tone_;
 }
@@ -267,13 +277,17 @@ void Renderer::composite() const {
     glDisable(GL_BLEND);
     composite_program_.use();
     glActiveTexture(GL_TEXTURE0);
-    glBindTexture(GL_TEXTURE_2D, targets_[kHdr].id());
-    glUniform1i(composite_program_.uniform("u_hdr"), 0);
+    glBindTexture(GL_TEXTURE_2D, targets_[kRadiance].id());
+    glUniform1i(composite_program_.uniform("u_radiance"), 0);
     glActiveTexture(GL_TEXTURE1);
     glBindTexture(GL_TEXTURE_2D, image_.id());
     glUniform1i(composite_program_.uniform("u_image"), 1);
+    glActiveTexture(GL_TEXTURE2);
+    glBindTexture(GL_TEXTURE_2D, environment_.id());
+    glUniform1i(composite_program_.uniform("u_environment"), 2);
     glUniform1i(composite_program_.uniform("u_has_image"), background_ == Background::Image ? 1 : 0);
-    glUniform2f(composite_program_.uniform("u_size"), float(width_), float(height_));
+    glUniform1i(composite_program_.uniform("u_has_environment"), background_ == Background::Environment ? 1 : 0);
+    set_camera_ray_uniforms(composite_program_);
     glUniform1f(composite_program_.uniform("u_scale"), float(tone_.scale()));
     glUniform1f(composite_program_.uniform("u_white_sq"), float(tone_.white * tone_.white));
     glBindVertexArray(empty_vao_.id());

@@ -51,7 +51,7 @@ struct ToneMap {
 // background). No pixel counted gives L_avg = key (scale 1) and L_white = 1.
 ToneMap meter_reinhard(const std::vector<float>& rgba, double key = 0.18, double delta = 1e-4);
 
-// The arbitrary output variables of a frame, rows top first, 4 floats a pixel.
+// The arbitrary output variables of the last draw_scene, rows top first, 4 floats a pixel.
 struct Aovs {
     int width = 0, height = 0;
     std::vector<float> radiance;  // RGB before any tone mapping, A = 1 on the object, all 0 off it
@@ -84,9 +84,11 @@ public:
     // ao = 1 either way today (no baked occlusion; docs/render.md); kept so --no-ao has its place.
     void set_ambient_occlusion(bool on) { ao_ = on; }
 
-    // Draws the background and the object into the float targets.
+    // Draws the object into the float targets (radiance, normal, reflection direction).
     void draw_scene();
-    // Meters the HDR target of the last draw_scene (a read-back) and keeps the result.
+    // Draws the frame's HDR radiance (the environment background and the object) into a fourth
+    // target, reads it back and meters it; keeps the result. Once per still scene: frames do not
+    // write that target (the composite looks the environment up itself).
     const ToneMap& meter(double key = 0.18);
     void set_tone_map(const ToneMap& tone) { tone_ = tone; }
     const ToneMap& tone_map() const { return tone_; }
@@ -101,6 +103,8 @@ public:
 
 private:
     std::vector<float> read_target(int k) const;  // rows top first
+    void draw(bool with_hdr);
+    void set_camera_ray_uniforms(const gl::GlProgram& program) const;  // u_size, u_tan_half_fov, u_world_from_camera
 
     int width_, height_;
     Camera camera_;

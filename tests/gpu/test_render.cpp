@@ -23,6 +23,7 @@
 #include "appliance/core/errors.hpp"
 #include "appliance/core/exr_io.hpp"
 #include "appliance/core/parallel.hpp"
+#include "appliance/gl/display.hpp"
 #include "appliance/render/maps.hpp"
 #include "appliance/render/material.hpp"
 #include "appliance/render/mesh.hpp"
@@ -301,6 +302,49 @@ TEST_F(Render, AovsAreUnitVectorsInTheConventionsFrames) {
     EXPECT_LT(at(a.normal, w / 2, h / 2 + 55).y, -0.5);  // below: -Y
     EXPECT_GT(at(a.normal, w / 2 + 55, h / 2).x, 0.5);   // right: +X
     EXPECT_GT(at(a.reflect, w / 2 + 55, h / 2).x, 0.5);
+}
+
+// The frame on a headless display: a matte sphere in a constant environment has one radiance, so
+// Reinhard with the white point at the brightest pixel maps it to 1 (sRGB 255); around it the
+// background image shows as it is, rows top first (red above, blue below), not tone mapped.
+class RenderFrame : public test::GpuTest {};
+
+TEST_F(RenderFrame, CompositeShowsTheToneMappedObjectOverTheImage) {
+    HdrImage lit(16, 8);
+    for (auto& v : lit.data()) v = 0.25f;
+    const render::Material m = render::parse_material("matte");
+    const render::ShadingMaps maps = maps_by(lit, m, convolution::Method::Exact, convolution::Size{16, 8});
+    gl::RgbImage image;
+    image.width = 4;
+    image.height = 2;
+    image.pixels = {200, 0, 0, 200, 0, 0, 200, 0, 0, 200, 0, 0, 0, 0, 200, 0, 0, 200, 0, 0, 200, 0, 0, 200};
+    gl::DisplayConfig config;
+    config.kind = "headless";
+    config.width = 96;
+    config.height = 64;
+    {
+        const auto display = gl::open_display(config);
+        render::Renderer r(render::make_uv_sphere(), m, maps, display->width(), display->height());
+        r.set_background_image(image);
+        const render::ToneMap& tone = r.meter();
+        EXPECT_GT(tone.pixels, 1000);
+        EXPECT_NEAR(tone.log_average, 0.25, 1e-3);
+        r.draw_scene();
+        display->bind_frame();
+        r.composite();
+        const gl::RgbImage frame = display->read_frame();
+        display->present();
+        ASSERT_EQ(frame.width, 96);
+        const std::uint8_t* centre = frame.at(48, 32);
+        EXPECT_GE(centre[0], 254);
+        EXPECT_GE(centre[1], 254);
+        EXPECT_GE(centre[2], 254);
+        EXPECT_EQ(frame.at(2, 2)[0], 200);   // top left: red
+        EXPECT_EQ(frame.at(2, 2)[2], 0);
+        EXPECT_EQ(frame.at(2, 61)[0], 0);    // bottom left: blue
+        EXPECT_EQ(frame.at(2, 61)[2], 200);
+    }
+    context().make_current();  // the display's context is gone; the suite's goes on
 }
 
 float exr_channel_at(const fs::path& path, const char* channel, int x, int y) {
