@@ -160,8 +160,30 @@ Renderer::Renderer(const Mesh& mesh, const Material& material, const ShadingMaps
     gl::check_gl("creating the renderer");
 }
 
+namespace {
+
+// The background needs no more than about 4096 columns (a 1280-pixel frame spans 67 degrees:
+// 6900 pixels a turn at most, and the lookup is bilinear); an 8192x4096 map would be 512 MiB as
+// RGBA32F. Halved by 2x2 means, which keep every light's power.
+HdrImage background_level(const HdrImage& environment) {
+    constexpr int kMaxColumns = 4096;
+    HdrImage level = environment;
+    while (level.width() > kMaxColumns && level.width() % 2 == 0 && level.height() % 2 == 0) {
+        HdrImage half(level.width() / 2, level.height() / 2);
+        for (int j = 0; j < half.height(); ++j)
+            for (int i = 0; i < half.width(); ++i)
+                for (int c = 0; c < 3; ++c)
+                    half.row(j)[3 * i + c] = 0.25f * (level.row(2 * j)[6 * i + c] + level.row(2 * j)[6 * i + 3 + c] +
+                                                      level.row(2 * j + 1)[6 * i + c] + level.row(2 * j + 1)[6 * i + 3 + c]);
+        level = std::move(half);
+    }
+    return level;
+}
+
+}  // namespace
+
 void Renderer::set_background_environment(const HdrImage& environment) {
-    environment_ = upload_map(environment, "environment");
+    environment_ = upload_map(environment.width() > 4096 ? background_level(environment) : environment, "environment");
     background_ = Background::Environment;
 }
 

@@ -216,6 +216,7 @@ struct ShadingCase {
     const char* world;
     const char* material;
 };
+void PrintTo(const ShadingCase& c, std::ostream* os) { *os << c.world << " " << c.material; }
 
 class RenderShading : public test::GpuTest, public ::testing::WithParamInterface<ShadingCase> {};
 
@@ -345,6 +346,23 @@ TEST_F(RenderFrame, CompositeShowsTheToneMappedObjectOverTheImage) {
         EXPECT_EQ(frame.at(2, 61)[2], 200);
     }
     context().make_current();  // the display's context is gone; the suite's goes on
+}
+
+// An environment wider than 4096 columns is halved for the background (2x2 means): a constant
+// one still shows its constant everywhere, and the object in it too, so the meter sees one value.
+TEST_F(RenderFrame, WideEnvironmentBackgroundKeepsItsRadiance) {
+    HdrImage wide(8192, 4);
+    for (auto& v : wide.data()) v = 0.5f;
+    const render::Material m = render::parse_material("matte");
+    HdrImage lit(16, 8);
+    for (auto& v : lit.data()) v = 0.5f;
+    render::Renderer r(render::make_uv_sphere(), m, maps_by(lit, m, convolution::Method::Exact, convolution::Size{16, 8}),
+                       64, 48);
+    r.set_background_environment(wide);
+    const render::ToneMap& tone = r.meter();
+    EXPECT_EQ(tone.pixels, 64 * 48);
+    EXPECT_NEAR(tone.log_average, 0.5, 1e-3);
+    EXPECT_NEAR(tone.white, tone.key * 0.5 / tone.log_average, 1e-5);
 }
 
 float exr_channel_at(const fs::path& path, const char* channel, int x, int y) {
