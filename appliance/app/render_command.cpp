@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <memory>
 #include <nlohmann/json.hpp>
+#include <utility>
 
 #include "appliance/app/cli_util.hpp"
 #include "appliance/app/commands.hpp"
@@ -49,7 +50,7 @@ render::Mesh load_model(const std::string& model) {
     if (model == "sphere") return render::make_uv_sphere();
     if (model == "teapot")
         throw InputError("--model teapot: not built (no Newell patch data of a known licence ships yet; "
-                         "docs/render.md); use sphere or an OBJ file");
+                         "docs/render.md); use sphere, an OBJ or a glTF file");
     const fs::path path(model);
     std::string ext = path.extension().string();
     std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
@@ -92,6 +93,26 @@ int run_render(const RenderArgs& args) {
         background_image = gl::load_png(args.background);
     }
     render::Mesh mesh = load_model(args.model);
+    // Files are written after the frames: a place they cannot go is bad input, found first.
+    for (const auto& [flag, file] : {std::pair{"--out", args.out}, std::pair{"--stats", args.stats}}) {
+        if (file.empty()) continue;
+        const fs::path parent = fs::absolute(fs::path(file)).parent_path();
+        if (!fs::is_directory(parent))
+            throw InputError(std::string(flag) + " " + file + ": the directory " + parent.string() + " does not exist");
+    }
+    if (!args.aov.empty() && fs::exists(args.aov) && !fs::is_directory(args.aov))
+        throw InputError("--aov " + args.aov + ": exists and is not a directory");
+
+    // The display first: one that cannot open fails before any convolution.
+    gl::DisplayConfig config;
+    config.kind = args.display;
+    config.width = size.width;
+    config.height = size.height;
+    std::vector<gl::DisplayAttempt> attempts;
+    std::unique_ptr<gl::Display> display = gl::open_display(config, &attempts);
+    for (const auto& a : attempts)
+        if (!a.ok) std::fprintf(stderr, "glint: display %s: %s\n", gl::display_kind_name(a.kind), a.detail.c_str());
+    std::printf("display: %s%s\n", display->describe().c_str(), display->degraded() ? " (degraded: fell back)" : "");
 
     const auto t_maps = Clock::now();
     render::ShadingMaps maps;
@@ -112,15 +133,6 @@ int run_render(const RenderArgs& args) {
     if (maps.irradiance) std::printf("irradiance: %s\n", maps.irradiance_from.c_str());
     if (maps.reflection) std::printf("reflection: %s\n", maps.reflection_from.c_str());
 
-    gl::DisplayConfig config;
-    config.kind = args.display;
-    config.width = size.width;
-    config.height = size.height;
-    std::vector<gl::DisplayAttempt> attempts;
-    std::unique_ptr<gl::Display> display = gl::open_display(config, &attempts);
-    for (const auto& a : attempts)
-        if (!a.ok) std::fprintf(stderr, "glint: display %s: %s\n", gl::display_kind_name(a.kind), a.detail.c_str());
-    std::printf("display: %s\n", display->describe().c_str());
 
     render::Renderer renderer(mesh, material, maps, display->width(), display->height());
     renderer.set_ambient_occlusion(!args.no_ao);

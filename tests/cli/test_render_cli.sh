@@ -79,6 +79,10 @@ printf 'v 0 0 0\nv 1 0 0\nf 1 2 3\n' >"$work/bad.obj"
 expect_bad "OBJ with a bad index" "bad.obj:3" render --env "$WORLD" --model "$work/bad.obj"
 printf '{ "asset": ' >"$work/bad.gltf"
 expect_bad "unreadable glTF" "bad.gltf" render --env "$WORLD" --model "$work/bad.gltf"
+run render --env "$WORLD" --size 32x32 --out "$work/no/such/dir/f.png"
+[[ $rc -eq 2 ]] || fail "--out into a missing directory: exit code $rc, want 2"
+grep -qF -- "--out" "$work/stderr" || fail "--out into a missing directory: stderr does not name --out: $(stderr_text)"
+pass "--out into a missing directory: exit 2, $(head -n 1 "$work/stderr")"
 expect_bad "bad --size" "--size" render --env "$WORLD" --size 12
 expect_bad "bad --display" "--display" render --env "$WORLD" --display projector
 expect_bad "bad --background" "--background" render --env "$WORLD" --background grey
