@@ -257,6 +257,36 @@ INSTANTIATE_TEST_SUITE_P(Spheres, RenderShading,
                              return name;
                          });
 
+// The same on the full-size worlds (1024x512), as `glint render --env` convolves them: against E
+// summed from its definition at every 12th pixel's direction (about 240 pixels; `exact` maps of
+// this input would take minutes).
+class RenderShadingFullSize : public test::GpuTest, public ::testing::WithParamInterface<ShadingCase> {};
+
+TEST_P(RenderShadingFullSize, WithinOnePercentOfEAtEachDirection) {
+    const ShadingCase c = GetParam();
+    const HdrImage env = load_exr(fs::path(GLINT_BLENDER_WORLDS) / (std::string(c.world) + ".exr")).image;
+    const render::Material m = render::parse_material(c.material);
+    const render::ShadingMaps used = maps_by(env, m, convolution::Method::Auto);
+    const Aovs a = render_aovs(m, used);
+    const ShadingError d = direct_error(a, m, env, 12);
+    std::printf("[          ] full size: %s %s, maps %s%s: against E at each direction rms %.3e worst %.3e (%lld pixels)\n",
+                c.world, c.material, used.irradiance_from.c_str(), used.reflection_from.c_str(), d.rms, d.worst,
+                d.pixels);
+    EXPECT_GT(d.pixels, 200);
+    EXPECT_LT(d.rms, 0.01);
+    EXPECT_LT(d.worst, 0.05);
+}
+
+INSTANTIATE_TEST_SUITE_P(Spheres, RenderShadingFullSize,
+                         ::testing::Values(ShadingCase{"studio", "matte"}, ShadingCase{"studio", "glossy:160"},
+                                           ShadingCase{"courtyard", "matte"}, ShadingCase{"courtyard", "glossy:160"}),
+                         [](const auto& param_info) {
+                             std::string name = std::string(param_info.param.world) + "_" + param_info.param.material;
+                             for (char& ch : name)
+                                 if (!std::isalnum(static_cast<unsigned char>(ch))) ch = '_';
+                             return name;
+                         });
+
 // Normals and reflection directions are unit vectors on the object; off it everything is 0.
 // The frames: the camera on +Z looks towards -Z with +Y up, so the centre pixel sees the point
 // (0, 0, 1) with normal +Z and reflects straight back, the top of the sphere has +Y normals and
