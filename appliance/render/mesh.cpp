@@ -84,10 +84,11 @@ Mesh load_obj(const std::filesystem::path& path) {
         if (words.empty()) continue;
         const std::string_view key = words[0];
         if (key == "v" || key == "vn") {
-            if (words.size() < 4 || (key == "vn" && words.size() != 4) || words.size() > 5)
+            // v: x y z, x y z w, or x y z r g b (the common vertex-colour extension; ignored).
+            const std::size_t n = words.size() - 1;
+            if (key == "vn" ? n != 3 : (n != 3 && n != 4 && n != 6))
                 throw InputError(where + ": '" + std::string(key) + "' needs 3 numbers" +
-                                 (key == "v" ? " (and an optional w)" : "") + ", got " +
-                                 std::to_string(words.size() - 1));
+                                 (key == "v" ? " (x y z, x y z w or x y z r g b)" : "") + ", got " + std::to_string(n));
             const glm::vec3 p(float(parse_double(words[1], where)), float(parse_double(words[2], where)),
                               float(parse_double(words[3], where)));
             if (key == "v") {

@@ -25,7 +25,7 @@ struct Mesh {
 // +Y axis; the normals are the exact sphere normals (not averaged faces).
 Mesh make_uv_sphere(int stacks = 96, int slices = 192);
 
-// A Wavefront OBJ file: `v` (x y z [w]), `vn`, and `f` with any of the forms v, v/vt, v//vn,
+// A Wavefront OBJ file: `v` (x y z, optionally w or r g b, which are ignored), `vn`, and `f` with any of the forms v, v/vt, v//vn,
 // v/vt/vn (negative indices count back from the end); polygons are triangulated as fans. Corners
 // without a normal get the area-weighted mean of the normals of the faces around their position.
 // Every other statement (vt, o, g, s, usemtl, mtllib, l, p, ...) is ignored. Throws InputError

@@ -465,6 +465,8 @@ TEST(RenderMesh, ObjErrorsNameTheFileAndLine) {
     EXPECT_NE(e.find("normal.obj:5"), std::string::npos) << e;
     e = obj_error("zero.obj", tri + "vn 0 0 0\n");
     EXPECT_NE(e.find("zero.obj:4"), std::string::npos) << e;
+    e = obj_error("five.obj", "v 0 0 0 1 1\n");
+    EXPECT_NE(e.find("five.obj:1"), std::string::npos) << e;
     e = obj_error("empty.obj", tri);
     EXPECT_NE(e.find("empty.obj"), std::string::npos) << e;
     EXPECT_NE(e.find("no faces"), std::string::npos) << e;
@@ -478,7 +480,7 @@ TEST(RenderMesh, ObjQuadsAreTriangulatedAndMissingNormalsComputed) {
     // A unit square in z = 0 as one quad (v/vt form, no normals) and, with negative indices, one
     // triangle with a given normal.
     const fs::path p = write_file(dir, "ok.obj",
-                                  "v 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nvt 0 0\nf 1/1 2/1 3/1 4/1\n"
+                                  "v 0 0 0\nv 1 0 0 1\nv 1 1 0 0.5 0.5 0.5\nv 0 1 0\nvt 0 0\nf 1/1 2/1 3/1 4/1\n"
                                   "v 0 0 1\nv 1 0 1\nv 0 1 1\nvn 0 0 -1\nf -3//-1 -1//-1 -2//-1\n");
     render::Mesh m = render::load_obj(p);
     EXPECT_EQ(m.triangle_count(), 3u);
