@@ -19,6 +19,13 @@ const char* display_kind_name(DisplayKind kind) {
     return "?";
 }
 
+void destroy_egl_surface(EGLDisplay display, EGLSurface& surface) {
+    if (surface == EGL_NO_SURFACE) return;
+    eglMakeCurrent(display, EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
+    eglDestroySurface(display, surface);
+    surface = EGL_NO_SURFACE;
+}
+
 RgbImage Display::read_frame() {
     bind_frame();
     RgbImage image;

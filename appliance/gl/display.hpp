@@ -72,6 +72,10 @@ private:
     bool degraded_ = false;
 };
 
+// Unbinds the context from `surface` and destroys it (a window's or a GBM surface's); no-op for
+// EGL_NO_SURFACE. Leaves `surface` EGL_NO_SURFACE.
+void destroy_egl_surface(EGLDisplay display, EGLSurface& surface);
+
 // Opens the display of `config`. Every attempt is appended to `attempts` (when given). Throws
 // RuntimeError with the reason of the last attempt when none opened.
 std::unique_ptr<Display> open_display(const DisplayConfig& config, std::vector<DisplayAttempt>* attempts = nullptr);

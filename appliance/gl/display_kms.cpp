@@ -230,11 +230,7 @@ private:
         }
         if (saved_crtc_) drmModeFreeCrtc(saved_crtc_);
         saved_crtc_ = nullptr;
-        if (egl_ && surface_ != EGL_NO_SURFACE) {
-            eglMakeCurrent(egl_->handle(), EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
-            eglDestroySurface(egl_->handle(), surface_);
-            surface_ = EGL_NO_SURFACE;
-        }
+        if (egl_) destroy_egl_surface(egl_->handle(), surface_);
         context_.reset();
         egl_.reset();
         if (shown_ && surface_gbm_) gbm_surface_release_buffer(surface_gbm_, shown_);

@@ -130,11 +130,7 @@ public:
 
 private:
     void release() {
-        if (egl_ && surface_ != EGL_NO_SURFACE) {
-            eglMakeCurrent(egl_->handle(), EGL_NO_SURFACE, EGL_NO_SURFACE, EGL_NO_CONTEXT);
-            eglDestroySurface(egl_->handle(), surface_);
-            surface_ = EGL_NO_SURFACE;
-        }
+        if (egl_) destroy_egl_surface(egl_->handle(), surface_);
         context_.reset();
         egl_.reset();
         if (x_) {

@@ -29,6 +29,7 @@
 #include "appliance/render/mesh.hpp"
 #include "appliance/render/renderer.hpp"
 #include "gpu_fixture.hpp"
+#include "render_worlds.hpp"
 
 namespace glint {
 namespace {
@@ -43,22 +44,7 @@ fs::path temp_dir(const std::string& name) {
     return dir;
 }
 
-// A Blender world averaged over 4x4 blocks (1024x512 -> 256x128): small enough for `exact` in a
-// test, and the block mean keeps every light's power.
-HdrImage small_world(const std::string& name) {
-    const HdrImage full = load_exr(fs::path(GLINT_BLENDER_WORLDS) / (name + ".exr")).image;
-    const int f = 4;
-    HdrImage out(full.width() / f, full.height() / f);
-    for (int j = 0; j < out.height(); ++j)
-        for (int i = 0; i < out.width(); ++i) {
-            double s[3] = {0, 0, 0};
-            for (int y = 0; y < f; ++y)
-                for (int x = 0; x < f; ++x)
-                    for (int c = 0; c < 3; ++c) s[c] += full.row(j * f + y)[3 * (i * f + x) + c];
-            out.set(i, j, {float(s[0] / (f * f)), float(s[1] / (f * f)), float(s[2] / (f * f))});
-        }
-    return out;
-}
+using test::small_blender_world;
 
 render::ShadingMaps maps_by(const HdrImage& env, const render::Material& m, convolution::Method method,
                             std::optional<convolution::Size> size = std::nullopt) {
@@ -201,7 +187,7 @@ class Render : public test::GpuTest {};
 // radiance equals those maps looked up on the CPU at the AOVs' directions to float precision.
 // A wrong axis, a flipped row order or a half-texel shift would show as percent-level errors.
 TEST_F(Render, ShaderLookupIsTheConventionsBilinearLookup) {
-    const HdrImage env = small_world("courtyard");
+    const HdrImage env = small_blender_world("courtyard");
     const render::Material m = render::parse_material("kd=0.5;ks=0.5;n=20");
     const render::ShadingMaps exact = maps_by(env, m, convolution::Method::Exact, convolution::Size{64, 32});
     const ShadingError e = shading_error(render_aovs(m, exact), m, exact);
@@ -224,7 +210,7 @@ class RenderShading : public test::GpuTest, public ::testing::WithParamInterface
 // command does without --maps) within 1 % weighted RMS and 5 % worst pixel of the exact maps.
 TEST_P(RenderShading, WithinOnePercentOfTheExactMaps) {
     const ShadingCase c = GetParam();
-    const HdrImage env = small_world(c.world);
+    const HdrImage env = small_blender_world(c.world);
     const render::Material m = render::parse_material(c.material);
     const render::ShadingMaps used = maps_by(env, m, convolution::Method::Auto);
     const Aovs a = render_aovs(m, used);
@@ -251,10 +237,7 @@ INSTANTIATE_TEST_SUITE_P(Spheres, RenderShading,
                          ::testing::Values(ShadingCase{"studio", "matte"}, ShadingCase{"studio", "glossy:160"},
                                            ShadingCase{"courtyard", "matte"}, ShadingCase{"courtyard", "glossy:160"}),
                          [](const auto& param_info) {
-                             std::string name = std::string(param_info.param.world) + "_" + param_info.param.material;
-                             for (char& ch : name)
-                                 if (!std::isalnum(static_cast<unsigned char>(ch))) ch = '_';
-                             return name;
+                             return test::test_name(std::string(param_info.param.world) + "_" + param_info.param.material);
                          });
 
 // The same on the full-size worlds (1024x512), as `glint render --env` convolves them: against E
@@ -281,10 +264,7 @@ INSTANTIATE_TEST_SUITE_P(Spheres, RenderShadingFullSize,
                          ::testing::Values(ShadingCase{"studio", "matte"}, ShadingCase{"studio", "glossy:160"},
                                            ShadingCase{"courtyard", "matte"}, ShadingCase{"courtyard", "glossy:160"}),
                          [](const auto& param_info) {
-                             std::string name = std::string(param_info.param.world) + "_" + param_info.param.material;
-                             for (char& ch : name)
-                                 if (!std::isalnum(static_cast<unsigned char>(ch))) ch = '_';
-                             return name;
+                             return test::test_name(std::string(param_info.param.world) + "_" + param_info.param.material);
                          });
 
 // Normals and reflection directions are unit vectors on the object; off it everything is 0.

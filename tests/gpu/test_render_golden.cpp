@@ -12,7 +12,6 @@
 #include <filesystem>
 
 #include "appliance/convolution/convolution.hpp"
-#include "appliance/core/exr_io.hpp"
 #include "appliance/gl/display.hpp"
 #include "appliance/gl/png_writer.hpp"
 #include "appliance/render/maps.hpp"
@@ -20,27 +19,12 @@
 #include "appliance/render/mesh.hpp"
 #include "appliance/render/renderer.hpp"
 #include "gpu_fixture.hpp"
+#include "render_worlds.hpp"
 
 namespace glint {
 namespace {
 
 namespace fs = std::filesystem;
-
-// The studio world averaged over 4x4 blocks (256x128): quick to convolve, every lamp's power kept.
-HdrImage studio_small() {
-    const HdrImage full = load_exr(fs::path(GLINT_BLENDER_WORLDS) / "studio.exr").image;
-    const int f = 4;
-    HdrImage out(full.width() / f, full.height() / f);
-    for (int j = 0; j < out.height(); ++j)
-        for (int i = 0; i < out.width(); ++i) {
-            double s[3] = {0, 0, 0};
-            for (int y = 0; y < f; ++y)
-                for (int x = 0; x < f; ++x)
-                    for (int c = 0; c < 3; ++c) s[c] += full.row(j * f + y)[3 * (i * f + x) + c];
-            out.set(i, j, {float(s[0] / (f * f)), float(s[1] / (f * f)), float(s[2] / (f * f))});
-        }
-    return out;
-}
 
 gl::RgbImage render_frame(const HdrImage& world, const std::string& material) {
     const render::Material m = render::parse_material(material);
@@ -66,11 +50,9 @@ gl::RgbImage render_frame(const HdrImage& world, const std::string& material) {
 class RenderGolden : public test::GpuTest, public ::testing::WithParamInterface<const char*> {};
 
 TEST_P(RenderGolden, FrameMatchesTheGoldenImage) {
-    static const HdrImage world = studio_small();
+    static const HdrImage world = test::small_blender_world("studio");
     const std::string material = GetParam();
-    std::string name = material;
-    for (char& c : name)
-        if (c == ':') c = '_';
+    const std::string name = test::test_name(material);
     const fs::path golden = fs::path(GLINT_SOURCE_DIR) / "images" / "golden" / ("render_" + name + ".png");
     const gl::RgbImage frame = render_frame(world, material);
     context().make_current();  // the display's context is gone; the suite's goes on
@@ -108,12 +90,7 @@ TEST_P(RenderGolden, FrameMatchesTheGoldenImage) {
 }
 
 INSTANTIATE_TEST_SUITE_P(Spheres, RenderGolden, ::testing::Values("matte", "glossy:160", "mirror"),
-                         [](const ::testing::TestParamInfo<const char*>& p) {
-                             std::string s = p.param;
-                             for (char& c : s)
-                                 if (!std::isalnum(static_cast<unsigned char>(c))) c = '_';
-                             return s;
-                         });
+                         [](const ::testing::TestParamInfo<const char*>& p) { return test::test_name(p.param); });
 
 }  // namespace
 }  // namespace glint
