@@ -57,6 +57,15 @@ glm::dquat world_from_camera_at(const firmware::sim::Trajectory& camera, std::ui
     return host::to_glm(camera.at(t_us).world_from_sensor);
 }
 
+// The camera's path around camera time t_us, as an offset in seconds (what render() integrates
+// a frame's rows and exposures over).
+CameraPath camera_path(const firmware::sim::Trajectory& camera, std::uint64_t t_us) {
+    return [&camera, t_us](double offset_s) {
+        const double t = double(t_us) + offset_s * 1e6;
+        return world_from_camera_at(camera, t <= 0 ? 0 : std::uint64_t(std::llround(t)));
+    };
+}
+
 // Frames of a scan along `camera` at `fps`, the first at its time 0.
 int scan_frames(const firmware::sim::Trajectory& camera, double fps) {
     return int(std::floor(double(camera.end_us()) * 1e-6 * fps)) + 1;
@@ -73,6 +82,7 @@ CameraCalibration true_camera(const SimulateOptions& o, const SensorModel& senso
     truth.sensor_from_camera = host::to_glm(look(o.mount_yaw_deg, o.mount_pitch_deg, o.mount_roll_deg));
     truth.sensitivity = sensor.electrons_per_radiance_second / sensor.full_well_electrons;
     truth.time_offset_s = o.time_offset_s;
+    truth.readout_s = o.readout_s;
     if (o.sensor_limits) {
         truth.min_exposure_s = capture::kModelledMinExposureS;
         truth.glare_fraction = capture::kModelledGlareFraction;
@@ -145,6 +155,7 @@ SimulateSummary write_session(const SimulateOptions& o, const HdrImage& env, con
     const double duration_s = double(camera.end_us()) * 1e-6;
     SensorModel sensor;
     sensor.noise = o.camera_noise;
+    sensor.motion_blur = o.motion_blur;
     const CameraCalibration truth = true_camera(o, sensor);
 
     // The sensor board rides on the camera: world_from_sensor = world_from_camera * camera_from_sensor,
@@ -250,7 +261,8 @@ SimulateSummary write_session(const SimulateOptions& o, const HdrImage& env, con
         // camera timestamp + time_offset_s = sensor time (conventions.md, "Camera frame").
         const std::int64_t t_ns = std::int64_t(host_us(kLeadUs + std::uint64_t(std::llround(k / o.fps * 1e6)))) * 1000 -
                                   std::int64_t(std::llround(o.time_offset_s * 1e9));
-        const CameraFrame f = cam.render(q, t_ns, threads);
+        const CameraFrame f =
+            o.bracket > 0 ? cam.render(q, t_ns, threads) : cam.render(camera_path(camera, tc), t_ns, threads);
         emit(f, q, t_ns);
         if (o.hdr_bracket && clipped_share(f) > 0) {
             // What the kiosk's capture does when the guided logic says "too bright": frames at
@@ -265,7 +277,7 @@ SimulateSummary write_session(const SimulateOptions& o, const HdrImage& env, con
                 const std::int64_t tb_ns = t_ns + std::int64_t(b) * 2'000'000;
                 const double want = f.exposure_s * f.analogue_gain * std::pow(64.0, -b);
                 cam.set_exposure(want, 1.0);  // clamped to the shortest exposure
-                const CameraFrame fb = cam.render(qb, tb_ns, threads);
+                const CameraFrame fb = cam.render(camera_path(camera, tb), tb_ns, threads);
                 emit(fb, qb, tb_ns);
                 if (clipped_share(fb) == 0 || fb.exposure_s <= truth.min_exposure_s) break;
             }
@@ -296,6 +308,7 @@ SimulateSummary simulate_session(const SimulateOptions& o, const std::function<v
     if (o.width < 16 || o.height < 16 || o.width > 8192 || o.height > 8192)
         throw InputError("--size must be between 16x16 and 8192x8192");
     if (!(std::abs(o.time_offset_s) <= 1.0)) throw InputError("--time-offset-ms must be in [-1000, 1000]");
+    if (!(o.readout_s >= 0 && o.readout_s < 1.0)) throw InputError("--readout-ms must be in [0, 1000)");
     if (!(o.horizontal_fov_deg > 5 && o.horizontal_fov_deg < 150)) throw InputError("--fov must be in (5, 150) degrees");
     if (o.imu != "raw" && o.imu != "bno055") throw InputError("--imu must be raw or bno055");
     if (o.sensor_noise != "none" && o.sensor_noise != "default" && o.sensor_noise != "high")
