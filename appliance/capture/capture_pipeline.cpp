@@ -110,6 +110,45 @@ GroundTruthError compare_with_truth(const HdrImage& got, const std::vector<std::
     return e;
 }
 
+// A rolling-shutter frame as a global shutter at the frame's time would have seen it: each pixel
+// read where its ray (pixel_rays, seen with the frame's orientation) fell in the row exposed when
+// the camera had turned on by w (rad/s, camera frame) x that row's time (rolling_shutter_project),
+// bilinearly in code values. A channel beside a clipped code (255) stays clipped, so that every
+// reader still finds its value unreliable; a pixel no row saw is black (no value to any reader).
+// What the drift correction and the pair alignment are given: they turn every pixel of a frame
+// with its one orientation. The accumulators turn each texel's row instead (exact, no resampling).
+CameraFrame deskewed(const CameraFrame& f, const CameraCalibration& cal, const std::vector<glm::dvec3>& pixel_rays,
+                     const glm::dvec3& w, int threads) {
+    const Intrinsics& k = cal.intrinsics;
+    CameraFrame out = f;
+    out.rgb = cv::Mat(f.rgb.rows, f.rgb.cols, CV_8UC3);
+    parallel_for(k.height, threads, [&](int v) {
+        std::uint8_t* o = out.rgb.ptr<std::uint8_t>(v);
+        for (int u = 0; u < k.width; ++u) {
+            const std::size_t i = std::size_t(v) * std::size_t(k.width) + std::size_t(u);
+            const std::optional<PixelCoord> px = rolling_shutter_project(cal, pixel_rays[i], w);
+            if (!px) {
+                o[3 * u] = o[3 * u + 1] = o[3 * u + 2] = 0;
+                continue;
+            }
+            const int u0 = std::clamp(int(std::floor(px->u)), 0, k.width - 2);
+            const int v0 = std::clamp(int(std::floor(px->v)), 0, k.height - 2);
+            const double fu = std::clamp(px->u - u0, 0.0, 1.0), fv = std::clamp(px->v - v0, 0.0, 1.0);
+            const std::uint8_t* a = f.rgb.ptr<std::uint8_t>(v0) + 3 * u0;
+            const std::uint8_t* b = f.rgb.ptr<std::uint8_t>(v0 + 1) + 3 * u0;
+            for (int c = 0; c < 3; ++c) {
+                if (a[c] == 255 || a[3 + c] == 255 || b[c] == 255 || b[3 + c] == 255) {
+                    o[3 * u + c] = 255;
+                    continue;
+                }
+                const double z = (1 - fv) * ((1 - fu) * a[c] + fu * a[3 + c]) + fv * ((1 - fu) * b[c] + fu * b[3 + c]);
+                o[3 * u + c] = std::uint8_t(std::clamp(std::lround(z), 0L, 254L));
+            }
+        }
+    });
+    return out;
+}
+
 }  // namespace
 
 CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const gl::GlContext* gpu,
@@ -271,6 +310,11 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
     double min_exposure = 1e30, max_exposure = 0;
     std::optional<std::int64_t> first_t_ns;
     std::vector<double> blur_px;
+    // Every pixel's ray, for straightening rolling-shutter frames (deskewed()).
+    std::vector<glm::dvec3> pixel_rays;
+    if (o.rolling_shutter && cal.readout_s > 0)
+        for (int v = 0; v < cal.intrinsics.height; ++v)
+            for (int u = 0; u < cal.intrinsics.width; ++u) pixel_rays.push_back(pixel_ray(cal.intrinsics, u, v));
     const double focal_px = std::max(cal.intrinsics.fx, cal.intrinsics.fy);
     for_each_frame(camera, [&](std::size_t place, const CameraFrame& f) {
         if (!first_t_ns) first_t_ns = f.t_ns;
@@ -287,6 +331,10 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
             ++summary.frames_blurred;
         } else {
             if (!o.rolling_shutter) w = glm::dvec3(0);
+            // What the alignments see: the frame as a global shutter would have taken it.
+            std::optional<CameraFrame> straight;
+            if (!pixel_rays.empty() && w != glm::dvec3(0)) straight = deskewed(f, cal, pixel_rays, w, threads);
+            const CameraFrame& aligned = straight ? *straight : f;
             const glm::dquat sensor_q = *q;
             const auto t_drift = std::chrono::steady_clock::now();
             if (o.drift_correction && acc.frames() > 0) {
@@ -297,7 +345,7 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
                                                      drift_settings.max_correction_deg * kPi / 180.0, threads);
                 else
                     live_sphere = acc.radiance();
-                const DriftEstimate e = drift.estimate(f, cal, *q, live_sphere, acc.samples());
+                const DriftEstimate e = drift.estimate(aligned, cal, *q, live_sphere, acc.samples());
                 const glm::dquat corrected = unit_rotation((e.applied ? e.correction : drift.carried()) * *q);
                 const auto t = true_poses.find(f.sequence);
                 const auto err = [&](const glm::dquat& x) {
@@ -334,7 +382,7 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
                 // moved most aligned again: the spare time of the frame loop.
                 kept.push_back({f.rgb.clone(), f.t_ns, f.exposure_s, f.analogue_gain, f.digital_gain, f.sequence});
                 kept_w.push_back(w);
-                online_adjustment.add_frame(make_alignment_view(f, cal), double(f.t_ns - *first_t_ns) * 1e-9, sensor_q,
+                online_adjustment.add_frame(make_alignment_view(aligned, cal), double(f.t_ns - *first_t_ns) * 1e-9, sensor_q,
                                             *q);
                 online_adjustment.solve();
                 online_adjustment.realign(o.realign_per_frame, o.realign_deg);
@@ -473,7 +521,9 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
         std::size_t next = 0;
         for_each_frame(camera, [&](std::size_t place, const CameraFrame& f) {
             if (next == used.size() || used[next].place != place) return;
-            views[next] = make_alignment_view(f, cal);
+            const glm::dvec3& w = used[next].angular_velocity;
+            views[next] = make_alignment_view(
+                !pixel_rays.empty() && w != glm::dvec3(0) ? deskewed(f, cal, pixel_rays, w, threads) : f, cal);
             t_s.push_back(double(used[next].t_ns - t_first) * 1e-9);
             sensor_q.push_back(used[next].sensor);
             ++next;
