@@ -145,6 +145,16 @@ struct CaptureSummary {
 
 std::filesystem::path coverage_path_for(const std::filesystem::path& env_out);
 
+// A rolling-shutter frame resampled to what a global shutter would have seen at the frame's time,
+// for the drift correction and the pair alignment (they turn every pixel with the frame's one
+// orientation): each pixel read, bilinearly in code values, where its ray (pixel_rays[v * width +
+// u], pixel_ray()) fell in the row that saw it while the camera turned at angular_velocity (camera
+// frame, rad/s; rolling_shutter_project). A channel beside a clipped code stays clipped (255), and
+// so is a pixel no row saw: every reader leaves clipped cells out.
+CameraFrame deskew_rolling_shutter(const CameraFrame& frame, const CameraCalibration& calibration,
+                                   const std::vector<glm::dvec3>& pixel_rays, const glm::dvec3& angular_velocity,
+                                   int threads = 1);
+
 // camera: the session's frames. It is read from start() until finished() once, and twice more
 // with the global adjustment (alignment views, then the final map), so it must give the same
 // frames again after start(): a replay of the session (camera_factory.hpp) or the simulator.
