@@ -73,7 +73,7 @@ struct CaptureOptions {
     // around the frame's time x its exposure time x the calibration's focal length, pixels)
     // exceeds this is not used at all (no alignment, not accumulated) and is counted
     // (CaptureSummary::frames_blurred). 0: no limit. docs/capture.md "Blurred frames".
-    double max_blur_px = 4.0;
+    double max_blur_px = 16.0;
     // The rolling shutter (calibration readout_s): each row turned into the world with the
     // orientation at its readout time, from the sensor's angular velocity. Off: the frame's one
     // orientation for every row (for measuring what the compensation does).
