@@ -49,7 +49,9 @@ struct AutoExposureModel {
 };
 
 // What the simulator does as a CameraSource: `frames` frames at `fps`, the k-th due k / fps
-// seconds after start() and looking along world_from_camera(k / fps).
+// seconds after start() and looking along world_from_camera(k / fps) in its middle row's
+// mid-exposure (each row and exposure along world_from_camera around it: motion blur and the
+// truth's rolling shutter).
 struct CameraRun {
     std::function<glm::dquat(double t_s)> world_from_camera;
     double fps = 4;
