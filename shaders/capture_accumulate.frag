@@ -7,7 +7,9 @@
 // Outputs are added by blending into the frame's exposure band (exposure_bands.hpp):
 // num += (t W X, t W mean), den += W t^2, aux += (W mean, sampled ? 1 : 0).
 // A read whose four cells hold an invalid one (X's alpha > 0: a clipped pixel) adds nothing,
-// as on the CPU.
+// as on the CPU. A rolling shutter (u_omega non-zero) reads each texel at the row whose view
+// sees it, as HdrAccumulator's rolling_shutter_project: twice, the direction turned by
+// -omega x the row's time offset, then projected again.
 precision highp float;
 precision highp int;
 #include "equirect.glsl"
@@ -24,6 +26,9 @@ uniform float u_t;                // exposure x gain x sensitivity
 uniform float u_min_weight;
 uniform ivec2 u_map_size;         // W, H
 uniform float u_limit_x, u_limit_y;  // normalised-coordinate bound before distorting
+uniform vec3 u_omega;             // the camera's angular velocity, camera frame, rad/s
+uniform float u_row_s;            // readout time per row, s
+uniform float u_mid_row;          // the row whose time is the frame's: (height - 1) / 2
 
 layout(location = 0) out vec4 o_num;
 layout(location = 1) out vec4 o_den;
@@ -34,20 +39,37 @@ vec3 rotate(vec4 q, vec3 v) {
     return v + q.w * t + cross(q.xyz, t);
 }
 
+// Pixel of camera-frame direction c; false when behind the camera or far outside the image.
+bool project_pixel(vec3 c, out vec2 px) {
+    px = vec2(0.0);
+    if (!(c.z < 0.0)) return false;
+    float x = c.x / -c.z, y = -c.y / -c.z;
+    if (abs(x) > u_limit_x || abs(y) > u_limit_y) return false;
+    float r2 = x * x + y * y;
+    float radial = 1.0 + r2 * (u_k1k2p1p2.x + r2 * (u_k1k2p1p2.y + r2 * u_k3));
+    float xd = x * radial + 2.0 * u_k1k2p1p2.z * x * y + u_k1k2p1p2.w * (r2 + 2.0 * x * x);
+    float yd = y * radial + u_k1k2p1p2.z * (r2 + 2.0 * y * y) + 2.0 * u_k1k2p1p2.w * x * y;
+    px = vec2(u_focal_centre.x * xd + u_focal_centre.z, u_focal_centre.y * yd + u_focal_centre.w);
+    return true;
+}
+
 void main() {
     int i = int(gl_FragCoord.x);
     int j = u_map_size.y - 1 - int(gl_FragCoord.y);  // row 0 of the map is the top
     float theta = row_theta(j, u_map_size.y), phi = column_phi(i, u_map_size.x);
     vec3 d = vec3(sin(theta) * sin(phi), cos(theta), -sin(theta) * cos(phi));
     vec3 c = rotate(u_camera_from_world, d);
-    if (!(c.z < 0.0)) discard;
-    float x = c.x / -c.z, y = -c.y / -c.z;
-    if (abs(x) > u_limit_x || abs(y) > u_limit_y) discard;
-    float r2 = x * x + y * y;
-    float radial = 1.0 + r2 * (u_k1k2p1p2.x + r2 * (u_k1k2p1p2.y + r2 * u_k3));
-    float xd = x * radial + 2.0 * u_k1k2p1p2.z * x * y + u_k1k2p1p2.w * (r2 + 2.0 * x * x);
-    float yd = y * radial + u_k1k2p1p2.z * (r2 + 2.0 * y * y) + 2.0 * u_k1k2p1p2.w * x * y;
-    vec2 px = vec2(u_focal_centre.x * xd + u_focal_centre.z, u_focal_centre.y * yd + u_focal_centre.w);
+    vec2 px;
+    if (!project_pixel(c, px)) discard;
+    if (u_omega != vec3(0.0)) {
+        for (int it = 0; it < 2; ++it) {
+            // Row v's orientation is the frame's x exp(omega dt(v)): turn by exp(-omega dt).
+            vec3 a = -u_omega * ((px.y - u_mid_row) * u_row_s);
+            float angle = length(a);
+            vec4 q = angle > 0.0 ? vec4(sin(0.5 * angle) * a / angle, cos(0.5 * angle)) : vec4(0.0, 0.0, 0.0, 1.0);
+            if (!project_pixel(rotate(q, c), px)) discard;
+        }
+    }
     if (px.x < 0.0 || px.y < 0.0 || px.x > u_image_size.x - 1.0 || px.y > u_image_size.y - 1.0) discard;
     ivec2 size = textureSize(u_p, 0);
     float s = float(u_s);

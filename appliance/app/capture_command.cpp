@@ -22,6 +22,7 @@ Command add_capture_command(CLI::App& app) {
         EngineChoice engine = EngineChoice::Auto;
         bool no_drift = false;
         bool no_adjust = false;
+        bool no_rolling_shutter = false;
     };
     auto a = std::make_shared<Args>();
     CLI::App* cmd = app.add_subcommand("capture", std::string(command_summary("capture").summary));
@@ -54,6 +55,14 @@ Command add_capture_command(CLI::App& app) {
         ->capture_default_str();
     cmd->add_option("--min-samples", a->o.min_samples, "Frames that must see a texel for it to count as covered")
         ->capture_default_str();
+    cmd->add_option("--max-blur-px", a->o.max_blur_px,
+                    "Leave out a frame whose predicted motion blur (angular speed from the sensor stream x exposure "
+                    "time x focal length) is more than this many pixels; 0 = no limit")
+        ->check(CLI::NonNegativeNumber)
+        ->capture_default_str();
+    cmd->add_flag("--no-rolling-shutter-correction", a->no_rolling_shutter,
+                  "Turn every row of a frame with the frame's one orientation, although the calibration has a "
+                  "rolling-shutter readout time (for measuring what the correction does)");
     cmd->add_option("--threads", a->o.threads, "Threads; 0 = all cores")
         ->check(CLI::NonNegativeNumber)
         ->capture_default_str();
@@ -66,6 +75,7 @@ Command add_capture_command(CLI::App& app) {
                 a->o.orientations = a->orientations == "truth" ? capture::OrientationInput::Truth
                                                                : capture::OrientationInput::Sensors;
                 a->o.drift_correction = !a->no_drift;
+                a->o.rolling_shutter = !a->no_rolling_shutter;
                 a->o.global_adjustment = !a->no_adjust;
                 a->o.online_adjustment = cmd->count("--adjustment-rounds") == 0;
                 // The session's frames come from a camera source made by the factory; the
@@ -125,6 +135,12 @@ Command add_capture_command(CLI::App& app) {
                     std::printf("guided capture: not complete (%.1f %% of the seeable sphere); ", 100 * r.guided_final_coverage);
                 std::printf("warnings: too fast %d, too bright %d, too dark %d frames\n", r.guided_too_fast,
                             r.guided_too_bright, r.guided_too_dark);
+                if (a->o.max_blur_px > 0)
+                    std::printf("motion blur: predicted median %.2f, max %.2f pixels; %d frames over %g px left out\n",
+                                r.blur_median_px, r.blur_max_px, r.frames_blurred, a->o.max_blur_px);
+                else
+                    std::printf("motion blur: predicted median %.2f, max %.2f pixels (no limit)\n", r.blur_median_px,
+                                r.blur_max_px);
                 if (r.frames_without_orientation > 0)
                     std::printf("frames without an orientation (skipped): %d\n", r.frames_without_orientation);
                 if (r.orientation_error_median_deg)

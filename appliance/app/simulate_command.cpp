@@ -20,6 +20,8 @@ Command add_simulate_command(CLI::App& app) {
         bool no_camera_noise = false;
         int charuco = 0;
         double time_offset_ms = 0;
+        bool no_motion_blur = false;
+        double readout_ms = capture::kModelledReadoutS * 1e3;
     };
     auto a = std::make_shared<Args>();
     CLI::App* cmd = app.add_subcommand("simulate", std::string(command_summary("simulate").summary));
@@ -67,6 +69,13 @@ Command add_simulate_command(CLI::App& app) {
                   "Model the sensor's shortest exposure (20 us) and the lens's glare (2 % in 1 degree), and write "
                   "them to the session's calibration; sources still clipped at the shortest exposure are then "
                   "estimated by glint capture (not reliable yet: docs/capture.md)");
+    cmd->add_flag("--no-motion-blur", a->no_motion_blur,
+                  "Render each frame at its rows' mid-exposure orientations instead of integrating every pixel over "
+                  "its exposure along the trajectory");
+    cmd->add_option("--readout-ms", a->readout_ms,
+                    "Rolling shutter: time to read the rows out top to bottom, ms (written to the session's "
+                    "calibration as readout_s; 0 = a global shutter; default: a Pi camera v2 in its 1080p mode)")
+        ->capture_default_str();
     cmd->add_option("--threads", a->o.threads, "Render threads; 0 = all cores")
         ->check(CLI::NonNegativeNumber)
         ->capture_default_str();
@@ -84,6 +93,8 @@ Command add_simulate_command(CLI::App& app) {
                 a->o.out = a->out;
                 a->o.camera_noise = !a->no_camera_noise;
                 a->o.time_offset_s = a->time_offset_ms * 1e-3;
+                a->o.motion_blur = !a->no_motion_blur;
+                a->o.readout_s = a->readout_ms * 1e-3;
                 const convolution::Size s = parse_size(a->size, "--size");
                 a->o.width = s.width;
                 a->o.height = s.height;

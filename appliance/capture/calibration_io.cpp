@@ -53,6 +53,7 @@ std::string calibration_to_json(const CameraCalibration& c) {
     j["sensitivity"] = c.sensitivity;
     j["shortest_exposure_s"] = c.min_exposure_s;
     j["glare"] = {{"fraction", c.glare_fraction}, {"sigma_rad", c.glare_sigma_rad}};
+    j["readout_s"] = c.readout_s;
     return j.dump(2) + "\n";
 }
 
@@ -125,6 +126,12 @@ CameraCalibration calibration_from_json(const std::string& text, const std::stri
         c.glare_sigma_rad = number(g, "sigma_rad", source, "glare");
         if (!(c.glare_fraction >= 0 && c.glare_fraction < 1)) bad(source, "glare.fraction", "must be 0 to 1");
         if (!(c.glare_sigma_rad > 0 && c.glare_sigma_rad < 1)) bad(source, "glare.sigma_rad", "must be 0 to 1 rad");
+    }
+    // The rolling shutter's readout time, optional (files before 2026-12-02 have none: a global
+    // shutter, which is what they were made with).
+    if (j.contains("readout_s")) {
+        c.readout_s = number(j, "readout_s", source, "");
+        if (!(c.readout_s >= 0 && c.readout_s < 1)) bad(source, "readout_s", "must be 0 to 1 s");
     }
     return c;
 }

@@ -109,6 +109,20 @@ struct CameraCalibration {
     // calibration.json's "glare": {"fraction", "sigma_rad"}.
     double glare_fraction = 0;
     double glare_sigma_rad = kModelledGlareSigmaRad;
+    // The rolling shutter: seconds from the start of the first row's exposure to the start of the
+    // last row's plus one row (rows are read out top to bottom, readout_s / height apart). Row v's
+    // exposure is centred row_time_offset_s(v) after the frame's timestamp, which is the middle
+    // row's mid-exposure. 0: a global shutter (and every file written before 2026-12-02). Stored
+    // as calibration.json's "readout_s".
+    double readout_s = 0;
+    double row_time_offset_s(double v) const {
+        return intrinsics.height > 0 ? readout_s * (v - 0.5 * (intrinsics.height - 1)) / intrinsics.height : 0.0;
+    }
 };
+
+// The simulated sensor's readout time (`glint simulate`, unless --readout-ms): a Sony IMX219 (the
+// Pi camera v2) in its 1920x1080 mode reads a line in 3448 pixel clocks at 182.4 MHz, 18.9 us, so
+// 1080 lines in 20.4 ms; frames scaled down from that mode keep its readout time.
+inline constexpr double kModelledReadoutS = 0.020;
 
 }  // namespace glint::capture

@@ -69,6 +69,15 @@ struct CaptureOptions {
     std::filesystem::path orientations_out;
     int min_samples = 1;
     int threads = 0;
+    // Motion blur: a frame whose predicted blur (the camera's angular speed from the sensor stream
+    // around the frame's time x its exposure time x the calibration's focal length, pixels)
+    // exceeds this is not used at all (no alignment, not accumulated) and is counted
+    // (CaptureSummary::frames_blurred). 0: no limit. docs/capture.md "Blurred frames".
+    double max_blur_px = 16.0;
+    // The rolling shutter (calibration readout_s): each row turned into the world with the
+    // orientation at its readout time, from the sensor's angular velocity. Off: the frame's one
+    // orientation for every row (for measuring what the compensation does).
+    bool rolling_shutter = true;
 };
 
 struct GroundTruthError {
@@ -80,6 +89,10 @@ struct GroundTruthError {
 struct CaptureSummary {
     int frames_used = 0;
     int frames_without_orientation = 0;
+    // Frames over CaptureOptions::max_blur_px (not used), and the predicted blur of the frames
+    // with an orientation (pixels, median and max; 0 without a sensor stream).
+    int frames_blurred = 0;
+    double blur_median_px = 0, blur_max_px = 0;
     CoverageReport coverage;
     long long filled_texels = 0;
     std::filesystem::path coverage_path;
@@ -131,6 +144,16 @@ struct CaptureSummary {
 };
 
 std::filesystem::path coverage_path_for(const std::filesystem::path& env_out);
+
+// A rolling-shutter frame resampled to what a global shutter would have seen at the frame's time,
+// for the drift correction and the pair alignment (they turn every pixel with the frame's one
+// orientation): each pixel read, bilinearly in code values, where its ray (pixel_rays[v * width +
+// u], pixel_ray()) fell in the row that saw it while the camera turned at angular_velocity (camera
+// frame, rad/s; rolling_shutter_project). A channel beside a clipped code stays clipped (255), and
+// so is a pixel no row saw: every reader leaves clipped cells out.
+CameraFrame deskew_rolling_shutter(const CameraFrame& frame, const CameraCalibration& calibration,
+                                   const std::vector<glm::dvec3>& pixel_rays, const glm::dvec3& angular_velocity,
+                                   int threads = 1);
 
 // camera: the session's frames. It is read from start() until finished() once, and twice more
 // with the global adjustment (alignment views, then the final map), so it must give the same

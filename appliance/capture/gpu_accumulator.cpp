@@ -39,7 +39,7 @@ GpuAccumulator::Band& GpuAccumulator::band_for(double t) {
 }
 
 void GpuAccumulator::add_frame(const CameraFrame& frame, const CameraCalibration& cal,
-                               const glm::dquat& world_from_camera) {
+                               const glm::dquat& world_from_camera, const glm::dvec3& angular_velocity) {
     const Intrinsics& k = cal.intrinsics;
     const double t = frame.exposure_s * frame.total_gain() * cal.sensitivity;
     if (!(t > 0) || !std::isfinite(t))
@@ -78,6 +78,12 @@ void GpuAccumulator::add_frame(const CameraFrame& frame, const CameraCalibration
     glUniform1f(program_.uniform("u_t"), float(t));
     glUniform1f(program_.uniform("u_min_weight"), float(settings_.min_weight));
     glUniform2i(program_.uniform("u_map_size"), width_, height_);
+    // The rolling shutter (rolling_shutter_project): the camera's angular velocity and each row's
+    // time offset, (v - mid_row) x row_s. No readout: no motion to undo.
+    const glm::dvec3 omega = cal.readout_s > 0 ? angular_velocity : glm::dvec3(0);
+    glUniform3f(program_.uniform("u_omega"), float(omega.x), float(omega.y), float(omega.z));
+    glUniform1f(program_.uniform("u_row_s"), float(cal.readout_s / k.height));
+    glUniform1f(program_.uniform("u_mid_row"), float(0.5 * (k.height - 1)));
     // The same pre-distortion bound as project() (camera_model.cpp): far outside the image the
     // distortion polynomial folds back.
     glUniform1f(program_.uniform("u_limit_x"), float(std::max(k.cx, k.width - 1 - k.cx) / k.fx * 1.5 + 0.5));

@@ -27,7 +27,10 @@ public:
     // The context must be current on the calling thread for every call.
     GpuAccumulator(const gl::GlContext& context, int width, int height, AccumulationSettings settings = {});
 
-    void add_frame(const CameraFrame& frame, const CameraCalibration& calibration, const glm::dquat& world_from_camera);
+    // As HdrAccumulator::add_frame, the rolling shutter included (angular_velocity: camera frame,
+    // rad/s).
+    void add_frame(const CameraFrame& frame, const CameraCalibration& calibration, const glm::dquat& world_from_camera,
+                   const glm::dvec3& angular_velocity = {});
 
     HdrImage radiance() const;                      // reads the targets back
     std::vector<std::uint32_t> samples() const;     // frames that sampled each texel

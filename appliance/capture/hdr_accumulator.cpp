@@ -199,8 +199,25 @@ void HdrAccumulator::sample_planes(const std::vector<float>& planes, int pw, int
     out[6] = std::max(std::max(p00[6], p01[6]), std::max(p10[6], p11[6]));
 }
 
+std::optional<PixelCoord> rolling_shutter_project(const CameraCalibration& cal, const glm::dvec3& c,
+                                                  const glm::dvec3& w, double margin) {
+    const Intrinsics& k = cal.intrinsics;
+    if (!(cal.readout_s > 0) || w == glm::dvec3(0)) return project(k, c, margin);
+    // The first guess may land off the image while its row's view sees it inside: a margin of
+    // the largest shift a row can have, plus a pixel.
+    const double shift_px = glm::length(w) * 0.5 * cal.readout_s * std::max(k.fx, k.fy) + 1.0;
+    std::optional<PixelCoord> px = project(k, c, margin + shift_px);
+    for (int iteration = 0; iteration < 2 && px; ++iteration) {
+        // Row v's orientation is the frame's x exp(w dt(v)): camera_from_world turns by exp(-w dt).
+        const glm::dvec3 row_dir = rotation_from_vector(-cal.row_time_offset_s(px->v) * w) * c;
+        px = project(k, row_dir, iteration == 1 ? margin : margin + shift_px);
+    }
+    return px;
+}
+
 FrameContribution HdrAccumulator::add_frame(const CameraFrame& frame, const CameraCalibration& cal,
-                                            const glm::dquat& world_from_camera, int threads) {
+                                            const glm::dquat& world_from_camera, int threads,
+                                            const glm::dvec3& angular_velocity) {
     const Intrinsics& k = cal.intrinsics;
     const double t = frame.exposure_s * frame.total_gain() * cal.sensitivity;
     if (!(t > 0) || !std::isfinite(t))
@@ -213,7 +230,10 @@ FrameContribution HdrAccumulator::add_frame(const CameraFrame& frame, const Came
     if (pw < 2 || ph < 2) throw InputError("frame too small for a downscale of " + std::to_string(s));
 
     const glm::dvec3 fwd = world_from_camera * glm::dvec3(0, 0, -1);
-    const double cos_limit = std::max(-1.0, min_cos_to_axis(k) - 0.02);
+    // The rolling shutter turns the top and bottom rows' views by up to half the readout's turn
+    // (an angle d lowers a cosine by at most d).
+    const double rows_turn = 0.5 * cal.readout_s * glm::length(angular_velocity);
+    const double cos_limit = std::max(-1.0, min_cos_to_axis(k) - 0.02 - rows_turn);
     const glm::dquat camera_from_world = glm::conjugate(world_from_camera);
     Band& band = band_for(t);
     // A frame at the sensor's shortest exposure (and gain 1 or less): what clips here clips in
@@ -234,7 +254,8 @@ FrameContribution HdrAccumulator::add_frame(const CameraFrame& frame, const Came
         if (!cone_columns(j, width_, height_, fwd, cos_limit, i0, count)) return;
         for (int n = 0; n < count; ++n) {
             const int i = ((i0 + n) % width_ + width_) % width_;
-            const auto px = project(k, camera_from_world * texel_direction(i, j, width_, height_));
+            const auto px = rolling_shutter_project(cal, camera_from_world * texel_direction(i, j, width_, height_),
+                                                    angular_velocity);
             if (!px) continue;
             ++in_view[std::size_t(j)];
             double P[kPlaneFloats];

@@ -58,12 +58,26 @@ struct FrameContribution {
     int downscale = 1;
 };
 
+// The pixel a world direction is seen at by a rolling-shutter frame: the camera-frame direction
+// `camera_dir` (seen with the frame's orientation) is turned by -angular_velocity x the time
+// offset of the row it lands on, twice (the offset changes by well under a pixel's worth between
+// the two: readout_s x angular speed / height), then projected. Without motion or readout, plain
+// project(). nullopt as project() (outside the image by more than `margin`).
+std::optional<PixelCoord> rolling_shutter_project(const CameraCalibration& calibration, const glm::dvec3& camera_dir,
+                                                  const glm::dvec3& angular_velocity, double margin = 0.0);
+
 class HdrAccumulator {
 public:
     HdrAccumulator(int width, int height, AccumulationSettings settings = {});
 
+    // world_from_camera is the frame's orientation at its timestamp (the middle row's
+    // mid-exposure). With a rolling shutter (calibration.readout_s > 0) row v was exposed
+    // calibration.row_time_offset_s(v) later, when the camera had turned on by angular_velocity
+    // (camera frame, rad/s: the sensor's around the frame's time) x that time: each texel is read
+    // at the row whose orientation sees it (rolling_shutter_view()).
     FrameContribution add_frame(const CameraFrame& frame, const CameraCalibration& calibration,
-                                const glm::dquat& world_from_camera, int threads = 1);
+                                const glm::dquat& world_from_camera, int threads = 1,
+                                const glm::dvec3& angular_velocity = {});
 
     // E per texel and channel; 0 where no frame gave a usable weight.
     HdrImage radiance() const;

@@ -9,6 +9,7 @@
 #include "appliance/core/equirect.hpp"
 #include "appliance/core/errors.hpp"
 #include "appliance/core/parallel.hpp"
+#include "appliance/core/rotation.hpp"
 
 namespace glint::sim {
 
@@ -17,6 +18,10 @@ using capture::Intrinsics;
 
 namespace {
 constexpr std::size_t kSubsamples = 4;  // rays per pixel (2x2)
+// Motion blur: time samples about one pixel of motion apart (with the 2x2 rays half a pixel
+// apart, the streak is sampled every half pixel), at most this many per exposure.
+constexpr double kPixelsPerTimeSample = 1.0;
+constexpr int kMaxTimeSamples = 64;
 }  // namespace
 
 CameraSimulator::CameraSimulator(HdrImage environment, capture::CameraCalibration truth, SensorModel sensor,
@@ -83,6 +88,20 @@ double CameraSimulator::exposure_of(double radiance, double vignetting) const {
 }
 
 CameraFrame CameraSimulator::render(const glm::dquat& world_from_camera, std::int64_t t_ns, int threads) {
+    return render([&world_from_camera](double) { return world_from_camera; }, t_ns, threads);
+}
+
+int CameraSimulator::time_samples(const CameraPath& path, int v) const {
+    if (!sensor_.motion_blur) return 1;
+    // How far the view turns during the row's exposure, in pixels at the focal length: a pixel of
+    // motion per time sample. Under a pixel (a still camera): one, the frame of a single view.
+    const double tau = truth_.row_time_offset_s(v), half = 0.5 * exposure_s_;
+    const double angle = angle_between(path(tau - half), path(tau + half));
+    const double px = angle * std::max(truth_.intrinsics.fx, truth_.intrinsics.fy);
+    return std::clamp(int(std::lround(px / kPixelsPerTimeSample)), 1, kMaxTimeSamples);
+}
+
+CameraFrame CameraSimulator::render(const CameraPath& path, std::int64_t t_ns, int threads) {
     const Intrinsics& k = truth_.intrinsics;
     CameraFrame frame;
     frame.rgb.create(k.height, k.width, CV_8UC3);
@@ -98,15 +117,23 @@ CameraFrame CameraSimulator::render(const glm::dquat& world_from_camera, std::in
     cv::Mat light(k.height, k.width, CV_64FC3);
     parallel_for(k.height, threads, [&](int v) {
         double* out = light.ptr<double>(v);
+        // The row's orientations: its exposure (centred on the row's readout time, the rolling
+        // shutter) cut into n equal slices, each seen at its middle. One slice when still.
+        const int n = time_samples(path, v);
+        const double tau = truth_.row_time_offset_s(v);
+        std::vector<glm::dquat> views(static_cast<std::size_t>(n));
+        for (int m = 0; m < n; ++m) views[std::size_t(m)] = path(tau + exposure_s_ * ((m + 0.5) / n - 0.5));
+        const double share = 1.0 / double(kSubsamples * std::size_t(n));
         for (int u = 0; u < k.width; ++u) {
             const std::size_t i = std::size_t(v) * std::size_t(k.width) + std::size_t(u);
             double radiance[3] = {0, 0, 0};
-            for (std::size_t sub = 0; sub < kSubsamples; ++sub) {
-                const Rgb l = sample_bilinear(env_, world_from_camera * rays_[i * kSubsamples + sub]);
-                radiance[0] += l.r / double(kSubsamples);
-                radiance[1] += l.g / double(kSubsamples);
-                radiance[2] += l.b / double(kSubsamples);
-            }
+            for (const glm::dquat& q : views)
+                for (std::size_t sub = 0; sub < kSubsamples; ++sub) {
+                    const Rgb l = sample_bilinear(env_, q * rays_[i * kSubsamples + sub]);
+                    radiance[0] += l.r * share;
+                    radiance[1] += l.g * share;
+                    radiance[2] += l.b * share;
+                }
             for (int c = 0; c < 3; ++c) out[3 * u + c] = radiance[c] * vignette_[i];
         }
     });
@@ -191,7 +218,9 @@ std::optional<CameraFrame> CameraSimulator::next_frame(std::chrono::milliseconds
     }
     ++next_;
     ++health_.frames;
-    return render(run_.world_from_camera(t_s), std::int64_t(due_us) * 1000, run_.threads);
+    const auto& camera = run_.world_from_camera;
+    return render([&camera, t_s](double offset_s) { return camera(t_s + offset_s); }, std::int64_t(due_us) * 1000,
+                  run_.threads);
 }
 
 void CameraSimulator::set_exposure(const capture::ExposureRequest& request) {

@@ -3,8 +3,14 @@
 // quantisation, with an auto-exposure loop that lags behind the scene (so that overlapping
 // frames differ in exposure, as a phone's or a Pi camera's do). Deterministic for a seed.
 //
-// Two faces: the renderer (render(): any orientation at any time, what the session simulator
-// needs for its brackets), and a capture::CameraSource that takes frames along a CameraRun, paced
+// Motion: a frame is rendered along a camera path (world_from_camera as a function of time),
+// each pixel integrated over its exposure along it (motion blur), its row exposed later than the
+// row above it by the calibration's readout_s / height (a rolling shutter), so row v's exposure
+// is centred readout_s x (v - (H - 1) / 2) / H after the frame's time: the frame's timestamp is
+// the middle row's mid-exposure. A still view renders exactly as a single orientation.
+//
+// Two faces: the renderer (render(): any orientation or path at any time, what the session
+// simulator needs for its brackets), and a capture::CameraSource that takes frames along a CameraRun, paced
 // on a clock like a replay (camera_factory.hpp's "simulator:" kind, session_simulator.hpp).
 #pragma once
 
@@ -25,7 +31,13 @@ struct SensorModel {
     double full_well_electrons = 6000;             // electrons at relative exposure 1 (gain 1)
     double read_noise = 0.002;                     // relative exposure units, standard deviation
     bool noise = true;
+    // Each pixel integrated over its exposure along the camera path (time samples about one
+    // pixel of motion apart). Off: the whole exposure at the row's mid-exposure orientation.
+    bool motion_blur = true;
 };
+
+// world_from_camera at `offset_s` seconds after the frame's time (the middle row's mid-exposure).
+using CameraPath = std::function<glm::dquat(double offset_s)>;
 
 struct AutoExposureModel {
     bool enabled = true;
@@ -37,7 +49,9 @@ struct AutoExposureModel {
 };
 
 // What the simulator does as a CameraSource: `frames` frames at `fps`, the k-th due k / fps
-// seconds after start() and looking along world_from_camera(k / fps).
+// seconds after start() and looking along world_from_camera(k / fps) in its middle row's
+// mid-exposure (each row and exposure along world_from_camera around it: motion blur and the
+// truth's rolling shutter).
 struct CameraRun {
     std::function<glm::dquat(double t_s)> world_from_camera;
     double fps = 4;
@@ -58,6 +72,12 @@ public:
     // Renders the frame seen with world_from_camera at the current exposure and gain, then lets
     // the auto-exposure loop react to it (the next frame's settings). t_ns is copied into the frame.
     capture::CameraFrame render(const glm::dquat& world_from_camera, std::int64_t t_ns, int threads = 1);
+    // The same along a moving camera: motion blur (SensorModel::motion_blur) and the rolling
+    // shutter (the truth's readout_s) sample `path` over each row's exposure.
+    capture::CameraFrame render(const CameraPath& path, std::int64_t t_ns, int threads = 1);
+    // Time samples per pixel of row v's exposure along `path` (1 when still or without motion
+    // blur): what render() uses, for tests and timing.
+    int time_samples(const CameraPath& path, int v) const;
 
     // Relative exposure (before noise and response) of one pixel: what a perfect sensor records.
     double exposure_of(double radiance, double vignetting) const;

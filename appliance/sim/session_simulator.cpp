@@ -61,6 +61,15 @@ glm::dquat world_from_camera_at(const firmware::sim::Trajectory& camera, std::ui
     return host::to_glm(camera.at(t_us).world_from_sensor);
 }
 
+// The camera's path around camera time t_us, as an offset in seconds (what render() integrates
+// a frame's rows and exposures over).
+CameraPath camera_path(const firmware::sim::Trajectory& camera, std::uint64_t t_us) {
+    return [&camera, t_us](double offset_s) {
+        const double t = double(t_us) + offset_s * 1e6;
+        return world_from_camera_at(camera, t <= 0 ? 0 : std::uint64_t(std::llround(t)));
+    };
+}
+
 // Frames of a scan along `camera` at `fps`, the first at its time 0.
 int scan_frames(const firmware::sim::Trajectory& camera, double fps) {
     return int(std::floor(double(camera.end_us()) * 1e-6 * fps)) + 1;
@@ -77,6 +86,7 @@ CameraCalibration true_camera(const SimulateOptions& o, const SensorModel& senso
     truth.sensor_from_camera = host::to_glm(look(o.mount_yaw_deg, o.mount_pitch_deg, o.mount_roll_deg));
     truth.sensitivity = sensor.electrons_per_radiance_second / sensor.full_well_electrons;
     truth.time_offset_s = o.time_offset_s;
+    truth.readout_s = o.readout_s;
     if (o.sensor_limits) {
         truth.min_exposure_s = capture::kModelledMinExposureS;
         truth.glare_fraction = capture::kModelledGlareFraction;
@@ -149,6 +159,7 @@ SimulateSummary write_session(const SimulateOptions& o, const HdrImage& env, con
     const double duration_s = double(camera.end_us()) * 1e-6;
     SensorModel sensor;
     sensor.noise = o.camera_noise;
+    sensor.motion_blur = o.motion_blur;
     const CameraCalibration truth = true_camera(o, sensor);
 
     // The sensor board rides on the camera: world_from_sensor = world_from_camera * camera_from_sensor,
@@ -274,8 +285,12 @@ SimulateSummary write_session(const SimulateOptions& o, const HdrImage& env, con
     };
     // One frame: rendered, written, shown to the controller; its requests queued, those due
     // applied, and a manual exposure held (render() let the auto-exposure loop move it).
-    const auto take = [&](const glm::dquat& q, std::int64_t t_ns) {
-        const CameraFrame f = cam.render(q, t_ns, threads);
+    // q: the true orientation at the frame's time (written as truth); tc_us: that time on the
+    // trajectory, along which the frame is rendered (motion blur, rolling shutter; a
+    // calibration bracket is one still view).
+    const auto take = [&](const glm::dquat& q, std::uint64_t tc_us, std::int64_t t_ns) {
+        const CameraFrame f =
+            o.bracket > 0 ? cam.render(q, t_ns, threads) : cam.render(camera_path(camera, tc_us), t_ns, threads);
         ++rendered;
         emit(f, q, t_ns);
         if (!controller) return;
@@ -299,15 +314,19 @@ SimulateSummary write_session(const SimulateOptions& o, const HdrImage& env, con
             o.bracket > 0 && o.trajectory == "guided" ? camera_look(0, 0) : world_from_camera_at(camera, tc);
         if (o.bracket > 0) cam.set_exposure(o.bracket_first_exposure_s * std::pow(2.0, k), 1.0);
         const std::int64_t t_ns = frame_t_ns(k);
-        take(q, t_ns);
+        take(q, tc, t_ns);
         // While the controller brackets (waits for a requested exposure or takes the next), the
-        // camera takes frames 2 ms apart, a burst that sees nearly its first frame's view; the
-        // scan's next frame comes when the burst would reach its time (times must increase).
+        // camera takes frames as fast as it can: one readout time apart (a rolling shutter cannot
+        // start reading the next frame before the last is read; 2 ms for a global shutter), a
+        // burst that sees nearly its first frame's view; the scan's next frame comes when the
+        // burst would reach its time (times must increase).
+        const std::int64_t burst_ns = std::max<std::int64_t>(2'000'000, std::llround(truth.readout_s * 1e9));
         const std::int64_t next_t_ns = k + 1 < frames ? frame_t_ns(k + 1) : INT64_MAX;
         for (int b = 1; controller && controller->bracketing(); ++b) {
-            const std::int64_t tb_ns = t_ns + std::int64_t(b) * 2'000'000;
+            const std::int64_t tb_ns = t_ns + std::int64_t(b) * burst_ns;
             if (tb_ns >= next_t_ns) break;
-            take(world_from_camera_at(camera, tc + std::uint64_t(b) * 2000), tb_ns);
+            const std::uint64_t tb = tc + std::uint64_t(b) * std::uint64_t(burst_ns / 1000);
+            take(world_from_camera_at(camera, tb), tb, tb_ns);
         }
         if (progress) progress(k + 1, frames);
     }
@@ -337,6 +356,7 @@ SimulateSummary simulate_session(const SimulateOptions& o, const std::function<v
     if (o.width < 16 || o.height < 16 || o.width > 8192 || o.height > 8192)
         throw InputError("--size must be between 16x16 and 8192x8192");
     if (!(std::abs(o.time_offset_s) <= 1.0)) throw InputError("--time-offset-ms must be in [-1000, 1000]");
+    if (!(o.readout_s >= 0 && o.readout_s < 1.0)) throw InputError("--readout-ms must be in [0, 1000)");
     if (!(o.horizontal_fov_deg > 5 && o.horizontal_fov_deg < 150)) throw InputError("--fov must be in (5, 150) degrees");
     if (o.imu != "raw" && o.imu != "bno055") throw InputError("--imu must be raw or bno055");
     if (o.sensor_noise != "none" && o.sensor_noise != "default" && o.sensor_noise != "high")

@@ -49,6 +49,11 @@ struct SimulateOptions {
     // The modelled sensor's limits (camera_model.hpp kModelled*): a shortest exposure of 20 us,
     // where the brackets stop, and lens glare. Off: no shortest exposure, no glare.
     bool sensor_limits = false;
+    // Motion: each pixel integrated over its exposure along the trajectory (`--no-motion-blur`
+    // turns it off), and a rolling shutter reading the rows out top to bottom in readout_s
+    // (`--readout-ms`; 0: a global shutter), written to calibration.json as "readout_s".
+    bool motion_blur = true;
+    double readout_s = capture::kModelledReadoutS;
     std::uint64_t seed = 1;
     int threads = 0;
     // A calibration session instead of a scan: `bracket` frames of one still view (the
