@@ -172,11 +172,19 @@ glm::dquat kabsch(const std::vector<glm::dvec3>& a, const std::vector<glm::dvec3
     return rotation_of_matrix(u * d * vt, {1, 1, 1});
 }
 
+// What image_rotation measured: the rotation and the correspondences it was fitted to (unit rays
+// in each camera and the image row each was seen on, for a rolling shutter's row times).
+struct ImageRotation {
+    glm::dquat a_from_b{1, 0, 0, 0};
+    std::vector<glm::dvec3> rays_a, rays_b;
+    std::vector<double> rows_a, rows_b;
+};
+
 // The rotation between two frames of a rotating camera, from the images: ORB features, matches,
 // a RANSAC homography of the undistorted normalised points, and the nearest rotation to it.
 // Returns the rotation taking camera-b vectors into camera-a's frame (a_from_b), in the
 // conventions' camera frame (-Z forward, +Y up).
-std::optional<glm::dquat> image_rotation(const cv::Mat& a, const cv::Mat& b, const Intrinsics& k) {
+std::optional<ImageRotation> image_rotation(const cv::Mat& a, const cv::Mat& b, const Intrinsics& k) {
     // Small frames and soft indoor texture: smaller patches and a low FAST threshold find enough corners.
     cv::Ptr<cv::ORB> orb = cv::ORB::create(1500, 1.2f, 8, 15, 0, 2, cv::ORB::HARRIS_SCORE, 15, 5);
     std::vector<cv::KeyPoint> ka, kb;
@@ -192,7 +200,10 @@ std::optional<glm::dquat> image_rotation(const cv::Mat& a, const cv::Mat& b, con
     if (matches.size() < 30) return std::nullopt;
     std::vector<cv::Point2d> pa, pb;
     std::vector<glm::dvec3> rays_a, rays_b;
+    std::vector<double> row_a, row_b;
     for (const cv::DMatch& m : matches) {
+        row_a.push_back(ka[std::size_t(m.queryIdx)].pt.y);
+        row_b.push_back(kb[std::size_t(m.trainIdx)].pt.y);
         // Undistorted normalised OpenCV coordinates (x right, y down, z forward).
         const glm::dvec3 ra = pixel_ray(k, ka[std::size_t(m.queryIdx)].pt.x, ka[std::size_t(m.queryIdx)].pt.y);
         const glm::dvec3 rb = pixel_ray(k, kb[std::size_t(m.trainIdx)].pt.x, kb[std::size_t(m.trainIdx)].pt.y);
@@ -215,6 +226,7 @@ std::optional<glm::dquat> image_rotation(const cv::Mat& a, const cv::Mat& b, con
             fb.push_back(rays_b[i]);
         }
     glm::dquat q = kabsch(fb, fa);
+    ImageRotation features;  // the ORB stage's result
     for (int round = 0; round < 2; ++round) {
         std::vector<double> err;
         for (std::size_t i = 0; i < rays_a.size(); ++i)
@@ -226,21 +238,27 @@ std::optional<glm::dquat> image_rotation(const cv::Mat& a, const cv::Mat& b, con
         const double cutoff = std::max(3 * sorted[sorted.size() / 2], 0.002);
         fa.clear();
         fb.clear();
+        features = {};
         for (std::size_t i = 0; i < rays_a.size(); ++i)
             if (err[i] < cutoff) {
                 fa.push_back(rays_a[i]);
                 fb.push_back(rays_b[i]);
+                features.rows_a.push_back(row_a[i]);
+                features.rows_b.push_back(row_b[i]);
             }
         if (fa.size() < 25) return std::nullopt;
         q = kabsch(fb, fa);
     }
+    features.a_from_b = q;
+    features.rays_a = fa;
+    features.rays_b = fb;
     // ORB's keypoints sit on (pyramid) pixels, which left the rotation about 0.1-0.3 degree noisy
     // per pair on noisy frames. Sub-pixel correspondences: corners of a, their place in b predicted
     // by the rotation so far, then refined by normalised cross-correlation of an 11x11 patch over
     // +-3 px and a parabola through the peak; the rotation is fitted to their rays again.
     std::vector<cv::Point2f> ca;
     cv::goodFeaturesToTrack(ga, ca, 600, 0.005, 4);
-    if (ca.size() < 30) return q;
+    if (ca.size() < 30) return features;
     const glm::dquat b_from_a = glm::conjugate(q);
     constexpr int kHalf = 5, kSearch = 3;
     std::vector<cv::Point2f> kept_a, cb;
@@ -273,7 +291,8 @@ std::optional<glm::dquat> image_rotation(const cv::Mat& a, const cv::Mat& b, con
         la.push_back(glm::normalize(pixel_ray(k, kept_a[i].x, kept_a[i].y)));
         lb.push_back(glm::normalize(pixel_ray(k, cb[i].x, cb[i].y)));
     }
-    if (la.size() < 30) return q;
+    if (la.size() < 30) return features;
+    ImageRotation tracked;
     glm::dquat t = kabsch(lb, la);
     for (int round = 0; round < 2; ++round) {
         std::vector<double> err;
@@ -283,16 +302,22 @@ std::optional<glm::dquat> image_rotation(const cv::Mat& a, const cv::Mat& b, con
         std::nth_element(sorted.begin(), sorted.begin() + std::ptrdiff_t(sorted.size() / 2), sorted.end());
         const double cutoff = std::max(3 * sorted[sorted.size() / 2], 0.001);
         std::vector<glm::dvec3> xa, xb;
+        tracked = {};
         for (std::size_t i = 0; i < la.size(); ++i)
             if (err[i] < cutoff) {
                 xa.push_back(la[i]);
                 xb.push_back(lb[i]);
+                tracked.rows_a.push_back(kept_a[i].y);
+                tracked.rows_b.push_back(cb[i].y);
             }
-        if (xa.size() < 30) return q;
+        if (xa.size() < 30) return features;
         t = kabsch(xb, xa);
+        tracked.rays_a = std::move(xa);
+        tracked.rays_b = std::move(xb);
     }
+    tracked.a_from_b = t;
     // A tracked rotation far from the features' one is a failed track: keep the features'.
-    return angle_between(t, q) < 1.0 * kPi / 180 ? t : q;
+    return angle_between(t, q) < 1.0 * kPi / 180 ? tracked : features;
 }
 
 }  // namespace
@@ -310,6 +335,7 @@ AlignmentResult calibrate_alignment(const Session& s, double max_offset_s) {
     struct Pair {
         std::int64_t ta, tb;
         glm::dquat camera_a_from_b;
+        ImageRotation seen;  // the correspondences, for the rolling shutter's row times
     };
     std::vector<Pair> pairs;
     CameraFrame previous;
@@ -317,9 +343,9 @@ AlignmentResult calibrate_alignment(const Session& s, double max_offset_s) {
     for (const FrameRecord& r : s.frames) {
         CameraFrame f = load_frame(s, r);
         if (have_previous) {
-            if (const auto q = image_rotation(previous.rgb, f.rgb, s.calibration.intrinsics))
-                if (angle_between(*q, glm::dquat(1, 0, 0, 0)) > 2 * kPi / 180)  // too small a turn says little
-                    pairs.push_back({previous.t_ns, f.t_ns, *q});
+            if (auto q = image_rotation(previous.rgb, f.rgb, s.calibration.intrinsics))
+                if (angle_between(q->a_from_b, glm::dquat(1, 0, 0, 0)) > 2 * kPi / 180)  // too small a turn says little
+                    pairs.push_back({previous.t_ns, f.t_ns, q->a_from_b, std::move(*q)});
         }
         previous = std::move(f);
         have_previous = true;
@@ -397,63 +423,96 @@ AlignmentResult calibrate_alignment(const Session& s, double max_offset_s) {
         if (used) *used = n;
         return c;
     };
-    double lambda = 1e-3;
-    const double dt_scale = 1e6;  // the offset's parameter in ms
-    for (int round = 0; round < 30; ++round) {
-        // The outlier cutoff at the current estimate.
-        std::vector<double> angles;
-        for (const Pair& p : pairs)
-            if (const auto r = residual(p, x, off_ns)) angles.push_back(glm::length(*r));
-        if (angles.size() < 10) break;
-        std::nth_element(angles.begin(), angles.begin() + std::ptrdiff_t(angles.size() / 2), angles.end());
-        const double cutoff = std::max(3 * angles[angles.size() / 2], 0.5 * kPi / 180);
-        // Normal equations from a numerical Jacobian (4 parameters: d of the mounting, offset).
-        cv::Matx44d JtJ = cv::Matx44d::zeros();
-        cv::Vec4d Jtr(0, 0, 0, 0);
-        const double h = 1e-5, h_ms = 0.25;
-        for (const Pair& p : pairs) {
-            const auto r0 = residual(p, x, off_ns);
-            if (!r0 || glm::length(*r0) > cutoff) continue;
-            glm::dvec3 J[4];
-            bool ok = true;
-            for (int k = 0; k < 4 && ok; ++k) {
-                glm::dvec3 dv(0);
-                double dt = 0;
-                if (k < 3) dv[k] = h;
-                else dt = h_ms * dt_scale;
-                const glm::dquat xp = k < 3 ? unit_rotation(x * rotation_from_vector(dv)) : x;
-                const glm::dquat xm = k < 3 ? unit_rotation(x * rotation_from_vector(-dv)) : x;
-                const auto rp = residual(p, xp, off_ns + dt), rm = residual(p, xm, off_ns - dt);
-                if (!rp || !rm) ok = false;
-                else J[k] = (*rp - *rm) / (2 * (k < 3 ? h : h_ms));
+    const auto refine = [&] {
+        double lambda = 1e-3;
+        const double dt_scale = 1e6;  // the offset's parameter in ms
+        for (int round = 0; round < 30; ++round) {
+            // The outlier cutoff at the current estimate.
+            std::vector<double> angles;
+            for (const Pair& p : pairs)
+                if (const auto r = residual(p, x, off_ns)) angles.push_back(glm::length(*r));
+            if (angles.size() < 10) break;
+            std::nth_element(angles.begin(), angles.begin() + std::ptrdiff_t(angles.size() / 2), angles.end());
+            const double cutoff = std::max(3 * angles[angles.size() / 2], 0.5 * kPi / 180);
+            // Normal equations from a numerical Jacobian (4 parameters: d of the mounting, offset).
+            cv::Matx44d JtJ = cv::Matx44d::zeros();
+            cv::Vec4d Jtr(0, 0, 0, 0);
+            const double h = 1e-5, h_ms = 0.25;
+            for (const Pair& p : pairs) {
+                const auto r0 = residual(p, x, off_ns);
+                if (!r0 || glm::length(*r0) > cutoff) continue;
+                glm::dvec3 J[4];
+                bool ok = true;
+                for (int k = 0; k < 4 && ok; ++k) {
+                    glm::dvec3 dv(0);
+                    double dt = 0;
+                    if (k < 3) dv[k] = h;
+                    else dt = h_ms * dt_scale;
+                    const glm::dquat xp = k < 3 ? unit_rotation(x * rotation_from_vector(dv)) : x;
+                    const glm::dquat xm = k < 3 ? unit_rotation(x * rotation_from_vector(-dv)) : x;
+                    const auto rp = residual(p, xp, off_ns + dt), rm = residual(p, xm, off_ns - dt);
+                    if (!rp || !rm) ok = false;
+                    else J[k] = (*rp - *rm) / (2 * (k < 3 ? h : h_ms));
+                }
+                if (!ok) continue;
+                for (int a = 0; a < 4; ++a) {
+                    Jtr[a] += glm::dot(J[a], *r0);
+                    for (int b = 0; b < 4; ++b) JtJ(a, b) += glm::dot(J[a], J[b]);
+                }
             }
-            if (!ok) continue;
-            for (int a = 0; a < 4; ++a) {
-                Jtr[a] += glm::dot(J[a], *r0);
-                for (int b = 0; b < 4; ++b) JtJ(a, b) += glm::dot(J[a], J[b]);
+            const double before = cost_of(x, off_ns, cutoff, nullptr);
+            bool improved = false;
+            for (int tries = 0; tries < 8 && !improved; ++tries) {
+                cv::Matx44d A = JtJ;
+                for (int a = 0; a < 4; ++a) A(a, a) *= 1 + lambda;
+                cv::Vec4d step;
+                if (!cv::solve(A, -Jtr, step, cv::DECOMP_CHOLESKY)) break;
+                const glm::dquat xn = unit_rotation(x * rotation_from_vector({step[0], step[1], step[2]}));
+                const double on = std::clamp(off_ns + step[3] * dt_scale, -max_offset_s * 1e9, max_offset_s * 1e9);
+                if (cost_of(xn, on, cutoff, nullptr) < before) {
+                    const bool small = cv::norm(cv::Vec3d(step[0], step[1], step[2])) < 1e-7 && std::abs(step[3]) < 1e-4;
+                    x = xn;
+                    off_ns = on;
+                    lambda = std::max(1e-7, lambda / 10);
+                    improved = true;
+                    if (small) round = 1000;  // converged
+                } else {
+                    lambda *= 10;
+                }
             }
+            if (!improved) break;
         }
-        const double before = cost_of(x, off_ns, cutoff, nullptr);
-        bool improved = false;
-        for (int tries = 0; tries < 8 && !improved; ++tries) {
-            cv::Matx44d A = JtJ;
-            for (int a = 0; a < 4; ++a) A(a, a) *= 1 + lambda;
-            cv::Vec4d step;
-            if (!cv::solve(A, -Jtr, step, cv::DECOMP_CHOLESKY)) break;
-            const glm::dquat xn = unit_rotation(x * rotation_from_vector({step[0], step[1], step[2]}));
-            const double on = std::clamp(off_ns + step[3] * dt_scale, -max_offset_s * 1e9, max_offset_s * 1e9);
-            if (cost_of(xn, on, cutoff, nullptr) < before) {
-                const bool small = cv::norm(cv::Vec3d(step[0], step[1], step[2])) < 1e-7 && std::abs(step[3]) < 1e-4;
-                x = xn;
-                off_ns = on;
-                lambda = std::max(1e-7, lambda / 10);
-                improved = true;
-                if (small) round = 1000;  // converged
-            } else {
-                lambda *= 10;
+    };
+    refine();
+    // 3. A rolling shutter (calibration readout_s) sees each row at its own time: a pitching
+    //    camera's features move between rows, so the image rotation comes out scaled (about 2 %
+    //    at 52 deg/s with a 20 ms readout), and the offset and mounting take that in. Each pair's
+    //    rays are turned to their frame's mid time with the camera's angular velocity (the
+    //    sensor's, through the mounting and offset found so far: r_mid = exp(w dt_row) r) and the
+    //    rotation fitted again, then the refinement runs again; twice, as the mounting moves.
+    const CameraCalibration& cal = s.calibration;
+    if (cal.readout_s > 0) {
+        const auto camera_rate = [&](std::int64_t t_ns, const glm::dquat& xq, double o) -> std::optional<glm::dvec3> {
+            const std::int64_t h = 10'000'000;  // +-10 ms: a few sensor samples, the turn nearly steady
+            const auto q0 = history.at(t_ns + std::int64_t(std::llround(o)) - h).world_from_sensor;
+            const auto q1 = history.at(t_ns + std::int64_t(std::llround(o)) + h).world_from_sensor;
+            if (!q0 || !q1) return std::nullopt;
+            const glm::dvec3 sensor_rate = rotation_vector(unit_rotation(glm::conjugate(*q0) * *q1)) / (2e-9 * double(h));
+            return glm::conjugate(xq) * sensor_rate;  // into the camera's frame
+        };
+        for (int pass = 0; pass < 2; ++pass) {
+            for (Pair& p : pairs) {
+                const auto wa = camera_rate(p.ta, x, off_ns), wb = camera_rate(p.tb, x, off_ns);
+                if (!wa || !wb) continue;
+                std::vector<glm::dvec3> ra, rb;
+                for (std::size_t i = 0; i < p.seen.rays_a.size(); ++i) {
+                    ra.push_back(rotation_from_vector(*wa * cal.row_time_offset_s(p.seen.rows_a[i])) * p.seen.rays_a[i]);
+                    rb.push_back(rotation_from_vector(*wb * cal.row_time_offset_s(p.seen.rows_b[i])) * p.seen.rays_b[i]);
+                }
+                if (ra.size() >= 10) p.camera_a_from_b = kabsch(rb, ra);
             }
+            refine();
         }
-        if (!improved) break;
     }
     // The refined estimate, with the median residual and the pairs used (within the cutoff).
     std::vector<double> angles;

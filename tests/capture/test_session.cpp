@@ -344,15 +344,10 @@ TEST_F(SessionTest, AlignmentFromAScanComesCloserThanNoCalibration) {
 }
 
 TEST_F(SessionTest, AlignmentRecoversAPositiveTimeOffset) {
-    // The other sign, and further out (the search covers +-50 ms): frames stamped 35 ms ahead.
-    // Frames without motion blur and rolling shutter: with both (the simulator's default since
-    // 2026-12-02) the guided scan's pairs put this offset at -8.0 ms (blur alone +35.6, the rolling
-    // shutter alone +35.8, both at -20 ms -19.6; `glint calibrate alignment`, courtyard 320x180, 3
-    // fps): the alignment models neither (docs/capture.md "Not built yet"). The three-axis motion
-    // below, the calibration's own input, is found with both.
+    // The other sign, and further out (the search covers +-50 ms): frames stamped 35 ms ahead,
+    // with motion blur and a rolling shutter (the simulator's defaults). Before the alignment
+    // turned each pair's rays to their frame's mid time, this scan put the offset at -8.0 ms.
     SimulateOptions o = alignment_scan(small_session(), 35);
-    o.motion_blur = false;
-    o.readout_s = 0;
     simulate_session(o);
     const Session s = open_session(dir_ / "session");
     EXPECT_DOUBLE_EQ(load_calibration(dir_ / "session" / "truth" / "calibration.json").time_offset_s, 0.035);
