@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "appliance/capture/global_adjustment.hpp"
+#include "appliance/capture/hdr_accumulator.hpp"
 #include "appliance/capture/session.hpp"
 #include "appliance/core/equirect.hpp"
 #include "appliance/core/errors.hpp"
@@ -295,6 +296,46 @@ TEST(GlobalAdjustment, DISABLED_PairStudy) {
                     which == 0 ? "from the truth" : "from the sensor", pairs.size(), rows.size(), e[e.size() / 2], e.back(),
                     after60, glm::length(res.drift_rate_rad_per_s) * 60 / kDeg);
     }
+}
+
+// A study, not a test: the map of a session accumulated with given orientations, so that the
+// accumulation's part in a source's energy can be told from the registration's.
+// GLINT_ACC_STUDY=<session dir>, GLINT_ACC_STUDY_ORIENTATIONS=<csv as truth/camera.csv; "truth"
+// for the truth>, GLINT_ACC_STUDY_COMMON=<0|1: the truth rotated by the orientations' mean error
+// instead>, GLINT_ACC_STUDY_OUT=<exr>, 1024x512.
+TEST(GlobalAdjustment, DISABLED_AccumulationStudy) {
+    const char* dir = std::getenv("GLINT_ACC_STUDY");
+    const char* which = std::getenv("GLINT_ACC_STUDY_ORIENTATIONS");
+    const char* out = std::getenv("GLINT_ACC_STUDY_OUT");
+    if (!dir || !which || !out) GTEST_SKIP();
+    const Session session = open_session(dir);
+    std::map<std::uint64_t, glm::dquat> truth_of, given;
+    for (const TruthPose& p : load_truth_poses(session)) truth_of[p.index] = p.world_from_camera;
+    if (std::string(which) == "truth") given = truth_of;
+    else {
+        std::ifstream in(which);
+        std::string line;
+        std::getline(in, line);
+        while (std::getline(in, line)) {
+            std::vector<double> v;
+            std::stringstream ss(line);
+            std::string c;
+            while (std::getline(ss, c, ',')) v.push_back(std::atof(c.c_str()));
+            given[std::uint64_t(v[0])] = unit_rotation(glm::dquat(v[2], v[3], v[4], v[5]));
+        }
+    }
+    if (const char* common = std::getenv("GLINT_ACC_STUDY_COMMON"); common && std::atoi(common) == 1) {
+        glm::dvec3 mean(0);
+        for (const auto& [k, q] : given) mean += rotation_vector(q * glm::conjugate(truth_of[k]));
+        mean /= double(given.size());
+        for (auto& [k, q] : given) q = unit_rotation(rotation_from_vector(mean) * truth_of[k]);
+    }
+    HdrAccumulator acc(1024, 512);
+    for (const FrameRecord& r : session.frames) {
+        if (!given.count(r.index)) continue;
+        acc.add_frame(load_frame(session, r), session.calibration, given[r.index], 2);
+    }
+    save_exr(out, acc.radiance());
 }
 
 }  // namespace
