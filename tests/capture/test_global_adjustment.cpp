@@ -27,16 +27,23 @@ using sim::SensorModel;
 
 constexpr double kDeg = kPi / 180.0;
 
-TEST(GlobalAdjustment, APairOfFramesAlignsToTheirTrueRelativeRotation) {
-    // Two noisy, auto-exposed views of courtyard 30 degrees apart, started up to 1 degree off.
-    const HdrImage env = load_exr(std::string(GLINT_BLENDER_WORLDS) + "/courtyard.exr").image;
-    SensorModel sensor;
+// The tests' camera: 320x180 over 70 degrees, some barrel distortion and vignetting, the
+// simulated sensor's sensitivity.
+CameraCalibration test_camera(const SensorModel& sensor) {
     CameraCalibration cal;
     cal.intrinsics = Intrinsics::from_fov(320, 180, 70 * kDeg);
     cal.intrinsics.k1 = -0.08;
     cal.intrinsics.k2 = 0.012;
     cal.vignetting = {-0.22, 0.03, 0};
     cal.sensitivity = sensor.electrons_per_radiance_second / sensor.full_well_electrons;
+    return cal;
+}
+
+TEST(GlobalAdjustment, APairOfFramesAlignsToTheirTrueRelativeRotation) {
+    // Two noisy, auto-exposed views of courtyard 30 degrees apart, started up to 1 degree off.
+    const HdrImage env = load_exr(std::string(GLINT_BLENDER_WORLDS) + "/courtyard.exr").image;
+    SensorModel sensor;
+    const CameraCalibration cal = test_camera(sensor);
     CameraSimulator sim(env, cal, sensor);
     const glm::dquat ta = camera_look(10, 5), tb = camera_look(40, 0);
     const CameraFrame fa = sim.render(ta, 0), fb = sim.render(tb, 1);
@@ -78,12 +85,7 @@ TEST(GlobalAdjustment, APairOnSmoothTextureIsNotAlignedToTheNoise) {
             env.set(i, j, {float(v), float(0.85 * v), float(0.7 * v)});
         }
     SensorModel sensor;
-    CameraCalibration cal;
-    cal.intrinsics = Intrinsics::from_fov(320, 180, 70 * kDeg);
-    cal.intrinsics.k1 = -0.08;
-    cal.intrinsics.k2 = 0.012;
-    cal.vignetting = {-0.22, 0.03, 0};
-    cal.sensitivity = sensor.electrons_per_radiance_second / sensor.full_well_electrons;
+    const CameraCalibration cal = test_camera(sensor);
     CameraSimulator sim(env, cal, sensor);
     // Exposed as the auto-exposure would: the room's mean at 0.18 of full scale.
     sim.set_exposure(sim.exposure_s() * 0.18 / sim.exposure_of(0.048, 1.0), 1.0);
