@@ -570,7 +570,8 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
     HdrImage env = map_acc.radiance();
     summary.radiance_seconds = since(t_radiance);
     if (map_acc.cpu) summary.estimated_sources = map_acc.cpu->estimated_sources();
-    const std::vector<std::uint32_t> samples = map_acc.samples();
+    const std::vector<std::uint32_t> samples =
+        samples_with_summed_weight(map_acc.samples(), map_acc.weights(), AccumulationSettings{}.min_weight);
     summary.coverage = measure_coverage(samples, o.width, o.height, o.min_samples);
     const auto t_truth = std::chrono::steady_clock::now();
     if (session.has_truth && fs::exists(truth_env_path(session)))

@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 
+#include "appliance/core/errors.hpp"
+
 namespace glint::capture {
 
 namespace {
@@ -48,6 +50,14 @@ CoverageReport measure_coverage(const std::vector<std::uint32_t>& samples, int w
             }
         }
     return r;
+}
+
+std::vector<std::uint32_t> samples_with_summed_weight(std::vector<std::uint32_t> samples,
+                                                      const std::vector<float>& weights, double min_weight) {
+    if (weights.size() != samples.size()) throw RuntimeError("coverage: samples and weights differ in size");
+    for (std::size_t k = 0; k < samples.size(); ++k)
+        if (samples[k] == 0 && double(weights[k]) >= min_weight) samples[k] = 1;
+    return samples;
 }
 
 long long fill_uncovered(HdrImage& img, const std::vector<std::uint32_t>& samples, int min_samples) {

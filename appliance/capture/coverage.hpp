@@ -20,6 +20,14 @@ struct CoverageReport {
 CoverageReport measure_coverage(const std::vector<std::uint32_t>& samples, int width, int height, int min_samples,
                                 double gap_radius_rad = 0.5);
 
+// The samples of a finished map: a texel that no single frame sampled with a usable weight but
+// whose weights sum to min_weight or more counts as sampled once. Several weak samples (a bright
+// source near the lower edge of what the scan sees, met only by frames whose weight there is
+// small) carry its radiance; without this the fill replaced it with the floor's mean (a 1e-2 sr
+// source at -72 degrees lost 20 % of its energy). weights: the accumulator's summed W per texel.
+std::vector<std::uint32_t> samples_with_summed_weight(std::vector<std::uint32_t> samples,
+                                                      const std::vector<float>& weights, double min_weight);
+
 // Fills every texel with fewer than min_samples samples, in place; returns how many it filled.
 // Rule: in each column, a gap between two covered texels is interpolated linearly in polar angle
 // between them; the texels above the first covered one (the zenith cap) take the mean of the

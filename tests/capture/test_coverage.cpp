@@ -3,6 +3,7 @@
 #include <cmath>
 
 #include "appliance/capture/coverage.hpp"
+#include "appliance/core/errors.hpp"
 
 namespace glint::capture {
 namespace {
@@ -72,6 +73,15 @@ TEST(Coverage, ImageChannelsAreSamplesWeightAndCovered) {
     EXPECT_EQ(img.at(1, 0).b, 0.0f);
     EXPECT_EQ(img.at(0, 1).g, 1.5f);
     EXPECT_EQ(img.at(0, 1).b, 1.0f);
+}
+
+TEST(Coverage, WeakSamplesThatSumToAUsableWeightCountAsSampled) {
+    // Texel 0: one good sample; 1: weak samples summing over the threshold; 2: weak samples
+    // under it; 3: never seen. Only 2 and 3 stay unsampled (the fill replaces them).
+    const std::vector<std::uint32_t> got =
+        samples_with_summed_weight({3, 0, 0, 0}, {0.9f, 0.05f, 0.01f, 0.0f}, 0.02);
+    EXPECT_EQ(got, (std::vector<std::uint32_t>{3, 1, 0, 0}));
+    EXPECT_THROW(samples_with_summed_weight({1, 2}, {0.5f}, 0.02), RuntimeError);
 }
 
 }  // namespace
