@@ -183,16 +183,31 @@ double slope(const std::vector<std::pair<int, double>>& c) {
     return (n * svu - sv * su) / (n * svv - sv * sv);
 }
 
+// The rolling-shutter tests' frame: the meridian line, yawing left at 90 deg/s, a 30 ms readout
+// and a 0.1 ms exposure (no blur).
+struct LeaningFrame {
+    HdrImage env = meridian();
+    CameraCalibration cal = plain_camera(160, 120, 60, 0.030);
+    double speed = 90;  // deg/s
+    CameraFrame frame;
+};
+LeaningFrame leaning_frame() {
+    LeaningFrame l;
+    CameraSimulator sim(l.env, l.cal, noiseless(), manual());
+    sim.set_exposure(1e-4, 1);
+    l.frame = sim.render(yawing(l.speed), 0, 2);
+    return l;
+}
+
 TEST(MotionBlur, TheRollingShutterShiftsEachRowByTheTurnSinceTheMiddleRow) {
     // Yawing left at 90 deg/s with a 30 ms readout and a 0.1 ms exposure (no blur): row v is
     // exposed 30 ms x (v - 59.5) / 120 after the middle row, when the world has moved right by the
     // turn since, so a vertical line leans by fx x speed x readout / height pixels per row.
-    const HdrImage env = meridian();
-    const CameraCalibration cal = plain_camera(160, 120, 60, 0.030);
-    const double speed = 90;
-    CameraSimulator sim(env, cal, noiseless(), manual());
-    sim.set_exposure(1e-4, 1);
-    const CameraFrame f = sim.render(yawing(speed), 0, 2);
+    const LeaningFrame l = leaning_frame();
+    const HdrImage& env = l.env;
+    const CameraCalibration& cal = l.cal;
+    const double speed = l.speed;
+    const CameraFrame& f = l.frame;
     const cv::Mat x = linear(f, cal);
     const double background = 0.05 * 1e-4 * 100;
     const auto c = line_centroids([&](int u, int v) { return x.at<double>(v, u); }, x.cols, x.rows, background);
@@ -218,12 +233,10 @@ TEST(MotionBlur, TheAccumulatorTurnsEachRowBackIntoPlace) {
     // The leaning frame above, accumulated with the frame's orientation and the angular velocity:
     // the line stands upright on the sphere again. Without the angular velocity it leans as in
     // the frame (6.5 pixels over the frame, 0.37 degrees each: about 7 texels at 1024x512).
-    const HdrImage env = meridian();
-    const CameraCalibration cal = plain_camera(160, 120, 60, 0.030);
-    const double speed = 90;
-    CameraSimulator sim(env, cal, noiseless(), manual());
-    sim.set_exposure(1e-4, 1);
-    const CameraFrame f = sim.render(yawing(speed), 0, 2);
+    const LeaningFrame l = leaning_frame();
+    const CameraCalibration& cal = l.cal;
+    const double speed = l.speed;
+    const CameraFrame& f = l.frame;
     const glm::dvec3 w(0, speed * kDeg, 0);  // camera frame: yaw about the camera's +Y (up)
     const auto lean = [&](const glm::dvec3& angular_velocity) {
         HdrAccumulator acc(1024, 512);
