@@ -46,8 +46,9 @@ void GpuAccumulator::add_frame(const CameraFrame& frame, const CameraCalibration
         throw InputError("frame " + std::to_string(frame.sequence) + ": exposure x gain must be positive");
     const int s = settings_.downscale > 0 ? settings_.downscale : HdrAccumulator::auto_downscale(k, width_);
     int pw = 0, ph = 0;
+    std::vector<std::uint8_t> zone;
     const std::vector<float> planes =
-        HdrAccumulator::accumulation_planes(frame, cal, s, settings_.downscale <= 0, width_, pw, ph);
+        HdrAccumulator::accumulation_planes(frame, cal, s, settings_.downscale <= 0, width_, pw, ph, &zone);
     std::vector<float> p(std::size_t(pw) * std::size_t(ph) * 4), w(p.size());
     constexpr std::size_t n = HdrAccumulator::kPlaneFloats;
     for (std::size_t i = 0; i < std::size_t(pw) * std::size_t(ph); ++i) {
@@ -56,6 +57,7 @@ void GpuAccumulator::add_frame(const CameraFrame& frame, const CameraCalibration
             w[4 * i + std::size_t(c)] = planes[n * i + 3 + std::size_t(c)];
         }
         p[4 * i + 3] = planes[n * i + 6];  // the invalid flag rides in X's alpha
+        w[4 * i + 3] = zone.empty() ? 0.0f : float(zone[i]);  // the footprint zone in W's
     }
     const gl::GlTexture p_tex = gl::make_float_texture(pw, ph, p.data());
     const gl::GlTexture w_tex = gl::make_float_texture(pw, ph, w.data());
@@ -84,6 +86,8 @@ void GpuAccumulator::add_frame(const CameraFrame& frame, const CameraCalibration
     glUniform3f(program_.uniform("u_omega"), float(omega.x), float(omega.y), float(omega.z));
     glUniform1f(program_.uniform("u_row_s"), float(cal.readout_s / k.height));
     glUniform1f(program_.uniform("u_mid_row"), float(0.5 * (k.height - 1)));
+    glUniform1i(program_.uniform("u_taps"),
+                zone.empty() ? 0 : HdrAccumulator::footprint_taps(HdrAccumulator::texel_box_width(k, width_, s)));
     // The same pre-distortion bound as project() (camera_model.cpp): far outside the image the
     // distortion polynomial folds back.
     glUniform1f(program_.uniform("u_limit_x"), float(std::max(k.cx, k.width - 1 - k.cx) / k.fx * 1.5 + 0.5));

@@ -109,19 +109,24 @@ public:
     static double grid_coordinate(double pixel, int s) { return (pixel - 0.5 * (s - 1)) / s; }
     // The factor s for a camera and a map width.
     static int auto_downscale(const Intrinsics& k, int map_width);
-    // After the integer box of s: the rest of a texel's footprint, a box of fractional width
-    // (a texel's height in cells at the image centre, 1.6 at 320 pixels over 70 degrees and
-    // 1024x512), so that a texel averages the frame over its footprint instead of reading it at
-    // one point. Without it a source smaller than a pixel kept 61-144 % of its energy depending
-    // on where it fell between texel centres (docs/capture.md "Accumulation").
+    // A texel's height (pi / H = 2 pi / W) in grid cells at the image centre: the size of its
+    // footprint in the planes (1.4 at 320 pixels over 70 degrees into 1024x512 with s = 1).
     static double texel_box_width(const Intrinsics& k, int map_width, int s);
-    static void texel_box(std::vector<float>& planes, int width, int height, double cells);
+    // Where point reads alias energy (compact bright cells, 8x their dimmest neighbour, or
+    // clipped, and 2 cells round them), 1 per cell. There a texel reads the frame over its whole
+    // footprint (footprint_read): a source smaller than a pixel then keeps its energy wherever it
+    // falls between texel centres (docs/capture.md "Accumulation": with a point read 61-144 %, with
+    // a box in the image's axes a spread of 14 % per frame, with the footprint 1 %).
+    static std::vector<std::uint8_t> footprint_zone(const std::vector<float>& planes, int width, int height);
+    // Taps per side of a texel's footprint read for a footprint of `box_cells` cells.
+    static int footprint_taps(double box_cells);
     // What an accumulator of a map_width-wide map reads of a frame (the CPU's and the GPU's):
-    // filtered_planes for the factor s, then, when s was chosen automatically
-    // (AccumulatorSettings::downscale <= 0), the texel box.
+    // filtered_planes for the factor s and, when s was chosen automatically
+    // (AccumulatorSettings::downscale <= 0) and a texel spans more than a cell, the footprint
+    // zone into *zone (else *zone is emptied).
     static std::vector<float> accumulation_planes(const CameraFrame& frame, const CameraCalibration& calibration,
                                                   int s, bool automatic_downscale, int map_width, int& out_width,
-                                                  int& out_height);
+                                                  int& out_height, std::vector<std::uint8_t>* zone = nullptr);
 
     // Exposure bands that hold frames, shortest first.
     int bands() const { return int(bands_.size()); }
@@ -163,6 +168,11 @@ private:
     bool box_spreads_ = false;  // the texel box spreads a clipped cell to its neighbours
     mutable std::vector<EstimatedSource> estimated_;
     void estimate_clipped_sources(HdrImage& image) const;
+    static bool in_zone(const std::vector<std::uint8_t>& zone, int width, int height, double U, double V);
+    // Texel (i, j)'s read over its footprint into P (kPlaneFloats), replacing the centre's.
+    void footprint_read(const std::vector<float>& planes, int pw, int ph, int s, const CameraCalibration& cal,
+                        const glm::dquat& camera_from_world, const glm::dvec3& angular_velocity, int i, int j,
+                        int taps, double P[kPlaneFloats]) const;
 };
 
 }  // namespace glint::capture

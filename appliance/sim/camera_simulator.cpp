@@ -48,13 +48,16 @@ CameraSimulator::CameraSimulator(HdrImage environment, capture::CameraCalibratio
     // The glare's width in pixels at each pixel (glare_sigma_rad over the pixel's angular size),
     // as a mix of the narrowest and the widest.
     std::vector<double> px_sigma(std::size_t(k.width) * std::size_t(k.height));
+    pixel_omega_.resize(px_sigma.size());
     for (int v = 0; v < k.height; ++v)
         for (int u = 0; u < k.width; ++u) {
             const glm::dvec3 a = capture::pixel_ray(k, u + 0.5, v) - capture::pixel_ray(k, u - 0.5, v);
             const glm::dvec3 b = capture::pixel_ray(k, u, v + 0.5) - capture::pixel_ray(k, u, v - 0.5);
-            px_sigma[std::size_t(v) * std::size_t(k.width) + std::size_t(u)] =
-                truth_.glare_sigma_rad / std::sqrt(glm::length(glm::cross(a, b)));
+            const double omega = glm::length(glm::cross(a, b));
+            pixel_omega_[std::size_t(v) * std::size_t(k.width) + std::size_t(u)] = omega;
+            px_sigma[std::size_t(v) * std::size_t(k.width) + std::size_t(u)] = truth_.glare_sigma_rad / std::sqrt(omega);
         }
+    split_bright_texels();
     glare_px_min_ = *std::min_element(px_sigma.begin(), px_sigma.end());
     glare_px_max_ = *std::max_element(px_sigma.begin(), px_sigma.end());
     glare_mix_.resize(px_sigma.size());
@@ -82,6 +85,59 @@ void CameraSimulator::set_exposure(double exposure_s, double gain) {
     gain_ = gain;
 }
 
+void CameraSimulator::split_bright_texels() {
+    // A pixel integrates the light over its area. Reading the map at 2x2 points per pixel does so
+    // for smooth light, but a source of a texel or less (the sun; 1e-5 sr is a third of a pixel)
+    // is aliased: its energy in a frame swung by +-10 % with where it fell between the points, and
+    // the bilinear lookup near a pole added 8 % (the lookup is not energy-preserving where the
+    // rows shrink). So the brightest texels are taken out of the map above a level and their
+    // excess is sent to the pixels as points instead: kSplatSide^2 points per texel, each carrying
+    // its exact share of the texel's solid angle, each landing whole in the pixel it projects into.
+    // A frame then holds every such texel's energy exactly, wherever it falls.
+    const int w = env_.width(), h = env_.height();
+    const std::vector<double> row_omega = row_solid_angles(w, h);
+    std::vector<float> lum(std::size_t(w) * std::size_t(h));
+    double mean = 0;
+    for (int j = 0; j < h; ++j)
+        for (int i = 0; i < w; ++i) {
+            const Rgb c = env_.at(i, j);
+            const float l = std::max({c.r, c.g, c.b});
+            lum[std::size_t(j) * std::size_t(w) + std::size_t(i)] = l;
+            mean += row_omega[std::size_t(j)] * l;
+        }
+    mean /= 4 * kPi;
+    // The level: kSplatAboveMean x the mean, raised if needed so that at most kMaxSplatTexels
+    // texels are split (a bright sky would otherwise send a fifth of the map as points).
+    double level = kSplatAboveMean * mean;
+    if (lum.size() > kMaxSplatTexels) {
+        std::vector<float> sorted(lum);
+        std::nth_element(sorted.begin(), sorted.begin() + std::ptrdiff_t(kMaxSplatTexels), sorted.end(),
+                         std::greater<float>());
+        level = std::max(level, double(sorted[kMaxSplatTexels]));
+    }
+    if (!(level > 0)) return;
+    constexpr int m = kSplatSide;
+    for (int j = 0; j < h; ++j)
+        for (int i = 0; i < w; ++i) {
+            const float l = lum[std::size_t(j) * std::size_t(w) + std::size_t(i)];
+            if (!(l > level)) continue;
+            const Rgb c = env_.at(i, j);
+            const double keep = level / l;
+            const Rgb excess{float(c.r * (1 - keep)), float(c.g * (1 - keep)), float(c.b * (1 - keep))};
+            env_.set(i, j, {float(c.r * keep), float(c.g * keep), float(c.b * keep)});
+            for (int b = 0; b < m; ++b) {
+                const double y0 = j + double(b) / m, y1 = j + double(b + 1) / m;
+                const double omega = kTwoPi / (double(w) * m) * (std::cos(kPi * y0 / h) - std::cos(kPi * y1 / h));
+                const double theta = kPi * (j + (b + 0.5) / m) / h;
+                for (int a = 0; a < m; ++a) {
+                    const double phi = kTwoPi * (i + (a + 0.5) / m) / w - kPi;
+                    splats_.push_back({direction_from_angles(theta, phi),
+                                       {float(excess.r * omega), float(excess.g * omega), float(excess.b * omega)}});
+                }
+            }
+        }
+}
+
 double CameraSimulator::exposure_of(double radiance, double vignetting) const {
     const double electrons = radiance * vignetting * exposure_s_ * sensor_.electrons_per_radiance_second;
     return electrons * gain_ / sensor_.full_well_electrons;
@@ -101,6 +157,41 @@ int CameraSimulator::time_samples(const CameraPath& path, int v) const {
     return std::clamp(int(std::lround(px / kPixelsPerTimeSample)), 1, kMaxTimeSamples);
 }
 
+void CameraSimulator::splat_bright_texels(cv::Mat& light, const std::vector<std::vector<glm::dquat>>& row_views) const {
+    if (splats_.empty()) return;
+    const Intrinsics& k = truth_.intrinsics;
+    // Cull by the middle row's first view: a pixel ray is within acos(min_cos_to_axis) of the
+    // axis, and the rows' views turn by at most the exposure's and the readout's motion (a margin
+    // of 0.2 rad covers 400 deg/s over 20 ms plus a 30 ms exposure).
+    const glm::dquat centre = row_views[std::size_t(k.height / 2)].front();
+    const glm::dvec3 axis = centre * glm::dvec3(0, 0, -1);
+    const double cos_limit = std::cos(std::min(kPi, std::acos(std::clamp(capture::min_cos_to_axis(k), -1.0, 1.0)) + 0.2));
+    const glm::dquat camera_from_world = glm::conjugate(centre);
+    for (const Splat& p : splats_) {
+        if (glm::dot(p.direction, axis) < cos_limit) continue;
+        // The row it lands on in the middle row's view, then the row's own view (the rolling
+        // shutter moves it by well under a row between the two).
+        auto px = capture::project(k, camera_from_world * p.direction, 2.0);
+        if (!px) continue;
+        const int row = std::clamp(int(std::lround(px->v)), 0, k.height - 1);
+        const std::vector<glm::dquat>& views = row_views[std::size_t(row)];
+        const double share = 1.0 / double(views.size());
+        for (const glm::dquat& q : views) {
+            const auto at = capture::project(k, glm::conjugate(q) * p.direction, 0.499);
+            if (!at) continue;
+            const int u = int(std::lround(at->u)), v = int(std::lround(at->v));
+            if (u < 0 || v < 0 || u >= k.width || v >= k.height) continue;
+            const std::size_t i = std::size_t(v) * std::size_t(k.width) + std::size_t(u);
+            // Energy over the pixel's solid angle: the radiance it adds to the pixel's mean.
+            const double scale = share * vignette_[i] / pixel_omega_[i];
+            double* out = light.ptr<double>(v) + 3 * u;
+            out[0] += p.energy.r * scale;
+            out[1] += p.energy.g * scale;
+            out[2] += p.energy.b * scale;
+        }
+    }
+}
+
 CameraFrame CameraSimulator::render(const CameraPath& path, std::int64_t t_ns, int threads) {
     const Intrinsics& k = truth_.intrinsics;
     CameraFrame frame;
@@ -115,15 +206,20 @@ CameraFrame CameraSimulator::render(const CameraPath& path, std::int64_t t_ns, i
     // The light reaching each pixel (radiance x vignetting), then the lens's glare: a share of it
     // spread as a Gaussian (camera_model.hpp; reflected at the image's edges).
     cv::Mat light(k.height, k.width, CV_64FC3);
+    // Each row's orientations: its exposure (centred on the row's readout time, the rolling
+    // shutter) cut into n equal slices, each seen at its middle. One slice when still.
+    std::vector<std::vector<glm::dquat>> row_views(std::size_t(k.height));
     parallel_for(k.height, threads, [&](int v) {
-        double* out = light.ptr<double>(v);
-        // The row's orientations: its exposure (centred on the row's readout time, the rolling
-        // shutter) cut into n equal slices, each seen at its middle. One slice when still.
         const int n = time_samples(path, v);
         const double tau = truth_.row_time_offset_s(v);
-        std::vector<glm::dquat> views(static_cast<std::size_t>(n));
+        std::vector<glm::dquat>& views = row_views[std::size_t(v)];
+        views.resize(std::size_t(n));
         for (int m = 0; m < n; ++m) views[std::size_t(m)] = path(tau + exposure_s_ * ((m + 0.5) / n - 0.5));
-        const double share = 1.0 / double(kSubsamples * std::size_t(n));
+    });
+    parallel_for(k.height, threads, [&](int v) {
+        double* out = light.ptr<double>(v);
+        const std::vector<glm::dquat>& views = row_views[std::size_t(v)];
+        const double share = 1.0 / double(kSubsamples * views.size());
         for (int u = 0; u < k.width; ++u) {
             const std::size_t i = std::size_t(v) * std::size_t(k.width) + std::size_t(u);
             double radiance[3] = {0, 0, 0};
@@ -137,6 +233,7 @@ CameraFrame CameraSimulator::render(const CameraPath& path, std::int64_t t_ns, i
             for (int c = 0; c < 3; ++c) out[3 * u + c] = radiance[c] * vignette_[i];
         }
     });
+    splat_bright_texels(light, row_views);
     if (truth_.glare_fraction > 0) {
         // The glare's width is an angle: a pixel off the axis spans less of it (cos^2 of the
         // off-axis angle for a pinhole), so its width in pixels grows there. Two blurs, at the

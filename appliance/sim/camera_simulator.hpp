@@ -100,7 +100,18 @@ public:
     capture::CameraHealth health() const override { return health_; }
 
 private:
-    HdrImage env_;
+    // The brightest texels' light above a level, as points (split_bright_texels()).
+    struct Splat {
+        glm::dvec3 direction;  // world frame
+        Rgb energy;            // radiance x the point's solid angle
+    };
+    static constexpr int kSplatSide = 4;                   // points per texel side
+    static constexpr double kSplatAboveMean = 4;           // the level, in map means
+    static constexpr std::size_t kMaxSplatTexels = 65536;  // at most this many texels split
+    void split_bright_texels();
+    void splat_bright_texels(cv::Mat& light, const std::vector<std::vector<glm::dquat>>& row_views) const;
+
+    HdrImage env_;  // the map, less the split texels' excess
     capture::CameraCalibration truth_;
     SensorModel sensor_;
     AutoExposureModel ae_;
@@ -110,6 +121,8 @@ private:
     double gain_ = 1;
     std::vector<glm::dvec3> rays_;  // camera-frame ray per pixel (row-major)
     std::vector<double> vignette_;  // V per pixel
+    std::vector<double> pixel_omega_;  // solid angle per pixel, sr
+    std::vector<Splat> splats_;
     double glare_px_min_ = 0, glare_px_max_ = 0;  // the glare's width in pixels, narrowest and widest
     std::vector<double> glare_mix_;                // per pixel: 0 narrowest .. 1 widest
     // The CameraSource face.

@@ -97,7 +97,12 @@ TEST_F(SessionTest, SimulateThenCaptureWithTrueOrientationsCoversAndMatchesTheSk
     EXPECT_EQ(r.frames_used, sim.frames);
     // The guided scan sees everything but the floor under the stand (below about -80 degrees).
     EXPECT_GT(r.coverage.covered_fraction, 0.9);
-    EXPECT_LT(r.coverage.largest_gap.y, -0.9);
+    // The largest unseen cap: the floor, or the lamp (20x the sky), which clips in every frame of
+    // a session without brackets, with the texels whose footprint reaches its clipped pixels.
+    const glm::dvec3 lamp = glm::normalize(glm::dvec3(0.6, 0.3, -0.74));
+    EXPECT_TRUE(r.coverage.largest_gap.y < -0.9 || glm::dot(r.coverage.largest_gap, lamp) > std::cos(0.35))
+        << "largest gap at " << r.coverage.largest_gap.x << " " << r.coverage.largest_gap.y << " "
+        << r.coverage.largest_gap.z;
     ASSERT_TRUE(r.truth_error);
     EXPECT_LT(r.truth_error->median_relative, 0.05);
     EXPECT_LT(r.truth_error->weighted_relative_rms, 0.15);
