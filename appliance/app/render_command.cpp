@@ -17,11 +17,13 @@
 #include "appliance/core/atomic_file.hpp"
 #include "appliance/core/errors.hpp"
 #include "appliance/core/exr_io.hpp"
+#include "appliance/core/strict_number.hpp"
 #include "appliance/gl/display.hpp"
 #include "appliance/render/maps.hpp"
 #include "appliance/render/material.hpp"
 #include "appliance/render/mesh.hpp"
 #include "appliance/render/renderer.hpp"
+#include "appliance/render/teapot.hpp"
 
 namespace glint::app {
 namespace {
@@ -48,9 +50,16 @@ struct RenderArgs {
 
 render::Mesh load_model(const std::string& model) {
     if (model == "sphere") return render::make_uv_sphere();
-    if (model == "teapot")
-        throw InputError("--model teapot: not built (no Newell patch data of a known licence ships yet; "
-                         "docs/render.md); use sphere, an OBJ or a glTF file");
+    if (model == "teapot" || model.rfind("teapot:", 0) == 0) {
+        // teapot:LEVEL picks the tessellation (teapot:40 is the benchmark's ~100k triangles).
+        const int level = model == "teapot" ? render::kTeapotDefaultLevel
+                                            : int(parse_int(std::string_view(model).substr(7), "--model " + model));
+        if (level < 1 || level > 400)
+            throw InputError("--model " + model + ": the teapot's level must be in [1, 400] (400: 10 million triangles)");
+        render::Mesh mesh = render::make_teapot(level);
+        render::normalise_to_unit_sphere(mesh);
+        return mesh;
+    }
     const fs::path path(model);
     std::string ext = path.extension().string();
     std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
@@ -64,7 +73,7 @@ render::Mesh load_model(const std::string& model) {
         render::normalise_to_unit_sphere(mesh);
         return mesh;
     }
-    throw InputError("--model " + model + ": want sphere, teapot, an .obj, .gltf or .glb file");
+    throw InputError("--model " + model + ": want sphere, teapot, teapot:LEVEL, an .obj, .gltf or .glb file");
 }
 
 // Nearest-rank percentile of sorted values.
@@ -207,7 +216,7 @@ Command add_render_command(CLI::App& app) {
     cmd->add_option("--maps", args->maps,
                     "Directory written by glint convolve (report.json names the maps); without it the maps the "
                     "material needs are convolved first (CPU, tolerance 1 %)");
-    cmd->add_option("--model", args->model, "sphere, teapot (not built), or an .obj, .gltf or .glb file")->capture_default_str();
+    cmd->add_option("--model", args->model, "sphere, teapot (Newell's, 16 256 triangles), teapot:LEVEL (64 L^2 - 8 L triangles; 40 gives 102 080), or an .obj, .gltf or .glb file")->capture_default_str();
     cmd->add_option("--material", args->material,
                     "matte, glossy:N, mirror or 'kd=R,G,B;ks=R,G,B;n=N' (Phong: kd E_d(N) ao + ks E_s^n(R))")
         ->capture_default_str();
