@@ -17,6 +17,9 @@ struct Mesh {
     std::vector<glm::vec3> normals;      // one per position, unit length
     std::vector<std::uint32_t> indices;  // three per triangle
     std::string source;                  // "sphere", or the file it came from
+    // Baked ambient occlusion, one per position in [0, 1] (ao_bake.hpp, ao_file.hpp); empty means
+    // ao = 1 everywhere (the sphere, a model without a matching .ao file, --no-ao).
+    std::vector<float> ao;
 
     std::size_t triangle_count() const { return indices.size() / 3; }
 };
@@ -43,6 +46,13 @@ Mesh load_gltf(const std::filesystem::path& path);
 // Gives every vertex whose normal is (0, 0, 0) the area-weighted mean of the normals of the
 // triangles around its position (`position_of[v]`: the position shared by vertex v's corners).
 void fill_missing_normals(Mesh& mesh, const std::vector<std::size_t>& position_of, std::size_t position_count);
+
+// A model as `--model` names it: "sphere", "teapot" (teapot.hpp, level 16), "teapot:LEVEL", or
+// an .obj, .gltf or .glb file; normalised into the unit sphere. Throws InputError naming `flag`.
+Mesh load_model(const std::string& spec, const std::string& flag = "--model");
+
+// Whether `spec` names a file (not one of the built-in models).
+bool model_is_file(const std::string& spec);
 
 // Moves and scales the mesh so that its axis-aligned bounding box is centred on the origin and
 // the farthest vertex is at distance 1 (the camera of renderer.hpp frames the unit sphere).
