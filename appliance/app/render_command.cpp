@@ -37,6 +37,7 @@ struct RenderArgs {
     std::string maps;
     std::string model = "sphere";
     std::string material = "matte";
+    bool material_given = false;  // --material on the command line (else a glTF's own material)
     std::string background = "env";
     std::string size = "1280x720";
     std::string out;
@@ -81,6 +82,19 @@ void load_ambient_occlusion(const std::string& model, render::Mesh& mesh) {
     mesh.ao = std::move(lookup.ao);
 }
 
+// A glTF model without --material: its own material mapped to Phong (material.hpp). One material
+// shades the whole object; a model whose triangles use several takes the first, and says so.
+render::Material material_of_gltf(const render::Mesh& mesh) {
+    const render::GltfMaterial& g = mesh.materials.front();
+    if (mesh.materials.size() > 1)
+        std::fprintf(stderr, "glint: warning: %s uses %zu materials; the whole model is shaded with the first, '%s' "
+                     "(one material per model)\n", mesh.source.c_str(), mesh.materials.size(), g.name.c_str());
+    if (g.textured)
+        std::fprintf(stderr, "glint: warning: %s: material '%s' names textures, which are not read (its factors are used)\n",
+                     mesh.source.c_str(), g.name.c_str());
+    return render::material_from_gltf(g);
+}
+
 // Nearest-rank percentile of sorted values.
 double percentile(const std::vector<double>& sorted, double p) {
     if (sorted.empty()) return 0;
@@ -96,7 +110,7 @@ double median(const std::vector<double>& sorted) {
 
 int run_render(const RenderArgs& args) {
     // Everything the user typed is checked before any work.
-    const render::Material material = render::parse_material(args.material, "--material");
+    render::Material material = render::parse_material(args.material, "--material");
     const convolution::Size size = parse_size(args.size, "--size");
     if (args.frames < 1) throw InputError("--frames: must be at least 1");
     if (!(args.key > 0 && args.key < 1)) throw InputError("--key: must be in (0, 1)");
@@ -108,6 +122,8 @@ int run_render(const RenderArgs& args) {
     }
     render::Mesh mesh = render::load_model(args.model);
     if (!args.no_ao) load_ambient_occlusion(args.model, mesh);
+    if (!args.material_given && !mesh.materials.empty()) material = material_of_gltf(mesh);
+    std::printf("material: %s\n", material.spec.c_str());
     // Files are written after the frames: a place they cannot go is bad input, found first.
     for (const auto& [flag, file] : {std::pair{"--out", args.out}, std::pair{"--stats", args.stats}}) {
         if (file.empty()) continue;
@@ -223,8 +239,9 @@ Command add_render_command(CLI::App& app) {
                     "Directory written by glint convolve (report.json names the maps); without it the maps the "
                     "material needs are convolved first (CPU, tolerance 1 %)");
     cmd->add_option("--model", args->model, "sphere, teapot (Newell's, 16 256 triangles), teapot:LEVEL (64 L^2 - 8 L triangles; 40 gives 102 080), or an .obj, .gltf or .glb file")->capture_default_str();
-    cmd->add_option("--material", args->material,
-                    "matte, glossy:N, mirror or 'kd=R,G,B;ks=R,G,B;n=N' (Phong: kd E_d(N) ao + ks E_s^n(R))")
+    CLI::Option* material_option = cmd->add_option("--material", args->material,
+                    "matte, glossy:N, mirror or 'kd=R,G,B;ks=R,G,B;n=N' (Phong: kd E_d(N) ao + ks E_s^n(R)); a glTF model "
+                    "without it uses its own metallic-roughness material mapped to Phong")
         ->capture_default_str();
     cmd->add_option("--background", args->background, "env (the environment through the camera), black or IMAGE.png")
         ->capture_default_str();
@@ -243,7 +260,10 @@ Command add_render_command(CLI::App& app) {
     cmd->add_option("--threads", args->threads, "Worker threads of the convolution; 0 = all cores")
         ->check(CLI::NonNegativeNumber)
         ->capture_default_str();
-    return {cmd, [args] { return run_render(*args); }};
+    return {cmd, [args, material_option] {
+                args->material_given = material_option->count() > 0;
+                return run_render(*args);
+            }};
 }
 
 }  // namespace glint::app
