@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <memory>
 #include <mutex>
+#include <string>
 #include <nlohmann/json.hpp>
 #include <utility>
 
@@ -25,6 +26,7 @@
 #include "appliance/render/material.hpp"
 #include "appliance/render/mesh.hpp"
 #include "appliance/render/renderer.hpp"
+#include "appliance/render/teapot.hpp"
 
 namespace glint::app {
 namespace {
@@ -52,7 +54,7 @@ struct RenderArgs {
 
 // The model's baked ambient occlusion (docs/render.md, "Ambient occlusion"): MODEL.ao beside a
 // model file when it matches (a stale or unreadable one is reported and ignored); the built-in
-// teapot is baked here, at each run (0.35 s at level 16, 3.9 s at level 40 on two loaded cores); the
+// teapot is baked here, at each run (0.35 s at level 16 on two loaded cores); the
 // sphere has none (ao = 1: nothing of a convex object occludes itself).
 void load_ambient_occlusion(const std::string& model, render::Mesh& mesh) {
     if (model == "sphere") return;
@@ -70,9 +72,20 @@ void load_ambient_occlusion(const std::string& model, render::Mesh& mesh) {
             std::fprintf(stderr, "glint: baking the teapot's ambient occlusion: %zu of %zu vertices (%.0f %%)\n", done,
                          total, 100.0 * double(done) / double(total));
         };
-        mesh.ao = render::bake_ambient_occlusion(mesh, options);
-        std::printf("ambient occlusion: baked for %s (%zu vertices, %d rays, max distance %.2g radius) in %.2f s\n",
-                    model.c_str(), mesh.positions.size(), options.rays, options.max_distance_relative,
+        // A teapot finer than the default is baked at the default level and the ao resampled in
+        // each patch's (u, v): ao varies slowly over the surface, and teapot:40 would take 10x as
+        // long to bake (docs/render.md measures the difference).
+        const int level = model == "teapot" ? render::kTeapotDefaultLevel : std::stoi(model.substr(7));
+        const int bake_level = std::min(level, render::kTeapotDefaultLevel);
+        if (bake_level == level) {
+            mesh.ao = render::bake_ambient_occlusion(mesh, options);
+        } else {
+            render::Mesh coarse = render::make_teapot(bake_level);
+            render::normalise_to_unit_sphere(coarse);
+            mesh.ao = render::resample_teapot_field(render::bake_ambient_occlusion(coarse, options), bake_level, level);
+        }
+        std::printf("ambient occlusion: baked for %s at level %d (%d rays, max distance %.2g radius) in %.2f s\n",
+                    model.c_str(), bake_level, options.rays, options.max_distance_relative,
                     std::chrono::duration<double>(Clock::now() - t0).count());
         return;
     }

@@ -1,6 +1,8 @@
 #include "appliance/render/teapot.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <string>
 
 #include "appliance/core/errors.hpp"
 
@@ -239,6 +241,35 @@ Mesh make_teapot(int level) {
             }
     }
     return m;
+}
+
+std::vector<float> resample_teapot_field(const std::vector<float>& values, int from_level, int to_level) {
+    if (from_level < 1 || to_level < 1) throw InputError("teapot: tessellation levels must be at least 1");
+    const std::size_t nf = std::size_t(from_level + 1), nt = std::size_t(to_level + 1);
+    if (values.size() != 32 * nf * nf)
+        throw InputError("teapot: " + std::to_string(values.size()) + " values for a level-" + std::to_string(from_level) +
+                         " teapot of " + std::to_string(32 * nf * nf) + " vertices");
+    std::vector<float> out;
+    out.reserve(32 * nt * nt);
+    for (std::size_t p = 0; p < 32; ++p) {
+        const float* grid = values.data() + p * nf * nf;
+        for (std::size_t i = 0; i < nt; ++i) {
+            // Same parameter, two grids: v = i / to_level = y / from_level.
+            const double y = double(i) * from_level / to_level;
+            const std::size_t y0 = std::min(std::size_t(y), nf - 2);
+            const double fy = y - double(y0);
+            for (std::size_t j = 0; j < nt; ++j) {
+                const double x = double(j) * from_level / to_level;
+                const std::size_t x0 = std::min(std::size_t(x), nf - 2);
+                const double fx = x - double(x0);
+                const auto at = [&](std::size_t r, std::size_t c) { return double(grid[r * nf + c]); };
+                const double top = at(y0, x0) * (1 - fx) + at(y0, x0 + 1) * fx;
+                const double bottom = at(y0 + 1, x0) * (1 - fx) + at(y0 + 1, x0 + 1) * fx;
+                out.push_back(float(top * (1 - fy) + bottom * fy));
+            }
+        }
+    }
+    return out;
 }
 
 }  // namespace glint::render

@@ -8,6 +8,7 @@
 
 #include <array>
 #include <cstddef>
+#include <vector>
 
 #include <glm/glm.hpp>
 
@@ -30,6 +31,12 @@ Mesh make_teapot(int level = kTeapotDefaultLevel);
 
 // The triangle count make_teapot(level) gives.
 std::size_t teapot_triangle_count(int level);
+
+// A per-vertex field of make_teapot(from_level) (ambient occlusion, say) resampled onto the
+// vertices of make_teapot(to_level): bilinear in each patch's (u, v), which both tessellations
+// share. Lets a bake on a coarse teapot serve a fine one (docs/render.md, "Ambient occlusion").
+// Throws InputError when `values` is not one per vertex of from_level.
+std::vector<float> resample_teapot_field(const std::vector<float>& values, int from_level, int to_level);
 
 // The raw data, for the tests: 306 control points (Newell's Z-up frame) and, per patch, the 16
 // control-point indices (0-based) in row-major order (4 rows in v of 4 points in u).

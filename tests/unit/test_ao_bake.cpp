@@ -13,6 +13,7 @@
 #include "appliance/core/errors.hpp"
 #include "appliance/render/ao_bake.hpp"
 #include "appliance/render/ao_file.hpp"
+#include "appliance/render/teapot.hpp"
 #include "test_support.hpp"
 
 namespace glint::render {
@@ -165,6 +166,48 @@ TEST(AoBake, RejectsBadInput) {
     o.rays = 8;
     o.max_distance_relative = 0;
     EXPECT_THROW(bake_ambient_occlusion(m, o), InputError);
+}
+
+TEST(AoBake, TeapotFieldResamplesInEachPatch) {
+    // A field linear in each patch's (u, v) is reproduced exactly; the same level is the identity.
+    const int from = 4, to = 10;
+    std::vector<float> field;
+    for (int p = 0; p < 32; ++p)
+        for (int i = 0; i <= from; ++i)
+            for (int j = 0; j <= from; ++j) field.push_back(float(p) + 0.25f * float(i) / from + 0.5f * float(j) / from);
+    const auto fine = resample_teapot_field(field, from, to);
+    ASSERT_EQ(fine.size(), std::size_t(32 * (to + 1) * (to + 1)));
+    for (int p = 0; p < 32; ++p)
+        for (int i = 0; i <= to; ++i)
+            for (int j = 0; j <= to; ++j)
+                ASSERT_NEAR(fine[std::size_t((p * (to + 1) + i) * (to + 1) + j)],
+                            float(p) + 0.25f * float(i) / to + 0.5f * float(j) / to, 1e-5f);
+    EXPECT_EQ(resample_teapot_field(field, from, from), field);
+    EXPECT_THROW(resample_teapot_field(field, from + 1, to), InputError);
+}
+
+// What glint render does for a teapot finer than level 16: bake the coarse one, resample. Against
+// a bake of the fine one itself (here 8 -> 24, 128 rays, so that the test stays short).
+TEST(AoBake, ResampledTeapotBakeIsCloseToADirectOne) {
+    AoBakeOptions o;
+    o.rays = 128;
+    Mesh coarse = make_teapot(8), fine = make_teapot(24);
+    normalise_to_unit_sphere(coarse);
+    normalise_to_unit_sphere(fine);
+    const auto resampled = resample_teapot_field(bake_ambient_occlusion(coarse, o), 8, 24);
+    const auto direct = bake_ambient_occlusion(fine, o);
+    double sum = 0, worst = 0, mean = 0;
+    for (std::size_t k = 0; k < direct.size(); ++k) {
+        const double d = std::abs(double(resampled[k]) - double(direct[k]));
+        sum += d;
+        worst = std::max(worst, d);
+        mean += direct[k];
+    }
+    std::printf("teapot ao, level 8 resampled to 24 against 24 baked: mean |diff| %.4f, worst %.4f (mean ao %.3f)\n",
+                sum / double(direct.size()), worst, mean / double(direct.size()));
+    EXPECT_LT(sum / double(direct.size()), 0.03);
+    EXPECT_GT(mean / double(direct.size()), 0.5);  // the teapot is mostly open...
+    EXPECT_LT(mean / double(direct.size()), 0.95);  // ...but its inside, spout and handle are not
 }
 
 class AoFileTest : public testing::TempDirTest {};
