@@ -11,7 +11,7 @@ namespace {
 
 // Newell's teapot, Z up: 306 control points. Public domain (Martin Newell, University of Utah,
 // 1975); the set as published in Crow, "The Origins of the Teapot", IEEE CG&A 7(1), 1987, and
-// copied unchanged into many programs since. Four of the points (205, 206, 216 and 223 in the
+// copied unchanged into many programs since (compared with Steve Baker's `teaset` copy: identical). Four of the points (205, 206, 216 and 223 in the
 // original 1-based numbering: the knob's top nudged off the axis by 0.002) are used by no patch of
 // this set, whose knob patches collapse to point 204 instead; they are kept so that the numbering
 // stays the original's. Mirror-symmetric in y (tested).
