@@ -27,6 +27,7 @@ packages=(
   libglm-dev                           # the appliance's vectors, quaternions and matrices (appliance/core/rotation.hpp)
   libeigen3-dev                        # capture: the global adjustment's sparse Cholesky (appliance/capture)
   libtinygltf-dev                      # glTF 2.0 models for glint render (appliance/render)
+  libembree-dev                        # ambient occlusion baked by ray tracing, glint bake-ao (appliance/render)
 )
 
 missing=()

@@ -13,8 +13,8 @@ uniform bool u_specular;  // ks > 0: the reflection map is bound
 uniform vec3 u_eye;
 uniform vec3 u_kd;
 uniform vec3 u_ks;
-uniform float u_ao;  // no baked occlusion yet: 1 (docs/render.md)
 in vec3 v_normal;
+in float v_ao;  // baked ambient occlusion, interpolated; multiplies the diffuse term only
 in vec3 v_world;
 layout(location = 0) out vec4 o_radiance;
 layout(location = 1) out vec4 o_normal;
@@ -26,7 +26,7 @@ void main() {
     vec3 v = normalize(v_world - u_eye);
     vec3 r = normalize(reflect(v, n));
     vec3 radiance = vec3(0.0);
-    if (u_diffuse) radiance += u_kd * equirect_bilinear(u_irradiance, n) * u_ao;
+    if (u_diffuse) radiance += u_kd * equirect_bilinear(u_irradiance, n) * v_ao;
     if (u_specular) radiance += u_ks * equirect_bilinear(u_reflection, r);
     o_radiance = vec4(radiance, 1.0);
     o_normal = vec4(n, 1.0);

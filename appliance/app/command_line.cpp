@@ -33,6 +33,8 @@ constexpr CommandSummary kSummaries[] = {
      "Render an object lit by an environment map's irradiance and Phong reflection maps on a display (headless by "
      "default): PNG frame, AOVs (radiance, normal, reflection EXR), frame-time statistics",
      false},
+    {"bake-ao",
+     "Bake a model's per-vertex ambient occlusion with Embree into MODEL.ao, which glint render uses", false},
     {"simulate",
      "Render a recorded capture session with ground truth from an equirect HDR map: camera frames through a camera "
      "model (distortion, vignetting, response, noise, auto-exposure) along a trajectory, and the sensor board's "

@@ -1,7 +1,7 @@
 // Subcommands of `glint`. Each registers itself on a CLI11 app and returns the function that runs
 // when it was chosen. They are split over two executables so that a command loads only the
 // libraries it needs (docs/architecture.md, "Two executables"):
-//   glint         convolve, compare, sensors, render: core, convolution, GL and displays, render,
+//   glint         convolve, compare, sensors, render, bake-ao: core, convolution, GL and displays, render,
 //                 sensor bridge;
 //   glint-vision  simulate, capture, calibrate, cameras: everything that needs OpenCV or libcamera,
 //                 whose loading alone takes longer than a whole small convolution.
@@ -40,6 +40,7 @@ Command add_convolve_command(CLI::App& app);  // glint convolve IN.exr --out DIR
 Command add_compare_command(CLI::App& app);   // glint compare MAP.exr REFERENCE.exr
 Command add_sensors_command(CLI::App& app);   // glint sensors --source SPEC ...
 Command add_render_command(CLI::App& app);    // glint render --env ENV.exr --model sphere ...
+Command add_bake_ao_command(CLI::App& app);   // glint bake-ao MODEL [--rays N] [--out FILE]
 
 // glint-vision (one file each)
 Command add_simulate_command(CLI::App& app);   // glint simulate --env ENV.exr --out SESSION ...

@@ -21,6 +21,6 @@ int main(int argc, char** argv) {
     glint::keep_freed_memory();
     constexpr glint::app::CommandRegistrar commands[] = {
         glint::app::add_convolve_command, glint::app::add_compare_command, glint::app::add_sensors_command,
-        glint::app::add_render_command};
+        glint::app::add_render_command, glint::app::add_bake_ao_command};
     return glint::app::run_command_line(argc, argv, commands, /*list_vision_commands=*/true);
 }

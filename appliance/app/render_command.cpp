@@ -9,6 +9,8 @@
 #include <cstdio>
 #include <filesystem>
 #include <memory>
+#include <mutex>
+#include <string>
 #include <nlohmann/json.hpp>
 #include <utility>
 
@@ -18,10 +20,13 @@
 #include "appliance/core/errors.hpp"
 #include "appliance/core/exr_io.hpp"
 #include "appliance/gl/display.hpp"
+#include "appliance/render/ao_bake.hpp"
+#include "appliance/render/ao_file.hpp"
 #include "appliance/render/maps.hpp"
 #include "appliance/render/material.hpp"
 #include "appliance/render/mesh.hpp"
 #include "appliance/render/renderer.hpp"
+#include "appliance/render/teapot.hpp"
 
 namespace glint::app {
 namespace {
@@ -34,6 +39,7 @@ struct RenderArgs {
     std::string maps;
     std::string model = "sphere";
     std::string material = "matte";
+    bool material_given = false;  // --material on the command line (else a glTF's own material)
     std::string background = "env";
     std::string size = "1280x720";
     std::string out;
@@ -46,25 +52,60 @@ struct RenderArgs {
     int threads = 0;
 };
 
-render::Mesh load_model(const std::string& model) {
-    if (model == "sphere") return render::make_uv_sphere();
-    if (model == "teapot")
-        throw InputError("--model teapot: not built (no Newell patch data of a known licence ships yet; "
-                         "docs/render.md); use sphere, an OBJ or a glTF file");
-    const fs::path path(model);
-    std::string ext = path.extension().string();
-    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
-    if (ext == ".obj") {
-        render::Mesh mesh = render::load_obj(path);
-        render::normalise_to_unit_sphere(mesh);
-        return mesh;
+// The model's baked ambient occlusion (docs/render.md, "Ambient occlusion"): MODEL.ao beside a
+// model file when it matches (a stale or unreadable one is reported and ignored); the built-in
+// teapot is baked here, at each run (0.35 s at level 16 on two loaded cores); the
+// sphere has none (ao = 1: nothing of a convex object occludes itself).
+void load_ambient_occlusion(const std::string& model, render::Mesh& mesh) {
+    if (model == "sphere") return;
+    if (!render::model_is_file(model)) {
+        const auto t0 = Clock::now();
+        render::AoBakeOptions options;
+        // Progress once a second after the first (teapot:40 takes a few seconds on two cores).
+        auto last = t0;
+        std::mutex mutex;
+        options.progress = [&](std::size_t done, std::size_t total) {
+            std::lock_guard lock(mutex);
+            const auto now = Clock::now();
+            if (now - last < std::chrono::seconds(1) || done == total) return;
+            last = now;
+            std::fprintf(stderr, "glint: baking the teapot's ambient occlusion: %zu of %zu vertices (%.0f %%)\n", done,
+                         total, 100.0 * double(done) / double(total));
+        };
+        // A teapot finer than the default is baked at the default level and the ao resampled in
+        // each patch's (u, v): ao varies slowly over the surface, and teapot:40 would take 10x as
+        // long to bake (docs/render.md measures the difference).
+        const int level = model == "teapot" ? render::kTeapotDefaultLevel : std::stoi(model.substr(7));
+        const int bake_level = std::min(level, render::kTeapotDefaultLevel);
+        if (bake_level == level) {
+            mesh.ao = render::bake_ambient_occlusion(mesh, options);
+        } else {
+            render::Mesh coarse = render::make_teapot(bake_level);
+            render::normalise_to_unit_sphere(coarse);
+            mesh.ao = render::resample_teapot_field(render::bake_ambient_occlusion(coarse, options), bake_level, level);
+        }
+        std::printf("ambient occlusion: baked for %s at level %d (%d rays, max distance %.2g radius) in %.2f s\n",
+                    model.c_str(), bake_level, options.rays, options.max_distance_relative,
+                    std::chrono::duration<double>(Clock::now() - t0).count());
+        return;
     }
-    if (ext == ".gltf" || ext == ".glb") {
-        render::Mesh mesh = render::load_gltf(path);
-        render::normalise_to_unit_sphere(mesh);
-        return mesh;
-    }
-    throw InputError("--model " + model + ": want sphere, teapot, an .obj, .gltf or .glb file");
+    render::AoLookup lookup = render::find_ao_for(model, mesh.positions.size());
+    if (lookup.found && !lookup.used) std::fprintf(stderr, "glint: warning: ambient occlusion ignored, %s\n", lookup.status.c_str());
+    std::printf("ambient occlusion: %s\n", lookup.used ? lookup.status.c_str() : "none (ao = 1)");
+    mesh.ao = std::move(lookup.ao);
+}
+
+// A glTF model without --material: its own material mapped to Phong (material.hpp). One material
+// shades the whole object; a model whose triangles use several takes the first, and says so.
+render::Material material_of_gltf(const render::Mesh& mesh) {
+    const render::GltfMaterial& g = mesh.materials.front();
+    if (mesh.materials.size() > 1)
+        std::fprintf(stderr, "glint: warning: %s uses %zu materials; the whole model is shaded with the first, '%s' "
+                     "(one material per model)\n", mesh.source.c_str(), mesh.materials.size(), g.name.c_str());
+    if (g.textured)
+        std::fprintf(stderr, "glint: warning: %s: material '%s' names textures, which are not read (its factors are used)\n",
+                     mesh.source.c_str(), g.name.c_str());
+    return render::material_from_gltf(g);
 }
 
 // Nearest-rank percentile of sorted values.
@@ -82,7 +123,7 @@ double median(const std::vector<double>& sorted) {
 
 int run_render(const RenderArgs& args) {
     // Everything the user typed is checked before any work.
-    const render::Material material = render::parse_material(args.material, "--material");
+    render::Material material = render::parse_material(args.material, "--material");
     const convolution::Size size = parse_size(args.size, "--size");
     if (args.frames < 1) throw InputError("--frames: must be at least 1");
     if (!(args.key > 0 && args.key < 1)) throw InputError("--key: must be in (0, 1)");
@@ -92,7 +133,10 @@ int run_render(const RenderArgs& args) {
             throw InputError("--background " + args.background + ": want env, black or a .png image");
         background_image = gl::load_png(args.background);
     }
-    render::Mesh mesh = load_model(args.model);
+    render::Mesh mesh = render::load_model(args.model);
+    if (!args.no_ao) load_ambient_occlusion(args.model, mesh);
+    if (!args.material_given && !mesh.materials.empty()) material = material_of_gltf(mesh);
+    std::printf("material: %s\n", material.spec.c_str());
     // Files are written after the frames: a place they cannot go is bad input, found first.
     for (const auto& [flag, file] : {std::pair{"--out", args.out}, std::pair{"--stats", args.stats}}) {
         if (file.empty()) continue;
@@ -207,9 +251,10 @@ Command add_render_command(CLI::App& app) {
     cmd->add_option("--maps", args->maps,
                     "Directory written by glint convolve (report.json names the maps); without it the maps the "
                     "material needs are convolved first (CPU, tolerance 1 %)");
-    cmd->add_option("--model", args->model, "sphere, teapot (not built), or an .obj, .gltf or .glb file")->capture_default_str();
-    cmd->add_option("--material", args->material,
-                    "matte, glossy:N, mirror or 'kd=R,G,B;ks=R,G,B;n=N' (Phong: kd E_d(N) ao + ks E_s^n(R))")
+    cmd->add_option("--model", args->model, "sphere, teapot (Newell's, 16 256 triangles), teapot:LEVEL (64 L^2 - 8 L triangles; 40 gives 102 080), or an .obj, .gltf or .glb file")->capture_default_str();
+    CLI::Option* material_option = cmd->add_option("--material", args->material,
+                    "matte, glossy:N, mirror or 'kd=R,G,B;ks=R,G,B;n=N' (Phong: kd E_d(N) ao + ks E_s^n(R)); a glTF model "
+                    "without it uses its own metallic-roughness material mapped to Phong")
         ->capture_default_str();
     cmd->add_option("--background", args->background, "env (the environment through the camera), black or IMAGE.png")
         ->capture_default_str();
@@ -218,7 +263,7 @@ Command add_render_command(CLI::App& app) {
         ->capture_default_str();
     cmd->add_option("--out", args->out, "Write the displayed frame as PNG");
     cmd->add_option("--aov", args->aov, "Write radiance.exr (RGBA), normal.exr, reflect.exr into this directory");
-    cmd->add_flag("--no-ao", args->no_ao, "Turn ambient occlusion off (no baked occlusion is built yet: ao = 1 either way)");
+    cmd->add_flag("--no-ao", args->no_ao, "Turn ambient occlusion off (ao = 1); otherwise MODEL.ao from glint bake-ao is used when it matches the model, and the teapot is baked at start");
     cmd->add_option("--frames", args->frames, "Frames to render and time")->check(CLI::PositiveNumber)->capture_default_str();
     cmd->add_option("--stats", args->stats, "Write frame-time statistics (median, p99, max ms) as JSON");
     cmd->add_option("--display", args->display, "headless, window, kms or auto")
@@ -228,7 +273,10 @@ Command add_render_command(CLI::App& app) {
     cmd->add_option("--threads", args->threads, "Worker threads of the convolution; 0 = all cores")
         ->check(CLI::NonNegativeNumber)
         ->capture_default_str();
-    return {cmd, [args] { return run_render(*args); }};
+    return {cmd, [args, material_option] {
+                args->material_given = material_option->count() > 0;
+                return run_render(*args);
+            }};
 }
 
 }  // namespace glint::app

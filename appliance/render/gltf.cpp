@@ -2,6 +2,7 @@
 // defines TINYGLTF_IMPLEMENTATION).
 #include <tiny_gltf.h>
 
+#include <algorithm>
 #include <cstring>
 #include <functional>
 
@@ -104,6 +105,29 @@ Mesh load_gltf(const std::filesystem::path& path) {
     std::vector<std::size_t> position_of;
     int skipped = 0;
 
+    // The materials the triangles use, each once, in order of first use (-1: glTF's default).
+    std::vector<int> used_materials;
+    const auto use_material = [&](int k) {
+        if (k >= int(model.materials.size())) reader.fail("a primitive names no material " + std::to_string(k));
+        if (std::find(used_materials.begin(), used_materials.end(), k) != used_materials.end()) return;
+        used_materials.push_back(k);
+        GltfMaterial g;
+        if (k < 0) {
+            g.name = "default";
+        } else {
+            const tinygltf::Material& m = model.materials[std::size_t(k)];
+            const tinygltf::PbrMetallicRoughness& pbr = m.pbrMetallicRoughness;
+            g.name = m.name.empty() ? "material " + std::to_string(k) : m.name;
+            if (pbr.baseColorFactor.size() >= 3) g.base_color = {pbr.baseColorFactor[0], pbr.baseColorFactor[1], pbr.baseColorFactor[2]};
+            g.metallic = pbr.metallicFactor;
+            g.roughness = pbr.roughnessFactor;
+            g.textured = pbr.baseColorTexture.index >= 0 || pbr.metallicRoughnessTexture.index >= 0;
+            for (double c : {g.base_color.x, g.base_color.y, g.base_color.z, g.metallic, g.roughness})
+                if (!(c >= 0.0 && c <= 1.0)) reader.fail("material '" + g.name + "': a factor outside [0, 1]");
+        }
+        mesh.materials.push_back(g);
+    };
+
     const auto add_mesh = [&](int mesh_index, const glm::dmat4& world) {
         if (mesh_index < 0 || mesh_index >= int(model.meshes.size())) reader.fail("node names no mesh " + std::to_string(mesh_index));
         const glm::dmat3 normal_matrix = glm::transpose(glm::inverse(glm::dmat3(world)));
@@ -140,6 +164,7 @@ Mesh load_gltf(const std::filesystem::path& path) {
                 for (std::size_t k = 0; k < n; ++k) mesh.indices.push_back(std::uint32_t(base + k));
             }
             if ((mesh.indices.size() - first_index) % 3 != 0) reader.fail("a triangle list whose index count is not a multiple of 3");
+            if (mesh.indices.size() > first_index) use_material(prim.material);
         }
     };
 

@@ -1,7 +1,10 @@
 #include "appliance/render/material.hpp"
 
 #include <cmath>
+#include <algorithm>
 #include <cstdio>
+#include <cstdlib>
+#include <string>
 
 #include "appliance/core/errors.hpp"
 #include "appliance/core/strict_number.hpp"
@@ -89,6 +92,31 @@ Material parse_material(const std::string& text, const std::string& flag) {
         else m.n = parse_shininess(value, where);
     }
     if (!m.diffuse() && !m.specular()) throw InputError(where + ": kd and ks are both 0 (a black object)");
+    return m;
+}
+
+double phong_exponent_from_roughness(double roughness) {
+    const double alpha = roughness * roughness;
+    const double n = alpha > 0 ? 0.5 / (alpha * alpha) - 0.5 : HUGE_VAL;
+    return n > 1e5 ? HUGE_VAL : std::max(0.0, n);
+}
+
+Material material_from_gltf(const GltfMaterial& g) {
+    Material m;
+    m.kd = g.base_color * (1.0 - g.metallic);
+    m.ks = glm::mix(glm::dvec3(0.04), g.base_color, g.metallic);
+    const double n = phong_exponent_from_roughness(g.roughness);
+    m.mirror = std::isinf(n);
+    // Four significant digits: the exponent names the map (phong_label), and the lobe does not
+    // change visibly below that.
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "%.4g", m.mirror ? 1.0 : n);
+    m.n = std::strtod(buf, nullptr);
+    char spec[256];
+    std::snprintf(spec, sizeof spec, "gltf '%s' (base %.3g,%.3g,%.3g metallic %.3g roughness %.3g): kd=%.4g,%.4g,%.4g;ks=%.4g,%.4g,%.4g;%s",
+                  g.name.c_str(), g.base_color.x, g.base_color.y, g.base_color.z, g.metallic, g.roughness, m.kd.x, m.kd.y,
+                  m.kd.z, m.ks.x, m.ks.y, m.ks.z, m.mirror ? "mirror" : ("n=" + std::string(buf)).c_str());
+    m.spec = spec;
     return m;
 }
 

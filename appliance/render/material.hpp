@@ -9,6 +9,7 @@
 #include <glm/glm.hpp>
 
 #include "appliance/convolution/convolution.hpp"
+#include "appliance/render/mesh.hpp"
 
 namespace glint::render {
 
@@ -27,6 +28,20 @@ struct Material {
 // or `kd=R,G,B;ks=R,G,B;n=N` (keys in any order; a key left out is 0, n defaults to 1; one number
 // stands for all three channels). Throws InputError naming `flag` and the text at fault.
 Material parse_material(const std::string& text, const std::string& flag = "--material");
+
+// glTF's metallic-roughness mapped to Phong (docs/render.md, "Materials from glTF"):
+//   kd = baseColor (1 - metallic)                 the Lambertian albedo glTF gives the base layer
+//   ks = lerp(0.04, baseColor, metallic)          glTF's F0 (Fresnel at normal incidence)
+//   alpha = roughness^2,  n = 1 / (2 alpha^2) - 1/2
+// n is Blinn-Phong's exponent matched to the GGX/Beckmann width, 2/alpha^2 - 2, divided by 4: the
+// conventions' lobe is about R, where angles are twice those about H (measured against GGX in
+// docs/render.md). n > 1e5 (roughness < 0.047; a lobe under 0.2 degrees wide, less than a texel of
+// a 1024-wide map) becomes the mirror. Fresnel's rise at grazing angles, GGX's energy loss at high
+// roughness and textures are not modelled. `spec` says where it came from.
+Material material_from_gltf(const GltfMaterial& gltf);
+
+// The exponent of the mapping above (infinity below roughness 0.047 means the mirror).
+double phong_exponent_from_roughness(double roughness);
 
 // The maps the material shades with, each lobe once: the irradiance map when kd > 0, the Phong
 // map of n (or the mirror map) when ks > 0.

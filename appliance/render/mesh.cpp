@@ -1,6 +1,7 @@
 #include "appliance/render/mesh.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <fstream>
 #include <map>
@@ -10,6 +11,7 @@
 #include "appliance/core/equirect.hpp"
 #include "appliance/core/errors.hpp"
 #include "appliance/core/strict_number.hpp"
+#include "appliance/render/teapot.hpp"
 
 namespace glint::render {
 
@@ -151,6 +153,33 @@ void fill_missing_normals(Mesh& mesh, const std::vector<std::size_t>& position_o
         // A position only on degenerate faces keeps an arbitrary unit normal.
         mesh.normals[i] = len > 0 ? glm::vec3(n / len) : glm::vec3(0, 1, 0);
     }
+}
+
+bool model_is_file(const std::string& spec) {
+    return !(spec == "sphere" || spec == "teapot" || spec.rfind("teapot:", 0) == 0);
+}
+
+Mesh load_model(const std::string& spec, const std::string& flag) {
+    if (spec == "sphere") return make_uv_sphere();
+    if (!model_is_file(spec)) {
+        // teapot:LEVEL picks the tessellation (teapot:40 is the benchmark's ~100k triangles).
+        const int level = spec == "teapot" ? kTeapotDefaultLevel
+                                           : int(parse_int(std::string_view(spec).substr(7), flag + " " + spec));
+        if (level < 1 || level > 400)
+            throw InputError(flag + " " + spec + ": the teapot's level must be in [1, 400] (400: 10 million triangles)");
+        Mesh mesh = make_teapot(level);
+        normalise_to_unit_sphere(mesh);
+        return mesh;
+    }
+    const std::filesystem::path path(spec);
+    std::string ext = path.extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+    Mesh mesh;
+    if (ext == ".obj") mesh = load_obj(path);
+    else if (ext == ".gltf" || ext == ".glb") mesh = load_gltf(path);
+    else throw InputError(flag + " " + spec + ": want sphere, teapot, teapot:LEVEL, an .obj, .gltf or .glb file");
+    normalise_to_unit_sphere(mesh);
+    return mesh;
 }
 
 void normalise_to_unit_sphere(Mesh& mesh) {

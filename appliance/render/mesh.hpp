@@ -12,11 +12,27 @@
 
 namespace glint::render {
 
+// A glTF material's metallic-roughness factors (glTF 2.0, "pbrMetallicRoughness"), as read;
+// material.hpp maps them to Phong. Textures are not read (`textured` says one was named).
+struct GltfMaterial {
+    std::string name;                 // the material's name, or "material K", or "default"
+    glm::dvec3 base_color{1.0};       // baseColorFactor's RGB (linear); alpha is ignored
+    double metallic = 1.0;            // metallicFactor
+    double roughness = 1.0;           // roughnessFactor
+    bool textured = false;            // a base-colour or metallic-roughness texture was named (ignored)
+};
+
 struct Mesh {
     std::vector<glm::vec3> positions;
     std::vector<glm::vec3> normals;      // one per position, unit length
     std::vector<std::uint32_t> indices;  // three per triangle
     std::string source;                  // "sphere", or the file it came from
+    // Baked ambient occlusion, one per position in [0, 1] (ao_bake.hpp, ao_file.hpp); empty means
+    // ao = 1 everywhere (the sphere, a model without a matching .ao file, --no-ao).
+    std::vector<float> ao;
+    // glTF only: the materials of the triangles read, in order of first use (a primitive without
+    // a material uses glTF's default: base colour 1, metallic 1, roughness 1). Empty for OBJ.
+    std::vector<GltfMaterial> materials;
 
     std::size_t triangle_count() const { return indices.size() / 3; }
 };
@@ -36,13 +52,21 @@ Mesh load_obj(const std::filesystem::path& path);
 // every mesh of the default scene (the first scene, or every mesh when there is none), each placed
 // by its node's transform (matrix or translation, rotation, scale, down the node tree). POSITION
 // and, when present, NORMAL (float VEC3); indices of any unsigned type or none. Primitives that are
-// not triangle lists are skipped; materials are not read (the material comes from --material).
+// not triangle lists are skipped. The metallic-roughness factors of the primitives' materials go
+// to Mesh::materials (textures are not read).
 // Vertices without normals get area-weighted face normals. Throws InputError naming the file.
 Mesh load_gltf(const std::filesystem::path& path);
 
 // Gives every vertex whose normal is (0, 0, 0) the area-weighted mean of the normals of the
 // triangles around its position (`position_of[v]`: the position shared by vertex v's corners).
 void fill_missing_normals(Mesh& mesh, const std::vector<std::size_t>& position_of, std::size_t position_count);
+
+// A model as `--model` names it: "sphere", "teapot" (teapot.hpp, level 16), "teapot:LEVEL", or
+// an .obj, .gltf or .glb file; normalised into the unit sphere. Throws InputError naming `flag`.
+Mesh load_model(const std::string& spec, const std::string& flag = "--model");
+
+// Whether `spec` names a file (not one of the built-in models).
+bool model_is_file(const std::string& spec);
 
 // Moves and scales the mesh so that its axis-aligned bounding box is centred on the origin and
 // the farthest vertex is at distance 1 (the camera of renderer.hpp frames the unit sphere).

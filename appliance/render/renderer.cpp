@@ -128,6 +128,18 @@ Renderer::Renderer(const Mesh& mesh, const Material& material, const ShadingMaps
     glVertexAttribPointer(0, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float), nullptr);
     glEnableVertexAttribArray(1);
     glVertexAttribPointer(1, 3, GL_FLOAT, GL_FALSE, 6 * sizeof(float), reinterpret_cast<const void*>(3 * sizeof(float)));
+    // Baked ambient occlusion, attribute 2, in its own buffer; a mesh without it reads the
+    // attribute's constant value, set to 1 in draw() (so does --no-ao).
+    if (!mesh.ao.empty()) {
+        if (mesh.ao.size() != mesh.positions.size())
+            throw InputError("renderer: the mesh " + mesh.source + " has " + std::to_string(mesh.ao.size()) +
+                             " ao values for " + std::to_string(mesh.positions.size()) + " vertices");
+        ao_values_ = gl::GlBuffer::create();
+        glBindBuffer(GL_ARRAY_BUFFER, ao_values_.id());
+        glBufferData(GL_ARRAY_BUFFER, GLsizeiptr(mesh.ao.size() * sizeof(float)), mesh.ao.data(), GL_STATIC_DRAW);
+        glVertexAttribPointer(2, 1, GL_FLOAT, GL_FALSE, sizeof(float), nullptr);
+        has_ao_ = true;
+    }
     glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, indices_.id());
     glBufferData(GL_ELEMENT_ARRAY_BUFFER, GLsizeiptr(mesh.indices.size() * sizeof(std::uint32_t)),
                  mesh.indices.data(), GL_STATIC_DRAW);
@@ -248,7 +260,6 @@ void Renderer::draw(bool with_hdr) {
     glUniform3f(scene_program_.uniform("u_eye"), float(camera_.eye.x), float(camera_.eye.y), float(camera_.eye.z));
     glUniform3f(scene_program_.uniform("u_kd"), float(material_.kd.x), float(material_.kd.y), float(material_.kd.z));
     glUniform3f(scene_program_.uniform("u_ks"), float(material_.ks.x), float(material_.ks.y), float(material_.ks.z));
-    glUniform1f(scene_program_.uniform("u_ao"), 1.0f);  // no baked occlusion: ao = 1 with or without --no-ao
     glUniform1i(scene_program_.uniform("u_diffuse"), material_.diffuse() ? 1 : 0);
     glUniform1i(scene_program_.uniform("u_specular"), material_.specular() ? 1 : 0);
     glActiveTexture(GL_TEXTURE0);
@@ -258,6 +269,12 @@ void Renderer::draw(bool with_hdr) {
     glBindTexture(GL_TEXTURE_2D, reflection_.id());
     glUniform1i(scene_program_.uniform("u_reflection"), 1);
     glBindVertexArray(vao_.id());
+    if (ao_ && has_ao_) {
+        glEnableVertexAttribArray(2);
+    } else {
+        glDisableVertexAttribArray(2);
+        glVertexAttrib1f(2, 1.0f);  // ao = 1: no baked occlusion, or --no-ao
+    }
     glDrawElements(GL_TRIANGLES, GLsizei(index_count_), GL_UNSIGNED_INT, nullptr);
     glBindVertexArray(0);
     glActiveTexture(GL_TEXTURE0);

@@ -81,7 +81,7 @@ public:
     void set_background_environment(const HdrImage& environment);
     void set_background_image(const gl::RgbImage& image);
     void set_background_black();
-    // ao = 1 either way today (no baked occlusion; docs/render.md); kept so --no-ao has its place.
+    // Off: ao = 1 (--no-ao). On: the mesh's baked ao (Mesh::ao), or 1 when it has none.
     void set_ambient_occlusion(bool on) { ao_ = on; }
 
     // Draws the object into the float targets (radiance, normal, reflection direction).
@@ -115,7 +115,8 @@ private:
     std::size_t index_count_ = 0;
     gl::GlProgram scene_program_, background_program_, composite_program_;
     gl::GlVertexArray vao_, empty_vao_;
-    gl::GlBuffer vertices_, indices_;
+    gl::GlBuffer vertices_, indices_, ao_values_;
+    bool has_ao_ = false;  // the mesh came with baked ao (attribute 2)
     gl::GlTexture irradiance_, reflection_, environment_, image_;
     gl::GlTexture targets_[4];
     gl::GlName<RenderbufferTraits> depth_;

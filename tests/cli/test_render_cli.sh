@@ -74,7 +74,7 @@ expect_bad "bad --material" "--material" render --env "$WORLD" --material shiny
 expect_bad "bad --material value" "--material" render --env "$WORLD" --material glossy:-3
 expect_bad "missing --env" "--env" render --model sphere
 expect_bad "missing environment file" "$work/nope.exr" render --env "$work/nope.exr"
-expect_bad "--model teapot (not built)" "teapot" render --env "$WORLD" --model teapot
+expect_bad "--model teapot:0 (a level out of range)" "--model teapot:0" render --env "$WORLD" --model teapot:0
 printf 'v 0 0 0\nv 1 0 0\nf 1 2 3\n' >"$work/bad.obj"
 expect_bad "OBJ with a bad index" "bad.obj:3" render --env "$WORLD" --model "$work/bad.obj"
 printf '{ "asset": ' >"$work/bad.gltf"
