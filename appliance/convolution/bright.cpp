@@ -64,17 +64,36 @@ BrightSplit split_bright(HdrImage image, double contrast, int max_count, int thr
 }
 
 BrightScatter::BrightScatter(const std::vector<BrightTexel>& bright, double n, Size out, double floor_value,
-                             double tolerance)
+                             double tolerance, double cmax_floor)
     : bright_(bright), n_(n), out_(out) {
     // A bright term below `tolerance` of the smallest output (and so of every
-    // output) may be dropped: as a weight ratio, then as a cosine. The 0.999
-    // allows for cmax < 1 on coarse grids.
+    // output) may be dropped: as a weight ratio, then as a cosine. cmax_floor
+    // allows for cmax < 1 on coarse grids (the weight is (r.w / cmax)^n).
     const double lobe_den = kTwoPi / (n + 1.0);  // sum of weights, continuous, cmax ~ 1
     min_cos_.resize(bright.size());
+    sin_theta_.resize(bright.size());
+    first_row_.resize(bright.size());
+    last_row_.resize(bright.size());
     for (std::size_t k = 0; k < bright.size(); ++k) {
         const double peak = std::max({bright[k].r, bright[k].g, bright[k].b});
         const double ratio = tolerance * floor_value * lobe_den / peak;
-        min_cos_[k] = n == 0 ? 0.0 : (ratio >= 1.0 ? 2.0 : 0.999 * std::pow(ratio, 1.0 / n));
+        min_cos_[k] = n == 0 ? 0.0 : (ratio >= 1.0 ? 2.0 : cmax_floor * std::pow(ratio, 1.0 / n));
+        sin_theta_[k] = std::sin(bright[k].theta);
+        cos_phi_b_.push_back(std::cos(bright[k].phi));
+        sin_phi_b_.push_back(std::sin(bright[k].phi));
+        // Rows with |theta_r - theta_b| <= acos(min_cos) (below, cos(theta_r - theta_b) >= min_cos).
+        if (min_cos_[k] > 1.0) {
+            first_row_[k] = 0;
+            last_row_[k] = -1;
+        } else if (min_cos_[k] <= -1.0) {
+            first_row_[k] = 0;
+            last_row_[k] = out.height - 1;
+        } else {
+            const double reach = std::acos(min_cos_[k]);
+            const double rows_per_radian = out.height / kPi;
+            first_row_[k] = std::max(0, int(std::floor((bright[k].theta - reach) * rows_per_radian - 0.5)) - 1);
+            last_row_[k] = std::min(out.height - 1, int(std::ceil((bright[k].theta + reach) * rows_per_radian - 0.5)) + 1);
+        }
     }
     cos_phi_.resize(std::size_t(out.width));
     sin_phi_.resize(std::size_t(out.width));
@@ -84,7 +103,8 @@ BrightScatter::BrightScatter(const std::vector<BrightTexel>& bright, double n, S
     }
 }
 
-void BrightScatter::add_row(int row, const double* cmax_row, int classes, double* nb_row) const {
+void BrightScatter::add_row(int row, const double* cmax_row, int classes, double* nb_row,
+                            const LobeSummer::ColumnRuns* columns) const {
     const int ow = out_.width;
     const double theta_r = row_theta(row, out_.height);
     const double ct = std::cos(theta_r);
@@ -93,10 +113,11 @@ void BrightScatter::add_row(int row, const double* cmax_row, int classes, double
     weights.resize(std::size_t(ow));
     for (std::size_t k = 0; k < bright_.size(); ++k) {
         const BrightTexel& b = bright_[k];
+        if (row < first_row_[k] || row > last_row_[k]) continue;
         const double c_b = min_cos_[k];
-        if (c_b > 1.0) continue;
-        if (std::cos(theta_r - b.theta) < c_b) continue;  // no column of this row reaches
-        const double a = st * std::sin(b.theta);
+        // cos(theta_r - theta_b) < c_b: no column of this row reaches.
+        if (ct * b.y + st * sin_theta_[k] < c_b) continue;
+        const double a = st * sin_theta_[k];
         const double bq = ct * b.y;  // b.y = cos(theta_b)
         int first, count;
         const double q = a > 1e-300 ? (c_b - bq) / a : (bq >= c_b ? -2.0 : 2.0);
@@ -110,27 +131,41 @@ void BrightScatter::add_row(int row, const double* cmax_row, int classes, double
             first = int(std::floor(centre - half)) - 1;  // one column of margin: weights decide
             count = std::min(ow, int(std::ceil(centre + half)) + 1 - first + 1);
         }
-        const double cpb = std::cos(b.phi), spb = std::sin(b.phi);
         // The columns as at most two runs inside [0, ow) (the range may wrap).
         first = ((first % ow) + ow) % ow;
         const int runs[2][2] = {{first, std::min(ow, first + count)}, {0, std::max(0, first + count - ow)}};
-        for (const auto& run : runs) {
-            const int i0 = run[0], len = run[1] - run[0];
-            if (len <= 0) continue;
-            // Weights relative to each texel's cmax, as in the lobe sums.
-            for (int t = 0; t < len; ++t) {
-                const int i = i0 + t;
-                const double cosine = a * (cos_phi_[std::size_t(i)] * cpb + sin_phi_[std::size_t(i)] * spb) + bq;
-                weights[std::size_t(t)] = cosine > 0 ? std::min(1.0, cosine / cmax_row[i % classes]) : 0.0;
+        for (const auto& reach : runs) {
+            if (reach[1] <= reach[0]) continue;
+            if (!columns) {
+                add_run(k, reach[0], reach[1], a, bq, cmax_row, classes, nb_row, weights);
+                continue;
             }
-            raise_to_power(weights.data(), len, n_);
-            double* o = nb_row + 3 * std::size_t(i0);
-            for (int t = 0; t < len; ++t) {
-                o[3 * t] += weights[std::size_t(t)] * b.r;
-                o[3 * t + 1] += weights[std::size_t(t)] * b.g;
-                o[3 * t + 2] += weights[std::size_t(t)] * b.b;
+            // Only the asked columns (patches of a finer grid: a few texels of a wide row).
+            for (const auto& [first_col, last_col] : *columns) {
+                const int lo = std::max(first_col, reach[0]), hi = std::min(last_col, reach[1]);
+                if (lo < hi) add_run(k, lo, hi, a, bq, cmax_row, classes, nb_row, weights);
             }
         }
+    }
+}
+
+void BrightScatter::add_run(std::size_t k, int i0, int end, double a, double bq, const double* cmax_row,
+                            int classes, double* nb_row, std::vector<double>& weights) const {
+    const BrightTexel& b = bright_[k];
+    const double cpb = cos_phi_b_[k], spb = sin_phi_b_[k];
+    const int len = end - i0;
+    // Weights relative to each texel's cmax, as in the lobe sums.
+    for (int t = 0; t < len; ++t) {
+        const int i = i0 + t;
+        const double cosine = a * (cos_phi_[std::size_t(i)] * cpb + sin_phi_[std::size_t(i)] * spb) + bq;
+        weights[std::size_t(t)] = cosine > 0 ? std::min(1.0, cosine / cmax_row[i % classes]) : 0.0;
+    }
+    raise_to_power(weights.data(), len, n_);
+    double* o = nb_row + 3 * std::size_t(i0);
+    for (int t = 0; t < len; ++t) {
+        o[3 * t] += weights[std::size_t(t)] * b.r;
+        o[3 * t + 1] += weights[std::size_t(t)] * b.g;
+        o[3 * t + 2] += weights[std::size_t(t)] * b.b;
     }
 }
 

@@ -56,8 +56,9 @@ public:
             const int row = rows[std::size_t(k)];
             double* nb_row = nb.data() + sums.texel(row, 0) * 3;
             std::fill(nb_row, nb_row + row_values, 0.0);
+            // Patches of a finer grid ask for a few texels of a row: only theirs are computed.
             scatter.add_row(row, sums.cmax.data() + std::size_t(row) * std::size_t(sums.classes), sums.classes,
-                            nb_row);
+                            nb_row, columns_ ? &(*columns_)[std::size_t(k)] : nullptr);
         });
     }
 

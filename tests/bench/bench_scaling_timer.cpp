@@ -11,6 +11,7 @@
 // the heap `glint convolve` uses (docs/convolution.md, "Huge pages").
 #include <algorithm>
 #include <chrono>
+#include <ctime>
 #include <cstdio>
 #include <cstdlib>
 #include <optional>
@@ -72,12 +73,21 @@ int main(int argc, char** argv) {
     }
     Options options;
     options.threads = threads;
-    std::vector<double> walls;
+    // Process CPU time too: on a machine shared with other jobs the wall time follows their load,
+    // the CPU time much less (it still includes the kernel's page faults).
+    const auto cpu_now = [] {
+        timespec t{};
+        clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+        return double(t.tv_sec) + 1e-9 * double(t.tv_nsec);
+    };
+    std::vector<double> walls, cpus;
     std::vector<std::vector<MapResult>> runs;
     for (int k = 0; k < repeats; ++k) {
         const auto start = std::chrono::steady_clock::now();
+        const double cpu_start = cpu_now();
         std::vector<MapResult> results = convolve(env, maps, options);
         walls.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
+        cpus.push_back(cpu_now() - cpu_start);
         for (MapResult& r : results) r.image = HdrImage();  // keep the timings only
         runs.push_back(std::move(results));
     }
@@ -85,9 +95,14 @@ int main(int argc, char** argv) {
     std::sort(sorted.begin(), sorted.end());
     const double median = sorted[sorted.size() / 2];
     const std::size_t at = std::size_t(std::find(walls.begin(), walls.end(), median) - walls.begin());
-    std::printf("%s %s, %d threads: median %.4f s, runs", path.c_str(),
-                reference ? "reference sizes" : "planner's sizes", threads, median);
+    std::vector<double> cpu_sorted = cpus;
+    std::sort(cpu_sorted.begin(), cpu_sorted.end());
+    std::printf("%s %s, %d threads: median %.4f s, min %.4f s, CPU median %.4f s; wall", path.c_str(),
+                reference ? "reference sizes" : "planner's sizes", threads, median, sorted.front(),
+                cpu_sorted[cpu_sorted.size() / 2]);
     for (double w : walls) std::printf(" %.4f", w);
+    std::printf(", CPU");
+    for (double c : cpus) std::printf(" %.4f", c);
     std::printf("\n");
     for (const MapResult& r : runs[at])
         std::printf("  %-12s %-5s %5dx%-5d sum %5dx%-5d %.4f s patched %lld  predicted %.2g\n",
