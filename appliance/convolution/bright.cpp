@@ -104,7 +104,7 @@ BrightScatter::BrightScatter(const std::vector<BrightTexel>& bright, double n, S
 }
 
 void BrightScatter::add_row(int row, const double* cmax_row, int classes, double* nb_row,
-                            const LobeSummer::ColumnRuns* columns) const {
+                            const LobeSummer::ColumnRuns* columns, int first_column) const {
     const int ow = out_.width;
     const double theta_r = row_theta(row, out_.height);
     const double ct = std::cos(theta_r);
@@ -137,20 +137,20 @@ void BrightScatter::add_row(int row, const double* cmax_row, int classes, double
         for (const auto& reach : runs) {
             if (reach[1] <= reach[0]) continue;
             if (!columns) {
-                add_run(k, reach[0], reach[1], a, bq, cmax_row, classes, nb_row, weights);
+                add_run(k, reach[0], reach[1], a, bq, cmax_row, classes, nb_row, first_column, weights);
                 continue;
             }
             // Only the asked columns (patches of a finer grid: a few texels of a wide row).
             for (const auto& [first_col, last_col] : *columns) {
                 const int lo = std::max(first_col, reach[0]), hi = std::min(last_col, reach[1]);
-                if (lo < hi) add_run(k, lo, hi, a, bq, cmax_row, classes, nb_row, weights);
+                if (lo < hi) add_run(k, lo, hi, a, bq, cmax_row, classes, nb_row, first_column, weights);
             }
         }
     }
 }
 
 void BrightScatter::add_run(std::size_t k, int i0, int end, double a, double bq, const double* cmax_row,
-                            int classes, double* nb_row, std::vector<double>& weights) const {
+                            int classes, double* nb_row, int first_column, std::vector<double>& weights) const {
     const BrightTexel& b = bright_[k];
     const double cpb = cos_phi_b_[k], spb = sin_phi_b_[k];
     const int len = end - i0;
@@ -161,7 +161,7 @@ void BrightScatter::add_run(std::size_t k, int i0, int end, double a, double bq,
         weights[std::size_t(t)] = cosine > 0 ? std::min(1.0, cosine / cmax_row[i % classes]) : 0.0;
     }
     raise_to_power(weights.data(), len, n_);
-    double* o = nb_row + 3 * std::size_t(i0);
+    double* o = nb_row + 3 * std::size_t(i0 - first_column);
     for (int t = 0; t < len; ++t) {
         o[3 * t] += weights[std::size_t(t)] * b.r;
         o[3 * t + 1] += weights[std::size_t(t)] * b.g;

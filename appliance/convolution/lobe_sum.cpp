@@ -1,5 +1,6 @@
 // Row-pair kernel for the Phong lobe sums (see lobe_sum.hpp for the derivation).
 #include "appliance/convolution/lobe_sum.hpp"
+#include "appliance/core/errors.hpp"
 
 #include <algorithm>
 #include <bit>
@@ -297,11 +298,43 @@ double CapMax::query(const Band& band, double phi) const {
     return best;
 }
 
-LobeSums LobeSummer::make_sums(const std::vector<int>* rows) const {
+LobeSums LobeSummer::make_sums(const std::vector<int>* rows, const std::vector<ColumnRuns>* columns) const {
     LobeSums s;
     s.out_w = out_w_;
     s.out_h = out_h_;
     s.classes = classes_;
+    if (columns && rows && columns->size() == rows->size()) {
+        // Per row, the window from the first to the last column that the runs or sum_row's
+        // widened class runs reach.
+        s.slot.assign(std::size_t(out_h_), -1);
+        std::size_t total = 0;
+        for (std::size_t k = 0; k < rows->size(); ++k) {
+            const int row = (*rows)[k];
+            if (s.slot[std::size_t(row)] >= 0)
+                throw RuntimeError("internal: make_sums with column runs needs distinct rows");
+            int lo = out_w_, hi = 0;
+            for (const auto& [first, last] : (*columns)[k])
+                if (first < last) {
+                    lo = std::min(lo, first);
+                    hi = std::max(hi, last);
+                }
+            for (int cls = 0; cls < classes_; ++cls)
+                for (const auto& [q0, q1] : class_runs(cls, (*columns)[k])) {
+                    lo = std::min(lo, q0 * classes_ + cls);
+                    hi = std::max(hi, (q1 - 1) * classes_ + cls + 1);
+                }
+            if (hi < lo) hi = lo = 0;
+            s.slot[std::size_t(row)] = int(k);
+            s.row_start.push_back(total);
+            s.col_lo.push_back(lo);
+            s.col_hi.push_back(hi);
+            total += std::size_t(hi - lo);
+        }
+        s.num.resize(total * 3);
+        s.den.assign(std::size_t(classes_) * std::size_t(out_h_), 0.0);
+        s.cmax.assign(std::size_t(classes_) * std::size_t(out_h_), 0.0);
+        return s;
+    }
     std::size_t stored = std::size_t(out_h_);
     if (rows && int(rows->size()) < out_h_) {
         s.slot.assign(std::size_t(out_h_), -1);
@@ -504,24 +537,7 @@ void LobeSummer::sum_row(int out_row, double c_min, LobeSums& sums, const Column
         std::fill(acc.begin(), acc.end(), 0.0);
         double den = 0;
         // Runs of this class's column indices q (column = q * classes + cls).
-        ColumnRuns q_runs;
-        if (columns) {
-            // Runs widened to whole blocks of kBlock (the vector path); the extra
-            // columns' sums are written too and left unread by the caller.
-            for (const auto& [first, last] : *columns) {
-                int q0 = std::max(0, (first - cls + classes_ - 1) / classes_);
-                int q1 = std::min(per_class_, (last - cls + classes_ - 1) / classes_);
-                if (q1 <= q0) continue;
-                q0 = q0 / kBlock * kBlock;
-                q1 = std::min(per_class_, (q1 + kBlock - 1) / kBlock * kBlock);
-                if (!q_runs.empty() && q0 <= q_runs.back().second)
-                    q_runs.back().second = std::max(q_runs.back().second, q1);
-                else
-                    q_runs.emplace_back(q0, q1);
-            }
-        } else {
-            q_runs.emplace_back(0, per_class_);
-        }
+        const ColumnRuns q_runs = columns ? class_runs(cls, *columns) : ColumnRuns{{0, per_class_}};
 
         // Columns [d_lo, d_lo + count) of input row jk whose cosine with this
         // class's texels is at least `bound` (count 0: none). The inner cone of an
@@ -610,6 +626,24 @@ void LobeSummer::sum_row(int out_row, double c_min, LobeSums& sums, const Column
     }
 }
 
+LobeSummer::ColumnRuns LobeSummer::class_runs(int cls, const ColumnRuns& columns) const {
+    // Runs widened to whole blocks of kBlock (the vector path); the extra columns' sums are
+    // written too and left unread by the caller.
+    ColumnRuns q_runs;
+    for (const auto& [first, last] : columns) {
+        int q0 = std::max(0, (first - cls + classes_ - 1) / classes_);
+        int q1 = std::min(per_class_, (last - cls + classes_ - 1) / classes_);
+        if (q1 <= q0) continue;
+        q0 = q0 / kBlock * kBlock;
+        q1 = std::min(per_class_, (q1 + kBlock - 1) / kBlock * kBlock);
+        if (!q_runs.empty() && q0 <= q_runs.back().second)
+            q_runs.back().second = std::max(q_runs.back().second, q1);
+        else
+            q_runs.emplace_back(q0, q1);
+    }
+    return q_runs;
+}
+
 void raise_to_power(double* x, int count, double n) {
     if (n != std::floor(n) || n > double(1LL << 40)) {
         for (int d = 0; d < count; ++d) x[d] = x[d] > 0 ? std::pow(x[d], n) : 0.0;
@@ -648,7 +682,7 @@ HdrImage finish_sums(const LobeSums& sums) {
     for (int j = 0; j < sums.out_h; ++j) {
         if (!sums.stored(j)) continue;
         float* row = out.row(j);
-        for (int i = 0; i < sums.out_w; ++i) {
+        for (int i = sums.first_column(j); i < sums.end_column(j); ++i) {
             const double den = sums.den[std::size_t(j) * std::size_t(sums.classes) +
                                         std::size_t(sums.class_of(i))];
             const double* num = sums.num.data() + sums.texel(j, i) * 3;

@@ -132,10 +132,20 @@ struct LobeSums {
     // when every row is, in order. A few rows of a fine grid (the exact patches)
     // then take memory for those rows only.
     std::vector<int> slot;
+    // Stored rows may also keep only a window of columns [col_lo, col_hi) per slot, starting at
+    // row_start in num (empty: whole rows). The exact patches of a fine grid ask for a few
+    // texels of a 4096-wide row: whole rows cost 4-5x the memory, and fresh memory is slow to
+    // fault in. Only the window's texels may be addressed.
+    std::vector<std::size_t> row_start;
+    std::vector<int> col_lo, col_hi;
     std::size_t texel(int row, int col) const {
         const std::size_t r = slot.empty() ? std::size_t(row) : std::size_t(slot[std::size_t(row)]);
+        if (!col_lo.empty()) return row_start[r] + std::size_t(col - col_lo[r]);
         return r * std::size_t(out_w) + std::size_t(col);
     }
+    // The columns of a stored row that may be addressed, [first_column, end_column).
+    int first_column(int row) const { return col_lo.empty() ? 0 : col_lo[std::size_t(slot[std::size_t(row)])]; }
+    int end_column(int row) const { return col_hi.empty() ? out_w : col_hi[std::size_t(slot[std::size_t(row)])]; }
     bool stored(int row) const { return slot.empty() || slot[std::size_t(row)] >= 0; }
     std::vector<double> den;   // per (output row, class)
     std::vector<double> cmax;  // per (output row, class)
@@ -180,8 +190,10 @@ public:
     // by the caller to the sums of a pass with c_min = c_inner.
     void sum_row(int out_row, double c_min, LobeSums& sums, const ColumnRuns* columns = nullptr,
                  double c_inner = 2.0) const;
-    // Sums for every output row, or (rows given) for those rows only.
-    LobeSums make_sums(const std::vector<int>* rows = nullptr) const;
+    // Sums for every output row, or (rows given) for those rows only, and (columns given: one
+    // list per row of `rows`, distinct rows) only the columns that sum_row with those runs
+    // writes.
+    LobeSums make_sums(const std::vector<int>* rows = nullptr, const std::vector<ColumnRuns>* columns = nullptr) const;
 
     // Largest cosine between the direction of output texel (row, class) and any
     // texel centre of the level.
@@ -223,6 +235,9 @@ private:
         return g.phases->data() +
                (std::size_t(row) * 3 * std::size_t(g.step) + std::size_t(s)) * PreparedLevel::phase_stride(per_class_);
     }
+    // The runs of class cls's column indices q (column = q * classes + cls) that sum_row computes
+    // for the column runs `columns`: widened to whole blocks of the vector path.
+    ColumnRuns class_runs(int cls, const ColumnRuns& columns) const;
     void flush_terms(const std::vector<Term>& terms, const ColumnRuns& q_runs, std::size_t channel_stride,
                      double* acc_r, double* acc_g, double* acc_b) const;
     // Fills w[0..count) with the weights of cosines a * cos(dphi_d) + b, where

@@ -53,8 +53,9 @@ public:
     // `classes` values (column i is class i % classes), ones for sums
     // normalised to the largest weight 1. Thread-safe across rows. With `columns`, only the
     // texels of those half-open column runs (ascending) get their terms; the others are left.
+    // nb_row holds the row from column `first_column` on (a window of it; the runs within it).
     void add_row(int row, const double* cmax_row, int classes, double* nb_row,
-                 const LobeSummer::ColumnRuns* columns = nullptr) const;
+                 const LobeSummer::ColumnRuns* columns = nullptr, int first_column = 0) const;
     const std::vector<BrightTexel>& texels() const { return bright_; }
     // Per bright texel: the cosine below which its term is dropped (> 1: never used).
     const std::vector<double>& min_cos() const { return min_cos_; }
@@ -72,7 +73,7 @@ private:
     // Adds bright texel k's terms to the columns [i0, end) of a row (a = sin theta_r sin theta_b,
     // bq = cos theta_r cos theta_b).
     void add_run(std::size_t k, int i0, int end, double a, double bq, const double* cmax_row, int classes,
-                 double* nb_row, std::vector<double>& weights) const;
+                 double* nb_row, int first_column, std::vector<double>& weights) const;
 };
 
 struct ConeStats {
