@@ -154,11 +154,23 @@ void BrightScatter::add_run(std::size_t k, int i0, int end, double a, double bq,
     const BrightTexel& b = bright_[k];
     const double cpb = cos_phi_b_[k], spb = sin_phi_b_[k];
     const int len = end - i0;
-    // Weights relative to each texel's cmax, as in the lobe sums.
-    for (int t = 0; t < len; ++t) {
-        const int i = i0 + t;
-        const double cosine = a * (cos_phi_[std::size_t(i)] * cpb + sin_phi_[std::size_t(i)] * spb) + bq;
-        weights[std::size_t(t)] = cosine > 0 ? std::min(1.0, cosine / cmax_row[i % classes]) : 0.0;
+    // Weights relative to each texel's cmax, as in the lobe sums. One class (add_bright_lobes, and
+    // grids whose columns are all alike) has one cmax for the row: no per-column index, so the
+    // loop vectorises.
+    const double* cp = cos_phi_.data() + i0;
+    const double* sp = sin_phi_.data() + i0;
+    double* w = weights.data();
+    if (classes == 1) {
+        const double cm = cmax_row[0];
+        for (int t = 0; t < len; ++t) {
+            const double cosine = a * (cp[t] * cpb + sp[t] * spb) + bq;
+            w[t] = cosine > 0 ? std::min(1.0, cosine / cm) : 0.0;
+        }
+    } else {
+        for (int t = 0; t < len; ++t) {
+            const double cosine = a * (cp[t] * cpb + sp[t] * spb) + bq;
+            w[t] = cosine > 0 ? std::min(1.0, cosine / cmax_row[(i0 + t) % classes]) : 0.0;
+        }
     }
     raise_to_power(weights.data(), len, n_);
     double* o = nb_row + 3 * std::size_t(i0 - first_column);
