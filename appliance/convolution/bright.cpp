@@ -109,8 +109,37 @@ void BrightScatter::add_row(int row, const double* cmax_row, int classes, double
     const double theta_r = row_theta(row, out_.height);
     const double ct = std::cos(theta_r);
     const double st = std::sin(theta_r);
+    // The row's runs (one per bright texel and reach, often a few dozen columns) are staged
+    // into one buffer of weights and raised to the power n together, kBatch at a time: one
+    // call per batch instead of one per run, with no short vector tails. The products and the
+    // order of the sums are those of one run at a time.
+    constexpr std::size_t kBatch = 4096;
     thread_local std::vector<double> weights;
-    weights.resize(std::size_t(ow));
+    thread_local std::vector<Staged> staged;
+    weights.resize(kBatch + std::size_t(ow));
+    staged.clear();
+    std::size_t filled = 0;
+    const auto flush = [&] {
+        raise_to_power(weights.data(), int(filled), n_);
+        for (const Staged& r : staged) {
+            const BrightTexel& b = bright_[r.texel];
+            const double* w = weights.data() + r.offset;
+            double* o = nb_row + 3 * std::size_t(r.first - first_column);
+            for (int t = 0; t < r.count; ++t) {
+                o[3 * t] += w[t] * b.r;
+                o[3 * t + 1] += w[t] * b.g;
+                o[3 * t + 2] += w[t] * b.b;
+            }
+        }
+        staged.clear();
+        filled = 0;
+    };
+    const auto stage = [&](std::size_t k, int i0, int end, double a, double bq) {
+        stage_weights(k, i0, end, a, bq, cmax_row, classes, weights.data() + filled);
+        staged.push_back({k, i0, end - i0, filled});
+        filled += std::size_t(end - i0);
+        if (filled >= kBatch) flush();
+    };
     for (std::size_t k = 0; k < bright_.size(); ++k) {
         const BrightTexel& b = bright_[k];
         if (row < first_row_[k] || row > last_row_[k]) continue;
@@ -137,21 +166,21 @@ void BrightScatter::add_row(int row, const double* cmax_row, int classes, double
         for (const auto& reach : runs) {
             if (reach[1] <= reach[0]) continue;
             if (!columns) {
-                add_run(k, reach[0], reach[1], a, bq, cmax_row, classes, nb_row, first_column, weights);
+                stage(k, reach[0], reach[1], a, bq);
                 continue;
             }
             // Only the asked columns (patches of a finer grid: a few texels of a wide row).
             for (const auto& [first_col, last_col] : *columns) {
                 const int lo = std::max(first_col, reach[0]), hi = std::min(last_col, reach[1]);
-                if (lo < hi) add_run(k, lo, hi, a, bq, cmax_row, classes, nb_row, first_column, weights);
+                if (lo < hi) stage(k, lo, hi, a, bq);
             }
         }
     }
+    if (filled > 0) flush();
 }
 
-void BrightScatter::add_run(std::size_t k, int i0, int end, double a, double bq, const double* cmax_row,
-                            int classes, double* nb_row, int first_column, std::vector<double>& weights) const {
-    const BrightTexel& b = bright_[k];
+void BrightScatter::stage_weights(std::size_t k, int i0, int end, double a, double bq, const double* cmax_row,
+                                  int classes, double* w) const {
     const double cpb = cos_phi_b_[k], spb = sin_phi_b_[k];
     const int len = end - i0;
     // Weights relative to each texel's cmax, as in the lobe sums. One class (add_bright_lobes, and
@@ -159,7 +188,6 @@ void BrightScatter::add_run(std::size_t k, int i0, int end, double a, double bq,
     // loop vectorises.
     const double* cp = cos_phi_.data() + i0;
     const double* sp = sin_phi_.data() + i0;
-    double* w = weights.data();
     if (classes == 1) {
         const double cm = cmax_row[0];
         for (int t = 0; t < len; ++t) {
@@ -171,13 +199,6 @@ void BrightScatter::add_run(std::size_t k, int i0, int end, double a, double bq,
             const double cosine = a * (cp[t] * cpb + sp[t] * spb) + bq;
             w[t] = cosine > 0 ? std::min(1.0, cosine / cmax_row[(i0 + t) % classes]) : 0.0;
         }
-    }
-    raise_to_power(weights.data(), len, n_);
-    double* o = nb_row + 3 * std::size_t(i0 - first_column);
-    for (int t = 0; t < len; ++t) {
-        o[3 * t] += weights[std::size_t(t)] * b.r;
-        o[3 * t + 1] += weights[std::size_t(t)] * b.g;
-        o[3 * t + 2] += weights[std::size_t(t)] * b.b;
     }
 }
 

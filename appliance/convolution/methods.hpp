@@ -70,10 +70,16 @@ private:
     // row of margin; the exact test is made per row), so a row skips the others cheaply.
     std::vector<double> sin_theta_, cos_phi_b_, sin_phi_b_;
     std::vector<int> first_row_, last_row_;
-    // Adds bright texel k's terms to the columns [i0, end) of a row (a = sin theta_r sin theta_b,
-    // bq = cos theta_r cos theta_b).
-    void add_run(std::size_t k, int i0, int end, double a, double bq, const double* cmax_row, int classes,
-                 double* nb_row, int first_column, std::vector<double>& weights) const;
+    // Bright texel k's weights (before the power n) for the columns [i0, end) of a row, into w
+    // (a = sin theta_r sin theta_b, bq = cos theta_r cos theta_b).
+    void stage_weights(std::size_t k, int i0, int end, double a, double bq, const double* cmax_row, int classes,
+                       double* w) const;
+    // A run of a row's weights staged for the power n and the sums (add_row).
+    struct Staged {
+        std::size_t texel;
+        int first, count;
+        std::size_t offset;
+    };
 };
 
 struct ConeStats {
