@@ -3,10 +3,10 @@
 // printed with its median and the per-map times of the median run. No files are written and no
 // errors are measured (run_scaling_bench.sh and the accuracy tests do that).
 //
-//   glint_bench_scaling_timer MAP.exr [--reference-sizes] [--only N] [--repeats K] [--threads T]
+//   glint_bench_scaling_timer MAP.exr [--reference-sizes | --size WxH] [--only N] [--repeats K] [--threads T]
 //
 // Without --reference-sizes the planner chooses every size (as `glint convolve` without
-// --size); with it, each map is at its reference size (bench_util.hpp). --only N runs the
+// --size); with it, each map is at its reference size (bench_util.hpp); --size fixes every map's. --only N runs the
 // single map of shininess N (0 = irradiance). Run with GLIBC_TUNABLES=glibc.malloc.hugetlb=1 for
 // the heap `glint convolve` uses (docs/convolution.md, "Huge pages").
 #include <algorithm>
@@ -30,6 +30,7 @@ int main(int argc, char** argv) {
     std::string path;
     bool reference = false;
     std::optional<double> only;
+    std::optional<Size> size;
     int repeats = 5, threads = 2;
     for (int i = 1; i < argc; ++i) {
         const std::string a = argv[i];
@@ -42,6 +43,15 @@ int main(int argc, char** argv) {
         };
         if (a == "--reference-sizes") reference = true;
         else if (a == "--only") only = std::atof(value().c_str());
+        else if (a == "--size") {
+            const std::string v = value();
+            int w = 0, h = 0;
+            if (std::sscanf(v.c_str(), "%dx%d", &w, &h) != 2 || w <= 0 || h <= 0) {
+                std::fprintf(stderr, "glint_bench_scaling_timer: --size takes WxH, not '%s'\n", v.c_str());
+                return 2;
+            }
+            size = Size{w, h};
+        }
         else if (a == "--repeats") repeats = std::atoi(value().c_str());
         else if (a == "--threads") threads = std::atoi(value().c_str());
         else if (!a.empty() && a[0] != '-' && path.empty()) path = a;
@@ -73,6 +83,7 @@ int main(int argc, char** argv) {
     }
     Options options;
     options.threads = threads;
+    options.size = size;
     // Process CPU time too: on a machine shared with other jobs the wall time follows their load,
     // the CPU time much less (it still includes the kernel's page faults).
     const auto cpu_now = [] {
@@ -98,7 +109,7 @@ int main(int argc, char** argv) {
     std::vector<double> cpu_sorted = cpus;
     std::sort(cpu_sorted.begin(), cpu_sorted.end());
     std::printf("%s %s, %d threads: median %.4f s, min %.4f s, CPU median %.4f s; wall", path.c_str(),
-                reference ? "reference sizes" : "planner's sizes", threads, median, sorted.front(),
+                reference ? "reference sizes" : size ? "fixed size" : "planner's sizes", threads, median, sorted.front(),
                 cpu_sorted[cpu_sorted.size() / 2]);
     for (double w : walls) std::printf(" %.4f", w);
     std::printf(", CPU");
