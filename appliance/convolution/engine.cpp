@@ -281,35 +281,29 @@ void deliver_output(MapResult& r, Size input, double tau, const PlannerModel& mo
     // there, up to summing on `finer` itself.
     // `known`: the estimate of the map as it stands, if the caller has it.
     const auto refine = [&](Size finer, const std::string& why, const LookupError* known) {
-        const bool has_bright = bright && !bright->empty();
+        const bool split = bright && !bright->empty();
         std::string steps;
         for (;;) {
             const double floor_value = solid_angle_mean(r.image);
+            // With the split, the map without its bright texels, in place: what is resampled
+            // (if the plan is summed again instead, the sum replaces it). Resampling the map with
+            // its bright lobes where its own estimate passed was tried (2026-12-02): a sun's lobe
+            // resampled raised sunset's predicted errors (n = 1280: 0.39 % -> 0.61 %).
+            if (split) add_bright_lobes(*bright, n, floor_value, LobeOp::Subtract, r.image, threads);
+            const LookupError e = !split && known ? *known : estimate_lookup_error(r.image, threads);
+            known = nullptr;  // the map changes if it is summed again
             // The fourth differences predict 4-point interpolation only where the sum grid
             // resolves the lobe (its spacing within one lobe width; a Gaussian sampled coarser
             // aliases); a grid capped at a coarser input's resolution is summed again instead.
             const bool resolved = kPi / p.sum_size.height <= lobe_width(n) * 1.0001;
-            const auto within_resample_budget = [&](const LookupError& x) {
-                return x.cubic_rms <= model.resample_share * tau && x.cubic_worst <= model.resample_worst_share * tau;
-            };
-            // With the bright split, the map is resampled without its bright texels, which are
-            // added back exactly on the finer grid. (Resampling the whole map when its own estimate
-            // passed was tried on 2026-12-02: it saves the two scatters for a few wide lobes of
-            // studio, but a sun's lobe resampled raised sunset's predicted errors, n = 1280
-            // 0.39 % -> 0.61 %, for little measured gain.)
-            const bool split = has_bright;
-            // With the split, the map without its bright texels, in place: what is resampled
-            // (if the plan is summed again instead, the sum replaces it).
-            if (split) add_bright_lobes(*bright, n, floor_value, LobeOp::Subtract, r.image, threads);
-            const LookupError e = !split && known ? *known : estimate_lookup_error(r.image, threads);
-            known = nullptr;  // the map changes if it is summed again
             const auto resample = [&] {
                 r.image = resample_cubic(r.image, finer, threads, &r.clamped_texels);
                 if (split) add_bright_lobes(*bright, n, floor_value, LobeOp::AddClamped, r.image, threads);
             };
             const std::string resampled = "; resampled 4-point from " + to_string(p.sum_size);
             const std::string added = split ? ", bright texels added exactly" : "";
-            if (resolved && within_resample_budget(e)) {
+            if (resolved && e.cubic_rms <= model.resample_share * tau &&
+                e.cubic_worst <= model.resample_worst_share * tau) {
                 resample();
                 p.predicted_error += e.cubic_rms;
                 p.size_reason = why + steps + resampled + " (predicted " + percent(e.cubic_rms) + ")" + added;
