@@ -64,17 +64,36 @@ BrightSplit split_bright(HdrImage image, double contrast, int max_count, int thr
 }
 
 BrightScatter::BrightScatter(const std::vector<BrightTexel>& bright, double n, Size out, double floor_value,
-                             double tolerance)
+                             double tolerance, double cmax_floor)
     : bright_(bright), n_(n), out_(out) {
     // A bright term below `tolerance` of the smallest output (and so of every
-    // output) may be dropped: as a weight ratio, then as a cosine. The 0.999
-    // allows for cmax < 1 on coarse grids.
+    // output) may be dropped: as a weight ratio, then as a cosine. cmax_floor
+    // allows for cmax < 1 on coarse grids (the weight is (r.w / cmax)^n).
     const double lobe_den = kTwoPi / (n + 1.0);  // sum of weights, continuous, cmax ~ 1
     min_cos_.resize(bright.size());
+    sin_theta_.resize(bright.size());
+    first_row_.resize(bright.size());
+    last_row_.resize(bright.size());
     for (std::size_t k = 0; k < bright.size(); ++k) {
         const double peak = std::max({bright[k].r, bright[k].g, bright[k].b});
         const double ratio = tolerance * floor_value * lobe_den / peak;
-        min_cos_[k] = n == 0 ? 0.0 : (ratio >= 1.0 ? 2.0 : 0.999 * std::pow(ratio, 1.0 / n));
+        min_cos_[k] = n == 0 ? 0.0 : (ratio >= 1.0 ? 2.0 : cmax_floor * std::pow(ratio, 1.0 / n));
+        sin_theta_[k] = std::sin(bright[k].theta);
+        cos_phi_b_.push_back(std::cos(bright[k].phi));
+        sin_phi_b_.push_back(std::sin(bright[k].phi));
+        // Rows with |theta_r - theta_b| <= acos(min_cos) (below, cos(theta_r - theta_b) >= min_cos).
+        if (min_cos_[k] > 1.0) {
+            first_row_[k] = 0;
+            last_row_[k] = -1;
+        } else if (min_cos_[k] <= -1.0) {
+            first_row_[k] = 0;
+            last_row_[k] = out.height - 1;
+        } else {
+            const double reach = std::acos(min_cos_[k]);
+            const double rows_per_radian = out.height / kPi;
+            first_row_[k] = std::max(0, int(std::floor((bright[k].theta - reach) * rows_per_radian - 0.5)) - 1);
+            last_row_[k] = std::min(out.height - 1, int(std::ceil((bright[k].theta + reach) * rows_per_radian - 0.5)) + 1);
+        }
     }
     cos_phi_.resize(std::size_t(out.width));
     sin_phi_.resize(std::size_t(out.width));
@@ -84,19 +103,50 @@ BrightScatter::BrightScatter(const std::vector<BrightTexel>& bright, double n, S
     }
 }
 
-void BrightScatter::add_row(int row, const double* cmax_row, int classes, double* nb_row) const {
+void BrightScatter::add_row(int row, const double* cmax_row, int classes, double* nb_row,
+                            const LobeSummer::ColumnRuns* columns, int first_column) const {
     const int ow = out_.width;
     const double theta_r = row_theta(row, out_.height);
     const double ct = std::cos(theta_r);
     const double st = std::sin(theta_r);
+    // The row's runs (one per bright texel and reach, often a few dozen columns) are staged
+    // into one buffer of weights and raised to the power n together, kBatch at a time: one
+    // call per batch instead of one per run, with no short vector tails. The products and the
+    // order of the sums are those of one run at a time.
+    constexpr std::size_t kBatch = 4096;
     thread_local std::vector<double> weights;
-    weights.resize(std::size_t(ow));
+    thread_local std::vector<Staged> staged;
+    weights.resize(kBatch + std::size_t(ow));
+    staged.clear();
+    std::size_t filled = 0;
+    const auto flush = [&] {
+        raise_to_power(weights.data(), int(filled), n_);
+        for (const Staged& r : staged) {
+            const BrightTexel& b = bright_[r.texel];
+            const double* w = weights.data() + r.offset;
+            double* o = nb_row + 3 * std::size_t(r.first - first_column);
+            for (int t = 0; t < r.count; ++t) {
+                o[3 * t] += w[t] * b.r;
+                o[3 * t + 1] += w[t] * b.g;
+                o[3 * t + 2] += w[t] * b.b;
+            }
+        }
+        staged.clear();
+        filled = 0;
+    };
+    const auto stage = [&](std::size_t k, int i0, int end, double a, double bq) {
+        stage_weights(k, i0, end, a, bq, cmax_row, classes, weights.data() + filled);
+        staged.push_back({k, i0, end - i0, filled});
+        filled += std::size_t(end - i0);
+        if (filled >= kBatch) flush();
+    };
     for (std::size_t k = 0; k < bright_.size(); ++k) {
         const BrightTexel& b = bright_[k];
+        if (row < first_row_[k] || row > last_row_[k]) continue;
         const double c_b = min_cos_[k];
-        if (c_b > 1.0) continue;
-        if (std::cos(theta_r - b.theta) < c_b) continue;  // no column of this row reaches
-        const double a = st * std::sin(b.theta);
+        // cos(theta_r - theta_b) < c_b: no column of this row reaches.
+        if (ct * b.y + st * sin_theta_[k] < c_b) continue;
+        const double a = st * sin_theta_[k];
         const double bq = ct * b.y;  // b.y = cos(theta_b)
         int first, count;
         const double q = a > 1e-300 ? (c_b - bq) / a : (bq >= c_b ? -2.0 : 2.0);
@@ -110,26 +160,44 @@ void BrightScatter::add_row(int row, const double* cmax_row, int classes, double
             first = int(std::floor(centre - half)) - 1;  // one column of margin: weights decide
             count = std::min(ow, int(std::ceil(centre + half)) + 1 - first + 1);
         }
-        const double cpb = std::cos(b.phi), spb = std::sin(b.phi);
         // The columns as at most two runs inside [0, ow) (the range may wrap).
         first = ((first % ow) + ow) % ow;
         const int runs[2][2] = {{first, std::min(ow, first + count)}, {0, std::max(0, first + count - ow)}};
-        for (const auto& run : runs) {
-            const int i0 = run[0], len = run[1] - run[0];
-            if (len <= 0) continue;
-            // Weights relative to each texel's cmax, as in the lobe sums.
-            for (int t = 0; t < len; ++t) {
-                const int i = i0 + t;
-                const double cosine = a * (cos_phi_[std::size_t(i)] * cpb + sin_phi_[std::size_t(i)] * spb) + bq;
-                weights[std::size_t(t)] = cosine > 0 ? std::min(1.0, cosine / cmax_row[i % classes]) : 0.0;
+        for (const auto& reach : runs) {
+            if (reach[1] <= reach[0]) continue;
+            if (!columns) {
+                stage(k, reach[0], reach[1], a, bq);
+                continue;
             }
-            raise_to_power(weights.data(), len, n_);
-            double* o = nb_row + 3 * std::size_t(i0);
-            for (int t = 0; t < len; ++t) {
-                o[3 * t] += weights[std::size_t(t)] * b.r;
-                o[3 * t + 1] += weights[std::size_t(t)] * b.g;
-                o[3 * t + 2] += weights[std::size_t(t)] * b.b;
+            // Only the asked columns (patches of a finer grid: a few texels of a wide row).
+            for (const auto& [first_col, last_col] : *columns) {
+                const int lo = std::max(first_col, reach[0]), hi = std::min(last_col, reach[1]);
+                if (lo < hi) stage(k, lo, hi, a, bq);
             }
+        }
+    }
+    if (filled > 0) flush();
+}
+
+void BrightScatter::stage_weights(std::size_t k, int i0, int end, double a, double bq, const double* cmax_row,
+                                  int classes, double* w) const {
+    const double cpb = cos_phi_b_[k], spb = sin_phi_b_[k];
+    const int len = end - i0;
+    // Weights relative to each texel's cmax, as in the lobe sums. One class (add_bright_lobes, and
+    // grids whose columns are all alike) has one cmax for the row: no per-column index, so the
+    // loop vectorises.
+    const double* cp = cos_phi_.data() + i0;
+    const double* sp = sin_phi_.data() + i0;
+    if (classes == 1) {
+        const double cm = cmax_row[0];
+        for (int t = 0; t < len; ++t) {
+            const double cosine = a * (cp[t] * cpb + sp[t] * spb) + bq;
+            w[t] = cosine > 0 ? std::min(1.0, cosine / cm) : 0.0;
+        }
+    } else {
+        for (int t = 0; t < len; ++t) {
+            const double cosine = a * (cp[t] * cpb + sp[t] * spb) + bq;
+            w[t] = cosine > 0 ? std::min(1.0, cosine / cmax_row[(i0 + t) % classes]) : 0.0;
         }
     }
 }

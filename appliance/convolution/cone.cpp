@@ -34,7 +34,8 @@ public:
           threads_(threads), columns_(columns) {}
 
     LobeSums first_pass(const std::vector<int>& rows, double c0, const RowProgress& progress) override {
-        LobeSums sums = summer_.make_sums(&rows);
+        // With column runs (patches of a finer grid), only those texels' windows are stored.
+        LobeSums sums = summer_.make_sums(&rows, columns_);
         parallel_for(int(rows.size()), threads_, [&](int k) {
             summer_.sum_row(rows[std::size_t(k)], c0, sums, columns_ ? &(*columns_)[std::size_t(k)] : nullptr);
             if (progress) progress(1);
@@ -43,7 +44,7 @@ public:
     }
     LobeSums annulus(const std::vector<int>& rows, const std::vector<LobeSummer::ColumnRuns>& runs,
                      const std::vector<double>& cut, double c_inner) override {
-        LobeSums sums = summer_.make_sums(&rows);
+        LobeSums sums = summer_.make_sums(&rows, &runs);
         parallel_for(int(rows.size()), threads_, [&](int k) {
             summer_.sum_row(rows[std::size_t(k)], cut[std::size_t(k)], sums, &runs[std::size_t(k)], c_inner);
         });
@@ -51,13 +52,15 @@ public:
     }
     void bright(const BrightScatter& scatter, const LobeSums& sums, const std::vector<int>& rows,
                 UninitVector<double>& nb) override {
-        const std::size_t row_values = std::size_t(sums.out_w) * 3;
         parallel_for(int(rows.size()), threads_, [&](int k) {
             const int row = rows[std::size_t(k)];
-            double* nb_row = nb.data() + sums.texel(row, 0) * 3;
-            std::fill(nb_row, nb_row + row_values, 0.0);
+            // The row's stored columns (a window of them for the patches of a finer grid).
+            const int lo = sums.first_column(row), hi = sums.end_column(row);
+            double* nb_row = nb.data() + sums.texel(row, lo) * 3;
+            std::fill(nb_row, nb_row + 3 * std::size_t(hi - lo), 0.0);
+            // Patches of a finer grid ask for a few texels of a row: only theirs are computed.
             scatter.add_row(row, sums.cmax.data() + std::size_t(row) * std::size_t(sums.classes), sums.classes,
-                            nb_row);
+                            nb_row, columns_ ? &(*columns_)[std::size_t(k)] : nullptr, lo);
         });
     }
 
@@ -235,14 +238,15 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
         for (std::size_t k = 0; k < refine_rows.size(); ++k) {
             const int row = refine_rows[k];
             cuts[k] = wide_cut[std::size_t(row)];
-            const char* flags = widened.data() + sums.texel(row, 0);
-            for (int i = 0; i < out.width;) {
-                if (!flags[i]) {
+            const int lo = sums.first_column(row), hi = sums.end_column(row);
+            const char* flags = widened.data() + sums.texel(row, lo);  // column lo first
+            for (int i = lo; i < hi;) {
+                if (!flags[i - lo]) {
                     ++i;
                     continue;
                 }
                 int end = i;
-                while (end < out.width && flags[end]) ++end;
+                while (end < hi && flags[end - lo]) ++end;
                 runs[k].emplace_back(i, end);
                 i = end;
             }
@@ -256,7 +260,7 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
                 const std::size_t rc = std::size_t(row) * std::size_t(wide.classes) + std::size_t(cls);
                 wide.den[rc] += sums.den[rc];
             }
-            for (int col = 0; col < out.width; ++col) {
+            for (int col = sums.first_column(row); col < sums.end_column(row); ++col) {
                 const std::size_t t = sums.texel(row, col);
                 if (!widened[t]) continue;
                 const std::size_t tw = wide.texel(row, col);

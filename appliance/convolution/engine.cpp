@@ -286,7 +286,9 @@ void deliver_output(MapResult& r, Size input, double tau, const PlannerModel& mo
         for (;;) {
             const double floor_value = solid_angle_mean(r.image);
             // With the split, the map without its bright texels, in place: what is resampled
-            // (if the plan is summed again instead, the sum replaces it).
+            // (if the plan is summed again instead, the sum replaces it). Resampling the map with
+            // its bright lobes where its own estimate passed was tried (2026-12-02): a sun's lobe
+            // resampled raised sunset's predicted errors (n = 1280: 0.39 % -> 0.61 %).
             if (split) add_bright_lobes(*bright, n, floor_value, LobeOp::Subtract, r.image, threads);
             const LookupError e = !split && known ? *known : estimate_lookup_error(r.image, threads);
             known = nullptr;  // the map changes if it is summed again

@@ -1,5 +1,6 @@
 // Row-pair kernel for the Phong lobe sums (see lobe_sum.hpp for the derivation).
 #include "appliance/convolution/lobe_sum.hpp"
+#include "appliance/core/errors.hpp"
 
 #include <algorithm>
 #include <bit>
@@ -71,7 +72,7 @@ PreparedLevel::PreparedLevel(const HdrImage& level, int threads)
     }
 }
 
-LobeSummer::Geometry LobeSummer::make_geometry(const PreparedLevel& level) const {
+LobeSummer::Geometry LobeSummer::make_geometry(const PreparedLevel& level, const std::vector<char>& rows) const {
     Geometry g;
     g.level = &level;
     g.width = level.width();
@@ -94,7 +95,7 @@ LobeSummer::Geometry LobeSummer::make_geometry(const PreparedLevel& level) const
             const double d = double(k) - g.cos_offset;
             g.cos_dphi[std::size_t(p) * g.cos_stride + k] = std::cos((d - g.frac[std::size_t(p)]) * kTwoPi / w);
         }
-    g.phases = &level.phases(g.step, per_class_);
+    g.phases = &level.phases(g.step, per_class_, rows);
     return g;
 }
 
@@ -136,14 +137,25 @@ LobeSummer::LobeSummer(const PreparedLevel& level, int out_w, int out_h, double 
       per_class_(std::gcd(level.width(), out_w)) {
     const int w = level.width();
     const int h = level.height();
-    geometries_.push_back(make_geometry(level));
-    row_geometry_.assign(std::size_t(h), 0);
+    // Each level row is read with one geometry, the level or a version of it with merged columns:
+    // each version is laid out (and made) for its own rows only.
+    std::map<int, std::vector<char>> rows_of;  // merge factor -> the level rows it is read for
+    rows_of[1].assign(std::size_t(h), 0);
+    std::vector<int> factor(static_cast<std::size_t>(h));
+    for (int j = 0; j < h; ++j) {
+        factor[std::size_t(j)] = polar_merge_factor(j, w, h, out_w, max_merged_arc);
+        std::vector<char>& rows = rows_of[factor[std::size_t(j)]];
+        if (rows.empty()) rows.assign(std::size_t(h), 0);
+        rows[std::size_t(j)] = 1;
+    }
+    geometries_.push_back(make_geometry(level, rows_of[1]));
     std::map<int, int> geometry_of;  // merge factor -> index in geometries_
     geometry_of[1] = 0;
+    row_geometry_.assign(std::size_t(h), 0);
     for (int j = 0; j < h; ++j) {
-        const int m = polar_merge_factor(j, w, h, out_w, max_merged_arc);
+        const int m = factor[std::size_t(j)];
         auto [it, inserted] = geometry_of.try_emplace(m, int(geometries_.size()));
-        if (inserted) geometries_.push_back(make_geometry(level.merged_columns(m)));
+        if (inserted) geometries_.push_back(make_geometry(level.merged_columns(m, rows_of[m]), rows_of[m]));
         row_geometry_[std::size_t(j)] = it->second;
     }
     out_cos_t_.resize(std::size_t(out_h));
@@ -157,51 +169,84 @@ LobeSummer::LobeSummer(const PreparedLevel& level, int out_w, int out_h, double 
 PreparedLevel::PreparedLevel(const PreparedLevel& parent, int m)
     : width_(parent.width_ / m), height_(parent.height_), threads_(parent.threads_),
       cos_t_(parent.cos_t_), sin_t_(parent.sin_t_), omega_(row_solid_angles(width_, height_)),
-      max_value_(0), power_(parent.power_) {  // an upper bound: averaging cannot raise max(R, G, B) power
-    planes_.resize(std::size_t(height_) * 3 * std::size_t(width_));
-    std::vector<float> row_max(std::size_t(height_), 0.0f);
-    parallel_for(height_, threads_, [&](int j) {
-        float m_row = 0.0f;
+      // Upper bounds: averaging raises neither the largest value nor the max(R, G, B) power.
+      max_value_(parent.max_value_), power_(parent.power_), parent_(&parent), merge_(m),
+      built_(std::size_t(height_), 0) {
+    planes_.resize(std::size_t(height_) * 3 * std::size_t(width_));  // rows written by ensure_rows
+}
+
+void PreparedLevel::ensure_rows(const std::vector<char>& rows) const {
+    if (!parent_) return;  // a level made from an image has every row
+    parent_->ensure_rows(rows);
+    std::lock_guard lock(rows_mutex_);
+    std::vector<int> missing;
+    for (int j = 0; j < height_; ++j)
+        if (rows[std::size_t(j)] && !built_[std::size_t(j)]) missing.push_back(j);
+    parallel_for(int(missing.size()), threads_, [&](int k) {
+        const int j = missing[std::size_t(k)];
         for (int c = 0; c < 3; ++c) {
-            const float* src = parent.plane(j, c);
+            const float* src = parent_->plane(j, c);
             float* dst = planes_.data() + (std::size_t(j) * 3 + std::size_t(c)) * std::size_t(width_);
             for (int i = 0; i < width_; ++i) {
                 double sum = 0;
-                for (int k = 0; k < m; ++k) sum += double(src[i * m + k]);
-                dst[i] = float(sum / m);
-                m_row = std::max(m_row, dst[i]);
+                for (int k2 = 0; k2 < merge_; ++k2) sum += double(src[i * merge_ + k2]);
+                dst[i] = float(sum / merge_);
             }
         }
-        row_max[std::size_t(j)] = m_row;
     });
-    for (float v : row_max) max_value_ = std::max(max_value_, v);
+    for (int j : missing) built_[std::size_t(j)] = 1;
 }
 
 const PreparedLevel& PreparedLevel::merged_columns(int m) const {
+    return merged_columns(m, std::vector<char>(std::size_t(height_), 1));
+}
+
+const PreparedLevel& PreparedLevel::merged_columns(int m, const std::vector<char>& rows) const {
+    const PreparedLevel* version = nullptr;
     {
         std::lock_guard lock(merged_mutex_);
         const auto it = merged_.find(m);
-        if (it != merged_.end()) return *it->second;
+        if (it != merged_.end()) version = it->second.get();
     }
-    // An even m from the level with m/2 merged, two columns at a time: the powers of two the
-    // summer asks for then take half-size passes instead of full ones each.
-    const bool halves = m > 2 && m % 2 == 0;
-    auto built = std::make_unique<PreparedLevel>(halves ? merged_columns(m / 2) : *this, halves ? 2 : m);
-    std::lock_guard lock(merged_mutex_);
-    return *merged_.try_emplace(m, std::move(built)).first->second;
+    if (!version) {
+        // An even m from the level with m/2 merged, two columns at a time: the powers of two the
+        // summer asks for then take half-size passes instead of full ones each. Made without
+        // rows (cheap); its rows are built below, as they are asked for.
+        const bool halves = m > 2 && m % 2 == 0;
+        const PreparedLevel& parent = halves ? merged_columns(m / 2, std::vector<char>(std::size_t(height_), 0)) : *this;
+        auto made = std::make_unique<PreparedLevel>(parent, halves ? 2 : m);
+        std::lock_guard lock(merged_mutex_);
+        version = merged_.try_emplace(m, std::move(made)).first->second.get();
+    }
+    version->ensure_rows(rows);
+    return *version;
 }
 
 const UninitVector<float>& PreparedLevel::phases(int step, int per_class) const {
+    return phases(step, per_class, std::vector<char>(std::size_t(height_), 1));
+}
+
+const UninitVector<float>& PreparedLevel::phases(int step, int per_class, const std::vector<char>& rows) const {
+    ensure_rows(rows);  // before phases_mutex_: a merged level's rows come from its parent's
     std::lock_guard lock(phases_mutex_);
-    UninitVector<float>& p = phases_[{step, per_class}];
-    if (!p.empty()) return p;
+    PhaseLayout& layout = phases_[{step, per_class}];
+    UninitVector<float>& p = layout.values;
     // step * per_class = width, so the first per_class values of a phase row
     // never wrap and the second per_class values repeat them.
     const std::size_t half = std::size_t(per_class);
     const std::size_t stride = phase_stride(per_class);
     const std::size_t st = std::size_t(step);
-    p.resize(std::size_t(height_) * 3 * st * stride);
-    parallel_for(height_, threads_, [&](int j) {
+    // Allocated once (not touched: every value read is written below first); rows laid out as
+    // they are asked for, since a row is read with one geometry only (LobeSummer).
+    if (p.empty()) {
+        p.resize(std::size_t(height_) * 3 * st * stride);
+        layout.built.assign(std::size_t(height_), 0);
+    }
+    std::vector<int> missing;
+    for (int j = 0; j < height_; ++j)
+        if (rows[std::size_t(j)] && !layout.built[std::size_t(j)]) missing.push_back(j);
+    parallel_for(int(missing.size()), threads_, [&](int k) {
+        const int j = missing[std::size_t(k)];
         for (std::size_t c = 0; c < 3; ++c) {
             const float* src = plane(j, int(c));
             float* row = p.data() + (std::size_t(j) * 3 + c) * st * stride;  // phase 0 of this channel
@@ -221,6 +266,7 @@ const UninitVector<float>& PreparedLevel::phases(int step, int per_class) const 
             for (std::size_t ph = 0; ph < st; ++ph) std::copy_n(row + ph * stride, half, row + ph * stride + half);
         }
     });
+    for (int j : missing) layout.built[std::size_t(j)] = 1;
     return p;
 }
 
@@ -297,11 +343,43 @@ double CapMax::query(const Band& band, double phi) const {
     return best;
 }
 
-LobeSums LobeSummer::make_sums(const std::vector<int>* rows) const {
+LobeSums LobeSummer::make_sums(const std::vector<int>* rows, const std::vector<ColumnRuns>* columns) const {
     LobeSums s;
     s.out_w = out_w_;
     s.out_h = out_h_;
     s.classes = classes_;
+    if (columns && rows && columns->size() == rows->size()) {
+        // Per row, the window from the first to the last column that the runs or sum_row's
+        // widened class runs reach.
+        s.slot.assign(std::size_t(out_h_), -1);
+        std::size_t total = 0;
+        for (std::size_t k = 0; k < rows->size(); ++k) {
+            const int row = (*rows)[k];
+            if (s.slot[std::size_t(row)] >= 0)
+                throw RuntimeError("internal: make_sums with column runs needs distinct rows");
+            int lo = out_w_, hi = 0;
+            for (const auto& [first, last] : (*columns)[k])
+                if (first < last) {
+                    lo = std::min(lo, first);
+                    hi = std::max(hi, last);
+                }
+            for (int cls = 0; cls < classes_; ++cls)
+                for (const auto& [q0, q1] : class_runs(cls, (*columns)[k])) {
+                    lo = std::min(lo, q0 * classes_ + cls);
+                    hi = std::max(hi, (q1 - 1) * classes_ + cls + 1);
+                }
+            if (hi < lo) hi = lo = 0;
+            s.slot[std::size_t(row)] = int(k);
+            s.row_start.push_back(total);
+            s.col_lo.push_back(lo);
+            s.col_hi.push_back(hi);
+            total += std::size_t(hi - lo);
+        }
+        s.num.resize(total * 3);
+        s.den.assign(std::size_t(classes_) * std::size_t(out_h_), 0.0);
+        s.cmax.assign(std::size_t(classes_) * std::size_t(out_h_), 0.0);
+        return s;
+    }
     std::size_t stored = std::size_t(out_h_);
     if (rows && int(rows->size()) < out_h_) {
         s.slot.assign(std::size_t(out_h_), -1);
@@ -504,24 +582,7 @@ void LobeSummer::sum_row(int out_row, double c_min, LobeSums& sums, const Column
         std::fill(acc.begin(), acc.end(), 0.0);
         double den = 0;
         // Runs of this class's column indices q (column = q * classes + cls).
-        ColumnRuns q_runs;
-        if (columns) {
-            // Runs widened to whole blocks of kBlock (the vector path); the extra
-            // columns' sums are written too and left unread by the caller.
-            for (const auto& [first, last] : *columns) {
-                int q0 = std::max(0, (first - cls + classes_ - 1) / classes_);
-                int q1 = std::min(per_class_, (last - cls + classes_ - 1) / classes_);
-                if (q1 <= q0) continue;
-                q0 = q0 / kBlock * kBlock;
-                q1 = std::min(per_class_, (q1 + kBlock - 1) / kBlock * kBlock);
-                if (!q_runs.empty() && q0 <= q_runs.back().second)
-                    q_runs.back().second = std::max(q_runs.back().second, q1);
-                else
-                    q_runs.emplace_back(q0, q1);
-            }
-        } else {
-            q_runs.emplace_back(0, per_class_);
-        }
+        const ColumnRuns q_runs = columns ? class_runs(cls, *columns) : ColumnRuns{{0, per_class_}};
 
         // Columns [d_lo, d_lo + count) of input row jk whose cosine with this
         // class's texels is at least `bound` (count 0: none). The inner cone of an
@@ -610,6 +671,24 @@ void LobeSummer::sum_row(int out_row, double c_min, LobeSums& sums, const Column
     }
 }
 
+LobeSummer::ColumnRuns LobeSummer::class_runs(int cls, const ColumnRuns& columns) const {
+    // Runs widened to whole blocks of kBlock (the vector path); the extra columns' sums are
+    // written too and left unread by the caller.
+    ColumnRuns q_runs;
+    for (const auto& [first, last] : columns) {
+        int q0 = std::max(0, (first - cls + classes_ - 1) / classes_);
+        int q1 = std::min(per_class_, (last - cls + classes_ - 1) / classes_);
+        if (q1 <= q0) continue;
+        q0 = q0 / kBlock * kBlock;
+        q1 = std::min(per_class_, (q1 + kBlock - 1) / kBlock * kBlock);
+        if (!q_runs.empty() && q0 <= q_runs.back().second)
+            q_runs.back().second = std::max(q_runs.back().second, q1);
+        else
+            q_runs.emplace_back(q0, q1);
+    }
+    return q_runs;
+}
+
 void raise_to_power(double* x, int count, double n) {
     if (n != std::floor(n) || n > double(1LL << 40)) {
         for (int d = 0; d < count; ++d) x[d] = x[d] > 0 ? std::pow(x[d], n) : 0.0;
@@ -648,7 +727,7 @@ HdrImage finish_sums(const LobeSums& sums) {
     for (int j = 0; j < sums.out_h; ++j) {
         if (!sums.stored(j)) continue;
         float* row = out.row(j);
-        for (int i = 0; i < sums.out_w; ++i) {
+        for (int i = sums.first_column(j); i < sums.end_column(j); ++i) {
             const double den = sums.den[std::size_t(j) * std::size_t(sums.classes) +
                                         std::size_t(sums.class_of(i))];
             const double* num = sums.num.data() + sums.texel(j, i) * 3;

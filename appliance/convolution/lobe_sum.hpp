@@ -81,6 +81,7 @@ public:
     // threads: for the layout work here and in phases().
     explicit PreparedLevel(const HdrImage& level, int threads = 1);
     // `parent` with every m adjacent columns averaged (see merged_columns).
+    // (Made without rows: merged_columns builds the rows asked for, ensure_rows.)
     PreparedLevel(const PreparedLevel& parent, int m);
     int width() const { return width_; }
     int height() const { return height_; }
@@ -100,10 +101,15 @@ public:
     // are phase_stride(per_class) floats apart. Built on first use and kept,
     // since every map of one output width needs the same layout.
     const UninitVector<float>& phases(int step, int per_class) const;
+    // The same for the rows flagged in `rows` (per level row): the others may be unwritten.
+    const UninitVector<float>& phases(int step, int per_class, const std::vector<char>& rows) const;
     // The level with every m adjacent columns averaged (m divides the width):
     // texels of one row share a solid angle, so the average is energy
     // preserving. Built on first use and kept.
     const PreparedLevel& merged_columns(int m) const;
+    // The same with only the rows flagged in `rows` (per level row) sure to be made: a narrow
+    // lobe merges columns only in the rows near the poles.
+    const PreparedLevel& merged_columns(int m, const std::vector<char>& rows) const;
     // 2 * per_class plus one cache line: a narrow lobe's terms all read the same
     // columns of ~20 rows x 3 channels, and a stride of a multiple of 4 KiB would
     // put all of those reads into the same few L1 sets.
@@ -112,12 +118,25 @@ public:
 private:
     int width_, height_, threads_;
     std::vector<double> cos_t_, sin_t_, omega_;
-    UninitVector<float> planes_;  // every value written by the constructor
+    // Every value written by the constructor; a merged version's rows by ensure_rows (lazily, from
+    // const methods, under rows_mutex_).
+    mutable UninitVector<float> planes_;
     float max_value_ = 0;
     double power_ = 0;
     mutable std::mutex phases_mutex_;  // guards the lazily built layouts below
     // The padding past each phase row's 2 * per_class values is never read.
-    mutable std::map<std::pair<int, int>, UninitVector<float>> phases_;
+    struct PhaseLayout {
+        UninitVector<float> values;
+        std::vector<char> built;  // per level row: laid out
+    };
+    mutable std::map<std::pair<int, int>, PhaseLayout> phases_;
+    // A merged version: the level it averages, m, and which of its rows are made so far.
+    const PreparedLevel* parent_ = nullptr;
+    int merge_ = 1;
+    mutable std::vector<char> built_;
+    mutable std::mutex rows_mutex_;
+    // Makes the flagged rows not made yet (a merged version; the parent's first).
+    void ensure_rows(const std::vector<char>& rows) const;
     mutable std::mutex merged_mutex_;
     mutable std::map<int, std::unique_ptr<PreparedLevel>> merged_;
 };
@@ -132,10 +151,20 @@ struct LobeSums {
     // when every row is, in order. A few rows of a fine grid (the exact patches)
     // then take memory for those rows only.
     std::vector<int> slot;
+    // Stored rows may also keep only a window of columns [col_lo, col_hi) per slot, starting at
+    // row_start in num (empty: whole rows). The exact patches of a fine grid ask for a few
+    // texels of a 4096-wide row: whole rows cost 4-5x the memory, and fresh memory is slow to
+    // fault in. Only the window's texels may be addressed.
+    std::vector<std::size_t> row_start;
+    std::vector<int> col_lo, col_hi;
     std::size_t texel(int row, int col) const {
         const std::size_t r = slot.empty() ? std::size_t(row) : std::size_t(slot[std::size_t(row)]);
+        if (!col_lo.empty()) return row_start[r] + std::size_t(col - col_lo[r]);
         return r * std::size_t(out_w) + std::size_t(col);
     }
+    // The columns of a stored row that may be addressed, [first_column, end_column).
+    int first_column(int row) const { return col_lo.empty() ? 0 : col_lo[std::size_t(slot[std::size_t(row)])]; }
+    int end_column(int row) const { return col_hi.empty() ? out_w : col_hi[std::size_t(slot[std::size_t(row)])]; }
     bool stored(int row) const { return slot.empty() || slot[std::size_t(row)] >= 0; }
     std::vector<double> den;   // per (output row, class)
     std::vector<double> cmax;  // per (output row, class)
@@ -180,8 +209,10 @@ public:
     // by the caller to the sums of a pass with c_min = c_inner.
     void sum_row(int out_row, double c_min, LobeSums& sums, const ColumnRuns* columns = nullptr,
                  double c_inner = 2.0) const;
-    // Sums for every output row, or (rows given) for those rows only.
-    LobeSums make_sums(const std::vector<int>* rows = nullptr) const;
+    // Sums for every output row, or (rows given) for those rows only, and (columns given: one
+    // list per row of `rows`, distinct rows) only the columns that sum_row with those runs
+    // writes.
+    LobeSums make_sums(const std::vector<int>* rows = nullptr, const std::vector<ColumnRuns>* columns = nullptr) const;
 
     // Largest cosine between the direction of output texel (row, class) and any
     // texel centre of the level.
@@ -218,11 +249,15 @@ private:
         // whole class are contiguous.
         const UninitVector<float>* phases = nullptr;
     };
-    Geometry make_geometry(const PreparedLevel& level) const;
+    // The geometry of `level` (or a merged version of it) for the level rows flagged in `rows`.
+    Geometry make_geometry(const PreparedLevel& level, const std::vector<char>& rows) const;
     const float* phase(const Geometry& g, int row, int s) const {
         return g.phases->data() +
                (std::size_t(row) * 3 * std::size_t(g.step) + std::size_t(s)) * PreparedLevel::phase_stride(per_class_);
     }
+    // The runs of class cls's column indices q (column = q * classes + cls) that sum_row computes
+    // for the column runs `columns`: widened to whole blocks of the vector path.
+    ColumnRuns class_runs(int cls, const ColumnRuns& columns) const;
     void flush_terms(const std::vector<Term>& terms, const ColumnRuns& q_runs, std::size_t channel_stride,
                      double* acc_r, double* acc_g, double* acc_b) const;
     // Fills w[0..count) with the weights of cosines a * cos(dphi_d) + b, where

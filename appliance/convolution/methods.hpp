@@ -42,15 +42,20 @@ BrightSplit split_bright(HdrImage input, double contrast, int max_count, int thr
 
 // The bright texels' terms (r.w_b / cmax)^n L_b dOmega_b for the output texels
 // of an out-sized grid where they are not negligible: a term below `tolerance`
-// times floor_value (the smallest output) is dropped.
+// times floor_value (the smallest output) is dropped. `cmax_floor` is a lower bound of cmax over
+// the grid (the weights are taken relative to it): 1 where the sums are normalised to the
+// largest weight 1 (add_bright_lobes), so the cut is no wider than the tolerance needs.
 class BrightScatter {
 public:
     BrightScatter(const std::vector<BrightTexel>& bright, double shininess, Size out, double floor_value,
-                  double tolerance);
+                  double tolerance, double cmax_floor = 0.999);
     // Adds the terms of output row `row` to nb_row (3 per texel); cmax_row holds
     // `classes` values (column i is class i % classes), ones for sums
-    // normalised to the largest weight 1. Thread-safe across rows.
-    void add_row(int row, const double* cmax_row, int classes, double* nb_row) const;
+    // normalised to the largest weight 1. Thread-safe across rows. With `columns`, only the
+    // texels of those half-open column runs (ascending) get their terms; the others are left.
+    // nb_row holds the row from column `first_column` on (a window of it; the runs within it).
+    void add_row(int row, const double* cmax_row, int classes, double* nb_row,
+                 const LobeSummer::ColumnRuns* columns = nullptr, int first_column = 0) const;
     const std::vector<BrightTexel>& texels() const { return bright_; }
     // Per bright texel: the cosine below which its term is dropped (> 1: never used).
     const std::vector<double>& min_cos() const { return min_cos_; }
@@ -61,6 +66,20 @@ private:
     double n_;
     Size out_;
     std::vector<double> min_cos_, cos_phi_, sin_phi_;
+    // Per bright texel: sin(theta_b), and the output rows its cut-off cone can reach (with a
+    // row of margin; the exact test is made per row), so a row skips the others cheaply.
+    std::vector<double> sin_theta_, cos_phi_b_, sin_phi_b_;
+    std::vector<int> first_row_, last_row_;
+    // Bright texel k's weights (before the power n) for the columns [i0, end) of a row, into w
+    // (a = sin theta_r sin theta_b, bq = cos theta_r cos theta_b).
+    void stage_weights(std::size_t k, int i0, int end, double a, double bq, const double* cmax_row, int classes,
+                       double* w) const;
+    // A run of a row's weights staged for the power n and the sums (add_row).
+    struct Staged {
+        std::size_t texel;
+        int first, count;
+        std::size_t offset;
+    };
 };
 
 struct ConeStats {

@@ -360,7 +360,8 @@ void add_bright_lobes(const std::vector<BrightTexel>& bright, double n, double f
                       HdrImage& map, int threads) {
     if (bright.empty()) return;
     const Size out{map.width(), map.height()};
-    const BrightScatter scatter(bright, n, out, floor_value, 1e-6);
+    // The weights here are the lobe's own, max(0, r.w_b)^n (cmax = 1): the cut needs no allowance.
+    const BrightScatter scatter(bright, n, out, floor_value, 1e-6, 1.0);
     const double norm = (op == LobeOp::Subtract ? -1.0 : 1.0) * (n + 1.0) / kTwoPi;
     const std::vector<double> ones(1, 1.0);
     parallel_for(out.height, threads, [&](int j) {
