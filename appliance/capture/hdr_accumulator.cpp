@@ -110,12 +110,38 @@ std::vector<float> HdrAccumulator::accumulation_planes(const CameraFrame& frame,
                                                       std::vector<std::uint8_t>* zone) {
     std::vector<float> planes = filtered_planes(frame, cal, s, pw, ph);
     if (zone) {
-        if (automatic_downscale && texel_box_width(cal.intrinsics, map_width, s) > 1.0 + 1e-6)
+        if (automatic_downscale && texel_box_width(cal.intrinsics, map_width, s) > 1.0 + 1e-6) {
             *zone = footprint_zone(planes, pw, ph);
-        else
+            zone_weights(planes, pw, ph, *zone);
+        } else {
             zone->clear();
+        }
     }
     return planes;
+}
+
+void HdrAccumulator::zone_weights(std::vector<float>& planes, int pw, int ph, const std::vector<std::uint8_t>& zone) {
+    // Robertson's weight comes from a cell's own code values: beside a small source it is high in
+    // the frames where the source's light spills into the cell and near 0 where it does not (code
+    // 0 weighs 0), so the frames that saw more light there count more, and a source seen in many
+    // frames came out brighter than in any of them (+3.5 % for a 1e-5 sr source over 60 frames).
+    // In the zone each cell takes the largest weight within the zone's reach instead: about one
+    // weight per frame over a compact source, so the map holds the frames' mean energy.
+    constexpr int kReach = 2;
+    const std::vector<float> w(planes);
+    for (int v = 0; v < ph; ++v)
+        for (int u = 0; u < pw; ++u) {
+            if (!zone[std::size_t(v) * std::size_t(pw) + std::size_t(u)]) continue;
+            float* o = planes.data() + (std::size_t(v) * std::size_t(pw) + std::size_t(u)) * kPlaneFloats;
+            for (int dv = -kReach; dv <= kReach; ++dv)
+                for (int du = -kReach; du <= kReach; ++du) {
+                    const int uu = u + du, vv = v + dv;
+                    if (uu < 0 || uu >= pw || vv < 0 || vv >= ph) continue;
+                    const float* c = w.data() + (std::size_t(vv) * std::size_t(pw) + std::size_t(uu)) * kPlaneFloats;
+                    if (c[6] > 0) continue;
+                    for (int k = 3; k < 6; ++k) o[k] = std::max(o[k], c[k]);
+                }
+        }
 }
 
 std::vector<std::uint8_t> HdrAccumulator::footprint_zone(const std::vector<float>& planes, int pw, int ph) {

@@ -118,6 +118,9 @@ public:
     // falls between texel centres (docs/capture.md "Accumulation": with a point read 61-144 %, with
     // a box in the image's axes a spread of 14 % per frame, with the footprint 1 %).
     static std::vector<std::uint8_t> footprint_zone(const std::vector<float>& planes, int width, int height);
+    // In the zone, each cell's weights W raised to the largest within 2 cells (not clipped ones):
+    // one weight per frame over a compact source (hdr_accumulator.cpp says why).
+    static void zone_weights(std::vector<float>& planes, int width, int height, const std::vector<std::uint8_t>& zone);
     // Taps per side of a texel's footprint read for a footprint of `box_cells` cells.
     static int footprint_taps(double box_cells);
     // What an accumulator of a map_width-wide map reads of a frame (the CPU's and the GPU's):
