@@ -87,9 +87,30 @@ LightDecomposition find_dominant_lights(const HdrImage& environment, const Domin
     };
     std::vector<Region> regions;
     std::vector<char> visited(lum.size(), 0);
+    // Seeds brightest first, so each region starts at its own peak and its core threshold is known.
+    std::vector<std::size_t> seeds;
+    for (std::size_t k = 0; k < lum.size(); ++k)
+        if (lum[k] > seed) seeds.push_back(k);
+    std::sort(seeds.begin(), seeds.end(), [&](std::size_t a, std::size_t b) { return lum[a] > lum[b]; });
+    auto neighbours = [&](std::size_t k, const auto& visit) {
+        const int i = int(k % std::size_t(w)), j = int(k / std::size_t(w));
+        auto at = [&](int ni, int nj) {
+            ni = ((ni % w) + w) % w;  // the seam: column W-1 touches column 0
+            visit(std::size_t(nj) * std::size_t(w) + std::size_t(ni));
+        };
+        for (int dj = -1; dj <= 1; ++dj) {
+            const int nj = j + dj;
+            if (nj < 0 || nj >= h) continue;
+            for (int di = -1; di <= 1; ++di)
+                if (di != 0 || dj != 0) at(i + di, nj);
+        }
+        // Across the pole: the first and last rows meet the texel half a turn away.
+        if (j == 0 || j == h - 1) at(i + w / 2, j);
+    };
     std::vector<std::size_t> stack;
-    for (std::size_t start = 0; start < lum.size(); ++start) {
-        if (visited[start] || !(lum[start] > seed)) continue;
+    for (const std::size_t start : seeds) {
+        if (visited[start]) continue;
+        const double core = std::max(grow, options.core_fraction * lum[start]);
         Region region;
         visited[start] = 1;
         stack.assign(1, start);
@@ -97,24 +118,21 @@ LightDecomposition find_dominant_lights(const HdrImage& environment, const Domin
             const std::size_t k = stack.back();
             stack.pop_back();
             region.texels.push_back(k);
-            const int i = int(k % std::size_t(w)), j = int(k / std::size_t(w));
-            region.energy += lum[k] * domega[std::size_t(j)];
-            auto visit = [&](int ni, int nj) {
-                ni = ((ni % w) + w) % w;  // the seam: column W-1 touches column 0
-                const std::size_t n = std::size_t(nj) * std::size_t(w) + std::size_t(ni);
-                if (visited[n] || !(lum[n] > grow)) return;
+            neighbours(k, [&](std::size_t n) {
+                if (visited[n] || !(lum[n] > core)) return;
                 visited[n] = 1;
                 stack.push_back(n);
-            };
-            for (int dj = -1; dj <= 1; ++dj) {
-                const int nj = j + dj;
-                if (nj < 0 || nj >= h) continue;
-                for (int di = -1; di <= 1; ++di)
-                    if (di != 0 || dj != 0) visit(i + di, nj);
-            }
-            // Across the pole: the first and last rows meet the texel half a turn away.
-            if (j == 0 || j == h - 1) visit(i + w / 2, j);
+            });
         }
+        // One ring more above the grow threshold: the partly covered texels at the core's rim.
+        const std::size_t core_size = region.texels.size();
+        for (std::size_t c = 0; c < core_size; ++c)
+            neighbours(region.texels[c], [&](std::size_t n) {
+                if (visited[n] || !(lum[n] > grow)) return;
+                visited[n] = 1;
+                region.texels.push_back(n);
+            });
+        for (const std::size_t k : region.texels) region.energy += lum[k] * domega[k / std::size_t(w)];
         regions.push_back(std::move(region));
     }
     std::sort(regions.begin(), regions.end(), [](const Region& a, const Region& b) { return a.energy > b.energy; });
@@ -135,8 +153,6 @@ LightDecomposition find_dominant_lights(const HdrImage& environment, const Domin
             moment += lum[k] * glm::dvec3(m.radial * std::sin(phi), m.vertical, -m.radial * std::cos(phi));
             weight += lum[k] * dw;
             peak = std::max(peak, lum[k]);
-            float* a = out.ambient.row(j) + 3 * i;
-            a[0] = a[1] = a[2] = 0.0f;
         }
         const double length = glm::length(moment);
         light.direction = moment / length;
@@ -148,6 +164,26 @@ LightDecomposition find_dominant_lights(const HdrImage& environment, const Domin
         light.solid_angle = std::min(2.0 * kTwoPi * (1.0 - mean_cos), weight / peak);
         light.radiance = light.energy / light.solid_angle;
         light.texels = int(region.texels.size());
+        // Wholly behind the surface that the caller lights: it stays in the ambient part.
+        if (light.angular_radius() > options.max_angular_radius) continue;
+        if (options.facing) {
+            if (glm::dot(light.direction, *options.facing) <= -std::sin(light.angular_radius())) continue;
+            glm::dvec3 towards(0.0);
+            for (const std::size_t k : region.texels) {
+                const int i = int(k % std::size_t(w)), j = int(k / std::size_t(w));
+                const glm::dvec3 d = texel_direction(i, j, w, h);
+                const double c = glm::dot(d, *options.facing);
+                if (c <= 0) continue;
+                const float* p = environment.row(j) + 3 * i;
+                light.facing_irradiance += glm::dvec3(p[0], p[1], p[2]) * (c * domega[std::size_t(j)]);
+                towards += (lum[k] * c * domega[std::size_t(j)]) * d;
+            }
+            light.facing_direction = glm::length(towards) > 0 ? glm::normalize(towards) : light.direction;
+        }
+        for (const std::size_t k : region.texels) {
+            float* a = out.ambient.row(int(k / std::size_t(w))) + 3 * (k % std::size_t(w));
+            a[0] = a[1] = a[2] = 0.0f;
+        }
         out.lights.push_back(light);
     }
     return out;

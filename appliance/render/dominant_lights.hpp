@@ -3,12 +3,13 @@
 //
 // A light is a connected region of bright texels: seeded by texels whose luminance exceeds
 // `seed_ratio` times the map's mean luminance (the solid-angle weighted mean of
-// docs/conventions.md), grown over neighbours above `grow_ratio` times it (so the partly covered
-// texels at a light's rim keep their energy). Neighbours are the 8 around a texel, with columns
+// docs/conventions.md), brightest first, grown over neighbours above `grow_ratio` times it and
+// above `core_fraction` of the seed's luminance, then by one ring of neighbours above `grow_ratio`
+// (so the partly covered texels at a light's rim keep their energy). Neighbours are the 8 around a texel, with columns
 // wrapping across the seam and the first (last) row joined across the pole to the texel half a
 // turn away. The regions are ranked by energy (luminance times solid angle) and the largest
-// `max_lights` kept; the rest of the map, with those texels set to 0, is the ambient part, so
-// lights + ambient sum to the map exactly.
+// `max_lights` kept (optionally only those above a plane); the rest of the map, with those
+// texels set to 0, is the ambient part, so lights + ambient sum to the map exactly.
 //
 // Each light is summarised as a uniform disc: its energy E = sum L_k dOmega_k (RGB), its direction
 // the luminance-weighted mean of the texels' directions (each texel's exact mean direction over
@@ -22,6 +23,7 @@
 // Radiance = E / Omega. A light smaller than a texel gets about a texel's solid angle.
 #pragma once
 
+#include <optional>
 #include <vector>
 
 #include <glm/glm.hpp>
@@ -36,6 +38,11 @@ struct DominantLight {
     glm::dvec3 radiance{0.0};             // RGB, energy / solid_angle
     glm::dvec3 energy{0.0};               // RGB, sum of L dOmega over the region
     int texels = 0;                       // texels of the region
+    // With DominantLightOptions::facing: what the light gives a surface with that normal, from its
+    // own texels (sum L_k max(0, n . w_k) dOmega_k: exact also for a light across the horizon), and
+    // the direction that irradiance comes from on average (the same weights on the directions).
+    glm::dvec3 facing_irradiance{0.0};
+    glm::dvec3 facing_direction{0.0, 1.0, 0.0};
     double angular_radius() const;        // a, with solid_angle = 2 pi (1 - cos a)
 };
 
@@ -43,9 +50,18 @@ struct DominantLightOptions {
     int max_lights = 4;
     double seed_ratio = 10.0;  // a seed texel's luminance over the map's mean luminance
     double grow_ratio = 3.0;   // a region grows over texels above this times the mean
+    // ... and above this fraction of its seed's (its peak's) luminance, plus one ring of texels
+    // above grow_ratio: a sun keeps its sharp core and its rim; the glow around it stays ambient
+    // or becomes a light of its own (0: the whole connected region is one light).
+    double core_fraction = 0.1;
     // Regions with less than this share of the map's energy (luminance) stay ambient: specks
     // that would cost a shadow each and darken nothing visibly.
     double min_energy_share = 0.01;
+    // When set, a region whose disc lies wholly below the plane with this unit normal is not a
+    // light (it cannot light that surface) and stays ambient; the next one takes its place.
+    std::optional<glm::dvec3> facing;
+    // Regions whose disc is wider than this (angular radius, radians) are not lights and stay ambient.
+    double max_angular_radius = 3.15;
 };
 
 struct LightDecomposition {

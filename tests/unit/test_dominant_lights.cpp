@@ -132,6 +132,23 @@ TEST(DominantLights, RanksByEnergyKeepsAtMostMaxAndDropsSpecks) {
     EXPECT_TRUE(find_dominant_lights(map, o).lights.empty());
 }
 
+TEST(DominantLights, FacingKeepsLightsBelowThePlaneAmbient) {
+    const std::vector<Disc> discs = {{unit(0.2, -0.8, 0.1), 5.0 * kPi / 180, {900, 900, 900}},  // below, brighter
+                                     {unit(-0.3, 0.6, 0.2), 3.0 * kPi / 180, {900, 900, 900}}};
+    const HdrImage map = map_with(128, 64, discs);
+    DominantLightOptions o;
+    EXPECT_EQ(find_dominant_lights(map, o).lights.size(), 2u);
+    o.facing = glm::dvec3(0, 1, 0);
+    const auto up = find_dominant_lights(map, o);
+    ASSERT_EQ(up.lights.size(), 1u);
+    EXPECT_LT(angle_between(up.lights[0].direction, discs[1].direction), kPi / 64);
+    // The one below stays in the ambient part at full radiance.
+    const TexelCoord t = direction_to_texel(discs[0].direction, 128, 64);
+    EXPECT_GT(up.ambient.at(int(t.x), int(t.y)).g, 800.0f);
+    o.max_lights = 1;  // the one above still gets the only place
+    EXPECT_EQ(find_dominant_lights(map, o).lights.size(), 1u);
+}
+
 TEST(DominantLights, LightsPlusAmbientAreTheWholeMap) {
     const std::vector<Disc> discs = {{unit(0.3, 1, 0), 5.0 * kPi / 180, {800, 700, 600}},
                                      {unit(0, 0, 1), 3.0 * kPi / 180, {900, 900, 1000}}};
