@@ -8,18 +8,19 @@
 // The environment is looked up here rather than drawn into a float target first: one full-screen
 // float target less to write and read each frame.
 // With shadows on, the background (environment or image, never the object) is multiplied by the
-// table's shadow ratio (shaders/render_shadow.frag); the image in linear light, through the sRGB
-// curve and back.
+// table's shadow ratio (render_shadow.glsl), evaluated here for the background pixels only (a
+// target of its own would cost a full-screen float pass a frame); the image in linear light,
+// through the sRGB curve and back.
 precision highp float;
 #include "equirect.glsl"
 #include "render_lookup.glsl"
+#include "render_shadow.glsl"
 uniform highp sampler2D u_radiance;
 uniform highp sampler2D u_environment;
 uniform mediump sampler2D u_image;
 uniform bool u_has_environment;
 uniform bool u_has_image;
-uniform highp sampler2D u_shadow;  // RGB = the shadow ratio, 1 off the table
-uniform bool u_has_shadow;
+uniform bool u_has_shadow;  // the table shadow's uniforms (render_shadow.glsl) are set
 uniform vec2 u_size;
 uniform vec2 u_tan_half_fov;  // tan(fov_x / 2), tan(fov_y / 2)
 uniform mat3 u_world_from_camera;
@@ -39,12 +40,13 @@ vec3 srgb_decode(vec3 c) {
 void main() {
     vec4 object = texelFetch(u_radiance, ivec2(gl_FragCoord.xy), 0);
     vec3 hdr;
-    vec3 shadow = u_has_shadow ? texelFetch(u_shadow, ivec2(gl_FragCoord.xy), 0).rgb : vec3(1.0);
+    vec2 ndc = gl_FragCoord.xy / u_size * 2.0 - 1.0;
+    vec3 ray = normalize(u_world_from_camera * vec3(ndc * u_tan_half_fov, -1.0));
+    vec3 shadow = u_has_shadow && object.a == 0.0 ? table_shadow(ray).rgb : vec3(1.0);
     if (object.a > 0.0) {
         hdr = object.rgb;
     } else if (u_has_environment) {
-        vec2 ndc = gl_FragCoord.xy / u_size * 2.0 - 1.0;
-        hdr = shadow * equirect_bilinear(u_environment, normalize(u_world_from_camera * vec3(ndc * u_tan_half_fov, -1.0)));
+        hdr = shadow * equirect_bilinear(u_environment, ray);
     } else {
         // The image's rows are top first; the frame's y grows upwards.
         vec2 uv = vec2(gl_FragCoord.x / u_size.x, 1.0 - gl_FragCoord.y / u_size.y);

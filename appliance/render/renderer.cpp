@@ -205,10 +205,7 @@ void Renderer::set_background_image(const gl::RgbImage& image) {
 
 void Renderer::set_background_black() { background_ = Background::Black; }
 
-void Renderer::draw_scene() {
-    draw_shadow();
-    draw(false);
-}
+void Renderer::draw_scene() { draw(false); }
 
 void Renderer::draw(bool with_hdr) {
     glBindFramebuffer(GL_FRAMEBUFFER, framebuffer_.id());
@@ -295,7 +292,6 @@ void Renderer::set_camera_ray_uniforms(const gl::GlProgram& program) const {
 }
 
 const ToneMap& Renderer::meter(double key) {
-    draw_shadow();
     draw(true);
     tone_ = meter_reinhard(read_target(kHdr), key);
     return tone_;
@@ -334,7 +330,10 @@ Aovs Renderer::read_aovs() const {
     a.radiance = read_target(kRadiance);
     a.normal = read_target(kNormal);
     a.reflect = read_target(kReflect);
-    if (shadow_) a.shadow = shadow_->read();
+    if (shadow_) {
+        draw_shadow();  // the ratio's own target: frames evaluate it in the composite
+        a.shadow = shadow_->read();
+    }
     return a;
 }
 
@@ -363,11 +362,8 @@ void Renderer::draw_shadow() const {
 }
 
 void Renderer::bind_shadow(const gl::GlProgram& program, int unit) const {
-    glActiveTexture(GLenum(GL_TEXTURE0 + unit));
-    glBindTexture(GL_TEXTURE_2D, shadow_ ? shadow_->texture() : 0);
-    glUniform1i(program.uniform("u_shadow"), unit);
     glUniform1i(program.uniform("u_has_shadow"), shadow_ ? 1 : 0);
-    glActiveTexture(GL_TEXTURE0);
+    if (shadow_) shadow_->set_uniforms(program, unit, glm::vec3(camera_.eye));
 }
 
 }  // namespace glint::render

@@ -120,8 +120,8 @@ private:
     std::vector<float> read_target(int k) const;  // rows top first
     void draw(bool with_hdr);
     void set_camera_ray_uniforms(const gl::GlProgram& program) const;  // u_size, u_tan_half_fov, u_world_from_camera
-    void draw_shadow() const;                                          // the ratio's target, when shadows are on
-    void bind_shadow(const gl::GlProgram& program, int unit) const;    // u_shadow, u_has_shadow
+    void draw_shadow() const;                                          // the ratio's target (the AOV), when shadows are on
+    void bind_shadow(const gl::GlProgram& program, int unit) const;    // u_has_shadow and render_shadow.glsl's uniforms
 
     int width_, height_;
     Camera camera_;

@@ -201,9 +201,51 @@ TableShadowPass::TableShadowPass(int width, int height, const ShadowLighting& li
     if (int(lighting_.lights.size()) > kMaxShadowLights) throw RuntimeError("shadow: more lights than the shader holds");
     if (int(occluders_.size()) > kMaxOccluders) throw RuntimeError("shadow: more occluders than the shader holds");
     if (int(lighting_.ambient_caps.size()) != kCapLevels) throw RuntimeError("shadow: the ambient cap maps are missing");
-    for (int l = 0; l < kCapLevels; ++l) caps_[l] = gl::upload_image(lighting_.ambient_caps[std::size_t(l)]);
+    // The levels stacked top to bottom in one texture (render_shadow.frag's u_caps).
+    HdrImage stack(kCapW, kCapH * kCapLevels);
+    for (int l = 0; l < kCapLevels; ++l) {
+        const HdrImage& level = lighting_.ambient_caps[std::size_t(l)];
+        if (level.width() != kCapW || level.height() != kCapH) throw RuntimeError("shadow: a cap map is not 64x32");
+        std::copy(level.data().begin(), level.data().end(),
+                  stack.data().begin() + std::ptrdiff_t(std::size_t(l) * level.data().size()));
+    }
+    caps_ = gl::upload_image(stack);
     empty_vao_ = gl::GlVertexArray::create();
     gl::check_gl("creating the table shadow pass");
+}
+
+void TableShadowPass::set_uniforms(const gl::GlProgram& program, int caps_unit, const glm::vec3& eye) const {
+    glUniform3f(program.uniform("u_eye"), eye.x, eye.y, eye.z);
+    glUniform1f(program.uniform("u_table_height"), float(table_height_));
+    const int n = int(lighting_.lights.size());
+    std::vector<float> dir, irr, radius;
+    for (int i = 0; i < n; ++i) {
+        const DominantLight& l = lighting_.lights[std::size_t(i)];
+        const glm::dvec3 e = lighting_.light_irradiance[std::size_t(i)];
+        dir.insert(dir.end(), {float(l.direction.x), float(l.direction.y), float(l.direction.z)});
+        irr.insert(irr.end(), {float(e.x), float(e.y), float(e.z)});
+        radius.push_back(float(l.angular_radius()));
+    }
+    glUniform1i(program.uniform("u_light_count"), n);
+    if (n > 0) {
+        glUniform3fv(program.uniform("u_light_dir"), n, dir.data());
+        glUniform3fv(program.uniform("u_light_irradiance"), n, irr.data());
+        glUniform1fv(program.uniform("u_light_radius"), n, radius.data());
+    }
+    const glm::dvec3 ea = lighting_.ambient_irradiance;
+    glUniform3f(program.uniform("u_ambient_irradiance"), float(ea.x), float(ea.y), float(ea.z));
+    std::vector<float> spheres;
+    for (const OccluderSphere& s : occluders_)
+        spheres.insert(spheres.end(), {float(s.centre.x), float(s.centre.y), float(s.centre.z), float(s.radius)});
+    glUniform1i(program.uniform("u_sphere_count"), int(occluders_.size()));
+    if (!occluders_.empty()) glUniform4fv(program.uniform("u_spheres"), GLsizei(occluders_.size()), spheres.data());
+    float radii[kCapLevels];
+    for (int l = 0; l < kCapLevels; ++l) radii[l] = float(kCapRadiiDeg[l] * kPi / 180.0);
+    glUniform1fv(program.uniform("u_cap_radius"), kCapLevels, radii);
+    glActiveTexture(GLenum(GL_TEXTURE0 + caps_unit));
+    glBindTexture(GL_TEXTURE_2D, caps_.id());
+    glUniform1i(program.uniform("u_caps"), caps_unit);
+    glActiveTexture(GL_TEXTURE0);
 }
 
 void TableShadowPass::draw(const glm::mat3& world_from_camera, const glm::vec2& tan_half_fov, const glm::vec3& eye) const {
@@ -215,41 +257,7 @@ void TableShadowPass::draw(const glm::mat3& world_from_camera, const glm::vec2& 
     glUniform2f(program_.uniform("u_size"), float(width_), float(height_));
     glUniform2f(program_.uniform("u_tan_half_fov"), tan_half_fov.x, tan_half_fov.y);
     glUniformMatrix3fv(program_.uniform("u_world_from_camera"), 1, GL_FALSE, glm::value_ptr(world_from_camera));
-    glUniform3f(program_.uniform("u_eye"), eye.x, eye.y, eye.z);
-    glUniform1f(program_.uniform("u_table_height"), float(table_height_));
-
-    const int n = int(lighting_.lights.size());
-    std::vector<float> dir, irr, radius;
-    for (int i = 0; i < n; ++i) {
-        const DominantLight& l = lighting_.lights[std::size_t(i)];
-        const glm::dvec3 e = lighting_.light_irradiance[std::size_t(i)];
-        dir.insert(dir.end(), {float(l.direction.x), float(l.direction.y), float(l.direction.z)});
-        irr.insert(irr.end(), {float(e.x), float(e.y), float(e.z)});
-        radius.push_back(float(l.angular_radius()));
-    }
-    glUniform1i(program_.uniform("u_light_count"), n);
-    if (n > 0) {
-        glUniform3fv(program_.uniform("u_light_dir"), n, dir.data());
-        glUniform3fv(program_.uniform("u_light_irradiance"), n, irr.data());
-        glUniform1fv(program_.uniform("u_light_radius"), n, radius.data());
-    }
-    const glm::dvec3 ea = lighting_.ambient_irradiance;
-    glUniform3f(program_.uniform("u_ambient_irradiance"), float(ea.x), float(ea.y), float(ea.z));
-    std::vector<float> spheres;
-    for (const OccluderSphere& s : occluders_)
-        spheres.insert(spheres.end(), {float(s.centre.x), float(s.centre.y), float(s.centre.z), float(s.radius)});
-    glUniform1i(program_.uniform("u_sphere_count"), int(occluders_.size()));
-    if (!occluders_.empty()) glUniform4fv(program_.uniform("u_spheres"), GLsizei(occluders_.size()), spheres.data());
-    float radii[kCapLevels];
-    for (int l = 0; l < kCapLevels; ++l) {
-        radii[l] = float(kCapRadiiDeg[l] * kPi / 180.0);
-        glActiveTexture(GLenum(GL_TEXTURE0 + l));
-        glBindTexture(GL_TEXTURE_2D, caps_[l].id());
-        const std::string name = "u_cap" + std::to_string(l);
-        glUniform1i(program_.uniform(name.c_str()), l);
-    }
-    glUniform1fv(program_.uniform("u_cap_radius"), kCapLevels, radii);
-    glActiveTexture(GL_TEXTURE0);
+    set_uniforms(program_, 0, eye);
     glBindVertexArray(empty_vao_.id());
     glDrawArrays(GL_TRIANGLES, 0, 3);
     glBindVertexArray(0);

@@ -76,12 +76,17 @@ struct ShadowLighting {
 };
 ShadowLighting shadow_lighting(const HdrImage& environment, DominantLightOptions options = {});
 
-// The shadow ratio of each pixel into one RGBA32F target: RGB = the ratio, A = 1 where the
+// The shadow's GL side: its uniforms for any program that includes shaders/render_shadow.glsl
+// (the composite and the metering background evaluate the ratio where they show it), and the
+// ratio of each pixel into one RGBA32F target for the AOV: RGB = the ratio, A = 1 where the
 // camera ray meets the table plane, (1, 1, 1, 0) elsewhere. GL, on the context's thread.
 class TableShadowPass {
 public:
     TableShadowPass(int width, int height, const ShadowLighting& lighting, std::vector<OccluderSphere> occluders,
                     double table_height);
+    // Sets render_shadow.glsl's uniforms on `program` (in use), its cap maps on texture unit
+    // caps_unit; the camera ray uniforms are the caller's.
+    void set_uniforms(const gl::GlProgram& program, int caps_unit, const glm::vec3& eye) const;
     // u_world_from_camera, u_tan_half_fov as in shaders/render_composite.frag.
     void draw(const glm::mat3& world_from_camera, const glm::vec2& tan_half_fov, const glm::vec3& eye) const;
     GLuint texture() const { return target_.texture(0); }
@@ -95,7 +100,7 @@ private:
     ShadowLighting lighting_;
     std::vector<OccluderSphere> occluders_;
     gl::GlProgram program_;
-    gl::GlTexture caps_[kCapLevels];
+    gl::GlTexture caps_;  // the cap maps stacked
     gl::GlVertexArray empty_vao_;
     gl::RenderTargets target_;
 };
