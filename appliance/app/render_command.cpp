@@ -103,7 +103,11 @@ int run_render(const RenderArgs& args) {
     std::vector<render::Mesh> proxies;
     for (const std::string& file : args.proxies) {
         if (fs::path(file).extension() != ".obj") throw InputError("--proxy " + file + ": want an .obj file");
-        proxies.push_back(render::load_obj(file));  // world coordinates: not normalised
+        try {
+            proxies.push_back(render::load_obj(file));  // world coordinates: not normalised
+        } catch (const InputError& e) {
+            throw InputError(std::string("--proxy: ") + e.what());
+        }
     }
     const bool shadows = args.shadows == "auto" ? args.background != "black" : args.shadows == "on";
     const double table_height = args.table_height.value_or(render::model_bottom(mesh));
