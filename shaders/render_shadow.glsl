@@ -93,7 +93,11 @@ vec4 table_shadow(vec3 ray) {
 
     float visible[MAX_LIGHTS];
     for (int i = 0; i < MAX_LIGHTS; ++i) visible[i] = 1.0;
-    vec3 taken = vec3(0.0);
+    // The part of the ambient irradiance left: each sphere takes its share of what is left, as if
+    // the spheres hid independent parts of the sky (exact for one sphere; several overlapping
+    // spheres, a mesh's cells, would take far too much if their shares were added).
+    vec3 left = vec3(1.0);
+    vec3 inv_ambient = vec3(1.0) / max(u_ambient_irradiance, vec3(1e-30));
     for (int s = 0; s < u_sphere_count; ++s) {
         vec3 to = u_spheres[s].xyz - p;
         float dist = length(to);
@@ -104,9 +108,9 @@ vec4 table_shadow(vec3 ray) {
             visible[i] *= 1.0 - covered(u_light_dir[i], u_light_radius[i], w, alpha);
         // The ambient irradiance from the sphere's cap, solid angle 2 pi (1 - cos a).
         float cap = TWO_PI * (1.0 - sqrt(max(0.0, 1.0 - sin_a * sin_a)));
-        taken += cap * cap_density(w, alpha);
+        left *= max(vec3(0.0), vec3(1.0) - cap * cap_density(w, alpha) * inv_ambient);
     }
-    vec3 lit = max(u_ambient_irradiance - taken, vec3(0.0));
+    vec3 lit = u_ambient_irradiance * left;
     vec3 unshadowed = u_ambient_irradiance;
     for (int i = 0; i < u_light_count; ++i) {
         lit += u_light_irradiance[i] * visible[i];

@@ -16,7 +16,8 @@
 // table point: the table's irradiance from the ambient part within the sphere's cap, looked up in
 // maps of that irradiance per steradian for caps of a few radii (interpolated in the radius, times
 // the cap's solid angle): an uneven sky is taken where the sphere hides it, with each direction's
-// own cosine, up to contact where the sphere fills the sky. Why not shadow maps: no draw per light, no bias or
+// own cosine, up to contact where the sphere fills the sky. Several spheres: the V_i multiply, and
+// each sphere takes its share of the ambient irradiance still left (independent parts of the sky). Why not shadow maps: no draw per light, no bias or
 // resolution, the penumbra exact for a sphere, and the cost a few dozen flops per light and
 // sphere at the table's pixels; the price is that a mesh is approximated by spheres.
 #pragma once

@@ -87,7 +87,8 @@ glm::ivec2 pixel_of(const Camera& c, int w, int h, const glm::dvec3& p) {
 // The brute-force ratio at table point p (normal +Y) under the unit sphere at the origin: every
 // texel of the upper hemisphere, 4x4 sub-directions each (uniform in solid angle), weighted by
 // radiance * cos, counted when the ray from p misses the sphere; with over without. Luminance.
-double reference_ratio(const HdrImage& env, const glm::dvec3& p, double sphere_r = 1.0) {
+double reference_ratio(const HdrImage& env, const glm::dvec3& p,
+                       const std::function<bool(const glm::dvec3&, const glm::dvec3&)>& occluded) {
     const int w = env.width(), h = env.height();
     double with = 0, without = 0;
     for (int j = 0; j < h / 2; ++j) {
@@ -105,14 +106,47 @@ double reference_ratio(const HdrImage& env, const glm::dvec3& p, double sphere_r
                     if (d.y <= 0) continue;
                     const double e = lum * d.y * domega;
                     without += e;
-                    // Ray p + t d against the sphere |x| = r: hit when the closest approach is inside, ahead.
-                    const double t = -glm::dot(p, d);
-                    const bool hit = t > 0 && glm::dot(p + t * d, p + t * d) < sphere_r * sphere_r;
-                    if (!hit) with += e;
+                    if (!occluded(p, d)) with += e;
                 }
         }
     }
     return with / without;
+}
+
+// The unit sphere at the origin: hit when the ray's closest approach is inside it, ahead.
+bool hits_unit_sphere(const glm::dvec3& p, const glm::dvec3& d) {
+    const double t = -glm::dot(p, d);
+    return t > 0 && glm::dot(p + t * d, p + t * d) < 1.0;
+}
+
+double reference_ratio(const HdrImage& env, const glm::dvec3& p) { return reference_ratio(env, p, hits_unit_sphere); }
+
+// An axis-aligned box: the slab test.
+bool hits_box(const glm::dvec3& lo, const glm::dvec3& hi, const glm::dvec3& p, const glm::dvec3& d) {
+    double t0 = 0, t1 = 1e30;
+    for (int a = 0; a < 3; ++a) {
+        if (std::abs(d[a]) < 1e-12) {
+            if (p[a] < lo[a] || p[a] > hi[a]) return false;
+            continue;
+        }
+        double ta = (lo[a] - p[a]) / d[a], tb = (hi[a] - p[a]) / d[a];
+        if (ta > tb) std::swap(ta, tb);
+        t0 = std::max(t0, ta);
+        t1 = std::min(t1, tb);
+        if (t0 > t1) return false;
+    }
+    return true;
+}
+
+render::Mesh box_mesh(const glm::vec3& lo, const glm::vec3& hi) {
+    render::Mesh box;
+    box.source = "box";
+    for (int k = 0; k < 8; ++k) {
+        box.positions.push_back({k & 1 ? hi.x : lo.x, k & 2 ? hi.y : lo.y, k & 4 ? hi.z : lo.z});
+        box.normals.push_back({0, 1, 0});  // unused by the shadow and the depth pass
+    }
+    box.indices = {0, 1, 3, 0, 3, 2, 4, 6, 7, 4, 7, 5, 0, 4, 5, 0, 5, 1, 2, 3, 7, 2, 7, 6, 0, 2, 6, 0, 6, 4, 1, 5, 7, 1, 7, 3};
+    return box;
 }
 
 double lum_at(const std::vector<float>& rgba, int w, glm::ivec2 px) {
@@ -288,6 +322,43 @@ TEST_F(RenderShadow, RatioAgreesWithTheBruteForceSum) {
     }
 }
 
+// A mesh that is not a sphere is seen by the shadow as the spheres of its voxel cells: a box
+// 2 x 1 x 1 standing on the table (54 cells of 1/3, volume-equal spheres) under the generated
+// sky, against the brute-force sum occluded by the box itself. The measured errors are printed
+// (too dark everywhere, by 0.051 on average and 0.077 at worst: the cells' spheres protrude from
+// the box and overlap, and each takes its share of the sky as if independent); the tolerance
+// (0.1 worst, 0.06 mean) states how rough that approximation is. Half-side spheres (touching,
+// not protruding) were tried: the light then leaks between them (0.38 off in the umbra).
+TEST_F(RenderShadow, BoxSeenAsCellSpheresAgainstTheBruteForceSum) {
+    Camera c;
+    c.eye = {0, 4, 5};
+    c.target = {0, -0.5, 0};
+    const int w = 320, h = 240;
+    const glm::vec3 lo(-1.0f, -0.5f, -0.5f), hi(1.0f, 0.5f, 0.5f);
+    const render::Mesh box = box_mesh(lo, hi);
+    const double b = 3.0 * kPi / 180;
+    const HdrImage sky = sky_with_disc(256, 128, 0.3, {-0.5, 0.6, 0.4}, b, 4 * kPi * 0.3 / (kTwoPi * (1 - std::cos(b))));
+    const double table_y = render::model_bottom(box);
+    const ShadowFrame f = render_shadow(sky, c, w, h, table_y, box);
+    const auto occluded = [&](const glm::dvec3& p, const glm::dvec3& d) { return hits_box(lo, hi, p, d); };
+    const std::vector<glm::dvec3> points = {{1.3, -0.5, 0},  {-1.3, -0.5, 0}, {0, -0.5, 0.8},  {0.6, -0.5, 0.9},
+                                            {-1.8, -0.5, 1.2}, {-1.2, -0.5, 1.0}, {2.5, -0.5, 2}, {-0.5, -0.5, -0.8}};
+    double worst = 0, sum = 0;
+    for (const glm::dvec3& target : points) {
+        const glm::ivec2 px = pixel_of(c, w, h, target);
+        glm::dvec3 p;
+        ASSERT_TRUE(table_point(c, w, h, table_y, px.x, px.y, p));
+        const double gpu = lum_at(f.aovs.shadow, w, px), ref = reference_ratio(sky, p, occluded);
+        std::printf("box (%5.2f, %5.2f): ratio %.4f, brute force %.4f, off %+.4f\n", p.x, p.z, gpu, ref, gpu - ref);
+        worst = std::max(worst, std::abs(gpu - ref));
+        sum += std::abs(gpu - ref);
+    }
+    std::printf("box: %zu occluder spheres, mean |off| %.4f, worst %.4f\n", render::occluder_spheres(box).size(),
+                sum / double(points.size()), worst);
+    EXPECT_LT(worst, 0.1);
+    EXPECT_LT(sum / double(points.size()), 0.06);
+}
+
 // A box (a proxy of a real thing) between the camera and the sphere hides the sphere's pixels
 // behind it: radiance 0 and alpha 0 there, the same elsewhere. The table at y = -0.5 hides what of
 // the sphere lies below it (the unit sphere's normal is its position).
@@ -302,14 +373,8 @@ TEST_F(RenderShadow, ProxyAndTableHideTheObject) {
         r.draw_scene();
         return r.read_aovs();
     };
-    render::Mesh box;
-    box.source = "box";
     const glm::vec3 lo(-0.3f, -0.2f, 1.6f), hi(0.4f, 0.3f, 1.9f);
-    for (int k = 0; k < 8; ++k) {
-        box.positions.push_back({k & 1 ? hi.x : lo.x, k & 2 ? hi.y : lo.y, k & 4 ? hi.z : lo.z});
-        box.normals.push_back({0, 1, 0});  // unused: depth only
-    }
-    box.indices = {0, 1, 3, 0, 3, 2, 4, 6, 7, 4, 7, 5, 0, 4, 5, 0, 5, 1, 2, 3, 7, 2, 7, 6, 0, 2, 6, 0, 6, 4, 1, 5, 7, 1, 7, 3};
+    const render::Mesh box = box_mesh(lo, hi);
     const render::Aovs plain = draw([](render::Renderer&) {});
     const render::Aovs hidden = draw([&](render::Renderer& r) { r.add_proxy(box); });
     const Camera c;
@@ -392,14 +457,8 @@ TEST(RenderShadowOccluders, SphereIsItselfAndABoxIsFilled) {
     ASSERT_EQ(s.size(), 1u);
     EXPECT_NEAR(s[0].radius, 1.0, 1e-6);
     EXPECT_NEAR(glm::length(s[0].centre), 0.0, 1e-6);
-    render::Mesh box;
-    box.source = "box";
     const glm::vec3 lo(-1.0f, -0.5f, -0.25f), hi(1.0f, 0.5f, 0.25f);
-    for (int k = 0; k < 8; ++k) {
-        box.positions.push_back({k & 1 ? hi.x : lo.x, k & 2 ? hi.y : lo.y, k & 4 ? hi.z : lo.z});
-        box.normals.push_back({0, 1, 0});
-    }
-    box.indices = {0, 1, 3, 0, 3, 2, 4, 6, 7, 4, 7, 5, 0, 4, 5, 0, 5, 1, 2, 3, 7, 2, 7, 6, 0, 2, 6, 0, 6, 4, 1, 5, 7, 1, 7, 3};
+    const render::Mesh box = box_mesh(lo, hi);
     const auto cells = render::occluder_spheres(box);
     EXPECT_GE(cells.size(), 6u);
     EXPECT_LE(cells.size(), std::size_t(render::kMaxOccluders));
