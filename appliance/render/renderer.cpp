@@ -340,6 +340,7 @@ Aovs Renderer::read_aovs() const {
 void Renderer::set_table(double height) {
     if (!phantoms_) phantoms_ = std::make_unique<PhantomGeometry>();
     phantoms_->set_table(height);
+    if (shadow_) shadow_->set_table_height(height);  // the shadow falls on the table where it is now
 }
 
 void Renderer::add_proxy(const Mesh& proxy) {

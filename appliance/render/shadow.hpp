@@ -90,10 +90,10 @@ public:
     void set_uniforms(const gl::GlProgram& program, int caps_unit, const glm::vec3& eye) const;
     // u_world_from_camera, u_tan_half_fov as in shaders/render_composite.frag.
     void draw(const glm::mat3& world_from_camera, const glm::vec2& tan_half_fov, const glm::vec3& eye) const;
-    GLuint texture() const { return target_.texture(0); }
     // The ratio, rows top first, 4 floats a pixel.
     std::vector<float> read() const;
     double table_height() const { return table_height_; }
+    void set_table_height(double height) { table_height_ = height; }
 
 private:
     int width_, height_;
