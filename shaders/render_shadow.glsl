@@ -24,6 +24,7 @@ uniform float u_cap_radius[CAP_LEVELS];
 uniform highp sampler2D u_caps;
 uniform int u_sphere_count;
 uniform vec4 u_spheres[MAX_SPHERES];          // centre, radius
+uniform vec4 u_bound;                         // a sphere around all of them
 
 // Area of the overlap of two discs of radii a and b whose centres are d apart.
 float lens(float a, float b, float d) {
@@ -98,17 +99,30 @@ vec4 table_shadow(vec3 ray) {
     // spheres, a mesh's cells, would take far too much if their shares were added).
     vec3 left = vec3(1.0);
     vec3 inv_ambient = vec3(1.0) / max(u_ambient_irradiance, vec3(1e-30));
-    for (int s = 0; s < u_sphere_count; ++s) {
+    // The bound first: where it hides no light, no sphere inside it does; where it takes under
+    // 1e-3 of the sky, they take less. Far from a mesh of many cells this skips them all.
+    vec3 tb = u_bound.xyz - p;
+    float db = length(tb);
+    float sb = min(1.0, u_bound.w / db);
+    float ab = asin(sb);
+    bool lights_hidden = false;
+    for (int i = 0; i < u_light_count; ++i)
+        lights_hidden = lights_hidden || covered(u_light_dir[i], u_light_radius[i], tb / db, ab) > 0.0;
+    float cap_b = TWO_PI * (1.0 - sqrt(max(0.0, 1.0 - sb * sb)));
+    bool sky_taken = any(greaterThan(cap_b * cap_density(tb / db, ab) * inv_ambient, vec3(1e-3)));
+    int spheres = lights_hidden || sky_taken ? u_sphere_count : 0;
+    for (int s = 0; s < spheres; ++s) {
         vec3 to = u_spheres[s].xyz - p;
         float dist = length(to);
         vec3 w = to / dist;
         float sin_a = min(1.0, u_spheres[s].w / dist);
         float alpha = asin(sin_a);
-        for (int i = 0; i < u_light_count; ++i)
-            visible[i] *= 1.0 - covered(u_light_dir[i], u_light_radius[i], w, alpha);
+        if (lights_hidden)
+            for (int i = 0; i < u_light_count; ++i)
+                visible[i] *= 1.0 - covered(u_light_dir[i], u_light_radius[i], w, alpha);
         // The ambient irradiance from the sphere's cap, solid angle 2 pi (1 - cos a).
         float cap = TWO_PI * (1.0 - sqrt(max(0.0, 1.0 - sin_a * sin_a)));
-        left *= max(vec3(0.0), vec3(1.0) - cap * cap_density(w, alpha) * inv_ambient);
+        if (sky_taken) left *= max(vec3(0.0), vec3(1.0) - cap * cap_density(w, alpha) * inv_ambient);
     }
     vec3 lit = u_ambient_irradiance * left;
     vec3 unshadowed = u_ambient_irradiance;

@@ -150,7 +150,7 @@ std::vector<OccluderSphere> occluder_spheres(const Mesh& mesh) {
 
     const glm::dvec3 extent = hi - lo;
     const double longest = std::max({extent.x, extent.y, extent.z});
-    for (int cells = 6; cells >= 1; --cells) {
+    for (int cells = kMaxCellsAlongSide; cells >= 1; --cells) {
         const double side = longest / cells;
         std::vector<OccluderSphere> out;
         const int nx = std::max(1, int(std::ceil(extent.x / side - 1e-9)));
@@ -162,7 +162,7 @@ std::vector<OccluderSphere> occluder_spheres(const Mesh& mesh) {
             for (int y = 0; y < ny; ++y)
                 for (int x = 0; x < nx; ++x) {
                     const glm::dvec3 p = start + side * (glm::dvec3(x, y, z) + 0.5);
-                    if (inside(mesh, p)) out.push_back({p, side * std::cbrt(3.0 / (4.0 * kPi))});
+                    if (inside(mesh, p)) out.push_back({p, 0.5 * std::sqrt(3.0) * side});
                 }
         if (int(out.size()) <= kMaxOccluders) return out;
     }
@@ -200,6 +200,20 @@ TableShadowPass::TableShadowPass(int width, int height, const ShadowLighting& li
       target_(width, height, 1) {
     if (int(lighting_.lights.size()) > kMaxShadowLights) throw RuntimeError("shadow: more lights than the shader holds");
     if (int(occluders_.size()) > kMaxOccluders) throw RuntimeError("shadow: more occluders than the shader holds");
+    // The bound: around the spheres' box centre, out to the farthest sphere's far side.
+    if (!occluders_.empty()) {
+        glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+        for (const OccluderSphere& s : occluders_) {
+            lo = glm::min(lo, s.centre);
+            hi = glm::max(hi, s.centre);
+        }
+        bound_.centre = 0.5 * (lo + hi);
+        bound_.radius = 0;
+        for (const OccluderSphere& s : occluders_)
+            bound_.radius = std::max(bound_.radius, glm::length(s.centre - bound_.centre) + s.radius);
+    } else {
+        bound_ = {glm::dvec3(0.0, 1e6, 0.0), 0.0};  // nothing: a point far above hides nothing
+    }
     if (int(lighting_.ambient_caps.size()) != kCapLevels) throw RuntimeError("shadow: the ambient cap maps are missing");
     // The levels stacked top to bottom in one texture (render_shadow.frag's u_caps).
     HdrImage stack(kCapW, kCapH * kCapLevels);
@@ -239,6 +253,8 @@ void TableShadowPass::set_uniforms(const gl::GlProgram& program, int caps_unit, 
         spheres.insert(spheres.end(), {float(s.centre.x), float(s.centre.y), float(s.centre.z), float(s.radius)});
     glUniform1i(program.uniform("u_sphere_count"), int(occluders_.size()));
     if (!occluders_.empty()) glUniform4fv(program.uniform("u_spheres"), GLsizei(occluders_.size()), spheres.data());
+    glUniform4f(program.uniform("u_bound"), float(bound_.centre.x), float(bound_.centre.y), float(bound_.centre.z),
+                float(bound_.radius));
     float radii[kCapLevels];
     for (int l = 0; l < kCapLevels; ++l) radii[l] = float(kCapRadiiDeg[l] * kPi / 180.0);
     glUniform1fv(program.uniform("u_cap_radius"), kCapLevels, radii);

@@ -38,6 +38,7 @@ namespace glint::render {
 
 inline constexpr int kMaxShadowLights = 4;   // uniform arrays in shaders/render_shadow.frag
 inline constexpr int kMaxOccluders = 64;
+inline constexpr int kMaxCellsAlongSide = 4;  // occluder_spheres' grid: each sphere costs every table pixel near it
 // The table's irradiance from the ambient part within caps of these angular radii (degrees) around
 // each direction, per steradian of cap; the shader interpolates between them at an occluder's
 // angular radius. Level 0 is the map itself times the cosine to the table's normal.
@@ -100,6 +101,7 @@ private:
     double table_height_;
     ShadowLighting lighting_;
     std::vector<OccluderSphere> occluders_;
+    OccluderSphere bound_;  // around all occluders: render_shadow.glsl tests it first
     gl::GlProgram program_;
     gl::GlTexture caps_;  // the cap maps stacked
     gl::GlVertexArray empty_vao_;

@@ -323,12 +323,13 @@ TEST_F(RenderShadow, RatioAgreesWithTheBruteForceSum) {
 }
 
 // A mesh that is not a sphere is seen by the shadow as the spheres of its voxel cells: a box
-// 2 x 1 x 1 standing on the table (54 cells of 1/3, volume-equal spheres) under the generated
-// sky, against the brute-force sum occluded by the box itself. The measured errors are printed
-// (too dark everywhere, by 0.051 on average and 0.077 at worst: the cells' spheres protrude from
-// the box and overlap, and each takes its share of the sky as if independent); the tolerance
-// (0.1 worst, 0.06 mean) states how rough that approximation is. Half-side spheres (touching,
-// not protruding) were tried: the light then leaks between them (0.38 off in the umbra).
+// 2 x 1 x 1 standing on the table (16 cells of 1/2, each in its circumscribed sphere) under the
+// generated sky, against the brute-force sum occluded by the box itself. The measured errors are
+// printed (too dark everywhere, by 0.076 on average and 0.110 at worst: the spheres protrude from
+// the box and overlap); the tolerance (0.13 worst, 0.09 mean) states how rough that approximation
+// is. Tried and dropped: spheres of the cell's volume let the light leak through the lattice (0.55
+// off in the umbra with 16 cells; 54 cells of 1/3 leaked less but cost 3.4 times as much); half-side
+// spheres leaked 0.38.
 TEST_F(RenderShadow, BoxSeenAsCellSpheresAgainstTheBruteForceSum) {
     Camera c;
     c.eye = {0, 4, 5};
@@ -355,8 +356,8 @@ TEST_F(RenderShadow, BoxSeenAsCellSpheresAgainstTheBruteForceSum) {
     }
     std::printf("box: %zu occluder spheres, mean |off| %.4f, worst %.4f\n", render::occluder_spheres(box).size(),
                 sum / double(points.size()), worst);
-    EXPECT_LT(worst, 0.1);
-    EXPECT_LT(sum / double(points.size()), 0.06);
+    EXPECT_LT(worst, 0.13);
+    EXPECT_LT(sum / double(points.size()), 0.09);
 }
 
 // A box (a proxy of a real thing) between the camera and the sphere hides the sphere's pixels
