@@ -5,11 +5,12 @@
 // `seed_ratio` times the map's mean luminance (the solid-angle weighted mean of
 // docs/conventions.md), brightest first, grown over neighbours above `grow_ratio` times it and
 // above `core_fraction` of the seed's luminance, then by one ring of neighbours above `grow_ratio`
-// (so the partly covered texels at a light's rim keep their energy). Neighbours are the 8 around a texel, with columns
-// wrapping across the seam and the first (last) row joined across the pole to the texel half a
-// turn away. The regions are ranked by energy (luminance times solid angle) and the largest
-// `max_lights` kept (optionally only those above a plane); the rest of the map, with those
-// texels set to 0, is the ambient part, so lights + ambient sum to the map exactly.
+// (so the partly covered texels at a light's rim keep their energy). Neighbours are the 8 around a
+// texel, with columns wrapping across the seam and the first (last) row joined across the pole to
+// the texel half a turn away. The regions are ranked by energy (luminance times solid angle) and
+// the largest `max_lights` kept (optionally only those above a plane and no wider than a
+// radius); the rest of the map, with
+// those texels set to 0, is the ambient part, so lights + ambient sum to the map exactly.
 //
 // Each light is summarised as a uniform disc: its energy E = sum L_k dOmega_k (RGB), its direction
 // the luminance-weighted mean of the texels' directions (each texel's exact mean direction over

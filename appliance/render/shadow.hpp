@@ -12,14 +12,15 @@
 // model), tested analytically against each light's cone: V_i is 1 minus the part of the light's
 // disc that the sphere's disc covers (the overlap of two discs, the sphere's edge curved as a
 // circle of angular radius a on the unit sphere, i.e. tan(a) in the light's tangent plane), so
-// the penumbra's width follows the light's angular size. O_a is the sphere's form factor from the
-// table point: the table's irradiance from the ambient part within the sphere's cap, looked up in
-// maps of that irradiance per steradian for caps of a few radii (interpolated in the radius, times
-// the cap's solid angle): an uneven sky is taken where the sphere hides it, with each direction's
-// own cosine, up to contact where the sphere fills the sky. Several spheres: the V_i multiply, and
-// each sphere takes its share of the ambient irradiance still left (independent parts of the sky). Why not shadow maps: no draw per light, no bias or
-// resolution, the penumbra exact for a sphere, and the cost a few dozen flops per light and
-// sphere at the table's pixels; the price is that a mesh is approximated by spheres.
+// the penumbra's width follows the light's angular size. O_a is the table's irradiance from the
+// ambient part within the sphere's cap, looked up in maps of that irradiance per steradian for
+// caps of a few radii (interpolated in the radius, times the cap's solid angle): an uneven sky is
+// taken where the sphere hides it, with each direction's own cosine, up to contact where the
+// sphere fills the sky. Several spheres: the V_i multiply, and each sphere takes its share of the
+// ambient irradiance still left (as if they hid independent parts of the sky).
+// Why not shadow maps: no draw per light, no bias or resolution, a penumbra from the overlap of
+// two discs, and a few dozen flops per light and sphere at the table's pixels; the price is that
+// a mesh is approximated by spheres.
 #pragma once
 
 #include <memory>
@@ -54,12 +55,14 @@ struct OccluderSphere {
 };
 
 // The spheres the shadow sees for a mesh (in the mesh's frame, which the renderer uses as the
-// world frame). A mesh whose vertices and triangle centroids all lie within 1 % of one sphere around its bounding box's
-// centre is that sphere. Anything else is voxelised: a grid of up to 6 cells along the longest
-// side of its bounding box, a cell is inside when rays from its centre along +X, +Y and +Z cross
-// the surface an odd number of times (two of three), and each inside cell becomes the sphere of
-// the cell's volume (radius 0.62 times the cell's side) at its centre; the grid shrinks until at
-// most kMaxOccluders cells are inside. Parts thinner than a cell cast no shadow.
+// world frame). A mesh whose vertices and triangle centroids all lie within 1 % of one sphere
+// around its bounding box's centre is that sphere. Anything else is voxelised: a grid of up to
+// kMaxCellsAlongSide cells along the longest side of its bounding box, a cell is inside when rays
+// from its centre along (nearly) +X, +Y and +Z cross the surface an odd number of times (two of
+// three), and each inside cell becomes its circumscribed sphere (radius sqrt(3)/2 times the
+// cell's side: no light leaks between the spheres, at the price of a shadow too large by the
+// overhang); the grid shrinks until at most kMaxOccluders cells are inside. Parts thinner than a
+// cell cast no shadow.
 std::vector<OccluderSphere> occluder_spheres(const Mesh& mesh);
 
 // The lowest y of the mesh: the default table height (the object stands on the table).
