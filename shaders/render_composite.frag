@@ -8,7 +8,8 @@
 // The environment is looked up here rather than drawn into a float target first: one full-screen
 // float target less to write and read each frame.
 // With shadows on, the background (environment or image, never the object) is multiplied by the
-// table's shadow ratio (render_shadow.glsl), evaluated here for the background pixels only (a
+// table's shadow ratio (render_shadow.glsl), evaluated here for the background pixels that no
+// proxy covers (a
 // target of its own would cost a full-screen float pass a frame); the image in linear light,
 // through the sRGB curve and back.
 precision highp float;
@@ -21,6 +22,7 @@ uniform mediump sampler2D u_image;
 uniform bool u_has_environment;
 uniform bool u_has_image;
 uniform bool u_has_shadow;  // the table shadow's uniforms (render_shadow.glsl) are set
+uniform highp sampler2D u_normal;  // alpha -1 where a proxy (a real thing) hides the table
 uniform vec2 u_size;
 uniform vec2 u_tan_half_fov;  // tan(fov_x / 2), tan(fov_y / 2)
 uniform mat3 u_world_from_camera;
@@ -42,7 +44,8 @@ void main() {
     vec3 hdr;
     vec2 ndc = gl_FragCoord.xy / u_size * 2.0 - 1.0;
     vec3 ray = normalize(u_world_from_camera * vec3(ndc * u_tan_half_fov, -1.0));
-    vec3 shadow = u_has_shadow && object.a == 0.0 ? table_shadow(ray).rgb : vec3(1.0);
+    bool proxy = u_has_shadow && texelFetch(u_normal, ivec2(gl_FragCoord.xy), 0).a < 0.0;
+    vec3 shadow = u_has_shadow && object.a == 0.0 && !proxy ? table_shadow(ray).rgb : vec3(1.0);
     if (object.a > 0.0) {
         hdr = object.rgb;
     } else if (u_has_environment) {

@@ -44,7 +44,8 @@ void PhantomGeometry::draw_depth(const glm::mat4& view_projection) const {
     if (empty()) return;
     GLboolean mask[4];
     glGetBooleanv(GL_COLOR_WRITEMASK, mask);
-    glColorMask(GL_FALSE, GL_FALSE, GL_FALSE, GL_FALSE);
+    GLint saved[kMarkedTargets];
+    for (int k = 0; k < kMarkedTargets; ++k) glGetIntegerv(GLenum(GL_DRAW_BUFFER0 + k), &saved[k]);
     glDepthMask(GL_TRUE);
     program_.use();
     glUniformMatrix4fv(program_.uniform("u_view_projection"), 1, GL_FALSE, glm::value_ptr(view_projection));
@@ -52,8 +53,20 @@ void PhantomGeometry::draw_depth(const glm::mat4& view_projection) const {
         glBindVertexArray(d.vao.id());
         glDrawElements(GL_TRIANGLES, d.count, GL_UNSIGNED_INT, nullptr);
     };
-    if (table_) draw(*table_);
-    for (const Drawable& d : proxies_) draw(d);
+    if (table_) {
+        glColorMask(GL_FALSE, GL_FALSE, GL_FALSE, GL_FALSE);
+        draw(*table_);
+    }
+    if (!proxies_.empty()) {
+        // Only the second target (the renderer's normal target) takes the mark.
+        const GLenum mark[2] = {GL_NONE, GLenum(saved[1])};
+        glDrawBuffers(2, mark);
+        glColorMask(GL_TRUE, GL_TRUE, GL_TRUE, GL_TRUE);
+        for (const Drawable& d : proxies_) draw(d);
+        GLenum restore[kMarkedTargets];
+        for (int k = 0; k < kMarkedTargets; ++k) restore[k] = GLenum(saved[k]);
+        glDrawBuffers(kMarkedTargets, restore);
+    }
     glBindVertexArray(0);
     glColorMask(mask[0], mask[1], mask[2], mask[3]);
     gl::check_gl("drawing phantom geometry");

@@ -1,5 +1,5 @@
 // Phantom geometry (docs/render.md, "Table, phantom geometry and shadows"): stand-ins for real
-// things, drawn into the depth buffer only and before the object, so that the real table and
+// things, drawn into the depth buffer (and a proxy's mark, below) before the object, so that the real table and
 // real objects hide the virtual one where they are in front of it. Nothing of them is drawn in
 // colour: the camera image (or the environment) shows them.
 //
@@ -29,7 +29,11 @@ public:
     std::optional<double> table_height() const { return table_height_; }
     void add_proxy(const Mesh& proxy);
     bool empty() const { return !table_ && proxies_.empty(); }
-    // Depth only, into the bound framebuffer with its depth test (GL_LESS) and viewport set up.
+    // Into the bound framebuffer with its depth test (GL_LESS) and viewport set up: depth, and
+    // for proxies the mark alpha = -1 in the second draw buffer (the renderer's normal target),
+    // so the composite leaves the table's shadow off real things in front of the table. The
+    // framebuffer's draw buffers (up to kMarkedTargets) are restored afterwards.
+    static constexpr int kMarkedTargets = 4;
     void draw_depth(const glm::mat4& view_projection) const;
 
 private:

@@ -313,6 +313,9 @@ void Renderer::composite() const {
     glUniform1i(composite_program_.uniform("u_has_image"), background_ == Background::Image ? 1 : 0);
     glUniform1i(composite_program_.uniform("u_has_environment"), background_ == Background::Environment ? 1 : 0);
     bind_shadow(composite_program_, 3);
+    glActiveTexture(GL_TEXTURE4);
+    glBindTexture(GL_TEXTURE_2D, targets_[kNormal].id());
+    glUniform1i(composite_program_.uniform("u_normal"), 4);  // a proxy's mark (phantom.hpp)
     set_camera_ray_uniforms(composite_program_);
     glUniform1f(composite_program_.uniform("u_scale"), float(tone_.scale()));
     glUniform1f(composite_program_.uniform("u_white_sq"), float(tone_.white * tone_.white));

@@ -58,7 +58,7 @@ ToneMap meter_reinhard(const std::vector<float>& rgba, double key = 0.18, double
 struct Aovs {
     int width = 0, height = 0;
     std::vector<float> radiance;  // RGB before any tone mapping, A = 1 on the object, all 0 off it
-    std::vector<float> normal;    // unit world-space normal (A = 1 on the object)
+    std::vector<float> normal;    // unit world-space normal (A = 1 on the object, -1 where a proxy is nearest)
     std::vector<float> reflect;   // unit world-space reflection direction (A = 1 on the object)
     std::vector<float> shadow;    // the table's shadow ratio (RGB, 1 = unshadowed; A = 1 on the table); empty when off
 };

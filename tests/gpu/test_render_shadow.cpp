@@ -411,7 +411,8 @@ TEST_F(RenderShadow, ProxyAndTableHideTheObject) {
 }
 
 // In the frame, the background image is darkened by the ratio in linear light: a grey image under
-// the shadow's umbra comes out as sRGB(ratio * linear(grey)), and untouched far from it.
+// the shadow's umbra comes out as sRGB(ratio * linear(grey)), and untouched far from it, and
+// where a proxy stands in front of the table.
 TEST_F(RenderShadow, FrameDarkensTheImageByTheRatio) {
     const HdrImage sky = sky_with_disc(128, 64, 0.2, {0, 1, 0}, 4.0 * kPi / 180, 200.0);
     const render::Material m = render::parse_material("matte");
@@ -447,6 +448,24 @@ TEST_F(RenderShadow, FrameDarkensTheImageByTheRatio) {
         const double expected = 255 * encode(ratio * decode(180 / 255.0));
         EXPECT_NEAR(frame.at(under.x, under.y)[1], expected, 1.5);
         EXPECT_NEAR(frame.at(far.x, far.y)[1], 180, 1);
+
+        // A real thing (a proxy card, x in [-0.3, 0.3], y in [-2, -1.2] at z = 0.5) in front of that
+        // table point: the image shows it undarkened; beside the card the shadow stays.
+        render::Renderer rp(render::make_uv_sphere(), m, constant_maps(m), 160, 120, c);
+        rp.set_background_image(grey);
+        rp.set_table(-2);
+        rp.add_proxy(box_mesh({-0.3f, -2.0f, 0.49f}, {0.3f, -1.2f, 0.5f}));
+        rp.enable_shadows(render::shadow_lighting(sky), render::occluder_spheres(render::make_uv_sphere()));
+        rp.meter();
+        rp.draw_scene();
+        display->bind_frame();
+        rp.composite();
+        const gl::RgbImage with_card = display->read_frame();
+        display->present();
+        EXPECT_NEAR(with_card.at(under.x, under.y)[1], 180, 1);
+        const glm::ivec2 beside = pixel_of(c, 160, 120, {0.55, -2, 0});
+        EXPECT_LT(lum_at(shadow, 160, beside), 0.5);
+        EXPECT_EQ(with_card.at(beside.x, beside.y)[1], frame.at(beside.x, beside.y)[1]);
     }
     context().make_current();
 }
