@@ -7,14 +7,22 @@
 //   L_s = key / L_avg * L,   L_d = L_s (1 + L_s / L_white^2) / (1 + L_s),   rgb_d = rgb * L_d / L
 // The environment is looked up here rather than drawn into a float target first: one full-screen
 // float target less to write and read each frame.
+// With shadows on, the background (environment or image, never the object) is multiplied by the
+// table's shadow ratio (render_shadow.glsl), evaluated here for the background pixels that no
+// proxy covers (a
+// target of its own would cost a full-screen float pass a frame); the image in linear light,
+// through the sRGB curve and back.
 precision highp float;
 #include "equirect.glsl"
 #include "render_lookup.glsl"
+#include "render_shadow.glsl"
 uniform highp sampler2D u_radiance;
 uniform highp sampler2D u_environment;
 uniform mediump sampler2D u_image;
 uniform bool u_has_environment;
 uniform bool u_has_image;
+uniform bool u_has_shadow;  // the table shadow's uniforms (render_shadow.glsl) are set
+uniform highp sampler2D u_normal;  // alpha -1 where a proxy (a real thing) hides the table
 uniform vec2 u_size;
 uniform vec2 u_tan_half_fov;  // tan(fov_x / 2), tan(fov_y / 2)
 uniform mat3 u_world_from_camera;
@@ -27,18 +35,27 @@ vec3 srgb_encode(vec3 c) {
     return mix(12.92 * c, 1.055 * pow(c, vec3(1.0 / 2.4)) - 0.055, step(0.0031308, c));
 }
 
+vec3 srgb_decode(vec3 c) {
+    return mix(c / 12.92, pow((c + 0.055) / 1.055, vec3(2.4)), step(0.04045, c));
+}
+
 void main() {
     vec4 object = texelFetch(u_radiance, ivec2(gl_FragCoord.xy), 0);
     vec3 hdr;
+    vec2 ndc = gl_FragCoord.xy / u_size * 2.0 - 1.0;
+    vec3 ray = normalize(u_world_from_camera * vec3(ndc * u_tan_half_fov, -1.0));
+    bool proxy = u_has_shadow && texelFetch(u_normal, ivec2(gl_FragCoord.xy), 0).a < 0.0;
+    vec3 shadow = u_has_shadow && object.a == 0.0 && !proxy ? table_shadow(ray).rgb : vec3(1.0);
     if (object.a > 0.0) {
         hdr = object.rgb;
     } else if (u_has_environment) {
-        vec2 ndc = gl_FragCoord.xy / u_size * 2.0 - 1.0;
-        hdr = equirect_bilinear(u_environment, normalize(u_world_from_camera * vec3(ndc * u_tan_half_fov, -1.0)));
+        hdr = shadow * equirect_bilinear(u_environment, ray);
     } else {
         // The image's rows are top first; the frame's y grows upwards.
         vec2 uv = vec2(gl_FragCoord.x / u_size.x, 1.0 - gl_FragCoord.y / u_size.y);
-        o_color = u_has_image ? vec4(texture(u_image, uv).rgb, 1.0) : vec4(0.0, 0.0, 0.0, 1.0);
+        vec3 image = texture(u_image, uv).rgb;
+        if (u_has_shadow) image = srgb_encode(shadow * srgb_decode(image));
+        o_color = u_has_image ? vec4(image, 1.0) : vec4(0.0, 0.0, 0.0, 1.0);
         return;
     }
     float l = dot(hdr, vec3(0.2126, 0.7152, 0.0722));

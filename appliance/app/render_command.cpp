@@ -10,9 +10,11 @@
 #include <filesystem>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <string>
 #include <nlohmann/json.hpp>
 #include <utility>
+#include <vector>
 
 #include "appliance/app/cli_util.hpp"
 #include "appliance/app/commands.hpp"
@@ -27,6 +29,7 @@
 #include "appliance/render/mesh.hpp"
 #include "appliance/render/renderer.hpp"
 #include "appliance/render/teapot.hpp"
+#include "appliance/render/shadow.hpp"
 
 namespace glint::app {
 namespace {
@@ -50,6 +53,9 @@ struct RenderArgs {
     std::string display = "headless";
     double key = 0.18;
     int threads = 0;
+    std::string shadows = "auto";       // on, off; auto = on over env or an image, off over black
+    std::vector<std::string> proxies;   // OBJ files, world coordinates
+    std::optional<double> table_height; // default: the model's lowest point
 };
 
 // The model's baked ambient occlusion (docs/render.md, "Ambient occlusion"): MODEL.ao beside a
@@ -137,6 +143,17 @@ int run_render(const RenderArgs& args) {
     if (!args.no_ao) load_ambient_occlusion(args.model, mesh);
     if (!args.material_given && !mesh.materials.empty()) material = material_of_gltf(mesh);
     std::printf("material: %s\n", material.spec.c_str());
+    std::vector<render::Mesh> proxies;
+    for (const std::string& file : args.proxies) {
+        if (fs::path(file).extension() != ".obj") throw InputError("--proxy " + file + ": want an .obj file");
+        try {
+            proxies.push_back(render::load_obj(file));  // world coordinates: not normalised
+        } catch (const InputError& e) {
+            throw InputError(std::string("--proxy: ") + e.what());
+        }
+    }
+    const bool shadows = args.shadows == "auto" ? args.background != "black" : args.shadows == "on";
+    const double table_height = args.table_height.value_or(render::model_bottom(mesh));
     // Files are written after the frames: a place they cannot go is bad input, found first.
     for (const auto& [flag, file] : {std::pair{"--out", args.out}, std::pair{"--stats", args.stats}}) {
         if (file.empty()) continue;
@@ -183,6 +200,25 @@ int run_render(const RenderArgs& args) {
     if (args.background == "env") renderer.set_background_environment(env.image);
     else if (background_image) renderer.set_background_image(*background_image);
     else renderer.set_background_black();
+    for (const render::Mesh& proxy : proxies) renderer.add_proxy(proxy);
+    if (shadows || args.table_height || !proxies.empty()) renderer.set_table(table_height);
+    if (shadows) {
+        const render::ShadowLighting lighting = render::shadow_lighting(env.image);
+        const std::vector<render::OccluderSphere> occluders = render::occluder_spheres(mesh);
+        std::printf("table: y = %.4g; shadow: %zu dominant light(s), %zu occluder sphere(s)\n", table_height,
+                    lighting.lights.size(), occluders.size());
+        double table_irradiance = lighting.ambient_irradiance.y;  // green: close to luminance, no weights needed
+        for (const auto& e : lighting.light_irradiance) table_irradiance += e.y;
+        for (std::size_t i = 0; i < lighting.lights.size(); ++i) {
+            const render::DominantLight& l = lighting.lights[i];
+            std::printf("  light %zu: direction (%.4f, %.4f, %.4f), %.4g sr (radius %.3g deg), %.3g of the table's "
+                        "irradiance (G)\n",
+                        i, l.direction.x, l.direction.y, l.direction.z, l.solid_angle,
+                        l.angular_radius() * 180.0 / 3.141592653589793,
+                        lighting.light_irradiance[i].y / std::max(1e-30, table_irradiance));
+        }
+        renderer.enable_shadows(lighting, occluders);
+    }
 
     // The scene is still, so the tone map is metered once, before the timed frames.
     const render::ToneMap& tone = renderer.meter(args.key);
@@ -228,6 +264,8 @@ int run_render(const RenderArgs& args) {
         s["model"] = mesh.source;
         s["triangles"] = mesh.triangle_count();
         s["material"] = material.spec;
+        s["shadows"] = shadows;
+        s["proxies"] = args.proxies.size();
         s["maps_seconds"] = maps_s;
         s["irradiance"] = maps.irradiance ? nlohmann::json(maps.irradiance_from) : nlohmann::json();
         s["reflection"] = maps.reflection ? nlohmann::json(maps.reflection_from) : nlohmann::json();
@@ -238,7 +276,9 @@ int run_render(const RenderArgs& args) {
         write_text_atomically(args.stats, s.dump(2) + "\n");
     }
     if (!args.out.empty()) std::printf("wrote %s\n", args.out.c_str());
-    if (!args.aov.empty()) std::printf("wrote radiance.exr, normal.exr, reflect.exr to %s\n", args.aov.c_str());
+    if (!args.aov.empty())
+        std::printf("wrote radiance.exr, normal.exr, reflect.exr%s to %s\n", shadows ? ", shadow.exr" : "",
+                    args.aov.c_str());
     return 0;
 }
 
@@ -273,6 +313,16 @@ Command add_render_command(CLI::App& app) {
     cmd->add_option("--threads", args->threads, "Worker threads of the convolution; 0 = all cores")
         ->check(CLI::NonNegativeNumber)
         ->capture_default_str();
+    cmd->add_option("--shadows", args->shadows,
+                    "The object's shadow on the table, darkening the background: on, off, or auto (on over env or "
+                    "an image, off over black)")
+        ->check(CLI::IsMember({"on", "off", "auto"}))
+        ->capture_default_str();
+    cmd->add_option("--proxy", args->proxies,
+                    "OBJ mesh of a real thing (world coordinates, object normalised to the unit sphere), drawn to "
+                    "depth only so it hides the object; repeatable");
+    cmd->add_option("--table-height", args->table_height,
+                    "y of the table plane (world units); default: the model's lowest point");
     return {cmd, [args, material_option] {
                 args->material_given = material_option->count() > 0;
                 return run_render(*args);

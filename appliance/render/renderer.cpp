@@ -97,6 +97,7 @@ void save_aovs(const std::filesystem::path& dir, const Aovs& aovs) {
     save_rgba_exr(dir / "radiance.exr", aovs.radiance, aovs.width, aovs.height);
     save_exr(dir / "normal.exr", rgb_of(aovs.normal, aovs.width, aovs.height));
     save_exr(dir / "reflect.exr", rgb_of(aovs.reflect, aovs.width, aovs.height));
+    if (!aovs.shadow.empty()) save_exr(dir / "shadow.exr", rgb_of(aovs.shadow, aovs.width, aovs.height));
 }
 
 Renderer::Renderer(const Mesh& mesh, const Material& material, const ShadingMaps& maps, int width, int height,
@@ -243,6 +244,7 @@ void Renderer::draw(bool with_hdr) {
         glActiveTexture(GL_TEXTURE0);
         glBindTexture(GL_TEXTURE_2D, environment_.id());
         glUniform1i(background_program_.uniform("u_environment"), 0);
+        bind_shadow(background_program_, 1);
         glBindVertexArray(empty_vao_.id());
         glDrawArrays(GL_TRIANGLES, 0, 3);
         glDepthMask(GL_TRUE);
@@ -250,6 +252,7 @@ void Renderer::draw(bool with_hdr) {
 
     glEnable(GL_DEPTH_TEST);
     glDepthFunc(GL_LESS);
+    if (phantoms_) phantoms_->draw_depth(glm::mat4(projection_matrix(camera_, width_, height_) * view));
     scene_program_.use();
     const glm::mat4 model(1.0f);
     const glm::mat3 normal_matrix = glm::transpose(glm::inverse(glm::mat3(model)));
@@ -326,6 +329,10 @@ void Renderer::composite() const {
     glUniform1i(composite_program_.uniform("u_environment"), 2);
     glUniform1i(composite_program_.uniform("u_has_image"), background_ == Background::Image ? 1 : 0);
     glUniform1i(composite_program_.uniform("u_has_environment"), background_ == Background::Environment ? 1 : 0);
+    bind_shadow(composite_program_, 3);
+    glActiveTexture(GL_TEXTURE4);
+    glBindTexture(GL_TEXTURE_2D, targets_[kNormal].id());
+    glUniform1i(composite_program_.uniform("u_normal"), 4);  // a proxy's mark (phantom.hpp)
     set_camera_ray_uniforms(composite_program_);
     glUniform1f(composite_program_.uniform("u_scale"), float(tone_.scale()));
     glUniform1f(composite_program_.uniform("u_white_sq"), float(tone_.white * tone_.white));
@@ -343,7 +350,41 @@ Aovs Renderer::read_aovs() const {
     a.radiance = read_target(kRadiance);
     a.normal = read_target(kNormal);
     a.reflect = read_target(kReflect);
+    if (shadow_) {
+        draw_shadow();  // the ratio's own target: frames evaluate it in the composite
+        a.shadow = shadow_->read();
+    }
     return a;
+}
+
+void Renderer::set_table(double height) {
+    if (!phantoms_) phantoms_ = std::make_unique<PhantomGeometry>();
+    phantoms_->set_table(height);
+    if (shadow_) shadow_->set_table_height(height);  // the shadow falls on the table where it is now
+}
+
+void Renderer::add_proxy(const Mesh& proxy) {
+    if (!phantoms_) phantoms_ = std::make_unique<PhantomGeometry>();
+    phantoms_->add_proxy(proxy);
+}
+
+void Renderer::enable_shadows(const ShadowLighting& lighting, std::vector<OccluderSphere> occluders) {
+    if (!phantoms_ || !phantoms_->table_height())
+        throw RuntimeError("renderer: shadows need the table (set_table) first");
+    shadow_ = std::make_unique<TableShadowPass>(width_, height_, lighting, std::move(occluders),
+                                                *phantoms_->table_height());
+}
+
+void Renderer::draw_shadow() const {
+    if (!shadow_) return;
+    const glm::mat3 world_from_camera(glm::transpose(glm::dmat3(view_matrix(camera_))));  // as set_camera_ray_uniforms
+    const double ty = std::tan(glm::radians(camera_.fov_y_deg) / 2);
+    shadow_->draw(world_from_camera, glm::vec2(float(ty * width_ / height_), float(ty)), glm::vec3(camera_.eye));
+}
+
+void Renderer::bind_shadow(const gl::GlProgram& program, int unit) const {
+    glUniform1i(program.uniform("u_has_shadow"), shadow_ ? 1 : 0);
+    if (shadow_) shadow_->set_uniforms(program, unit, glm::vec3(camera_.eye));
 }
 
 }  // namespace glint::render

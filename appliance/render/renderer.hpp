@@ -10,6 +10,7 @@
 #pragma once
 
 #include <filesystem>
+#include <memory>
 #include <vector>
 
 #include <glm/glm.hpp>
@@ -21,6 +22,8 @@
 #include "appliance/render/maps.hpp"
 #include "appliance/render/material.hpp"
 #include "appliance/render/mesh.hpp"
+#include "appliance/render/phantom.hpp"
+#include "appliance/render/shadow.hpp"
 
 namespace glint::render {
 
@@ -55,11 +58,13 @@ ToneMap meter_reinhard(const std::vector<float>& rgba, double key = 0.18, double
 struct Aovs {
     int width = 0, height = 0;
     std::vector<float> radiance;  // RGB before any tone mapping, A = 1 on the object, all 0 off it
-    std::vector<float> normal;    // unit world-space normal (A = 1 on the object)
+    std::vector<float> normal;    // unit world-space normal (A = 1 on the object, -1 where a proxy is nearest)
     std::vector<float> reflect;   // unit world-space reflection direction (A = 1 on the object)
+    std::vector<float> shadow;    // the table's shadow ratio (RGB, 1 = unshadowed; A = 1 on the table); empty when off
 };
 
-// Writes radiance.exr (R, G, B, A), normal.exr and reflect.exr (R, G, B = x, y, z) into `dir`
+// Writes radiance.exr (R, G, B, A), normal.exr and reflect.exr (R, G, B = x, y, z), and shadow.exr
+// (R, G, B = the ratio) when the shadow is on, into `dir`
 // (created if missing), each atomically. normal and reflect hold signed values: core's load_exr
 // clamps negatives (it reads radiance), so read them with OpenEXR directly.
 void save_aovs(const std::filesystem::path& dir, const Aovs& aovs);
@@ -97,6 +102,16 @@ public:
     // The targets of the last draw_scene.
     Aovs read_aovs() const;
 
+    // The real table and things on it (docs/render.md, "Table, phantom geometry and shadows").
+    // The table plane y = height and proxy meshes (world coordinates, not normalised) go into the
+    // depth buffer before the object, so they hide it where they are in front.
+    void set_table(double height);
+    void add_proxy(const Mesh& proxy);
+    // The object's shadow on the table darkens the background there (camera image or environment).
+    // Needs set_table first. Off by default.
+    void enable_shadows(const ShadowLighting& lighting, std::vector<OccluderSphere> occluders);
+    bool shadows() const { return shadow_ != nullptr; }
+
     int width() const { return width_; }
     int height() const { return height_; }
     const Camera& camera() const { return camera_; }
@@ -105,6 +120,8 @@ private:
     std::vector<float> read_target(int k) const;  // rows top first
     void draw(bool with_hdr);
     void set_camera_ray_uniforms(const gl::GlProgram& program) const;  // u_size, u_tan_half_fov, u_world_from_camera
+    void draw_shadow() const;                                          // the ratio's target (the AOV), when shadows are on
+    void bind_shadow(const gl::GlProgram& program, int unit) const;    // u_has_shadow and render_shadow.glsl's uniforms
 
     int width_, height_;
     Camera camera_;
@@ -121,6 +138,8 @@ private:
     gl::GlTexture targets_[4];
     gl::GlName<RenderbufferTraits> depth_;
     gl::GlFramebuffer framebuffer_;
+    std::unique_ptr<PhantomGeometry> phantoms_;
+    std::unique_ptr<TableShadowPass> shadow_;
 };
 
 }  // namespace glint::render

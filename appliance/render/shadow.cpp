@@ -1,0 +1,294 @@
+#include "appliance/render/shadow.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <limits>
+#include <string>
+
+#include <glm/gtc/type_ptr.hpp>
+
+#include "appliance/core/equirect.hpp"
+#include "appliance/core/errors.hpp"
+#include "appliance/gl/gl_context.hpp"
+
+namespace glint::render {
+namespace {
+
+// Moller-Trumbore: does the ray o + t d (t > 0) cross the triangle?
+bool crosses(const glm::dvec3& o, const glm::dvec3& d, const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c) {
+    const glm::dvec3 e1 = b - a, e2 = c - a;
+    const glm::dvec3 p = glm::cross(d, e2);
+    const double det = glm::dot(e1, p);
+    if (std::abs(det) < 1e-14) return false;
+    const glm::dvec3 s = o - a;
+    const double u = glm::dot(s, p) / det;
+    if (u < 0 || u > 1) return false;
+    const glm::dvec3 q = glm::cross(s, e1);
+    const double v = glm::dot(d, q) / det;
+    if (v < 0 || u + v > 1) return false;
+    return glm::dot(e2, q) / det > 0;
+}
+
+// Inside when two of three axis rays cross the surface an odd number of times (a mesh with small
+// holes or a vertex hit exactly still gets a majority).
+bool inside(const Mesh& mesh, const glm::dvec3& p) {
+    // Slightly skewed axes: a ray along an exact axis through a grid-aligned mesh hits edges.
+    const glm::dvec3 axes[3] = {glm::normalize(glm::dvec3(1, 1e-3, 2e-3)), glm::normalize(glm::dvec3(2e-3, 1, 1e-3)),
+                                glm::normalize(glm::dvec3(1e-3, 2e-3, 1))};
+    int odd = 0;
+    for (const glm::dvec3& d : axes) {
+        int hits = 0;
+        for (std::size_t t = 0; t + 2 < mesh.indices.size(); t += 3)
+            if (crosses(p, d, mesh.positions[mesh.indices[t]], mesh.positions[mesh.indices[t + 1]],
+                        mesh.positions[mesh.indices[t + 2]]))
+                ++hits;
+        odd += hits % 2;
+    }
+    return odd >= 2;
+}
+
+// Solid-angle weighted block means down to w x h when the map divides; otherwise bilinear
+// resampling (the ambient part has no sharp lights left, so little is lost).
+HdrImage block_means(const HdrImage& map, int w, int h) {
+    if (map.width() % w != 0 || map.height() % h != 0) return resample_bilinear(map, w, h);
+    const int fx = map.width() / w, fy = map.height() / h;
+    const std::vector<double> domega = row_solid_angles(map.width(), map.height());
+    HdrImage out(w, h);
+    for (int j = 0; j < h; ++j)
+        for (int i = 0; i < w; ++i) {
+            double s[3] = {0, 0, 0}, wsum = 0;
+            for (int y = j * fy; y < (j + 1) * fy; ++y) {
+                const double dw = domega[std::size_t(y)];
+                for (int x = i * fx; x < (i + 1) * fx; ++x) {
+                    for (int c = 0; c < 3; ++c) s[c] += dw * map.row(y)[3 * x + c];
+                    wsum += dw;
+                }
+            }
+            out.set(i, j, {float(s[0] / wsum), float(s[1] / wsum), float(s[2] / wsum)});
+        }
+    return out;
+}
+
+// For each texel centre o of a kCapW x kCapH map: the table's irradiance from the cap of angular
+// radius `radius` around o, per steradian of cap,
+//   sum_{k: o . w_k >= cos radius} L_k max(0, w_k . y) dOmega_k  /  sum_{same k} dOmega_k,
+// over the texels of `map`; radius 0 gives L(o) max(0, o . y).
+constexpr int kCapW = 64, kCapH = 32;
+HdrImage cap_density(const HdrImage& map, double radius) {
+    if (radius <= 0) {
+        HdrImage out = block_means(map, kCapW, kCapH);
+        for (int j = 0; j < kCapH; ++j) {
+            const float y = float(std::max(0.0, std::cos(row_theta(j, kCapH))));
+            for (int i = 0; i < 3 * kCapW; ++i) out.row(j)[i] *= y;
+        }
+        return out;
+    }
+    const int w = map.width(), h = map.height();
+    const std::vector<double> domega = row_solid_angles(w, h);
+    std::vector<glm::dvec3> dirs;
+    for (int j = 0; j < h; ++j)
+        for (int i = 0; i < w; ++i) dirs.push_back(texel_direction(i, j, w, h));
+    const double cos_r = std::cos(radius);
+    HdrImage out(kCapW, kCapH);
+    for (int j = 0; j < kCapH; ++j)
+        for (int i = 0; i < kCapW; ++i) {
+            const glm::dvec3 o = texel_direction(i, j, kCapW, kCapH);
+            glm::dvec3 sum(0.0);
+            double wsum = 0, nearest = -2;
+            glm::dvec3 nearest_value(0.0);
+            for (std::size_t k = 0; k < dirs.size(); ++k) {
+                const double c = glm::dot(o, dirs[k]);
+                const int y = int(k / std::size_t(w));
+                const float* p = map.row(y) + 3 * (k % std::size_t(w));
+                const glm::dvec3 l(p[0], p[1], p[2]);
+                if (c > nearest) {
+                    nearest = c;
+                    nearest_value = l * std::max(0.0, dirs[k].y);
+                }
+                if (c < cos_r) continue;
+                sum += l * (std::max(0.0, dirs[k].y) * domega[std::size_t(y)]);
+                wsum += domega[std::size_t(y)];
+            }
+            const glm::dvec3 v = wsum > 0 ? sum / wsum : nearest_value;  // a cap smaller than a texel
+            out.set(i, j, {float(v.x), float(v.y), float(v.z)});
+        }
+    return out;
+}
+
+}  // namespace
+
+double model_bottom(const Mesh& mesh) {
+    double y = std::numeric_limits<double>::infinity();
+    for (const glm::vec3& p : mesh.positions) y = std::min(y, double(p.y));
+    if (!std::isfinite(y)) throw InputError("table: the mesh " + mesh.source + " has no vertices");
+    return y;
+}
+
+std::vector<OccluderSphere> occluder_spheres(const Mesh& mesh) {
+    if (mesh.positions.empty()) throw InputError("shadow: the mesh " + mesh.source + " has no vertices");
+    glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+    for (const glm::vec3& p : mesh.positions) {
+        lo = glm::min(lo, glm::dvec3(p));
+        hi = glm::max(hi, glm::dvec3(p));
+    }
+    const glm::dvec3 centre = 0.5 * (lo + hi);
+    double mean = 0;
+    for (const glm::vec3& p : mesh.positions) mean += glm::length(glm::dvec3(p) - centre);
+    mean /= double(mesh.positions.size());
+    // The vertices and the triangles' centroids (a cube's corners alone are on a sphere).
+    bool sphere = mean > 0;
+    auto on_sphere = [&](const glm::dvec3& p) { return std::abs(glm::length(p - centre) - mean) <= 0.01 * mean; };
+    for (const glm::vec3& p : mesh.positions) sphere = sphere && on_sphere(glm::dvec3(p));
+    for (std::size_t t = 0; sphere && t + 2 < mesh.indices.size(); t += 3)
+        sphere = on_sphere((glm::dvec3(mesh.positions[mesh.indices[t]]) + glm::dvec3(mesh.positions[mesh.indices[t + 1]]) +
+                            glm::dvec3(mesh.positions[mesh.indices[t + 2]])) / 3.0);
+    if (sphere) {
+        double r = 0;
+        for (const glm::vec3& p : mesh.positions) r = std::max(r, glm::length(glm::dvec3(p) - centre));
+        return {{centre, r}};
+    }
+
+    const glm::dvec3 extent = hi - lo;
+    const double longest = std::max({extent.x, extent.y, extent.z});
+    for (int cells = kMaxCellsAlongSide; cells >= 1; --cells) {
+        const double side = longest / cells;
+        std::vector<OccluderSphere> out;
+        const int nx = std::max(1, int(std::ceil(extent.x / side - 1e-9)));
+        const int ny = std::max(1, int(std::ceil(extent.y / side - 1e-9)));
+        const int nz = std::max(1, int(std::ceil(extent.z / side - 1e-9)));
+        // The grid is centred on the box, so a side shorter than a cell still gets one centred cell.
+        const glm::dvec3 start = centre - 0.5 * side * glm::dvec3(nx, ny, nz);
+        for (int z = 0; z < nz; ++z)
+            for (int y = 0; y < ny; ++y)
+                for (int x = 0; x < nx; ++x) {
+                    const glm::dvec3 p = start + side * (glm::dvec3(x, y, z) + 0.5);
+                    if (inside(mesh, p)) out.push_back({p, 0.5 * std::sqrt(3.0) * side});
+                }
+        if (int(out.size()) <= kMaxOccluders) return out;
+    }
+    return {};
+}
+
+ShadowLighting shadow_lighting(const HdrImage& environment, DominantLightOptions options) {
+    options.max_lights = std::min(options.max_lights, kMaxShadowLights);
+    options.facing = glm::dvec3(0.0, 1.0, 0.0);  // lights under the table's horizon do not light it
+    options.max_angular_radius = kMaxShadowLightRadiusDeg * kPi / 180.0;
+    LightDecomposition found = find_dominant_lights(environment, options);
+    ShadowLighting out;
+    for (DominantLight l : found.lights) {
+        // What lights the table: the texels above its horizon, from where they are on average
+        // (a light across the horizon is seen from the table as its upper part).
+        l.direction = l.facing_direction;
+        out.lights.push_back(l);
+        out.light_irradiance.push_back(l.facing_irradiance);
+    }
+    out.ambient_irradiance = irradiance_on(found.ambient, {0.0, 1.0, 0.0});
+    const HdrImage input = block_means(found.ambient, 2 * kCapW, 2 * kCapH);
+    for (int l = 0; l < kCapLevels; ++l)
+        out.ambient_caps.push_back(cap_density(l == 0 ? found.ambient : input, kCapRadiiDeg[l] * kPi / 180.0));
+    return out;
+}
+
+TableShadowPass::TableShadowPass(int width, int height, const ShadowLighting& lighting,
+                                 std::vector<OccluderSphere> occluders, double table_height)
+    : width_(width),
+      height_(height),
+      table_height_(table_height),
+      lighting_(lighting),
+      occluders_(std::move(occluders)),
+      program_("fullscreen.vert", "render_shadow.frag"),
+      target_(width, height, 1) {
+    if (int(lighting_.lights.size()) > kMaxShadowLights) throw RuntimeError("shadow: more lights than the shader holds");
+    if (int(occluders_.size()) > kMaxOccluders) throw RuntimeError("shadow: more occluders than the shader holds");
+    // The bound: around the spheres' box centre, out to the farthest sphere's far side.
+    if (!occluders_.empty()) {
+        glm::dvec3 lo(std::numeric_limits<double>::infinity()), hi(-std::numeric_limits<double>::infinity());
+        for (const OccluderSphere& s : occluders_) {
+            lo = glm::min(lo, s.centre);
+            hi = glm::max(hi, s.centre);
+        }
+        bound_.centre = 0.5 * (lo + hi);
+        bound_.radius = 0;
+        for (const OccluderSphere& s : occluders_)
+            bound_.radius = std::max(bound_.radius, glm::length(s.centre - bound_.centre) + s.radius);
+    } else {
+        bound_ = {glm::dvec3(0.0, 1e6, 0.0), 0.0};  // nothing: a point far above hides nothing
+    }
+    if (int(lighting_.ambient_caps.size()) != kCapLevels) throw RuntimeError("shadow: the ambient cap maps are missing");
+    // The levels stacked top to bottom in one texture (render_shadow.frag's u_caps).
+    HdrImage stack(kCapW, kCapH * kCapLevels);
+    for (int l = 0; l < kCapLevels; ++l) {
+        const HdrImage& level = lighting_.ambient_caps[std::size_t(l)];
+        if (level.width() != kCapW || level.height() != kCapH) throw RuntimeError("shadow: a cap map is not 64x32");
+        std::copy(level.data().begin(), level.data().end(),
+                  stack.data().begin() + std::ptrdiff_t(std::size_t(l) * level.data().size()));
+    }
+    caps_ = gl::upload_image(stack);
+    empty_vao_ = gl::GlVertexArray::create();
+    gl::check_gl("creating the table shadow pass");
+}
+
+void TableShadowPass::set_uniforms(const gl::GlProgram& program, int caps_unit, const glm::vec3& eye) const {
+    glUniform3f(program.uniform("u_eye"), eye.x, eye.y, eye.z);
+    glUniform1f(program.uniform("u_table_height"), float(table_height_));
+    const int n = int(lighting_.lights.size());
+    std::vector<float> dir, irr, radius;
+    for (int i = 0; i < n; ++i) {
+        const DominantLight& l = lighting_.lights[std::size_t(i)];
+        const glm::dvec3 e = lighting_.light_irradiance[std::size_t(i)];
+        dir.insert(dir.end(), {float(l.direction.x), float(l.direction.y), float(l.direction.z)});
+        irr.insert(irr.end(), {float(e.x), float(e.y), float(e.z)});
+        radius.push_back(float(l.angular_radius()));
+    }
+    glUniform1i(program.uniform("u_light_count"), n);
+    if (n > 0) {
+        glUniform3fv(program.uniform("u_light_dir"), n, dir.data());
+        glUniform3fv(program.uniform("u_light_irradiance"), n, irr.data());
+        glUniform1fv(program.uniform("u_light_radius"), n, radius.data());
+    }
+    const glm::dvec3 ea = lighting_.ambient_irradiance;
+    glUniform3f(program.uniform("u_ambient_irradiance"), float(ea.x), float(ea.y), float(ea.z));
+    std::vector<float> spheres;
+    for (const OccluderSphere& s : occluders_)
+        spheres.insert(spheres.end(), {float(s.centre.x), float(s.centre.y), float(s.centre.z), float(s.radius)});
+    glUniform1i(program.uniform("u_sphere_count"), int(occluders_.size()));
+    if (!occluders_.empty()) glUniform4fv(program.uniform("u_spheres"), GLsizei(occluders_.size()), spheres.data());
+    glUniform4f(program.uniform("u_bound"), float(bound_.centre.x), float(bound_.centre.y), float(bound_.centre.z),
+                float(bound_.radius));
+    float radii[kCapLevels];
+    for (int l = 0; l < kCapLevels; ++l) radii[l] = float(kCapRadiiDeg[l] * kPi / 180.0);
+    glUniform1fv(program.uniform("u_cap_radius"), kCapLevels, radii);
+    glActiveTexture(GLenum(GL_TEXTURE0 + caps_unit));
+    glBindTexture(GL_TEXTURE_2D, caps_.id());
+    glUniform1i(program.uniform("u_caps"), caps_unit);
+    glActiveTexture(GL_TEXTURE0);
+}
+
+void TableShadowPass::draw(const glm::mat3& world_from_camera, const glm::vec2& tan_half_fov, const glm::vec3& eye) const {
+    target_.bind();
+    glViewport(0, 0, width_, height_);
+    glDisable(GL_DEPTH_TEST);
+    glDisable(GL_BLEND);
+    program_.use();
+    glUniform2f(program_.uniform("u_size"), float(width_), float(height_));
+    glUniform2f(program_.uniform("u_tan_half_fov"), tan_half_fov.x, tan_half_fov.y);
+    glUniformMatrix3fv(program_.uniform("u_world_from_camera"), 1, GL_FALSE, glm::value_ptr(world_from_camera));
+    set_uniforms(program_, 0, eye);
+    glBindVertexArray(empty_vao_.id());
+    glDrawArrays(GL_TRIANGLES, 0, 3);
+    glBindVertexArray(0);
+    gl::check_gl("drawing the table shadow");
+}
+
+std::vector<float> TableShadowPass::read() const {
+    // RenderTargets reads GL's rows, bottom first; images are top first.
+    const std::vector<float> bottom_up = target_.read(0);
+    std::vector<float> out(bottom_up.size());
+    const std::size_t row = std::size_t(width_) * 4;
+    for (int y = 0; y < height_; ++y)
+        std::copy_n(bottom_up.begin() + std::ptrdiff_t(std::size_t(height_ - 1 - y) * row), row,
+                    out.begin() + std::ptrdiff_t(std::size_t(y) * row));
+    return out;
+}
+
+}  // namespace glint::render
