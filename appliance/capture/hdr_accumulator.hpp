@@ -9,8 +9,9 @@
 // Sampling (docs/capture.md "Accumulation"): the frame is first linearised per pixel and box
 // filtered to about one environment texel per pixel (factor s, from the focal length and the map
 // width) into planes of X = mean(X) and W = mean(w) per cell. A texel reads both bilinearly at
-// its projected position and adds t W X to the numerator and W t^2 to the denominator. The GPU
-// path does the same with textures, so the two agree.
+// its projected position and adds t W X to the numerator and W t^2 to the denominator; round
+// compact bright features it reads them over its whole footprint instead (footprint_read). The
+// GPU path does the same with textures, so the two agree.
 //
 // Averaging X itself, not the premultiplied w X, matters at a sun: beside a pixel near
 // saturation (code 246, w ~ 0.013) a rim pixel (w ~ 0.9) would otherwise take the whole cell or
