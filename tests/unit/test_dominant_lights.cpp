@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <ostream>
 #include <string>
 
 #include "appliance/core/equirect.hpp"
@@ -71,6 +72,8 @@ struct Case {
     std::string name;
     glm::dvec3 direction;
 };
+// CTest's listing prints the case by name, not as raw bytes.
+[[maybe_unused]] void PrintTo(const Case& c, std::ostream* os) { *os << c.name; }
 
 class DominantLightsDisc : public ::testing::TestWithParam<Case> {};
 
