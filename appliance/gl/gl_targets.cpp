@@ -1,9 +1,21 @@
 #include "appliance/gl/gl_targets.hpp"
 
+#include <algorithm>
+#include <cstddef>
+
 #include "appliance/core/errors.hpp"
 #include "appliance/gl/gl_context.hpp"
 
 namespace glint::gl {
+
+std::vector<float> rows_top_first(const std::vector<float>& bottom_up, int width, int height) {
+    std::vector<float> out(bottom_up.size());
+    const std::size_t row = std::size_t(width) * 4;
+    for (int y = 0; y < height; ++y)
+        std::copy_n(bottom_up.begin() + std::ptrdiff_t(std::size_t(height - 1 - y) * row), row,
+                    out.begin() + std::ptrdiff_t(std::size_t(y) * row));
+    return out;
+}
 
 GlTexture make_float_texture(int width, int height, const float* rgba) {
     GlTexture t = GlTexture::create();

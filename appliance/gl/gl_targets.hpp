@@ -11,6 +11,10 @@
 
 namespace glint::gl {
 
+// RGBA float rows read from GL (bottom row first) in image order (top row first), as images
+// and EXR files keep them.
+std::vector<float> rows_top_first(const std::vector<float>& bottom_up, int width, int height);
+
 // An RGBA32F texture with nearest filtering and clamped edges (rgba may be null: undefined texels).
 GlTexture make_float_texture(int width, int height, const float* rgba);
 // The RGB of an image as an RGBA32F texture.

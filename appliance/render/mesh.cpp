@@ -182,6 +182,20 @@ Mesh load_model(const std::string& spec, const std::string& flag) {
     return mesh;
 }
 
+bool ray_crosses_triangle(const glm::dvec3& o, const glm::dvec3& d, const glm::dvec3& a, const glm::dvec3& b,
+                          const glm::dvec3& c, double t_min) {
+    const glm::dvec3 e1 = b - a, e2 = c - a, p = glm::cross(d, e2);
+    const double det = glm::dot(e1, p);
+    if (std::abs(det) < 1e-14) return false;  // the ray runs in the triangle's plane
+    const glm::dvec3 s = o - a;
+    const double u = glm::dot(s, p) / det;
+    if (u < 0 || u > 1) return false;
+    const glm::dvec3 q = glm::cross(s, e1);
+    const double v = glm::dot(d, q) / det;
+    if (v < 0 || u + v > 1) return false;
+    return glm::dot(e2, q) / det > t_min;
+}
+
 void normalise_to_unit_sphere(Mesh& mesh) {
     if (mesh.positions.empty()) return;
     glm::vec3 lo = mesh.positions[0], hi = mesh.positions[0];

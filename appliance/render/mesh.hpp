@@ -68,6 +68,10 @@ Mesh load_model(const std::string& spec, const std::string& flag = "--model");
 // Whether `spec` names a file (not one of the built-in models).
 bool model_is_file(const std::string& spec);
 
+// Moller-Trumbore: does the ray o + t d cross triangle (a, b, c) at some t > t_min?
+bool ray_crosses_triangle(const glm::dvec3& o, const glm::dvec3& d, const glm::dvec3& a, const glm::dvec3& b,
+                          const glm::dvec3& c, double t_min = 0.0);
+
 // Moves and scales the mesh so that its axis-aligned bounding box is centred on the origin and
 // the farthest vertex is at distance 1 (the camera of renderer.hpp frames the unit sphere).
 void normalise_to_unit_sphere(Mesh& mesh);

@@ -291,13 +291,7 @@ std::vector<float> Renderer::read_target(int k) const {
     std::vector<float> bottom_up(std::size_t(width_) * std::size_t(height_) * 4);
     glReadPixels(0, 0, width_, height_, GL_RGBA, GL_FLOAT, bottom_up.data());
     gl::check_gl("reading a render target back");
-    // GL's rows start at the bottom; images and EXR files at the top.
-    std::vector<float> out(bottom_up.size());
-    const std::size_t row = std::size_t(width_) * 4;
-    for (int y = 0; y < height_; ++y)
-        std::copy_n(bottom_up.begin() + std::ptrdiff_t(std::size_t(height_ - 1 - y) * row), row,
-                    out.begin() + std::ptrdiff_t(std::size_t(y) * row));
-    return out;
+    return gl::rows_top_first(bottom_up, width_, height_);
 }
 
 void Renderer::set_camera_ray_uniforms(const gl::GlProgram& program) const {

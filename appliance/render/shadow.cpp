@@ -14,20 +14,6 @@
 namespace glint::render {
 namespace {
 
-// Moller-Trumbore: does the ray o + t d (t > 0) cross the triangle?
-bool crosses(const glm::dvec3& o, const glm::dvec3& d, const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c) {
-    const glm::dvec3 e1 = b - a, e2 = c - a;
-    const glm::dvec3 p = glm::cross(d, e2);
-    const double det = glm::dot(e1, p);
-    if (std::abs(det) < 1e-14) return false;
-    const glm::dvec3 s = o - a;
-    const double u = glm::dot(s, p) / det;
-    if (u < 0 || u > 1) return false;
-    const glm::dvec3 q = glm::cross(s, e1);
-    const double v = glm::dot(d, q) / det;
-    if (v < 0 || u + v > 1) return false;
-    return glm::dot(e2, q) / det > 0;
-}
 
 // Inside when two of three axis rays cross the surface an odd number of times (a mesh with small
 // holes or a vertex hit exactly still gets a majority).
@@ -39,7 +25,7 @@ bool inside(const Mesh& mesh, const glm::dvec3& p) {
     for (const glm::dvec3& d : axes) {
         int hits = 0;
         for (std::size_t t = 0; t + 2 < mesh.indices.size(); t += 3)
-            if (crosses(p, d, mesh.positions[mesh.indices[t]], mesh.positions[mesh.indices[t + 1]],
+            if (ray_crosses_triangle(p, d, mesh.positions[mesh.indices[t]], mesh.positions[mesh.indices[t + 1]],
                         mesh.positions[mesh.indices[t + 2]]))
                 ++hits;
         odd += hits % 2;
@@ -281,14 +267,7 @@ void TableShadowPass::draw(const glm::mat3& world_from_camera, const glm::vec2& 
 }
 
 std::vector<float> TableShadowPass::read() const {
-    // RenderTargets reads GL's rows, bottom first; images are top first.
-    const std::vector<float> bottom_up = target_.read(0);
-    std::vector<float> out(bottom_up.size());
-    const std::size_t row = std::size_t(width_) * 4;
-    for (int y = 0; y < height_; ++y)
-        std::copy_n(bottom_up.begin() + std::ptrdiff_t(std::size_t(height_ - 1 - y) * row), row,
-                    out.begin() + std::ptrdiff_t(std::size_t(y) * row));
-    return out;
+    return gl::rows_top_first(target_.read(0), width_, height_);
 }
 
 }  // namespace glint::render

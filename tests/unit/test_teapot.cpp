@@ -126,18 +126,9 @@ TEST(Teapot, PatchSeamsAreClosed) {
     EXPECT_EQ(boundary_edges(subset(m, level, kSpout)), std::size_t(4 * level));
 }
 
-// Möller-Trumbore: does the ray o + t d (t > eps) hit the triangle?
+// A crossing beyond the ray's own start (the ray starts on the surface).
 bool hits(const glm::dvec3& o, const glm::dvec3& d, const glm::dvec3& a, const glm::dvec3& b, const glm::dvec3& c) {
-    const glm::dvec3 e1 = b - a, e2 = c - a, p = glm::cross(d, e2);
-    const double det = glm::dot(e1, p);
-    if (std::abs(det) < 1e-14) return false;
-    const glm::dvec3 s = o - a;
-    const double u = glm::dot(s, p) / det;
-    if (u < 0 || u > 1) return false;
-    const glm::dvec3 q = glm::cross(s, e1);
-    const double v = glm::dot(d, q) / det;
-    if (v < 0 || u + v > 1) return false;
-    return glm::dot(e2, q) / det > 1e-6;
+    return ray_crosses_triangle(o, d, a, b, c, 1e-6);
 }
 
 TEST(Teapot, NormalsAreUnitAndPointOutOfThePot) {
