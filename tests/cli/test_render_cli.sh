@@ -37,7 +37,8 @@ run --help
 grep -q "render" "$work/stdout" || fail "glint --help does not list render"
 run render --help
 [[ $rc -eq 0 ]] || fail "glint render --help: exit code $rc, want 0"
-for flag in --env --maps --model --material --background --size --out --aov --no-ao --frames --stats --display; do
+for flag in --env --maps --model --material --background --size --out --aov --no-ao --frames --stats --display \
+    --shadows --table-height --proxy; do
     grep -qF -- "$flag" "$work/stdout" || fail "glint render --help does not describe $flag"
 done
 pass "glint --help lists render; glint render --help exits 0 and describes every flag"
@@ -59,6 +60,23 @@ assert s["material"] == "glossy:40" and s["irradiance"] is None and s["reflectio
 assert s["tone_map"]["operator"] == "reinhard" and s["tone_map"]["key"] == 0.18, s
 EOF2
 pass "render writes the PNG, the three AOVs and stats.json (3 frames, median <= p99 <= max)"
+
+# --- the phantom table, a proxy and the shadow ---------------------------------------------------
+# A small quad far behind the object (world coordinates): drawn to depth only, it changes nothing
+# the command reports, but it has to load.
+printf 'v -0.2 -0.2 -3\nv 0.2 -0.2 -3\nv 0.2 0.2 -3\nv -0.2 0.2 -3\nf 1 2 3 4\n' > "$work/proxy.obj"
+run render --env "$WORLD" --model sphere --size 48x32 --out "$work/s.png" --aov "$work/aov_shadow" --shadows on \
+    --table-height -1.0 --proxy "$work/proxy.obj"
+[[ $rc -eq 0 ]] || fail "render --shadows on --proxy: exit code $rc (stderr: $(stderr_text))"
+[[ -s $work/aov_shadow/shadow.exr && -s $work/s.png ]] || fail "render --shadows on did not write shadow.exr and the frame"
+run render --env "$WORLD" --model sphere --size 48x32 --out "$work/s2.png" --aov "$work/aov_noshadow" --shadows off
+[[ $rc -eq 0 ]] || fail "render --shadows off: exit code $rc (stderr: $(stderr_text))"
+[[ -s $work/aov_noshadow/radiance.exr ]] || fail "render --shadows off did not write its AOVs"
+pass "render --shadows on with --table-height and --proxy writes shadow.exr; --shadows off runs"
+expect_bad "bad --shadows" "--shadows" render --env "$WORLD" --shadows sometimes
+expect_bad "missing --proxy file" "$work/nope.obj" render --env "$WORLD" --proxy "$work/nope.obj"
+expect_bad "--proxy not an OBJ" "--proxy" render --env "$WORLD" --proxy "$work/proxy.ply"
+expect_bad "bad --table-height" "--table-height" render --env "$WORLD" --table-height low
 
 # --- maps from glint convolve -------------------------------------------------------------------
 run convolve "$WORLD" --out "$work/maps" --irradiance
