@@ -5,10 +5,10 @@
 #include <cstdio>
 #include <filesystem>
 #include <memory>
-#include <mutex>
 
 #include "appliance/app/commands.hpp"
 #include "appliance/core/errors.hpp"
+#include "appliance/core/progress.hpp"
 #include "appliance/render/ao_bake.hpp"
 #include "appliance/render/ao_file.hpp"
 #include "appliance/render/mesh.hpp"
@@ -42,22 +42,12 @@ int run_bake_ao(const BakeArgs& args) {
     const std::uint64_t checksum = render::file_checksum(args.model, &bytes);
     const render::Mesh mesh = render::load_model(args.model, "bake-ao");
 
-    // Progress on stderr once a second, from the first second on (a short bake prints nothing).
     const auto start = Clock::now();
-    auto last = start;
-    std::mutex mutex;
     render::AoBakeOptions options;
     options.rays = args.rays;
     options.max_distance_relative = args.max_distance;
     options.threads = args.threads;
-    options.progress = [&](std::size_t done, std::size_t total) {
-        std::lock_guard lock(mutex);
-        const auto now = Clock::now();
-        if (now - last < std::chrono::seconds(1) || done == total) return;
-        last = now;
-        std::fprintf(stderr, "glint: bake-ao: %zu of %zu vertices (%.0f %%), %.1f s\n", done, total,
-                     100.0 * double(done) / double(total), std::chrono::duration<double>(now - start).count());
-    };
+    options.progress = progress_callback("baking ambient occlusion (vertices)");
     render::AoFile file;
     file.ao = render::bake_ambient_occlusion(mesh, options);
     const double seconds = std::chrono::duration<double>(Clock::now() - start).count();

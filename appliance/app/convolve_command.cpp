@@ -104,17 +104,7 @@ int run_convolve(const ConvolveArgs& args) {
                      loaded.sanitised.pos_inf, loaded.sanitised.neg_inf, loaded.sanitised.negative);
 
     // The engine reports rows done and the total; draw from that.
-    std::mutex bar_mutex;
-    std::unique_ptr<ProgressBar> live;
-    long long live_done = 0;
-    options.progress = [&](long long done, long long total) {
-        std::lock_guard lock(bar_mutex);
-        if (!live) live = std::make_unique<ProgressBar>("convolving", total);
-        if (done > live_done) {  // workers may report out of order
-            live->advance(done - live_done);
-            live_done = done;
-        }
-    };
+    options.progress = progress_callback("convolving");
     GpuChoice gpu(args.engine, "convolution");
     std::unique_ptr<convolution::gpu::UnlimitedGate> gate;
     std::unique_ptr<convolution::gpu::GpuEngine> gpu_engine;
@@ -130,7 +120,7 @@ int run_convolve(const ConvolveArgs& args) {
     const auto start = std::chrono::steady_clock::now();
     const std::vector<convolution::MapResult> results = convolution::convolve(std::move(loaded.image), maps, options);
     const double total_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-    if (live) live->finish();
+    options.progress = nullptr;  // the last copy of the callback: its bar finishes here, before the report
 
     nlohmann::json report;
     report["input"] = {{"path", args.input},

@@ -9,7 +9,6 @@
 #include <cstdio>
 #include <filesystem>
 #include <memory>
-#include <mutex>
 #include <optional>
 #include <string>
 #include <nlohmann/json.hpp>
@@ -20,6 +19,7 @@
 #include "appliance/app/commands.hpp"
 #include "appliance/core/atomic_file.hpp"
 #include "appliance/core/errors.hpp"
+#include "appliance/core/progress.hpp"
 #include "appliance/core/exr_io.hpp"
 #include "appliance/gl/display.hpp"
 #include "appliance/render/ao_bake.hpp"
@@ -67,17 +67,7 @@ void load_ambient_occlusion(const std::string& model, render::Mesh& mesh) {
     if (!render::model_is_file(model)) {
         const auto t0 = Clock::now();
         render::AoBakeOptions options;
-        // Progress once a second after the first (teapot:40 takes a few seconds on two cores).
-        auto last = t0;
-        std::mutex mutex;
-        options.progress = [&](std::size_t done, std::size_t total) {
-            std::lock_guard lock(mutex);
-            const auto now = Clock::now();
-            if (now - last < std::chrono::seconds(1) || done == total) return;
-            last = now;
-            std::fprintf(stderr, "glint: baking the teapot's ambient occlusion: %zu of %zu vertices (%.0f %%)\n", done,
-                         total, 100.0 * double(done) / double(total));
-        };
+        options.progress = progress_callback("baking the teapot's ambient occlusion (vertices)");
         // A teapot finer than the default is baked at the default level and the ao resampled in
         // each patch's (u, v): ao varies slowly over the surface, and teapot:40 would take 10x as
         // long to bake (docs/render.md measures the difference).

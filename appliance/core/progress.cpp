@@ -46,4 +46,23 @@ void ProgressBar::draw(bool final_line) {
     std::fflush(stderr);
 }
 
+std::function<void(long long, long long)> progress_callback(std::string label) {
+    struct State {
+        std::string label;
+        std::mutex mutex;
+        std::unique_ptr<ProgressBar> bar;
+        long long done = 0;
+    };
+    auto state = std::make_shared<State>();
+    state->label = std::move(label);
+    return [state](long long done, long long total) {
+        std::lock_guard lock(state->mutex);
+        if (!state->bar) state->bar = std::make_unique<ProgressBar>(state->label, total);
+        if (done > state->done) {  // workers may report out of order
+            state->bar->advance(done - state->done);
+            state->done = done;
+        }
+    };
+}
+
 }  // namespace glint

@@ -3,6 +3,8 @@
 
 #include <atomic>
 #include <chrono>
+#include <functional>
+#include <memory>
 #include <mutex>
 #include <string>
 
@@ -31,5 +33,10 @@ private:
     std::chrono::steady_clock::time_point last_draw_;
     std::chrono::steady_clock::time_point start_;
 };
+
+// A progress callback (done, total) for work that reports cumulative counts, from any thread and
+// possibly out of order: draws a ProgressBar made at the first report, finished when the last
+// copy of the callback goes.
+std::function<void(long long done, long long total)> progress_callback(std::string label);
 
 }  // namespace glint
