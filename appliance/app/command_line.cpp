@@ -46,6 +46,10 @@ constexpr CommandSummary kSummaries[] = {
      true},
     {"calibrate", "Camera calibrations from recorded frames, stored in a calibration file", true},
     {"cameras", "List the cameras libcamera finds (exit 1 when there is none)", true},
+    {"track",
+     "The marker board's pose in every PNG of a directory (CSV, camera_from_board), filtered and bridged through "
+     "dropouts by the orientation sensor with --sequence; --print-board draws the board",
+     true},
 };
 
 // The first argument that is not an option: the command's name (glint has no global option
