@@ -1,0 +1,7 @@
+#!/usr/bin/env bash
+# Marker tracking against known poses (docs/tracking.md "Measured"); writes
+# tests/bench/results/tracking.md. Takes several minutes on 2 cores (the rendering dominates).
+set -euo pipefail
+cd "$(dirname "$0")/../.."
+./scripts/build.sh
+./build/tests/bench/glint_bench_tracking --out tests/bench/results/tracking.md "$@"
