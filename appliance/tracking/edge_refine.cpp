@@ -125,11 +125,15 @@ bool refine_marker_corners(const cv::Mat& gray, const Camera& camera, const std:
     // Corner i joins edge i-1 (ending at it) and edge i (starting at it).
     for (int i = 0; i < 4; ++i)
         if (!intersect(lines[(i + 3) % 4], lines[i], undistorted[i])) return false;
-    // The refined corners must stay near the detected ones (a bad fit otherwise).
+    // The refined corners must stay near the detected ones: a corner that moved by more than a
+    // quarter of the side is a bad fit. (The detector's own corners can be 3 px off on blurred,
+    // dark frames: its thresholded outline shrinks or grows with the blur.)
     const std::vector<cv::Point2d> initial_u =
         undistort_pixels(camera, {initial[0], initial[1], initial[2], initial[3]});
+    double side = 1e9;
+    for (int i = 0; i < 4; ++i) side = std::min(side, cv::norm(initial_u[(i + 1) % 4] - initial_u[i]));
     for (int i = 0; i < 4; ++i)
-        if (cv::norm(undistorted[i] - initial_u[i]) > 3.0) return false;
+        if (cv::norm(undistorted[i] - initial_u[i]) > std::max(2.0, 0.25 * side)) return false;
     return true;
 }
 
