@@ -80,6 +80,10 @@ Detector::Detector(const Board& board, const Camera& camera, DetectorOptions opt
         // rest), at twice the size when the region is small: one window of 9 pixels.
         full_params_->adaptiveThreshWinSizeMin = 9;
         full_params_->adaptiveThreshWinSizeMax = 9;
+        // Small, blurred markers read with a bit or two wrong: accept more correction (a wrong id
+        // is caught by the pose: its corners do not fit the board).
+        full_params_->errorCorrectionRate = 1.0;
+        full_params_->maxErroneousBitsInBorderRate = 0.5;
     }
 }
 
@@ -221,7 +225,6 @@ Detection Detector::detect(const cv::Mat& gray, const std::optional<Pose>& prior
     cv::Vec3d rvec, tvec;
     int best_added = -1;
     double best_rms = 1e9;
-    std::size_t best = 0;
     for (std::size_t i = 0; i < poses.size(); ++i) {
         gather();
         cv::Vec3d rv, tv;
@@ -232,29 +235,15 @@ Detection Detector::detect(const cv::Mat& gray, const std::optional<Pose>& prior
         if (added > 0) cv::solvePnPRefineLM(object, image, k, cv::noArray(), rv, tv);
         const double rms = reprojection_rms(object, image, k, rv, tv);
         if (added > best_added || (added == best_added && rms < best_rms)) {
-            best_added = added, best_rms = rms, best = i;
+            best_added = added, best_rms = rms;
             rvec = rv, tvec = tv;
         }
     }
     if (poses.size() > 1) {
         // Run again for the chosen solution (the lists hold the last one tried).
-        add_predicted(poses[best]);
+        add_predicted(pose_from_rvec_tvec(rvec, tvec));
         gather();
         cv::solvePnPRefineLM(object, image, k, cv::noArray(), rvec, tvec);
-        // Still ambiguous with every marker found: the previous pose decides, or nothing does.
-        std::vector<Pose> again;
-        std::vector<double> again_errors;
-        ippe(again, again_errors);
-        if (ambiguous(again, again_errors)) {
-            if (!prior) {
-                result.rejection = "ambiguous pose (the two IPPE solutions fit alike)";
-                return result;
-            }
-            const Pose chosen = rotation_error_deg(again[1], *prior) < rotation_error_deg(again[0], *prior) ? again[1]
-                                                                                                            : again[0];
-            pose_to_rvec_tvec(chosen, rvec, tvec);
-            cv::solvePnPRefineLM(object, image, k, cv::noArray(), rvec, tvec);
-        }
     }
     result.markers_predicted = std::max(0, best_added);
 
@@ -277,6 +266,36 @@ Detection Detector::detect(const cv::Mat& gray, const std::optional<Pose>& prior
             return result;
         }
         cv::solvePnPRefineLM(object, image, k, cv::noArray(), rvec, tvec);
+    }
+    if (poses.size() > 1) {
+        // Ambiguous at first: with every marker found and the outliers gone, both IPPE solutions
+        // refined; if they are still distinct and fit alike, the previous pose decides, or
+        // nothing does.
+        std::vector<Pose> again;
+        std::vector<double> again_errors;
+        ippe(again, again_errors);
+        if (again.size() > 1) {
+            std::array<cv::Vec3d, 2> rv, tv;
+            std::array<double, 2> rms{};
+            for (int i = 0; i < 2; ++i) {
+                pose_to_rvec_tvec(again[std::size_t(i)], rv[i], tv[i]);
+                cv::solvePnPRefineLM(object, image, k, cv::noArray(), rv[i], tv[i]);
+                rms[i] = reprojection_rms(object, image, k, rv[i], tv[i]);
+            }
+            const int lower = rms[1] < rms[0] ? 1 : 0, higher = 1 - lower;
+            const Pose a = pose_from_rvec_tvec(rv[lower], tv[lower]), b = pose_from_rvec_tvec(rv[higher], tv[higher]);
+            if (rotation_error_deg(a, b) > 0.5 &&
+                rms[higher] < options_.ambiguity_ratio * rms[lower] + options_.ambiguity_margin_px) {
+                if (!prior) {
+                    result.rejection = "ambiguous pose (the two IPPE solutions fit alike)";
+                    return result;
+                }
+                const int chosen = rotation_error_deg(b, *prior) < rotation_error_deg(a, *prior) ? higher : lower;
+                rvec = rv[chosen], tvec = tv[chosen];
+            } else {
+                rvec = rv[lower], tvec = tv[lower];
+            }
+        }
     }
     result.markers = int(marker_index.size()) - dropped;
     if (result.markers < options_.min_markers) {
