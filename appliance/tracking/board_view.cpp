@@ -48,8 +48,11 @@ void draw_hand(cv::Mat& texture, double fraction, std::mt19937_64& rng) {
 }  // namespace
 
 BoardRenderer::BoardRenderer(const Board& board, const Camera& camera, int supersample, double texture_px_per_mm)
-    : board_(board), camera_(camera), supersample_(supersample), texture_px_per_mm_(texture_px_per_mm) {
-    cv::Mat print = draw_board(board, texture_px_per_mm);
+    : BoardRenderer(board, camera, draw_board(board, texture_px_per_mm), texture_px_per_mm, supersample) {}
+
+BoardRenderer::BoardRenderer(const Board& board, const Camera& camera, const cv::Mat& print, double print_px_per_mm,
+                             int supersample)
+    : board_(board), camera_(camera), supersample_(supersample), texture_px_per_mm_(print_px_per_mm) {
     print.convertTo(texture_, CV_32F, (kWhite - kBlack) / 255.0, kBlack);
     // The undistorted normalised coordinates of every sub-pixel centre, once per camera.
     const int sw = camera.width * supersample, sh = camera.height * supersample;

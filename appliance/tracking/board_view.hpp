@@ -26,6 +26,10 @@ struct ViewConditions {
 class BoardRenderer {
 public:
     BoardRenderer(const Board& board, const Camera& camera, int supersample = 3, double texture_px_per_mm = 6);
+    // Another printed sheet of the board's size (8-bit, `print_px_per_mm`), e.g. a board of
+    // other markers for a comparison.
+    BoardRenderer(const Board& board, const Camera& camera, const cv::Mat& print, double print_px_per_mm,
+                  int supersample = 3);
 
     // An 8-bit grey frame of camera.width x camera.height of the board seen at `camera_from_board`.
     // `seed` picks the noise, the glare position and the hand's place and angle.

@@ -6,6 +6,7 @@
 //
 // Usage: glint_bench_tracking --out FILE.md [--views N] (default 200 per condition)
 #include <algorithm>
+#include <array>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -17,6 +18,7 @@
 #include <opencv2/aruco.hpp>
 #include <opencv2/calib3d.hpp>
 #include <opencv2/core/utility.hpp>
+#include <opencv2/imgproc.hpp>
 #include <random>
 #include <sstream>
 #include <string>
@@ -25,8 +27,16 @@
 #include "appliance/tracking/board_view.hpp"
 #include "appliance/tracking/detector.hpp"
 #include "appliance/tracking/dropout_bridge.hpp"
+#include "appliance/tracking/edge_refine.hpp"
 #include "appliance/tracking/pose_filter.hpp"
 #include "bench_util.hpp"
+
+#ifdef GLINT_BENCH_APRILTAG
+extern "C" {
+#include <apriltag/apriltag.h>
+#include <apriltag/tag36h11.h>
+}
+#endif
 
 namespace glint::tracking {
 namespace {
@@ -126,6 +136,109 @@ void add(Stats& s, bool detected, const Pose& estimate, const Pose& truth, doubl
     s.translation_pct.push_back(100 * translation_error_fraction(estimate, truth));
 }
 
+#ifdef GLINT_BENCH_APRILTAG
+// AprilTag 3 (Debian's libapriltag) on the same layout: 35 tag36h11 tags whose black squares are
+// the ArUco markers' 40 mm squares (8 of the tag's 10 cells; the white outer cell lies in the gap).
+struct AprilTag {
+    apriltag_family_t* family = tag36h11_create();
+    apriltag_detector_t* detector = apriltag_detector_create();
+    std::array<int, 4> order{0, 1, 2, 3};  // board corner (ArUco order) of the detection's corner j
+    AprilTag() {
+        apriltag_detector_add_family(detector, family);
+        detector->nthreads = 1;
+        detector->quad_decimate = 2.0f;  // the library's usual speed setting; decoding stays at full size
+    }
+    ~AprilTag() {
+        apriltag_detector_destroy(detector);
+        tag36h11_destroy(family);
+    }
+    AprilTag(const AprilTag&) = delete;
+    AprilTag& operator=(const AprilTag&) = delete;
+};
+
+cv::Mat draw_apriltag_board(const Board& board, const AprilTag& a, double px_per_mm) {
+    cv::Mat print(int(std::lround(board.height_m() * 1000 * px_per_mm)), int(std::lround(board.width_m() * 1000 * px_per_mm)),
+                  CV_8UC1, cv::Scalar(255));
+    const double cell = board.spec().marker_mm / a.family->width_at_border * px_per_mm;
+    const int offset = (a.family->total_width - a.family->width_at_border) / 2;
+    for (int i = 0; i < board.marker_count(); ++i) {
+        image_u8_t* tag = apriltag_to_image(a.family, i);
+        const cv::Point3f tl = board.corners(i)[0];
+        const double x0 = (tl.x * 1000 + board.width_m() * 500) * px_per_mm - offset * cell;
+        const double y0 = (board.height_m() * 500 - tl.y * 1000) * px_per_mm - offset * cell;
+        for (int y = 0; y < tag->height; ++y)
+            for (int x = 0; x < tag->width; ++x) {
+                const cv::Point p0(int(std::lround(x0 + x * cell)), int(std::lround(y0 + y * cell)));
+                const cv::Point p1(int(std::lround(x0 + (x + 1) * cell)), int(std::lround(y0 + (y + 1) * cell)));
+                cv::rectangle(print, cv::Rect(p0, p1), cv::Scalar(tag->buf[y * tag->stride + x]), cv::FILLED);
+            }
+        image_u8_destroy(tag);
+    }
+    return print;
+}
+
+struct TagCorners {
+    std::vector<int> ids;
+    std::vector<std::array<cv::Point2d, 4>> corners;
+};
+
+TagCorners detect_tags(const AprilTag& a, const Board& board, const cv::Mat& image) {
+    image_u8_t im{image.cols, image.rows, int(image.step[0]), const_cast<std::uint8_t*>(image.data)};
+    zarray_t* detections = apriltag_detector_detect(a.detector, &im);
+    TagCorners out;
+    for (int i = 0; i < zarray_size(detections); ++i) {
+        apriltag_detection_t* d = nullptr;
+        zarray_get(detections, i, &d);
+        if (d->id >= board.marker_count() || d->hamming > 1) continue;
+        out.ids.push_back(d->id);
+        std::array<cv::Point2d, 4> c;
+        for (int j = 0; j < 4; ++j) c[std::size_t(j)] = {d->p[j][0], d->p[j][1]};
+        out.corners.push_back(c);
+    }
+    apriltag_detections_destroy(detections);
+    return out;
+}
+
+// Which board corner each of AprilTag's corners is: learnt once from a clean upright view.
+void learn_corner_order(AprilTag& a, const Board& board, const Camera& cam, const BoardRenderer& renderer) {
+    const Pose p = view_pose(0.6, 0, 0, 0);
+    const TagCorners t = detect_tags(a, board, renderer.render(p, {}, 1));
+    if (t.ids.empty()) return;
+    std::vector<cv::Point3f> object(board.corners(t.ids[0]).begin(), board.corners(t.ids[0]).end());
+    cv::Vec3d rvec, tvec;
+    pose_to_rvec_tvec(p, rvec, tvec);
+    std::vector<cv::Point2f> projected;
+    cv::projectPoints(object, rvec, tvec, cam.matrix(), cam.distortion(), projected);
+    for (int j = 0; j < 4; ++j) {
+        int nearest = 0;
+        for (int c = 1; c < 4; ++c)
+            if (cv::norm(cv::Point2d(projected[c]) - t.corners[0][j]) < cv::norm(cv::Point2d(projected[nearest]) - t.corners[0][j]))
+                nearest = c;
+        a.order[std::size_t(j)] = nearest;
+    }
+}
+
+// Tags' corners, undistorted, then the same pose solver as Glint's (IPPE, LM).
+bool apriltag_pose(const AprilTag& a, const Board& board, const Camera& cam, const cv::Mat& image, Pose& pose) {
+    const TagCorners t = detect_tags(a, board, image);
+    if (t.ids.size() < 2) return false;
+    std::vector<cv::Point3d> object;
+    std::vector<cv::Point2d> distorted;
+    for (std::size_t i = 0; i < t.ids.size(); ++i)
+        for (int j = 0; j < 4; ++j) {
+            object.push_back(board.corners(t.ids[i])[std::size_t(a.order[std::size_t(j)])]);
+            distorted.push_back(t.corners[i][std::size_t(j)]);
+        }
+    const std::vector<cv::Point2d> undistorted = undistort_pixels(cam, distorted);
+    cv::Vec3d rvec, tvec;
+    if (!cv::solvePnP(object, undistorted, cam.matrix(), cv::noArray(), rvec, tvec, false, cv::SOLVEPNP_IPPE))
+        return false;
+    cv::solvePnPRefineLM(object, undistorted, cam.matrix(), cv::noArray(), rvec, tvec);
+    pose = pose_from_rvec_tvec(rvec, tvec);
+    return true;
+}
+#endif
+
 }  // namespace
 }  // namespace glint::tracking
 
@@ -176,12 +289,17 @@ int main(int argc, char** argv) {
        << "|---|---|---|---|---|\n";
     struct Summary {
         std::string name;
-        Stats glint, anchor;
+        Stats glint, anchor, apriltag;
         int full_res = 0;
     };
+#ifdef GLINT_BENCH_APRILTAG
+    AprilTag apriltag;
+    const BoardRenderer tag_renderer(board, cam, draw_apriltag_board(board, apriltag, 6), 6);
+    learn_corner_order(apriltag, board, cam, tag_renderer);
+#endif
     std::vector<Summary> summaries;
     for (const Condition& c : conditions()) {
-        Summary s{c.name, {}, {}, 0};
+        Summary s{c.name, {}, {}, {}, 0};
         std::mt19937_64 rng(12345);
         for (int i = 0; i < views; ++i) {
             const Pose truth = random_view(rng);
@@ -196,12 +314,31 @@ int main(int argc, char** argv) {
             Pose a;
             const bool ok = anchor_pose(anchor, board, cam, frame, a);
             add(s.anchor, ok, a, truth, ms_since(t0));
+#ifdef GLINT_BENCH_APRILTAG
+            cv::setNumThreads(2);
+            const cv::Mat tag_frame = tag_renderer.render(truth, c.view, std::uint64_t(1000 + i));
+            cv::setNumThreads(1);
+            t0 = Clock::now();
+            Pose tp;
+            const bool tag_ok = apriltag_pose(apriltag, board, cam, tag_frame, tp);
+            add(s.apriltag, tag_ok, tp, truth, ms_since(t0));
+#endif
         }
         std::fprintf(stderr, "%s: glint %d/%d, anchor %d/%d\n", c.name.c_str(), s.glint.detected, views,
                      s.anchor.detected, views);
         md << row("**Glint**, " + c.name, s.glint) << "\n" << row("anchor, " + c.name, s.anchor) << "\n";
         summaries.push_back(std::move(s));
     }
+#ifdef GLINT_BENCH_APRILTAG
+    md << "\n### AprilTag 3 on the same views\n\n"
+       << "The same layout printed with tag36h11 tags (their black squares are the 40 mm markers; ids 0-34), rendered "
+       << "at the same poses and conditions with the same noise seeds; Debian's libapriltag 3 (quad_decimate 2, one "
+       << "thread, detections with at most 1 corrected bit), then the same pose solver as Glint's (corners "
+       << "undistorted, IPPE, Levenberg-Marquardt; at least 2 tags).\n\n"
+       << "| condition | detected | rotation error median / p95 / max | translation error median | time median / p95 |\n"
+       << "|---|---|---|---|---|\n";
+    for (const Summary& s : summaries) md << row("AprilTag 3, " + s.name, s.apriltag) << "\n";
+#endif
     md << "\nFrames where Glint's half-size pass found too few markers and searched at full resolution: ";
     for (const Summary& s : summaries) md << s.name << " " << s.full_res << "; ";
     md << "of " << views << " each.\n\n";
