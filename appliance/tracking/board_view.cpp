@@ -111,7 +111,7 @@ cv::Mat BoardRenderer::render(const Pose& camera_from_board, const ViewCondition
     cv::remap(texture, fine, map_x, map_y, cv::INTER_LINEAR, cv::BORDER_CONSTANT, cv::Scalar(kTable));
     cv::Mat image;
     cv::resize(fine, image, cv::Size(camera_.width, camera_.height), 0, 0, cv::INTER_AREA);
-    // Exposure: white paper at ~215 codes when light = 1.
+    // Exposure: white paper (0.85) at ~212 codes when light = 1.
     image *= 250.0 * c.light;
     std::uniform_real_distribution<double> u(0, 1);
     if (c.glare > 0) {

@@ -18,7 +18,7 @@ namespace glint::tracking {
 struct ViewConditions {
     double blur_px = 0;        // Gaussian sigma, output pixels
     double noise = 0;          // noise sigma at mid grey, 8-bit codes (shot-noise-like: grows with level)
-    double light = 1;          // exposure factor (1: white paper at code ~215)
+    double light = 1;          // exposure factor (1: white paper at code ~212)
     double glare = 0;          // peak added brightness of a glare blob (fraction of full scale), 0: none
     double hand_fraction = 0;  // share of the board's area covered by a hand, 0: none
 };

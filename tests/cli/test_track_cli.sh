@@ -12,8 +12,10 @@ VIEWS=$2
 source "$(dirname "$0")/cli_test_lib.sh"
 
 run track --help
-[[ $rc -eq 0 ]] && grep -q -- "--print-board" "$work/stdout" || fail "track --help: exit $rc"
-pass "track --help"
+[[ $rc -eq 0 ]] && grep -q "^Usage: glint track" "$work/stdout" && grep -q -- "--print-board" "$work/stdout" ||
+    fail "track --help: exit $rc: $(head -2 "$work/stdout")"
+[[ ! -s $work/stderr ]] || fail "track --help wrote to stderr: $(stderr_text)"
+pass "track --help: usage on stdout, exit 0"
 
 # --print-board: 280 x 380 mm at 3 px/mm is 840 x 1140 px; the margin is white, marker 0's
 # corner (20 mm in) black.
