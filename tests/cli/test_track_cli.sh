@@ -1,7 +1,8 @@
 #!/usr/bin/env bash
 # End to end, `glint track` (runs in glint-vision): --print-board writes the sheet at the asked
 # resolution; --frames on rendered views at known poses (tests/tracking/tools) gives the true
-# poses in the CSV; --sequence fills a dropout with the held pose; bad usage exits 2 naming the
+# poses in the CSV; --sequence fills a dropout with the held pose, and with --sensors
+# replay:FILE (data/sessions' recording) turns it with the sensor; bad usage exits 2 naming the
 # flag or key.
 #
 # Usage: test_track_cli.sh /path/to/glint /path/to/glint_render_board_views
@@ -78,7 +79,25 @@ run track --frames "$work/views/frames" --intrinsics "$intrinsics" --out "$work/
 [[ $rc -eq 0 ]] && grep -q "bridged in 2" "$work/stdout" || fail "track --sequence: exit $rc: $(cat "$work/stdout") $(stderr_text)"
 awk -F, '$1 == "006.png" && $2 == "0" && $3 != "" { ok = 1 } END { exit !ok }' "$work/seq.csv" ||
     fail "track --sequence: no held pose for the blank frame"
-pass "track --sequence: the dropout is bridged"
+pass "track --sequence: the dropout is bridged (held without a sensor)"
+
+# --sequence --sensors replay:FILE: the recorded sensor (turning ~45 deg/s) carries the blank
+# frames' rotation: frame 006 is no longer frame 005's pose.
+RECORDING=$(dirname "$0")/../../data/sessions/synthetic-rotation-4s.glrec
+run track --frames "$work/views/frames" --intrinsics "$intrinsics" --out "$work/bridged.csv" --sequence \
+    --sensors "replay:$RECORDING"
+[[ $rc -eq 0 ]] && grep -q "bridged in 2" "$work/stdout" || fail "track --sensors: exit $rc: $(cat "$work/stdout") $(stderr_text)"
+python3 - "$work/bridged.csv" "$work/seq.csv" <<'PY' || fail "track --sensors: the blank frame's pose did not turn with the sensor"
+import csv, math, sys
+rows = {r["file"]: r for r in csv.DictReader(open(sys.argv[1]))}
+held = {r["file"]: r for r in csv.DictReader(open(sys.argv[2]))}
+q = lambda r: [float(r[k]) for k in ("qw", "qx", "qy", "qz")]
+angle = lambda a, b: 2 * math.degrees(math.acos(min(1, abs(sum(x * y for x, y in zip(a, b))))))
+assert rows["006.png"]["detected"] == "0" and rows["006.png"]["qw"] != ""
+assert angle(q(held["006.png"]), q(held["005.png"])) < 1e-3          # held without the sensor
+assert angle(q(rows["006.png"]), q(rows["005.png"])) > 0.1, angle(q(rows["006.png"]), q(rows["005.png"]))
+PY
+pass "track --sequence --sensors replay:FILE: the dropout turns with the recorded sensor"
 
 # Bad usage: exit 2, one line naming the flag, file or key.
 expect_usage() {
