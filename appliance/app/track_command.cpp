@@ -167,16 +167,18 @@ int run_track(const TrackArgs& a) {
     if (!a.sensors.empty()) samples = read_sensor_replay(a.sensors, setup.time_offset_s);
     const double t0 = samples.empty() ? 0.0 : samples.front().t;
 
-    std::unique_ptr<tracking::Tracker> tracker;
+    std::unique_ptr<tracking::Tracker> tracker;   // --sequence
+    std::unique_ptr<tracking::Detector> detector;  // independent frames
     std::size_t next_sample = 0;
     std::string csv = "file,detected,qw,qx,qy,qz,tx,ty,tz,quality\n";
     int detected = 0, bridged = 0;
     for (std::size_t i = 0; i < files.size(); ++i) {
         const cv::Mat gray = cv::imread(files[i].string(), cv::IMREAD_GRAYSCALE);
         if (gray.empty()) throw InputError(files[i].string() + ": not a readable PNG");
-        if (!tracker) {
+        if (!tracker && !detector) {
             if (setup.camera.width == 0) setup.camera.width = gray.cols, setup.camera.height = gray.rows;
-            tracker = std::make_unique<tracking::Tracker>(board, setup.camera, setup.sensor_from_camera);
+            if (a.sequence) tracker = std::make_unique<tracking::Tracker>(board, setup.camera, setup.sensor_from_camera);
+            else detector = std::make_unique<tracking::Detector>(board, setup.camera);
         }
         if (gray.cols != setup.camera.width || gray.rows != setup.camera.height)
             throw InputError(files[i].string() + ": " + std::to_string(gray.cols) + "x" + std::to_string(gray.rows) +
@@ -184,13 +186,14 @@ int run_track(const TrackArgs& a) {
                              std::to_string(setup.camera.height));
         const auto time = times.find(files[i].filename().string());
         const double t = time != times.end() ? time->second : t0 + double(i) / a.fps;
-        while (next_sample < samples.size() && samples[next_sample].t <= t + 0.1)
-            tracker->add_orientation(samples[next_sample++]);
         tracking::TrackResult r;
-        if (a.sequence) {
+        if (tracker) {
+            // The sensor's samples up to a little past the frame (for the slerp at its time).
+            while (next_sample < samples.size() && samples[next_sample].t <= t + 0.1)
+                tracker->add_orientation(samples[next_sample++]);
             r = tracker->track(t, gray);
         } else {
-            r.detection = tracking::Detector(board, setup.camera).detect(gray);
+            r.detection = detector->detect(gray);
             r.detected = r.has_pose = r.detection.detected;
             r.pose = r.detection.pose;
         }
