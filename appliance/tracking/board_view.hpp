@@ -25,6 +25,7 @@ struct ViewConditions {
 
 class BoardRenderer {
 public:
+    // `board` must outlive the renderer.
     BoardRenderer(const Board& board, const Camera& camera, int supersample = 3, double texture_px_per_mm = 6);
     // Another printed sheet of the board's size (8-bit, `print_px_per_mm`), e.g. a board of
     // other markers for a comparison.

@@ -58,6 +58,7 @@ struct Detection {
 
 class Detector {
 public:
+    // `board` must outlive the detector (it is kept by reference).
     Detector(const Board& board, const Camera& camera, DetectorOptions options = {});
     // `gray`: 8-bit single channel, camera.width x camera.height. `prior`: the previous pose of
     // a sequence, for the region of interest and the ambiguity.

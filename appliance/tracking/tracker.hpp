@@ -29,6 +29,7 @@ struct TrackResult {
 
 class Tracker {
 public:
+    // `board` must outlive the tracker.
     Tracker(const Board& board, const Camera& camera, const glm::dquat& sensor_from_camera,
             TrackerOptions options = {});
     void add_orientation(const OrientationSample& sample) { bridge_.add_orientation(sample); }
