@@ -39,28 +39,37 @@ vec3 srgb_decode(vec3 c) {
     return mix(c / 12.92, pow((c + 0.055) / 1.055, vec3(2.4)), step(0.04045, c));
 }
 
-void main() {
-    vec4 object = texelFetch(u_radiance, ivec2(gl_FragCoord.xy), 0);
-    vec3 hdr;
-    vec2 ndc = gl_FragCoord.xy / u_size * 2.0 - 1.0;
-    vec3 ray = normalize(u_world_from_camera * vec3(ndc * u_tan_half_fov, -1.0));
-    bool proxy = u_has_shadow && texelFetch(u_normal, ivec2(gl_FragCoord.xy), 0).a < 0.0;
-    vec3 shadow = u_has_shadow && object.a == 0.0 && !proxy ? table_shadow(ray).rgb : vec3(1.0);
-    if (object.a > 0.0) {
-        hdr = object.rgb;
-    } else if (u_has_environment) {
-        hdr = shadow * equirect_bilinear(u_environment, ray);
-    } else {
-        // The image's rows are top first; the frame's y grows upwards.
-        vec2 uv = vec2(gl_FragCoord.x / u_size.x, 1.0 - gl_FragCoord.y / u_size.y);
-        vec3 image = texture(u_image, uv).rgb;
-        if (u_has_shadow) image = srgb_encode(shadow * srgb_decode(image));
-        o_color = u_has_image ? vec4(image, 1.0) : vec4(0.0, 0.0, 0.0, 1.0);
-        return;
-    }
+vec3 reinhard(vec3 hdr) {
     float l = dot(hdr, vec3(0.2126, 0.7152, 0.0722));
     float ls = u_scale * l;
     float ld = ls * (1.0 + ls / u_white_sq) / (1.0 + ls);
-    vec3 rgb = l > 0.0 ? hdr * (ld / l) : vec3(0.0);
-    o_color = vec4(srgb_encode(rgb), 1.0);
+    return l > 0.0 ? hdr * (ld / l) : vec3(0.0);
+}
+
+// The radiance target's alpha is the object's coverage of the pixel: 0 or 1 without MSAA, the
+// mean of the samples with it (RGB premultiplied, as the resolve averages). Partly covered pixels
+// mix the object and the background: in HDR before the tone map over the environment (the light
+// that reaches the pixel), in linear light after it over an image or black.
+void main() {
+    vec4 object = texelFetch(u_radiance, ivec2(gl_FragCoord.xy), 0);
+    vec2 ndc = gl_FragCoord.xy / u_size * 2.0 - 1.0;
+    vec3 ray = normalize(u_world_from_camera * vec3(ndc * u_tan_half_fov, -1.0));
+    bool proxy = u_has_shadow && texelFetch(u_normal, ivec2(gl_FragCoord.xy), 0).a < 0.0;
+    vec3 shadow = u_has_shadow && object.a < 1.0 && !proxy ? table_shadow(ray).rgb : vec3(1.0);
+    if (object.a >= 1.0) {
+        o_color = vec4(srgb_encode(reinhard(object.rgb)), 1.0);
+    } else if (u_has_environment) {
+        vec3 background = shadow * equirect_bilinear(u_environment, ray);
+        o_color = vec4(srgb_encode(reinhard(object.rgb + (1.0 - object.a) * background)), 1.0);
+    } else {
+        // The image's rows are top first; the frame's y grows upwards.
+        vec2 uv = vec2(gl_FragCoord.x / u_size.x, 1.0 - gl_FragCoord.y / u_size.y);
+        vec3 image = u_has_image ? texture(u_image, uv).rgb : vec3(0.0);
+        if (u_has_shadow && u_has_image) image = srgb_encode(shadow * srgb_decode(image));
+        if (object.a > 0.0) {
+            vec3 front = object.a * reinhard(object.rgb / object.a);
+            image = srgb_encode(front + (1.0 - object.a) * srgb_decode(image));
+        }
+        o_color = vec4(image, 1.0);
+    }
 }

@@ -56,6 +56,7 @@ struct RenderArgs {
     std::string shadows = "auto";       // on, off; auto = on over env or an image, off over black
     std::vector<std::string> proxies;   // OBJ files, world coordinates
     std::optional<double> table_height; // default: the model's lowest point
+    int msaa = 4;                       // samples a pixel of the frame (1: none)
 };
 
 // The model's baked ambient occlusion (docs/render.md, "Ambient occlusion"): MODEL.ao beside a
@@ -185,7 +186,8 @@ int run_render(const RenderArgs& args) {
     if (maps.reflection) std::printf("reflection: %s\n", maps.reflection_from.c_str());
 
 
-    render::Renderer renderer(mesh, material, maps, display->width(), display->height());
+    render::Renderer renderer(mesh, material, maps, display->width(), display->height(), render::Camera{}, args.msaa);
+    std::printf("msaa: %dx\n", args.msaa);
     renderer.set_ambient_occlusion(!args.no_ao);
     if (args.background == "env") renderer.set_background_environment(env.image);
     else if (background_image) renderer.set_background_image(*background_image);
@@ -255,6 +257,7 @@ int run_render(const RenderArgs& args) {
         s["triangles"] = mesh.triangle_count();
         s["material"] = material.spec;
         s["shadows"] = shadows;
+        s["msaa"] = args.msaa;
         s["proxies"] = args.proxies.size();
         s["maps_seconds"] = maps_s;
         s["irradiance"] = maps.irradiance ? nlohmann::json(maps.irradiance_from) : nlohmann::json();
@@ -313,6 +316,10 @@ Command add_render_command(CLI::App& app) {
                     "depth only so it hides the object; repeatable");
     cmd->add_option("--table-height", args->table_height,
                     "y of the table plane (world units); default: the model's lowest point");
+    cmd->add_option("--msaa", args->msaa,
+                    "Samples a pixel of the frame: 1 (none) or 4 (antialiased edges; the AOVs stay one sample a pixel)")
+        ->check(CLI::IsMember({1, 4}))
+        ->capture_default_str();
     return {cmd, [args, material_option] {
                 args->material_given = material_option->count() > 0;
                 return run_render(*args);

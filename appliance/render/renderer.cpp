@@ -101,9 +101,10 @@ void save_aovs(const std::filesystem::path& dir, const Aovs& aovs) {
 }
 
 Renderer::Renderer(const Mesh& mesh, const Material& material, const ShadingMaps& maps, int width, int height,
-                   const Camera& camera)
-    : width_(width), height_(height), camera_(camera), material_(material) {
+                   const Camera& camera, int msaa)
+    : width_(width), height_(height), camera_(camera), material_(material), msaa_(msaa) {
     if (width < 1 || height < 1) throw InputError("renderer: frame size must be positive");
+    if (msaa != 1 && msaa != 4) throw InputError("--msaa: want 1 or 4, got " + std::to_string(msaa));
     if (mesh.indices.empty()) throw InputError("renderer: the mesh " + mesh.source + " has no triangles");
     if (material.diffuse() && !maps.irradiance) throw RuntimeError("renderer: the material needs the irradiance map");
     if (material.specular() && !maps.reflection) throw RuntimeError("renderer: the material needs a reflection map");
@@ -170,7 +171,65 @@ Renderer::Renderer(const Mesh& mesh, const Material& material, const ShadingMaps
         throw RuntimeError("renderer: " + std::to_string(kTargets) + " RGBA32F targets of " + std::to_string(width) +
                            "x" + std::to_string(height) + " with depth are not complete (status " +
                            std::to_string(status) + "; needs GL_EXT_color_buffer_float)");
+    if (msaa_ > 1) create_multisampled_targets();
     gl::check_gl("creating the renderer");
+}
+
+// The frame's four targets again, multisampled. RGBA32F when the driver can multisample it
+// (llvmpipe can, 4x), else RGBA16F: half floats hold the radiance to 1e-3 relative, and the AOVs
+// never come from these (read_aovs draws them single-sampled).
+void Renderer::create_multisampled_targets() {
+    GLint max_samples = 0;
+    glGetIntegerv(GL_MAX_SAMPLES, &max_samples);
+    GLenum format = 0;
+    for (const GLenum candidate : {GLenum(GL_RGBA32F), GLenum(GL_RGBA16F)}) {
+        GLint samples = 0;
+        glGetInternalformativ(GL_RENDERBUFFER, candidate, GL_SAMPLES, 1, &samples);  // the largest count
+        if (samples >= msaa_) {
+            format = candidate;
+            break;
+        }
+    }
+    if (format == 0)
+        throw RuntimeError("--msaa " + std::to_string(msaa_) + ": the GL driver cannot multisample float targets " +
+                           std::to_string(msaa_) + "x (GL_MAX_SAMPLES " + std::to_string(max_samples) + "); use --msaa 1");
+    ms_framebuffer_ = gl::GlFramebuffer::create();
+    glBindFramebuffer(GL_FRAMEBUFFER, ms_framebuffer_.id());
+    GLenum buffers[kTargets];
+    for (int k = 0; k < kTargets; ++k) {
+        ms_colour_[k] = gl::GlName<RenderbufferTraits>::create();
+        glBindRenderbuffer(GL_RENDERBUFFER, ms_colour_[k].id());
+        glRenderbufferStorageMultisample(GL_RENDERBUFFER, msaa_, format, width_, height_);
+        glFramebufferRenderbuffer(GL_FRAMEBUFFER, GLenum(GL_COLOR_ATTACHMENT0 + k), GL_RENDERBUFFER, ms_colour_[k].id());
+        buffers[k] = GLenum(GL_COLOR_ATTACHMENT0 + k);
+    }
+    ms_depth_ = gl::GlName<RenderbufferTraits>::create();
+    glBindRenderbuffer(GL_RENDERBUFFER, ms_depth_.id());
+    glRenderbufferStorageMultisample(GL_RENDERBUFFER, msaa_, GL_DEPTH_COMPONENT24, width_, height_);
+    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, ms_depth_.id());
+    glDrawBuffers(kTargets, buffers);
+    const GLenum status = glCheckFramebufferStatus(GL_FRAMEBUFFER);
+    if (status != GL_FRAMEBUFFER_COMPLETE)
+        throw RuntimeError("--msaa " + std::to_string(msaa_) + ": the multisampled float targets are not complete (status " +
+                           std::to_string(status) + "); use --msaa 1");
+    gl::check_gl("creating the multisampled targets");
+}
+
+// Blits (resolves: the mean of the samples) the targets the composite and the meter read: the
+// radiance, the normal (its alpha carries a proxy's mark) and, when metering, the HDR frame.
+void Renderer::resolve(bool with_hdr) const {
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, ms_framebuffer_.id());
+    glBindFramebuffer(GL_DRAW_FRAMEBUFFER, framebuffer_.id());
+    for (const int k : {int(kRadiance), int(kNormal), int(kHdr)}) {
+        if (k == kHdr && !with_hdr) continue;
+        GLenum draw[kTargets] = {GL_NONE, GL_NONE, GL_NONE, GL_NONE};
+        draw[k] = GLenum(GL_COLOR_ATTACHMENT0 + k);
+        glReadBuffer(GLenum(GL_COLOR_ATTACHMENT0 + k));
+        glDrawBuffers(kTargets, draw);
+        glBlitFramebuffer(0, 0, width_, height_, 0, 0, width_, height_, GL_COLOR_BUFFER_BIT, GL_NEAREST);
+    }
+    glBindFramebuffer(GL_FRAMEBUFFER, 0);
+    gl::check_gl("resolving the multisampled targets");
 }
 
 namespace {
@@ -217,10 +276,10 @@ void Renderer::set_background_image(const gl::RgbImage& image) {
 
 void Renderer::set_background_black() { background_ = Background::Black; }
 
-void Renderer::draw_scene() { draw(false); }
+void Renderer::draw_scene() { draw(false, msaa_ > 1); }
 
-void Renderer::draw(bool with_hdr) {
-    glBindFramebuffer(GL_FRAMEBUFFER, framebuffer_.id());
+void Renderer::draw(bool with_hdr, bool multisampled) {
+    glBindFramebuffer(GL_FRAMEBUFFER, multisampled ? ms_framebuffer_.id() : framebuffer_.id());
     // Frames write three targets; metering adds the HDR frame.
     const GLenum buffers[kTargets] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1, GL_COLOR_ATTACHMENT2,
                                       with_hdr ? GLenum(GL_COLOR_ATTACHMENT3) : GLenum(GL_NONE)};
@@ -283,6 +342,7 @@ void Renderer::draw(bool with_hdr) {
     glActiveTexture(GL_TEXTURE0);
     glDisable(GL_DEPTH_TEST);
     gl::check_gl("drawing the scene");
+    if (multisampled) resolve(with_hdr);
 }
 
 std::vector<float> Renderer::read_target(int k) const {
@@ -303,7 +363,7 @@ void Renderer::set_camera_ray_uniforms(const gl::GlProgram& program) const {
 }
 
 const ToneMap& Renderer::meter(double key) {
-    draw(true);
+    draw(true, msaa_ > 1);
     tone_ = meter_reinhard(read_target(kHdr), key);
     return tone_;
 }
@@ -337,7 +397,10 @@ void Renderer::composite() const {
     gl::check_gl("compositing the frame");
 }
 
-Aovs Renderer::read_aovs() const {
+std::vector<float> Renderer::read_frame_radiance() const { return read_target(kRadiance); }
+
+Aovs Renderer::read_aovs() {
+    if (msaa_ > 1) draw(false, false);  // one sample a pixel: exact AOVs
     Aovs a;
     a.width = width_;
     a.height = height_;

@@ -78,8 +78,9 @@ struct RenderbufferTraits {
 class Renderer {
 public:
     // The maps must hold what the material needs (needed_maps). width, height: the frame's.
+    // msaa: samples per pixel of the frame's targets, 1 (none) or 4 (docs/render.md, "MSAA").
     Renderer(const Mesh& mesh, const Material& material, const ShadingMaps& maps, int width, int height,
-             const Camera& camera = {});
+             const Camera& camera = {}, int msaa = 1);
     Renderer(const Renderer&) = delete;
     Renderer& operator=(const Renderer&) = delete;
 
@@ -99,8 +100,14 @@ public:
     const ToneMap& tone_map() const { return tone_; }
     // Draws the frame into the bound framebuffer, whose viewport must be width x height.
     void composite() const;
-    // The targets of the last draw_scene.
-    Aovs read_aovs() const;
+    // The AOVs of the scene, exact at every pixel: with MSAA the scene is drawn once more with one
+    // sample a pixel for them (a resolved normal would not be unit, a resolved radiance not the
+    // shading of any one direction), which overwrites the frame's targets.
+    Aovs read_aovs();
+    // The radiance target the composite reads, after draw_scene: with MSAA resolved, so alpha is
+    // the object's coverage of the pixel (fractional on its silhouette), RGB premultiplied by it.
+    std::vector<float> read_frame_radiance() const;
+    int msaa() const { return msaa_; }
 
     // The real table and things on it (docs/render.md, "Table, phantom geometry and shadows").
     // The table plane y = height and proxy meshes (world coordinates, not normalised) go into the
@@ -118,7 +125,9 @@ public:
 
 private:
     std::vector<float> read_target(int k) const;  // rows top first
-    void draw(bool with_hdr);
+    void draw(bool with_hdr, bool multisampled);
+    void resolve(bool with_hdr) const;
+    void create_multisampled_targets();  // the multisampled targets into the textures the composite reads
     void set_camera_ray_uniforms(const gl::GlProgram& program) const;  // u_size, u_tan_half_fov, u_world_from_camera
     void draw_shadow() const;                                          // the ratio's target (the AOV), when shadows are on
     void bind_shadow(const gl::GlProgram& program, int unit) const;    // u_has_shadow and render_shadow.glsl's uniforms
@@ -138,6 +147,10 @@ private:
     gl::GlTexture targets_[4];
     gl::GlName<RenderbufferTraits> depth_;
     gl::GlFramebuffer framebuffer_;
+    // MSAA: multisampled float renderbuffers (same four targets) and depth, resolved by blit.
+    int msaa_ = 1;
+    gl::GlName<RenderbufferTraits> ms_colour_[4], ms_depth_;
+    gl::GlFramebuffer ms_framebuffer_;
     std::unique_ptr<PhantomGeometry> phantoms_;
     std::unique_ptr<TableShadowPass> shadow_;
 };

@@ -38,7 +38,7 @@ grep -q "render" "$work/stdout" || fail "glint --help does not list render"
 run render --help
 [[ $rc -eq 0 ]] || fail "glint render --help: exit code $rc, want 0"
 for flag in --env --maps --model --material --background --size --out --aov --no-ao --frames --stats --display \
-    --shadows --table-height --proxy; do
+    --shadows --table-height --proxy --msaa; do
     grep -qF -- "$flag" "$work/stdout" || fail "glint render --help does not describe $flag"
 done
 pass "glint --help lists render; glint render --help exits 0 and describes every flag"
@@ -74,6 +74,11 @@ run render --env "$WORLD" --model sphere --size 48x32 --out "$work/s2.png" --aov
 [[ -s $work/aov_noshadow/radiance.exr ]] || fail "render --shadows off did not write its AOVs"
 pass "render --shadows on with --table-height and --proxy writes shadow.exr; --shadows off runs"
 expect_bad "bad --shadows" "--shadows" render --env "$WORLD" --shadows sometimes
+run render --env "$WORLD" --model sphere --size 48x32 --out "$work/m1.png" --msaa 1 --stats "$work/m1.json"
+[[ $rc -eq 0 && -s $work/m1.png ]] || fail "render --msaa 1: exit code $rc (stderr: $(stderr_text))"
+grep -q '"msaa": 1' "$work/m1.json" || fail "render --msaa 1: stats do not say msaa 1"
+pass "render --msaa 1 runs and says so in its stats"
+expect_bad "bad --msaa" "--msaa" render --env "$WORLD" --msaa 3
 expect_bad "missing --proxy file" "$work/nope.obj" render --env "$WORLD" --proxy "$work/nope.obj"
 expect_bad "--proxy not an OBJ" "--proxy" render --env "$WORLD" --proxy "$work/proxy.ply"
 expect_bad "bad --table-height" "--table-height" render --env "$WORLD" --table-height low
