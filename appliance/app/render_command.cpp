@@ -92,17 +92,20 @@ void load_ambient_occlusion(const std::string& model, render::Mesh& mesh) {
     mesh.ao = std::move(lookup.ao);
 }
 
-// A glTF model without --material: its own material mapped to Phong (material.hpp). One material
-// shades the whole object; a model whose triangles use several takes the first, and says so.
-render::Material material_of_gltf(const render::Mesh& mesh) {
-    const render::GltfMaterial& g = mesh.materials.front();
-    if (mesh.materials.size() > 1)
-        std::fprintf(stderr, "glint: warning: %s uses %zu materials; the whole model is shaded with the first, '%s' "
-                     "(one material per model)\n", mesh.source.c_str(), mesh.materials.size(), g.name.c_str());
-    if (g.textured)
-        std::fprintf(stderr, "glint: warning: %s: material '%s' names textures, which are not read (its factors are used)\n",
-                     mesh.source.c_str(), g.name.c_str());
-    return render::material_from_gltf(g);
+// The material of each part of the model (glTF primitives, OBJ usemtl groups): --material for
+// all when given, else each part's own (docs/render.md, "Several materials"), --material's
+// default for an OBJ group whose MTL material is missing. Says what it did.
+std::vector<render::Material> materials_of(const render::Mesh& mesh, const render::Material& chosen, bool given) {
+    for (const render::GltfMaterial& g : mesh.materials)
+        if (g.textured && !given)
+            std::fprintf(stderr, "glint: warning: %s: material '%s' names textures, which are not read (its factors are used)\n",
+                         mesh.source.c_str(), g.name.c_str());
+    if (!given)
+        for (const render::ObjMaterial& o : mesh.obj_materials)
+            if (!o.defined)
+                std::fprintf(stderr, "glint: warning: %s: material '%s' is defined by no mtllib file; its faces use %s\n",
+                             mesh.source.c_str(), o.name.empty() ? "(before any usemtl)" : o.name.c_str(), chosen.spec.c_str());
+    return render::part_materials(mesh, chosen, given);
 }
 
 // Nearest-rank percentile of sorted values.
@@ -132,8 +135,16 @@ int run_render(const RenderArgs& args) {
     }
     render::Mesh mesh = render::load_model(args.model);
     if (!args.no_ao) load_ambient_occlusion(args.model, mesh);
-    if (!args.material_given && !mesh.materials.empty()) material = material_of_gltf(mesh);
-    std::printf("material: %s\n", material.spec.c_str());
+    const std::vector<render::Material> part_materials = materials_of(mesh, material, args.material_given);
+    {
+        std::vector<render::Material> distinct;
+        for (const render::Material& m : part_materials)
+            if (std::none_of(distinct.begin(), distinct.end(), [&](const render::Material& d) { return render::same_shading(d, m); }))
+                distinct.push_back(m);
+        for (std::size_t k = 0; k < distinct.size(); ++k)
+            if (distinct.size() == 1) std::printf("material: %s\n", distinct[k].spec.c_str());
+            else std::printf("material %zu: %s\n", k, distinct[k].spec.c_str());
+    }
     std::vector<render::Mesh> proxies;
     for (const std::string& file : args.proxies) {
         if (fs::path(file).extension() != ".obj") throw InputError("--proxy " + file + ": want an .obj file");
@@ -168,7 +179,7 @@ int run_render(const RenderArgs& args) {
 
     const auto t_maps = Clock::now();
     render::ShadingMaps maps;
-    if (!args.maps.empty()) maps = render::load_maps(args.maps, material);  // before the environment: a missing map is bad input, found first
+    if (!args.maps.empty()) maps = render::load_maps(args.maps, part_materials);  // before the environment: a missing map is bad input, found first
     LoadedExr env = load_exr(args.env);
     if (env.sanitised.total() > 0)
         std::fprintf(stderr, "glint: warning: %s: %zu channel values sanitised (NaN %zu, +Inf %zu, -Inf %zu, negative %zu)\n",
@@ -179,14 +190,15 @@ int run_render(const RenderArgs& args) {
         convolution::Options options;
         options.tolerance = 0.01;
         options.threads = args.threads;
-        maps = render::convolve_maps(env.image, material, options);
+        maps = render::convolve_maps(env.image, part_materials, options);
     }
     const double maps_s = std::chrono::duration<double>(Clock::now() - t_maps).count();
     if (maps.irradiance) std::printf("irradiance: %s\n", maps.irradiance_from.c_str());
-    if (maps.reflection) std::printf("reflection: %s\n", maps.reflection_from.c_str());
+    for (const render::ReflectionMap& r : maps.reflections)
+        std::printf("reflection %s: %s\n", r.request.label.c_str(), r.from.c_str());
 
 
-    render::Renderer renderer(mesh, material, maps, display->width(), display->height(), render::Camera{}, args.msaa);
+    render::Renderer renderer(mesh, part_materials, maps, display->width(), display->height(), render::Camera{}, args.msaa);
     std::printf("msaa: %dx\n", args.msaa);
     renderer.set_ambient_occlusion(!args.no_ao);
     if (args.background == "env") renderer.set_background_environment(env.image);
@@ -255,13 +267,18 @@ int run_render(const RenderArgs& args) {
         s["renderer"] = display->context().caps().renderer;
         s["model"] = mesh.source;
         s["triangles"] = mesh.triangle_count();
-        s["material"] = material.spec;
+        s["material"] = part_materials.front().spec;
+        s["materials"] = nlohmann::json::array();
+        for (const render::Material& m : part_materials) s["materials"].push_back(m.spec);
+        s["draws"] = renderer.draws();
         s["shadows"] = shadows;
         s["msaa"] = args.msaa;
         s["proxies"] = args.proxies.size();
         s["maps_seconds"] = maps_s;
         s["irradiance"] = maps.irradiance ? nlohmann::json(maps.irradiance_from) : nlohmann::json();
-        s["reflection"] = maps.reflection ? nlohmann::json(maps.reflection_from) : nlohmann::json();
+        s["reflection"] = maps.reflections.empty() ? nlohmann::json() : nlohmann::json(maps.reflections.front().from);
+        s["reflections"] = nlohmann::json::object();
+        for (const render::ReflectionMap& r : maps.reflections) s["reflections"][r.request.label] = r.from;
         s["tone_map"] = {{"operator", "reinhard"}, {"key", tone.key}, {"log_average", tone.log_average},
                          {"white_scaled", tone.white}, {"delta", tone.delta}};
         s["frame_ms"] = {{"median", med}, {"p99", p99}, {"max", max}};

@@ -102,12 +102,58 @@ void save_aovs(const std::filesystem::path& dir, const Aovs& aovs) {
 
 Renderer::Renderer(const Mesh& mesh, const Material& material, const ShadingMaps& maps, int width, int height,
                    const Camera& camera, int msaa)
-    : width_(width), height_(height), camera_(camera), material_(material), msaa_(msaa) {
+    : Renderer(mesh, std::vector<Material>(std::max<std::size_t>(1, mesh.parts.size()), material), maps, width, height,
+               camera, msaa) {}
+
+Renderer::Renderer(const Mesh& mesh, const std::vector<Material>& part_materials, const ShadingMaps& maps, int width,
+                   int height, const Camera& camera, int msaa)
+    : width_(width), height_(height), camera_(camera), msaa_(msaa) {
     if (width < 1 || height < 1) throw InputError("renderer: frame size must be positive");
     if (msaa != 1 && msaa != 4) throw InputError("--msaa: want 1 or 4, got " + std::to_string(msaa));
     if (mesh.indices.empty()) throw InputError("renderer: the mesh " + mesh.source + " has no triangles");
-    if (material.diffuse() && !maps.irradiance) throw RuntimeError("renderer: the material needs the irradiance map");
-    if (material.specular() && !maps.reflection) throw RuntimeError("renderer: the material needs a reflection map");
+    const std::size_t parts = std::max<std::size_t>(1, mesh.parts.size());
+    if (part_materials.size() != parts)
+        throw RuntimeError("renderer: " + std::to_string(part_materials.size()) + " materials for the " +
+                           std::to_string(parts) + " parts of " + mesh.source);
+
+    // The triangles grouped by distinct material (parts of one material need not be adjacent in
+    // the file), so that each material is one draw of one index range.
+    std::vector<std::uint32_t> grouped;
+    grouped.reserve(mesh.indices.size());
+    for (std::size_t p = 0; p < parts; ++p) {
+        const Material& m = part_materials[p];
+        auto it = std::find_if(draws_.begin(), draws_.end(), [&](const Draw& d) { return same_shading(d.material, m); });
+        if (it != draws_.end()) continue;  // gathered with the first part of this material
+        Draw d;
+        d.material = m;
+        d.first_index = grouped.size();
+        for (std::size_t q = p; q < parts; ++q) {
+            if (!same_shading(part_materials[q], m)) continue;
+            const std::size_t first = mesh.parts.empty() ? 0 : mesh.parts[q].first_index;
+            const std::size_t count = mesh.parts.empty() ? mesh.indices.size() : mesh.parts[q].index_count;
+            if (first + count > mesh.indices.size())
+                throw InputError("renderer: a part of " + mesh.source + " runs past its indices");
+            grouped.insert(grouped.end(), mesh.indices.begin() + std::ptrdiff_t(first),
+                           mesh.indices.begin() + std::ptrdiff_t(first + count));
+        }
+        d.index_count = grouped.size() - d.first_index;
+        if (m.diffuse() && !maps.irradiance) throw RuntimeError("renderer: the material " + m.spec + " needs the irradiance map");
+        if (m.specular()) {
+            const ReflectionMap* r = maps.reflection_for(m);
+            if (!r) throw RuntimeError("renderer: the material " + m.spec + " needs the " + reflection_request(m).label + " map");
+            const auto already = std::find_if(draws_.begin(), draws_.end(), [&](const Draw& e) {
+                return e.material.specular() && reflection_request(e.material).label == r->request.label;
+            });
+            if (already != draws_.end()) {
+                d.reflection = already->reflection;
+            } else {
+                d.reflection = int(reflection_textures_.size());
+                reflection_textures_.push_back(upload_map(r->image, "reflection"));
+            }
+        }
+        draws_.push_back(std::move(d));
+    }
+    const bool any_diffuse = std::any_of(draws_.begin(), draws_.end(), [](const Draw& d) { return d.material.diffuse(); });
 
     scene_program_ = gl::GlProgram("render_scene.vert", "render_scene.frag");
     background_program_ = gl::GlProgram("fullscreen.vert", "render_background.frag");
@@ -143,14 +189,12 @@ Renderer::Renderer(const Mesh& mesh, const Material& material, const ShadingMaps
         has_ao_ = true;
     }
     glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, indices_.id());
-    glBufferData(GL_ELEMENT_ARRAY_BUFFER, GLsizeiptr(mesh.indices.size() * sizeof(std::uint32_t)),
-                 mesh.indices.data(), GL_STATIC_DRAW);
+    glBufferData(GL_ELEMENT_ARRAY_BUFFER, GLsizeiptr(grouped.size() * sizeof(std::uint32_t)), grouped.data(),
+                 GL_STATIC_DRAW);
     glBindVertexArray(0);
-    index_count_ = mesh.indices.size();
     empty_vao_ = gl::GlVertexArray::create();
 
-    if (material.diffuse()) irradiance_ = upload_map(*maps.irradiance, "irradiance");
-    if (material.specular()) reflection_ = upload_map(*maps.reflection, "reflection");
+    if (any_diffuse) irradiance_ = upload_map(*maps.irradiance, "irradiance");
 
     // The float targets and a depth buffer (the object may hide parts of itself).
     framebuffer_ = gl::GlFramebuffer::create();
@@ -320,15 +364,9 @@ void Renderer::draw(bool with_hdr, bool multisampled) {
     glUniformMatrix3fv(scene_program_.uniform("u_normal_matrix"), 1, GL_FALSE, glm::value_ptr(normal_matrix));
     glUniformMatrix4fv(scene_program_.uniform("u_view_projection"), 1, GL_FALSE, glm::value_ptr(view_projection));
     glUniform3f(scene_program_.uniform("u_eye"), float(camera_.eye.x), float(camera_.eye.y), float(camera_.eye.z));
-    glUniform3f(scene_program_.uniform("u_kd"), float(material_.kd.x), float(material_.kd.y), float(material_.kd.z));
-    glUniform3f(scene_program_.uniform("u_ks"), float(material_.ks.x), float(material_.ks.y), float(material_.ks.z));
-    glUniform1i(scene_program_.uniform("u_diffuse"), material_.diffuse() ? 1 : 0);
-    glUniform1i(scene_program_.uniform("u_specular"), material_.specular() ? 1 : 0);
     glActiveTexture(GL_TEXTURE0);
     glBindTexture(GL_TEXTURE_2D, irradiance_.id());
     glUniform1i(scene_program_.uniform("u_irradiance"), 0);
-    glActiveTexture(GL_TEXTURE1);
-    glBindTexture(GL_TEXTURE_2D, reflection_.id());
     glUniform1i(scene_program_.uniform("u_reflection"), 1);
     glBindVertexArray(vao_.id());
     if (ao_ && has_ao_) {
@@ -337,7 +375,17 @@ void Renderer::draw(bool with_hdr, bool multisampled) {
         glDisableVertexAttribArray(2);
         glVertexAttrib1f(2, 1.0f);  // ao = 1: no baked occlusion, or --no-ao
     }
-    glDrawElements(GL_TRIANGLES, GLsizei(index_count_), GL_UNSIGNED_INT, nullptr);
+    for (const Draw& d : draws_) {
+        const Material& m = d.material;
+        glUniform3f(scene_program_.uniform("u_kd"), float(m.kd.x), float(m.kd.y), float(m.kd.z));
+        glUniform3f(scene_program_.uniform("u_ks"), float(m.ks.x), float(m.ks.y), float(m.ks.z));
+        glUniform1i(scene_program_.uniform("u_diffuse"), m.diffuse() ? 1 : 0);
+        glUniform1i(scene_program_.uniform("u_specular"), m.specular() ? 1 : 0);
+        glActiveTexture(GL_TEXTURE1);
+        glBindTexture(GL_TEXTURE_2D, d.reflection >= 0 ? reflection_textures_[std::size_t(d.reflection)].id() : 0);
+        glDrawElements(GL_TRIANGLES, GLsizei(d.index_count), GL_UNSIGNED_INT,
+                       reinterpret_cast<const void*>(d.first_index * sizeof(std::uint32_t)));
+    }
     glBindVertexArray(0);
     glActiveTexture(GL_TEXTURE0);
     glDisable(GL_DEPTH_TEST);

@@ -81,6 +81,10 @@ public:
     // msaa: samples per pixel of the frame's targets, 1 (none) or 4 (docs/render.md, "MSAA").
     Renderer(const Mesh& mesh, const Material& material, const ShadingMaps& maps, int width, int height,
              const Camera& camera = {}, int msaa = 1);
+    // Several materials: one per part of the mesh (Mesh::parts, part_materials), or one for a mesh
+    // without parts. The triangles are grouped by distinct material, one draw each.
+    Renderer(const Mesh& mesh, const std::vector<Material>& part_materials, const ShadingMaps& maps, int width,
+             int height, const Camera& camera = {}, int msaa = 1);
     Renderer(const Renderer&) = delete;
     Renderer& operator=(const Renderer&) = delete;
 
@@ -122,6 +126,7 @@ public:
     int width() const { return width_; }
     int height() const { return height_; }
     const Camera& camera() const { return camera_; }
+    std::size_t draws() const { return draws_.size(); }  // one per distinct material
 
 private:
     std::vector<float> read_target(int k) const;  // rows top first
@@ -134,16 +139,22 @@ private:
 
     int width_, height_;
     Camera camera_;
-    Material material_;
+    // One draw per distinct material: its index range (grouped at upload) and reflection map.
+    struct Draw {
+        Material material;
+        std::size_t first_index = 0, index_count = 0;
+        int reflection = -1;  // into reflection_textures_
+    };
+    std::vector<Draw> draws_;
+    std::vector<gl::GlTexture> reflection_textures_;
     Background background_ = Background::Black;
     bool ao_ = true;
     ToneMap tone_;
-    std::size_t index_count_ = 0;
     gl::GlProgram scene_program_, background_program_, composite_program_;
     gl::GlVertexArray vao_, empty_vao_;
     gl::GlBuffer vertices_, indices_, ao_values_;
     bool has_ao_ = false;  // the mesh came with baked ao (attribute 2)
-    gl::GlTexture irradiance_, reflection_, environment_, image_;
+    gl::GlTexture irradiance_, environment_, image_;
     gl::GlTexture targets_[4];
     gl::GlName<RenderbufferTraits> depth_;
     gl::GlFramebuffer framebuffer_;

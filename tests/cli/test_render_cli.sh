@@ -79,6 +79,17 @@ run render --env "$WORLD" --model sphere --size 48x32 --out "$work/m1.png" --msa
 grep -q '"msaa": 1' "$work/m1.json" || fail "render --msaa 1: stats do not say msaa 1"
 pass "render --msaa 1 runs and says so in its stats"
 expect_bad "bad --msaa" "--msaa" render --env "$WORLD" --msaa 3
+
+# --- several materials: two usemtl groups, each with its MTL material, one draw each ------------
+printf 'newmtl red\nKd 0.8 0.1 0.1\nnewmtl gold\nKd 0 0 0\nKs 0.9 0.7 0.3\nNs 160\n' > "$work/two.mtl"
+printf 'mtllib two.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nusemtl red\nf 1 2 3\nf 1 3 4\nusemtl gold\nf 1 2 5\nf 1 5 4\n' > "$work/two.obj"
+run render --env "$WORLD" --model "$work/two.obj" --size 48x32 --out "$work/two.png" --stats "$work/two.json" --msaa 1
+[[ $rc -eq 0 && -s $work/two.png ]] || fail "render two-material OBJ: exit code $rc (stderr: $(stderr_text))"
+grep -q '"draws": 2' "$work/two.json" || fail "render two-material OBJ: stats do not say 2 draws"
+grep -q 'phong_40' "$work/two.json" || fail "render two-material OBJ: no phong_40 map (Ns 160 / 4)"
+grep -q "material 1: mtl 'gold'" "$work/stdout" || fail "render two-material OBJ: does not list the second material"
+! grep -qi "first" "$work/stderr" || fail "render two-material OBJ: still warns about the first material: $(stderr_text)"
+pass "render: an OBJ with two MTL materials is drawn with both (2 draws, irradiance and phong_40)"
 expect_bad "missing --proxy file" "$work/nope.obj" render --env "$WORLD" --proxy "$work/nope.obj"
 expect_bad "--proxy not an OBJ" "--proxy" render --env "$WORLD" --proxy "$work/proxy.ply"
 expect_bad "bad --table-height" "--table-height" render --env "$WORLD" --table-height low

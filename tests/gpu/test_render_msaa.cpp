@@ -98,7 +98,7 @@ TEST_F(RenderMsaa, AovsAreTheSameWithAndWithoutMsaa) {
     for (int j = 0; j < refl.height(); ++j)
         for (int i = 0; i < refl.width(); ++i)
             for (int c = 0; c < 3; ++c) refl.row(j)[3 * i + c] = float(1 + i + 3 * j + c);
-    maps.reflection = refl;
+    maps.set_reflection(glossy, refl);
     const render::Mesh sphere = render::make_uv_sphere(24, 48);
     render::Renderer one(sphere, glossy, maps, kW, kH, render::Camera{}, 1);
     render::Renderer four(sphere, glossy, maps, kW, kH, render::Camera{}, 4);
