@@ -24,6 +24,7 @@
 #include "appliance/gl/display.hpp"
 #include "appliance/render/ao_bake.hpp"
 #include "appliance/render/ao_file.hpp"
+#include "appliance/render/camera_response.hpp"
 #include "appliance/render/maps.hpp"
 #include "appliance/render/material.hpp"
 #include "appliance/render/mesh.hpp"
@@ -57,6 +58,10 @@ struct RenderArgs {
     std::vector<std::string> proxies;   // OBJ files, world coordinates
     std::optional<double> table_height; // default: the model's lowest point
     int msaa = 4;                       // samples a pixel of the frame (1: none)
+    std::string camera;                 // calibration.json: the camera's response instead of Reinhard
+    double exposure_ms = 10;
+    double gain = 1;
+    bool exposure_given = false, gain_given = false;
 };
 
 // The model's baked ambient occlusion (docs/render.md, "Ambient occlusion"): MODEL.ao beside a
@@ -133,6 +138,12 @@ int run_render(const RenderArgs& args) {
             throw InputError("--background " + args.background + ": want env, black or a .png image");
         background_image = gl::load_png(args.background);
     }
+    std::optional<render::CameraResponse> camera;
+    if (!args.camera.empty()) camera = render::load_camera_response(args.camera, "--camera");
+    if (!camera && (args.exposure_given || args.gain_given))
+        throw InputError(std::string(args.exposure_given ? "--exposure-ms" : "--gain") + ": needs --camera CAL.json");
+    if (!(args.exposure_ms > 0 && std::isfinite(args.exposure_ms))) throw InputError("--exposure-ms: must be positive");
+    if (!(args.gain > 0 && std::isfinite(args.gain))) throw InputError("--gain: must be positive");
     render::Mesh mesh = render::load_model(args.model);
     if (!args.no_ao) load_ambient_occlusion(args.model, mesh);
     const std::vector<render::Material> part_materials = materials_of(mesh, material, args.material_given);
@@ -224,9 +235,16 @@ int run_render(const RenderArgs& args) {
         renderer.enable_shadows(lighting, occluders);
     }
 
+    if (camera) {
+        const render::CameraExposure exposure{args.exposure_ms, args.gain};
+        renderer.set_camera_response(*camera, exposure);
+        std::printf("camera: %s (%s response, sensitivity %.4g), exposure %.4g ms, gain %.4g: radiance 1 -> code %.2f\n",
+                    camera->source.c_str(), camera->parametric() ? "parametric" : "tabulated", camera->sensitivity,
+                    args.exposure_ms, args.gain, camera->code(exposure.scale(*camera)));
+    }
     // The scene is still, so the tone map is metered once, before the timed frames.
     const render::ToneMap& tone = renderer.meter(args.key);
-    std::printf("tone map: Reinhard, key %.3g, log-average luminance %.6g, white %.6g (scaled), %lld pixels metered\n",
+    if (!camera) std::printf("tone map: Reinhard, key %.3g, log-average luminance %.6g, white %.6g (scaled), %lld pixels metered\n",
                 tone.key, tone.log_average, tone.white, tone.pixels);
 
     std::vector<double> frame_ms;
@@ -273,6 +291,7 @@ int run_render(const RenderArgs& args) {
         s["draws"] = renderer.draws();
         s["shadows"] = shadows;
         s["msaa"] = args.msaa;
+        if (camera) s["camera"] = {{"calibration", args.camera}, {"exposure_ms", args.exposure_ms}, {"gain", args.gain}};
         s["proxies"] = args.proxies.size();
         s["maps_seconds"] = maps_s;
         s["irradiance"] = maps.irradiance ? nlohmann::json(maps.irradiance_from) : nlohmann::json();
@@ -337,8 +356,18 @@ Command add_render_command(CLI::App& app) {
                     "Samples a pixel of the frame: 1 (none) or 4 (antialiased edges; the AOVs stay one sample a pixel)")
         ->check(CLI::IsMember({1, 4}))
         ->capture_default_str();
-    return {cmd, [args, material_option] {
+    cmd->add_option("--camera", args->camera,
+                    "Camera calibration (calibration.json of glint calibrate or glint simulate): the frame goes through "
+                    "its response curve at --exposure-ms and --gain instead of Reinhard and sRGB, and an image "
+                    "background is decoded with the inverse response");
+    CLI::Option* exposure_option = cmd->add_option("--exposure-ms", args->exposure_ms,
+                    "With --camera: the camera's exposure time, ms")->capture_default_str();
+    CLI::Option* gain_option = cmd->add_option("--gain", args->gain, "With --camera: the camera's analogue gain")
+        ->capture_default_str();
+    return {cmd, [args, material_option, exposure_option, gain_option] {
                 args->material_given = material_option->count() > 0;
+                args->exposure_given = exposure_option->count() > 0;
+                args->gain_given = gain_option->count() > 0;
                 return run_render(*args);
             }};
 }

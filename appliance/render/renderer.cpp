@@ -320,6 +320,20 @@ void Renderer::set_background_image(const gl::RgbImage& image) {
 
 void Renderer::set_background_black() { background_ = Background::Black; }
 
+void Renderer::set_camera_response(const CameraResponse& response, const CameraExposure& exposure) {
+    if (!(exposure.exposure_ms > 0)) throw InputError("--exposure-ms: must be positive");
+    if (!(exposure.gain > 0)) throw InputError("--gain: must be positive");
+    response_curve_ = response;
+    exposure_ = exposure;
+    std::vector<float> table(response.inverse.begin(), response.inverse.end());
+    response_ = gl::GlTexture::create();
+    glBindTexture(GL_TEXTURE_2D, response_.id());
+    glTexImage2D(GL_TEXTURE_2D, 0, GL_R32F, 256, 1, 0, GL_RED, GL_FLOAT, table.data());
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+    gl::check_gl("uploading the camera response");
+}
+
 void Renderer::draw_scene() { draw(false, msaa_ > 1); }
 
 void Renderer::draw(bool with_hdr, bool multisampled) {
@@ -436,6 +450,15 @@ void Renderer::composite() const {
     glBindTexture(GL_TEXTURE_2D, targets_[kNormal].id());
     glUniform1i(composite_program_.uniform("u_normal"), 4);  // a proxy's mark (phantom.hpp)
     set_camera_ray_uniforms(composite_program_);
+    glUniform1i(composite_program_.uniform("u_camera"), response_curve_ ? 1 : 0);
+    glActiveTexture(GL_TEXTURE5);
+    glBindTexture(GL_TEXTURE_2D, response_.id());
+    glUniform1i(composite_program_.uniform("u_response"), 5);
+    if (response_curve_) {
+        glUniform1f(composite_program_.uniform("u_camera_scale"), float(exposure_.scale(*response_curve_)));
+        glUniform1f(composite_program_.uniform("u_gamma"), response_curve_->parametric() ? float(response_curve_->gamma) : 0.0f);
+        glUniform1f(composite_program_.uniform("u_shoulder"), float(response_curve_->shoulder));
+    }
     glUniform1f(composite_program_.uniform("u_scale"), float(tone_.scale()));
     glUniform1f(composite_program_.uniform("u_white_sq"), float(tone_.white * tone_.white));
     glBindVertexArray(empty_vao_.id());

@@ -11,6 +11,7 @@
 
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include <glm/glm.hpp>
@@ -19,6 +20,7 @@
 #include "appliance/gl/gl_objects.hpp"
 #include "appliance/gl/gl_program.hpp"
 #include "appliance/gl/png_writer.hpp"  // gl::RgbImage (the struct only)
+#include "appliance/render/camera_response.hpp"
 #include "appliance/render/maps.hpp"
 #include "appliance/render/material.hpp"
 #include "appliance/render/mesh.hpp"
@@ -101,6 +103,11 @@ public:
     // write that target (the composite looks the environment up itself).
     const ToneMap& meter(double key = 0.18);
     void set_tone_map(const ToneMap& tone) { tone_ = tone; }
+    // Into the camera's image space instead of Reinhard and sRGB (docs/render.md, "Camera
+    // response"): the object's (and the environment's) radiance x exposure x gain x sensitivity
+    // through the response curve; an image background is decoded with the inverse response (its
+    // codes are the camera's) wherever it is mixed or shadowed.
+    void set_camera_response(const CameraResponse& response, const CameraExposure& exposure);
     const ToneMap& tone_map() const { return tone_; }
     // Draws the frame into the bound framebuffer, whose viewport must be width x height.
     void composite() const;
@@ -162,6 +169,9 @@ private:
     int msaa_ = 1;
     gl::GlName<RenderbufferTraits> ms_colour_[4], ms_depth_;
     gl::GlFramebuffer ms_framebuffer_;
+    std::optional<CameraResponse> response_curve_;
+    CameraExposure exposure_;
+    gl::GlTexture response_;  // 256x1 R32F: inverse[z]
     std::unique_ptr<PhantomGeometry> phantoms_;
     std::unique_ptr<TableShadowPass> shadow_;
 };

@@ -38,7 +38,7 @@ grep -q "render" "$work/stdout" || fail "glint --help does not list render"
 run render --help
 [[ $rc -eq 0 ]] || fail "glint render --help: exit code $rc, want 0"
 for flag in --env --maps --model --material --background --size --out --aov --no-ao --frames --stats --display \
-    --shadows --table-height --proxy --msaa; do
+    --shadows --table-height --proxy --msaa --camera --exposure-ms --gain; do
     grep -qF -- "$flag" "$work/stdout" || fail "glint render --help does not describe $flag"
 done
 pass "glint --help lists render; glint render --help exits 0 and describes every flag"
@@ -79,6 +79,24 @@ run render --env "$WORLD" --model sphere --size 48x32 --out "$work/m1.png" --msa
 grep -q '"msaa": 1' "$work/m1.json" || fail "render --msaa 1: stats do not say msaa 1"
 pass "render --msaa 1 runs and says so in its stats"
 expect_bad "bad --msaa" "--msaa" render --env "$WORLD" --msaa 3
+
+# --- the camera's response: a tabulated curve (code z at exposure ((z + 0.5) / 256)^2) --------
+{
+    printf '{"format": "glint-camera-calibration", "response": {"inverse": ['
+    for z in $(seq 0 255); do printf '%s%s' "$([[ $z -gt 0 ]] && echo ,)" "$(awk -v z="$z" 'BEGIN { printf "%.9g", ((z + 0.5) / 256) ^ 2 }')"; done
+    printf '], "gamma": 0, "shoulder": 0}, "sensitivity": 100}\n'
+} > "$work/cal.json"
+run render --env "$WORLD" --size 48x32 --out "$work/cam.png" --camera "$work/cal.json" --exposure-ms 5 --gain 2 \
+    --stats "$work/cam.json"
+[[ $rc -eq 0 && -s $work/cam.png ]] || fail "render --camera: exit code $rc (stderr: $(stderr_text))"
+grep -q '"exposure_ms": 5' "$work/cam.json" || fail "render --camera: stats do not hold the exposure"
+grep -q "camera: .*tabulated response" "$work/stdout" || fail "render --camera: does not describe the response"
+pass "render --camera CAL.json --exposure-ms --gain runs (tabulated response)"
+expect_bad "--gain without --camera" "--gain" render --env "$WORLD" --gain 2
+expect_bad "missing --camera file" "--camera" render --env "$WORLD" --camera "$work/none.json"
+printf '{"response": {"inverse": [1, 2]}}' > "$work/badcal.json"
+expect_bad "calibration with a short table" "response.inverse" render --env "$WORLD" --camera "$work/badcal.json"
+expect_bad "bad --exposure-ms" "--exposure-ms" render --env "$WORLD" --camera "$work/cal.json" --exposure-ms -1
 
 # --- several materials: two usemtl groups, each with its MTL material, one draw each ------------
 printf 'newmtl red\nKd 0.8 0.1 0.1\nnewmtl gold\nKd 0 0 0\nKs 0.9 0.7 0.3\nNs 160\n' > "$work/two.mtl"
