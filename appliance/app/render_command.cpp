@@ -31,6 +31,7 @@
 #include "appliance/render/renderer.hpp"
 #include "appliance/render/teapot.hpp"
 #include "appliance/render/shadow.hpp"
+#include "appliance/render/shadow_bake.hpp"
 
 namespace glint::app {
 namespace {
@@ -233,6 +234,14 @@ int run_render(const RenderArgs& args) {
                         lighting.light_irradiance[i].y / std::max(1e-30, table_irradiance));
         }
         renderer.enable_shadows(lighting, occluders);
+        // Anything but the sphere model (one occluder sphere that is the object itself): the shadow
+        // baked against the real mesh near the object (docs/render.md, "Baked shadows").
+        if (occluders.size() != 1) {
+            const render::ShadowBake bake = render::bake_table_shadow(mesh, lighting, table_height);
+            renderer.set_shadow_bake(bake);
+            std::printf("shadow: baked against the mesh on a %dx%d grid (spacing %.3g), %lld rays in %.2f s\n",
+                        bake.resolution, bake.resolution, bake.spacing, bake.rays, bake.seconds);
+        }
     }
 
     if (camera) {

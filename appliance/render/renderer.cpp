@@ -503,6 +503,11 @@ void Renderer::enable_shadows(const ShadowLighting& lighting, std::vector<Occlud
                                                 *phantoms_->table_height());
 }
 
+void Renderer::set_shadow_bake(const ShadowBake& bake) {
+    if (!shadow_) throw RuntimeError("renderer: a baked shadow needs enable_shadows first");
+    shadow_->set_bake(bake);
+}
+
 void Renderer::draw_shadow() const {
     if (!shadow_) return;
     const glm::mat3 world_from_camera(glm::transpose(glm::dmat3(view_matrix(camera_))));  // as set_camera_ray_uniforms

@@ -26,6 +26,7 @@
 #include "appliance/render/mesh.hpp"
 #include "appliance/render/phantom.hpp"
 #include "appliance/render/shadow.hpp"
+#include "appliance/render/shadow_bake.hpp"
 
 namespace glint::render {
 
@@ -129,6 +130,9 @@ public:
     // Needs set_table first. Off by default.
     void enable_shadows(const ShadowLighting& lighting, std::vector<OccluderSphere> occluders);
     bool shadows() const { return shadow_ != nullptr; }
+    // The shadow baked against the mesh itself (shadow_bake.hpp), used inside its grid. Needs
+    // enable_shadows first.
+    void set_shadow_bake(const ShadowBake& bake);
 
     int width() const { return width_; }
     int height() const { return height_; }

@@ -108,6 +108,10 @@ grep -q 'phong_40' "$work/two.json" || fail "render two-material OBJ: no phong_4
 grep -q "material 1: mtl 'gold'" "$work/stdout" || fail "render two-material OBJ: does not list the second material"
 ! grep -qi "first" "$work/stderr" || fail "render two-material OBJ: still warns about the first material: $(stderr_text)"
 pass "render: an OBJ with two MTL materials is drawn with both (2 draws, irradiance and phong_40)"
+run render --env "$WORLD" --model "$work/two.obj" --size 48x32 --out "$work/two_shadow.png" --shadows on --msaa 1
+[[ $rc -eq 0 ]] || fail "render a mesh with --shadows on: exit code $rc (stderr: $(stderr_text))"
+grep -q "shadow: baked against the mesh" "$work/stdout" || fail "render a mesh with --shadows on: no baked shadow"
+pass "render: a mesh's table shadow is baked against the mesh (--shadows on)"
 expect_bad "missing --proxy file" "$work/nope.obj" render --env "$WORLD" --proxy "$work/nope.obj"
 expect_bad "--proxy not an OBJ" "--proxy" render --env "$WORLD" --proxy "$work/proxy.ply"
 expect_bad "bad --table-height" "--table-height" render --env "$WORLD" --table-height low
