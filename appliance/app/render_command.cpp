@@ -25,6 +25,7 @@
 #include "appliance/render/ao_bake.hpp"
 #include "appliance/render/ao_file.hpp"
 #include "appliance/render/camera_response.hpp"
+#include "appliance/render/live_maps.hpp"
 #include "appliance/render/maps.hpp"
 #include "appliance/render/material.hpp"
 #include "appliance/render/mesh.hpp"
@@ -63,6 +64,9 @@ struct RenderArgs {
     double exposure_ms = 10;
     double gain = 1;
     bool exposure_given = false, gain_given = false;
+    bool live_maps = false;             // final maps by the GPU engine in the frames' leftover time
+    double frame_budget_ms = 1000.0 / 30.0;
+    bool budget_given = false;
 };
 
 // The model's baked ambient occlusion (docs/render.md, "Ambient occlusion"): MODEL.ao beside a
@@ -139,6 +143,9 @@ int run_render(const RenderArgs& args) {
             throw InputError("--background " + args.background + ": want env, black or a .png image");
         background_image = gl::load_png(args.background);
     }
+    if (args.live_maps && !args.maps.empty()) throw InputError("--live-maps: not with --maps (the maps are made while the frames run)");
+    if (args.budget_given && !args.live_maps) throw InputError("--frame-budget-ms: needs --live-maps");
+    if (!(args.frame_budget_ms > 0 && std::isfinite(args.frame_budget_ms))) throw InputError("--frame-budget-ms: must be positive");
     std::optional<render::CameraResponse> camera;
     if (!args.camera.empty()) camera = render::load_camera_response(args.camera, "--camera");
     if (!camera && (args.exposure_given || args.gain_given))
@@ -198,7 +205,9 @@ int run_render(const RenderArgs& args) {
                      args.env.c_str(), env.sanitised.total(), env.sanitised.nan, env.sanitised.pos_inf,
                      env.sanitised.neg_inf, env.sanitised.negative);
 
-    if (args.maps.empty()) {
+    if (args.live_maps) {
+        maps = render::coarse_maps(env.image, part_materials, args.threads);  // the final ones come during the frames
+    } else if (args.maps.empty()) {
         convolution::Options options;
         options.tolerance = 0.01;
         options.threads = args.threads;
@@ -256,19 +265,45 @@ int run_render(const RenderArgs& args) {
     if (!camera) std::printf("tone map: Reinhard, key %.3g, log-average luminance %.6g, white %.6g (scaled), %lld pixels metered\n",
                 tone.key, tone.log_average, tone.white, tone.pixels);
 
-    std::vector<double> frame_ms;
+    // --live-maps: the final maps' job starts now; each frame grants it what is left of the budget.
+    std::unique_ptr<render::LiveMaps> live;
+    int final_maps_frame = -1;  // the first frame drawn with the final maps
+    const auto adopt_final_maps = [&](int frame) {
+        if (std::optional<render::ShadingMaps> final_maps = live->take()) {
+            renderer.replace_maps(*final_maps);
+            final_maps_frame = frame;
+            std::printf("live maps: final maps after %.2f s, from frame %d on (%lld tiles, %.1f ms GPU)\n", live->seconds(),
+                        frame, live->tiles().tiles, live->tiles().gpu_ms);
+            if (final_maps->irradiance) std::printf("irradiance: %s\n", final_maps->irradiance_from.c_str());
+            for (const render::ReflectionMap& r : final_maps->reflections)
+                std::printf("reflection %s: %s\n", r.request.label.c_str(), r.from.c_str());
+        }
+    };
+    if (args.live_maps) {
+        live = std::make_unique<render::LiveMaps>(display->context(), env.image, part_materials, args.frame_budget_ms);
+        std::printf("live maps: coarse maps now, the final ones on the GPU in each frame's time left of %.1f ms\n",
+                    args.frame_budget_ms);
+    }
+    std::vector<double> frame_ms, slice_ms;
     for (int f = 0; f < args.frames; ++f) {
+        if (live && live->done() && final_maps_frame < 0) adopt_final_maps(f);
         const auto t0 = Clock::now();
         renderer.draw_scene();
         display->bind_frame();
         renderer.composite();
         display->present();
         frame_ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+        if (live) slice_ms.push_back(live->after_frame(frame_ms.back()));
         for (const auto& e : display->poll_events())
             if (e.type == gl::InputEvent::Type::Quit || (e.type == gl::InputEvent::Type::KeyDown && e.key == "Escape"))
                 f = args.frames;
     }
 
+    // The files show the final maps: a job not done within the frames gets the GPU until it is.
+    if (live && final_maps_frame < 0 && (!args.out.empty() || !args.aov.empty())) {
+        live->finish();
+        adopt_final_maps(args.frames);
+    }
     // One more frame, untimed, for the files: the read-backs are not part of a frame's cost.
     if (!args.out.empty() || !args.aov.empty()) {
         renderer.draw_scene();
@@ -300,6 +335,12 @@ int run_render(const RenderArgs& args) {
         s["draws"] = renderer.draws();
         s["shadows"] = shadows;
         s["msaa"] = args.msaa;
+        if (live)
+            s["live_maps"] = {{"frame_budget_ms", args.frame_budget_ms},
+                              {"final_from_frame", final_maps_frame >= 0 ? nlohmann::json(final_maps_frame) : nlohmann::json()},
+                              {"job_seconds", live->done() ? nlohmann::json(live->seconds()) : nlohmann::json()},
+                              {"tiles", live->tiles().tiles}, {"tile_gpu_ms", live->tiles().gpu_ms},
+                              {"slice_ms_all", slice_ms}};
         if (camera) s["camera"] = {{"calibration", args.camera}, {"exposure_ms", args.exposure_ms}, {"gain", args.gain}};
         s["proxies"] = args.proxies.size();
         s["maps_seconds"] = maps_s;
@@ -373,7 +414,14 @@ Command add_render_command(CLI::App& app) {
                     "With --camera: the camera's exposure time, ms")->capture_default_str();
     CLI::Option* gain_option = cmd->add_option("--gain", args->gain, "With --camera: the camera's analogue gain")
         ->capture_default_str();
-    return {cmd, [args, material_option, exposure_option, gain_option] {
+    cmd->add_flag("--live-maps", args->live_maps,
+                  "Start with coarse maps (32x16) and make the final ones (tolerance 1 %) with the GPU engine in each "
+                  "frame's time left of --frame-budget-ms; the object switches to them when they are done");
+    CLI::Option* budget_option = cmd->add_option("--frame-budget-ms", args->frame_budget_ms,
+                    "With --live-maps: the frame period, ms; what a frame leaves of it goes to the convolution")
+        ->capture_default_str();
+    return {cmd, [args, material_option, exposure_option, gain_option, budget_option] {
+                args->budget_given = budget_option->count() > 0;
                 args->material_given = material_option->count() > 0;
                 args->exposure_given = exposure_option->count() > 0;
                 args->gain_given = gain_option->count() > 0;

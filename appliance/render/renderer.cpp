@@ -468,6 +468,20 @@ void Renderer::composite() const {
     gl::check_gl("compositing the frame");
 }
 
+void Renderer::replace_maps(const ShadingMaps& maps) {
+    for (const Draw& d : draws_) {
+        if (d.material.diffuse() && !maps.irradiance)
+            throw RuntimeError("renderer: the new maps have no irradiance map for " + d.material.spec);
+        if (d.material.specular() && !maps.reflection_for(d.material))
+            throw RuntimeError("renderer: the new maps have no " + reflection_request(d.material).label + " map");
+    }
+    if (irradiance_.id() != 0 && maps.irradiance) irradiance_ = upload_map(*maps.irradiance, "irradiance");
+    for (const Draw& d : draws_)
+        if (d.reflection >= 0)
+            reflection_textures_[std::size_t(d.reflection)] = upload_map(maps.reflection_for(d.material)->image, "reflection");
+    gl::check_gl("replacing the maps");
+}
+
 std::vector<float> Renderer::read_frame_radiance() const { return read_target(kRadiance); }
 
 Aovs Renderer::read_aovs() {

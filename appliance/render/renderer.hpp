@@ -138,6 +138,9 @@ public:
     int height() const { return height_; }
     const Camera& camera() const { return camera_; }
     std::size_t draws() const { return draws_.size(); }  // one per distinct material
+    // Shades with other maps of the same lobes from the next draw on (live_maps.hpp: the final
+    // maps after the coarse ones). Throws RuntimeError when one the materials need is missing.
+    void replace_maps(const ShadingMaps& maps);
 
 private:
     std::vector<float> read_target(int k) const;  // rows top first

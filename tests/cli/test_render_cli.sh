@@ -38,7 +38,7 @@ grep -q "render" "$work/stdout" || fail "glint --help does not list render"
 run render --help
 [[ $rc -eq 0 ]] || fail "glint render --help: exit code $rc, want 0"
 for flag in --env --maps --model --material --background --size --out --aov --no-ao --frames --stats --display \
-    --shadows --table-height --proxy --msaa --camera --exposure-ms --gain; do
+    --shadows --table-height --proxy --msaa --camera --exposure-ms --gain --live-maps --frame-budget-ms; do
     grep -qF -- "$flag" "$work/stdout" || fail "glint render --help does not describe $flag"
 done
 pass "glint --help lists render; glint render --help exits 0 and describes every flag"
@@ -97,6 +97,18 @@ expect_bad "missing --camera file" "--camera" render --env "$WORLD" --camera "$w
 printf '{"response": {"inverse": [1, 2]}}' > "$work/badcal.json"
 expect_bad "calibration with a short table" "response.inverse" render --env "$WORLD" --camera "$work/badcal.json"
 expect_bad "bad --exposure-ms" "--exposure-ms" render --env "$WORLD" --camera "$work/cal.json" --exposure-ms -1
+
+# --- live maps: coarse first, the final ones on the GPU in the frames' leftover time ---------------
+run render --env "$WORLD" --size 48x32 --material 'kd=0.5;ks=0.5;n=20' --live-maps --frame-budget-ms 300 --frames 3 \
+    --out "$work/live.png" --stats "$work/live.json"
+[[ $rc -eq 0 && -s $work/live.png ]] || fail "render --live-maps: exit code $rc (stderr: $(stderr_text))"
+grep -q '"live_maps"' "$work/live.json" || fail "render --live-maps: no live_maps in the stats"
+grep -q "live maps: final maps after" "$work/stdout" || fail "render --live-maps: never switched to the final maps"
+grep -q "irradiance: coarse" "$work/stdout" || fail "render --live-maps: did not start with coarse maps"
+pass "render --live-maps: coarse maps first, the final ones from the GPU engine, stats say when"
+mkdir -p "$work/nomaps"
+expect_bad "--live-maps with --maps" "--live-maps" render --env "$WORLD" --live-maps --maps "$work/nomaps"
+expect_bad "--frame-budget-ms without --live-maps" "--frame-budget-ms" render --env "$WORLD" --frame-budget-ms 20
 
 # --- several materials: two usemtl groups, each with its MTL material, one draw each ------------
 printf 'newmtl red\nKd 0.8 0.1 0.1\nnewmtl gold\nKd 0 0 0\nKs 0.9 0.7 0.3\nNs 160\n' > "$work/two.mtl"
