@@ -5,7 +5,9 @@
 # by a simulated capture against the truth, through the same camera model). About 10 minutes on
 # two cores with llvmpipe.
 #
-# Usage: tests/bench/run_render_bench.sh [BUILD_DIR]   (FRAMES=N for the timed frames, default 40)
+# Usage: tests/bench/run_render_bench.sh [BUILD_DIR]
+#   FRAMES=N timed frames a run (default 20), ROUNDS=R runs of each configuration, interleaved
+#   (default 3), PARTS="frames shading consistency" (any of them; the tables not run are kept).
 set -euo pipefail
 cd "$(dirname "$0")/../.."
 BUILD=${1:-build}
@@ -15,7 +17,10 @@ VISION=$BUILD/appliance/app/glint-vision
 BENCH=$BUILD/tests/bench/glint_bench_render
 WORLDS=/usr/share/blender/datafiles/studiolights/world
 OUT=tests/bench/results
-FRAMES=${FRAMES:-40}
+FRAMES=${FRAMES:-20}
+ROUNDS=${ROUNDS:-3}
+PARTS=${PARTS:-frames shading consistency}
+want() { [[ " $PARTS " == *" $1 "* ]]; }
 WORK=$(mktemp -d /tmp/glint_render_bench.XXXXXX)
 trap 'rm -rf "$WORK"' EXIT
 MACHINE="$(grep -m1 'model name' /proc/cpuinfo | cut -d: -f2- | sed 's/^ //'), $(nproc) cores"
@@ -28,53 +33,70 @@ MODEL=teapot:40
 MATERIAL='kd=0.7,0.45,0.3;ks=0.15;n=40'
 LIVE=no
 "$GLINT" render --help | grep -q -- '--live-maps' && LIVE=yes
-{
-    echo "# glint render frame times (issue 15, part 4a)"
-    echo
-    echo "Command: \`tests/bench/run_render_bench.sh\` (FRAMES=$FRAMES), date $DATE, machine: $MACHINE, Mesa llvmpipe"
-    echo "(EGL surfaceless, headless display). Each row: \`glint render --env courtyard.exr --model $MODEL"
-    echo "--material '$MATERIAL' --size 1280x720 --frames $FRAMES --stats s.json\` plus the row's flags;"
-    echo "the frame is: draw the object into the float targets (MSAA: multisampled, resolved), composite"
-    echo "(with shadows: the table's ratio per background pixel), present (glFinish). Load average (1 min)"
-    echo "read before and after each run: the machine is shared with other builds, so these numbers are noisy."
-    echo
-    echo "| MSAA | shadows | live maps | triangles | median ms | p99 ms | max ms | load before / after |"
-    echo "|---|---|---|---|---|---|---|---|"
-} > "$WORK/frames.md"
-frame_row() {  # MSAA SHADOWS LIVE EXTRA...
-    local msaa=$1 shadows=$2 live=$3
-    shift 3
-    local before after
-    before=$(loadavg)
-    "$GLINT" render --env "$WORLDS/courtyard.exr" --model "$MODEL" --material "$MATERIAL" --size 1280x720 \
-        --frames "$FRAMES" --stats "$WORK/s.json" --msaa "$msaa" --shadows "$shadows" "$@" >"$WORK/render.log" 2>&1 ||
-        { cat "$WORK/render.log" >&2; exit 1; }
-    after=$(loadavg)
-    if [[ $live != no ]]; then
-        live="$live; $(json "$WORK/s.json" "'final maps from frame %s, job %.1f s, %d tiles' % (d['live_maps']['final_from_frame'], d['live_maps']['job_seconds'] or -1, d['live_maps']['tiles'])")"
-    fi
-    echo "| ${msaa}x | $shadows | $live | $(json "$WORK/s.json" "d['triangles']") | $(json "$WORK/s.json" "round(d['frame_ms']['median'],1)") |" \
-         "$(json "$WORK/s.json" "round(d['frame_ms']['p99'],1)") | $(json "$WORK/s.json" "round(d['frame_ms']['max'],1)") | $before / $after |" >> "$WORK/frames.md"
-    echo "frames: msaa $msaa shadows $shadows live $live done" >&2
-}
-for msaa in 1 4; do
-    for shadows in off on; do frame_row "$msaa" "$shadows" no; done
-done
-if [[ $LIVE == yes ]]; then
-    # llvmpipe draws this frame in 250-600 ms: a 30 Hz budget leaves nothing, so the job gets the
-    # rest of a 1 s frame period (what a Pi's GPU would leave of 33 ms, scaled).
-    frame_row 4 on "budget 1000 ms" --live-maps --frame-budget-ms 1000
-else
-    echo "| 4x | on | not built | | | | | |" >> "$WORK/frames.md"
+# The configurations: name | flags. The live row's budget: llvmpipe draws this frame in 250-700 ms,
+# so a 30 Hz budget would leave nothing; 800 ms leaves the job a slice after most frames.
+CONFIGS=("1x off|--msaa 1 --shadows off" "1x on|--msaa 1 --shadows on" "4x off|--msaa 4 --shadows off"
+         "4x on|--msaa 4 --shadows on")
+[[ $LIVE == yes ]] && CONFIGS+=("4x on live|--msaa 4 --shadows on --live-maps --frame-budget-ms 800")
+if want frames; then
+    : > "$WORK/loads"
+    for round in $(seq 1 "$ROUNDS"); do
+        for k in "${!CONFIGS[@]}"; do
+            IFS='|' read -r name flags <<< "${CONFIGS[$k]}"
+            before=$(loadavg)
+            # shellcheck disable=SC2086
+            "$GLINT" render --env "$WORLDS/courtyard.exr" --model "$MODEL" --material "$MATERIAL" --size 1280x720 \
+                --frames "$FRAMES" --stats "$WORK/s_${k}_$round.json" $flags >"$WORK/render.log" 2>&1 ||
+                { cat "$WORK/render.log" >&2; exit 1; }
+            echo "$k $before $(loadavg)" >> "$WORK/loads"
+            echo "frames: round $round, $name done" >&2
+        done
+    done
+    {
+        echo "# glint render frame times (issue 15, part 4a)"
+        echo
+        echo "Command: \`tests/bench/run_render_bench.sh\` (FRAMES=$FRAMES, ROUNDS=$ROUNDS), date $DATE, machine: $MACHINE,"
+        echo "Mesa llvmpipe (EGL surfaceless, headless display). Each run: \`glint render --env courtyard.exr --model"
+        echo "$MODEL --material '$MATERIAL' --size 1280x720 --frames $FRAMES --stats s.json\` plus the row's flags;"
+        echo "the rows' runs are interleaved ($ROUNDS rounds), and median and p99 are over all their frames pooled."
+        echo "The frame is: draw the object into the float targets (MSAA: multisampled, resolved), composite (with"
+        echo "shadows: the table's ratio per background pixel, baked against the teapot near it), present (glFinish)."
+        echo "The machine is shared with other builds (load average 1 min below): the numbers are noisy."
+        echo
+        echo "| MSAA | shadows | flags | triangles | frames | median ms | p99 ms | max ms | medians of the runs | load |"
+        echo "|---|---|---|---|---|---|---|---|---|---|"
+        for k in "${!CONFIGS[@]}"; do
+            IFS='|' read -r name flags <<< "${CONFIGS[$k]}"
+            python3 - "$k" "$name" "$flags" "$WORK" "$ROUNDS" <<'PY'
+import json, statistics, sys
+k, name, flags, work, rounds = sys.argv[1], sys.argv[2], sys.argv[3], sys.argv[4], int(sys.argv[5])
+runs = [json.load(open(f"{work}/s_{k}_{r}.json")) for r in range(1, rounds + 1)]
+frames = sorted(x for d in runs for x in d["frame_ms_all"])
+def p(q):
+    import math
+    return frames[min(len(frames) - 1, max(0, math.ceil(q * len(frames)) - 1))]
+loads = [l.split()[1:] for l in open(f"{work}/loads") if l.split()[0] == k]
+msaa, shadows = name.split()[0], name.split()[1]
+row = f"| {msaa} | {shadows} | `{flags}` | {runs[0]['triangles']} | {len(frames)} | {statistics.median(frames):.1f} | {p(0.99):.1f} | {frames[-1]:.1f} | " \
+      + ", ".join(f"{d['frame_ms']['median']:.0f}" for d in runs) + " | " + ", ".join("/".join(l) for l in loads) + " |"
+print(row)
+if "live_maps" in runs[0]:
+    for r, d in enumerate(runs, 1):
+        lm = d["live_maps"]
+        f0 = lm["final_from_frame"]
+        before = d["frame_ms_all"][:f0] if f0 is not None else d["frame_ms_all"]
+        after = d["frame_ms_all"][f0:] if f0 is not None else []
+        med = lambda v: f"{statistics.median(v):.0f}" if v else "-"
+        print(f"|  | live run {r} | final maps from frame {f0}, job {lm['job_seconds'] or float('nan'):.1f} s, "
+              f"{lm['tiles']} tiles ({lm['tile_gpu_ms']:.0f} ms) | | {len(d['frame_ms_all'])} | before {med(before)}, after {med(after)} | | | | |")
+PY
+        done
+        echo
+        echo "Live rows: the frame time is the frame's own (draw, composite, present); the job's tiles run after it"
+        echo "in the granted slice (budget minus the frame) and its CPU parts at a lower priority; 'before' and"
+        echo "'after' are the median frame while the job ran and once the final maps were in."
+    } > "$OUT/render_frames.md"
 fi
-{
-    echo
-    echo "Frame time is the frame's own: draw, composite, present. With live maps the job's tiles run after"
-    echo "it, in the granted slice (the budget minus the frame), and its CPU parts at a lower priority; the"
-    echo "table shows whether the frames slow down while the job runs (before the final maps) and after."
-    echo "Shadows on for teapot:40: the table's shadow baked against the mesh (docs/render.md, \"Baked shadows\")."
-} >> "$WORK/frames.md"
-cp "$WORK/frames.md" "$OUT/render_frames.md"
 
 # --- (b) shading against the exact maps ---------------------------------------------------------
 {
@@ -94,7 +116,7 @@ cp "$WORK/frames.md" "$OUT/render_frames.md"
     echo "| world | material | frame | object pixels | maps used | weighted RMS | worst pixel |"
     echo "|---|---|---|---|---|---|---|"
 } > "$WORK/render.md"
-for world in courtyard studio sunset; do
+want shading && for world in courtyard studio sunset; do
     "$BENCH" shading --world "$world" >> "$WORK/render.md"
     echo "shading: $world done" >&2
 done
@@ -116,7 +138,7 @@ done
     echo "| world | material | frame | object pixels | captured maps | mean | p95 | simulate + capture s | load |"
     echo "|---|---|---|---|---|---|---|---|---|"
 } >> "$WORK/render.md"
-for world in courtyard studio sunset; do
+want consistency && for world in courtyard studio sunset; do
     t0=$(date +%s)
     "$VISION" simulate --env "$WORLDS/$world.exr" --trajectory guided --hdr-bracket --out "$WORK/s_$world" \
         >"$WORK/sim.log" 2>&1 || { cat "$WORK/sim.log" >&2; exit 1; }
@@ -128,5 +150,5 @@ for world in courtyard studio sunset; do
     rm -rf "$WORK/s_$world"
     echo "consistency: $world done" >&2
 done
-cp "$WORK/render.md" "$OUT/render.md"
-echo "wrote $OUT/render_frames.md and $OUT/render.md"
+if want shading && want consistency; then cp "$WORK/render.md" "$OUT/render.md"; fi
+echo "wrote the results of: $PARTS (in $OUT)"
