@@ -112,9 +112,10 @@ public:
     const ToneMap& tone_map() const { return tone_; }
     // Draws the frame into the bound framebuffer, whose viewport must be width x height.
     void composite() const;
-    // The AOVs of the scene, exact at every pixel: with MSAA the scene is drawn once more with one
-    // sample a pixel for them (a resolved normal would not be unit, a resolved radiance not the
-    // shading of any one direction), which overwrites the frame's targets.
+    // The AOVs of the scene, exact at every pixel: the scene is drawn once more with one sample a
+    // pixel and the reflection target on (frames do not write it; with MSAA a resolved normal would
+    // not be unit, a resolved radiance not the shading of any one direction), which overwrites the
+    // frame's targets.
     Aovs read_aovs();
     // The radiance target the composite reads, after draw_scene: with MSAA resolved, so alpha is
     // the object's coverage of the pixel (fractional on its silhouette), RGB premultiplied by it.
@@ -144,7 +145,7 @@ public:
 
 private:
     std::vector<float> read_target(int k) const;  // rows top first
-    void draw(bool with_hdr, bool multisampled);
+    void draw(bool with_hdr, bool multisampled, bool with_reflect = false);
     void resolve(bool with_hdr) const;
     void create_multisampled_targets();  // the multisampled targets into the textures the composite reads
     void set_camera_ray_uniforms(const gl::GlProgram& program) const;  // u_size, u_tan_half_fov, u_world_from_camera
