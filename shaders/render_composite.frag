@@ -28,6 +28,14 @@ uniform vec2 u_tan_half_fov;  // tan(fov_x / 2), tan(fov_y / 2)
 uniform mat3 u_world_from_camera;
 uniform float u_scale;      // key / L_avg
 uniform float u_white_sq;   // L_white^2, in scaled luminance
+// The camera's response instead of Reinhard and sRGB (camera_response.hpp): X = radiance x
+// u_camera_scale, code = forward(X): the parametric curve when u_gamma > 0, else the table
+// u_response (inverse[z] at texel z) inverted piecewise linearly. Image codes decode to inverse[z].
+uniform bool u_camera;
+uniform float u_camera_scale;
+uniform float u_gamma;
+uniform float u_shoulder;
+uniform highp sampler2D u_response;
 out vec4 o_color;
 
 vec3 srgb_encode(vec3 c) {
@@ -39,28 +47,71 @@ vec3 srgb_decode(vec3 c) {
     return mix(c / 12.92, pow((c + 0.055) / 1.055, vec3(2.4)), step(0.04045, c));
 }
 
-void main() {
-    vec4 object = texelFetch(u_radiance, ivec2(gl_FragCoord.xy), 0);
-    vec3 hdr;
-    vec2 ndc = gl_FragCoord.xy / u_size * 2.0 - 1.0;
-    vec3 ray = normalize(u_world_from_camera * vec3(ndc * u_tan_half_fov, -1.0));
-    bool proxy = u_has_shadow && texelFetch(u_normal, ivec2(gl_FragCoord.xy), 0).a < 0.0;
-    vec3 shadow = u_has_shadow && object.a == 0.0 && !proxy ? table_shadow(ray).rgb : vec3(1.0);
-    if (object.a > 0.0) {
-        hdr = object.rgb;
-    } else if (u_has_environment) {
-        hdr = shadow * equirect_bilinear(u_environment, ray);
-    } else {
-        // The image's rows are top first; the frame's y grows upwards.
-        vec2 uv = vec2(gl_FragCoord.x / u_size.x, 1.0 - gl_FragCoord.y / u_size.y);
-        vec3 image = texture(u_image, uv).rgb;
-        if (u_has_shadow) image = srgb_encode(shadow * srgb_decode(image));
-        o_color = u_has_image ? vec4(image, 1.0) : vec4(0.0, 0.0, 0.0, 1.0);
-        return;
-    }
+vec3 reinhard(vec3 hdr) {
     float l = dot(hdr, vec3(0.2126, 0.7152, 0.0722));
     float ls = u_scale * l;
     float ld = ls * (1.0 + ls / u_white_sq) / (1.0 + ls);
-    vec3 rgb = l > 0.0 ? hdr * (ld / l) : vec3(0.0);
-    o_color = vec4(srgb_encode(rgb), 1.0);
+    return l > 0.0 ? hdr * (ld / l) : vec3(0.0);
+}
+
+// The radiance target's alpha is the object's coverage of the pixel: 0 or 1 without MSAA, the
+// mean of the samples with it (RGB premultiplied, as the resolve averages). Partly covered pixels
+// mix the object and the background: in HDR before the tone map over the environment (the light
+// that reaches the pixel), in linear light after it over an image or black.
+float inverse_response(int z) { return texelFetch(u_response, ivec2(z, 0), 0).r; }
+
+float camera_code(float x) {
+    if (u_gamma > 0.0) {
+        if (x <= 0.0) return 0.0;
+        float root = pow(x, 1.0 / u_gamma);
+        return min(255.0, 255.0 * (1.0 + u_shoulder) * root / (root + u_shoulder));
+    }
+    if (x <= inverse_response(0)) return 0.0;
+    if (x >= inverse_response(255)) return 255.0;
+    int lo = 0, hi = 255;  // inverse(lo) <= x < inverse(hi)
+    for (int k = 0; k < 8; ++k) {
+        int mid = (lo + hi) / 2;
+        if (inverse_response(mid) <= x) lo = mid; else hi = mid;
+    }
+    return float(lo) + (x - inverse_response(lo)) / (inverse_response(hi) - inverse_response(lo));
+}
+
+// Linear light (relative exposure with the camera) to the display's code, and back for an image.
+vec3 encode(vec3 linear) {
+    if (u_camera) return vec3(camera_code(linear.r), camera_code(linear.g), camera_code(linear.b)) / 255.0;
+    return srgb_encode(linear);
+}
+vec3 decode(vec3 c) {
+    if (u_camera) {
+        ivec3 z = ivec3(round(clamp(c, 0.0, 1.0) * 255.0));
+        return vec3(inverse_response(z.r), inverse_response(z.g), inverse_response(z.b));
+    }
+    return srgb_decode(c);
+}
+
+// HDR radiance to linear display light: the camera's exposure, or Reinhard's operator.
+vec3 expose(vec3 hdr) { return u_camera ? u_camera_scale * hdr : reinhard(hdr); }
+
+void main() {
+    vec4 object = texelFetch(u_radiance, ivec2(gl_FragCoord.xy), 0);
+    vec2 ndc = gl_FragCoord.xy / u_size * 2.0 - 1.0;
+    vec3 ray = normalize(u_world_from_camera * vec3(ndc * u_tan_half_fov, -1.0));
+    bool proxy = u_has_shadow && texelFetch(u_normal, ivec2(gl_FragCoord.xy), 0).a < 0.0;
+    vec3 shadow = u_has_shadow && object.a < 1.0 && !proxy ? table_shadow(ray).rgb : vec3(1.0);
+    if (object.a >= 1.0) {
+        o_color = vec4(encode(expose(object.rgb)), 1.0);
+    } else if (u_has_environment) {
+        vec3 background = shadow * equirect_bilinear(u_environment, ray);
+        o_color = vec4(encode(expose(object.rgb + (1.0 - object.a) * background)), 1.0);
+    } else {
+        // The image's rows are top first; the frame's y grows upwards.
+        vec2 uv = vec2(gl_FragCoord.x / u_size.x, 1.0 - gl_FragCoord.y / u_size.y);
+        vec3 image = u_has_image ? texture(u_image, uv).rgb : vec3(0.0);
+        if (u_has_shadow && u_has_image) image = encode(shadow * decode(image));
+        if (object.a > 0.0) {
+            vec3 front = object.a * expose(object.rgb / object.a);
+            image = encode(front + (1.0 - object.a) * decode(image));
+        }
+        o_color = vec4(image, 1.0);
+    }
 }

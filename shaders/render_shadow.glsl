@@ -25,6 +25,20 @@ uniform highp sampler2D u_caps;
 uniform int u_sphere_count;
 uniform vec4 u_spheres[MAX_SPHERES];          // centre, radius
 uniform vec4 u_bound;                         // a sphere around all of them
+// The baked shadow (shadow_bake.hpp): inside its grid on the table, each light's visible part
+// (RGBA: lights 0..3) and the share of the ambient left (RGB), from rays against the real mesh.
+uniform bool u_has_bake;
+uniform highp sampler2D u_bake_lights;
+uniform highp sampler2D u_bake_ambient;
+uniform vec2 u_bake_origin;   // (x, z) of grid point (0, 0)
+uniform float u_bake_spacing;
+uniform int u_bake_res;
+
+vec4 bake_bilinear(highp sampler2D t, ivec2 i0, vec2 f) {
+    vec4 top = mix(texelFetch(t, i0, 0), texelFetch(t, i0 + ivec2(1, 0), 0), f.x);
+    vec4 bottom = mix(texelFetch(t, i0 + ivec2(0, 1), 0), texelFetch(t, i0 + ivec2(1, 1), 0), f.x);
+    return mix(top, bottom, f.y);
+}
 
 // Area of the overlap of two discs of radii a and b whose centres are d apart.
 float lens(float a, float b, float d) {
@@ -91,6 +105,25 @@ vec4 table_shadow(vec3 ray) {
         return vec4(1.0, 1.0, 1.0, 0.0);
     }
     vec3 p = u_eye + t * ray;
+    if (u_has_bake) {
+        vec2 g = (p.xz - u_bake_origin) / u_bake_spacing;
+        float last = float(u_bake_res - 1);
+        if (g.x >= 0.0 && g.y >= 0.0 && g.x <= last && g.y <= last) {
+            ivec2 i0 = ivec2(min(floor(g), vec2(last - 1.0)));
+            vec2 f = g - vec2(i0);
+            vec4 v = bake_bilinear(u_bake_lights, i0, f);
+            vec3 baked = u_ambient_irradiance * bake_bilinear(u_bake_ambient, i0, f).rgb;
+            vec3 open = u_ambient_irradiance;
+            for (int i = 0; i < u_light_count; ++i) {
+                baked += u_light_irradiance[i] * v[i];
+                open += u_light_irradiance[i];
+            }
+            vec3 r = vec3(1.0);
+            for (int c = 0; c < 3; ++c)
+                if (open[c] > 0.0) r[c] = clamp(baked[c] / open[c], 0.0, 1.0);
+            return vec4(r, 1.0);
+        }
+    }
 
     float visible[MAX_LIGHTS];
     for (int i = 0; i < MAX_LIGHTS; ++i) visible[i] = 1.0;

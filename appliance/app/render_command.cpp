@@ -24,12 +24,15 @@
 #include "appliance/gl/display.hpp"
 #include "appliance/render/ao_bake.hpp"
 #include "appliance/render/ao_file.hpp"
+#include "appliance/render/camera_response.hpp"
+#include "appliance/render/live_maps.hpp"
 #include "appliance/render/maps.hpp"
 #include "appliance/render/material.hpp"
 #include "appliance/render/mesh.hpp"
 #include "appliance/render/renderer.hpp"
 #include "appliance/render/teapot.hpp"
 #include "appliance/render/shadow.hpp"
+#include "appliance/render/shadow_bake.hpp"
 
 namespace glint::app {
 namespace {
@@ -56,6 +59,14 @@ struct RenderArgs {
     std::string shadows = "auto";       // on, off; auto = on over env or an image, off over black
     std::vector<std::string> proxies;   // OBJ files, world coordinates
     std::optional<double> table_height; // default: the model's lowest point
+    int msaa = 4;                       // samples a pixel of the frame (1: none)
+    std::string camera;                 // calibration.json: the camera's response instead of Reinhard
+    double exposure_ms = 10;
+    double gain = 1;
+    bool exposure_given = false, gain_given = false;
+    bool live_maps = false;             // final maps by the GPU engine in the frames' leftover time
+    double frame_budget_ms = 1000.0 / 30.0;
+    bool budget_given = false;
 };
 
 // The model's baked ambient occlusion (docs/render.md, "Ambient occlusion"): MODEL.ao beside a
@@ -91,17 +102,20 @@ void load_ambient_occlusion(const std::string& model, render::Mesh& mesh) {
     mesh.ao = std::move(lookup.ao);
 }
 
-// A glTF model without --material: its own material mapped to Phong (material.hpp). One material
-// shades the whole object; a model whose triangles use several takes the first, and says so.
-render::Material material_of_gltf(const render::Mesh& mesh) {
-    const render::GltfMaterial& g = mesh.materials.front();
-    if (mesh.materials.size() > 1)
-        std::fprintf(stderr, "glint: warning: %s uses %zu materials; the whole model is shaded with the first, '%s' "
-                     "(one material per model)\n", mesh.source.c_str(), mesh.materials.size(), g.name.c_str());
-    if (g.textured)
-        std::fprintf(stderr, "glint: warning: %s: material '%s' names textures, which are not read (its factors are used)\n",
-                     mesh.source.c_str(), g.name.c_str());
-    return render::material_from_gltf(g);
+// The material of each part of the model (glTF primitives, OBJ usemtl groups): --material for
+// all when given, else each part's own (docs/render.md, "Several materials"), --material's
+// default for an OBJ group whose MTL material is missing. Says what it did.
+std::vector<render::Material> materials_of(const render::Mesh& mesh, const render::Material& chosen, bool given) {
+    for (const render::GltfMaterial& g : mesh.materials)
+        if (g.textured && !given)
+            std::fprintf(stderr, "glint: warning: %s: material '%s' names textures, which are not read (its factors are used)\n",
+                         mesh.source.c_str(), g.name.c_str());
+    if (!given)
+        for (const render::ObjMaterial& o : mesh.obj_materials)
+            if (!o.defined)
+                std::fprintf(stderr, "glint: warning: %s: material '%s' is defined by no mtllib file; its faces use %s\n",
+                             mesh.source.c_str(), o.name.empty() ? "(before any usemtl)" : o.name.c_str(), chosen.spec.c_str());
+    return render::part_materials(mesh, chosen, given);
 }
 
 // Nearest-rank percentile of sorted values.
@@ -129,10 +143,27 @@ int run_render(const RenderArgs& args) {
             throw InputError("--background " + args.background + ": want env, black or a .png image");
         background_image = gl::load_png(args.background);
     }
+    if (args.live_maps && !args.maps.empty()) throw InputError("--live-maps: not with --maps (the maps are made while the frames run)");
+    if (args.budget_given && !args.live_maps) throw InputError("--frame-budget-ms: needs --live-maps");
+    if (!(args.frame_budget_ms > 0 && std::isfinite(args.frame_budget_ms))) throw InputError("--frame-budget-ms: must be positive");
+    std::optional<render::CameraResponse> camera;
+    if (!args.camera.empty()) camera = render::load_camera_response(args.camera, "--camera");
+    if (!camera && (args.exposure_given || args.gain_given))
+        throw InputError(std::string(args.exposure_given ? "--exposure-ms" : "--gain") + ": needs --camera CAL.json");
+    if (!(args.exposure_ms > 0 && std::isfinite(args.exposure_ms))) throw InputError("--exposure-ms: must be positive");
+    if (!(args.gain > 0 && std::isfinite(args.gain))) throw InputError("--gain: must be positive");
     render::Mesh mesh = render::load_model(args.model);
     if (!args.no_ao) load_ambient_occlusion(args.model, mesh);
-    if (!args.material_given && !mesh.materials.empty()) material = material_of_gltf(mesh);
-    std::printf("material: %s\n", material.spec.c_str());
+    const std::vector<render::Material> part_materials = materials_of(mesh, material, args.material_given);
+    {
+        std::vector<render::Material> distinct;
+        for (const render::Material& m : part_materials)
+            if (std::none_of(distinct.begin(), distinct.end(), [&](const render::Material& d) { return render::same_shading(d, m); }))
+                distinct.push_back(m);
+        for (std::size_t k = 0; k < distinct.size(); ++k)
+            if (distinct.size() == 1) std::printf("material: %s\n", distinct[k].spec.c_str());
+            else std::printf("material %zu: %s\n", k, distinct[k].spec.c_str());
+    }
     std::vector<render::Mesh> proxies;
     for (const std::string& file : args.proxies) {
         if (fs::path(file).extension() != ".obj") throw InputError("--proxy " + file + ": want an .obj file");
@@ -167,25 +198,29 @@ int run_render(const RenderArgs& args) {
 
     const auto t_maps = Clock::now();
     render::ShadingMaps maps;
-    if (!args.maps.empty()) maps = render::load_maps(args.maps, material);  // before the environment: a missing map is bad input, found first
+    if (!args.maps.empty()) maps = render::load_maps(args.maps, part_materials);  // before the environment: a missing map is bad input, found first
     LoadedExr env = load_exr(args.env);
     if (env.sanitised.total() > 0)
         std::fprintf(stderr, "glint: warning: %s: %zu channel values sanitised (NaN %zu, +Inf %zu, -Inf %zu, negative %zu)\n",
                      args.env.c_str(), env.sanitised.total(), env.sanitised.nan, env.sanitised.pos_inf,
                      env.sanitised.neg_inf, env.sanitised.negative);
 
-    if (args.maps.empty()) {
+    if (args.live_maps) {
+        maps = render::coarse_maps(env.image, part_materials, args.threads);  // the final ones come during the frames
+    } else if (args.maps.empty()) {
         convolution::Options options;
         options.tolerance = 0.01;
         options.threads = args.threads;
-        maps = render::convolve_maps(env.image, material, options);
+        maps = render::convolve_maps(env.image, part_materials, options);
     }
     const double maps_s = std::chrono::duration<double>(Clock::now() - t_maps).count();
     if (maps.irradiance) std::printf("irradiance: %s\n", maps.irradiance_from.c_str());
-    if (maps.reflection) std::printf("reflection: %s\n", maps.reflection_from.c_str());
+    for (const render::ReflectionMap& r : maps.reflections)
+        std::printf("reflection %s: %s\n", r.request.label.c_str(), r.from.c_str());
 
 
-    render::Renderer renderer(mesh, material, maps, display->width(), display->height());
+    render::Renderer renderer(mesh, part_materials, maps, display->width(), display->height(), render::Camera{}, args.msaa);
+    std::printf("msaa: %dx\n", args.msaa);
     renderer.set_ambient_occlusion(!args.no_ao);
     if (args.background == "env") renderer.set_background_environment(env.image);
     else if (background_image) renderer.set_background_image(*background_image);
@@ -208,26 +243,67 @@ int run_render(const RenderArgs& args) {
                         lighting.light_irradiance[i].y / std::max(1e-30, table_irradiance));
         }
         renderer.enable_shadows(lighting, occluders);
+        // Anything but the sphere model (one occluder sphere that is the object itself): the shadow
+        // baked against the real mesh near the object (docs/render.md, "Baked shadows").
+        if (occluders.size() != 1) {
+            const render::ShadowBake bake = render::bake_table_shadow(mesh, lighting, table_height);
+            renderer.set_shadow_bake(bake);
+            std::printf("shadow: baked against the mesh on a %dx%d grid (spacing %.3g), %lld rays in %.2f s\n",
+                        bake.resolution, bake.resolution, bake.spacing, bake.rays, bake.seconds);
+        }
     }
 
+    if (camera) {
+        const render::CameraExposure exposure{args.exposure_ms, args.gain};
+        renderer.set_camera_response(*camera, exposure);
+        std::printf("camera: %s (%s response, sensitivity %.4g), exposure %.4g ms, gain %.4g: radiance 1 -> code %.2f\n",
+                    camera->source.c_str(), camera->parametric() ? "parametric" : "tabulated", camera->sensitivity,
+                    args.exposure_ms, args.gain, camera->code(exposure.scale(*camera)));
+    }
     // The scene is still, so the tone map is metered once, before the timed frames.
     const render::ToneMap& tone = renderer.meter(args.key);
-    std::printf("tone map: Reinhard, key %.3g, log-average luminance %.6g, white %.6g (scaled), %lld pixels metered\n",
+    if (!camera) std::printf("tone map: Reinhard, key %.3g, log-average luminance %.6g, white %.6g (scaled), %lld pixels metered\n",
                 tone.key, tone.log_average, tone.white, tone.pixels);
 
-    std::vector<double> frame_ms;
+    // --live-maps: the final maps' job starts now; each frame grants it what is left of the budget.
+    std::unique_ptr<render::LiveMaps> live;
+    int final_maps_frame = -1;  // the first frame drawn with the final maps
+    const auto adopt_final_maps = [&](int frame) {
+        if (std::optional<render::ShadingMaps> final_maps = live->take()) {
+            renderer.replace_maps(*final_maps);
+            final_maps_frame = frame;
+            std::printf("live maps: final maps after %.2f s, from frame %d on (%lld tiles, %.1f ms GPU)\n", live->seconds(),
+                        frame, live->tiles().tiles, live->tiles().gpu_ms);
+            if (final_maps->irradiance) std::printf("irradiance: %s\n", final_maps->irradiance_from.c_str());
+            for (const render::ReflectionMap& r : final_maps->reflections)
+                std::printf("reflection %s: %s\n", r.request.label.c_str(), r.from.c_str());
+        }
+    };
+    if (args.live_maps) {
+        live = std::make_unique<render::LiveMaps>(display->context(), env.image, part_materials, args.frame_budget_ms);
+        std::printf("live maps: coarse maps now, the final ones on the GPU in each frame's time left of %.1f ms\n",
+                    args.frame_budget_ms);
+    }
+    std::vector<double> frame_ms, slice_ms;
     for (int f = 0; f < args.frames; ++f) {
+        if (live && live->done() && final_maps_frame < 0) adopt_final_maps(f);
         const auto t0 = Clock::now();
         renderer.draw_scene();
         display->bind_frame();
         renderer.composite();
         display->present();
         frame_ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
+        if (live) slice_ms.push_back(live->after_frame(frame_ms.back()));
         for (const auto& e : display->poll_events())
             if (e.type == gl::InputEvent::Type::Quit || (e.type == gl::InputEvent::Type::KeyDown && e.key == "Escape"))
                 f = args.frames;
     }
 
+    // The files show the final maps: a job not done within the frames gets the GPU until it is.
+    if (live && final_maps_frame < 0 && (!args.out.empty() || !args.aov.empty())) {
+        live->finish();
+        adopt_final_maps(args.frames);
+    }
     // One more frame, untimed, for the files: the read-backs are not part of a frame's cost.
     if (!args.out.empty() || !args.aov.empty()) {
         renderer.draw_scene();
@@ -253,12 +329,25 @@ int run_render(const RenderArgs& args) {
         s["renderer"] = display->context().caps().renderer;
         s["model"] = mesh.source;
         s["triangles"] = mesh.triangle_count();
-        s["material"] = material.spec;
+        s["material"] = part_materials.front().spec;
+        s["materials"] = nlohmann::json::array();
+        for (const render::Material& m : part_materials) s["materials"].push_back(m.spec);
+        s["draws"] = renderer.draws();
         s["shadows"] = shadows;
+        s["msaa"] = args.msaa;
+        if (live)
+            s["live_maps"] = {{"frame_budget_ms", args.frame_budget_ms},
+                              {"final_from_frame", final_maps_frame >= 0 ? nlohmann::json(final_maps_frame) : nlohmann::json()},
+                              {"job_seconds", live->done() ? nlohmann::json(live->seconds()) : nlohmann::json()},
+                              {"tiles", live->tiles().tiles}, {"tile_gpu_ms", live->tiles().gpu_ms},
+                              {"slice_ms_all", slice_ms}};
+        if (camera) s["camera"] = {{"calibration", args.camera}, {"exposure_ms", args.exposure_ms}, {"gain", args.gain}};
         s["proxies"] = args.proxies.size();
         s["maps_seconds"] = maps_s;
         s["irradiance"] = maps.irradiance ? nlohmann::json(maps.irradiance_from) : nlohmann::json();
-        s["reflection"] = maps.reflection ? nlohmann::json(maps.reflection_from) : nlohmann::json();
+        s["reflection"] = maps.reflections.empty() ? nlohmann::json() : nlohmann::json(maps.reflections.front().from);
+        s["reflections"] = nlohmann::json::object();
+        for (const render::ReflectionMap& r : maps.reflections) s["reflections"][r.request.label] = r.from;
         s["tone_map"] = {{"operator", "reinhard"}, {"key", tone.key}, {"log_average", tone.log_average},
                          {"white_scaled", tone.white}, {"delta", tone.delta}};
         s["frame_ms"] = {{"median", med}, {"p99", p99}, {"max", max}};
@@ -313,8 +402,29 @@ Command add_render_command(CLI::App& app) {
                     "depth only so it hides the object; repeatable");
     cmd->add_option("--table-height", args->table_height,
                     "y of the table plane (world units); default: the model's lowest point");
-    return {cmd, [args, material_option] {
+    cmd->add_option("--msaa", args->msaa,
+                    "Samples a pixel of the frame: 1 (none) or 4 (antialiased edges; the AOVs stay one sample a pixel)")
+        ->check(CLI::IsMember({1, 4}))
+        ->capture_default_str();
+    cmd->add_option("--camera", args->camera,
+                    "Camera calibration (calibration.json of glint calibrate or glint simulate): the frame goes through "
+                    "its response curve at --exposure-ms and --gain instead of Reinhard and sRGB, and an image "
+                    "background is decoded with the inverse response");
+    CLI::Option* exposure_option = cmd->add_option("--exposure-ms", args->exposure_ms,
+                    "With --camera: the camera's exposure time, ms")->capture_default_str();
+    CLI::Option* gain_option = cmd->add_option("--gain", args->gain, "With --camera: the camera's analogue gain")
+        ->capture_default_str();
+    cmd->add_flag("--live-maps", args->live_maps,
+                  "Start with coarse maps (32x16) and make the final ones (tolerance 1 %) with the GPU engine in each "
+                  "frame's time left of --frame-budget-ms; the object switches to them when they are done");
+    CLI::Option* budget_option = cmd->add_option("--frame-budget-ms", args->frame_budget_ms,
+                    "With --live-maps: the frame period, ms; what a frame leaves of it goes to the convolution")
+        ->capture_default_str();
+    return {cmd, [args, material_option, exposure_option, gain_option, budget_option] {
+                args->budget_given = budget_option->count() > 0;
                 args->material_given = material_option->count() > 0;
+                args->exposure_given = exposure_option->count() > 0;
+                args->gain_given = gain_option->count() > 0;
                 return run_render(*args);
             }};
 }

@@ -1,6 +1,6 @@
 #include "appliance/render/ao_bake.hpp"
 
-#include <embree3/rtcore.h>
+#include "appliance/render/occlusion_scene.hpp"
 
 #include <algorithm>
 #include <atomic>
@@ -15,26 +15,6 @@
 
 namespace glint::render {
 namespace {
-
-// Owners of Embree's handles (released in reverse order of creation).
-struct Device {
-    RTCDevice handle = rtcNewDevice(nullptr);
-    ~Device() {
-        if (handle) rtcReleaseDevice(handle);
-    }
-};
-struct Scene {
-    RTCScene handle;
-    explicit Scene(RTCDevice d) : handle(rtcNewScene(d)) {}
-    ~Scene() {
-        if (handle) rtcReleaseScene(handle);
-    }
-};
-
-void check(RTCDevice device, const char* what) {
-    const RTCError e = rtcGetDeviceError(device);
-    if (e != RTC_ERROR_NONE) throw RuntimeError(std::string("ao bake: Embree failed ") + what + " (error " + std::to_string(int(e)) + ")");
-}
 
 // SplitMix64: a well-mixed 64-bit hash, for seeding a vertex's rays from its position and normal.
 std::uint64_t mix(std::uint64_t x) {
@@ -105,37 +85,7 @@ std::vector<float> bake_ambient_occlusion(const Mesh& mesh, const AoBakeOptions&
     const float max_distance = float(options.max_distance_relative * radius);
     const double offset = options.offset_relative * radius;
 
-    Device device;
-    if (!device.handle) throw RuntimeError("ao bake: Embree could not create a device (error " +
-                                           std::to_string(int(rtcGetDeviceError(nullptr))) + ")");
-    Scene scene(device.handle);
-    RTCGeometry geometry = rtcNewGeometry(device.handle, RTC_GEOMETRY_TYPE_TRIANGLE);
-    auto* vertices = static_cast<float*>(rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_VERTEX, 0, RTC_FORMAT_FLOAT3,
-                                                                 3 * sizeof(float), mesh.positions.size()));
-    auto* triangles = static_cast<unsigned*>(rtcSetNewGeometryBuffer(geometry, RTC_BUFFER_TYPE_INDEX, 0, RTC_FORMAT_UINT3,
-                                                                     3 * sizeof(unsigned), mesh.indices.size() / 3));
-    if (!vertices || !triangles) {
-        rtcReleaseGeometry(geometry);
-        check(device.handle, "allocating the buffers");
-        throw RuntimeError("ao bake: Embree could not allocate the buffers");
-    }
-    for (std::size_t i = 0; i < mesh.positions.size(); ++i) {
-        vertices[3 * i] = mesh.positions[i].x;
-        vertices[3 * i + 1] = mesh.positions[i].y;
-        vertices[3 * i + 2] = mesh.positions[i].z;
-    }
-    for (std::size_t i = 0; i < mesh.indices.size() / 3 * 3; ++i) {
-        if (mesh.indices[i] >= mesh.positions.size()) {
-            rtcReleaseGeometry(geometry);
-            throw InputError("ao bake: the mesh " + mesh.source + " has an index out of range");
-        }
-        triangles[i] = mesh.indices[i];
-    }
-    rtcCommitGeometry(geometry);
-    rtcAttachGeometry(scene.handle, geometry);
-    rtcReleaseGeometry(geometry);
-    rtcCommitScene(scene.handle);
-    check(device.handle, "building the scene");
+    const OcclusionScene scene(mesh, "ao bake");
 
     const std::size_t count = mesh.positions.size();
     std::vector<float> ao(count, 1.0f);
@@ -144,8 +94,6 @@ std::vector<float> bake_ambient_occlusion(const Mesh& mesh, const AoBakeOptions&
     std::atomic<std::size_t> done{0};
     const int threads = options.threads > 0 ? options.threads : hardware_threads();
     parallel_for(blocks, threads, [&](int block) {
-        RTCIntersectContext context;
-        rtcInitIntersectContext(&context);
         std::vector<RTCRay> rays;
         const std::size_t begin = std::size_t(block) * kBlock, end = std::min(count, begin + kBlock);
         for (std::size_t v = begin; v < end; ++v) {
@@ -167,30 +115,17 @@ std::vector<float> bake_ambient_occlusion(const Mesh& mesh, const AoBakeOptions&
                 double l[3];
                 cosine_direction(k, options.rays, sx, sy, l);
                 const glm::dvec3 d = l[0] * t + l[1] * b + l[2] * n;
-                RTCRay& ray = rays[std::size_t(k)];
-                ray.org_x = float(origin.x);
-                ray.org_y = float(origin.y);
-                ray.org_z = float(origin.z);
-                ray.tnear = 0.0f;
-                ray.dir_x = float(d.x);
-                ray.dir_y = float(d.y);
-                ray.dir_z = float(d.z);
-                ray.time = 0.0f;
-                ray.tfar = max_distance;
-                ray.mask = 0xFFFFFFFFu;
-                ray.id = unsigned(k);
-                ray.flags = 0;
+                rays[std::size_t(k)] = OcclusionScene::ray(origin, d, 0.0f, max_distance, unsigned(k));
             }
-            rtcOccluded1M(scene.handle, &context, rays.data(), unsigned(rays.size()), sizeof(RTCRay));
+            scene.trace(rays);
             int open = 0;
-            // Embree marks an occluded ray by setting tfar to -infinity.
-            for (const RTCRay& ray : rays) open += ray.tfar >= 0.0f;
+            for (const RTCRay& ray : rays) open += !OcclusionScene::occluded(ray);
             ao[v] = float(double(open) / options.rays);
         }
         const std::size_t now = done.fetch_add(end - begin) + (end - begin);
         if (options.progress) options.progress(now, count);
     });
-    check(device.handle, "tracing the rays");
+    scene.check("tracing the rays");
     return ao;
 }
 

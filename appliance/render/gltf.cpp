@@ -106,10 +106,12 @@ Mesh load_gltf(const std::filesystem::path& path) {
     int skipped = 0;
 
     // The materials the triangles use, each once, in order of first use (-1: glTF's default).
+    // Returns the material's index in mesh.materials.
     std::vector<int> used_materials;
-    const auto use_material = [&](int k) {
+    const auto use_material = [&](int k) -> int {
         if (k >= int(model.materials.size())) reader.fail("a primitive names no material " + std::to_string(k));
-        if (std::find(used_materials.begin(), used_materials.end(), k) != used_materials.end()) return;
+        const auto seen = std::find(used_materials.begin(), used_materials.end(), k);
+        if (seen != used_materials.end()) return int(seen - used_materials.begin());
         used_materials.push_back(k);
         GltfMaterial g;
         if (k < 0) {
@@ -126,6 +128,7 @@ Mesh load_gltf(const std::filesystem::path& path) {
                 if (!(c >= 0.0 && c <= 1.0)) reader.fail("material '" + g.name + "': a factor outside [0, 1]");
         }
         mesh.materials.push_back(g);
+        return int(mesh.materials.size()) - 1;
     };
 
     const auto add_mesh = [&](int mesh_index, const glm::dmat4& world) {
@@ -164,7 +167,14 @@ Mesh load_gltf(const std::filesystem::path& path) {
                 for (std::size_t k = 0; k < n; ++k) mesh.indices.push_back(std::uint32_t(base + k));
             }
             if ((mesh.indices.size() - first_index) % 3 != 0) reader.fail("a triangle list whose index count is not a multiple of 3");
-            if (mesh.indices.size() > first_index) use_material(prim.material);
+            if (mesh.indices.size() > first_index) {
+                // A part per primitive; consecutive primitives of one material merge.
+                const int material = use_material(prim.material);
+                if (!mesh.parts.empty() && mesh.parts.back().material == material)
+                    mesh.parts.back().index_count += mesh.indices.size() - first_index;
+                else
+                    mesh.parts.push_back({first_index, mesh.indices.size() - first_index, material});
+            }
         }
     };
 

@@ -19,7 +19,30 @@ std::string describe_plan(const convolution::MapResult& r) {
 
 }  // namespace
 
+const ReflectionMap* ShadingMaps::reflection_for(const Material& material) const {
+    if (!material.specular()) return nullptr;
+    const std::string label = reflection_request(material).label;
+    for (const ReflectionMap& r : reflections)
+        if (r.request.label == label) return &r;
+    return nullptr;
+}
+
+void ShadingMaps::set_reflection(const Material& material, HdrImage image, std::string from) {
+    const convolution::MapRequest request = reflection_request(material);
+    for (ReflectionMap& r : reflections)
+        if (r.request.label == request.label) {
+            r.image = std::move(image);
+            r.from = std::move(from);
+            return;
+        }
+    reflections.push_back({request, std::move(image), std::move(from)});
+}
+
 ShadingMaps load_maps(const fs::path& dir, const Material& material) {
+    return load_maps(dir, std::vector<Material>{material});
+}
+
+ShadingMaps load_maps(const fs::path& dir, const std::vector<Material>& materials) {
     const fs::path report_path = dir / "report.json";
     std::ifstream in(report_path);
     if (!in) throw InputError("--maps " + dir.string() + ": no report.json (write the maps with glint convolve)");
@@ -33,7 +56,7 @@ ShadingMaps load_maps(const fs::path& dir, const Material& material) {
         throw InputError(report_path.string() + ": has no \"maps\" list");
 
     ShadingMaps out;
-    for (const convolution::MapRequest& want : needed_maps(material)) {
+    for (const convolution::MapRequest& want : needed_maps(materials)) {
         std::string file;
         std::string listed;
         for (const auto& entry : report["maps"]) {
@@ -55,8 +78,7 @@ ShadingMaps load_maps(const fs::path& dir, const Material& material) {
             out.irradiance = std::move(image);
             out.irradiance_from = path.string();
         } else {
-            out.reflection = std::move(image);
-            out.reflection_from = path.string();
+            out.reflections.push_back({want, std::move(image), path.string()});
         }
     }
     return out;
@@ -64,7 +86,13 @@ ShadingMaps load_maps(const fs::path& dir, const Material& material) {
 
 ShadingMaps convolve_maps(const HdrImage& environment, const Material& material,
                           const convolution::Options& options) {
-    const auto requests = needed_maps(material);
+    return convolve_maps(environment, std::vector<Material>{material}, options);
+}
+
+ShadingMaps convolve_maps(const HdrImage& environment, const std::vector<Material>& materials,
+                          const convolution::Options& options) {
+    // Exactly the distinct lobes the materials use, in one call (the engine shares its set-up).
+    const auto requests = needed_maps(materials);
     std::vector<convolution::MapResult> results = convolution::convolve(environment, requests, options);
     ShadingMaps out;
     for (auto& r : results) {
@@ -72,8 +100,7 @@ ShadingMaps convolve_maps(const HdrImage& environment, const Material& material,
             out.irradiance_from = describe_plan(r);
             out.irradiance = std::move(r.image);
         } else {
-            out.reflection_from = describe_plan(r);
-            out.reflection = std::move(r.image);
+            out.reflections.push_back({r.request, std::move(r.image), describe_plan(r)});
         }
     }
     return out;

@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <optional>
 #include <string>
+#include <vector>
 
 #include "appliance/convolution/convolution.hpp"
 #include "appliance/core/hdr_image.hpp"
@@ -12,10 +13,25 @@
 
 namespace glint::render {
 
+// One reflection lobe's map: E_s^n or the mirror map, looked up with R.
+struct ReflectionMap {
+    convolution::MapRequest request;  // its label ("phong_160", "mirror") names it
+    HdrImage image;
+    std::string from;                 // where it came from, for the log and stats
+};
+
 struct ShadingMaps {
-    std::optional<HdrImage> irradiance;  // E_d, looked up with N (when kd > 0)
-    std::optional<HdrImage> reflection;  // E_s^n or the mirror map, looked up with R (when ks > 0)
-    std::string irradiance_from, reflection_from;  // where each came from, for the log and stats
+    std::optional<HdrImage> irradiance;    // E_d, looked up with N (when any kd > 0)
+    std::string irradiance_from;
+    std::vector<ReflectionMap> reflections;  // one per distinct specular lobe the materials use
+
+    // The map a specular material looks up, or null when it is not here.
+    const ReflectionMap* reflection_for(const Material& material) const;
+    // The first reflection map and where it came from (a single material's), or null / "".
+    const HdrImage* reflection() const { return reflections.empty() ? nullptr : &reflections.front().image; }
+    std::string reflection_from() const { return reflections.empty() ? std::string() : reflections.front().from; }
+    // Sets the map of `material`'s lobe (tests and callers that make maps themselves).
+    void set_reflection(const Material& material, HdrImage image, std::string from = "given");
 };
 
 // Reads the maps of `material` from `dir`: its report.json (written by `glint convolve`) names
@@ -23,10 +39,14 @@ struct ShadingMaps {
 // InputError naming the directory and the map when one is missing, and the file when it cannot
 // be read.
 ShadingMaps load_maps(const std::filesystem::path& dir, const Material& material);
+ShadingMaps load_maps(const std::filesystem::path& dir, const std::vector<Material>& materials);
 
 // Convolves exactly the distinct lobes the material uses (needed_maps) from `environment` with
 // the CPU engine: `options` as `glint convolve` takes them (tolerance 0.01 by default).
 ShadingMaps convolve_maps(const HdrImage& environment, const Material& material,
+                          const convolution::Options& options);
+// Several materials (one per part of a model): each distinct lobe once (needed_maps).
+ShadingMaps convolve_maps(const HdrImage& environment, const std::vector<Material>& materials,
                           const convolution::Options& options);
 
 }  // namespace glint::render

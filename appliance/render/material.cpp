@@ -120,19 +120,69 @@ Material material_from_gltf(const GltfMaterial& g) {
     return m;
 }
 
+convolution::MapRequest reflection_request(const Material& material) {
+    if (material.mirror) return convolution::MapRequest::make_mirror();
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "%g", material.n);
+    return convolution::MapRequest::make_phong(material.n, buf);
+}
+
 std::vector<convolution::MapRequest> needed_maps(const Material& material) {
+    return needed_maps(std::vector<Material>{material});
+}
+
+std::vector<convolution::MapRequest> needed_maps(const std::vector<Material>& materials) {
     std::vector<convolution::MapRequest> maps;
-    if (material.diffuse()) maps.push_back(convolution::MapRequest::make_irradiance());
-    if (material.specular()) {
-        if (material.mirror) {
-            maps.push_back(convolution::MapRequest::make_mirror());
-        } else {
-            char buf[64];
-            std::snprintf(buf, sizeof buf, "%g", material.n);
-            maps.push_back(convolution::MapRequest::make_phong(material.n, buf));
+    for (const Material& m : materials)
+        if (m.diffuse()) {
+            maps.push_back(convolution::MapRequest::make_irradiance());
+            break;
         }
+    for (const Material& m : materials) {
+        if (!m.specular()) continue;
+        convolution::MapRequest r = reflection_request(m);
+        const bool seen = std::any_of(maps.begin(), maps.end(),
+                                      [&](const convolution::MapRequest& q) { return q.label == r.label; });
+        if (!seen) maps.push_back(std::move(r));
     }
     return maps;
+}
+
+Material material_from_mtl(const ObjMaterial& mtl) {
+    Material m;
+    m.kd = mtl.kd;
+    m.ks = mtl.ks;
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "%.4g", mtl.ns / 4.0);
+    m.n = std::strtod(buf, nullptr);
+    char spec[256];
+    std::snprintf(spec, sizeof spec, "mtl '%s' (Kd %.3g,%.3g,%.3g Ks %.3g,%.3g,%.3g Ns %.4g): kd=%.4g,%.4g,%.4g;ks=%.4g,%.4g,%.4g;n=%s",
+                  mtl.name.c_str(), mtl.kd.x, mtl.kd.y, mtl.kd.z, mtl.ks.x, mtl.ks.y, mtl.ks.z, mtl.ns, m.kd.x, m.kd.y,
+                  m.kd.z, m.ks.x, m.ks.y, m.ks.z, buf);
+    m.spec = spec;
+    return m;
+}
+
+std::vector<Material> part_materials(const Mesh& mesh, const Material& fallback, bool override_all) {
+    if (mesh.parts.empty()) return {fallback};
+    std::vector<Material> out;
+    for (const MeshPart& part : mesh.parts) {
+        if (override_all) {
+            out.push_back(fallback);
+        } else if (!mesh.materials.empty()) {
+            out.push_back(material_from_gltf(mesh.materials.at(std::size_t(part.material))));
+        } else {
+            const ObjMaterial& o = mesh.obj_materials.at(std::size_t(part.material));
+            out.push_back(o.defined ? material_from_mtl(o) : fallback);
+        }
+    }
+    return out;
+}
+
+bool same_shading(const Material& a, const Material& b) {
+    if (a.kd != b.kd || a.ks != b.ks) return false;
+    if (!a.specular()) return true;
+    return a.mirror == b.mirror && (a.mirror || a.n == b.n);
 }
 
 }  // namespace glint::render

@@ -40,12 +40,32 @@ Material parse_material(const std::string& text, const std::string& flag = "--ma
 // roughness and textures are not modelled. `spec` says where it came from.
 Material material_from_gltf(const GltfMaterial& gltf);
 
+// An OBJ group's MTL material mapped to Phong (docs/render.md, "Several materials"): kd = Kd,
+// ks = Ks, n = Ns / 4 (MTL's specular lobe is (N.H)^Ns, about the half vector; the conventions'
+// lobe is about R, where angles are twice as large: the same quarter as for glTF). Ks = 0: no
+// specular term. `spec` says where it came from. An undefined material is not mapped here.
+Material material_from_mtl(const ObjMaterial& mtl);
+
+// The material of each part of the model (Mesh::parts; one for a model without parts):
+// `fallback` for every part when `override_all` (--material given), else each glTF part's mapped
+// material, each OBJ part's MTL material, and `fallback` for an OBJ part whose material is
+// undefined (no MTL, or a name it does not define).
+std::vector<Material> part_materials(const Mesh& mesh, const Material& fallback, bool override_all);
+
+// Whether two materials shade identically (the same kd, ks and lobe): one draw for both.
+bool same_shading(const Material& a, const Material& b);
+
 // The exponent of the mapping above (infinity below roughness 0.047 means the mirror).
 double phong_exponent_from_roughness(double roughness);
 
 // The maps the material shades with, each lobe once: the irradiance map when kd > 0, the Phong
 // map of n (or the mirror map) when ks > 0.
 std::vector<convolution::MapRequest> needed_maps(const Material& material);
+// The distinct lobes of several materials, each once: the irradiance map when any is diffuse,
+// then each distinct Phong exponent (or the mirror) of the specular ones.
+std::vector<convolution::MapRequest> needed_maps(const std::vector<Material>& materials);
+// The reflection map's request of a specular material (its label names the map).
+convolution::MapRequest reflection_request(const Material& material);
 
 // "phong_160" for n = 160: the label and file stem `glint convolve --shininess 160` uses.
 std::string phong_label(double n);

@@ -67,6 +67,48 @@ std::size_t obj_index(std::string_view text, std::size_t count, const std::strin
 
 }  // namespace
 
+// The materials of an MTL file: newmtl, Kd, Ks, Ns (everything else ignored). Throws InputError
+// "FILE:LINE: what" on a malformed value; a file that cannot be opened gives no materials.
+static std::map<std::string, ObjMaterial> read_mtl(const std::filesystem::path& path) {
+    std::map<std::string, ObjMaterial> out;
+    std::ifstream in(path);
+    if (!in) return out;
+    std::string line;
+    int line_no = 0;
+    ObjMaterial* current = nullptr;
+    while (std::getline(in, line)) {
+        ++line_no;
+        const std::string where = path.string() + ":" + std::to_string(line_no);
+        const auto words = split_ws(std::string_view(line).substr(0, line.find('#')));
+        if (words.empty()) continue;
+        const std::string_view key = words[0];
+        if (key == "newmtl") {
+            if (words.size() < 2) throw InputError(where + ": newmtl needs a name");
+            const std::string name(words[1]);
+            current = &out[name];
+            current->name = name;
+            current->defined = true;
+            current->where = path.string();
+        } else if (key == "Kd" || key == "Ks" || key == "Ns") {
+            if (!current) throw InputError(where + ": '" + std::string(key) + "' before any newmtl");
+            if (key == "Ns") {
+                if (words.size() != 2) throw InputError(where + ": Ns needs one number");
+                current->ns = parse_double(words[1], where);
+                if (!(current->ns >= 0)) throw InputError(where + ": Ns must be >= 0");
+                continue;
+            }
+            // Kd r g b, or one number for all three.
+            if (words.size() != 2 && words.size() != 4)
+                throw InputError(where + ": '" + std::string(key) + "' needs r g b (or one number)");
+            glm::dvec3 c(parse_double(words[1], where));
+            if (words.size() == 4) c = {parse_double(words[1], where), parse_double(words[2], where), parse_double(words[3], where)};
+            if (!(c.x >= 0 && c.y >= 0 && c.z >= 0)) throw InputError(where + ": '" + std::string(key) + "' must be >= 0");
+            (key == "Kd" ? current->kd : current->ks) = c;
+        }
+    }
+    return out;
+}
+
 Mesh load_obj(const std::filesystem::path& path) {
     std::ifstream in(path);
     if (!in) throw InputError(path.string() + ": cannot open the OBJ file");
@@ -76,6 +118,14 @@ Mesh load_obj(const std::filesystem::path& path) {
     std::vector<std::size_t> corner_position;  // per output vertex
     Mesh m;
     m.source = path.string();
+    std::map<std::string, ObjMaterial> library;  // from the mtllib files
+    int current_material = -1;                   // into m.obj_materials; -1 before any usemtl
+    // Starts a new part when the material of the next faces differs from the last part's.
+    const auto note_faces = [&](std::size_t first_index) {
+        if (current_material < 0) return;
+        if (m.parts.empty() || m.parts.back().material != current_material)
+            m.parts.push_back({first_index, 0, current_material});
+    };
     std::string line;
     int line_no = 0;
     while (std::getline(in, line)) {
@@ -100,7 +150,30 @@ Mesh load_obj(const std::filesystem::path& path) {
                 if (!(len > 0)) throw InputError(where + ": normal of zero length");
                 vn.push_back(p / len);
             }
+        } else if (key == "mtllib") {
+            for (std::size_t k = 1; k < words.size(); ++k)
+                for (auto& [name, mat] : read_mtl(path.parent_path() / std::string(words[k])))
+                    library.try_emplace(name, mat);  // the first definition of a name wins
+        } else if (key == "usemtl") {
+            if (words.size() < 2) throw InputError(where + ": usemtl needs a name");
+            const std::string name(words[1]);
+            if (m.obj_materials.empty() && !m.indices.empty()) {
+                // Faces before the first usemtl: a part of their own, with no material.
+                m.obj_materials.push_back(ObjMaterial{});
+                m.parts.push_back({0, 0, 0});
+            }
+            auto it = std::find_if(m.obj_materials.begin(), m.obj_materials.end(),
+                                   [&](const ObjMaterial& o) { return o.name == name; });
+            if (it == m.obj_materials.end()) {
+                const auto found = library.find(name);
+                ObjMaterial o = found != library.end() ? found->second : ObjMaterial{};
+                o.name = name;
+                m.obj_materials.push_back(o);
+                it = m.obj_materials.end() - 1;
+            }
+            current_material = int(it - m.obj_materials.begin());
         } else if (key == "f") {
+            note_faces(m.indices.size());
             if (words.size() < 4)
                 throw InputError(where + ": a face needs at least 3 vertices, got " + std::to_string(words.size() - 1));
             std::vector<std::uint32_t> face;
@@ -132,6 +205,10 @@ Mesh load_obj(const std::filesystem::path& path) {
     }
     if (in.bad()) throw InputError(path.string() + ": read error");
     if (m.indices.empty()) throw InputError(path.string() + ": no faces ('f' lines) in the OBJ file");
+    // Each part runs to the next one's start (faces of one part are consecutive in the file's order).
+    for (std::size_t k = 0; k < m.parts.size(); ++k)
+        m.parts[k].index_count = (k + 1 < m.parts.size() ? m.parts[k + 1].first_index : m.indices.size()) - m.parts[k].first_index;
+    std::erase_if(m.parts, [](const MeshPart& p) { return p.index_count == 0; });
 
     // Corners without a normal (left at 0 above): area-weighted face normals per position.
     fill_missing_normals(m, corner_position, v.size());

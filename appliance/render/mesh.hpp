@@ -22,6 +22,24 @@ struct GltfMaterial {
     bool textured = false;            // a base-colour or metallic-roughness texture was named (ignored)
 };
 
+// A material an OBJ file names with `usemtl`, as its MTL file (`mtllib`) defines it: Kd, Ks, Ns
+// (material.hpp maps them to Phong). `defined` is false when no MTL file read defines the name
+// (or there was none): such a group is shaded with --material.
+struct ObjMaterial {
+    std::string name;  // the usemtl name; "" for faces before any usemtl
+    bool defined = false;
+    glm::dvec3 kd{0.0}, ks{0.0};
+    double ns = 0.0;
+    std::string where;  // "FILE.mtl" that defined it, for messages
+};
+
+// A run of triangles that share one material: indices [first_index, first_index + index_count)
+// of Mesh::indices; `material` indexes Mesh::materials (glTF) or Mesh::obj_materials (OBJ).
+struct MeshPart {
+    std::size_t first_index = 0, index_count = 0;
+    int material = 0;
+};
+
 struct Mesh {
     std::vector<glm::vec3> positions;
     std::vector<glm::vec3> normals;      // one per position, unit length
@@ -33,6 +51,12 @@ struct Mesh {
     // glTF only: the materials of the triangles read, in order of first use (a primitive without
     // a material uses glTF's default: base colour 1, metallic 1, roughness 1). Empty for OBJ.
     std::vector<GltfMaterial> materials;
+    // OBJ only: the usemtl groups' materials, in order of first use (empty without usemtl).
+    std::vector<ObjMaterial> obj_materials;
+    // The triangles of each material (glTF primitives, OBJ usemtl groups), consecutive runs
+    // merged; empty for a model with one material and nothing to say about it (sphere, teapot,
+    // an OBJ without usemtl): all triangles are one part shaded with --material.
+    std::vector<MeshPart> parts;
 
     std::size_t triangle_count() const { return indices.size() / 3; }
 };
@@ -44,7 +68,9 @@ Mesh make_uv_sphere(int stacks = 96, int slices = 192);
 // A Wavefront OBJ file: `v` (x y z, optionally w or r g b, which are ignored), `vn`, and `f` with any of the forms v, v/vt, v//vn,
 // v/vt/vn (negative indices count back from the end); polygons are triangulated as fans. Corners
 // without a normal get the area-weighted mean of the normals of the faces around their position.
-// Every other statement (vt, o, g, s, usemtl, mtllib, l, p, ...) is ignored. Throws InputError
+// `mtllib` files (beside the OBJ) are read for `newmtl`, `Kd`, `Ks`, `Ns`; `usemtl` starts a part
+// (Mesh::parts, Mesh::obj_materials). A missing MTL file or name leaves the material undefined.
+// Every other statement (vt, o, g, s, l, p, ...) is ignored. Throws InputError
 // "FILE:LINE: what" on a malformed line, an index out of range or a file without faces.
 Mesh load_obj(const std::filesystem::path& path);
 

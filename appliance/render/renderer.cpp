@@ -101,12 +101,59 @@ void save_aovs(const std::filesystem::path& dir, const Aovs& aovs) {
 }
 
 Renderer::Renderer(const Mesh& mesh, const Material& material, const ShadingMaps& maps, int width, int height,
-                   const Camera& camera)
-    : width_(width), height_(height), camera_(camera), material_(material) {
+                   const Camera& camera, int msaa)
+    : Renderer(mesh, std::vector<Material>(std::max<std::size_t>(1, mesh.parts.size()), material), maps, width, height,
+               camera, msaa) {}
+
+Renderer::Renderer(const Mesh& mesh, const std::vector<Material>& part_materials, const ShadingMaps& maps, int width,
+                   int height, const Camera& camera, int msaa)
+    : width_(width), height_(height), camera_(camera), msaa_(msaa) {
     if (width < 1 || height < 1) throw InputError("renderer: frame size must be positive");
+    if (msaa != 1 && msaa != 4) throw InputError("--msaa: want 1 or 4, got " + std::to_string(msaa));
     if (mesh.indices.empty()) throw InputError("renderer: the mesh " + mesh.source + " has no triangles");
-    if (material.diffuse() && !maps.irradiance) throw RuntimeError("renderer: the material needs the irradiance map");
-    if (material.specular() && !maps.reflection) throw RuntimeError("renderer: the material needs a reflection map");
+    const std::size_t parts = std::max<std::size_t>(1, mesh.parts.size());
+    if (part_materials.size() != parts)
+        throw RuntimeError("renderer: " + std::to_string(part_materials.size()) + " materials for the " +
+                           std::to_string(parts) + " parts of " + mesh.source);
+
+    // The triangles grouped by distinct material (parts of one material need not be adjacent in
+    // the file), so that each material is one draw of one index range.
+    std::vector<std::uint32_t> grouped;
+    grouped.reserve(mesh.indices.size());
+    for (std::size_t p = 0; p < parts; ++p) {
+        const Material& m = part_materials[p];
+        auto it = std::find_if(draws_.begin(), draws_.end(), [&](const Draw& d) { return same_shading(d.material, m); });
+        if (it != draws_.end()) continue;  // gathered with the first part of this material
+        Draw d;
+        d.material = m;
+        d.first_index = grouped.size();
+        for (std::size_t q = p; q < parts; ++q) {
+            if (!same_shading(part_materials[q], m)) continue;
+            const std::size_t first = mesh.parts.empty() ? 0 : mesh.parts[q].first_index;
+            const std::size_t count = mesh.parts.empty() ? mesh.indices.size() : mesh.parts[q].index_count;
+            if (first + count > mesh.indices.size())
+                throw InputError("renderer: a part of " + mesh.source + " runs past its indices");
+            grouped.insert(grouped.end(), mesh.indices.begin() + std::ptrdiff_t(first),
+                           mesh.indices.begin() + std::ptrdiff_t(first + count));
+        }
+        d.index_count = grouped.size() - d.first_index;
+        if (m.diffuse() && !maps.irradiance) throw RuntimeError("renderer: the material " + m.spec + " needs the irradiance map");
+        if (m.specular()) {
+            const ReflectionMap* r = maps.reflection_for(m);
+            if (!r) throw RuntimeError("renderer: the material " + m.spec + " needs the " + reflection_request(m).label + " map");
+            const auto already = std::find_if(draws_.begin(), draws_.end(), [&](const Draw& e) {
+                return e.material.specular() && reflection_request(e.material).label == r->request.label;
+            });
+            if (already != draws_.end()) {
+                d.reflection = already->reflection;
+            } else {
+                d.reflection = int(reflection_textures_.size());
+                reflection_textures_.push_back(upload_map(r->image, "reflection"));
+            }
+        }
+        draws_.push_back(std::move(d));
+    }
+    const bool any_diffuse = std::any_of(draws_.begin(), draws_.end(), [](const Draw& d) { return d.material.diffuse(); });
 
     scene_program_ = gl::GlProgram("render_scene.vert", "render_scene.frag");
     background_program_ = gl::GlProgram("fullscreen.vert", "render_background.frag");
@@ -142,14 +189,12 @@ Renderer::Renderer(const Mesh& mesh, const Material& material, const ShadingMaps
         has_ao_ = true;
     }
     glBindBuffer(GL_ELEMENT_ARRAY_BUFFER, indices_.id());
-    glBufferData(GL_ELEMENT_ARRAY_BUFFER, GLsizeiptr(mesh.indices.size() * sizeof(std::uint32_t)),
-                 mesh.indices.data(), GL_STATIC_DRAW);
+    glBufferData(GL_ELEMENT_ARRAY_BUFFER, GLsizeiptr(grouped.size() * sizeof(std::uint32_t)), grouped.data(),
+                 GL_STATIC_DRAW);
     glBindVertexArray(0);
-    index_count_ = mesh.indices.size();
     empty_vao_ = gl::GlVertexArray::create();
 
-    if (material.diffuse()) irradiance_ = upload_map(*maps.irradiance, "irradiance");
-    if (material.specular()) reflection_ = upload_map(*maps.reflection, "reflection");
+    if (any_diffuse) irradiance_ = upload_map(*maps.irradiance, "irradiance");
 
     // The float targets and a depth buffer (the object may hide parts of itself).
     framebuffer_ = gl::GlFramebuffer::create();
@@ -170,7 +215,65 @@ Renderer::Renderer(const Mesh& mesh, const Material& material, const ShadingMaps
         throw RuntimeError("renderer: " + std::to_string(kTargets) + " RGBA32F targets of " + std::to_string(width) +
                            "x" + std::to_string(height) + " with depth are not complete (status " +
                            std::to_string(status) + "; needs GL_EXT_color_buffer_float)");
+    if (msaa_ > 1) create_multisampled_targets();
     gl::check_gl("creating the renderer");
+}
+
+// The frame's four targets again, multisampled. RGBA32F when the driver can multisample it
+// (llvmpipe can, 4x), else RGBA16F: half floats hold the radiance to 1e-3 relative, and the AOVs
+// never come from these (read_aovs draws them single-sampled).
+void Renderer::create_multisampled_targets() {
+    GLint max_samples = 0;
+    glGetIntegerv(GL_MAX_SAMPLES, &max_samples);
+    GLenum format = 0;
+    for (const GLenum candidate : {GLenum(GL_RGBA32F), GLenum(GL_RGBA16F)}) {
+        GLint samples = 0;
+        glGetInternalformativ(GL_RENDERBUFFER, candidate, GL_SAMPLES, 1, &samples);  // the largest count
+        if (samples >= msaa_) {
+            format = candidate;
+            break;
+        }
+    }
+    if (format == 0)
+        throw RuntimeError("--msaa " + std::to_string(msaa_) + ": the GL driver cannot multisample float targets " +
+                           std::to_string(msaa_) + "x (GL_MAX_SAMPLES " + std::to_string(max_samples) + "); use --msaa 1");
+    ms_framebuffer_ = gl::GlFramebuffer::create();
+    glBindFramebuffer(GL_FRAMEBUFFER, ms_framebuffer_.id());
+    GLenum buffers[kTargets];
+    for (int k = 0; k < kTargets; ++k) {
+        ms_colour_[k] = gl::GlName<RenderbufferTraits>::create();
+        glBindRenderbuffer(GL_RENDERBUFFER, ms_colour_[k].id());
+        glRenderbufferStorageMultisample(GL_RENDERBUFFER, msaa_, format, width_, height_);
+        glFramebufferRenderbuffer(GL_FRAMEBUFFER, GLenum(GL_COLOR_ATTACHMENT0 + k), GL_RENDERBUFFER, ms_colour_[k].id());
+        buffers[k] = GLenum(GL_COLOR_ATTACHMENT0 + k);
+    }
+    ms_depth_ = gl::GlName<RenderbufferTraits>::create();
+    glBindRenderbuffer(GL_RENDERBUFFER, ms_depth_.id());
+    glRenderbufferStorageMultisample(GL_RENDERBUFFER, msaa_, GL_DEPTH_COMPONENT24, width_, height_);
+    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, ms_depth_.id());
+    glDrawBuffers(kTargets, buffers);
+    const GLenum status = glCheckFramebufferStatus(GL_FRAMEBUFFER);
+    if (status != GL_FRAMEBUFFER_COMPLETE)
+        throw RuntimeError("--msaa " + std::to_string(msaa_) + ": the multisampled float targets are not complete (status " +
+                           std::to_string(status) + "); use --msaa 1");
+    gl::check_gl("creating the multisampled targets");
+}
+
+// Blits (resolves: the mean of the samples) the targets the composite and the meter read: the
+// radiance, the normal (its alpha carries a proxy's mark) and, when metering, the HDR frame.
+void Renderer::resolve(bool with_hdr) const {
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, ms_framebuffer_.id());
+    glBindFramebuffer(GL_DRAW_FRAMEBUFFER, framebuffer_.id());
+    for (const int k : {int(kRadiance), int(kNormal), int(kHdr)}) {
+        if (k == kHdr && !with_hdr) continue;
+        GLenum draw[kTargets] = {GL_NONE, GL_NONE, GL_NONE, GL_NONE};
+        draw[k] = GLenum(GL_COLOR_ATTACHMENT0 + k);
+        glReadBuffer(GLenum(GL_COLOR_ATTACHMENT0 + k));
+        glDrawBuffers(kTargets, draw);
+        glBlitFramebuffer(0, 0, width_, height_, 0, 0, width_, height_, GL_COLOR_BUFFER_BIT, GL_NEAREST);
+    }
+    glBindFramebuffer(GL_FRAMEBUFFER, 0);
+    gl::check_gl("resolving the multisampled targets");
 }
 
 namespace {
@@ -217,12 +320,29 @@ void Renderer::set_background_image(const gl::RgbImage& image) {
 
 void Renderer::set_background_black() { background_ = Background::Black; }
 
-void Renderer::draw_scene() { draw(false); }
+void Renderer::set_camera_response(const CameraResponse& response, const CameraExposure& exposure) {
+    if (!(exposure.exposure_ms > 0)) throw InputError("--exposure-ms: must be positive");
+    if (!(exposure.gain > 0)) throw InputError("--gain: must be positive");
+    response_curve_ = response;
+    exposure_ = exposure;
+    std::vector<float> table(response.inverse.begin(), response.inverse.end());
+    response_ = gl::GlTexture::create();
+    glBindTexture(GL_TEXTURE_2D, response_.id());
+    glTexImage2D(GL_TEXTURE_2D, 0, GL_R32F, 256, 1, 0, GL_RED, GL_FLOAT, table.data());
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+    gl::check_gl("uploading the camera response");
+}
 
-void Renderer::draw(bool with_hdr) {
-    glBindFramebuffer(GL_FRAMEBUFFER, framebuffer_.id());
-    // Frames write three targets; metering adds the HDR frame.
-    const GLenum buffers[kTargets] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1, GL_COLOR_ATTACHMENT2,
+void Renderer::draw_scene() { draw(false, msaa_ > 1); }
+
+void Renderer::draw(bool with_hdr, bool multisampled, bool with_reflect) {
+    glBindFramebuffer(GL_FRAMEBUFFER, multisampled ? ms_framebuffer_.id() : framebuffer_.id());
+    // Frames write the radiance and the normal (its alpha: a proxy's mark), which the composite
+    // reads; the reflection direction only for the AOVs, the HDR frame only for the meter: a float
+    // target less to write each frame (with 4x MSAA, 4 samples of 16 bytes a pixel).
+    const GLenum buffers[kTargets] = {GL_COLOR_ATTACHMENT0, GL_COLOR_ATTACHMENT1,
+                                      with_reflect ? GLenum(GL_COLOR_ATTACHMENT2) : GLenum(GL_NONE),
                                       with_hdr ? GLenum(GL_COLOR_ATTACHMENT3) : GLenum(GL_NONE)};
     glDrawBuffers(kTargets, buffers);
     glViewport(0, 0, width_, height_);
@@ -261,15 +381,9 @@ void Renderer::draw(bool with_hdr) {
     glUniformMatrix3fv(scene_program_.uniform("u_normal_matrix"), 1, GL_FALSE, glm::value_ptr(normal_matrix));
     glUniformMatrix4fv(scene_program_.uniform("u_view_projection"), 1, GL_FALSE, glm::value_ptr(view_projection));
     glUniform3f(scene_program_.uniform("u_eye"), float(camera_.eye.x), float(camera_.eye.y), float(camera_.eye.z));
-    glUniform3f(scene_program_.uniform("u_kd"), float(material_.kd.x), float(material_.kd.y), float(material_.kd.z));
-    glUniform3f(scene_program_.uniform("u_ks"), float(material_.ks.x), float(material_.ks.y), float(material_.ks.z));
-    glUniform1i(scene_program_.uniform("u_diffuse"), material_.diffuse() ? 1 : 0);
-    glUniform1i(scene_program_.uniform("u_specular"), material_.specular() ? 1 : 0);
     glActiveTexture(GL_TEXTURE0);
     glBindTexture(GL_TEXTURE_2D, irradiance_.id());
     glUniform1i(scene_program_.uniform("u_irradiance"), 0);
-    glActiveTexture(GL_TEXTURE1);
-    glBindTexture(GL_TEXTURE_2D, reflection_.id());
     glUniform1i(scene_program_.uniform("u_reflection"), 1);
     glBindVertexArray(vao_.id());
     if (ao_ && has_ao_) {
@@ -278,11 +392,22 @@ void Renderer::draw(bool with_hdr) {
         glDisableVertexAttribArray(2);
         glVertexAttrib1f(2, 1.0f);  // ao = 1: no baked occlusion, or --no-ao
     }
-    glDrawElements(GL_TRIANGLES, GLsizei(index_count_), GL_UNSIGNED_INT, nullptr);
+    for (const Draw& d : draws_) {
+        const Material& m = d.material;
+        glUniform3f(scene_program_.uniform("u_kd"), float(m.kd.x), float(m.kd.y), float(m.kd.z));
+        glUniform3f(scene_program_.uniform("u_ks"), float(m.ks.x), float(m.ks.y), float(m.ks.z));
+        glUniform1i(scene_program_.uniform("u_diffuse"), m.diffuse() ? 1 : 0);
+        glUniform1i(scene_program_.uniform("u_specular"), m.specular() ? 1 : 0);
+        glActiveTexture(GL_TEXTURE1);
+        glBindTexture(GL_TEXTURE_2D, d.reflection >= 0 ? reflection_textures_[std::size_t(d.reflection)].id() : 0);
+        glDrawElements(GL_TRIANGLES, GLsizei(d.index_count), GL_UNSIGNED_INT,
+                       reinterpret_cast<const void*>(d.first_index * sizeof(std::uint32_t)));
+    }
     glBindVertexArray(0);
     glActiveTexture(GL_TEXTURE0);
     glDisable(GL_DEPTH_TEST);
     gl::check_gl("drawing the scene");
+    if (multisampled) resolve(with_hdr);
 }
 
 std::vector<float> Renderer::read_target(int k) const {
@@ -303,7 +428,7 @@ void Renderer::set_camera_ray_uniforms(const gl::GlProgram& program) const {
 }
 
 const ToneMap& Renderer::meter(double key) {
-    draw(true);
+    draw(true, msaa_ > 1);
     tone_ = meter_reinhard(read_target(kHdr), key);
     return tone_;
 }
@@ -328,6 +453,15 @@ void Renderer::composite() const {
     glBindTexture(GL_TEXTURE_2D, targets_[kNormal].id());
     glUniform1i(composite_program_.uniform("u_normal"), 4);  // a proxy's mark (phantom.hpp)
     set_camera_ray_uniforms(composite_program_);
+    glUniform1i(composite_program_.uniform("u_camera"), response_curve_ ? 1 : 0);
+    glActiveTexture(GL_TEXTURE5);
+    glBindTexture(GL_TEXTURE_2D, response_.id());
+    glUniform1i(composite_program_.uniform("u_response"), 5);
+    if (response_curve_) {
+        glUniform1f(composite_program_.uniform("u_camera_scale"), float(exposure_.scale(*response_curve_)));
+        glUniform1f(composite_program_.uniform("u_gamma"), response_curve_->parametric() ? float(response_curve_->gamma) : 0.0f);
+        glUniform1f(composite_program_.uniform("u_shoulder"), float(response_curve_->shoulder));
+    }
     glUniform1f(composite_program_.uniform("u_scale"), float(tone_.scale()));
     glUniform1f(composite_program_.uniform("u_white_sq"), float(tone_.white * tone_.white));
     glBindVertexArray(empty_vao_.id());
@@ -337,7 +471,24 @@ void Renderer::composite() const {
     gl::check_gl("compositing the frame");
 }
 
-Aovs Renderer::read_aovs() const {
+void Renderer::replace_maps(const ShadingMaps& maps) {
+    for (const Draw& d : draws_) {
+        if (d.material.diffuse() && !maps.irradiance)
+            throw RuntimeError("renderer: the new maps have no irradiance map for " + d.material.spec);
+        if (d.material.specular() && !maps.reflection_for(d.material))
+            throw RuntimeError("renderer: the new maps have no " + reflection_request(d.material).label + " map");
+    }
+    if (irradiance_.id() != 0 && maps.irradiance) irradiance_ = upload_map(*maps.irradiance, "irradiance");
+    for (const Draw& d : draws_)
+        if (d.reflection >= 0)
+            reflection_textures_[std::size_t(d.reflection)] = upload_map(maps.reflection_for(d.material)->image, "reflection");
+    gl::check_gl("replacing the maps");
+}
+
+std::vector<float> Renderer::read_frame_radiance() const { return read_target(kRadiance); }
+
+Aovs Renderer::read_aovs() {
+    draw(false, false, true);  // one sample a pixel (exact AOVs, also with MSAA), with the reflection target
     Aovs a;
     a.width = width_;
     a.height = height_;
@@ -367,6 +518,11 @@ void Renderer::enable_shadows(const ShadowLighting& lighting, std::vector<Occlud
         throw RuntimeError("renderer: shadows need the table (set_table) first");
     shadow_ = std::make_unique<TableShadowPass>(width_, height_, lighting, std::move(occluders),
                                                 *phantoms_->table_height());
+}
+
+void Renderer::set_shadow_bake(const ShadowBake& bake) {
+    if (!shadow_) throw RuntimeError("renderer: a baked shadow needs enable_shadows first");
+    shadow_->set_bake(bake);
 }
 
 void Renderer::draw_shadow() const {

@@ -11,6 +11,7 @@
 
 #include <filesystem>
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include <glm/glm.hpp>
@@ -19,11 +20,13 @@
 #include "appliance/gl/gl_objects.hpp"
 #include "appliance/gl/gl_program.hpp"
 #include "appliance/gl/png_writer.hpp"  // gl::RgbImage (the struct only)
+#include "appliance/render/camera_response.hpp"
 #include "appliance/render/maps.hpp"
 #include "appliance/render/material.hpp"
 #include "appliance/render/mesh.hpp"
 #include "appliance/render/phantom.hpp"
 #include "appliance/render/shadow.hpp"
+#include "appliance/render/shadow_bake.hpp"
 
 namespace glint::render {
 
@@ -78,8 +81,13 @@ struct RenderbufferTraits {
 class Renderer {
 public:
     // The maps must hold what the material needs (needed_maps). width, height: the frame's.
+    // msaa: samples per pixel of the frame's targets, 1 (none) or 4 (docs/render.md, "MSAA").
     Renderer(const Mesh& mesh, const Material& material, const ShadingMaps& maps, int width, int height,
-             const Camera& camera = {});
+             const Camera& camera = {}, int msaa = 1);
+    // Several materials: one per part of the mesh (Mesh::parts, part_materials), or one for a mesh
+    // without parts. The triangles are grouped by distinct material, one draw each.
+    Renderer(const Mesh& mesh, const std::vector<Material>& part_materials, const ShadingMaps& maps, int width,
+             int height, const Camera& camera = {}, int msaa = 1);
     Renderer(const Renderer&) = delete;
     Renderer& operator=(const Renderer&) = delete;
 
@@ -96,11 +104,23 @@ public:
     // write that target (the composite looks the environment up itself).
     const ToneMap& meter(double key = 0.18);
     void set_tone_map(const ToneMap& tone) { tone_ = tone; }
+    // Into the camera's image space instead of Reinhard and sRGB (docs/render.md, "Camera
+    // response"): the object's (and the environment's) radiance x exposure x gain x sensitivity
+    // through the response curve; an image background is decoded with the inverse response (its
+    // codes are the camera's) wherever it is mixed or shadowed.
+    void set_camera_response(const CameraResponse& response, const CameraExposure& exposure);
     const ToneMap& tone_map() const { return tone_; }
     // Draws the frame into the bound framebuffer, whose viewport must be width x height.
     void composite() const;
-    // The targets of the last draw_scene.
-    Aovs read_aovs() const;
+    // The AOVs of the scene, exact at every pixel: the scene is drawn once more with one sample a
+    // pixel and the reflection target on (frames do not write it; with MSAA a resolved normal would
+    // not be unit, a resolved radiance not the shading of any one direction), which overwrites the
+    // frame's targets.
+    Aovs read_aovs();
+    // The radiance target the composite reads, after draw_scene: with MSAA resolved, so alpha is
+    // the object's coverage of the pixel (fractional on its silhouette), RGB premultiplied by it.
+    std::vector<float> read_frame_radiance() const;
+    int msaa() const { return msaa_; }
 
     // The real table and things on it (docs/render.md, "Table, phantom geometry and shadows").
     // The table plane y = height and proxy meshes (world coordinates, not normalised) go into the
@@ -111,33 +131,55 @@ public:
     // Needs set_table first. Off by default.
     void enable_shadows(const ShadowLighting& lighting, std::vector<OccluderSphere> occluders);
     bool shadows() const { return shadow_ != nullptr; }
+    // The shadow baked against the mesh itself (shadow_bake.hpp), used inside its grid. Needs
+    // enable_shadows first.
+    void set_shadow_bake(const ShadowBake& bake);
 
     int width() const { return width_; }
     int height() const { return height_; }
     const Camera& camera() const { return camera_; }
+    std::size_t draws() const { return draws_.size(); }  // one per distinct material
+    // Shades with other maps of the same lobes from the next draw on (live_maps.hpp: the final
+    // maps after the coarse ones). Throws RuntimeError when one the materials need is missing.
+    void replace_maps(const ShadingMaps& maps);
 
 private:
     std::vector<float> read_target(int k) const;  // rows top first
-    void draw(bool with_hdr);
+    void draw(bool with_hdr, bool multisampled, bool with_reflect = false);
+    void resolve(bool with_hdr) const;
+    void create_multisampled_targets();  // the multisampled targets into the textures the composite reads
     void set_camera_ray_uniforms(const gl::GlProgram& program) const;  // u_size, u_tan_half_fov, u_world_from_camera
     void draw_shadow() const;                                          // the ratio's target (the AOV), when shadows are on
     void bind_shadow(const gl::GlProgram& program, int unit) const;    // u_has_shadow and render_shadow.glsl's uniforms
 
     int width_, height_;
     Camera camera_;
-    Material material_;
+    // One draw per distinct material: its index range (grouped at upload) and reflection map.
+    struct Draw {
+        Material material;
+        std::size_t first_index = 0, index_count = 0;
+        int reflection = -1;  // into reflection_textures_
+    };
+    std::vector<Draw> draws_;
+    std::vector<gl::GlTexture> reflection_textures_;
     Background background_ = Background::Black;
     bool ao_ = true;
     ToneMap tone_;
-    std::size_t index_count_ = 0;
     gl::GlProgram scene_program_, background_program_, composite_program_;
     gl::GlVertexArray vao_, empty_vao_;
     gl::GlBuffer vertices_, indices_, ao_values_;
     bool has_ao_ = false;  // the mesh came with baked ao (attribute 2)
-    gl::GlTexture irradiance_, reflection_, environment_, image_;
+    gl::GlTexture irradiance_, environment_, image_;
     gl::GlTexture targets_[4];
     gl::GlName<RenderbufferTraits> depth_;
     gl::GlFramebuffer framebuffer_;
+    // MSAA: multisampled float renderbuffers (same four targets) and depth, resolved by blit.
+    int msaa_ = 1;
+    gl::GlName<RenderbufferTraits> ms_colour_[4], ms_depth_;
+    gl::GlFramebuffer ms_framebuffer_;
+    std::optional<CameraResponse> response_curve_;
+    CameraExposure exposure_;
+    gl::GlTexture response_;  // 256x1 R32F: inverse[z]
     std::unique_ptr<PhantomGeometry> phantoms_;
     std::unique_ptr<TableShadowPass> shadow_;
 };

@@ -10,6 +10,7 @@
 #include "appliance/core/equirect.hpp"
 #include "appliance/core/errors.hpp"
 #include "appliance/gl/gl_context.hpp"
+#include "appliance/render/shadow_bake.hpp"
 
 namespace glint::render {
 namespace {
@@ -247,7 +248,33 @@ void TableShadowPass::set_uniforms(const gl::GlProgram& program, int caps_unit, 
     glActiveTexture(GLenum(GL_TEXTURE0 + caps_unit));
     glBindTexture(GL_TEXTURE_2D, caps_.id());
     glUniform1i(program.uniform("u_caps"), caps_unit);
+    glUniform1i(program.uniform("u_has_bake"), bake_res_ > 0 ? 1 : 0);
+    glActiveTexture(GLenum(GL_TEXTURE0 + kBakeUnit));
+    glBindTexture(GL_TEXTURE_2D, bake_lights_.id());
+    glUniform1i(program.uniform("u_bake_lights"), kBakeUnit);
+    glActiveTexture(GLenum(GL_TEXTURE0 + kBakeUnit + 1));
+    glBindTexture(GL_TEXTURE_2D, bake_ambient_.id());
+    glUniform1i(program.uniform("u_bake_ambient"), kBakeUnit + 1);
+    if (bake_res_ > 0) {
+        glUniform2f(program.uniform("u_bake_origin"), bake_origin_.x, bake_origin_.y);
+        glUniform1f(program.uniform("u_bake_spacing"), bake_spacing_);
+        glUniform1i(program.uniform("u_bake_res"), bake_res_);
+    }
     glActiveTexture(GL_TEXTURE0);
+}
+
+void TableShadowPass::set_bake(const ShadowBake& bake) {
+    const std::size_t n = std::size_t(bake.resolution) * std::size_t(bake.resolution) * 4;
+    if (bake.resolution < 2 || bake.lights.size() != n || bake.ambient.size() != n)
+        throw RuntimeError("shadow: a baked shadow of the wrong size");
+    if (std::abs(bake.table_height - table_height_) > 1e-9)
+        throw RuntimeError("shadow: the bake is for another table height");
+    bake_lights_ = gl::make_float_texture(bake.resolution, bake.resolution, bake.lights.data());
+    bake_ambient_ = gl::make_float_texture(bake.resolution, bake.resolution, bake.ambient.data());
+    bake_res_ = bake.resolution;
+    bake_origin_ = glm::vec2(float(bake.origin.x), float(bake.origin.y));
+    bake_spacing_ = float(bake.spacing);
+    gl::check_gl("uploading the baked shadow");
 }
 
 void TableShadowPass::draw(const glm::mat3& world_from_camera, const glm::vec2& tan_half_fov, const glm::vec3& eye) const {

@@ -49,6 +49,8 @@ inline constexpr double kCapRadiiDeg[kCapLevels] = {0, 4, 8, 16, 32, 64, 90};
 // account, a disc would not (a sunlit wall or a patch of bright sky is no disc).
 inline constexpr double kMaxShadowLightRadiusDeg = 8.0;
 
+struct ShadowBake;  // shadow_bake.hpp
+
 struct OccluderSphere {
     glm::dvec3 centre{0.0};
     double radius = 1.0;
@@ -97,6 +99,11 @@ public:
     // The ratio, rows top first, 4 floats a pixel.
     std::vector<float> read() const;
     double table_height() const { return table_height_; }
+    // The shadow baked against the real mesh (shadow_bake.hpp): used inside its grid, on texture
+    // units kBakeUnit and kBakeUnit + 1 of every program that shows the shadow.
+    void set_bake(const ShadowBake& bake);
+    bool baked() const { return bake_res_ > 0; }
+    static constexpr int kBakeUnit = 6;
     void set_table_height(double height) { table_height_ = height; }
 
 private:
@@ -107,6 +114,10 @@ private:
     OccluderSphere bound_;  // around all occluders: render_shadow.glsl tests it first
     gl::GlProgram program_;
     gl::GlTexture caps_;  // the cap maps stacked
+    gl::GlTexture bake_lights_, bake_ambient_;
+    int bake_res_ = 0;
+    glm::vec2 bake_origin_{0.0f};
+    float bake_spacing_ = 0;
     gl::GlVertexArray empty_vao_;
     gl::RenderTargets target_;
 };

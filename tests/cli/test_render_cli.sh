@@ -38,7 +38,7 @@ grep -q "render" "$work/stdout" || fail "glint --help does not list render"
 run render --help
 [[ $rc -eq 0 ]] || fail "glint render --help: exit code $rc, want 0"
 for flag in --env --maps --model --material --background --size --out --aov --no-ao --frames --stats --display \
-    --shadows --table-height --proxy; do
+    --shadows --table-height --proxy --msaa --camera --exposure-ms --gain --live-maps --frame-budget-ms; do
     grep -qF -- "$flag" "$work/stdout" || fail "glint render --help does not describe $flag"
 done
 pass "glint --help lists render; glint render --help exits 0 and describes every flag"
@@ -74,6 +74,56 @@ run render --env "$WORLD" --model sphere --size 48x32 --out "$work/s2.png" --aov
 [[ -s $work/aov_noshadow/radiance.exr ]] || fail "render --shadows off did not write its AOVs"
 pass "render --shadows on with --table-height and --proxy writes shadow.exr; --shadows off runs"
 expect_bad "bad --shadows" "--shadows" render --env "$WORLD" --shadows sometimes
+run render --env "$WORLD" --model sphere --size 48x32 --out "$work/m1.png" --msaa 1 --stats "$work/m1.json"
+[[ $rc -eq 0 && -s $work/m1.png ]] || fail "render --msaa 1: exit code $rc (stderr: $(stderr_text))"
+grep -q '"msaa": 1' "$work/m1.json" || fail "render --msaa 1: stats do not say msaa 1"
+pass "render --msaa 1 runs and says so in its stats"
+expect_bad "bad --msaa" "--msaa" render --env "$WORLD" --msaa 3
+
+# --- the camera's response: a tabulated curve (code z at exposure ((z + 0.5) / 256)^2) --------
+{
+    printf '{"format": "glint-camera-calibration", "response": {"inverse": ['
+    for z in $(seq 0 255); do printf '%s%s' "$([[ $z -gt 0 ]] && echo ,)" "$(awk -v z="$z" 'BEGIN { printf "%.9g", ((z + 0.5) / 256) ^ 2 }')"; done
+    printf '], "gamma": 0, "shoulder": 0}, "sensitivity": 100}\n'
+} > "$work/cal.json"
+run render --env "$WORLD" --size 48x32 --out "$work/cam.png" --camera "$work/cal.json" --exposure-ms 5 --gain 2 \
+    --stats "$work/cam.json"
+[[ $rc -eq 0 && -s $work/cam.png ]] || fail "render --camera: exit code $rc (stderr: $(stderr_text))"
+grep -q '"exposure_ms": 5' "$work/cam.json" || fail "render --camera: stats do not hold the exposure"
+grep -q "camera: .*tabulated response" "$work/stdout" || fail "render --camera: does not describe the response"
+pass "render --camera CAL.json --exposure-ms --gain runs (tabulated response)"
+expect_bad "--gain without --camera" "--gain" render --env "$WORLD" --gain 2
+expect_bad "missing --camera file" "--camera" render --env "$WORLD" --camera "$work/none.json"
+printf '{"response": {"inverse": [1, 2]}}' > "$work/badcal.json"
+expect_bad "calibration with a short table" "response.inverse" render --env "$WORLD" --camera "$work/badcal.json"
+expect_bad "bad --exposure-ms" "--exposure-ms" render --env "$WORLD" --camera "$work/cal.json" --exposure-ms -1
+
+# --- live maps: coarse first, the final ones on the GPU in the frames' leftover time ---------------
+run render --env "$WORLD" --size 48x32 --material 'kd=0.5;ks=0.5;n=20' --live-maps --frame-budget-ms 300 --frames 3 \
+    --out "$work/live.png" --stats "$work/live.json"
+[[ $rc -eq 0 && -s $work/live.png ]] || fail "render --live-maps: exit code $rc (stderr: $(stderr_text))"
+grep -q '"live_maps"' "$work/live.json" || fail "render --live-maps: no live_maps in the stats"
+grep -q "live maps: final maps after" "$work/stdout" || fail "render --live-maps: never switched to the final maps"
+grep -q "irradiance: coarse" "$work/stdout" || fail "render --live-maps: did not start with coarse maps"
+pass "render --live-maps: coarse maps first, the final ones from the GPU engine, stats say when"
+mkdir -p "$work/nomaps"
+expect_bad "--live-maps with --maps" "--live-maps" render --env "$WORLD" --live-maps --maps "$work/nomaps"
+expect_bad "--frame-budget-ms without --live-maps" "--frame-budget-ms" render --env "$WORLD" --frame-budget-ms 20
+
+# --- several materials: two usemtl groups, each with its MTL material, one draw each ------------
+printf 'newmtl red\nKd 0.8 0.1 0.1\nnewmtl gold\nKd 0 0 0\nKs 0.9 0.7 0.3\nNs 160\n' > "$work/two.mtl"
+printf 'mtllib two.mtl\nv 0 0 0\nv 1 0 0\nv 1 1 0\nv 0 1 0\nv 0 0 1\nusemtl red\nf 1 2 3\nf 1 3 4\nusemtl gold\nf 1 2 5\nf 1 5 4\n' > "$work/two.obj"
+run render --env "$WORLD" --model "$work/two.obj" --size 48x32 --out "$work/two.png" --stats "$work/two.json" --msaa 1
+[[ $rc -eq 0 && -s $work/two.png ]] || fail "render two-material OBJ: exit code $rc (stderr: $(stderr_text))"
+grep -q '"draws": 2' "$work/two.json" || fail "render two-material OBJ: stats do not say 2 draws"
+grep -q 'phong_40' "$work/two.json" || fail "render two-material OBJ: no phong_40 map (Ns 160 / 4)"
+grep -q "material 1: mtl 'gold'" "$work/stdout" || fail "render two-material OBJ: does not list the second material"
+! grep -qi "first" "$work/stderr" || fail "render two-material OBJ: still warns about the first material: $(stderr_text)"
+pass "render: an OBJ with two MTL materials is drawn with both (2 draws, irradiance and phong_40)"
+run render --env "$WORLD" --model "$work/two.obj" --size 48x32 --out "$work/two_shadow.png" --shadows on --msaa 1
+[[ $rc -eq 0 ]] || fail "render a mesh with --shadows on: exit code $rc (stderr: $(stderr_text))"
+grep -q "shadow: baked against the mesh" "$work/stdout" || fail "render a mesh with --shadows on: no baked shadow"
+pass "render: a mesh's table shadow is baked against the mesh (--shadows on)"
 expect_bad "missing --proxy file" "$work/nope.obj" render --env "$WORLD" --proxy "$work/nope.obj"
 expect_bad "--proxy not an OBJ" "--proxy" render --env "$WORLD" --proxy "$work/proxy.ply"
 expect_bad "bad --table-height" "--table-height" render --env "$WORLD" --table-height low

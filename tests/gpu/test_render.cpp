@@ -84,7 +84,7 @@ ShadingError shading_error(const Aovs& a, const render::Material& m, const rende
             e += m.kd * glm::dvec3(d.r, d.g, d.b);
         }
         if (m.specular()) {
-            const Rgb s = sample_bilinear(*reference.reflection, r);
+            const Rgb s = sample_bilinear(*reference.reflection(), r);
             e += m.ks * glm::dvec3(s.r, s.g, s.b);
         }
         for (int c = 0; c < 3; ++c) {
@@ -216,7 +216,7 @@ TEST_P(RenderShading, WithinOnePercentOfTheExactMaps) {
     const Aovs a = render_aovs(m, used);
     // The exact maps at the sizes the command's maps have: the same lookups on both sides, so
     // what differs is the shading (the maps' approximation and the GPU's arithmetic).
-    const HdrImage& used_map = m.diffuse() ? *used.irradiance : *used.reflection;
+    const HdrImage& used_map = m.diffuse() ? *used.irradiance : *used.reflection();
     const render::ShadingMaps exact =
         maps_by(env, m, convolution::Method::Exact, convolution::Size{used_map.width(), used_map.height()});
     const ShadingError e = shading_error(a, m, exact);
@@ -224,7 +224,7 @@ TEST_P(RenderShading, WithinOnePercentOfTheExactMaps) {
     const ShadingError d = direct_error(a, m, env, 3);
     std::printf("[          ] shading: %s %s, maps %s%s: against exact maps of that size rms %.3e worst %.3e "
                 "(%lld pixels); against E at each direction rms %.3e worst %.3e (%lld pixels)\n",
-                c.world, c.material, used.irradiance_from.c_str(), used.reflection_from.c_str(), e.rms, e.worst,
+                c.world, c.material, used.irradiance_from.c_str(), used.reflection_from().c_str(), e.rms, e.worst,
                 e.pixels, d.rms, d.worst, d.pixels);
     EXPECT_GT(e.pixels, 30000);
     EXPECT_LT(e.rms, 0.01);
@@ -253,7 +253,7 @@ TEST_P(RenderShadingFullSize, WithinOnePercentOfEAtEachDirection) {
     const Aovs a = render_aovs(m, used);
     const ShadingError d = direct_error(a, m, env, 12);
     std::printf("[          ] full size: %s %s, maps %s%s: against E at each direction rms %.3e worst %.3e (%lld pixels)\n",
-                c.world, c.material, used.irradiance_from.c_str(), used.reflection_from.c_str(), d.rms, d.worst,
+                c.world, c.material, used.irradiance_from.c_str(), used.reflection_from().c_str(), d.rms, d.worst,
                 d.pixels);
     EXPECT_GT(d.pixels, 200);
     EXPECT_LT(d.rms, 0.01);
@@ -578,9 +578,9 @@ TEST(RenderMaps, ReadsWhatReportJsonNames) {
                R"({"maps": [{"map": "irradiance", "file": "irradiance.exr", "shininess": 1},
                            {"map": "phong_160", "file": "phong_160.exr", "shininess": 160}]})");
     const render::ShadingMaps maps = render::load_maps(dir, render::parse_material("kd=1;ks=1;n=160"));
-    ASSERT_TRUE(maps.irradiance && maps.reflection);
+    ASSERT_TRUE(maps.irradiance && maps.reflection());
     EXPECT_EQ(maps.irradiance->at(0, 0).r, 1.0f);
-    EXPECT_EQ(maps.reflection->at(0, 0).r, 2.0f);
+    EXPECT_EQ(maps.reflection()->at(0, 0).r, 2.0f);
     const std::string e = error_of([&] { render::load_maps(dir, render::parse_material("glossy:20")); });
     EXPECT_NE(e.find("phong_20"), std::string::npos) << e;
     EXPECT_NE(e.find(dir.string()), std::string::npos) << e;

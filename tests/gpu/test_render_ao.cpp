@@ -62,7 +62,7 @@ Error against(const render::Aovs& a, const render::Material& m, const render::Sh
         const glm::dvec3 n(a.normal[4 * k], a.normal[4 * k + 1], a.normal[4 * k + 2]);
         const glm::dvec3 r(a.reflect[4 * k], a.reflect[4 * k + 1], a.reflect[4 * k + 2]);
         const Rgb d = sample_bilinear(*maps.irradiance, n);
-        const Rgb s = sample_bilinear(*maps.reflection, r);
+        const Rgb s = sample_bilinear(*maps.reflection(), r);
         const double ao = with_ao ? ao_of(n) : 1.0;
         const glm::dvec3 want = m.kd * glm::dvec3(d.r, d.g, d.b) * ao + m.ks * glm::dvec3(s.r, s.g, s.b);
         for (int c = 0; c < 3; ++c) {

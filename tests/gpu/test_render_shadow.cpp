@@ -23,6 +23,7 @@
 #include "appliance/render/mesh.hpp"
 #include "appliance/render/renderer.hpp"
 #include "appliance/render/shadow.hpp"
+#include "appliance/render/shadow_bake.hpp"
 #include "gpu_fixture.hpp"
 #include "render_worlds.hpp"
 
@@ -358,6 +359,50 @@ TEST_F(RenderShadow, BoxSeenAsCellSpheresAgainstTheBruteForceSum) {
                 sum / double(points.size()), worst);
     EXPECT_LT(worst, 0.13);
     EXPECT_LT(sum / double(points.size()), 0.09);
+}
+
+// The same box with its shadow baked by ray casting against the mesh itself (shadow_bake.hpp):
+// against the same brute-force sum at the same table points, and far closer than the spheres.
+TEST_F(RenderShadow, BoxBakedAgainstTheBruteForceSum) {
+    Camera c;
+    c.eye = {0, 4, 5};
+    c.target = {0, -0.5, 0};
+    const int w = 320, h = 240;
+    const glm::vec3 lo(-1.0f, -0.5f, -0.5f), hi(1.0f, 0.5f, 0.5f);
+    const render::Mesh box = box_mesh(lo, hi);
+    const double b = 3.0 * kPi / 180;
+    const HdrImage sky = sky_with_disc(256, 128, 0.3, {-0.5, 0.6, 0.4}, b, 4 * kPi * 0.3 / (kTwoPi * (1 - std::cos(b))));
+    const double table_y = render::model_bottom(box);
+    const render::Material m = render::parse_material("matte");
+    render::Renderer r(box, m, constant_maps(m), w, h, c);
+    r.set_background_black();
+    r.set_table(table_y);
+    const render::ShadowLighting lighting = render::shadow_lighting(sky);
+    r.enable_shadows(lighting, render::occluder_spheres(box));
+    const render::ShadowBake bake = render::bake_table_shadow(box, lighting, table_y);
+    r.set_shadow_bake(bake);
+    r.draw_scene();
+    const render::Aovs aovs = r.read_aovs();
+    const auto occluded = [&](const glm::dvec3& p, const glm::dvec3& d) { return hits_box(lo, hi, p, d); };
+    // Umbra, penumbra and open table around the box; one point beyond the grid (analytic there).
+    const std::vector<glm::dvec3> points = {{1.3, -0.5, 0},  {-1.3, -0.5, 0}, {0, -0.5, 0.8},  {0.6, -0.5, 0.9},
+                                            {-1.8, -0.5, 1.2}, {-1.2, -0.5, 1.0}, {2.5, -0.5, 2}, {-0.5, -0.5, -0.8},
+                                            {-1.0, -0.5, 0.7}, {-1.5, -0.5, 0.55}};
+    double worst = 0, sum = 0;
+    for (const glm::dvec3& target : points) {
+        const glm::ivec2 px = pixel_of(c, w, h, target);
+        glm::dvec3 p;
+        ASSERT_TRUE(table_point(c, w, h, table_y, px.x, px.y, p));
+        const double gpu = lum_at(aovs.shadow, w, px), ref = reference_ratio(sky, p, occluded);
+        std::printf("baked box (%5.2f, %5.2f): ratio %.4f, brute force %.4f, off %+.4f\n", p.x, p.z, gpu, ref, gpu - ref);
+        worst = std::max(worst, std::abs(gpu - ref));
+        sum += std::abs(gpu - ref);
+    }
+    std::printf("baked box: grid %d^2 spacing %.4f, %lld rays in %.2f s; mean |off| %.4f, worst %.4f\n", bake.resolution,
+                bake.spacing, bake.rays, bake.seconds, sum / double(points.size()), worst);
+    EXPECT_LT(worst, 0.03);
+    EXPECT_LT(sum / double(points.size()), 0.01);
+    EXPECT_GT(bake.rays, 0);
 }
 
 // A box (a proxy of a real thing) between the camera and the sphere hides the sphere's pixels

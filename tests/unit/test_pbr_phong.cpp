@@ -97,6 +97,19 @@ TEST_F(GltfMaterials, ReadsTheFactorsOfTheMaterialsUsed) {
     EXPECT_DOUBLE_EQ(m.materials[1].metallic, 0.0);
     EXPECT_NEAR(m.materials[1].roughness, 0.4, 1e-6);
     EXPECT_FALSE(m.materials[1].textured);
+    // One part per primitive (materials alternate, so none merge), each with its material.
+    ASSERT_EQ(m.parts.size(), 3u);
+    EXPECT_EQ(m.parts[0].material, 0);
+    EXPECT_EQ(m.parts[1].material, 1);
+    EXPECT_EQ(m.parts[2].material, 0);
+    EXPECT_EQ(m.parts[1].first_index, 3u);
+    EXPECT_EQ(m.parts[2].index_count, 3u);
+    const std::vector<Material> per_part = part_materials(m, parse_material("matte"), false);
+    ASSERT_EQ(per_part.size(), 3u);
+    EXPECT_EQ(per_part[0].spec, per_part[2].spec);
+    EXPECT_NE(per_part[0].spec, per_part[1].spec);
+    // steel: phong_0; red plastic: diffuse and its own lobe: three distinct maps in all.
+    EXPECT_EQ(needed_maps(per_part).size(), 3u);
 
     std::string bad = gltf;
     bad.replace(bad.find("\"metallicFactor\": 0"), 19, "\"metallicFactor\": 2");

@@ -1,0 +1,115 @@
+// Several materials on one model (docs/render.md, "Several materials"): an OBJ whose usemtl
+// groups name two MTL materials (three groups: the first material twice) is drawn with one draw
+// per distinct material, each group shaded with its own kd, ks and lobe, and the maps needed are
+// exactly the distinct lobes.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <unistd.h>
+
+#include "appliance/render/maps.hpp"
+#include "appliance/render/material.hpp"
+#include "appliance/render/mesh.hpp"
+#include "appliance/render/renderer.hpp"
+#include "gpu_fixture.hpp"
+
+namespace glint {
+namespace {
+
+namespace fs = std::filesystem;
+
+class RenderMaterials : public test::GpuTest {};
+
+// A unit sphere as OBJ: the upper hemisphere's triangles with x < 0 in group "paint", then the
+// lower hemisphere in "chrome", then the rest of the upper one in "paint" again.
+fs::path write_two_material_obj(const fs::path& dir) {
+    std::ofstream(dir / "two.mtl") << "# two materials\nnewmtl paint\nKd 0.8 0.2 0.1\nKs 0 0 0\nNs 10\n"
+                                      "newmtl chrome\nKd 0 0 0\nKs 0.5 0.25 0.125\nNs 160\n";
+    const render::Mesh s = render::make_uv_sphere(16, 32);  // stacks even: no triangle crosses the equator
+    std::ofstream obj(dir / "two.obj");
+    obj << "mtllib two.mtl\n";
+    for (std::size_t i = 0; i < s.positions.size(); ++i) {
+        obj << "v " << s.positions[i].x << ' ' << s.positions[i].y << ' ' << s.positions[i].z << '\n';
+        obj << "vn " << s.normals[i].x << ' ' << s.normals[i].y << ' ' << s.normals[i].z << '\n';
+    }
+    const auto group = [&](const char* name, auto&& keep) {
+        obj << "usemtl " << name << '\n';
+        for (std::size_t t = 0; t < s.indices.size(); t += 3) {
+            const glm::vec3 c = (s.positions[s.indices[t]] + s.positions[s.indices[t + 1]] + s.positions[s.indices[t + 2]]) / 3.0f;
+            if (!keep(c)) continue;
+            obj << 'f';
+            for (int k = 0; k < 3; ++k) obj << ' ' << s.indices[t + std::size_t(k)] + 1 << "//" << s.indices[t + std::size_t(k)] + 1;
+            obj << '\n';
+        }
+    };
+    group("paint", [](glm::vec3 c) { return c.y > 0 && c.x < 0; });
+    group("chrome", [](glm::vec3 c) { return c.y <= 0; });
+    group("paint", [](glm::vec3 c) { return c.y > 0 && c.x >= 0; });
+    return dir / "two.obj";
+}
+
+TEST_F(RenderMaterials, EachUsemtlGroupIsShadedWithItsOwnMaterialOneDrawPerMaterial) {
+    const fs::path dir = fs::temp_directory_path() / ("glint_test_render_materials_" + std::to_string(::getpid()));
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+    const render::Mesh mesh = render::load_obj(write_two_material_obj(dir));
+    ASSERT_EQ(mesh.parts.size(), 3u);
+    ASSERT_EQ(mesh.obj_materials.size(), 2u);
+    EXPECT_EQ(mesh.parts[0].material, mesh.parts[2].material);
+    EXPECT_TRUE(mesh.obj_materials[1].defined);
+    EXPECT_EQ(mesh.parts[0].index_count + mesh.parts[1].index_count + mesh.parts[2].index_count, mesh.indices.size());
+
+    const render::Material fallback = render::parse_material("matte");
+    const std::vector<render::Material> materials = render::part_materials(mesh, fallback, false);
+    ASSERT_EQ(materials.size(), 3u);
+    EXPECT_EQ(materials[0].kd, glm::dvec3(0.8, 0.2, 0.1));
+    EXPECT_FALSE(materials[0].specular());
+    EXPECT_EQ(materials[1].ks, glm::dvec3(0.5, 0.25, 0.125));
+    EXPECT_EQ(materials[1].n, 40.0);  // Ns / 4
+    // Exactly the distinct lobes: the irradiance map and phong_40, each once.
+    std::string labels;
+    for (const auto& r : render::needed_maps(materials)) labels += r.label + " ";
+    EXPECT_EQ(labels, "irradiance phong_40 ");
+    // --material given: one material for every part.
+    const std::vector<render::Material> all = render::part_materials(mesh, render::parse_material("glossy:20"), true);
+    for (const auto& m : all) EXPECT_EQ(m.spec, "glossy:20");
+
+    // Constant maps: the irradiance 1, the reflection 2, so each pixel's radiance says which
+    // material shaded it: paint kd = (0.8, 0.2, 0.1), chrome 2 ks = (1, 0.5, 0.25).
+    render::ShadingMaps maps;
+    HdrImage one(16, 8), two(16, 8);
+    for (auto& v : one.data()) v = 1.0f;
+    for (auto& v : two.data()) v = 2.0f;
+    maps.irradiance = one;
+    maps.set_reflection(materials[1], two);
+    render::Renderer r(mesh, materials, maps, 128, 96);
+    EXPECT_EQ(r.draws(), 2u);
+    r.draw_scene();
+    const render::Aovs a = r.read_aovs();
+    int paint = 0, chrome = 0;
+    double worst = 0;
+    for (std::size_t k = 0; k < std::size_t(a.width * a.height); ++k) {
+        if (a.radiance[4 * k + 3] == 0) continue;
+        const float ny = a.normal[4 * k + 1];
+        if (std::abs(ny) < 0.02f) continue;  // the equator's pixels may belong to either
+        const glm::dvec3 want = ny > 0 ? glm::dvec3(0.8, 0.2, 0.1) : glm::dvec3(1.0, 0.5, 0.25);
+        (ny > 0 ? paint : chrome)++;
+        for (int c = 0; c < 3; ++c) worst = std::max(worst, std::abs(a.radiance[4 * k + std::size_t(c)] - want[c]));
+    }
+    EXPECT_GT(paint, 2000);
+    EXPECT_GT(chrome, 2000);
+    EXPECT_LT(worst, 1e-5);
+
+    // A group whose material no MTL defines falls back to the given material.
+    std::ofstream(dir / "ghost.obj") << "v 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl ghost\nf 1 2 3\n";
+    const render::Mesh ghost = render::load_obj(dir / "ghost.obj");
+    ASSERT_EQ(ghost.parts.size(), 1u);
+    EXPECT_FALSE(ghost.obj_materials[0].defined);
+    EXPECT_EQ(render::part_materials(ghost, fallback, false).front().spec, "matte");
+    fs::remove_all(dir);
+}
+
+}  // namespace
+}  // namespace glint
