@@ -5,9 +5,9 @@
 // frame's planes (X = sum w X / sum w, W = mean w, box filtered by s) are read bilinearly there
 // (texelFetch: the same four texels and weights as the CPU, no filtering extension needed).
 // Outputs are added by blending into the frame's exposure band (exposure_bands.hpp):
-// num += (t W X, t W mean), den += W t^2, aux += (W mean, sampled ? 1 : 0).
-// A read whose four cells hold an invalid one (X's alpha > 0: a clipped pixel) adds nothing,
-// as on the CPU. A rolling shutter (u_omega non-zero) reads each texel at the row whose view
+// num += (t W X, t W mean), den += (W t^2, clipped ? 1 : 0), aux += (W mean, sampled ? 1 : 0).
+// A read whose four cells hold an invalid one (X's alpha > 0: a clipped pixel) adds no sample
+// and counts one clipped read, as on the CPU. A rolling shutter (u_omega non-zero) reads each texel at the row whose view
 // sees it, as HdrAccumulator's rolling_shutter_project: twice, the direction turned by
 // -omega x the row's time offset, then projected again.
 precision highp float;
@@ -138,7 +138,14 @@ void main() {
             valid = valid && all_valid;
         }
     }
-    if (!valid) discard;
+    if (!valid) {
+        // No sample, but counted in den's alpha: merge_bands leaves out a band whose reads here
+        // were partly clipped when a shorter band measured the texel.
+        o_num = vec4(0.0);
+        o_den = vec4(0.0, 0.0, 0.0, 1.0);
+        o_aux = vec4(0.0);
+        return;
+    }
     float wmean = (w.r + w.g + w.b) / 3.0;
     o_num = vec4(u_t * w * x, u_t * wmean);
     o_den = vec4(w * (u_t * u_t), 0.0);

@@ -126,6 +126,7 @@ HdrImage GpuAccumulator::radiance() const {
                     texel[b].den[c] = den[b][k + std::size_t(c)];
                 }
                 texel[b].wt = num[b][k + 3];
+                texel[b].clipped = den[b][k + 3];
                 texel[b].t_min = bands_[b].t_min;
             }
             img.set(i, j, merge_bands(texel));

@@ -48,6 +48,7 @@ HdrAccumulator::Band& HdrAccumulator::band_for(double t) {
         b.num.assign(3 * n, 0.0f);
         b.den.assign(3 * n, 0.0f);
         b.wt.assign(n, 0.0f);
+        b.clipped.assign(n, 0.0f);
         return b;
     });
 }
@@ -313,7 +314,8 @@ FrameContribution HdrAccumulator::add_frame(const CameraFrame& frame, const Came
             if (taps > 0 && in_zone(zone, pw, ph, U, V))
                 footprint_read(planes, pw, ph, s, cal, camera_from_world, angular_velocity, i, j, taps, P);
             const std::size_t texel = std::size_t(j) * std::size_t(width_) + std::size_t(i);
-            if (P[6] > 0) {  // an invalid cell: no sample (see the header)
+            if (P[6] > 0) {  // an invalid cell: no sample (see the header), but counted (merge_bands)
+                band.clipped[texel] += 1.0f;
                 if (shortest) {
                     if (!clipped_short_[texel]) ++samples_[texel];  // estimated by radiance()
                     clipped_short_[texel] = 1;
@@ -353,6 +355,7 @@ Rgb HdrAccumulator::merged(std::size_t k, std::vector<BandTexel>& texel) const {
             x.den[c] = band.den[3 * k + std::size_t(c)];
         }
         x.wt = band.wt[k];
+        x.clipped = band.clipped[k];
         x.t_min = band.t_min;
     }
     return merge_bands(texel);

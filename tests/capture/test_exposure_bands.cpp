@@ -49,6 +49,32 @@ TEST(ExposureBands, AShortBandInItsNoiseDoesNotOverrule) {
     EXPECT_NEAR(merge_bands(bands).r, 3.0, 0.01);
 }
 
+TEST(ExposureBands, ALongBandWithClippedReadsIsLeftOutWhereAShortBandMeasures) {
+    // Beside a small source the long frames disagree by a fraction of a degree: in some the source
+    // clipped this texel (those reads are left out), in the rest it read the dim room (2). Its mean
+    // of the reads that remain is censored, low; the short band saw the source in every frame and
+    // says 300 at a relative exposure of 0.03: the long band is left out although 300 x its t_min
+    // (0.002) would not have clipped, because part of its reads did.
+    BandTexel longer = frame_sums(2, 0.02, 1.0, 0.002);
+    longer.clipped = 3;
+    const std::vector<BandTexel> bands{frame_sums(300, 1e-4, 0.6, 1e-4), longer};
+    EXPECT_NEAR(merge_bands(bands).r, 300.0, 1e-3);
+    // Without clipped reads the same two bands merge, and the long band dominates.
+    longer.clipped = 0;
+    const std::vector<BandTexel> consistent{frame_sums(300, 1e-4, 0.6, 1e-4), longer};
+    EXPECT_LT(merge_bands(consistent).r, 10.0f);
+}
+
+TEST(ExposureBands, ClippedReadsDoNotHandATexelToAShortBandInItsNoise) {
+    // A short band in its read noise (relative exposure 0.004) is no measurement: the long band
+    // keeps the texel although some of its reads clipped (the clipped mask is dilated by the
+    // reads' footprints, so such a texel is mostly the room).
+    BandTexel longer = frame_sums(3, 0.02, 1.0, 0.01);
+    longer.clipped = 2;
+    const std::vector<BandTexel> bands{frame_sums(40, 1e-4, 0.3, 1e-4), longer};
+    EXPECT_NEAR(merge_bands(bands).r, 3.0, 0.01);
+}
+
 TEST(ExposureBands, NoWeightGivesZero) {
     const std::vector<BandTexel> bands{BandTexel{}};
     EXPECT_EQ(merge_bands(bands).b, 0.0f);
