@@ -1,6 +1,7 @@
 #include "appliance/render/ao_bake.hpp"
 
 #include "appliance/render/occlusion_scene.hpp"
+#include "appliance/render/sampling.hpp"
 
 #include <algorithm>
 #include <atomic>
@@ -31,26 +32,6 @@ std::uint64_t bits_of(float f) {
 }
 
 double unit_of(std::uint64_t h) { return double(h >> 11) * 0x1.0p-53; }
-
-// Radical inverse in base 2 (the Hammersley set's second coordinate).
-double radical_inverse(std::uint32_t k) {
-    k = (k << 16) | (k >> 16);
-    k = ((k & 0x55555555u) << 1) | ((k & 0xAAAAAAAAu) >> 1);
-    k = ((k & 0x33333333u) << 2) | ((k & 0xCCCCCCCCu) >> 2);
-    k = ((k & 0x0F0F0F0Fu) << 4) | ((k & 0xF0F0F0F0u) >> 4);
-    k = ((k & 0x00FF00FFu) << 8) | ((k & 0xFF00FF00u) >> 8);
-    return double(k) * 0x1.0p-32;
-}
-
-// An orthonormal basis with n as its third axis (Duff et al., "Building an Orthonormal Basis,
-// Revisited", JCGT 2017): no branch on a chosen helper axis, continuous except at n.z = -1's sign.
-void basis(const glm::dvec3& n, glm::dvec3& t, glm::dvec3& b) {
-    const double s = std::copysign(1.0, n.z);
-    const double a = -1.0 / (s + n.z);
-    const double c = n.x * n.y * a;
-    t = glm::dvec3(1.0 + s * n.x * n.x * a, s * c, -s * n.x);
-    b = glm::dvec3(c, s + n.y * n.y * a, -n.y);
-}
 
 }  // namespace
 
@@ -103,7 +84,7 @@ std::vector<float> bake_ambient_occlusion(const Mesh& mesh, const AoBakeOptions&
             if (!(len > 0)) continue;  // no normal, no hemisphere: left open
             n /= len;
             glm::dvec3 t, b;
-            basis(n, t, b);
+            orthonormal_basis(n, t, b);
             std::uint64_t h = 0;
             for (float f : {p.x, p.y, p.z, mesh.normals[v].x, mesh.normals[v].y, mesh.normals[v].z}) h = mix(h ^ bits_of(f));
             const double sx = unit_of(h), sy = unit_of(mix(h));

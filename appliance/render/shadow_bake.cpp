@@ -9,25 +9,10 @@
 #include "appliance/core/errors.hpp"
 #include "appliance/core/parallel.hpp"
 #include "appliance/render/occlusion_scene.hpp"
+#include "appliance/render/sampling.hpp"
 
 namespace glint::render {
 namespace {
-
-// Radical inverse in base 2: the second coordinate of a Hammersley set.
-double radical_inverse(std::uint32_t k) {
-    k = (k << 16) | (k >> 16);
-    k = ((k & 0x55555555u) << 1) | ((k & 0xAAAAAAAAu) >> 1);
-    k = ((k & 0x33333333u) << 2) | ((k & 0xCCCCCCCCu) >> 2);
-    k = ((k & 0x0F0F0F0Fu) << 4) | ((k & 0xF0F0F0F0u) >> 4);
-    k = ((k & 0x00FF00FFu) << 8) | ((k & 0xFF00FF00u) >> 8);
-    return double(k) * 0x1.0p-32;
-}
-
-void basis(const glm::dvec3& n, glm::dvec3& t, glm::dvec3& b) {
-    const glm::dvec3 helper = std::abs(n.y) < 0.9 ? glm::dvec3(0, 1, 0) : glm::dvec3(1, 0, 0);
-    t = glm::normalize(glm::cross(helper, n));
-    b = glm::cross(n, t);
-}
 
 struct Direction {
     glm::dvec3 d;
@@ -104,7 +89,7 @@ ShadowBake bake_table_shadow(const Mesh& mesh, const ShadowLighting& lighting, d
         const double b = light.angular_radius();
         light_cone[std::size_t(l)] = b;
         glm::dvec3 t, u;
-        basis(n, t, u);
+        orthonormal_basis(n, t, u);
         for (int k = 0; k < options.light_rays; ++k) {
             const double r = b * std::sqrt((k + 0.5) / options.light_rays), phi = kTwoPi * radical_inverse(std::uint32_t(k));
             light_dirs[std::size_t(l)].push_back(std::cos(r) * n + std::sin(r) * (std::cos(phi) * t + std::sin(phi) * u));
