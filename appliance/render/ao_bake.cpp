@@ -54,14 +54,7 @@ std::vector<float> bake_ambient_occlusion(const Mesh& mesh, const AoBakeOptions&
     if (mesh.normals.size() != mesh.positions.size()) throw InputError("ao bake: the mesh " + mesh.source + " has no normal per vertex");
 
     // The model's size: the bounding sphere about its bounding box's centre.
-    glm::dvec3 lo(mesh.positions[0]), hi(mesh.positions[0]);
-    for (const auto& p : mesh.positions) {
-        lo = glm::min(lo, glm::dvec3(p));
-        hi = glm::max(hi, glm::dvec3(p));
-    }
-    const glm::dvec3 centre = 0.5 * (lo + hi);
-    double radius = 0;
-    for (const auto& p : mesh.positions) radius = std::max(radius, glm::length(glm::dvec3(p) - centre));
+    const double radius = mesh_bounds(mesh).radius;
     if (!(radius > 0)) throw InputError("ao bake: the mesh " + mesh.source + " has no extent");
     const float max_distance = float(options.max_distance_relative * radius);
     const double offset = options.offset_relative * radius;

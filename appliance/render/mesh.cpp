@@ -273,6 +273,19 @@ bool ray_crosses_triangle(const glm::dvec3& o, const glm::dvec3& d, const glm::d
     return glm::dot(e2, q) / det > t_min;
 }
 
+MeshBounds mesh_bounds(const Mesh& mesh) {
+    MeshBounds b;
+    if (mesh.positions.empty()) return b;
+    b.lo = b.hi = glm::dvec3(mesh.positions[0]);
+    for (const auto& p : mesh.positions) {
+        b.lo = glm::min(b.lo, glm::dvec3(p));
+        b.hi = glm::max(b.hi, glm::dvec3(p));
+    }
+    b.centre = 0.5 * (b.lo + b.hi);
+    for (const auto& p : mesh.positions) b.radius = std::max(b.radius, glm::length(glm::dvec3(p) - b.centre));
+    return b;
+}
+
 void normalise_to_unit_sphere(Mesh& mesh) {
     if (mesh.positions.empty()) return;
     glm::vec3 lo = mesh.positions[0], hi = mesh.positions[0];

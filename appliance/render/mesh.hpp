@@ -98,6 +98,14 @@ bool model_is_file(const std::string& spec);
 bool ray_crosses_triangle(const glm::dvec3& o, const glm::dvec3& d, const glm::dvec3& a, const glm::dvec3& b,
                           const glm::dvec3& c, double t_min = 0.0);
 
+// The mesh's axis-aligned bounding box and the sphere about the box's centre through its
+// farthest vertex (the size the bakes measure their distances and grids in). Empty mesh: zeros.
+struct MeshBounds {
+    glm::dvec3 lo{0.0}, hi{0.0}, centre{0.0};
+    double radius = 0;
+};
+MeshBounds mesh_bounds(const Mesh& mesh);
+
 // Moves and scales the mesh so that its axis-aligned bounding box is centred on the origin and
 // the farthest vertex is at distance 1 (the camera of renderer.hpp frames the unit sphere).
 void normalise_to_unit_sphere(Mesh& mesh);

@@ -30,15 +30,10 @@ ShadowBake bake_table_shadow(const Mesh& mesh, const ShadowLighting& lighting, d
     const OcclusionScene scene(mesh, "shadow bake");
 
     // The mesh's bounding sphere: rays outside its cone from a table point cannot hit the mesh.
-    glm::dvec3 lo(mesh.positions[0]), hi(mesh.positions[0]);
-    for (const auto& p : mesh.positions) {
-        lo = glm::min(lo, glm::dvec3(p));
-        hi = glm::max(hi, glm::dvec3(p));
-    }
-    const glm::dvec3 centre = 0.5 * (lo + hi);
-    double radius = 0;
-    for (const auto& p : mesh.positions) radius = std::max(radius, glm::length(glm::dvec3(p) - centre));
-    radius = std::max(radius, 1e-9);
+    const MeshBounds bounds = mesh_bounds(mesh);
+    const glm::dvec3& centre = bounds.centre;
+    const glm::dvec3& hi = bounds.hi;
+    const double radius = std::max(bounds.radius, 1e-9);
 
     // The grid: around the mesh, out to where each light's shadow of the mesh's top ends.
     double half = options.min_half_size * radius;

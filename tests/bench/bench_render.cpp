@@ -37,24 +37,12 @@
 #include "appliance/render/material.hpp"
 #include "appliance/render/mesh.hpp"
 #include "appliance/render/renderer.hpp"
+#include "tests/gpu/render_worlds.hpp"
 
 namespace glint {
 namespace {
 
 namespace fs = std::filesystem;
-
-HdrImage block_mean(const HdrImage& full, int f) {
-    HdrImage out(full.width() / f, full.height() / f);
-    for (int j = 0; j < out.height(); ++j)
-        for (int i = 0; i < out.width(); ++i) {
-            double s[3] = {0, 0, 0};
-            for (int y = 0; y < f; ++y)
-                for (int x = 0; x < f; ++x)
-                    for (int c = 0; c < 3; ++c) s[c] += full.row(j * f + y)[3 * (i * f + x) + c];
-            out.set(i, j, {float(s[0] / (f * f)), float(s[1] / (f * f)), float(s[2] / (f * f))});
-        }
-    return out;
-}
 
 render::ShadingMaps maps_of(const HdrImage& env, const render::Material& m, convolution::Method method,
                             std::optional<convolution::Size> size = std::nullopt) {
@@ -98,7 +86,7 @@ void parse_size(const std::string& text, int& w, int& h) {
 }
 
 int shading(const std::string& world, int w, int h) {
-    const HdrImage env = block_mean(load_exr(fs::path(GLINT_BLENDER_WORLDS) / (world + ".exr")).image, 4);
+    const HdrImage env = test::small_blender_world(world);
     for (const char* spec : {"matte", "glossy:160"}) {
         const render::Material m = render::parse_material(spec);
         const render::ShadingMaps used = maps_of(env, m, convolution::Method::Auto);
@@ -131,7 +119,7 @@ int shading(const std::string& world, int w, int h) {
 
 int consistency(const fs::path& truth_path, const fs::path& captured_path, const fs::path& calibration_path, int w,
                 int h) {
-    const HdrImage truth = block_mean(load_exr(truth_path).image, 4);
+    const HdrImage truth = test::block_mean(load_exr(truth_path).image, 4);
     const HdrImage captured = load_exr(captured_path).image;
     const capture::CameraCalibration cal = capture::load_calibration(calibration_path);
     if (!(cal.response.gamma > 0)) throw InputError(calibration_path.string() + ": the bench needs a parametric response");

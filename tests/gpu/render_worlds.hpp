@@ -9,11 +9,9 @@
 
 namespace glint::test {
 
-// A Blender world averaged over 4x4 blocks (1024x512 -> 256x128): small enough for `exact` in a
-// test, and the block mean keeps every light's power.
-inline HdrImage small_blender_world(const std::string& name) {
-    const HdrImage full = load_exr(std::filesystem::path(GLINT_BLENDER_WORLDS) / (name + ".exr")).image;
-    const int f = 4;
+// The mean over f x f blocks: keeps every light's power while making a map small enough for
+// `exact`.
+inline HdrImage block_mean(const HdrImage& full, int f) {
     HdrImage out(full.width() / f, full.height() / f);
     for (int j = 0; j < out.height(); ++j)
         for (int i = 0; i < out.width(); ++i) {
@@ -24,6 +22,12 @@ inline HdrImage small_blender_world(const std::string& name) {
             out.set(i, j, {float(s[0] / (f * f)), float(s[1] / (f * f)), float(s[2] / (f * f))});
         }
     return out;
+}
+
+// A Blender world averaged over 4x4 blocks (1024x512 -> 256x128): small enough for `exact` in a
+// test.
+inline HdrImage small_blender_world(const std::string& name) {
+    return block_mean(load_exr(std::filesystem::path(GLINT_BLENDER_WORLDS) / (name + ".exr")).image, 4);
 }
 
 // A gtest parameter name from free text ("glossy:160" -> "glossy_160").
