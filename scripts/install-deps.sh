@@ -27,6 +27,10 @@ packages=(
   libglm-dev                           # the appliance's vectors, quaternions and matrices (appliance/core/rotation.hpp)
   libeigen3-dev                        # capture: the global adjustment's sparse Cholesky (appliance/capture)
   libtinygltf-dev                      # glTF 2.0 models for glint render (appliance/render)
+  libtomlplusplus-dev                  # the kiosk's TOML configuration (appliance/ui)
+  libimgui-dev libfreetype-dev fonts-dejavu-core   # visitor screens and maintenance menu: Dear ImGui, FreeType, DejaVu (appliance/ui)
+  libsystemd-dev systemd               # sd_notify and the service file's verification (systemd/)
+  libapriltag-dev                      # AprilTag 3 beside ArUco in the tracking benchmark (tests/bench)
   libembree-dev                        # ambient occlusion baked by ray tracing, glint bake-ao (appliance/render)
 )
 

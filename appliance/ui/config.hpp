@@ -1,0 +1,108 @@
+// The appliance's configuration (docs/kiosk.md, "Configuration"): one TOML file, every key with
+// its default in the shipped example (config/glint.example.toml). load_config() parses and
+// validates it: an unknown key, a wrong type or a value out of range is a ConfigError naming the
+// file, the line and the key. Every field below is one key; the section is the struct's name.
+#pragma once
+
+#include <cstdint>
+#include <filesystem>
+#include <stdexcept>
+#include <string>
+#include <vector>
+
+namespace glint::ui {
+
+// An unusable configuration. what(): "FILE:LINE: key 'section.key': what is wrong".
+class ConfigError : public std::runtime_error {
+    using std::runtime_error::runtime_error;
+};
+
+struct DisplaySection {          // [display]
+    std::string kind = "auto";   // auto | kms | window | headless
+    std::string card, connector, mode;  // kms: "" = found by enumeration / preferred mode
+    int width = 1280, height = 720;     // window and headless
+    bool fullscreen = true;             // window
+};
+
+struct CameraSection {                // [camera]
+    std::string source = "libcamera"; // a camera spec (capture/camera_factory.hpp)
+    std::string calibration;          // camera calibration JSON ("" = <state>/calibration.json)
+};
+
+struct SensorSection {                      // [sensor]
+    std::string source = "serial:/dev/glint-sensor";  // an orientation source spec (host/source_spec.hpp)
+};
+
+struct GpioSection {                  // [gpio]
+    std::string chip = "gpiochip0";   // "" = no GPIO (keyboard only)
+    int button_line = 17;             // the visitor's big button (active low)
+    int key_switch_line = 27;         // the technician's key switch: opens the maintenance menu
+    int lamp_line = 22;               // the button's lamp
+    double debounce_ms = 20;
+};
+
+struct FrameSection {           // [frame]
+    double budget_ms = 33.333;  // what one frame may take (30 Hz)
+    double hard_cap_ms = 100;   // a frame over this is logged as a stall
+    double watchdog_s = 10;     // the service's WatchdogSec must be larger
+};
+
+struct CaptureSection {             // [capture]
+    int map_width = 1024, map_height = 512;  // the environment map
+    double target_coverage = 0.95;  // of the seeable sphere: the scan is complete
+    double max_scan_s = 120;        // CAPTURE's timeout
+};
+
+struct ConvolutionSection {  // [convolution]
+    double tolerance = 0.01; // weighted relative RMS of the final maps
+};
+
+struct ArSection {                      // [ar]
+    std::string model = "teapot";       // teapot | sphere | a glTF or OBJ file
+    double object_radius_m = 0.08;      // the object's bounding sphere on the marker
+    double board_width_mm = 0;          // 0 = the default board's own size
+    // The materials the button cycles through, in order (Phong, docs/render.md).
+    std::vector<std::string> materials = {"matte", "glossy", "mirror"};
+};
+
+struct TimeoutsSection {            // [timeouts], seconds
+    double attract_s = 0;           // 0 = ATTRACT waits for the button for ever
+    double capture_s = 150;         // CAPTURE with no progress -> ATTRACT
+    double processing_s = 60;       // PROCESSING not finished -> ATTRACT with an apology
+    double ar_idle_s = 45;          // AR without a button press -> ATTRACT
+    double message_s = 5;           // how long a friendly error message stays
+};
+
+struct MaintenanceSection {         // [maintenance]
+    std::string pin_hash;           // crypt(3) hash of the PIN ("" = menu disabled without the key switch)
+    int max_attempts = 5;           // wrong PINs before the lock-out
+    double lockout_s = 300;
+    std::string chord = "ctrl+alt+m";  // keyboard chord that asks for the PIN
+};
+
+struct StateSection {                       // [state]
+    std::string dir = "/var/lib/glint";     // maps, calibrations, last scene, screenshots
+    std::string export_dir = "/media/usb";  // where the maintenance menu exports to
+};
+
+struct Config {
+    std::filesystem::path file;  // where it was read from ("" = defaults)
+    DisplaySection display;
+    CameraSection camera;
+    SensorSection sensor;
+    GpioSection gpio;
+    FrameSection frame;
+    CaptureSection capture;
+    ConvolutionSection convolution;
+    ArSection ar;
+    TimeoutsSection timeouts;
+    MaintenanceSection maintenance;
+    StateSection state;
+};
+
+// Reads and validates `file`. Throws ConfigError (see above); a missing file is an error too.
+Config load_config(const std::filesystem::path& file);
+// The defaults (what an empty file gives).
+Config default_config();
+
+}  // namespace glint::ui
