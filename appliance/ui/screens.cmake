@@ -9,7 +9,7 @@ find_package(Freetype REQUIRED)
 # Debian builds toml++ as a shared library (TOML_HEADER_ONLY=0); the strings file is read with it.
 find_package(tomlplusplus REQUIRED CONFIG)
 
-add_library(glint_ui_screens STATIC imgui_layer.cpp strings.cpp screens.cpp)
+add_library(glint_ui_screens STATIC imgui_layer.cpp strings.cpp screens.cpp maintenance_menu.cpp system_status.cpp)
 # Imported targets' include directories are SYSTEM includes: ImGui's and FreeType's headers do not
 # trip our warnings, which stay on for our files.
 target_link_libraries(glint_ui_screens PUBLIC glint_gl glint_core PkgConfig::IMGUI

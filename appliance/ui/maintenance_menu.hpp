@@ -1,0 +1,160 @@
+// The technician's maintenance menu (docs/screens.md, "Maintenance menu"): ImGui windows over the
+// kiosk's frame, driven by the keyboard. It does no I/O and checks no PIN itself: the kiosk
+// fills a MaintenanceStatus each frame, gives a PIN check (PinLock, pin_lock.hpp), and carries out
+// the MenuActions draw() returns (and journals them).
+//
+// Pages: the PIN entry, then Status, Calibrations, Capture & convolution settings, Log, Export,
+// Buttons & lamp, Test pattern, Restart. F1..F8 choose a page, Prior/Next (Page Up/Down) step
+// through them; inside a page the arrows move between buttons and space presses one; Escape
+// closes the menu (from the test pattern: back to Status).
+#pragma once
+
+#include <cstdint>
+#include <functional>
+#include <string>
+#include <vector>
+
+#include "appliance/gl/display.hpp"
+#include "appliance/ui/config.hpp"
+#include "appliance/ui/strings.hpp"
+
+namespace glint::ui {
+
+// What the PIN check answered.
+struct PinResult {
+    enum class Kind : std::uint8_t { Ok, Wrong, Locked } kind = Kind::Wrong;
+    int attempts_left = 0;  // Wrong: before the lock-out
+    double locked_s = 0;    // Locked: until it lifts
+};
+using PinCheck = std::function<PinResult(const std::string& pin)>;
+
+enum class CalibrationKind : std::uint8_t { CameraIntrinsics, Response, Vignetting, Alignment, TimeOffset };
+inline constexpr int kCalibrationKinds = 5;
+
+// The capture and convolution values the settings page edits: copies of the config's sections.
+struct MenuSettings {
+    CaptureSection capture;
+    ConvolutionSection convolution;
+    bool operator==(const MenuSettings& o) const {
+        return capture.map_width == o.capture.map_width && capture.map_height == o.capture.map_height &&
+               capture.target_coverage == o.capture.target_coverage && capture.max_scan_s == o.capture.max_scan_s &&
+               convolution.tolerance == o.convolution.tolerance;
+    }
+};
+
+enum class LampMode : std::uint8_t { Off, On, Blink };
+
+// Everything the pages show, filled by the kiosk (texts ready to show, except where noted).
+struct MaintenanceStatus {
+    // Status
+    std::string kiosk_state;          // "ATTRACT", ...
+    std::string sensor_health;        // "ok", "no samples for 2.1 s", ...
+    bool sensor_ok = false;
+    double sensor_rate_hz = 0;
+    double camera_fps = 0;
+    double exposure_s = 0;
+    double gain = 0;
+    std::string display_mode;         // gl::Display::describe()
+    bool display_degraded = false;
+    std::string gl_renderer;
+    std::string cpu_temperature = "n/a";  // system_status.hpp's texts
+    std::string free_disk = "n/a";
+    std::string uptime = "n/a";
+    // Calibrations: the wizard running (if any), its step and the last result.
+    bool calibration_running = false;
+    CalibrationKind calibration = CalibrationKind::CameraIntrinsics;
+    std::string calibration_step;     // "Show the board at the top left corner (3 of 12)"
+    std::string calibration_result;   // "RMS reprojection error 0.31 px"
+    unsigned calibration_preview_texture = 0;  // an RGBA GL texture of the live camera image (0: none)
+    int calibration_preview_width = 0, calibration_preview_height = 0;
+    // Settings in force (the page edits a copy)
+    MenuSettings settings;
+    // Log tail, oldest first
+    std::vector<std::string> log_lines;
+    // Export
+    std::vector<std::string> export_targets;  // mounted places, e.g. "/media/usb (USB stick, 14.2 GB free)"
+    std::string export_result;                 // "wrote 5 files (82 MB) to /media/usb/glint-20261203"
+    // Buttons & lamp
+    bool button_pressed = false;
+    bool key_switch_on = false;
+    LampMode lamp = LampMode::Off;
+};
+
+// What the technician asked for.
+struct MenuAction {
+    enum class Kind : std::uint8_t {
+        Close,              // the menu closed (Escape)
+        StartCalibration,   // calibration
+        CancelCalibration,
+        ApplySettings,      // settings
+        Export,             // export_target, export_items
+        Lamp,               // lamp
+        RestartKiosk,       // confirmed by a second press
+        RebootAppliance,    // confirmed by a second press
+    } kind = Kind::Close;
+    CalibrationKind calibration = CalibrationKind::CameraIntrinsics;
+    MenuSettings settings;
+    int export_target = -1;  // index into MaintenanceStatus::export_targets
+    // What to export (bits of ExportItem).
+    std::uint8_t export_items = 0;
+    LampMode lamp = LampMode::Off;
+};
+enum ExportItem : std::uint8_t { kExportEnvMap = 1, kExportMaps = 2, kExportScreenshots = 4, kExportSessions = 8 };
+
+const char* menu_action_name(MenuAction::Kind kind);  // "close", "start-calibration", ... (the journal)
+
+class MaintenanceMenu {
+public:
+    enum class Page : std::uint8_t { Pin, Status, Calibrations, Settings, Log, Export, Buttons, Pattern, Restart };
+
+    explicit MaintenanceMenu(PinCheck check);
+
+    // Opens at the PIN page (keyboard chord), or straight at Status when `unlocked` (the key switch).
+    void open(bool unlocked = false);
+    void close();
+    bool is_open() const { return open_; }
+    Page page() const { return page_; }
+    // Any page but Pin once unlocked (the kiosk, tests); ignored while locked.
+    void set_page(Page page);
+
+    // Draws the open menu inside an ImGui frame (ImGuiLayer) and returns the actions of this
+    // frame. `keys`: the same events the layer's begin_frame got. Nothing when closed.
+    std::vector<MenuAction> draw(const MaintenanceStatus& status, const std::vector<gl::InputEvent>& keys,
+                                 const Strings& strings, int width, int height);
+
+private:
+    void handle_keys(const std::vector<gl::InputEvent>& keys, std::vector<MenuAction>& actions);
+    void submit_pin();
+    void draw_pin(const Strings& s, int width, int height);
+    void draw_pages(const MaintenanceStatus& status, const Strings& s, int width, int height, std::vector<MenuAction>& actions);
+    void draw_status(const MaintenanceStatus& status, const Strings& s);
+    void draw_calibrations(const MaintenanceStatus& status, const Strings& s, std::vector<MenuAction>& actions);
+    void draw_settings(const MaintenanceStatus& status, const Strings& s, std::vector<MenuAction>& actions);
+    void draw_log(const MaintenanceStatus& status, const Strings& s);
+    void draw_export(const MaintenanceStatus& status, const Strings& s, std::vector<MenuAction>& actions);
+    void draw_buttons(const MaintenanceStatus& status, const Strings& s, std::vector<MenuAction>& actions);
+    void draw_restart(const Strings& s, std::vector<MenuAction>& actions);
+
+    PinCheck check_;
+    bool open_ = false;
+    bool unlocked_ = false;
+    Page page_ = Page::Pin;
+    bool page_changed_ = false;  // the page window takes the keyboard focus
+    bool focus_pending_ = false; // ... and its first button the nav focus, once it is drawn
+    std::string pin_;
+    std::string pin_message_;
+    bool pin_message_is_error_ = false;
+    MenuSettings edit_;
+    bool editing_ = false;       // edit_ holds the technician's changes (not overwritten by the status)
+    int export_target_ = 0;
+    std::uint8_t export_items_ = kExportEnvMap | kExportMaps;
+    MenuAction::Kind armed_ = MenuAction::Kind::Close;  // Restart/Reboot pressed once
+    double armed_at_ = -1e9;
+};
+
+// The display test pattern over the whole frame: eight colour bars (white, yellow, cyan, green,
+// magenta, red, blue, black) in the top half, a grey ramp from black to white, a 16-step grey
+// scale, and a 1-pixel white grid every 32 pixels on black with a 1-pixel frame at the edges.
+void draw_test_pattern(int width, int height);
+
+}  // namespace glint::ui
