@@ -367,7 +367,8 @@ void MaintenanceMenu::draw_settings(const MaintenanceStatus& st, const Strings& 
     changed |= ImGui::InputDouble(label(s.get("menu.settings.tolerance"), "tol").c_str(), &edit_.convolution.tolerance, 0.001,
                                   0.01, "%.3f");
     ImGui::PopItemWidth();
-    // The ranges the config accepts (config.cpp validates the file the same way).
+    // Keeps the fields within ranges that make sense on the appliance; the kiosk still validates
+    // what it applies, as it does the config file.
     edit_.capture.map_width = std::clamp(edit_.capture.map_width, 64, 8192);
     edit_.capture.map_height = std::clamp(edit_.capture.map_height, 32, 4096);
     edit_.capture.target_coverage = std::clamp(edit_.capture.target_coverage, 0.1, 1.0);

@@ -30,7 +30,8 @@ public:
     bool has(std::string_view key) const;
     // The text of `key`. A key the code uses is always there (load checked); a key that comes
     // from elsewhere (a material named in the config, a message key from the kiosk) and is not in
-    // the file shows as the key itself: a frame is never lost to a missing text.
+    // the file shows as the key itself: a frame is never lost to a missing text. (It remembers
+    // such keys, so a Strings is read from one thread: the one that draws.)
     const std::string& get(std::string_view key) const;
     // get() with every "{name}" replaced by its value; an unknown place stays as written.
     std::string format(std::string_view key, const std::vector<std::pair<std::string, std::string>>& values) const;

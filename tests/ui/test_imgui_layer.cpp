@@ -106,3 +106,22 @@ TEST_F(ImGuiLayerTest, BlendsStraightAlphaOverTheFrame) {
     EXPECT_FALSE(near(pixel(over, 100, 100), pixel(plain, 100, 100), 0));
     EXPECT_TRUE(near(pixel(over, 150, 200), pixel(plain, 150, 200), 0));
 }
+
+TEST_F(ImGuiLayerTest, DrawListsOver64kVerticesAreDrawnWhole) {
+    // 20000 one-pixel squares (80000 vertices with 16-bit indices: the draw list splits at 64K
+    // and the renderer starts the attributes at each command's vertex offset); the last ones land
+    // where they were put.
+    const gl::RgbImage image = frame([] {
+        ImDrawList* list = ImGui::GetForegroundDrawList();
+        for (int k = 0; k < 20000; ++k) {
+            const float x = float(k % 200) * 2, y = float(k / 200) * 2;
+            list->AddRectFilled(ImVec2(x, y), ImVec2(x + 1, y + 1), IM_COL32(255, 0, 255, 255));
+        }
+    });
+    EXPECT_GT(layer().last_frame().draw_calls, 1);
+    EXPECT_TRUE(near(pixel(image, 0, 0), {255, 0, 255}, 0));
+    EXPECT_TRUE(near(pixel(image, 398, 198), {255, 0, 255}, 0));  // square 19999
+    EXPECT_TRUE(near(pixel(image, 200, 150), {255, 0, 255}, 0));  // square 15100, past the split
+    EXPECT_FALSE(near(pixel(image, 399, 199), {255, 0, 255}, 0));
+    EXPECT_EQ(count(image, {255, 0, 255}, 0, 0, 400, 200, 0), 20000);
+}
