@@ -434,6 +434,7 @@ json run_replay(const ReplayOptions& o, const std::function<void(const std::stri
             if (rest_ms > 0) std::this_thread::sleep_for(std::chrono::duration<double, std::milli>(rest_ms));
         }
         t_s += period_s;
+        if (o.progress) o.progress(std::min(t_s, end_s), end_s);
     }
     if (live_maps && final_maps_wall_s < 0) {
         live_maps->finish();  // the replay ended first: the maps are still made, for the figures

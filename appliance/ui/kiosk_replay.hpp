@@ -36,6 +36,8 @@ struct ReplayOptions {
     // (the screens library); empty: no overlay.
     using Overlay = std::function<void(const ScreenModel&, double dt_s)>;
     std::function<Overlay(int width, int height)> make_overlay;
+    // Called once per frame with the replay clock and the session's length (seconds).
+    std::function<void(double t_s, double end_s)> progress;
 };
 
 // Runs the replay; returns summary.json's content (also written to OUT/summary.json). Throws
