@@ -138,6 +138,8 @@ public:
     int width() const { return width_; }
     int height() const { return height_; }
     const Camera& camera() const { return camera_; }
+    // The view from the next draw on (the kiosk moves it every frame with the tracked pose).
+    void set_camera(const Camera& camera) { camera_ = camera; }
     std::size_t draws() const { return draws_.size(); }  // one per distinct material
     // Shades with other maps of the same lobes from the next draw on (live_maps.hpp: the final
     // maps after the coarse ones). Throws RuntimeError when one the materials need is missing.
