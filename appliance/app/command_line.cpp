@@ -50,6 +50,10 @@ constexpr CommandSummary kSummaries[] = {
      "The marker board's pose in every PNG of a directory (CSV, camera_from_board), filtered and bridged through "
      "dropouts by the orientation sensor with --sequence; --print-board draws the board",
      true},
+    {"replay",
+     "The kiosk program on a recorded session (camera frames, sensor stream, button events): the visitor flow, "
+     "capture, maps and AR view on a display (headless by default); PNG frames and summary.json",
+     true},
 };
 
 // The first argument that is not an option: the command's name (glint has no global option

@@ -88,21 +88,25 @@ std::map<std::uint64_t, glm::dquat> truth_orientations(const Session& s) {
 // same decode path and clock mapping as the live serial driver.
 struct SensorTrack {
     std::unique_ptr<host::OrientationHistory> history;
-    host::LinkHealth health;
 };
 
-SensorTrack replay_sensors(const Session& s) {
+// Every orientation sample of the session's sensor recording, in order.
+std::vector<host::OrientationSample> replay_sensor_samples(const Session& s) {
     if (s.sensors.empty()) throw InputError(s.dir.string() + ": the session has no sensor recording (sensors.glrec)");
     host::ReplaySource replay("replay:" + s.sensors.string(), s.sensors.string());
     std::vector<host::OrientationSample> samples;
     replay.set_sample_callback([&](const host::OrientationSample& x) { samples.push_back(x); });
     replay.run_to_end();
     if (samples.size() < 2) throw InputError(s.sensors.string() + ": fewer than two orientation samples");
+    return samples;
+}
+
+SensorTrack replay_sensors(const Session& s) {
+    const std::vector<host::OrientationSample> samples = replay_sensor_samples(s);
     SensorTrack t;
     // Keep everything; a gap over 100 ms (a lost stretch) is not interpolated across.
     t.history = std::make_unique<host::OrientationHistory>(samples.size() + 1, 100'000'000, 0);
     for (const host::OrientationSample& x : samples) t.history->push(x);
-    t.health = replay.health();
     return t;
 }
 
@@ -154,6 +158,12 @@ GroundTruthError compare_with_truth(const HdrImage& got, const std::vector<std::
 }
 
 }  // namespace
+
+std::vector<SensorOrientation> load_sensor_orientations(const Session& session) {
+    std::vector<SensorOrientation> out;
+    for (const host::OrientationSample& x : replay_sensor_samples(session)) out.push_back({x.t_ns, x.world_from_sensor});
+    return out;
+}
 
 CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const gl::GlContext* gpu,
                            const std::function<void(long long, long long)>& progress) {
@@ -300,7 +310,7 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
         rolling.extend(kept, kept_w, cal, qs, settled);
     };
     long long done = 0;
-    GuidedCapture guide({}, cal.intrinsics);
+    GuidedCapture guide(o.guided, cal.intrinsics);
     DriftSettings drift_settings;
     drift_settings.gain = o.drift_gain;
     DriftCorrector drift(drift_settings);
@@ -407,7 +417,9 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
             min_exposure = std::min(min_exposure, et);
             max_exposure = std::max(max_exposure, et);
             ++summary.frames_used;
-            const GuidedStep g = guide.update(f, *q, acc.samples(), o.width, o.height);
+            const std::vector<std::uint32_t> samples = acc.samples();
+            const GuidedStep g = guide.update(f, *q, samples, o.width, o.height);
+            if (o.on_frame) o.on_frame(g, *q, samples);
             summary.guided_too_fast += g.too_fast ? 1 : 0;
             summary.guided_too_bright += g.exposure == ExposureStatus::TooBright ? 1 : 0;
             summary.guided_too_dark += g.exposure == ExposureStatus::TooDark ? 1 : 0;

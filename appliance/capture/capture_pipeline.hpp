@@ -13,7 +13,9 @@
 
 #include "appliance/capture/camera_source.hpp"
 #include "appliance/capture/coverage.hpp"
+#include "appliance/capture/guided_capture.hpp"
 #include "appliance/capture/hdr_accumulator.hpp"
+#include "appliance/capture/session.hpp"
 
 namespace glint::gl {
 class GlContext;
@@ -78,6 +80,13 @@ struct CaptureOptions {
     // orientation at its readout time, from the sensor's angular velocity. Off: the frame's one
     // orientation for every row (for measuring what the compensation does).
     bool rolling_shutter = true;
+    // The guided-capture logic run over the frames (its target coverage and time limit).
+    GuidedSettings guided;
+    // Called on the capture's thread after every accumulated frame (the kiosk draws the arrow, the
+    // minimap and the progress from it while the scan runs): the guide's step, the orientation the
+    // frame was accumulated with, and the per-texel sample counts of the live map (width x height).
+    std::function<void(const GuidedStep&, const glm::dquat& world_from_camera, const std::vector<std::uint32_t>& samples)>
+        on_frame;
 };
 
 struct GroundTruthError {
@@ -144,6 +153,15 @@ struct CaptureSummary {
 };
 
 std::filesystem::path coverage_path_for(const std::filesystem::path& env_out);
+
+// The orientation stream of a session's sensor recording, decoded as the serial driver would
+// decode it live (appliance clock): for the kiosk's replay, which feeds it to the tracker's
+// dropout bridge and the AR view. Throws InputError naming the file.
+struct SensorOrientation {
+    std::int64_t t_ns = 0;
+    glm::dquat world_from_sensor{1, 0, 0, 0};
+};
+std::vector<SensorOrientation> load_sensor_orientations(const Session& session);
 
 // A rolling-shutter frame resampled to what a global shutter would have seen at the frame's time,
 // for the drift correction and the pair alignment (they turn every pixel with the frame's one

@@ -62,7 +62,7 @@ struct ArSection {                      // [ar]
     double object_radius_m = 0.08;      // the object's bounding sphere on the marker
     double board_width_mm = 0;          // 0 = the default board's own size
     // The materials the button cycles through, in order (Phong, docs/render.md).
-    std::vector<std::string> materials = {"matte", "glossy", "mirror"};
+    std::vector<std::string> materials = {"matte", "glossy:160", "mirror"};
 };
 
 struct TimeoutsSection {            // [timeouts], seconds

@@ -1,0 +1,101 @@
+// `glint replay SESSION --out DIR [--realtime] [--display headless|window|kms|auto] [--snapshot-every S]
+// [--threads N]`: the kiosk program on a recorded session (appliance/ui/kiosk_replay.hpp;
+// docs/kiosk.md "Replay").
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <string>
+
+#include "appliance/app/cli_util.hpp"
+#include "appliance/app/commands.hpp"
+#include "appliance/core/errors.hpp"
+#include "appliance/core/progress.hpp"
+#include "appliance/ui/config.hpp"
+#include "appliance/ui/imgui_layer.hpp"
+#include "appliance/ui/kiosk_replay.hpp"
+#include "appliance/ui/screens.hpp"
+#include "appliance/ui/strings.hpp"
+
+namespace glint::app {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct ReplayArgs {
+    std::string session, out, display = "headless", config;
+    bool no_overlay = false;
+    bool realtime = false;
+    double snapshot_every_s = 5;
+    int threads = 0;
+};
+
+int run_replay_command(const ReplayArgs& a) {
+    if (!fs::is_directory(a.session)) throw InputError("SESSION " + a.session + ": not a directory");
+    if (a.out.empty()) throw InputError("--out DIR is required");
+    ui::ReplayOptions o;
+    o.session = a.session;
+    o.out = a.out;
+    o.realtime = a.realtime;
+    if (!a.config.empty()) o.config = ui::load_config(a.config);
+    // A replay shows headless unless asked: the config's display is the appliance's.
+    o.config.display.kind = a.display;
+    if (!a.no_overlay) {
+        const ui::Strings strings = ui::Strings::load(find_data_file(ui::kStringsRelativePath));
+        o.make_overlay = [strings](int width, int height) -> ui::ReplayOptions::Overlay {
+            auto layer = std::make_shared<ui::ImGuiLayer>(width, height);
+            return [layer, strings, width, height](const ui::ScreenModel& model, double dt_s) {
+                layer->begin_frame(dt_s, {});
+                ui::draw_visitor_screen(model, strings, width, height);
+                layer->end_frame();
+            };
+        };
+    }
+    o.snapshot_every_s = a.snapshot_every_s;
+    o.threads = a.threads;
+    std::unique_ptr<ProgressBar> bar;
+    o.progress = [&](double t_s, double end_s) {
+        if (!bar) bar = std::make_unique<ProgressBar>("replay (session seconds x 10)", (long long)(end_s * 10) + 1);
+        static long long shown = 0;
+        const long long now = (long long)(t_s * 10);
+        if (now > shown) {
+            bar->advance(now - shown);
+            shown = now;
+        }
+    };
+    const nlohmann::json s = ui::run_replay(o, [](const std::string& line) { std::fprintf(stderr, "glint: %s\n", line.c_str()); });
+    if (bar) bar->finish();
+    std::printf("states:");
+    for (const auto& st : s["states"]) std::printf(" %s@%.1fs", st["name"].get<std::string>().c_str(), st["t_s"].get<double>());
+    std::printf("\nframe time: median %.2f ms, p99 %.2f ms, max %.2f ms (budget %.1f ms, %d over the hard cap)\n",
+                s["frame_ms"]["median"].get<double>(), s["frame_ms"]["p99"].get<double>(), s["frame_ms"]["max"].get<double>(),
+                s["frame_ms"]["budget"].get<double>(), s["frame_ms"]["over_hard_cap"].get<int>());
+    const auto number = [&](const char* key) { return s[key].is_null() ? std::string("n/a") : std::to_string(s[key].get<double>()); };
+    std::printf("scan end -> lit object: %s s; coverage %s; environment error %s; irradiance error %s; tracking %s\n",
+                number("scan_end_to_lit_s").c_str(), number("coverage").c_str(), number("env_error").c_str(),
+                number("irradiance_error").c_str(), number("tracking_detection_rate").c_str());
+    std::printf("frames: %s/frames/, summary: %s/summary.json\n", a.out.c_str(), a.out.c_str());
+    return 0;
+}
+
+}  // namespace
+
+Command add_replay_command(CLI::App& app) {
+    auto a = std::make_shared<ReplayArgs>();
+    CLI::App* cmd = app.add_subcommand("replay", std::string(command_summary("replay").summary));
+    cmd->add_option("SESSION", a->session, "A recorded session directory (glint simulate --kiosk, glint run --record)")->required();
+    cmd->add_option("--out", a->out, "Directory for the PNG frames (DIR/frames/), the maps and summary.json")->required();
+    cmd->add_option("--config", a->config, "The appliance's TOML configuration (budgets, timeouts, capture, AR); its display "
+                                           "section is not used: see --display");
+    cmd->add_flag("--no-overlay", a->no_overlay, "Frames without the visitor screens' text and graphics");
+    cmd->add_flag("--realtime", a->realtime, "Deliver the session at its recorded pace (default: as fast as possible)");
+    cmd->add_option("--display", a->display, "headless (default), window, kms or auto")
+        ->check(CLI::IsMember({"headless", "window", "kms", "auto"}));
+    cmd->add_option("--snapshot-every", a->snapshot_every_s,
+                    "A PNG frame every S seconds of session time, besides one at each state change (0: none)")
+        ->check(CLI::Range(0.0, 3600.0));
+    cmd->add_option("--threads", a->threads, "Capture and convolution worker threads (0: the cores but one)")
+        ->check(CLI::Range(0, 256));
+    return {cmd, [a] { return run_replay_command(*a); }};
+}
+
+}  // namespace glint::app
