@@ -139,21 +139,24 @@ void MaintenanceMenu::set_page(Page page) {
 
 void MaintenanceMenu::submit_pin() {
     if (pin_.empty()) return;
-    const PinResult result = check_ ? check_(pin_) : PinResult{};
+    const PinAnswer result = check_ ? check_(pin_) : PinAnswer{};
     pin_.clear();
     switch (result.kind) {
-        case PinResult::Kind::Ok:
+        case PinAnswer::Kind::Ok:
             unlocked_ = true;
             page_ = Page::Status;
             page_changed_ = true;
             focus_pending_ = true;
             pin_message_.clear();
             break;
-        case PinResult::Kind::Wrong:
+        case PinAnswer::Kind::Wrong:
             pin_message_ = "wrong:" + std::to_string(result.attempts_left);
             break;
-        case PinResult::Kind::Locked:
+        case PinAnswer::Kind::Locked:
             pin_message_ = "locked:" + std::to_string(int(std::ceil(result.locked_s)));
+            break;
+        case PinAnswer::Kind::Disabled:
+            pin_message_ = "disabled:";
             break;
     }
 }
@@ -244,6 +247,10 @@ void MaintenanceMenu::draw_pin(const Strings& s, int width, int height) {
     } else if (pin_message_.rfind("locked:", 0) == 0) {
         ImGui::PushStyleColor(ImGuiCol_Text, kErrorColour);
         ImGui::TextUnformatted(s.format("menu.pin.locked", {{"s", pin_message_.substr(7)}}).c_str());
+        ImGui::PopStyleColor();
+    } else if (pin_message_.rfind("disabled:", 0) == 0) {
+        ImGui::PushStyleColor(ImGuiCol_Text, kErrorColour);
+        ImGui::TextUnformatted(s.get("menu.pin.disabled").c_str());
         ImGui::PopStyleColor();
     } else {
         ImGui::TextUnformatted(" ");

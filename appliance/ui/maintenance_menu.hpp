@@ -1,6 +1,6 @@
 // The technician's maintenance menu (docs/screens.md, "Maintenance menu"): ImGui windows over the
 // kiosk's frame, driven by the keyboard. It does no I/O and checks no PIN itself: the kiosk
-// fills a MaintenanceStatus each frame, gives a PIN check (PinLock, pin_lock.hpp), and carries out
+// fills a MaintenanceStatus each frame, gives a PIN check (pin_check_for(PinLock)), and carries out
 // the MenuActions draw() returns (and journals them).
 //
 // Pages: the PIN entry, then Status, Calibrations, Capture & convolution settings, Log, Export,
@@ -9,6 +9,7 @@
 // closes the menu (from the test pattern: back to Status).
 #pragma once
 
+#include <algorithm>
 #include <cstdint>
 #include <functional>
 #include <string>
@@ -16,17 +17,45 @@
 
 #include "appliance/gl/display.hpp"
 #include "appliance/ui/config.hpp"
+#include "appliance/ui/pin_lock.hpp"
 #include "appliance/ui/strings.hpp"
 
 namespace glint::ui {
 
-// What the PIN check answered.
-struct PinResult {
-    enum class Kind : std::uint8_t { Ok, Wrong, Locked } kind = Kind::Wrong;
-    int attempts_left = 0;  // Wrong: before the lock-out
-    double locked_s = 0;    // Locked: until it lifts
+// What the PIN check answered, with what the PIN page shows.
+struct PinAnswer {
+    enum class Kind : std::uint8_t {
+        Ok,        // the menu opens
+        Wrong,     // attempts_left remain before the lock-out
+        Locked,    // for locked_s more
+        Disabled,  // no PIN configured: only the key switch opens the menu
+    } kind = Kind::Wrong;
+    int attempts_left = 0;
+    double locked_s = 0;
 };
-using PinCheck = std::function<PinResult(const std::string& pin)>;
+using PinCheck = std::function<PinAnswer(const std::string& pin)>;
+
+// The menu's check from the kiosk's PinLock (pin_lock.hpp, which journals every attempt):
+// try_pin's result with the attempts left (of the config's max_attempts) and the lock-out's
+// remaining time. `lock` must outlive the check.
+inline PinCheck pin_check_for(PinLock& lock, int max_attempts) {
+    return [&lock, max_attempts](const std::string& pin) {
+        PinAnswer answer;
+        switch (lock.try_pin(pin)) {
+            case PinResult::Accepted: answer.kind = PinAnswer::Kind::Ok; break;
+            case PinResult::Rejected:
+                answer.kind = PinAnswer::Kind::Wrong;
+                answer.attempts_left = std::max(0, max_attempts - lock.failures());
+                break;
+            case PinResult::LockedOut:
+                answer.kind = PinAnswer::Kind::Locked;
+                answer.locked_s = lock.remaining_s();
+                break;
+            case PinResult::Disabled: answer.kind = PinAnswer::Kind::Disabled; break;
+        }
+        return answer;
+    };
+}
 
 enum class CalibrationKind : std::uint8_t { CameraIntrinsics, Response, Vignetting, Alignment, TimeOffset };
 inline constexpr int kCalibrationKinds = 5;

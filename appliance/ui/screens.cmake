@@ -12,5 +12,7 @@ find_package(tomlplusplus REQUIRED CONFIG)
 add_library(glint_ui_screens STATIC imgui_layer.cpp strings.cpp screens.cpp maintenance_menu.cpp system_status.cpp)
 # Imported targets' include directories are SYSTEM includes: ImGui's and FreeType's headers do not
 # trip our warnings, which stay on for our files.
-target_link_libraries(glint_ui_screens PUBLIC glint_gl glint_core PkgConfig::IMGUI
+# glint_ui_config: the config's section structs the settings page edits, and PinLock for
+# pin_check_for (maintenance_menu.hpp).
+target_link_libraries(glint_ui_screens PUBLIC glint_ui_config glint_gl glint_core PkgConfig::IMGUI
                       PRIVATE Freetype::Freetype tomlplusplus::tomlplusplus glint_warnings glint_tuning)

@@ -5,6 +5,8 @@
 
 #include <imgui.h>
 
+#include <filesystem>
+
 #include "appliance/ui/maintenance_menu.hpp"
 #include "tests/ui/ui_fixture.hpp"
 
@@ -78,7 +80,7 @@ class MenuTest : public UiTest {};
 
 TEST_F(MenuTest, PinPageHandsTheTypedDigitsToTheCheck) {
     std::vector<std::string> asked;
-    ui::PinResult answer{ui::PinResult::Kind::Wrong, 4, 0};
+    ui::PinAnswer answer{ui::PinAnswer::Kind::Wrong, 4, 0};
     Menu menu([&](const std::string& pin) {
         asked.push_back(pin);
         return answer;
@@ -98,10 +100,10 @@ TEST_F(MenuTest, PinPageHandsTheTypedDigitsToTheCheck) {
     run(menu, status, press({"KP_Enter"}));
     ASSERT_EQ(asked.size(), 2u);
     EXPECT_EQ(asked[1], "75");  // keypad digits count; BackSpace took the 9
-    answer = {ui::PinResult::Kind::Locked, 0, 299.2};
+    answer = {ui::PinAnswer::Kind::Locked, 0, 299.2};
     run(menu, status, press({"1", "Return"}));
     EXPECT_EQ(menu.page(), Menu::Page::Pin);
-    answer = {ui::PinResult::Kind::Ok, 0, 0};
+    answer = {ui::PinAnswer::Kind::Ok, 0, 0};
     run(menu, status, press({"2", "4", "6", "8", "Return"}));
     EXPECT_EQ(asked.back(), "2468");
     EXPECT_EQ(menu.page(), Menu::Page::Status);
@@ -112,7 +114,7 @@ TEST_F(MenuTest, PinPageHandsTheTypedDigitsToTheCheck) {
 }
 
 TEST_F(MenuTest, EscapeClosesAndFunctionKeysChoosePages) {
-    Menu menu([](const std::string&) { return ui::PinResult{ui::PinResult::Kind::Ok, 0, 0}; });
+    Menu menu([](const std::string&) { return ui::PinAnswer{ui::PinAnswer::Kind::Ok, 0, 0}; });
     const ui::MaintenanceStatus status = sample_status();
     menu.open(true);  // the key switch: no PIN
     EXPECT_EQ(menu.page(), Menu::Page::Status);
@@ -273,4 +275,42 @@ TEST_F(MenuTest, TestPatternHasItsColoursAndOnePixelGrid) {
     EXPECT_EQ(rows, (kHeight - 1 - kHeight * 7 / 10 + 31) / 32);
     EXPECT_TRUE(near(pixel(image, kWidth - 1, kHeight / 4), kWhite, 0));  // the frame at the edge
     EXPECT_TRUE(near(pixel(image, kWidth / 3, kHeight - 1), kWhite, 0));
+}
+
+TEST_F(MenuTest, PinCheckFromThePinLockCountsDownAndLocks) {
+    const std::filesystem::path dir = std::filesystem::temp_directory_path() / "glint_ui_menu_pin";
+    std::filesystem::remove_all(dir);
+    std::filesystem::create_directories(dir);
+    ui::MaintenanceSection policy;
+    policy.pin_hash = ui::hash_pin("2468");
+    policy.max_attempts = 3;
+    policy.lockout_s = 300;
+    std::int64_t now_ns = 1'000'000'000;
+    ui::PinLock lock(policy, dir / "pin_state.json", [](const ui::PinEvent&) {}, [&] { return now_ns; }, "boot-a");
+    std::vector<ui::PinAnswer> answers;
+    const ui::PinCheck lock_check = ui::pin_check_for(lock, policy.max_attempts);
+    Menu menu([&](const std::string& pin) {
+        answers.push_back(lock_check(pin));
+        return answers.back();
+    });
+    const ui::MaintenanceStatus status = sample_status();
+    menu.open();
+    run(menu, status, press({"1", "1", "1", "1", "Return"}));
+    run(menu, status, press({"2", "2", "2", "2", "Return"}));
+    ASSERT_EQ(answers.size(), 2u);
+    EXPECT_EQ(answers[0].kind, ui::PinAnswer::Kind::Wrong);
+    EXPECT_EQ(answers[0].attempts_left, 2);
+    EXPECT_EQ(answers[1].attempts_left, 1);
+    run(menu, status, press({"3", "3", "3", "3", "Return"}));  // the third wrong PIN locks
+    EXPECT_EQ(answers[2].kind, ui::PinAnswer::Kind::Locked);
+    EXPECT_NEAR(answers[2].locked_s, 300, 1);
+    now_ns += 100'000'000'000;  // 100 s later the right PIN is still refused
+    run(menu, status, press({"2", "4", "6", "8", "Return"}));
+    EXPECT_EQ(answers[3].kind, ui::PinAnswer::Kind::Locked);
+    EXPECT_NEAR(answers[3].locked_s, 200, 1);
+    EXPECT_EQ(menu.page(), Menu::Page::Pin);
+    now_ns += 201'000'000'000;  // the lock-out is over
+    run(menu, status, press({"2", "4", "6", "8", "Return"}));
+    EXPECT_EQ(answers[4].kind, ui::PinAnswer::Kind::Ok);
+    EXPECT_EQ(menu.page(), Menu::Page::Status);
 }

@@ -260,7 +260,7 @@ TEST_F(VisitorScreens, ArKeepsTheCentreClearAndShowsMaterialAndTracking) {
 TEST_F(VisitorScreens, MessageSensorLostAndDegradedOverAnyState) {
     ScreenModel m = capture_model();
     const gl::RgbImage plain = screen(m);
-    m.message = "message.scan_timeout";
+    m.message = "message.capture_timeout";
     const gl::RgbImage banner = screen(m, "message");
     // The banner replaces the title at the top: more text there, on the banner's blue.
     EXPECT_GT(count(banner, kWhite, 0, 0, kWidth, kHeight / 8, 2), count(plain, kWhite, 0, 0, kWidth, kHeight / 8, 2) + 300);
