@@ -6,6 +6,8 @@
 
 #include <imgui.h>
 
+#include <cstdio>
+
 #include "appliance/core/errors.hpp"
 #include "appliance/ui/imgui_layer.hpp"
 #include "tests/ui/ui_fixture.hpp"
@@ -124,4 +126,16 @@ TEST_F(ImGuiLayerTest, DrawListsOver64kVerticesAreDrawnWhole) {
     EXPECT_TRUE(near(pixel(image, 200, 150), {255, 0, 255}, 0));  // square 15100, past the split
     EXPECT_FALSE(near(pixel(image, 399, 199), {255, 0, 255}, 0));
     EXPECT_EQ(count(image, {255, 0, 255}, 0, 0, 400, 200, 0), 20000);
+}
+
+TEST_F(ImGuiLayerTest, A1080pAtlasFitsAnyGles3Gpu) {
+    // GLES 3.0 promises textures of 2048 pixels a side (GL_MAX_TEXTURE_SIZE >= 2048), no more.
+    ui::ImGuiLayer big(1920, 1080);
+    big.begin_frame(0.03, {});
+    const ImFontAtlas& atlas = *ImGui::GetIO().Fonts;
+    std::printf("1080p font atlas: %dx%d\n", atlas.TexWidth, atlas.TexHeight);
+    EXPECT_LE(atlas.TexWidth, 2048);
+    EXPECT_LE(atlas.TexHeight, 2048);
+    EXPECT_FLOAT_EQ(big.font(ui::FontRole::Body)->FontSize, 60.0f);
+    big.end_frame();
 }
