@@ -83,13 +83,17 @@ MenuAction action(MenuAction::Kind kind, CalibrationKind calibration = Calibrati
 
 // Gives the keyboard focus to the item just submitted, highlighted as if the technician had moved
 // there: a page opens with its first button focused, and space presses it at once.
+void focus_item(ImGuiID id) {
+    ImGuiContext& g = *ImGui::GetCurrentContext();
+    ImGui::SetFocusID(id, g.CurrentWindow);
+    g.NavDisableHighlight = false;
+    g.NavDisableMouseHover = true;
+}
 // False while the window skips its items (its first frame, sizing itself): then try again.
 bool focus_last_item() {
     ImGuiContext& g = *ImGui::GetCurrentContext();
     if (g.CurrentWindow->SkipItems || g.LastItemData.ID == 0) return false;
-    ImGui::SetFocusID(g.LastItemData.ID, g.CurrentWindow);
-    g.NavDisableHighlight = false;
-    g.NavDisableMouseHover = true;
+    focus_item(g.LastItemData.ID);
     return true;
 }
 
@@ -176,6 +180,9 @@ void MaintenanceMenu::handle_keys(const std::vector<gl::InputEvent>& keys, std::
             continue;
         }
         if (key == "Escape") {
+            // While a number is being typed, Escape only abandons the typing (ImGui's own).
+            // WantTextInput is from the frame before: the field was active when the key came.
+            if (ImGui::GetIO().WantTextInput) continue;
             if (page_ == Page::Pattern) {
                 set_page(Page::Status);
             } else {
@@ -362,8 +369,17 @@ void MaintenanceMenu::draw_settings(const MaintenanceStatus& st, const Strings& 
     bool changed = false;
     ImGui::TextDisabled("%s", s.get("menu.settings.capture").c_str());
     ImGui::PushItemWidth(ImGui::GetFontSize() * 10);
-    changed |= ImGui::InputInt(label(s.get("menu.settings.map_width"), "w").c_str(), &edit_.capture.map_width, 256, 1024);
-    if (focus_pending_ && focus_last_item()) focus_pending_ = false;
+    const std::string width_label = label(s.get("menu.settings.map_width"), "w");
+    changed |= ImGui::InputInt(width_label.c_str(), &edit_.capture.map_width, 256, 1024);
+    if (focus_pending_ && !ImGui::GetCurrentWindow()->SkipItems) {
+        // The field itself, not the group InputInt ends with: InputScalar makes it as
+        // InputText("") inside PushID(label).
+        ImGui::PushID(width_label.c_str());
+        const ImGuiID field = ImGui::GetID("");
+        ImGui::PopID();
+        focus_item(field);
+        focus_pending_ = false;
+    }
     changed |= ImGui::InputInt(label(s.get("menu.settings.map_height"), "h").c_str(), &edit_.capture.map_height, 128, 512);
     changed |= ImGui::InputDouble(label(s.get("menu.settings.target_coverage"), "cov").c_str(), &edit_.capture.target_coverage,
                                   0.01, 0.05, "%.2f");

@@ -80,6 +80,7 @@ struct Painter {
     // Centred, wrapped text on a dark panel whose top is at `top`; returns the panel's bottom.
     float panel_text(FontRole role, float size, const std::string& text, float centre_x, float top, ImU32 colour,
                      float wrap, ImU32 panel = kPanel) const {
+        if (text.empty()) return top;
         const std::vector<Line> lines = wrap_lines(role, size, text, wrap);
         float widest = 0;
         for (const Line& l : lines) widest = std::max(widest, l.width);

@@ -227,6 +227,25 @@ TEST_F(MenuTest, SettingsAreEditedAndApplied) {
     EXPECT_EQ(applied.actions[0].settings.capture.map_height, 512);
 }
 
+TEST_F(MenuTest, EscapeWhileTypingANumberOnlyAbandonsTheTyping) {
+    Menu menu(nullptr);
+    const ui::MaintenanceStatus status = sample_status();
+    menu.open(true);
+    run(menu, status, press({"F3"}));                    // on the map width's field
+    run(menu, status, press({"Return"}));                // typing into it
+    run(menu, status, press({"2", "0", "4", "8"}));
+    EXPECT_TRUE(ImGui::GetIO().WantTextInput);
+    // WantTextInput follows a frame behind: three frames after the Escape it is settled.
+    const MenuRun abandoned = run(menu, status, press({"Escape"}), 3);
+    EXPECT_TRUE(menu.is_open());
+    EXPECT_TRUE(abandoned.actions.empty());
+    EXPECT_FALSE(ImGui::GetIO().WantTextInput);
+    const MenuRun closed = run(menu, status, press({"Escape"}));
+    EXPECT_FALSE(menu.is_open());
+    ASSERT_EQ(closed.actions.size(), 1u);
+    EXPECT_EQ(closed.actions[0].kind, Kind::Close);
+}
+
 TEST_F(MenuTest, LogButtonsAndLampPages) {
     Menu menu(nullptr);
     ui::MaintenanceStatus status = sample_status();
