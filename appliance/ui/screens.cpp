@@ -44,7 +44,12 @@ ImU32 with_alpha(ImU32 colour, float alpha) {
     return (colour & ~IM_COL32_A_MASK) | (a << IM_COL32_A_SHIFT);
 }
 
-std::string seconds_text(double s) { return std::to_string(int(std::ceil(std::max(s, 0.0)))); }
+// The model comes from estimators; a NaN there must not become a NaN polygon or an undefined
+// integer conversion on screen.
+double finite_or(double v, double fallback) { return std::isfinite(v) ? v : fallback; }
+double unit_interval(double v) { return std::clamp(finite_or(v, 0.0), 0.0, 1.0); }
+
+std::string seconds_text(double s) { return std::to_string(int(std::ceil(std::clamp(finite_or(s, 0.0), 0.0, 1e6)))); }
 
 // What every screen draws with.
 struct Painter {
@@ -106,7 +111,7 @@ struct Painter {
     // A bar of `width` x `height` at (x, y): the track, then the filled part from the left, square
     // ends so that the filled width is exactly progress * width.
     void progress_bar(float x, float y, float width, float height, double progress) const {
-        const float filled = width * float(std::clamp(progress, 0.0, 1.0));
+        const float filled = width * float(unit_interval(progress));
         list->AddRectFilled(ImVec2(x - 3, y - 3), ImVec2(x + width + 3, y + height + 3), kOutline);
         list->AddRectFilled(ImVec2(x, y), ImVec2(x + width, y + height), colours::kTrack);
         if (filled > 0) list->AddRectFilled(ImVec2(x, y), ImVec2(x + filled, y + height), colours::kProgress);
@@ -134,7 +139,7 @@ void draw_attract(const Painter& p, const ScreenModel& model) {
 // The arrow from the centre towards (dx, dy) (screen axes, unit), or the "hold still" ring.
 void draw_turn_arrow(const Painter& p, const CaptureView& view) {
     const ImVec2 c(p.w / 2, p.h / 2);
-    double dx = view.target_x, dy = view.target_y;
+    double dx = finite_or(view.target_x, 0), dy = finite_or(view.target_y, 0);
     const double len = std::hypot(dx, dy);
     if (view.on_target || (len < 1e-6 && view.target_z > 0)) {
         const float r = p.h * 0.09f;
@@ -194,7 +199,7 @@ void draw_minimap(const Painter& p, const CaptureView& view, float right, float 
         p.list->AddCircle(c, r + 1, kOutline, 64, 2.0f);
     }
     const double n = std::sqrt(view.view_x * view.view_x + view.view_y * view.view_y + view.view_z * view.view_z);
-    if (n > 0) {
+    if (n > 0 && std::isfinite(n)) {
         const bool on_back = view.view_z > 0;
         const ImVec2 c = on_back ? back : front;
         const ImVec2 mark(c.x + float((on_back ? -view.view_x : view.view_x) / n) * r, c.y - float(view.view_y / n) * r);
@@ -233,7 +238,7 @@ void draw_capture(const Painter& p, const ScreenModel& model, bool banner) {
     const float bar_x = p.m, bar_w = p.w - 3 * p.m - minimap_w;
     p.progress_bar(bar_x, bar_y, bar_w, bar_h, v.progress);
     const float words_y = bar_y - small * 1.55f;
-    const std::string percent = std::to_string(int(std::lround(std::clamp(v.progress, 0.0, 1.0) * 100)));
+    const std::string percent = std::to_string(int(std::lround(unit_interval(v.progress) * 100)));
     const std::string progress = p.strings.format("capture.progress", {{"percent", percent}});
     const std::string left = p.strings.format("capture.time_left", {{"s", seconds_text(v.time_left_s)}});
     p.list->AddRectFilled(ImVec2(bar_x - 3, words_y - small * 0.2f), ImVec2(bar_x + bar_w + 3, bar_y - 3), kPanel);
@@ -279,7 +284,7 @@ void draw_ar(const Painter& p, const ScreenModel& model) {
     if (v.tracked)
         p.list->AddCircleFilled(dot, r, colours::kProgress, 24);
     else if (v.bridged)
-        p.list->AddCircleFilled(dot, r, with_alpha(colours::kAccent, 0.35f + 0.65f * float(std::clamp(v.visibility, 0.0, 1.0))), 24);
+        p.list->AddCircleFilled(dot, r, with_alpha(colours::kAccent, 0.35f + 0.65f * float(unit_interval(v.visibility))), 24);
     else
         p.list->AddCircle(dot, r, kDim, 24, 2.0f);
     p.text(FontRole::Small, small, words, dot.x - r - pad, p.m, colours::kText, 1.0f);

@@ -3,6 +3,7 @@
 // and the test pattern has the right colours and 1-pixel lines.
 #include <gtest/gtest.h>
 
+#include <GLES3/gl3.h>
 #include <imgui.h>
 
 #include <filesystem>
@@ -178,6 +179,35 @@ TEST_F(MenuTest, CalibrationButtonsAreReachedByTheKeyboard) {
     const MenuRun cancel = run(menu, status, press({"space"}), 2, "menu_calibrations");
     ASSERT_EQ(cancel.actions.size(), 1u);
     EXPECT_EQ(cancel.actions[0].kind, Kind::CancelCalibration);
+}
+
+TEST_F(MenuTest, CalibrationShowsTheLivePreviewTexture) {
+    // An RGBA image (the camera's, in the kiosk) drawn through the layer's non-atlas path: the
+    // texel's colour, not the atlas' coverage.
+    std::vector<std::uint8_t> rgba(64 * 48 * 4);
+    for (std::size_t k = 0; k < rgba.size(); k += 4) rgba[k] = 30, rgba[k + 1] = 160, rgba[k + 2] = 220, rgba[k + 3] = 255;
+    gl::GlTexture texture = gl::GlTexture::create();
+    glBindTexture(GL_TEXTURE_2D, texture.id());
+    glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, 64, 48, 0, GL_RGBA, GL_UNSIGNED_BYTE, rgba.data());
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+    glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+    Menu menu(nullptr);
+    ui::MaintenanceStatus status = sample_status();
+    menu.open(true);
+    menu.set_page(Menu::Page::Calibrations);
+    const Rgb camera{30, 160, 220};
+    EXPECT_EQ(count(run(menu, status, {}).image, camera, 0, 0, kWidth, kHeight, 1), 0);
+    status.calibration_running = true;
+    status.calibration = ui::CalibrationKind::CameraIntrinsics;
+    status.calibration_step = "Show the board at the top left (3 of 12)";
+    status.calibration_preview_texture = texture.id();
+    status.calibration_preview_width = 64;
+    status.calibration_preview_height = 48;
+    const gl::RgbImage image = run(menu, status, {}).image;
+    // As wide as the page (about 900 pixels) at the image's 4:3, below the buttons.
+    const int n = count(image, camera, kWidth / 4, kHeight / 4, kWidth, kHeight, 1);
+    EXPECT_GT(n, 150000);
+    EXPECT_LT(n, 900 * 675);
 }
 
 TEST_F(MenuTest, RestartNeedsTwoPresses) {

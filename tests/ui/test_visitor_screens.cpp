@@ -282,6 +282,22 @@ TEST_F(VisitorScreens, MessageSensorLostAndDegradedOverAnyState) {
     EXPECT_GT(mark, 100);  // the degraded mark, bottom centre
 }
 
+TEST_F(VisitorScreens, NotANumberInTheModelDrawsNoGarbage) {
+    ScreenModel m = capture_model();
+    const double nan = std::nan("");
+    m.capture.target_x = nan;
+    m.capture.target_y = nan;
+    m.capture.target_z = -1;  // nothing known but "behind": the arrow points right
+    m.capture.progress = nan;
+    m.capture.time_left_s = nan;
+    m.capture.view_x = nan;
+    const gl::RgbImage image = screen(m);
+    EXPECT_GT(amber_centroid(image, kHeight / 3).first, kHeight * 0.1);
+    const Bar bar = measure_bar(image, kHeight * 3 / 4, kHeight);
+    EXPECT_EQ(bar.filled, 0);
+    EXPECT_GT(bar.track, kWidth / 3);
+}
+
 TEST_F(VisitorScreens, UnknownKeysFromTheModelShowAsThemselves) {
     ScreenModel m;
     m.state = KioskState::Ar;
