@@ -29,6 +29,8 @@ struct CaptureView {
     int minimap_width = 0, minimap_height = 0;
     std::vector<std::uint8_t> minimap;
     double view_x = 0, view_y = 0, view_z = -1;
+    // The next target's world direction, marked on the minimap (0, 0, 0: not marked).
+    double next_x = 0, next_y = 0, next_z = 0;
 };
 
 struct ProcessingView {

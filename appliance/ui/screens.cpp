@@ -174,7 +174,7 @@ void draw_turn_arrow(const Painter& p, const CaptureView& view) {
 // Two hemispheres seen from the middle of the room, as the visitor stands: the front one looking
 // at -Z (the map's centre; +X right, +Y up) and the back one looking at +Z (-X right, +Y up). Each
 // is an orthographic disc filled with squares coloured by the coverage cell their direction
-// falls into; the view direction is a ring on the disc that holds it.
+// falls into; the view direction is a ring on the disc that holds it, the next target a dot.
 void draw_minimap(const Painter& p, const CaptureView& view, float right, float bottom) {
     const float r = p.h * kDiscRadius, gap = p.h * 0.03f, pad = p.h * 0.015f;
     const ImVec2 front(right - 3 * r - gap, bottom - r), back(right - r, bottom - r);
@@ -198,14 +198,24 @@ void draw_minimap(const Painter& p, const CaptureView& view, float right, float 
         }
         p.list->AddCircle(c, r + 1, kOutline, 64, 2.0f);
     }
-    const double n = std::sqrt(view.view_x * view.view_x + view.view_y * view.view_y + view.view_z * view.view_z);
-    if (n > 0 && std::isfinite(n)) {
-        const bool on_back = view.view_z > 0;
+    // Where a world direction lands: on the disc of its hemisphere, orthographically.
+    const auto place = [&](double x, double y, double z, ImVec2& at) {
+        const double n = std::sqrt(x * x + y * y + z * z);
+        if (!(n > 0) || !std::isfinite(n)) return false;
+        const bool on_back = z > 0;
         const ImVec2 c = on_back ? back : front;
-        const ImVec2 mark(c.x + float((on_back ? -view.view_x : view.view_x) / n) * r, c.y - float(view.view_y / n) * r);
+        at = ImVec2(c.x + float((on_back ? -x : x) / n) * r, c.y - float(y / n) * r);
+        return true;
+    };
+    ImVec2 at;
+    if (place(view.next_x, view.next_y, view.next_z, at)) {  // the next target: a filled dot
+        p.list->AddCircleFilled(at, r * 0.09f + 2.5f, kOutline, 24);
+        p.list->AddCircleFilled(at, r * 0.09f, colours::kAccent, 24);
+    }
+    if (place(view.view_x, view.view_y, view.view_z, at)) {  // where the camera looks: a ring
         const float mr = r * 0.14f;
-        p.list->AddCircle(mark, mr, kOutline, 32, 5.0f);
-        p.list->AddCircle(mark, mr, colours::kAccent, 32, 2.5f);
+        p.list->AddCircle(at, mr, kOutline, 32, 5.0f);
+        p.list->AddCircle(at, mr, colours::kAccent, 32, 2.5f);
     }
 }
 

@@ -48,6 +48,9 @@ ScreenModel capture_model() {
     m.capture.view_x = 0.5;
     m.capture.view_y = 0.1;
     m.capture.view_z = -0.86;
+    m.capture.next_x = 0.9;  // the target the arrow points to, to the right and a little behind
+    m.capture.next_y = 0.2;
+    m.capture.next_z = 0.1;
     return m;
 }
 
@@ -198,6 +201,21 @@ TEST_F(VisitorScreens, MinimapShowsCoveredCellsBrighterThanUnseenOnes) {
     };
     EXPECT_GT(mean(front_cx, -1), mean(front_cx, +1) + 60);  // front: -X on the left
     EXPECT_GT(mean(back_cx, +1), mean(back_cx, -1) + 60);    // back: -X on the right
+
+    // The next target, an amber dot: ahead and to the right lands in the front disc's right
+    // half, behind and to the right in the back disc's left half (its right is -X).
+    const auto amber_in = [&](const gl::RgbImage& image, int cx, int side) {
+        return count(image, kAmber, side < 0 ? cx - r : cx, cy - r, side < 0 ? cx : cx + r, cy + r, 2);
+    };
+    m.capture.view_x = -0.6, m.capture.view_y = 0, m.capture.view_z = -0.8;  // the ring: front, left
+    m.capture.next_x = 0.6, m.capture.next_y = 0, m.capture.next_z = -0.8;
+    const gl::RgbImage ahead = screen(m);
+    EXPECT_GT(amber_in(ahead, front_cx, +1), 40);
+    EXPECT_EQ(amber_in(ahead, back_cx, -1), 0);
+    m.capture.next_z = 0.8;
+    const gl::RgbImage behind = screen(m);
+    EXPECT_GT(amber_in(behind, back_cx, -1), 40);
+    EXPECT_EQ(amber_in(behind, front_cx, +1), 0);
 }
 
 TEST_F(VisitorScreens, MinimapCellFollowsTheEquirectConvention) {
