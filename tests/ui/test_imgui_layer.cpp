@@ -7,6 +7,8 @@
 #include <imgui.h>
 
 #include <cstdio>
+#include <filesystem>
+#include <fstream>
 
 #include "appliance/core/errors.hpp"
 #include "appliance/ui/imgui_layer.hpp"
@@ -35,6 +37,19 @@ TEST_F(ImGuiLayerTest, AMissingFontFileIsNamed) {
     } catch (const RuntimeError& e) {
         EXPECT_NE(std::string(e.what()).find("/nonexistent/DejaVuSans-Bold.ttf"), std::string::npos) << e.what();
         EXPECT_NE(std::string(e.what()).find("fonts-dejavu-core"), std::string::npos) << e.what();
+    }
+}
+
+TEST_F(ImGuiLayerTest, AFileThatIsNoFontIsNamed) {
+    const std::filesystem::path bad = std::filesystem::temp_directory_path() / "glint_not_a_font.ttf";
+    std::ofstream(bad) << "this is not a TrueType file";
+    ui::FontFiles files;
+    files.regular = bad;
+    try {
+        ui::ImGuiLayer layer(640, 360, files);
+        FAIL() << "expected an error";
+    } catch (const RuntimeError& e) {
+        EXPECT_NE(std::string(e.what()).find(bad.string()), std::string::npos) << e.what();
     }
 }
 
