@@ -36,12 +36,12 @@ int run_replay_command(const ReplayArgs& a) {
     o.session = a.session;
     o.out = a.out;
     o.realtime = a.realtime;
-    if (!a.config.empty()) o.config = ui::load_config(a.config);
+    if (!a.config.empty()) o.kiosk.config = ui::load_config(a.config);
     // A replay shows headless unless asked: the config's display is the appliance's.
-    o.config.display.kind = a.display;
+    o.kiosk.config.display.kind = a.display;
     if (!a.no_overlay) {
         const ui::Strings strings = ui::Strings::load(find_data_file(ui::kStringsRelativePath));
-        o.make_overlay = [strings](int width, int height) -> ui::ReplayOptions::Overlay {
+        o.kiosk.make_overlay = [strings](int width, int height) -> ui::KioskOptions::Overlay {
             auto layer = std::make_shared<ui::ImGuiLayer>(width, height);
             return [layer, strings, width, height](const ui::ScreenModel& model, double dt_s) {
                 layer->begin_frame(dt_s, {});
@@ -50,10 +50,10 @@ int run_replay_command(const ReplayArgs& a) {
             };
         };
     }
-    o.snapshot_every_s = a.snapshot_every_s;
-    o.threads = a.threads;
+    o.kiosk.snapshot_every_s = a.snapshot_every_s;
+    o.kiosk.threads = a.threads;
     std::unique_ptr<ProgressBar> bar;
-    o.progress = [&](double t_s, double end_s) {
+    o.kiosk.progress = [&](double t_s, double end_s) {
         if (!bar) bar = std::make_unique<ProgressBar>("replay (session seconds x 10)", (long long)(end_s * 10) + 1);
         static long long shown = 0;
         const long long now = (long long)(t_s * 10);

@@ -9,6 +9,7 @@
 #include "appliance/core/errors.hpp"
 #include "appliance/core/progress.hpp"
 #include "appliance/core/strict_number.hpp"
+#include "appliance/sim/kiosk_simulator.hpp"
 #include "appliance/sim/session_simulator.hpp"
 
 namespace glint::app {
@@ -22,6 +23,8 @@ Command add_simulate_command(CLI::App& app) {
         double time_offset_ms = 0;
         bool no_motion_blur = false;
         double readout_ms = capture::kModelledReadoutS * 1e3;
+        bool kiosk = false;
+        sim::SimulateKioskOptions k;
     };
     auto a = std::make_shared<Args>();
     CLI::App* cmd = app.add_subcommand("simulate", std::string(command_summary("simulate").summary));
@@ -85,10 +88,57 @@ Command add_simulate_command(CLI::App& app) {
         ->capture_default_str();
     cmd->add_option("--bracket-first", a->o.bracket_first_exposure_s, "First exposure of the bracket, seconds")
         ->capture_default_str();
+    cmd->add_flag("--kiosk", a->kiosk,
+                  "Instead of a scan: a kiosk session for glint replay (docs/capture.md \"Kiosk sessions\"): 3 s of "
+                  "attract looking at the marker board on the table, a button press, the guided scan as the "
+                  "capture benchmark takes it (35 deg/s, 3 fps, --hdr-bracket, 1 deg/min of heading drift), then "
+                  "12 s of AR at 12 fps walking round the board with a 0.3 s dropout; writes events.csv, "
+                  "kiosk.json and truth/board.csv besides the session's files. With --env, --out, --seed, "
+                  "--threads, --force, and for measurements --size (default 320x180), --frame-format, "
+                  "--jpeg-quality");
+    cmd->add_option("--frame-format", a->k.frame_format, "With --kiosk: frames as jpg or png")
+        ->check(CLI::IsMember({"jpg", "png"}))
+        ->capture_default_str();
+    cmd->add_option("--jpeg-quality", a->k.jpeg_quality, "With --kiosk: JPEG quality of the frames, 1..100")
+        ->check(CLI::Range(1, 100))
+        ->capture_default_str();
     cmd->add_option("--charuco", a->charuco,
                     "Instead of a scan: N views of a ChArUco board (7x5 squares of 4 cm, DICT_5X5_100) for glint "
                     "calibrate intrinsics; use --size 640x360 or more");
-    return {cmd, [a] {
+    const auto run_kiosk = [](const CLI::App& c, Args& args) {
+        // The kiosk session fixes its own trajectory, rates, brackets and camera: a flag of the
+        // scan's would be silently ignored, so it is refused.
+        for (const char* flag : {"--trajectory", "--fps", "--fov", "--imu", "--sensor-noise", "--mount", "--clock-drift-ppm",
+                                 "--time-offset-ms", "--heading-drift", "--guided-speed", "--hdr-bracket",
+                                 "--control-delay", "--sensor-limits", "--no-motion-blur", "--readout-ms", "--bracket",
+                                 "--bracket-first", "--charuco"})
+            if (c.count(flag) > 0) throw InputError(std::string(flag) + " does not apply with --kiosk");
+        sim::SimulateKioskOptions& k = args.k;
+        k.env = args.env;
+        k.out = args.out;
+        k.overwrite = args.o.overwrite;
+        k.seed = args.o.seed;
+        k.threads = args.o.threads;
+        k.camera_noise = args.o.camera_noise;
+        if (c.count("--size") > 0) {
+            k.width = args.o.width;
+            k.height = args.o.height;
+        }
+        std::unique_ptr<ProgressBar> bar;
+        const sim::KioskSummary r = sim::simulate_kiosk_session(k, [&](long long d, long long t) {
+            if (!bar) bar = std::make_unique<ProgressBar>("simulate kiosk frames", t);
+            (void)d;
+            bar->advance(1);
+        });
+        if (bar) bar->finish();
+        std::printf("kiosk session %s: %d frames over %.1f s (attract %d, scan %d with brackets, AR %d), %llu sensor "
+                    "bytes; the board out of view %.2f-%.2f s; irradiance on the table %.4g %.4g %.4g\n",
+                    args.out.c_str(), r.session.frames, r.session.duration_s, r.attract_frames, r.scan_frames,
+                    r.ar_frames, static_cast<unsigned long long>(r.session.sensor_bytes), r.dropout_start_s,
+                    r.dropout_end_s, r.irradiance_up[0], r.irradiance_up[1], r.irradiance_up[2]);
+        return 0;
+    };
+    return {cmd, [a, cmd, run_kiosk] {
                 a->o.env = a->env;
                 a->o.out = a->out;
                 a->o.camera_noise = !a->no_camera_noise;
@@ -103,12 +153,16 @@ Command add_simulate_command(CLI::App& app) {
                 a->o.mount_yaw_deg = parse_double(m[0], "--mount");
                 a->o.mount_pitch_deg = parse_double(m[1], "--mount");
                 a->o.mount_roll_deg = parse_double(m[2], "--mount");
+                if (a->kiosk && a->charuco > 0) throw InputError("--charuco does not apply with --kiosk");
+                for (const char* flag : {"--frame-format", "--jpeg-quality"})
+                    if (!a->kiosk && cmd->count(flag) > 0) throw InputError(std::string(flag) + " needs --kiosk");
                 if (a->charuco > 0) {
                     const int n = sim::simulate_charuco_session(a->o, a->charuco);
                     std::printf("session %s: %d ChArUco views\n", a->out.c_str(), n);
                     return 0;
                 }
                 if (a->env.empty()) throw InputError("--env is required (except with --charuco)");
+                if (a->kiosk) return run_kiosk(*cmd, *a);
                 std::unique_ptr<ProgressBar> bar;
                 const sim::SimulateSummary r = sim::simulate_session(a->o, [&](long long d, long long t) {
                     if (!bar) bar = std::make_unique<ProgressBar>("simulate frames", t);

@@ -172,11 +172,18 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
     if (o.min_samples < 1) throw InputError("--min-samples must be at least 1");
     if (o.adjustment_rounds < 1 || o.adjustment_rounds > 20) throw InputError("--adjustment-rounds must be 1 to 20");
     if (!(o.drift_gain > 0 && o.drift_gain <= 1)) throw InputError("--drift-gain must be in (0, 1]");
-    const Session session = open_session(o.session);
+    const bool live_stream = o.live_calibration.has_value();
+    if (live_stream && !o.live_orientation) throw InputError("capture: a live capture needs the orientation sensor");
+    if (live_stream && o.orientations == OrientationInput::Truth) throw InputError("capture: a live capture has no truth");
+    Session session;
+    if (live_stream) session.calibration = *o.live_calibration;
+    else session = open_session(o.session);
     const int threads = o.threads > 0 ? o.threads : hardware_threads();
     std::map<std::uint64_t, glm::dquat> truth;
     SensorTrack sensors;
-    if (o.orientations == OrientationInput::Truth) {
+    if (live_stream) {
+        // The stream is read as it comes (CaptureOptions::live_orientation).
+    } else if (o.orientations == OrientationInput::Truth) {
         truth = truth_orientations(session);
         // The sensor's angular velocity still tells the blur and the rolling shutter, when there is one.
         if (!session.sensors.empty() && (o.max_blur_px > 0 || (o.rolling_shutter && session.calibration.readout_s > 0)))
@@ -186,6 +193,12 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
     }
     if (!(o.max_blur_px >= 0)) throw InputError("--max-blur-px must be 0 (no limit) or positive");
     const CameraCalibration& cal = session.calibration;
+    // The sensor's orientation at a sensor time: the recording's, or the live stream's.
+    const auto sensor_at = [&](std::int64_t t) -> std::optional<glm::dquat> {
+        if (live_stream) return o.live_orientation(t);
+        if (!sensors.history) return std::nullopt;
+        return sensors.history->at(t).world_from_sensor;
+    };
     // The camera's orientation at a frame: the sensor's at the frame's time (shifted by the
     // calibrated offset), then the mounting.
     const auto orientation_of = [&](const CameraFrame& f) -> std::optional<glm::dquat> {
@@ -195,22 +208,21 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
             return q->second;
         }
         const std::int64_t t = f.t_ns + std::int64_t(std::llround(cal.time_offset_s * 1e9));
-        const host::HistoryAnswer a = sensors.history->at(t);
-        if (!a.world_from_sensor) return std::nullopt;
-        return unit_rotation(*a.world_from_sensor * cal.sensor_from_camera);
+        const std::optional<glm::dquat> s = sensor_at(t);
+        if (!s) return std::nullopt;
+        return unit_rotation(*s * cal.sensor_from_camera);
     };
     // The camera's angular velocity around a frame's time (camera frame, rad/s): the sensor's turn
     // between 20 ms before and after it (the rows' exposures span about that), carried through the
     // mounting. A drift correction turns the world, not the camera, so it does not change it. 0
     // without a sensor stream or where it has a gap.
     const auto angular_velocity_of = [&](const CameraFrame& f) -> glm::dvec3 {
-        if (!sensors.history) return glm::dvec3(0);
+        if (!live_stream && !sensors.history) return glm::dvec3(0);
         constexpr std::int64_t kHalfSpanNs = 20'000'000;
         const std::int64_t t = f.t_ns + std::int64_t(std::llround(cal.time_offset_s * 1e9));
-        const host::HistoryAnswer a = sensors.history->at(t - kHalfSpanNs), b = sensors.history->at(t + kHalfSpanNs);
-        if (!a.world_from_sensor || !b.world_from_sensor) return glm::dvec3(0);
-        const glm::dvec3 sensor_w =
-            rotation_vector(glm::conjugate(*a.world_from_sensor) * *b.world_from_sensor) / (2 * kHalfSpanNs * 1e-9);
+        const std::optional<glm::dquat> a = sensor_at(t - kHalfSpanNs), b = sensor_at(t + kHalfSpanNs);
+        if (!a || !b) return glm::dvec3(0);
+        const glm::dvec3 sensor_w = rotation_vector(glm::conjugate(*a) * *b) / (2 * kHalfSpanNs * 1e-9);
         return glm::conjugate(cal.sensor_from_camera) * sensor_w;
     };
     std::map<std::uint64_t, glm::dquat> true_poses;
@@ -253,7 +265,11 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
     // Progress: the live pass, then (global adjustment) the views, the pairs and the final map.
     const bool adjust = o.drift_correction && o.global_adjustment;
     const bool online = adjust && o.online_adjustment;
-    const long long total = online  ? (long long)session.frames.size() * 2
+    if (live_stream && adjust && !online)
+        throw InputError("capture: a live capture adjusts online (the frames cannot be read again after the scan)");
+    // A live capture does not know its frames ahead: the total grows with them.
+    const long long total = live_stream ? 0
+                            : online  ? (long long)session.frames.size() * 2
                             : adjust ? (long long)session.frames.size() * (3 + o.adjustment_rounds)
                                      : (long long)session.frames.size();
     // The global adjustment while the scan runs (global_adjustment.hpp, OnlineAdjustment): each

@@ -80,6 +80,11 @@ struct CaptureOptions {
     // orientation at its readout time, from the sensor's angular velocity. Off: the frame's one
     // orientation for every row (for measuring what the compensation does).
     bool rolling_shutter = true;
+    // Live capture (the kiosk's `glint run`): no session directory; the calibration on file and
+    // the orientation sensor's world_from_sensor at a sensor time (nullopt: none known), which may
+    // block briefly until the stream has reached that time. `session` is then not read.
+    std::optional<CameraCalibration> live_calibration;
+    std::function<std::optional<glm::dquat>(std::int64_t sensor_t_ns)> live_orientation;
     // The guided-capture logic run over the frames (its target coverage and time limit).
     GuidedSettings guided;
     // Called on the capture's thread after every accumulated frame (the kiosk draws the arrow, the

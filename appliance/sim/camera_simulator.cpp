@@ -157,7 +157,9 @@ int CameraSimulator::time_samples(const CameraPath& path, int v) const {
     return std::clamp(int(std::lround(px / kPixelsPerTimeSample)), 1, kMaxTimeSamples);
 }
 
-void CameraSimulator::splat_bright_texels(cv::Mat& light, const std::vector<std::vector<glm::dquat>>& row_views) const {
+void CameraSimulator::splat_bright_texels(cv::Mat& light, const std::vector<std::vector<glm::dquat>>& row_views,
+                                          const LocalView& local,
+                                          const std::vector<std::vector<glm::dvec3>>& row_positions) const {
     if (splats_.empty()) return;
     const Intrinsics& k = truth_.intrinsics;
     // Cull by the middle row's first view: a pixel ray is within acos(min_cos_to_axis) of the
@@ -176,9 +178,12 @@ void CameraSimulator::splat_bright_texels(cv::Mat& light, const std::vector<std:
         const int row = std::clamp(int(std::lround(px->v)), 0, k.height - 1);
         const std::vector<glm::dquat>& views = row_views[std::size_t(row)];
         const double share = 1.0 / double(views.size());
-        for (const glm::dquat& q : views) {
+        for (std::size_t m = 0; m < views.size(); ++m) {
+            const glm::dquat& q = views[m];
             const auto at = capture::project(k, glm::conjugate(q) * p.direction, 1.0);
             if (!at) continue;
+            // The table in front of a bright texel hides it.
+            if (local.scene && local.scene->radiance(row_positions[std::size_t(row)][m], p.direction)) continue;
             // Shared among the four nearest pixels by bilinear weights (which sum to 1, so the
             // frame keeps the energy): a point landing whole in one pixel left a bright area's
             // points, 0.4 pixels apart, in a moire of 4 to 9 a pixel.
@@ -201,6 +206,11 @@ void CameraSimulator::splat_bright_texels(cv::Mat& light, const std::vector<std:
 }
 
 CameraFrame CameraSimulator::render(const CameraPath& path, std::int64_t t_ns, int threads) {
+    return render(path, LocalView{}, t_ns, threads);
+}
+
+CameraFrame CameraSimulator::render(const CameraPath& path, const LocalView& local, std::int64_t t_ns, int threads) {
+    if (local.scene && !local.position) throw InputError("camera simulator: a local scene needs the camera's position");
     const Intrinsics& k = truth_.intrinsics;
     CameraFrame frame;
     frame.rgb.create(k.height, k.width, CV_8UC3);
@@ -217,12 +227,18 @@ CameraFrame CameraSimulator::render(const CameraPath& path, std::int64_t t_ns, i
     // Each row's orientations: its exposure (centred on the row's readout time, the rolling
     // shutter) cut into n equal slices, each seen at its middle. One slice when still.
     std::vector<std::vector<glm::dquat>> row_views(std::size_t(k.height));
+    // With a local scene, the camera's position at the same times.
+    std::vector<std::vector<glm::dvec3>> row_positions(local.scene ? std::size_t(k.height) : 0);
     parallel_for(k.height, threads, [&](int v) {
         const int n = time_samples(path, v);
         const double tau = truth_.row_time_offset_s(v);
         std::vector<glm::dquat>& views = row_views[std::size_t(v)];
         views.resize(std::size_t(n));
         for (int m = 0; m < n; ++m) views[std::size_t(m)] = path(tau + exposure_s_ * ((m + 0.5) / n - 0.5));
+        if (!local.scene) return;
+        std::vector<glm::dvec3>& positions = row_positions[std::size_t(v)];
+        positions.resize(std::size_t(n));
+        for (int m = 0; m < n; ++m) positions[std::size_t(m)] = local.position(tau + exposure_s_ * ((m + 0.5) / n - 0.5));
     });
     parallel_for(k.height, threads, [&](int v) {
         double* out = light.ptr<double>(v);
@@ -231,9 +247,12 @@ CameraFrame CameraSimulator::render(const CameraPath& path, std::int64_t t_ns, i
         for (int u = 0; u < k.width; ++u) {
             const std::size_t i = std::size_t(v) * std::size_t(k.width) + std::size_t(u);
             double radiance[3] = {0, 0, 0};
-            for (const glm::dquat& q : views)
+            for (std::size_t m = 0; m < views.size(); ++m)
                 for (std::size_t sub = 0; sub < kSubsamples; ++sub) {
-                    const Rgb l = sample_bilinear(env_, q * rays_[i * kSubsamples + sub]);
+                    const glm::dvec3 d = views[m] * rays_[i * kSubsamples + sub];
+                    std::optional<Rgb> near;
+                    if (local.scene) near = local.scene->radiance(row_positions[std::size_t(v)][m], d);
+                    const Rgb l = near ? *near : sample_bilinear(env_, d);
                     radiance[0] += l.r * share;
                     radiance[1] += l.g * share;
                     radiance[2] += l.b * share;
@@ -241,7 +260,7 @@ CameraFrame CameraSimulator::render(const CameraPath& path, std::int64_t t_ns, i
             for (int c = 0; c < 3; ++c) out[3 * u + c] = radiance[c] * vignette_[i];
         }
     });
-    splat_bright_texels(light, row_views);
+    splat_bright_texels(light, row_views, local, row_positions);
     if (truth_.glare_fraction > 0) {
         // The glare's width is an angle: a pixel off the axis spans less of it (cos^2 of the
         // off-axis angle for a pinhole), so its width in pixels grows there. Two blurs, at the

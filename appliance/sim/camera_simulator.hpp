@@ -16,6 +16,7 @@
 
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <random>
 #include <vector>
 
@@ -38,6 +39,24 @@ struct SensorModel {
 
 // world_from_camera at `offset_s` seconds after the frame's time (the middle row's mid-exposure).
 using CameraPath = std::function<glm::dquat(double offset_s)>;
+
+// Geometry near the camera, in front of the environment (which lies at infinity): the kiosk's
+// table with the board on it (kiosk_simulator.hpp). A ray from `origin` (world frame, metres)
+// along the unit `direction` that meets it gets the radiance returned; nullopt: it sees the map.
+class LocalScene {
+public:
+    virtual ~LocalScene() = default;
+    virtual std::optional<Rgb> radiance(const glm::dvec3& origin, const glm::dvec3& direction) const = 0;
+};
+
+// Where the camera is, for a frame that sees a LocalScene: the camera's position (world frame,
+// metres) at `offset_s` seconds after the frame's time, sampled at the same times as its
+// orientation (the motion blur's time samples follow the turn only; a slow walk adds parallax
+// of well under a pixel per exposure).
+struct LocalView {
+    const LocalScene* scene = nullptr;
+    std::function<glm::dvec3(double offset_s)> position;
+};
 
 struct AutoExposureModel {
     bool enabled = true;
@@ -75,6 +94,9 @@ public:
     // The same along a moving camera: motion blur (SensorModel::motion_blur) and the rolling
     // shutter (the truth's readout_s) sample `path` over each row's exposure.
     capture::CameraFrame render(const CameraPath& path, std::int64_t t_ns, int threads = 1);
+    // The same with a local scene in front of the map (`local.scene` may be null: the map alone).
+    // The brightest texels' points (split_bright_texels) behind the scene are hidden by it.
+    capture::CameraFrame render(const CameraPath& path, const LocalView& local, std::int64_t t_ns, int threads = 1);
     // Time samples per pixel of row v's exposure along `path` (1 when still or without motion
     // blur): what render() uses, for tests and timing.
     int time_samples(const CameraPath& path, int v) const;
@@ -109,7 +131,8 @@ private:
     static constexpr double kSplatAboveMean = 4;           // the level, in map means
     static constexpr std::size_t kMaxSplatTexels = 65536;  // at most this many texels split
     void split_bright_texels();
-    void splat_bright_texels(cv::Mat& light, const std::vector<std::vector<glm::dquat>>& row_views) const;
+    void splat_bright_texels(cv::Mat& light, const std::vector<std::vector<glm::dquat>>& row_views,
+                             const LocalView& local, const std::vector<std::vector<glm::dvec3>>& row_positions) const;
 
     HdrImage env_;  // the map, less the split texels' excess
     capture::CameraCalibration truth_;

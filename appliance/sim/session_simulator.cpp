@@ -20,6 +20,7 @@
 #include "appliance/core/exr_io.hpp"
 #include "appliance/core/parallel.hpp"
 #include "appliance/sim/camera_simulator.hpp"
+#include "appliance/sim/session_writer.hpp"
 #include "firmware_bridge/firmware/sim/sim_board.hpp"
 #include "firmware_bridge/firmware/sim/sim_hal.hpp"
 #include "firmware_bridge/host/orientation_history.hpp"
@@ -73,6 +74,12 @@ CameraPath camera_path(const firmware::sim::Trajectory& camera, std::uint64_t t_
 // Frames of a scan along `camera` at `fps`, the first at its time 0.
 int scan_frames(const firmware::sim::Trajectory& camera, double fps) {
     return int(std::floor(double(camera.end_us()) * 1e-6 * fps)) + 1;
+}
+
+// Appliance time of a board instant: the board clock runs clock_drift_ppm fast.
+std::uint64_t host_us_of_board(const SimulateOptions& o, std::uint64_t board_us) {
+    const double rate = 1.0 + o.clock_drift_ppm * 1e-6;
+    return kHostAtBoardResetUs + std::uint64_t(std::llround(double(board_us) / rate));
 }
 
 // The true camera: a mild lens, vignetting, a gamma-like response, the sensor mounted with a
@@ -154,8 +161,9 @@ std::vector<TrajectorySample> alignment_camera_trajectory(double amplitude_deg, 
 
 namespace {
 
-SimulateSummary write_session(const SimulateOptions& o, const HdrImage& env, const firmware::sim::Trajectory& camera,
+SimulateSummary write_session(const SimulateOptions& o, const HdrImage& env, const detail::SessionPlan& plan,
                               const fs::path& partial, const std::function<void(long long, long long)>& progress) {
+    const firmware::sim::Trajectory& camera = *plan.camera;
     const double duration_s = double(camera.end_us()) * 1e-6;
     SensorModel sensor;
     sensor.noise = o.camera_noise;
@@ -174,11 +182,7 @@ SimulateSummary write_session(const SimulateOptions& o, const HdrImage& env, con
     }
     const firmware::sim::Trajectory sensor_trajectory(sensor_path);
 
-    // Appliance time of a board instant: the board clock runs clock_drift_ppm fast.
-    const double rate = 1.0 + o.clock_drift_ppm * 1e-6;
-    const auto host_us = [&](std::uint64_t board_us) {
-        return kHostAtBoardResetUs + std::uint64_t(std::llround(double(board_us) / rate));
-    };
+    const auto host_us = [&](std::uint64_t board_us) { return host_us_of_board(o, board_us); };
 
     // --- the orientation stream, recorded as the serial driver records a live board ---
     firmware::sim::SimBoardOptions board;
@@ -200,7 +204,7 @@ SimulateSummary write_session(const SimulateOptions& o, const HdrImage& env, con
     ropt.header.decoded_types = recording::board_message_types();
     ropt.header.created_unix_us = 1'795'000'000'000'000;  // fixed: same options, same file
     ropt.header.created_monotonic_us = kHostAtBoardResetUs;
-    ropt.header.notes = {{"generator", "glint simulate"}, {"imu", o.imu}, {"sensor_noise", o.sensor_noise}};
+    ropt.header.notes = {{"generator", plan.created_by}, {"imu", o.imu}, {"sensor_noise", o.sensor_noise}};
     recording::VirtualClock record_clock(kHostAtBoardResetUs);
     SimulateSummary summary;
     {
@@ -231,20 +235,28 @@ SimulateSummary write_session(const SimulateOptions& o, const HdrImage& env, con
     ae.enabled = o.bracket == 0;
     CameraSimulator cam(env, truth, sensor, ae, o.seed);
     const int threads = o.threads > 0 ? o.threads : hardware_threads();
-    const int frames = o.bracket > 0 ? o.bracket : scan_frames(camera, o.fps);
+    long long total_frames = 0;
+    for (const detail::SessionSegment& segment : plan.segments) total_frames += o.bracket > 0 ? o.bracket : segment.frames;
     std::string frames_csv = capture::frames_csv_header() + "\n";
     std::string truth_csv = capture::camera_poses_csv_header() + "\n";
+    std::vector<detail::WrittenFrame> written_frames;
     int written = 0;
-    const auto emit = [&](const CameraFrame& f, const glm::dquat& q, std::int64_t t_ns) {
+    int segment_index = 0;  // the segment being taken
+    const bool jpeg = o.frame_format == "jpg";
+    const std::vector<int> write_params =
+        jpeg ? std::vector<int>{cv::IMWRITE_JPEG_QUALITY, o.jpeg_quality} : std::vector<int>{};
+    const auto emit = [&](const CameraFrame& f, const glm::dquat& q, std::int64_t t_ns, std::uint64_t tc_us) {
         char name[32];
-        std::snprintf(name, sizeof name, "frames/%06d.png", written);
+        std::snprintf(name, sizeof name, jpeg ? "frames/%06d.jpg" : "frames/%06d.png", written);
         cv::Mat bgr;
         cv::cvtColor(f.rgb, bgr, cv::COLOR_RGB2BGR);
-        if (!cv::imwrite((partial / name).string(), bgr)) throw RuntimeError((partial / name).string() + ": cannot write");
+        if (!cv::imwrite((partial / name).string(), bgr, write_params))
+            throw RuntimeError((partial / name).string() + ": cannot write");
         const capture::FrameRecord record{std::uint64_t(written), t_ns, f.exposure_s, f.analogue_gain,
                                           f.digital_gain, name};
         frames_csv += capture::frames_csv_line(record) + "\n";
         truth_csv += capture::camera_poses_csv_line({std::uint64_t(written), t_ns, q}) + "\n";
+        written_frames.push_back({std::uint64_t(written), t_ns, tc_us, segment_index, q});
         ++written;
     };
     // With --hdr-bracket the capture pipeline's exposure controller decides the brackets
@@ -254,12 +266,7 @@ SimulateSummary write_session(const SimulateOptions& o, const HdrImage& env, con
     // auto-exposure keeps its own state while a manual exposure is in force and resumes from it,
     // which is what the sessions have recorded since --hdr-bracket exists, while
     // CameraSimulator::set_exposure(ExposureRequest) resumes from the bracket's exposure.
-    std::optional<capture::ExposureController> controller;
-    if (o.hdr_bracket) {
-        capture::ExposureControlSettings settings;
-        settings.min_exposure_s = truth.min_exposure_s;
-        controller.emplace(settings);
-    }
+    std::optional<capture::ExposureController> controller;  // in the segments with hdr_bracket
     struct PendingRequest {
         long long from_frame;  // applies to the frame of this index (frames rendered so far) and later
         capture::ExposureRequest request;
@@ -288,11 +295,21 @@ SimulateSummary write_session(const SimulateOptions& o, const HdrImage& env, con
     // q: the true orientation at the frame's time (written as truth); tc_us: that time on the
     // trajectory, along which the frame is rendered (motion blur, rolling shutter; a
     // calibration bracket is one still view).
+    // The segment's local scene is seen from its camera position around the frame's time.
+    const detail::SessionSegment* segment = nullptr;
     const auto take = [&](const glm::dquat& q, std::uint64_t tc_us, std::int64_t t_ns) {
-        const CameraFrame f =
-            o.bracket > 0 ? cam.render(q, t_ns, threads) : cam.render(camera_path(camera, tc_us), t_ns, threads);
+        CameraFrame f;
+        if (o.bracket > 0) {
+            f = cam.render(q, t_ns, threads);
+        } else if (segment->scene) {
+            const double t_s = double(tc_us) * 1e-6;
+            const LocalView local{segment->scene, [segment, t_s](double offset_s) { return segment->position(t_s + offset_s); }};
+            f = cam.render(camera_path(camera, tc_us), local, t_ns, threads);
+        } else {
+            f = cam.render(camera_path(camera, tc_us), t_ns, threads);
+        }
         ++rendered;
-        emit(f, q, t_ns);
+        emit(f, q, t_ns, tc_us);
         if (!controller) return;
         if (const auto r = controller->on_frame(f)) pending.push_back({rendered + o.control_delay_frames, *r});
         while (!pending.empty() && pending.front().from_frame <= rendered) {
@@ -301,41 +318,62 @@ SimulateSummary write_session(const SimulateOptions& o, const HdrImage& env, con
         }
         if (manual) cam.set_exposure(manual_exposure_s, manual_gain);
     };
-    // The sensor's appliance time of the instant frame k shows, minus the time offset:
+    // The sensor's appliance time of the instant camera time tc shows, minus the time offset:
     // camera timestamp + time_offset_s = sensor time (conventions.md, "Camera frame").
-    const auto frame_t_ns = [&](int k) {
-        return std::int64_t(host_us(kLeadUs + std::uint64_t(std::llround(k / o.fps * 1e6)))) * 1000 -
-               std::int64_t(std::llround(o.time_offset_s * 1e9));
+    const auto frame_t_ns = [&](std::uint64_t tc) {
+        return std::int64_t(host_us(kLeadUs + tc)) * 1000 - std::int64_t(std::llround(o.time_offset_s * 1e9));
     };
-    for (int k = 0; k < frames; ++k) {
-        const std::uint64_t tc = o.bracket > 0 ? 0 : std::uint64_t(std::llround(k / o.fps * 1e6));
-        // A bracket of the built-in scan looks at the horizon (the scan itself starts at the floor).
-        const glm::dquat q =
-            o.bracket > 0 && o.trajectory == "guided" ? camera_look(0, 0) : world_from_camera_at(camera, tc);
-        if (o.bracket > 0) cam.set_exposure(o.bracket_first_exposure_s * std::pow(2.0, k), 1.0);
-        const std::int64_t t_ns = frame_t_ns(k);
-        take(q, tc, t_ns);
-        // While the controller brackets (waits for a requested exposure or takes the next), the
-        // camera takes frames as fast as it can: one readout time apart (a rolling shutter cannot
-        // start reading the next frame before the last is read; 2 ms for a global shutter), a
-        // burst that sees nearly its first frame's view; the scan's next frame comes when the
-        // burst would reach its time (times must increase).
-        const std::int64_t burst_ns = std::max<std::int64_t>(2'000'000, std::llround(truth.readout_s * 1e9));
-        const std::int64_t next_t_ns = k + 1 < frames ? frame_t_ns(k + 1) : INT64_MAX;
-        for (int b = 1; controller && controller->bracketing(); ++b) {
-            const std::int64_t tb_ns = t_ns + std::int64_t(b) * burst_ns;
-            if (tb_ns >= next_t_ns) break;
-            const std::uint64_t tb = tc + std::uint64_t(b) * std::uint64_t(burst_ns / 1000);
-            take(world_from_camera_at(camera, tb), tb, tb_ns);
+    const auto frame_tc = [&](const detail::SessionSegment& s, int k) {
+        return s.start_us + std::uint64_t(std::llround(k / s.fps * 1e6));
+    };
+    long long done = 0;
+    for (std::size_t si = 0; si < plan.segments.size(); ++si) {
+        segment = &plan.segments[si];
+        segment_index = int(si);
+        pending.clear();
+        controller.reset();
+        if (segment->hdr_bracket) {
+            capture::ExposureControlSettings settings;
+            settings.min_exposure_s = truth.min_exposure_s;
+            controller.emplace(settings);
         }
-        if (progress) progress(k + 1, frames);
+        const int frames = o.bracket > 0 ? o.bracket : segment->frames;
+        for (int k = 0; k < frames; ++k) {
+            const std::uint64_t tc = o.bracket > 0 ? 0 : frame_tc(*segment, k);
+            // A bracket of the built-in scan looks at the horizon (the scan itself starts at the floor).
+            const glm::dquat q =
+                o.bracket > 0 && o.trajectory == "guided" ? camera_look(0, 0) : world_from_camera_at(camera, tc);
+            if (o.bracket > 0) cam.set_exposure(o.bracket_first_exposure_s * std::pow(2.0, k), 1.0);
+            const std::int64_t t_ns = frame_t_ns(tc);
+            take(q, tc, t_ns);
+            // While the controller brackets (waits for a requested exposure or takes the next), the
+            // camera takes frames as fast as it can: one readout time apart (a rolling shutter cannot
+            // start reading the next frame before the last is read; 2 ms for a global shutter), a
+            // burst that sees nearly its first frame's view; the next frame comes when the burst
+            // would reach its time (times must increase).
+            const std::int64_t burst_ns = std::max<std::int64_t>(2'000'000, std::llround(truth.readout_s * 1e9));
+            const std::int64_t next_t_ns = k + 1 < frames                    ? frame_t_ns(frame_tc(*segment, k + 1))
+                                           : si + 1 < plan.segments.size() ? frame_t_ns(plan.segments[si + 1].start_us)
+                                                                            : INT64_MAX;
+            for (int b = 1; controller && controller->bracketing(); ++b) {
+                const std::int64_t tb_ns = t_ns + std::int64_t(b) * burst_ns;
+                if (tb_ns >= next_t_ns) break;
+                const std::uint64_t tb = tc + std::uint64_t(b) * std::uint64_t(burst_ns / 1000);
+                take(world_from_camera_at(camera, tb), tb, tb_ns);
+            }
+            if (progress) progress(++done, total_frames);
+        }
+        // The next segment starts under auto-exposure, from where the loop was before any bracket.
+        if (manual) apply(capture::ExposureRequest{});
     }
     write_text(partial / "frames.csv", frames_csv);
     write_text(partial / "truth" / "camera.csv", truth_csv);
     capture::save_calibration(partial / "calibration.json", truth);
     capture::save_calibration(partial / "truth" / "calibration.json", truth);
-    save_exr(partial / "truth" / "env.exr", env);
-    write_text(partial / "session.json", capture::session_json("glint simulate"));
+    if (plan.env_file.empty()) save_exr(partial / "truth" / "env.exr", env);
+    else fs::copy_file(plan.env_file, partial / "truth" / "env.exr");
+    write_text(partial / "session.json", capture::session_json(plan.created_by));
+    if (plan.finish) plan.finish(partial, written_frames);
     if (fs::exists(o.out)) fs::remove_all(o.out);
     fs::rename(partial, o.out);
     summary.frames = written;
@@ -345,14 +383,7 @@ SimulateSummary write_session(const SimulateOptions& o, const HdrImage& env, con
 
 }  // namespace
 
-SimulateSummary simulate_session(const SimulateOptions& o, const std::function<void(long long, long long)>& progress) {
-    if (!(o.fps > 0 && o.fps <= 120)) throw InputError("--fps must be in (0, 120]");
-    if (o.bracket < 0 || o.bracket > 30) throw InputError("--bracket must be in [0, 30] frames");
-    if (o.control_delay_frames < 0 || o.control_delay_frames > 30)
-        throw InputError("--control-delay must be in [0, 30] frames");
-    if (o.control_delay_frames > 0 && !o.hdr_bracket) throw InputError("--control-delay needs --hdr-bracket");
-    if (!(o.guided_speed_deg_s >= 5 && o.guided_speed_deg_s <= 180)) throw InputError("--guided-speed must be 5..180 deg/s");
-    if (o.bracket > 0 && !(o.bracket_first_exposure_s > 0)) throw InputError("--bracket-first must be positive");
+void detail::check_common_options(const SimulateOptions& o) {
     if (o.width < 16 || o.height < 16 || o.width > 8192 || o.height > 8192)
         throw InputError("--size must be between 16x16 and 8192x8192");
     if (!(std::abs(o.time_offset_s) <= 1.0)) throw InputError("--time-offset-ms must be in [-1000, 1000]");
@@ -361,8 +392,49 @@ SimulateSummary simulate_session(const SimulateOptions& o, const std::function<v
     if (o.imu != "raw" && o.imu != "bno055") throw InputError("--imu must be raw or bno055");
     if (o.sensor_noise != "none" && o.sensor_noise != "default" && o.sensor_noise != "high")
         throw InputError("--sensor-noise must be none, default or high");
+    if (o.frame_format != "png" && o.frame_format != "jpg") throw InputError("frame format must be png or jpg");
+    if (o.jpeg_quality < 1 || o.jpeg_quality > 100) throw InputError("JPEG quality must be in 1..100");
     if (fs::exists(o.out) && !o.overwrite)
         throw InputError(o.out.string() + ": already exists (give --force to replace it)");
+}
+
+std::int64_t detail::appliance_time_ns(const SimulateOptions& o, std::uint64_t camera_us) {
+    return std::int64_t(host_us_of_board(o, kLeadUs + camera_us)) * 1000;
+}
+
+capture::CameraCalibration detail::true_camera(const SimulateOptions& o) { return sim::true_camera(o, SensorModel{}); }
+
+SimulateSummary detail::write_planned_session(const SimulateOptions& o, const HdrImage& env, const SessionPlan& plan,
+                                              const std::function<void(long long, long long)>& progress) {
+    if (!plan.camera || plan.camera->end_us() == 0) throw InputError("the trajectory must last longer than 0 s");
+    for (std::size_t i = 0; i < plan.segments.size(); ++i) {
+        const SessionSegment& s = plan.segments[i];
+        if (!(s.fps > 0 && s.fps <= 120)) throw InputError("a segment's frame rate must be in (0, 120] fps");
+        if (s.scene && !s.position) throw InputError("a segment with a local scene needs the camera's position");
+        if (i > 0 && s.start_us <= plan.segments[i - 1].start_us) throw InputError("segments must be in time order");
+    }
+    const fs::path partial = o.out.string() + ".partial";
+    fs::remove_all(partial);
+    fs::create_directories(partial / "frames");
+    fs::create_directories(partial / "truth");
+    try {
+        return write_session(o, env, plan, partial, progress);
+    } catch (...) {
+        std::error_code ignored;
+        fs::remove_all(partial, ignored);  // never leave half a session behind
+        throw;
+    }
+}
+
+SimulateSummary simulate_session(const SimulateOptions& o, const std::function<void(long long, long long)>& progress) {
+    if (!(o.fps > 0 && o.fps <= 120)) throw InputError("--fps must be in (0, 120]");
+    if (o.bracket < 0 || o.bracket > 30) throw InputError("--bracket must be in [0, 30] frames");
+    if (o.control_delay_frames < 0 || o.control_delay_frames > 30)
+        throw InputError("--control-delay must be in [0, 30] frames");
+    if (o.control_delay_frames > 0 && !o.hdr_bracket) throw InputError("--control-delay needs --hdr-bracket");
+    if (!(o.guided_speed_deg_s >= 5 && o.guided_speed_deg_s <= 180)) throw InputError("--guided-speed must be 5..180 deg/s");
+    if (o.bracket > 0 && !(o.bracket_first_exposure_s > 0)) throw InputError("--bracket-first must be positive");
+    detail::check_common_options(o);
     const HdrImage env = load_exr(o.env).image;
 
     const firmware::sim::Trajectory camera = [&] {
@@ -376,20 +448,16 @@ SimulateSummary simulate_session(const SimulateOptions& o, const std::function<v
     }();
     if (camera.end_us() == 0) throw InputError(o.trajectory + ": the trajectory must last longer than 0 s");
 
-
-    const fs::path partial = o.out.string() + ".partial";
-    fs::remove_all(partial);
-    fs::create_directories(partial / "frames");
-    fs::create_directories(partial / "truth");
-    try {
-        return write_session(o, env, camera, partial, progress);
-    } catch (...) {
-        std::error_code ignored;
-        fs::remove_all(partial, ignored);  // never leave half a session behind
-        throw;
-    }
+    // One segment: the whole trajectory at o.fps.
+    detail::SessionPlan plan;
+    plan.camera = &camera;
+    detail::SessionSegment scan;
+    scan.fps = o.fps;
+    scan.frames = scan_frames(camera, o.fps);
+    scan.hdr_bracket = o.hdr_bracket;
+    plan.segments.push_back(scan);
+    return detail::write_planned_session(o, env, plan, progress);
 }
-
 
 int simulate_charuco_session(const SimulateOptions& o, int views) {
     if (views < 4 || views > 200) throw InputError("--charuco must be 4..200 views");

@@ -56,6 +56,10 @@ struct SimulateOptions {
     double readout_s = capture::kModelledReadoutS;
     std::uint64_t seed = 1;
     int threads = 0;
+    // How frames are stored: "png" (lossless) or "jpg" at jpeg_quality (cv::imwrite's 1..100).
+    // `glint simulate` writes PNG; kiosk sessions JPEG (kiosk_simulator.hpp: measured there).
+    std::string frame_format = "png";
+    int jpeg_quality = 95;
     // A calibration session instead of a scan: `bracket` frames of one still view (the
     // trajectory's first orientation; the horizon for "guided"), auto-exposure off, exposure doubling from
     // `bracket_first_exposure_s` (glint calibrate response). 0 = a normal session.

@@ -2,531 +2,136 @@
 
 #include <algorithm>
 #include <chrono>
-#include <cmath>
-#include <cstdio>
-#include <future>
-#include <memory>
+#include <map>
 #include <optional>
 #include <thread>
-
-#include <opencv2/imgproc.hpp>
 
 #include "appliance/capture/capture_pipeline.hpp"
 #include "appliance/capture/kiosk_session.hpp"
 #include "appliance/capture/session.hpp"
 #include "appliance/core/atomic_file.hpp"
-#include "appliance/core/equirect.hpp"
 #include "appliance/core/error_metrics.hpp"
 #include "appliance/core/errors.hpp"
 #include "appliance/core/exr_io.hpp"
-#include "appliance/core/parallel.hpp"
-#include "appliance/core/rotation.hpp"
-#include "appliance/gl/display.hpp"
-#include "appliance/gl/png_writer.hpp"
-#include "appliance/render/camera_response.hpp"
-#include "appliance/render/live_maps.hpp"
 #include "appliance/render/maps.hpp"
 #include "appliance/render/material.hpp"
-#include "appliance/render/mesh.hpp"
-#include "appliance/render/renderer.hpp"
-#include "appliance/render/shadow.hpp"
-#include "appliance/tracking/board.hpp"
-#include "appliance/tracking/tracker.hpp"
-#include "appliance/ui/ar_camera.hpp"
-#include "appliance/ui/capture_job.hpp"
-#include "appliance/ui/frame_scheduler.hpp"
-#include "appliance/ui/image_quad.hpp"
-#include "appliance/ui/kiosk_flow.hpp"
 
 namespace glint::ui {
 namespace fs = std::filesystem;
 using json = nlohmann::json;
-using WallClock = std::chrono::steady_clock;
 
 namespace {
 
-double seconds_since(WallClock::time_point t) { return std::chrono::duration<double>(WallClock::now() - t).count(); }
-
-// The sensor's orientation at any time of the session, slerped between its samples.
-class SensorTimeline {
+// A recorded session as the kiosk's input.
+class ReplaySource final : public KioskSource {
 public:
-    explicit SensorTimeline(std::vector<capture::SensorOrientation> s) : samples_(std::move(s)) {}
-    std::optional<glm::dquat> at(std::int64_t t_ns) const {
-        if (samples_.empty() || t_ns < samples_.front().t_ns || t_ns > samples_.back().t_ns) return std::nullopt;
-        const auto it = std::lower_bound(samples_.begin(), samples_.end(), t_ns,
+    ReplaySource(const fs::path& dir, bool realtime)
+        : session_(capture::open_session(dir)), realtime_(realtime) {
+        if (session_.frames.empty()) throw InputError(dir.string() + ": the session has no frames");
+        kiosk_ = capture::load_kiosk_info(session_);
+        events_ = capture::load_session_events(session_);
+        sensors_ = capture::load_sensor_orientations(session_);
+        for (const capture::TruthBoardPose& p : capture::load_truth_board_poses(session_)) truth_board_[p.index] = p;
+        response_ = render::load_camera_response(session_.dir / "calibration.json", "calibration");
+        // A session without a kiosk recording (a plain scan): the visitor pressed the button at its start.
+        if (!kiosk_ && events_.empty()) events_.push_back({session_.frames.front().t_ns, "button", "press"});
+        std::stable_sort(events_.begin(), events_.end(), [](const auto& a, const auto& b) { return a.t_ns < b.t_ns; });
+    }
+
+    std::string describe() const override { return "replay: " + session_.dir.string(); }
+    const capture::CameraCalibration& calibration() const override { return session_.calibration; }
+    const render::CameraResponse& response() const override { return response_; }
+    std::string board_json() const override { return kiosk_ ? kiosk_->board_json : std::string(); }
+    void configure_capture(capture::CaptureOptions& o) override { o.session = session_.dir; }
+    std::int64_t start_ns() const override { return session_.frames.front().t_ns; }
+    bool replayed() const override { return !realtime_; }
+    bool ended(std::int64_t now_ns) const override { return now_ns > session_.frames.back().t_ns; }
+
+    KioskPoll poll(std::int64_t now_ns) override {
+        if (realtime_) {
+            // The wall clock runs: wait for nothing, take what is due.
+        }
+        KioskPoll p;
+        for (; next_sensor_ < sensors_.size() && sensors_[next_sensor_].t_ns <= now_ns; ++next_sensor_)
+            p.orientations.push_back(sensors_[next_sensor_]);
+        for (; next_event_ < events_.size() && events_[next_event_].t_ns <= now_ns; ++next_event_) p.events.push_back(events_[next_event_]);
+        for (; next_frame_ < session_.frames.size() && session_.frames[next_frame_].t_ns <= now_ns; ++next_frame_) {
+            capture::CameraFrame f = capture::load_frame(session_, session_.frames[next_frame_]);
+            f.sequence = session_.frames[next_frame_].index;
+            p.frames.push_back(std::move(f));
+        }
+        return p;
+    }
+
+    std::optional<glm::dquat> world_from_sensor(std::int64_t t_ns) const override {
+        if (sensors_.empty() || t_ns < sensors_.front().t_ns || t_ns > sensors_.back().t_ns) return std::nullopt;
+        const auto it = std::lower_bound(sensors_.begin(), sensors_.end(), t_ns,
                                          [](const capture::SensorOrientation& a, std::int64_t t) { return a.t_ns < t; });
-        if (it == samples_.begin()) return it->world_from_sensor;
+        if (it == sensors_.begin()) return it->world_from_sensor;
         const auto prev = it - 1;
         if (it->t_ns - prev->t_ns > 100'000'000) return std::nullopt;  // a lost stretch: no answer
         const double f = double(t_ns - prev->t_ns) / double(std::max<std::int64_t>(1, it->t_ns - prev->t_ns));
         return glm::slerp(prev->world_from_sensor, it->world_from_sensor, f);
     }
-    const std::vector<capture::SensorOrientation>& samples() const { return samples_; }
+
+    std::optional<std::int64_t> scan_end_ns() const override {
+        const capture::KioskPhase* scan = kiosk_ ? kiosk_->phase("scan") : nullptr;
+        if (!scan) return std::nullopt;
+        return scan->end_ns;
+    }
+    bool in_ar_phase(std::int64_t t_ns) const override {
+        const capture::KioskPhase* ar = kiosk_ ? kiosk_->phase("ar") : nullptr;
+        return !ar || (t_ns >= ar->start_ns && t_ns <= ar->end_ns);
+    }
+    std::optional<capture::TruthBoardPose> truth_board(std::uint64_t index) const override {
+        const auto it = truth_board_.find(index);
+        if (it == truth_board_.end()) return std::nullopt;
+        return it->second;
+    }
+
+    const capture::Session& session() const { return session_; }
+    double length_s() const { return double(session_.frames.back().t_ns - session_.frames.front().t_ns) * 1e-9; }
 
 private:
-    std::vector<capture::SensorOrientation> samples_;
+    capture::Session session_;
+    bool realtime_;
+    std::optional<capture::KioskSessionInfo> kiosk_;
+    std::vector<capture::SessionEvent> events_;
+    std::vector<capture::SensorOrientation> sensors_;
+    std::map<std::uint64_t, capture::TruthBoardPose> truth_board_;
+    render::CameraResponse response_;
+    std::size_t next_frame_ = 0, next_event_ = 0, next_sensor_ = 0;
 };
-
-// The material behind a config name: "matte", "glossy:N", "mirror" or a full spec; the screen's
-// string key is "material." + the name before any ':'.
-std::string material_key(const std::string& name) { return "material." + name.substr(0, name.find(':')); }
-
-// An HDR map as an 8-bit picture (Reinhard on luminance, sRGB-ish gamma): the processing screen's
-// preview of the room just captured.
-cv::Mat preview_of(const HdrImage& env, int width, int height) {
-    cv::Mat out(height, width, CV_8UC3);
-    double log_sum = 0;
-    for (int j = 0; j < env.height(); ++j)
-        for (int i = 0; i < env.width(); ++i) {
-            const Rgb c = env.at(i, j);
-            log_sum += std::log(1e-4 + 0.2126 * c.r + 0.7152 * c.g + 0.0722 * c.b);
-        }
-    const double scale = 0.18 / std::exp(log_sum / double(env.texel_count()));
-    for (int y = 0; y < height; ++y)
-        for (int x = 0; x < width; ++x) {
-            const Rgb c = env.at(x * env.width() / width, y * env.height() / height);
-            const double v[3] = {c.r * scale, c.g * scale, c.b * scale};
-            for (int k = 0; k < 3; ++k)
-                out.at<cv::Vec3b>(y, x)[k] = std::uint8_t(std::lround(255.0 * std::pow(v[k] / (1 + v[k]), 1 / 2.2)));
-        }
-    return out;
-}
-
-// What PROCESSING makes on a worker once the capture is done.
-struct NewScene {
-    HdrImage env;
-    cv::Mat preview;
-    render::ShadingMaps maps;
-};
-
-json frame_times_json(const FrameTimes& t) { return {{"median", t.median()}, {"p99", t.p99()}, {"max", t.max()}, {"frames", t.ms.size()}}; }
 
 }  // namespace
 
 json run_replay(const ReplayOptions& o, const std::function<void(const std::string&)>& log) {
-    const WallClock::time_point process_start = WallClock::now();
-    const Config& cfg = o.config;
-    const capture::Session session = capture::open_session(o.session);
-    if (session.frames.empty()) throw InputError(o.session.string() + ": the session has no frames");
-    const std::optional<capture::KioskSessionInfo> kiosk = capture::load_kiosk_info(session);
-    std::vector<capture::SessionEvent> events = capture::load_session_events(session);
-    const SensorTimeline sensors(capture::load_sensor_orientations(session));
-    std::map<std::uint64_t, capture::TruthBoardPose> truth_board;
-    for (const capture::TruthBoardPose& p : capture::load_truth_board_poses(session)) truth_board[p.index] = p;
-    const std::int64_t t0_ns = session.frames.front().t_ns;
-    // A session without a kiosk recording (a plain scan): the visitor pressed the button at its start.
-    if (!kiosk && events.empty()) events.push_back({t0_ns, "button", "press"});
-    const capture::KioskPhase* scan_phase = kiosk ? kiosk->phase("scan") : nullptr;
-    const capture::KioskPhase* ar_phase = kiosk ? kiosk->phase("ar") : nullptr;
-    const auto replay_s = [&](std::int64_t t_ns) { return double(t_ns - t0_ns) * 1e-9; };
-
-    std::error_code ec;
-    fs::create_directories(o.out / "frames", ec);
-    if (ec) throw InputError("--out " + o.out.string() + ": cannot create it: " + ec.message());
-
-    // Display and GL: headless unless the config says otherwise.
-    gl::DisplayConfig display_config;
-    display_config.kind = cfg.display.kind;
-    display_config.card = cfg.display.card;
-    display_config.connector = cfg.display.connector;
-    display_config.mode = cfg.display.mode;
-    display_config.width = cfg.display.width;
-    display_config.height = cfg.display.height;
-    display_config.fullscreen = cfg.display.fullscreen;
-    std::vector<gl::DisplayAttempt> attempts;
-    std::unique_ptr<gl::Display> display = gl::open_display(display_config, &attempts);
-    for (const gl::DisplayAttempt& a : attempts)
-        log(std::string("display ") + gl::display_kind_name(a.kind) + ": " + (a.ok ? "opened " : "not opened: ") + a.detail);
-    const int width = display->width(), height = display->height();
-
-    // The object, its materials and a renderer per material, lit at first by a neutral grey room
-    // (there is no last scene before the first visitor).
-    std::vector<render::Material> materials;
-    for (const std::string& name : cfg.ar.materials) materials.push_back(render::parse_material(name, "ar.materials"));
-    if (materials.empty()) throw InputError("ar.materials: the list is empty");
-    const render::Mesh mesh = render::load_model(cfg.ar.model, "ar.model");
-    HdrImage grey(64, 32);
-    std::fill(grey.data().begin(), grey.data().end(), 0.5f);
-    render::ShadingMaps maps = render::coarse_maps(grey, materials, 1);
-    // One renderer; the button changes its material (its shaders are compiled once).
-    render::Renderer renderer(mesh, materials.front(), maps, width, height);
-    renderer.set_table(render::model_bottom(mesh));  // the table hides what is under it
-    int renderer_material = 0;
-    const render::CameraResponse response = render::load_camera_response(session.dir / "calibration.json", "calibration");
-    const capture::CameraCalibration& cal = session.calibration;
-    ArPlacement placement;
-    placement.object_radius_m = cfg.ar.object_radius_m;
-    placement.model_bottom = render::model_bottom(mesh);
-
-    // Tracking: the session's board (the default one without a kiosk recording).
-    const tracking::Board board(kiosk && !kiosk->board_json.empty()
-                                    ? tracking::board_spec_from_json(kiosk->board_json, (session.dir / "kiosk.json").string())
-                                    : tracking::BoardSpec{});
-    tracking::Camera track_camera;
-    track_camera.width = cal.intrinsics.width;
-    track_camera.height = cal.intrinsics.height;
-    track_camera.fx = cal.intrinsics.fx;
-    track_camera.fy = cal.intrinsics.fy;
-    track_camera.cx = cal.intrinsics.cx;
-    track_camera.cy = cal.intrinsics.cy;
-    track_camera.k1 = cal.intrinsics.k1;
-    track_camera.k2 = cal.intrinsics.k2;
-    track_camera.p1 = cal.intrinsics.p1;
-    track_camera.p2 = cal.intrinsics.p2;
-    track_camera.k3 = cal.intrinsics.k3;
-    // The tracker's mounting is in OpenCV's camera frame.
-    tracking::Tracker tracker(board, track_camera, glm::normalize(cal.sensor_from_camera * kGlFromCv));
-
-    ImageQuad picture;
-    ReplayOptions::Overlay overlay = o.make_overlay ? o.make_overlay(width, height) : ReplayOptions::Overlay{};
-    KioskFlow flow(cfg.timeouts, int(materials.size()), 0.0);
-    FrameScheduler scheduler(cfg.frame.budget_ms, cfg.frame.hard_cap_ms);
-    const int threads = o.threads > 0 ? o.threads : std::max(1, hardware_threads() - 1);
-
-    // The visitor's scene.
-    std::unique_ptr<CaptureJob> capture_job;
-    std::optional<capture::CaptureSummary> capture_summary;
-    std::future<NewScene> scene_job;
-    std::unique_ptr<render::LiveMaps> live_maps;
-    std::optional<HdrImage> env;
-    double scan_end_wall_s = -1, lit_wall_s = -1, final_maps_wall_s = -1;
-    std::string scan_end_reason;
-    bool have_scene = false;  // a lit scene for ATTRACT to show
-    bool attract_background_set = false;  // the renderer's background is the room now
-
-    // What the replay measures.
-    json states = json::array();
-    states.push_back({{"name", kiosk_state_name(KioskState::Attract)}, {"t_s", 0.0}});
-    int ar_frames = 0, ar_detected = 0;
-    std::vector<double> ar_rotation_error_deg;
-    double first_frame_s = -1;
-
-    std::size_t next_frame = 0, next_event = 0, next_sensor = 0;
-    const double period_s = cfg.frame.budget_ms * 1e-3;
-    double t_s = 0, last_snapshot_s = -1e9;
-    cv::Mat last_rgb;
-    capture::FrameRecord last_record;
-    bool new_picture = false;
-    std::optional<tracking::TrackResult> last_track;
-    int frame_no = 0;
-    const double end_s = replay_s(session.frames.back().t_ns) + 1e-9;
-    // One frame of every kind drawn before the clock starts: the driver compiles and allocates on
-    // first use, which no visitor frame should pay.
-    renderer.draw_scene();
-    display->bind_frame();
-    renderer.composite();
-    picture.upload(cv::Mat(8, 8, CV_8UC3, cv::Scalar(0, 0, 0)));
-    picture.draw();
-    glFinish();
-    const WallClock::time_point wall_start = WallClock::now();
-
-    const auto snapshot = [&](const std::string& why) {
-        gl::RgbImage image = display->read_frame();
-        char name[96];
-        std::snprintf(name, sizeof name, "%05d_%s_%07.2fs_%s.png", frame_no, kiosk_state_name(flow.state()), t_s, why.c_str());
-        gl::save_png(o.out / "frames" / name, image);
-    };
-    const auto on_transition = [&](const std::optional<Transition>& tr) {
-        if (!tr) return;
-        states.push_back({{"name", kiosk_state_name(tr->to)}, {"t_s", tr->t_s}, {"reason", tr->reason}});
-        log(std::string("state ") + kiosk_state_name(tr->from) + " -> " + kiosk_state_name(tr->to) + " at " +
-            std::to_string(tr->t_s) + " s: " + tr->reason);
-    };
-
-    while (t_s <= end_s) {
-        scheduler.begin_frame(flow.state());
-        const std::int64_t now_ns = t0_ns + std::int64_t(std::llround(t_s * 1e9));
-        const KioskState state_at_start = flow.state();
-        // Inputs due by now: orientation samples, button events, camera frames.
-        for (; next_sensor < sensors.samples().size() && sensors.samples()[next_sensor].t_ns <= now_ns; ++next_sensor) {
-            const capture::SensorOrientation& s = sensors.samples()[next_sensor];
-            // The tracker's clock is the camera's: sensor time minus the calibrated offset.
-            tracker.add_orientation({replay_s(s.t_ns) - cal.time_offset_s, s.world_from_sensor});
-        }
-        for (; next_event < events.size() && events[next_event].t_ns <= now_ns; ++next_event) {
-            const capture::SessionEvent& e = events[next_event];
-            if (e.source != "button" || e.event != "press") continue;
-            on_transition(flow.button(t_s));
-            if (flow.state() == KioskState::Capture && !capture_job) {
-                capture::CaptureOptions co;
-                co.session = session.dir;
-                co.out = o.out / "env.exr";
-                co.width = cfg.capture.map_width;
-                co.height = cfg.capture.map_height;
-                co.threads = threads;
-                co.guided.target_coverage = cfg.capture.target_coverage;
-                co.guided.time_limit_s = cfg.capture.max_scan_s;
-                capture_job = std::make_unique<CaptureJob>(co);
-            }
-        }
-        bool pushed = false;
-        for (; next_frame < session.frames.size() && session.frames[next_frame].t_ns <= now_ns; ++next_frame) {
-            last_record = session.frames[next_frame];
-            const capture::CameraFrame f = capture::load_frame(session, last_record);
-            last_rgb = f.rgb;
-            new_picture = true;
-            if (flow.state() == KioskState::Capture && capture_job) {
-                capture_job->push(f);
-                pushed = true;
-            }
-        }
-        scheduler.mark(FramePhase::Camera);
-        // Deterministic: the capture has taken in this frame's pictures before the guide is asked.
-        if (pushed && !o.realtime) {
-            capture_job->wait_for_frames();
-            scheduler.exclude_since_mark();
-        }
-
-        // The flow.
-        if (flow.state() == KioskState::Capture && capture_job) {
-            const CaptureLiveStatus live = capture_job->live();
-            std::string why;
-            if (live.has_step && live.step.state == capture::GuidedState::Complete) why = "scan complete";
-            else if (live.has_step && live.step.state == capture::GuidedState::TimedOut) why = "scan time limit";
-            else if (scan_phase && now_ns >= scan_phase->end_ns) why = "the recorded scan ended";
-            if (!why.empty()) {
-                capture_job->finish();
-                scan_end_wall_s = seconds_since(wall_start);
-                scan_end_reason = why;
-                on_transition(flow.scan_finished(t_s, why));
-            }
-        }
-        if (flow.state() == KioskState::Processing && capture_job && capture_job->done() && !scene_job.valid() && !env) {
-            try {
-                capture_summary = capture_job->take();
-                // The map read back, its preview and the coarse maps on a worker: the frames go on.
-                scene_job = std::async(std::launch::async, [path = o.out / "env.exr", &materials, threads] {
-                    NewScene scene;
-                    scene.env = load_exr(path).image;
-                    scene.preview = preview_of(scene.env, 256, 128);
-                    scene.maps = render::coarse_maps(scene.env, materials, threads);
-                    return scene;
-                });
-            } catch (const std::exception& e) {
-                on_transition(flow.failure(t_s, "message.capture_failed", e.what()));
-            }
-        }
-        if (flow.state() == KioskState::Processing && scene_job.valid() &&
-            scene_job.wait_for(std::chrono::seconds(0)) == std::future_status::ready) {
-            try {
-                NewScene scene = scene_job.get();
-                env = std::move(scene.env);
-                maps = std::move(scene.maps);
-                picture.upload(scene.preview);
-                renderer.replace_maps(maps);
-                // The final maps' worker makes its context and programs while the frames go on.
-                live_maps = std::make_unique<render::LiveMaps>(display->context(), *env, materials, cfg.frame.budget_ms,
-                                                               /*wait_until_ready=*/false);
-                have_scene = true;
-                on_transition(flow.maps_ready(t_s));
-            } catch (const std::exception& e) {
-                on_transition(flow.failure(t_s, "message.processing_failed", e.what()));
-            }
-        }
-        if (live_maps && live_maps->done() && final_maps_wall_s < 0) {
-            if (std::optional<render::ShadingMaps> final_maps = live_maps->take()) {
-                maps = *final_maps;
-                renderer.replace_maps(maps);
-                final_maps_wall_s = seconds_since(wall_start);
-                log("final maps after " + std::to_string(final_maps_wall_s - scan_end_wall_s) + " s from the scan's end");
-            }
-        }
-        on_transition(flow.tick(t_s));
-        if (flow.state() == KioskState::Attract && state_at_start != KioskState::Attract) {
-            // A new visitor's scene starts from nothing; the old job (if any) finishes in the background.
-            capture_job.reset();
-            scene_job = {};
-        }
-
-        // Tracking and the frame.
-        ScreenModel model;
-        model.state = flow.state();
-        model.t_s = t_s;
-        model.t_in_state_s = t_s - flow.entered_s();
-        model.message = flow.message(t_s);
-        model.degraded = display->degraded();
-        const std::int64_t frame_t_ns = last_record.t_ns;
-        const std::optional<glm::dquat> world_from_sensor =
-            sensors.at(frame_t_ns + std::int64_t(std::llround(cal.time_offset_s * 1e9)));
-        model.sensor_lost = !world_from_sensor;
-        const glm::dquat world_from_camera = world_from_sensor ? glm::normalize(*world_from_sensor * cal.sensor_from_camera) : glm::dquat(1, 0, 0, 0);
-        if (flow.state() == KioskState::Ar && new_picture && !last_rgb.empty()) {
-            cv::Mat gray;
-            cv::cvtColor(last_rgb, gray, cv::COLOR_RGB2GRAY);
-            last_track = tracker.track(replay_s(frame_t_ns), gray);
-            const bool in_ar_phase = !ar_phase || (frame_t_ns >= ar_phase->start_ns && frame_t_ns <= ar_phase->end_ns);
-            if (in_ar_phase) {
-                ++ar_frames;
-                if (last_track->detected) {
-                    ++ar_detected;
-                    const auto truth = truth_board.find(last_record.index);
-                    if (truth != truth_board.end())
-                        ar_rotation_error_deg.push_back(
-                            angle_between(last_track->detection.pose.rotation, truth->second.camera_from_board) * 180.0 / kPi);
-                }
-            }
-        }
-        scheduler.mark(FramePhase::Tracking);
-        if (new_picture && !last_rgb.empty() && flow.state() != KioskState::Processing) picture.upload(last_rgb);
-        new_picture = false;
-        if (flow.material() != renderer_material) {
-            renderer.set_uniform_material(materials[std::size_t(flow.material())]);
-            renderer_material = flow.material();
-        }
-        if (flow.state() == KioskState::Ar) attract_background_set = false;  // the camera's picture from now on
-        display->bind_frame();
-        glClearColor(0, 0, 0, 1);
-        glClear(GL_COLOR_BUFFER_BIT);
-        if (flow.state() == KioskState::Ar && last_track && last_track->has_pose && last_track->visibility > 0 && !last_rgb.empty()) {
-            renderer.set_camera(ar_camera(world_from_camera, last_track->pose, cal.intrinsics, placement));
-            renderer.set_background_image(gl::RgbImage{last_rgb.cols, last_rgb.rows,
-                                                       std::vector<std::uint8_t>(last_rgb.data, last_rgb.data + last_rgb.total() * 3)});
-            renderer.set_camera_response(response, {last_record.exposure_s * 1e3, last_record.analogue_gain * last_record.digital_gain});
-            renderer.draw_scene();
-            display->bind_frame();
-            renderer.composite();
-        } else if (flow.state() == KioskState::Attract && have_scene) {
-            // The last visitor's object, slowly orbiting in the room it was lit by.
-            renderer.set_camera(orbit_camera(t_s * 12.0));
-            if (!attract_background_set) {  // 6 MB of texture: once per visit of ATTRACT
-                renderer.set_background_environment(*env);
-                attract_background_set = true;
-            }
-            renderer.draw_scene();
-            display->bind_frame();
-            renderer.composite();
-        } else if (!picture.empty()) {
-            picture.draw();
-        }
-        scheduler.mark(FramePhase::Render);
-
-        // The screen's model and the overlay.
-        if (flow.state() == KioskState::Capture && capture_job) {
-            const CaptureLiveStatus live = capture_job->live();
-            if (live.has_step) {
-                // The target in the camera frame, OpenCV axes (the screens draw the arrow from it).
-                const glm::dvec3 c = kGlFromCv * (glm::conjugate(live.world_from_camera) * live.step.next_target);
-                model.capture.target_x = c.x;
-                model.capture.target_y = c.y;
-                model.capture.target_z = c.z;
-                model.capture.turn_deg = live.step.turn_to_target_deg;
-                model.capture.on_target = live.step.turn_to_target_deg < 10;
-                model.capture.too_fast = live.step.too_fast;
-                model.capture.exposure = live.step.exposure == capture::ExposureStatus::TooBright ? "too_bright"
-                                         : live.step.exposure == capture::ExposureStatus::TooDark ? "too_dark"
-                                                                                                 : "ok";
-                model.capture.progress = live.step.progress;
-                model.capture.time_left_s = std::max(0.0, cfg.capture.max_scan_s - live.step.elapsed_s);
-                model.capture.minimap_width = live.minimap_width;
-                model.capture.minimap_height = live.minimap_height;
-                model.capture.minimap = live.minimap;
-                const glm::dvec3 view = live.world_from_camera * glm::dvec3(0, 0, -1);
-                model.capture.view_x = view.x;
-                model.capture.view_y = view.y;
-                model.capture.view_z = view.z;
-            }
-        } else if (flow.state() == KioskState::Processing) {
-            const double p = capture_job ? capture_job->finishing_progress() : 1.0;
-            const bool convolving = scene_job.valid();
-            model.processing.progress = convolving ? 0.9 : 0.8 * p;
-            model.processing.step = convolving ? "processing.convolving" : "processing.adjusting";
-            model.processing.time_left_s = convolving ? 0.5 : std::max(0.5, 2.0 * (1 - p));
-        } else if (flow.state() == KioskState::Ar) {
-            model.ar.material = material_key(cfg.ar.materials[std::size_t(flow.material())]);
-            model.ar.tracked = last_track && last_track->detected;
-            model.ar.bridged = last_track && last_track->from_sensor;
-            model.ar.visibility = last_track ? last_track->visibility : 0;
-        }
-        if (overlay) overlay(model, period_s);
-        scheduler.mark(FramePhase::Overlay);
-
-        const bool changed = flow.state() != state_at_start || frame_no == 0;
-        const bool periodic = o.snapshot_every_s > 0 && t_s - last_snapshot_s >= o.snapshot_every_s;
-        if (changed || periodic) {
-            scheduler.mark(FramePhase::Present);
-            snapshot(changed ? "state" : "every");
-            scheduler.exclude_since_mark();  // the PNG is the replay's, not the appliance's
-            last_snapshot_s = t_s;
-        }
-        display->present();
-        scheduler.mark(FramePhase::Present);
-        if (flow.state() == KioskState::Ar && lit_wall_s < 0 && scan_end_wall_s >= 0) lit_wall_s = seconds_since(wall_start);
-        if (first_frame_s < 0) first_frame_s = seconds_since(process_start);
-        const double frame_ms = scheduler.end_frame();
-        if (live_maps) live_maps->after_frame(frame_ms);
-        ++frame_no;
-
-        // The clock: the replay's own, at wall pace while the scan's map is finished (or always
-        // with --realtime).
-        const bool wall_paced = o.realtime || flow.state() == KioskState::Processing;
-        if (wall_paced) {
-            const double rest_ms = cfg.frame.budget_ms - frame_ms;
-            if (rest_ms > 0) std::this_thread::sleep_for(std::chrono::duration<double, std::milli>(rest_ms));
-        }
-        t_s += period_s;
-        if (o.progress) o.progress(std::min(t_s, end_s), end_s);
+    ReplaySource source(o.session, o.realtime);
+    KioskOptions k = o.kiosk;
+    k.maps_dir = o.out;
+    k.frames_dir = o.out / "frames";
+    if (o.kiosk.progress) {
+        const double length = source.length_s();
+        k.progress = [&, length](double t_s, double) { o.kiosk.progress(std::min(t_s, length), length); };
     }
-    if (live_maps && final_maps_wall_s < 0) {
-        live_maps->finish();  // the replay ended first: the maps are still made, for the figures
-        if (std::optional<render::ShadingMaps> final_maps = live_maps->take()) maps = *final_maps;
-        final_maps_wall_s = seconds_since(wall_start);
-    }
-    capture_job.reset();
-
-    // The figures.
-    json summary;
+    KioskResult r = run_kiosk(source, k, log);
+    json& summary = r.summary;
     summary["session"] = fs::absolute(o.session).string();
-    summary["display"] = display->describe();
-    summary["states"] = states;
-    json by_state = json::object();
-    for (const auto& [state, times] : scheduler.by_state()) by_state[kiosk_state_name(state)] = frame_times_json(times);
-    json frame_ms = frame_times_json(scheduler.all());
-    frame_ms["budget"] = cfg.frame.budget_ms;
-    frame_ms["hard_cap"] = cfg.frame.hard_cap_ms;
-    frame_ms["over_hard_cap"] = scheduler.over_cap();
-    frame_ms["by_state"] = by_state;
-    const auto means = scheduler.phase_means();
-    json phases = json::object();
-    for (int k = 0; k < int(FramePhase::Count); ++k) phases[frame_phase_name(FramePhase(k))] = means[std::size_t(k)];
-    frame_ms["phase_mean"] = phases;
-    summary["frame_ms"] = frame_ms;
-    summary["startup_to_first_frame_s"] = first_frame_s;
-    summary["scan_end_reason"] = scan_end_reason.empty() ? json() : json(scan_end_reason);
-    summary["scan_end_to_lit_s"] = lit_wall_s >= 0 ? json(lit_wall_s - scan_end_wall_s) : json();
-    summary["scan_end_to_final_maps_s"] = final_maps_wall_s >= 0 && scan_end_wall_s >= 0 ? json(final_maps_wall_s - scan_end_wall_s) : json();
-    summary["coverage"] = capture_summary ? json(capture_summary->coverage.covered_fraction) : json();
     summary["env_error"] = json();
     summary["irradiance_error"] = json();
-    if (capture_summary && capture_summary->truth_error) summary["env_error"] = capture_summary->truth_error->weighted_relative_rms;
-    if (env && session.has_truth) {
+    if (r.capture && r.capture->truth_error) summary["env_error"] = r.capture->truth_error->weighted_relative_rms;
+    if (r.env && source.session().has_truth) {
         // The irradiance the object was lit with against the one the true room gives, both made
-        // the same way (the convolution engine at 1 %), at the captured map's size.
-        const HdrImage truth = load_exr(capture::truth_env_path(session)).image;
+        // the same way (the convolution engine at 1 %), compared at the truth's size.
+        const HdrImage truth = load_exr(capture::truth_env_path(source.session())).image;
         convolution::Options co;
         co.tolerance = 0.01;
-        co.threads = threads;
+        co.threads = o.kiosk.threads;
         const render::Material matte = render::parse_material("matte");
-        const render::ShadingMaps ours = render::convolve_maps(*env, matte, co);
+        const render::ShadingMaps ours = render::convolve_maps(*r.env, matte, co);
         const render::ShadingMaps theirs = render::convolve_maps(truth, matte, co);
         summary["irradiance_error"] = compare_maps(*ours.irradiance, *theirs.irradiance).weighted_relative_rms;
     }
-    summary["tracking_detection_rate"] = ar_frames > 0 ? json(double(ar_detected) / ar_frames) : json();
-    summary["tracking_frames"] = ar_frames;
-    if (!ar_rotation_error_deg.empty()) {
-        std::sort(ar_rotation_error_deg.begin(), ar_rotation_error_deg.end());
-        summary["tracking_rotation_error_deg"] = {{"median", ar_rotation_error_deg[ar_rotation_error_deg.size() / 2]},
-                                                  {"max", ar_rotation_error_deg.back()}};
-    }
-    if (capture_summary) {
-        summary["capture"] = {{"frames_used", capture_summary->frames_used},
-                              {"last_frame_to_map_s", capture_summary->last_frame_to_map_seconds},
-                              {"last_frame_to_saved_s", capture_summary->last_frame_to_saved_seconds},
-                              {"guided_complete_after_s", capture_summary->guided_complete_after_s
-                                                              ? json(*capture_summary->guided_complete_after_s)
-                                                              : json()}};
-    }
-    summary["frames_written"] = std::distance(fs::directory_iterator(o.out / "frames"), fs::directory_iterator{});
-    summary["wall_s"] = seconds_since(process_start);
     write_text_atomically(o.out / "summary.json", summary.dump(2) + "\n");
     return summary;
 }

@@ -1,0 +1,50 @@
+// The kiosk program's frame loop (docs/kiosk.md): one loop for `glint run` and `glint replay`.
+// Each frame: the inputs that arrived (camera frames, orientation samples, button and key
+// events), the visitor flow (kiosk_flow.hpp), the capture fed frame by frame (capture_job.hpp),
+// the maps (coarse at once, final in the frames' leftover time), tracking and the AR view, the
+// visitor screen over it, present; each phase timed against the budget (frame_scheduler.hpp).
+#pragma once
+
+#include <filesystem>
+#include <functional>
+#include <optional>
+#include <string>
+
+#include <nlohmann/json.hpp>
+
+#include "appliance/capture/capture_pipeline.hpp"
+#include "appliance/core/hdr_image.hpp"
+#include "appliance/ui/config.hpp"
+#include "appliance/ui/kiosk_source.hpp"
+#include "appliance/ui/screen_model.hpp"
+
+namespace glint::ui {
+
+struct KioskOptions {
+    Config config;
+    std::filesystem::path maps_dir;    // where each visitor's env.exr (and coverage) is written
+    std::filesystem::path frames_dir;  // PNG frames at each state change and every snapshot_every_s ("" = none)
+    double snapshot_every_s = 5;
+    int threads = 0;                   // capture and convolution workers (0: the cores but the frame thread's)
+    using Overlay = std::function<void(const ScreenModel&, double dt_s)>;
+    // Makes, once the display's context is current, what draws the visitor screen over each frame.
+    std::function<Overlay(int width, int height)> make_overlay;
+    // Once a frame: the kiosk clock and how long the input lasts (0: unknown, live).
+    std::function<void(double t_s, double end_s)> progress;
+    // Polled once a frame: true ends the loop cleanly (SIGTERM).
+    std::function<bool()> stop_requested;
+    // After each frame is on screen (READY after the first, STATUS on a change, WATCHDOG pings).
+    std::function<void(KioskState state, long long frame)> after_present;
+    // Polled once a frame: a new configuration to apply (SIGHUP); only its live keys are used.
+    std::function<std::optional<Config>()> reload;
+};
+
+struct KioskResult {
+    nlohmann::json summary;  // states, frame_ms, scan_end_to_lit_s, coverage, tracking, ...
+    std::optional<capture::CaptureSummary> capture;  // the last visitor's scan
+    std::optional<HdrImage> env;                     // ... and the map the object was lit by
+};
+
+KioskResult run_kiosk(KioskSource& source, const KioskOptions& options, const std::function<void(const std::string&)>& log);
+
+}  // namespace glint::ui

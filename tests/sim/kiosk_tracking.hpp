@@ -1,0 +1,96 @@
+// The tracker on a kiosk session's AR frames against truth/board.csv: what the test asserts and
+// what tools/measure_kiosk_tracking prints (docs/capture.md "Kiosk sessions").
+#pragma once
+
+#include <algorithm>
+#include <cmath>
+#include <vector>
+
+#include <opencv2/calib3d.hpp>
+#include <opencv2/imgproc.hpp>
+
+#include "appliance/capture/kiosk_session.hpp"
+#include "appliance/capture/session.hpp"
+#include "appliance/tracking/board.hpp"
+#include "appliance/tracking/detector.hpp"
+#include "appliance/tracking/tracker.hpp"
+
+namespace glint::sim_test {
+
+struct KioskTracking {
+    int ar_frames = 0;
+    int in_view = 0;             // frames where truth puts at least 3 whole markers in the image
+    int detected = 0;            // of those, found by the detector alone (each frame on its own)
+    int tracked = 0;             // of those, found by the tracker (the frames in sequence)
+    int false_detections = 0;    // detections where truth puts fewer than 3 whole markers in view
+    std::vector<double> rotation_error_deg;  // per detector detection in view, against the truth
+    std::vector<double> translation_error;   // the same, as a fraction of the distance
+};
+
+inline double percentile(std::vector<double> v, double p) {
+    if (v.empty()) return NAN;
+    std::sort(v.begin(), v.end());
+    const double x = p * double(v.size() - 1);
+    const std::size_t i = std::size_t(std::floor(x));
+    return i + 1 < v.size() ? v[i] + (x - double(i)) * (v[i + 1] - v[i]) : v.back();
+}
+
+// Markers whose four corners all project inside the image at the true pose.
+inline int markers_in_view(const tracking::Board& board, const tracking::Camera& camera, const tracking::Pose& truth) {
+    cv::Vec3d rvec, tvec;
+    tracking::pose_to_rvec_tvec(truth, rvec, tvec);
+    int whole = 0;
+    for (int i = 0; i < board.marker_count(); ++i) {
+        std::vector<cv::Point3f> corners(board.corners(i).begin(), board.corners(i).end());
+        bool inside = true;
+        for (const cv::Point3f& c : corners) {
+            const glm::dvec3 x = truth.apply({c.x, c.y, c.z});
+            if (!(x.z > 0.05)) inside = false;
+        }
+        if (!inside) continue;
+        std::vector<cv::Point2f> pixels;
+        cv::projectPoints(corners, rvec, tvec, camera.matrix(), camera.distortion(), pixels);
+        for (const cv::Point2f& p : pixels)
+            if (!(p.x >= 0 && p.y >= 0 && double(p.x) <= camera.width - 1.0 && double(p.y) <= camera.height - 1.0)) inside = false;
+        whole += inside;
+    }
+    return whole;
+}
+
+inline KioskTracking measure_kiosk_tracking(const capture::Session& session) {
+    const std::optional<capture::KioskSessionInfo> info = capture::load_kiosk_info(session);
+    const std::vector<capture::TruthBoardPose> truth = capture::load_truth_board_poses(session);
+    KioskTracking out;
+    if (!info || truth.empty()) return out;
+    const tracking::Board board(tracking::board_spec_from_json(info->board_json, "kiosk.json board"));
+    const capture::Intrinsics& k = session.calibration.intrinsics;
+    const tracking::Camera camera{k.width, k.height, k.fx, k.fy, k.cx, k.cy, k.k1, k.k2, k.p1, k.p2, k.k3};
+    const tracking::Detector detector(board, camera);
+    // Without the sensor: the bridge is not what is measured here, the detections are.
+    tracking::Tracker tracker(board, camera, glm::dquat(1, 0, 0, 0));
+    std::size_t next = 0;
+    for (const capture::FrameRecord& r : session.frames) {
+        while (next < truth.size() && truth[next].index < r.index) ++next;
+        if (next >= truth.size() || truth[next].index != r.index) continue;
+        const tracking::Pose pose{truth[next].camera_from_board, truth[next].t_m};
+        ++out.ar_frames;
+        cv::Mat gray;
+        cv::cvtColor(capture::load_frame(session, r).rgb, gray, cv::COLOR_RGB2GRAY);
+        const tracking::Detection d = detector.detect(gray);
+        const tracking::TrackResult t = tracker.track(double(r.t_ns) * 1e-9, gray);
+        const bool visible = markers_in_view(board, camera, pose) >= 3;
+        if (!visible) {
+            out.false_detections += d.detected;
+            continue;
+        }
+        ++out.in_view;
+        out.tracked += t.detected;
+        if (!d.detected) continue;
+        ++out.detected;
+        out.rotation_error_deg.push_back(tracking::rotation_error_deg(d.pose, pose));
+        out.translation_error.push_back(tracking::translation_error_fraction(d.pose, pose));
+    }
+    return out;
+}
+
+}  // namespace glint::sim_test
