@@ -1,6 +1,7 @@
 #include "appliance/ui/maintenance_menu.hpp"
 
 #include <algorithm>
+#include <cctype>
 #include <cmath>
 #include <cstdio>
 #include <string_view>
@@ -8,6 +9,7 @@
 #include <imgui.h>
 #include <imgui_internal.h>  // SetFocusID: a new page's first button takes the keyboard focus
 
+#include "appliance/core/errors.hpp"
 #include "appliance/ui/imgui_layer.hpp"
 
 namespace glint::ui {
@@ -507,6 +509,57 @@ void MaintenanceMenu::draw_restart(const Strings& s, std::vector<MenuAction>& ac
         if (armed) ImGui::PopStyleColor();
         if (kind == MenuAction::Kind::RestartKiosk && focus_pending_ && focus_last_item()) focus_pending_ = false;
     }
+}
+
+MenuChord::MenuChord(const std::string& chord) {
+    if (chord.empty()) return;
+    std::vector<std::string> parts;
+    for (std::size_t k = 0;;) {
+        const std::size_t plus = chord.find('+', k);
+        parts.push_back(chord.substr(k, plus == std::string::npos ? std::string::npos : plus - k));
+        if (plus == std::string::npos) break;
+        k = plus + 1;
+    }
+    const auto bad = [&](const std::string& why) {
+        return InputError("maintenance chord '" + chord + "': " + why);
+    };
+    if (parts.size() < 2) throw bad("needs at least one modifier (ctrl, alt, shift, super) and a key");
+    for (std::size_t p = 0; p + 1 < parts.size(); ++p) {
+        const std::string& m = parts[p];
+        const std::uint8_t bit = m == "ctrl" ? kCtrl : m == "alt" ? kAlt : m == "shift" ? kShift : m == "super" ? kSuper : 0;
+        if (bit == 0) throw bad("'" + m + "' is not a modifier (ctrl, alt, shift, super)");
+        wanted_ |= bit;
+    }
+    key_ = parts.back();
+    const bool letter_or_digit = key_.size() == 1 && ((key_[0] >= 'a' && key_[0] <= 'z') || (key_[0] >= '0' && key_[0] <= '9'));
+    const bool function_key = key_.size() >= 2 && key_.size() <= 3 && key_[0] == 'f' &&
+                              key_.find_first_not_of("0123456789", 1) == std::string::npos &&
+                              std::stoi(key_.substr(1)) >= 1 && std::stoi(key_.substr(1)) <= 12;
+    if (!letter_or_digit && !function_key) throw bad("'" + key_ + "' is not a key a-z, 0-9 or f1-f12");
+}
+
+bool MenuChord::feed(const std::vector<gl::InputEvent>& events) {
+    bool fired = false;
+    for (const gl::InputEvent& e : events) {
+        if (e.type == gl::InputEvent::Type::Quit) continue;
+        const bool down = e.type == gl::InputEvent::Type::KeyDown;
+        // X11 names the left and right modifier keys apart; either one holds the modifier.
+        const std::string_view k = e.key;
+        const bool right = k.size() > 2 && k.substr(k.size() - 2) == "_R";
+        const std::string_view base = k.size() > 2 && (right || k.substr(k.size() - 2) == "_L") ? k.substr(0, k.size() - 2) : k;
+        const std::uint8_t bit = base == "Control" ? kCtrl : (base == "Alt" || base == "Meta") ? kAlt
+                               : base == "Shift" ? kShift : base == "Super" ? kSuper : 0;
+        if (bit != 0) {
+            std::uint8_t& side = right ? held_right_ : held_left_;
+            side = std::uint8_t(down ? side | bit : side & ~bit);
+            continue;
+        }
+        if (!down || key_.empty()) continue;
+        std::string name(k);
+        for (char& c : name) c = char(std::tolower(static_cast<unsigned char>(c)));  // "M" with shift, "F1"
+        if (name == key_ && (std::uint8_t(held_left_ | held_right_) & wanted_) == wanted_) fired = true;
+    }
+    return fired;
 }
 
 void draw_test_pattern(int width, int height) {

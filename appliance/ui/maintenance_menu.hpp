@@ -181,6 +181,23 @@ private:
     double armed_at_ = -1e9;
 };
 
+// The keyboard chord that asks for the PIN ([maintenance] chord, e.g. "ctrl+alt+m": modifiers
+// ctrl, alt, shift, super and one key a-z, 0-9 or f1-f12, the grammar config.cpp checks). Fed
+// every frame's events, it follows the modifiers held and says when the chord's key went down
+// with all of them held (more held do not matter). "" never fires.
+class MenuChord {
+public:
+    // Throws InputError naming the chord when it is not of that grammar.
+    explicit MenuChord(const std::string& chord);
+    // True when this batch of events completed the chord.
+    bool feed(const std::vector<gl::InputEvent>& events);
+
+private:
+    enum Modifier : std::uint8_t { kCtrl = 1, kAlt = 2, kShift = 4, kSuper = 8 };
+    std::uint8_t wanted_ = 0, held_left_ = 0, held_right_ = 0;
+    std::string key_;  // the X11 keysym, lower case ("m", "f1" for "F1")
+};
+
 // The display test pattern over the whole frame: eight colour bars (white, yellow, cyan, green,
 // magenta, red, blue, black) in the top half, a grey ramp from black to white, a 16-step grey
 // scale, and a 1-pixel white grid every 32 pixels on black with a 1-pixel frame at the edges.

@@ -8,6 +8,7 @@
 
 #include <filesystem>
 
+#include "appliance/core/errors.hpp"
 #include "appliance/ui/maintenance_menu.hpp"
 #include "tests/ui/ui_fixture.hpp"
 
@@ -362,4 +363,32 @@ TEST_F(MenuTest, PinCheckFromThePinLockCountsDownAndLocks) {
     run(menu, status, press({"2", "4", "6", "8", "Return"}));
     EXPECT_EQ(answers[4].kind, ui::PinAnswer::Kind::Ok);
     EXPECT_EQ(menu.page(), Menu::Page::Status);
+}
+
+TEST(MenuChord, FiresWhenTheKeyGoesDownWithItsModifiersHeld) {
+    const auto down = [](const char* k) { return InputEvent{InputEvent::Type::KeyDown, k}; };
+    const auto up = [](const char* k) { return InputEvent{InputEvent::Type::KeyUp, k}; };
+    ui::MenuChord chord("ctrl+alt+m");
+    EXPECT_FALSE(chord.feed({down("m"), up("m")}));                              // no modifiers
+    EXPECT_FALSE(chord.feed({down("Control_L"), down("m"), up("m")}));           // ctrl only
+    EXPECT_TRUE(chord.feed({down("Alt_R"), down("m")}));                         // ctrl still held from before
+    EXPECT_FALSE(chord.feed({up("m"), up("Alt_R"), down("m")}));                 // alt released
+    EXPECT_FALSE(chord.feed({up("m"), up("Control_L"), down("Alt_L"), down("m")}));
+    EXPECT_TRUE(chord.feed({down("Control_R"), down("Shift_L"), down("M")}));   // more held, shift's capital
+    // The left and right keys of a modifier are apart: releasing one keeps the other's.
+    ui::MenuChord f("super+f2");
+    EXPECT_TRUE(f.feed({down("Super_L"), down("Super_R"), up("Super_L"), down("F2")}));
+    EXPECT_FALSE(f.feed({up("F2"), up("Super_R"), down("F2")}));
+    EXPECT_FALSE(ui::MenuChord("").feed({down("Control_L"), down("Alt_L"), down("m")}));
+}
+
+TEST(MenuChord, ABadChordIsNamed) {
+    for (const char* bad : {"m", "ctrl+", "hyper+m", "ctrl+alt+F13", "ctrl+Return", "ctrl+f0"}) {
+        try {
+            ui::MenuChord chord(bad);
+            ADD_FAILURE() << bad << " was accepted";
+        } catch (const InputError& e) {
+            EXPECT_NE(std::string(e.what()).find(std::string("'") + bad + "'"), std::string::npos) << e.what();
+        }
+    }
 }
