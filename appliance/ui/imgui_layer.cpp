@@ -91,6 +91,11 @@ struct ImGuiLayer::Renderer {
     gl::GlBuffer vertices = gl::GlBuffer::create();
     gl::GlBuffer indices = gl::GlBuffer::create();
     gl::GlTexture atlas = gl::GlTexture::create();
+    struct Image {
+        gl::GlTexture texture = gl::GlTexture::create();
+        int width = 0, height = 0;
+    };
+    std::map<std::string, Image, std::less<>> images;
 };
 
 ImGuiLayer::ImGuiLayer(int width, int height, const FontFiles& fonts)
@@ -174,11 +179,35 @@ ImGuiLayer::~ImGuiLayer() {
     ImGui::DestroyContext(context_);  // also clears the current context when it was this one
 }
 
-const ImGuiLayer& ImGuiLayer::current() {
+void* ImGuiLayer::image(const std::string& name, int width, int height, const std::uint8_t* rgba) {
+    Renderer::Image& image = renderer_->images[name];
+    GLint previous_texture = 0, previous_alignment = 4;
+    glGetIntegerv(GL_TEXTURE_BINDING_2D, &previous_texture);
+    glGetIntegerv(GL_UNPACK_ALIGNMENT, &previous_alignment);
+    glBindTexture(GL_TEXTURE_2D, image.texture.id());
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+    if (image.width != width || image.height != height) {
+        glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA8, width, height, 0, GL_RGBA, GL_UNSIGNED_BYTE, rgba);
+        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
+        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_LINEAR);
+        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+        glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+        image.width = width;
+        image.height = height;
+    } else {
+        glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, width, height, GL_RGBA, GL_UNSIGNED_BYTE, rgba);
+    }
+    glPixelStorei(GL_UNPACK_ALIGNMENT, previous_alignment);
+    glBindTexture(GL_TEXTURE_2D, GLuint(previous_texture));
+    gl::check_gl(("uploading the ImGui layer's image " + name).c_str());
+    return reinterpret_cast<void*>(static_cast<std::uintptr_t>(image.texture.id()));
+}
+
+ImGuiLayer& ImGuiLayer::current() {
     const ImGuiContext* context = ImGui::GetCurrentContext();
     if (context == nullptr || !context->WithinFrameScope || ImGui::GetIO().UserData == nullptr)
         throw RuntimeError("ImGui layer: drawing outside begin_frame() / end_frame()");
-    return *static_cast<const ImGuiLayer*>(ImGui::GetIO().UserData);
+    return *static_cast<ImGuiLayer*>(ImGui::GetIO().UserData);
 }
 
 ImFont* ImGuiLayer::font(FontRole role) const { return fonts_[int(role)]; }

@@ -11,6 +11,7 @@
 
 #include <cstdint>
 #include <filesystem>
+#include <map>
 #include <memory>
 #include <string>
 #include <vector>
@@ -70,7 +71,12 @@ public:
     ImGuiContext* context() const { return context_; }
     // The layer whose frame is open (between begin_frame and end_frame); throws RuntimeError
     // outside a frame. The screens and the menu take their fonts from it.
-    static const ImGuiLayer& current();
+    static ImGuiLayer& current();
+
+    // An RGBA8 image (straight alpha, rows top first) for this frame's draw lists, e.g. the
+    // minimap: a texture the layer keeps under `name`, created on first use and re-uploaded at
+    // each call (linear filtering, clamped edges). Returns the id for ImDrawList::AddImage.
+    void* image(const std::string& name, int width, int height, const std::uint8_t* rgba);
 
     // The last end_frame(): triangles drawn and draw calls issued.
     struct FrameStats {

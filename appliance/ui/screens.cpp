@@ -5,6 +5,7 @@
 #include <cmath>
 #include <numbers>
 #include <string>
+#include <vector>
 
 #include <imgui.h>
 
@@ -17,7 +18,7 @@ constexpr float kPi = std::numbers::pi_v<float>;
 constexpr float kMargin = 0.04f;          // from every edge
 constexpr float kBarHeight = 0.035f;      // progress bars
 constexpr float kDiscRadius = 0.11f;      // each hemisphere of the minimap
-constexpr int kDiscCells = 44;            // squares across a hemisphere's diameter
+constexpr int kDiscTexels = 48;           // the minimap image's texels across a hemisphere
 constexpr float kArrowInner = 0.10f;      // the arrow's tail, from the frame's centre
 constexpr float kArrowOuter = 0.30f;      // its tip
 constexpr float kArrowShaft = 0.055f;     // shaft width
@@ -32,12 +33,6 @@ constexpr ImU32 kUnseen = IM_COL32(45, 50, 62, 255);    // minimap: a cell never
 constexpr ImU32 kCovered = IM_COL32(90, 220, 255, 255); // ... fully covered (255)
 constexpr ImU32 kDim = IM_COL32(200, 200, 200, 190);    // the degraded mark
 constexpr ImU32 kBanner = IM_COL32(25, 35, 70, 225);    // a friendly message
-
-ImU32 lerp_colour(ImU32 a, ImU32 b, float t) {
-    const ImVec4 ca = ImGui::ColorConvertU32ToFloat4(a), cb = ImGui::ColorConvertU32ToFloat4(b);
-    return ImGui::ColorConvertFloat4ToU32(
-        ImVec4(ca.x + (cb.x - ca.x) * t, ca.y + (cb.y - ca.y) * t, ca.z + (cb.z - ca.z) * t, ca.w + (cb.w - ca.w) * t));
-}
 
 ImU32 with_alpha(ImU32 colour, float alpha) {
     const auto a = ImU32(std::clamp(alpha, 0.0f, 1.0f) * float((colour >> IM_COL32_A_SHIFT) & 0xFF) + 0.5f);
@@ -54,7 +49,7 @@ std::string seconds_text(double s) { return std::to_string(int(std::ceil(std::cl
 // What every screen draws with.
 struct Painter {
     ImDrawList* list;
-    const ImGuiLayer& layer;
+    ImGuiLayer& layer;
     const Strings& strings;
     float w, h, m;
 
@@ -173,29 +168,49 @@ void draw_turn_arrow(const Painter& p, const CaptureView& view) {
 
 // Two hemispheres seen from the middle of the room, as the visitor stands: the front one looking
 // at -Z (the map's centre; +X right, +Y up) and the back one looking at +Z (-X right, +Y up). Each
-// is an orthographic disc filled with squares coloured by the coverage cell their direction
-// falls into; the view direction is a ring on the disc that holds it, the next target a dot.
+// is an orthographic disc whose texels take the colour of the coverage cell their direction falls
+// into; the view direction is a ring on the disc that holds it, the next target a dot. The discs
+// are one small image (the layer's "minimap" texture) drawn magnified with linear filtering:
+// four triangles instead of a square per cell, which llvmpipe draws ~1.4 ms faster.
 void draw_minimap(const Painter& p, const CaptureView& view, float right, float bottom) {
     const float r = p.h * kDiscRadius, gap = p.h * 0.03f, pad = p.h * 0.015f;
     const ImVec2 front(right - 3 * r - gap, bottom - r), back(right - r, bottom - r);
     p.list->AddRectFilled(ImVec2(front.x - r - pad, front.y - r - pad), ImVec2(back.x + r + pad, back.y + r + pad), kPanel,
                           pad);
-    const float cell = 2 * r / float(kDiscCells);
+    // Each disc with a transparent texel around it, so that filtering never mixes the two.
+    constexpr int texels = kDiscTexels, side_texels = texels + 2, image_w = 2 * side_texels, image_h = side_texels;
+    std::vector<std::uint8_t> rgba(std::size_t(image_w) * image_h * 4);
+    const ImVec4 unseen = ImGui::ColorConvertU32ToFloat4(kUnseen), covered = ImGui::ColorConvertU32ToFloat4(kCovered);
     for (int side = 0; side < 2; ++side) {
-        const ImVec2 c = side == 0 ? front : back;
         const float mirror = side == 0 ? 1.0f : -1.0f;  // the back disc's right is -X
-        for (int row = 0; row < kDiscCells; ++row) {
-            for (int col = 0; col < kDiscCells; ++col) {
-                const float sx = (float(col) + 0.5f) / float(kDiscCells) * 2 - 1;
-                const float sy = (float(row) + 0.5f) / float(kDiscCells) * 2 - 1;  // down on screen
+        for (int row = 0; row < side_texels; ++row) {
+            for (int col = 0; col < side_texels; ++col) {
+                std::uint8_t* t = &rgba[(std::size_t(row) * image_w + std::size_t(side * side_texels + col)) * 4];
+                const float sx = (float(col - 1) + 0.5f) / float(texels) * 2 - 1;
+                const float sy = (float(row - 1) + 0.5f) / float(texels) * 2 - 1;  // down on screen
                 const float rr = sx * sx + sy * sy;
-                if (rr > 1) continue;
-                const float depth = std::sqrt(1 - rr);
-                const std::uint8_t cover = minimap_cell(view, mirror * sx, -sy, side == 0 ? -depth : depth);
-                const ImVec2 a(c.x - r + float(col) * cell, c.y - r + float(row) * cell);
-                p.list->AddRectFilled(a, ImVec2(a.x + cell, a.y + cell), lerp_colour(kUnseen, kCovered, float(cover) / 255.0f));
+                // The share of the texel inside the disc, from its centre's distance to the rim.
+                const float inside = std::clamp((1 - std::sqrt(rr)) * float(texels) / 2 + 0.5f, 0.0f, 1.0f);
+                float c = 0;
+                if (inside > 0) {
+                    const float depth = std::sqrt(std::max(0.0f, 1 - rr));
+                    c = float(minimap_cell(view, mirror * sx, -sy, side == 0 ? -depth : depth)) / 255.0f;
+                }
+                // Outside texels keep the unseen colour: filtering then darkens nothing at the rim.
+                t[0] = std::uint8_t(std::lround(255 * (unseen.x + (covered.x - unseen.x) * c)));
+                t[1] = std::uint8_t(std::lround(255 * (unseen.y + (covered.y - unseen.y) * c)));
+                t[2] = std::uint8_t(std::lround(255 * (unseen.z + (covered.z - unseen.z) * c)));
+                t[3] = std::uint8_t(std::lround(255 * inside));
             }
         }
+    }
+    void* const image = p.layer.image("minimap", image_w, image_h, rgba.data());
+    const float u_texel = 1.0f / float(image_w), v_texel = 1.0f / float(image_h);
+    for (int side = 0; side < 2; ++side) {
+        const ImVec2 c = side == 0 ? front : back;
+        const float u0 = float(side * side_texels + 1) * u_texel;
+        p.list->AddImage(image, ImVec2(c.x - r, c.y - r), ImVec2(c.x + r, c.y + r), ImVec2(u0, v_texel),
+                         ImVec2(u0 + float(texels) * u_texel, float(texels + 1) * v_texel));
         p.list->AddCircle(c, r + 1, kOutline, 64, 2.0f);
     }
     // Where a world direction lands: on the disc of its hemisphere, orthographically.
@@ -315,7 +330,7 @@ std::uint8_t minimap_cell(const CaptureView& view, double x, double y, double z)
 }
 
 void draw_visitor_screen(const ScreenModel& model, const Strings& strings, int width, int height) {
-    const ImGuiLayer& layer = ImGuiLayer::current();
+    ImGuiLayer& layer = ImGuiLayer::current();
     const float w = float(width), h = float(height);
     const Painter p{ImGui::GetForegroundDrawList(), layer, strings, w, h, h * kMargin};
     const bool banner = !model.message.empty();
