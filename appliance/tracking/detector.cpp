@@ -352,6 +352,9 @@ Detector::Found Detector::search(const cv::Mat& gray, const std::optional<Pose>&
     if (!box.empty()) {
         const int pad = std::max(box.width, box.height) / 4 + 16;
         roi = clamp_rect(cv::Rect(box.x - pad, box.y - pad, box.width + 2 * pad, box.height + 2 * pad), gray.size());
+        // A board predicted wholly outside the frame (it left the view): the whole frame, since
+        // the prediction is what is in doubt.
+        if (roi.empty()) roi = cv::Rect(0, 0, gray.cols, gray.rows);
     }
     result.full_resolution_search = true;
     Found full;

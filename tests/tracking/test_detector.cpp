@@ -114,3 +114,28 @@ TEST(TrackingDetector, RejectsWhatDoesNotFit) {
 
 }  // namespace
 }  // namespace glint::tracking
+
+namespace glint::tracking {
+namespace {
+
+// The board left the view: the last pose predicts it wholly outside the frame. The search must
+// look at the whole frame instead of an empty region (the kiosk's replay once crashed here in
+// OpenCV's resize), and find the board where it really is.
+TEST(TrackingDetector, APriorPoseOutsideTheFrameFallsBackToTheWholeFrame) {
+    const Board board;
+    const Camera cam = Camera::from_fov(320, 180, 70);
+    const BoardRenderer renderer(board, cam);
+    const Detector detector(board, cam);
+    const Pose truth = view_pose(0.6, 20, 0, 0);
+    Pose gone = truth;
+    gone.translation += glm::dvec3(3.0, 0, 0);  // 3 m to the right: nowhere in the image
+    const cv::Mat image = renderer.render(truth, {}, 1);
+    Detection d;
+    ASSERT_NO_THROW(d = detector.detect(image, gone));
+    EXPECT_TRUE(d.detected) << d.rejection;
+    const Detection blank = detector.detect(cv::Mat(180, 320, CV_8UC1, cv::Scalar(128)), gone);
+    EXPECT_FALSE(blank.detected);
+}
+
+}  // namespace
+}  // namespace glint::tracking
