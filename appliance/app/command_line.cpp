@@ -50,6 +50,10 @@ constexpr CommandSummary kSummaries[] = {
      "The marker board's pose in every PNG of a directory (CSV, camera_from_board), filtered and bridged through "
      "dropouts by the orientation sensor with --sequence; --print-board draws the board",
      true},
+    {"run",
+     "The appliance: the kiosk on the live camera, orientation sensor, GPIO button and display of the configuration, "
+     "under systemd (READY, STATUS, WATCHDOG; SIGHUP reloads, SIGTERM stops)",
+     true},
     {"replay",
      "The kiosk program on a recorded session (camera frames, sensor stream, button events): the visitor flow, "
      "capture, maps and AR view on a display (headless by default); PNG frames and summary.json",

@@ -3,7 +3,7 @@
 // libraries it needs (docs/architecture.md, "Two executables"):
 //   glint         convolve, compare, sensors, render, bake-ao: core, convolution, GL and displays, render,
 //                 sensor bridge;
-//   glint-vision  simulate, capture, calibrate, cameras, track, replay: everything that needs OpenCV or libcamera,
+//   glint-vision  simulate, capture, calibrate, cameras, track, replay, run: everything that needs OpenCV or libcamera,
 //                 whose loading alone takes longer than a whole small convolution.
 // `glint` runs glint-vision (execv, same arguments) for the commands that live there.
 #pragma once
@@ -48,6 +48,7 @@ Command add_capture_command(CLI::App& app);    // glint capture --session SESSIO
 Command add_calibrate_command(CLI::App& app);  // glint calibrate response|vignetting|alignment|intrinsics
 Command add_cameras_command(CLI::App& app);    // glint cameras
 Command add_track_command(CLI::App& app);      // glint track --frames DIR --out poses.csv ...
-Command add_replay_command(CLI::App& app);     // glint replay SESSION --out DIR [--realtime] ...
+Command add_replay_command(CLI::App& app);
+Command add_run_command(CLI::App& app);        // glint run [--config FILE]     // glint replay SESSION --out DIR [--realtime] ...
 
 }  // namespace glint::app

@@ -26,6 +26,8 @@ struct InterruptState {
     std::vector<const fs::path*> staging;  // live staging directories
     int stop_requests = 0;                // live StopRequest objects
     std::atomic<bool> stop_requested{false};
+    int reload_requests = 0;              // live ReloadRequest objects: SIGHUP means reload
+    std::atomic<bool> reload_requested{false};
 };
 
 InterruptState& state() {
@@ -45,6 +47,10 @@ sigset_t handled_signals() {
 void on_signal(int signal_number) {
     InterruptState& s = state();
     const std::lock_guard lock(s.mutex);
+    if (signal_number == SIGHUP && s.reload_requests > 0) {
+        s.reload_requested = true;
+        return;
+    }
     for (const fs::path* dir : s.staging) {
         std::error_code ec;
         fs::remove_all(*dir, ec);
@@ -84,6 +90,18 @@ StopRequest::~StopRequest() {
 }
 
 bool StopRequest::requested() const { return state().stop_requested; }
+
+ReloadRequest::ReloadRequest() {
+    const std::lock_guard lock(state().mutex);
+    ++state().reload_requests;
+}
+
+ReloadRequest::~ReloadRequest() {
+    const std::lock_guard lock(state().mutex);
+    --state().reload_requests;
+}
+
+bool ReloadRequest::take() { return state().reload_requested.exchange(false); }
 
 StagingDirectory::StagingDirectory(const fs::path& parent)
     : parent_(parent), dir_(parent / (".glint-staging-" + std::to_string(::getpid()))) {

@@ -28,6 +28,17 @@ public:
     bool requested() const;
 };
 
+// While one lives, SIGHUP does not stop anything: it sets a flag that take() reads and clears (the
+// kiosk reloads its configuration; docs/service.md).
+class ReloadRequest {
+public:
+    ReloadRequest();
+    ~ReloadRequest();
+    ReloadRequest(const ReloadRequest&) = delete;
+    ReloadRequest& operator=(const ReloadRequest&) = delete;
+    bool take();  // a SIGHUP came since the last call
+};
+
 // A private directory PARENT/.glint-staging-PID in which a command writes every output file
 // before moving them into place together (all or nothing). It is removed by the destructor, and by
 // a signal at any moment, except while write() or commit() runs: a signal then waits for them.

@@ -8,6 +8,6 @@ int main(int argc, char** argv) {
     constexpr glint::app::CommandRegistrar commands[] = {
         glint::app::add_simulate_command, glint::app::add_capture_command, glint::app::add_calibrate_command,
         glint::app::add_cameras_command, glint::app::add_track_command,
-        glint::app::add_replay_command};
+        glint::app::add_replay_command, glint::app::add_run_command};
     return glint::app::run_command_line(argc, argv, commands, /*list_vision_commands=*/false);
 }

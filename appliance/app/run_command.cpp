@@ -1,0 +1,229 @@
+// `glint run [--config FILE]`: the appliance itself (docs/kiosk.md): the kiosk loop
+// (appliance/ui/kiosk_loop.hpp) on the live camera, orientation sensor, GPIO button and display
+// named in the configuration, under systemd (docs/service.md): READY=1 once the first frame is on
+// screen, STATUS= with the state, WATCHDOG=1 from the frame loop, SIGHUP reloads the live keys,
+// SIGTERM ends it cleanly (camera stopped, sensor closed, display released).
+#include <chrono>
+#include <cstdio>
+#include <deque>
+#include <filesystem>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <thread>
+
+#include "appliance/app/cli_util.hpp"
+#include "appliance/app/commands.hpp"
+#include "appliance/app/interrupt.hpp"
+#include "appliance/capture/calibration_io.hpp"
+#include "appliance/capture/camera_factory.hpp"
+#include "appliance/core/errors.hpp"
+#include "appliance/sim/session_simulator.hpp"
+#include "appliance/ui/config.hpp"
+#include "appliance/ui/config_reload.hpp"
+#include "appliance/ui/imgui_layer.hpp"
+#include "appliance/ui/kiosk_loop.hpp"
+#include "appliance/ui/screens.hpp"
+#include "appliance/ui/service_notify.hpp"
+#include "appliance/ui/strings.hpp"
+#include "firmware_bridge/host/gpio_lines.hpp"
+#include "firmware_bridge/host/orientation_history.hpp"
+#include "firmware_bridge/host/source_spec.hpp"
+#include "firmware_bridge/recording/clock.hpp"
+
+namespace glint::app {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct RunArgs {
+    std::string config;
+    std::string display;  // overrides display.kind
+    double max_seconds = 0;  // tests: stop after this long (0: run until a signal)
+};
+
+// The live devices as the kiosk's input. The sensor's samples and the button's events arrive on
+// their drivers' threads and wait here, under a lock, for the frame loop's poll.
+class LiveSource final : public ui::KioskSource {
+public:
+    explicit LiveSource(const ui::Config& cfg) {
+        // The calibration on file: the one named, or the state directory's.
+        const fs::path calibration_file =
+            cfg.camera.calibration.empty() ? fs::path(cfg.state.dir) / "calibration.json" : fs::path(cfg.camera.calibration);
+        if (!fs::is_regular_file(calibration_file))
+            throw InputError("camera.calibration: " + calibration_file.string() +
+                             " does not exist (glint calibrate writes it; a simulated session's calibration.json will do)");
+        calibration_ = capture::load_calibration(calibration_file);
+        response_ = render::load_camera_response(calibration_file, "camera.calibration");
+
+        capture::CameraBackends backends = capture::capture_camera_backends();
+        sim::add_simulator_camera(backends);
+        camera_ = capture::make_camera_source(cfg.camera.source, backends, clock_);
+        try {
+            sensor_ = host::make_source(host::parse_source_spec(cfg.sensor.source), clock_);
+        } catch (const std::exception& e) {
+            throw InputError(std::string("sensor.source: ") + e.what());
+        }
+        sensor_->set_sample_callback([this](const host::OrientationSample& s) {
+            const std::lock_guard lock(mutex_);
+            history_.push(s);
+            samples_.push_back({s.t_ns, s.world_from_sensor});
+        });
+        if (!cfg.gpio.chip.empty()) {
+            chip_ = std::make_unique<host::LibgpiodChip>(cfg.gpio.chip);
+            buttons_ = std::make_unique<host::ButtonService>(*chip_, std::vector<unsigned>{unsigned(cfg.gpio.button_line)},
+                                                             /*active_low=*/true, clock_,
+                                                             std::int64_t(cfg.gpio.debounce_ms * 1e6));
+            buttons_->set_callback([this](const host::ButtonEvent& e) {
+                const std::lock_guard lock(mutex_);
+                events_.push_back({e.t_ns, "button", e.pressed ? "press" : "release"});
+            });
+        }
+        camera_->start();
+        sensor_->start();
+        if (buttons_) buttons_->start();
+        start_ns_ = std::int64_t(clock_.now_us()) * 1000;
+    }
+
+    ~LiveSource() override {
+        // SIGTERM's path: everything released in order, each quickly.
+        if (buttons_) buttons_->stop();
+        sensor_->stop();
+        camera_->stop();
+    }
+
+    std::string describe() const override { return "live: " + camera_->describe() + ", sensor " + sensor_->name(); }
+    const capture::CameraCalibration& calibration() const override { return calibration_; }
+    const render::CameraResponse& response() const override { return response_; }
+    void configure_capture(capture::CaptureOptions& o) override {
+        o.live_calibration = calibration_;
+        o.live_orientation = [this](std::int64_t t_ns) -> std::optional<glm::dquat> {
+            // The frame may be ahead of the sensor's stream by its latency: wait up to 100 ms for it.
+            for (int k = 0; k < 100; ++k) {
+                {
+                    const std::lock_guard lock(mutex_);
+                    const std::optional<host::OrientationSample> newest = history_.newest();
+                    if (newest && newest->t_ns >= t_ns) return history_.at(t_ns).world_from_sensor;
+                }
+                std::this_thread::sleep_for(std::chrono::milliseconds(1));
+            }
+            const std::lock_guard lock(mutex_);
+            return history_.at(t_ns).world_from_sensor;
+        };
+    }
+    std::int64_t start_ns() const override { return start_ns_; }
+    bool ended(std::int64_t) const override { return false; }
+
+    ui::KioskPoll poll(std::int64_t) override {
+        ui::KioskPoll p;
+        // Every frame the camera has ready, without waiting: the loop keeps its own pace.
+        while (std::optional<capture::CameraFrame> f = camera_->next_frame(std::chrono::milliseconds(0)))
+            p.frames.push_back(std::move(*f));
+        const std::lock_guard lock(mutex_);
+        p.orientations.assign(samples_.begin(), samples_.end());
+        samples_.clear();
+        p.events.assign(events_.begin(), events_.end());
+        events_.clear();
+        return p;
+    }
+
+    std::optional<glm::dquat> world_from_sensor(std::int64_t t_ns) const override {
+        const std::lock_guard lock(mutex_);
+        return history_.at(t_ns).world_from_sensor;
+    }
+
+private:
+    recording::SteadyClock clock_;
+    capture::CameraCalibration calibration_;
+    render::CameraResponse response_;
+    std::unique_ptr<capture::CameraSource> camera_;
+    std::unique_ptr<host::OrientationSource> sensor_;
+    std::unique_ptr<host::GpioChip> chip_;
+    std::unique_ptr<host::ButtonService> buttons_;
+    mutable std::mutex mutex_;
+    // 2 s at 200 Hz, gaps over 100 ms not bridged, the newest held 20 ms.
+    host::OrientationHistory history_{400, 100'000'000, 20'000'000};
+    std::deque<capture::SensorOrientation> samples_;
+    std::deque<capture::SessionEvent> events_;
+    std::int64_t start_ns_ = 0;
+};
+
+int run_appliance(const RunArgs& a) {
+    ui::Config cfg = a.config.empty() ? ui::default_config() : ui::load_config(a.config);
+    if (!a.display.empty()) cfg.display.kind = a.display;
+    StopRequest stop;
+    ReloadRequest reload_request;
+    ui::ServiceNotifier notifier;
+    ui::WatchdogFeeder watchdog(notifier, ui::watchdog_interval());
+    ui::ConfigReloader reloader(cfg);
+    const ui::Strings strings = ui::Strings::load(find_data_file(ui::kStringsRelativePath));
+
+    std::unique_ptr<LiveSource> source;
+    try {
+        source = std::make_unique<LiveSource>(cfg);
+    } catch (const std::exception& e) {
+        notifier.status(std::string("failed: ") + e.what());
+        throw;
+    }
+    std::fprintf(stderr, "glint: %s\n", source->describe().c_str());
+
+    ui::KioskOptions o;
+    o.config = cfg;
+    o.maps_dir = fs::path(cfg.state.dir) / "scene";
+    o.snapshot_every_s = 0;
+    o.make_overlay = [&strings](int width, int height) -> ui::KioskOptions::Overlay {
+        auto layer = std::make_shared<ui::ImGuiLayer>(width, height);
+        return [layer, &strings, width, height](const ui::ScreenModel& model, double dt_s) {
+            layer->begin_frame(dt_s, {});
+            ui::draw_visitor_screen(model, strings, width, height);
+            layer->end_frame();
+        };
+    };
+    const auto started = std::chrono::steady_clock::now();
+    o.stop_requested = [&] {
+        if (stop.requested()) return true;
+        return a.max_seconds > 0 &&
+               std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count() > a.max_seconds;
+    };
+    o.reload = [&]() -> std::optional<ui::Config> {
+        if (!reload_request.take() || a.config.empty()) return std::nullopt;
+        notifier.reloading();
+        const ui::ReloadReport report = reloader.reload();
+        std::fprintf(stderr, "glint: %s\n", report.summary().c_str());
+        notifier.status(report.summary());
+        if (!report.ok) return std::nullopt;
+        return reloader.current();
+    };
+    ui::KioskState shown = ui::KioskState::Attract;
+    o.after_present = [&](ui::KioskState state, long long frame) {
+        if (frame == 0) notifier.ready(ui::kiosk_state_name(state));
+        else if (state != shown) notifier.status(ui::kiosk_state_name(state));
+        shown = state;
+        watchdog.tick(std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch()).count());
+    };
+    const ui::KioskResult result =
+        ui::run_kiosk(*source, o, [](const std::string& line) { std::fprintf(stderr, "glint: %s\n", line.c_str()); });
+    notifier.stopping();
+    const auto t_stop = std::chrono::steady_clock::now();
+    source.reset();  // camera, sensor and buttons released before the display (its destructor ran in run_kiosk)
+    std::fprintf(stderr, "glint: stopped after %lld frames; devices released in %.3f s\n",
+                 (long long)result.summary["frame_ms"]["frames"].get<long long>(),
+                 std::chrono::duration<double>(std::chrono::steady_clock::now() - t_stop).count());
+    return 0;
+}
+
+}  // namespace
+
+Command add_run_command(CLI::App& app) {
+    auto a = std::make_shared<RunArgs>();
+    CLI::App* cmd = app.add_subcommand("run", std::string(command_summary("run").summary));
+    cmd->add_option("--config", a->config, "The appliance's TOML configuration (default: every key's default; "
+                                           "config/glint.example.toml lists them)");
+    cmd->add_option("--display", a->display, "Override display.kind: kms, window, headless or auto")
+        ->check(CLI::IsMember({"kms", "window", "headless", "auto"}));
+    cmd->add_option("--max-seconds", a->max_seconds, "Stop cleanly after this many seconds (tests; 0: until SIGTERM)")
+        ->check(CLI::Range(0.0, 1e9));
+    return {cmd, [a] { return run_appliance(*a); }};
+}
+
+}  // namespace glint::app
