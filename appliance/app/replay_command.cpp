@@ -8,6 +8,7 @@
 
 #include "appliance/app/cli_util.hpp"
 #include "appliance/app/commands.hpp"
+#include "appliance/app/kiosk_overlay.hpp"
 #include "appliance/core/errors.hpp"
 #include "appliance/core/progress.hpp"
 #include "appliance/ui/config.hpp"
@@ -41,14 +42,10 @@ int run_replay_command(const ReplayArgs& a) {
     o.kiosk.config.display.kind = a.display;
     if (!a.no_overlay) {
         const ui::Strings strings = ui::Strings::load(find_data_file(ui::kStringsRelativePath));
-        o.kiosk.make_overlay = [strings](int width, int height) -> ui::KioskOptions::Overlay {
-            auto layer = std::make_shared<ui::ImGuiLayer>(width, height);
-            return [layer, strings, width, height](const ui::ScreenModel& model, double dt_s) {
-                layer->begin_frame(dt_s, {});
-                ui::draw_visitor_screen(model, strings, width, height);
-                layer->end_frame();
-            };
-        };
+        ui::Config overlay_config = o.kiosk.config;
+        overlay_config.state.dir = a.out;  // the PIN's lock state stays with the replay
+        o.kiosk.make_overlay = make_kiosk_overlay({overlay_config, strings,
+                                                   [](const std::string& line) { std::fprintf(stderr, "glint: %s\n", line.c_str()); }, {}});
     }
     o.kiosk.snapshot_every_s = a.snapshot_every_s;
     o.kiosk.threads = a.threads;

@@ -15,6 +15,7 @@
 #include "appliance/app/cli_util.hpp"
 #include "appliance/app/commands.hpp"
 #include "appliance/app/interrupt.hpp"
+#include "appliance/app/kiosk_overlay.hpp"
 #include "appliance/capture/calibration_io.hpp"
 #include "appliance/capture/camera_factory.hpp"
 #include "appliance/core/errors.hpp"
@@ -171,17 +172,12 @@ int run_appliance(const RunArgs& a) {
     o.config = cfg;
     o.maps_dir = fs::path(cfg.state.dir) / "scene";
     o.snapshot_every_s = 0;
-    o.make_overlay = [&strings](int width, int height) -> ui::KioskOptions::Overlay {
-        auto layer = std::make_shared<ui::ImGuiLayer>(width, height);
-        return [layer, &strings, width, height](const ui::ScreenModel& model, double dt_s) {
-            layer->begin_frame(dt_s, {});
-            ui::draw_visitor_screen(model, strings, width, height);
-            layer->end_frame();
-        };
-    };
+    bool restart = false;
+    o.make_overlay = make_kiosk_overlay({cfg, strings, [](const std::string& line) { std::fprintf(stderr, "glint: %s\n", line.c_str()); },
+                                         [&restart] { restart = true; }});
     const auto started = std::chrono::steady_clock::now();
     o.stop_requested = [&] {
-        if (stop.requested()) return true;
+        if (stop.requested() || restart) return true;
         return a.max_seconds > 0 &&
                std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count() > a.max_seconds;
     };

@@ -140,7 +140,13 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
     std::fill(grey.data().begin(), grey.data().end(), 0.5f);
     render::ShadingMaps maps = render::coarse_maps(grey, materials, 1);
     // One renderer; the button changes its material (its shaders are compiled once).
-    render::Renderer renderer(mesh, materials.front(), maps, width, height);
+    // The 3D view is drawn at the camera's resolution (at most the display's) and stretched over
+    // the display: the object gets the pixel footprint of the real scene around it (a sharper
+    // object than its surroundings looks pasted on), and the GPU shades a fraction of the pixels.
+    const int view_width = std::min(width, source.calibration().intrinsics.width);
+    const int view_height = std::min(height, source.calibration().intrinsics.height);
+    render::Renderer renderer(mesh, materials.front(), maps, view_width, view_height);
+    ViewTarget view(view_width, view_height);
     renderer.set_table(render::model_bottom(mesh));  // the table hides what is under it
     int renderer_material = 0;
     const render::CameraResponse& response = source.response();
@@ -202,7 +208,7 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
     // One frame of every kind drawn before the clock starts: the driver compiles and allocates on
     // first use, which no visitor frame should pay.
     renderer.draw_scene();
-    display->bind_frame();
+    view.bind();
     renderer.composite();
     picture.upload(cv::Mat(8, 8, CV_8UC3, cv::Scalar(0, 0, 0)));
     picture.draw();
@@ -226,6 +232,7 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
     const bool replayed = source.replayed();
     std::vector<std::string> window_keys;  // keys from a window display, handled next frame
     bool return_requested = false;          // the window was closed
+    bool menu_has_keyboard = false;         // the overlay's maintenance menu is open
     const WallClock::time_point loop_start = WallClock::now();
     while (!(o.stop_requested && o.stop_requested())) {
         if (!replayed) t_s = seconds_since(loop_start);
@@ -247,7 +254,12 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
         const KioskState state_at_start = flow.state();
         // Inputs that arrived by now: orientation samples, button and key events, camera frames.
         KioskPoll input = source.poll(now_ns);
-        for (const std::string& key : window_keys) input.events.push_back({now_ns, "key", key});
+        // The window's keys go to the overlay (the menu) first; the visitor's button only when
+        // the menu does not hold the keyboard.
+        std::vector<gl::InputEvent> keys_now;
+        for (const std::string& key : window_keys) keys_now.push_back({gl::InputEvent::Type::KeyDown, key});
+        if (!menu_has_keyboard)
+            for (const std::string& key : window_keys) input.events.push_back({now_ns, "key", key});
         window_keys.clear();
         for (const capture::SensorOrientation& s : input.orientations)
             // The tracker's clock is the camera's: sensor time minus the calibrated offset.
@@ -390,8 +402,10 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
                                                        std::vector<std::uint8_t>(last_rgb.data, last_rgb.data + last_rgb.total() * 3)});
             renderer.set_camera_response(response, {last_frame.exposure_s * 1e3, last_frame.total_gain()});
             renderer.draw_scene();
-            display->bind_frame();
+            view.bind();
             renderer.composite();
+            display->bind_frame();
+            picture.draw_texture(view.texture(), true);
         } else if (flow.state() == KioskState::Attract && have_scene) {
             // The last visitor's object, slowly orbiting in the room it was lit by.
             renderer.set_camera(orbit_camera(t_s * 12.0));
@@ -400,8 +414,10 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
                 attract_background_set = true;
             }
             renderer.draw_scene();
-            display->bind_frame();
+            view.bind();
             renderer.composite();
+            display->bind_frame();
+            picture.draw_texture(view.texture(), true);
         } else if (!picture.empty()) {
             picture.draw();
         }
@@ -427,10 +443,13 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
                 model.capture.minimap_width = live.minimap_width;
                 model.capture.minimap_height = live.minimap_height;
                 model.capture.minimap = live.minimap;
-                const glm::dvec3 view = live.world_from_camera * glm::dvec3(0, 0, -1);
-                model.capture.view_x = view.x;
-                model.capture.view_y = view.y;
-                model.capture.view_z = view.z;
+                const glm::dvec3 looking = live.world_from_camera * glm::dvec3(0, 0, -1);
+                model.capture.view_x = looking.x;
+                model.capture.view_y = looking.y;
+                model.capture.view_z = looking.z;
+                model.capture.next_x = live.step.next_target.x;
+                model.capture.next_y = live.step.next_target.y;
+                model.capture.next_z = live.step.next_target.z;
             }
         } else if (flow.state() == KioskState::Processing) {
             const double p = capture_job ? capture_job->finishing_progress() : 1.0;
@@ -444,7 +463,7 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
             model.ar.bridged = last_track && last_track->from_sensor;
             model.ar.visibility = last_track ? last_track->visibility : 0;
         }
-        if (overlay) overlay(model, period_s);
+        if (overlay) menu_has_keyboard = overlay(model, period_s, keys_now);
         scheduler.mark(FramePhase::Overlay);
 
         const bool changed = flow.state() != state_at_start || frame_no == 0;

@@ -14,6 +14,7 @@
 
 #include "appliance/capture/capture_pipeline.hpp"
 #include "appliance/core/hdr_image.hpp"
+#include "appliance/gl/display.hpp"
 #include "appliance/ui/config.hpp"
 #include "appliance/ui/kiosk_source.hpp"
 #include "appliance/ui/screen_model.hpp"
@@ -26,7 +27,9 @@ struct KioskOptions {
     std::filesystem::path frames_dir;  // PNG frames at each state change and every snapshot_every_s ("" = none)
     double snapshot_every_s = 5;
     int threads = 0;                   // capture and convolution workers (0: the cores but the frame thread's)
-    using Overlay = std::function<void(const ScreenModel&, double dt_s)>;
+    // Draws over the frame; gets this frame's keys (window display) and returns true while it
+    // takes the keyboard itself (the maintenance menu is open: keys are not the visitor's button).
+    using Overlay = std::function<bool(const ScreenModel&, double dt_s, const std::vector<gl::InputEvent>& keys)>;
     // Makes, once the display's context is current, what draws the visitor screen over each frame.
     std::function<Overlay(int width, int height)> make_overlay;
     // Once a frame: the kiosk clock and how long the input lasts (0: unknown, live).

@@ -1,0 +1,70 @@
+#include "appliance/app/kiosk_overlay.hpp"
+
+#include <memory>
+
+#include "appliance/ui/imgui_layer.hpp"
+#include "appliance/ui/maintenance_menu.hpp"
+#include "appliance/ui/pin_lock.hpp"
+#include "appliance/ui/screens.hpp"
+#include "appliance/ui/system_status.hpp"
+
+namespace glint::app {
+
+namespace {
+
+struct OverlayState {
+    OverlayContext context;
+    ui::ImGuiLayer layer;
+    ui::PinLock pin_lock;
+    ui::MaintenanceMenu menu;
+    ui::MenuChord chord;
+    int width, height;
+
+    OverlayState(OverlayContext c, int w, int h)
+        : context(std::move(c)), layer(w, h),
+          pin_lock(context.config.maintenance, std::filesystem::path(context.config.state.dir) / "pin-lock.json",
+                   [this](const ui::PinEvent& e) { context.log(ui::describe(e)); }),
+          menu(ui::pin_check_for(pin_lock, context.config.maintenance.max_attempts)),
+          chord(context.config.maintenance.chord), width(w), height(h) {}
+
+    bool draw(const ui::ScreenModel& model, double dt_s, const std::vector<gl::InputEvent>& keys) {
+        if (!menu.is_open() && chord.feed(keys)) {
+            menu.open();
+            context.log("maintenance menu: opened by the key chord, asking for the PIN");
+        }
+        layer.begin_frame(dt_s, keys);
+        ui::draw_visitor_screen(model, context.strings, width, height);
+        if (menu.is_open()) {
+            ui::MaintenanceStatus status;
+            status.kiosk_state = ui::kiosk_state_name(model.state);
+            status.display_degraded = model.degraded;
+            status.sensor_ok = !model.sensor_lost;
+            status.sensor_health = model.sensor_lost ? "no orientation" : "ok";
+            status.cpu_temperature = ui::temperature_text(ui::cpu_temperature_c());
+            status.free_disk = ui::bytes_text(ui::free_disk_bytes(context.config.state.dir));
+            status.uptime = ui::duration_text(ui::uptime_s());
+            status.settings = {context.config.capture, context.config.convolution};
+            for (const ui::MenuAction& a : menu.draw(status, keys, context.strings, width, height)) {
+                context.log(std::string("maintenance menu: ") + ui::menu_action_name(a.kind));
+                if (a.kind == ui::MenuAction::Kind::RestartKiosk && context.request_restart) context.request_restart();
+                else if (a.kind != ui::MenuAction::Kind::Close)
+                    context.log(std::string("maintenance menu: ") + ui::menu_action_name(a.kind) + " is not built yet");
+            }
+        }
+        layer.end_frame();
+        return menu.is_open();
+    }
+};
+
+}  // namespace
+
+std::function<ui::KioskOptions::Overlay(int, int)> make_kiosk_overlay(OverlayContext context) {
+    return [context](int width, int height) -> ui::KioskOptions::Overlay {
+        auto state = std::make_shared<OverlayState>(context, width, height);
+        return [state](const ui::ScreenModel& model, double dt_s, const std::vector<gl::InputEvent>& keys) {
+            return state->draw(model, dt_s, keys);
+        };
+    };
+}
+
+}  // namespace glint::app

@@ -1,0 +1,27 @@
+// What `glint run` and `glint replay` draw over the kiosk's frames: the visitor screens, and the
+// maintenance menu (docs/screens.md) opened by the configured key chord and the PIN, or by the
+// key switch. The menu's actions are carried out here (journalled on stderr): a restart exits
+// with 0 so that systemd starts the appliance again; the rest are reported as not built.
+#pragma once
+
+#include <functional>
+#include <string>
+
+#include "appliance/ui/config.hpp"
+#include "appliance/ui/kiosk_loop.hpp"
+#include "appliance/ui/strings.hpp"
+
+namespace glint::app {
+
+struct OverlayContext {
+    ui::Config config;
+    ui::Strings strings;
+    std::function<void(const std::string&)> log;  // the journal
+    // Ends the kiosk loop (a restart requested from the menu).
+    std::function<void()> request_restart;
+};
+
+// The factory KioskOptions::make_overlay wants.
+std::function<ui::KioskOptions::Overlay(int, int)> make_kiosk_overlay(OverlayContext context);
+
+}  // namespace glint::app
