@@ -1,7 +1,13 @@
 #!/usr/bin/env bash
 # Installs what is missing, configures and builds Glint in ./build (Release).
+# With target names (e.g. `glint glint-vision`), builds only those; without, everything
+# (tests, benchmarks, fuzzers).
 set -euo pipefail
 cd "$(dirname "$0")/.."
 ./scripts/install-deps.sh
 cmake -S . -B build -DCMAKE_BUILD_TYPE=Release >/dev/null
-cmake --build build -j"$(nproc)"
+if [ "$#" -gt 0 ]; then
+  cmake --build build -j"$(nproc)" --target "$@"
+else
+  cmake --build build -j"$(nproc)"
+fi

@@ -1,9 +1,10 @@
 #!/usr/bin/env bash
-# The main job on the embedded default: until the appliance exists, `glint convolve`
-# on the HDR map that ships in data/ (irradiance + three reflection maps) into ./out.
+# The main job on the embedded default: the kiosk program replaying the recorded session that
+# ships in data/sessions/kiosk (attract, a visitor's scan, processing, the object on the marker),
+# headless, into ./out/replay: PNG frames of every state and summary.json. Builds only the two
+# executables it runs.
 set -euo pipefail
 cd "$(dirname "$0")/.."
-./scripts/build.sh
-./build/appliance/app/glint convolve data/courtyard_256x128.exr --out out \
-    --irradiance --shininess 20,160,1280
-echo "maps and report.json are in $(pwd)/out"
+./scripts/build.sh glint glint-vision
+./build/appliance/app/glint replay data/sessions/kiosk --out out/replay
+echo "frames are in $(pwd)/out/replay/frames, the figures in $(pwd)/out/replay/summary.json"

@@ -1,0 +1,52 @@
+#!/usr/bin/env python3
+"""The main job with its figures asserted: `glint replay` on the session that ships in
+data/sessions/kiosk (the README's first command). Every visitor state is reached in order, the
+scan covers the room, the captured map and the irradiance the object was lit with are close to
+the simulated room's truth, the board is tracked in the AR phase, no frame passed the hard cap,
+and a PNG frame of every state was written.
+
+usage: test_replay_shipped.py GLINT SESSION OUT
+"""
+import json
+import os
+import shutil
+import subprocess
+import sys
+
+glint, session, out = sys.argv[1:4]
+shutil.rmtree(out, ignore_errors=True)
+r = subprocess.run([glint, "replay", session, "--out", out], capture_output=True, text=True, timeout=1500)
+print(r.stdout[-3000:])
+print(r.stderr[-3000:])
+failures = []
+
+
+def check(ok, what):
+    print(("ok   " if ok else "FAIL ") + what)
+    if not ok:
+        failures.append(what)
+
+
+check(r.returncode == 0, f"glint replay exits 0 (got {r.returncode})")
+if r.returncode != 0:
+    sys.exit(1)
+s = json.load(open(os.path.join(out, "summary.json")))
+names = [x["name"] for x in s["states"]]
+check(names[:4] == ["ATTRACT", "CAPTURE", "PROCESSING", "AR"], f"states in order: {names}")
+check(s["coverage"] is not None and s["coverage"] >= 0.9, f"coverage {s['coverage']} >= 0.9")
+# The targets of issue 17: the irradiance within 5 % of the truth's. The whole map's error is
+# dominated by the sharp edges a 320x180 camera blurs; bounded loosely, it catches a broken capture.
+check(s["irradiance_error"] is not None and s["irradiance_error"] <= 0.05, f"irradiance error {s['irradiance_error']} <= 0.05")
+check(s["env_error"] is not None and s["env_error"] <= 0.5, f"environment map error {s['env_error']} <= 0.5")
+check(s["tracking_detection_rate"] is not None and s["tracking_detection_rate"] >= 0.8,
+      f"board detected in {s['tracking_detection_rate']} of the AR phase's frames (>= 0.8)")
+rot = s.get("tracking_rotation_error_deg", {})
+check(rot.get("median", 99) <= 1.0, f"tracking rotation error median {rot.get('median')} deg <= 1")
+f = s["frame_ms"]
+check(f["over_hard_cap"] == 0, f"no frame over the hard cap of {f['hard_cap']} ms (max {f['max']:.1f} ms)")
+check(s["scan_end_to_lit_s"] is not None, f"the object was lit after the scan ({s['scan_end_to_lit_s']} s)")
+frames = os.listdir(os.path.join(out, "frames"))
+for state in ["ATTRACT", "CAPTURE", "PROCESSING", "AR"]:
+    check(any(f"_{state}_" in name for name in frames), f"a PNG frame of {state}")
+print("frame time per state (ms):", json.dumps(f["by_state"]))
+sys.exit(1 if failures else 0)
