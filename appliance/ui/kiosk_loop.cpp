@@ -207,9 +207,18 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
     int frame_no = 0;
     // One frame of every kind drawn before the clock starts: the driver compiles and allocates on
     // first use, which no visitor frame should pay.
+    // Both backgrounds the visitor will see: the room (attract) and the camera's picture through
+    // its response (AR); each is a shader variant compiled at its first draw.
+    renderer.set_background_environment(grey);
     renderer.draw_scene();
     view.bind();
     renderer.composite();
+    renderer.set_background_image(gl::RgbImage{8, 8, std::vector<std::uint8_t>(8 * 8 * 3, 128)});
+    renderer.set_camera_response(response, {10.0, 1.0});
+    renderer.draw_scene();
+    view.bind();
+    renderer.composite();
+    picture.draw_texture(view.texture(), true);
     picture.upload(cv::Mat(8, 8, CV_8UC3, cv::Scalar(0, 0, 0)));
     picture.draw();
     glFinish();
