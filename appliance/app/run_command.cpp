@@ -16,6 +16,7 @@
 #include "appliance/app/commands.hpp"
 #include "appliance/app/interrupt.hpp"
 #include "appliance/app/kiosk_overlay.hpp"
+#include "appliance/app/session_recorder.hpp"
 #include "appliance/capture/calibration_io.hpp"
 #include "appliance/capture/camera_factory.hpp"
 #include "appliance/core/errors.hpp"
@@ -40,6 +41,7 @@ namespace fs = std::filesystem;
 struct RunArgs {
     std::string config;
     std::string display;  // overrides display.kind
+    std::string record;   // a session directory to record into
     double max_seconds = 0;  // tests: stop after this long (0: run until a signal)
 };
 
@@ -47,7 +49,7 @@ struct RunArgs {
 // their drivers' threads and wait here, under a lock, for the frame loop's poll.
 class LiveSource final : public ui::KioskSource {
 public:
-    explicit LiveSource(const ui::Config& cfg) {
+    LiveSource(const ui::Config& cfg, const std::string& record_dir) {
         // The calibration on file: the one named, or the state directory's.
         const fs::path calibration_file =
             cfg.camera.calibration.empty() ? fs::path(cfg.state.dir) / "calibration.json" : fs::path(cfg.camera.calibration);
@@ -60,10 +62,19 @@ public:
         capture::CameraBackends backends = capture::capture_camera_backends();
         sim::add_simulator_camera(backends);
         camera_ = capture::make_camera_source(cfg.camera.source, backends, clock_);
+        host::SourceSpec sensor_spec;
         try {
-            sensor_ = host::make_source(host::parse_source_spec(cfg.sensor.source), clock_);
+            sensor_spec = host::parse_source_spec(cfg.sensor.source);
+            sensor_ = host::make_source(sensor_spec, clock_);
         } catch (const std::exception& e) {
             throw InputError(std::string("sensor.source: ") + e.what());
+        }
+        if (!record_dir.empty()) {
+            if (sensor_spec.kind != host::SourceKind::Serial)
+                throw InputError("--record: the sensor stream is recorded from a serial source only (sensor.source is " +
+                                 cfg.sensor.source + ")");
+            recorder_ = std::make_unique<SessionRecorder>(record_dir, calibration_, sensor_spec, clock_);
+            recorder_->attach(*sensor_);
         }
         sensor_->set_sample_callback([this](const host::OrientationSample& s) {
             const std::lock_guard lock(mutex_);
@@ -91,6 +102,11 @@ public:
         if (buttons_) buttons_->stop();
         sensor_->stop();
         camera_->stop();
+        if (recorder_) {
+            const std::string error = recorder_->close();
+            if (!error.empty()) std::fprintf(stderr, "glint: --record: %s\n", error.c_str());
+            else std::fprintf(stderr, "glint: recorded %llu frames\n", static_cast<unsigned long long>(recorder_->frames()));
+        }
     }
 
     std::string describe() const override { return "live: " + camera_->describe() + ", sensor " + sensor_->name(); }
@@ -118,13 +134,19 @@ public:
     ui::KioskPoll poll(std::int64_t) override {
         ui::KioskPoll p;
         // Every frame the camera has ready, without waiting: the loop keeps its own pace.
-        while (std::optional<capture::CameraFrame> f = camera_->next_frame(std::chrono::milliseconds(0)))
+        while (std::optional<capture::CameraFrame> f = camera_->next_frame(std::chrono::milliseconds(0))) {
+            if (recorder_) recorder_->frame(*f);
             p.frames.push_back(std::move(*f));
-        const std::lock_guard lock(mutex_);
-        p.orientations.assign(samples_.begin(), samples_.end());
-        samples_.clear();
-        p.events.assign(events_.begin(), events_.end());
-        events_.clear();
+        }
+        {
+            const std::lock_guard lock(mutex_);
+            p.orientations.assign(samples_.begin(), samples_.end());
+            samples_.clear();
+            p.events.assign(events_.begin(), events_.end());
+            events_.clear();
+        }
+        if (recorder_)
+            for (const capture::SessionEvent& e : p.events) recorder_->event(e);
         return p;
     }
 
@@ -141,6 +163,7 @@ private:
     std::unique_ptr<host::OrientationSource> sensor_;
     std::unique_ptr<host::GpioChip> chip_;
     std::unique_ptr<host::ButtonService> buttons_;
+    std::unique_ptr<SessionRecorder> recorder_;
     mutable std::mutex mutex_;
     // 2 s at 200 Hz, gaps over 100 ms not bridged, the newest held 20 ms.
     host::OrientationHistory history_{400, 100'000'000, 20'000'000};
@@ -161,7 +184,7 @@ int run_appliance(const RunArgs& a) {
 
     std::unique_ptr<LiveSource> source;
     try {
-        source = std::make_unique<LiveSource>(cfg);
+        source = std::make_unique<LiveSource>(cfg, a.record);
     } catch (const std::exception& e) {
         notifier.status(std::string("failed: ") + e.what());
         throw;
@@ -217,6 +240,9 @@ Command add_run_command(CLI::App& app) {
                                            "config/glint.example.toml lists them)");
     cmd->add_option("--display", a->display, "Override display.kind: kms, window, headless or auto")
         ->check(CLI::IsMember({"kms", "window", "headless", "auto"}));
+    cmd->add_option("--record", a->record,
+                    "Record the camera frames, the sensor stream (serial sources) and the button events into DIR, a "
+                    "session glint replay reads");
     cmd->add_option("--max-seconds", a->max_seconds, "Stop cleanly after this many seconds (tests; 0: until SIGTERM)")
         ->check(CLI::Range(0.0, 1e9));
     return {cmd, [a] { return run_appliance(*a); }};

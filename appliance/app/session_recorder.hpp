@@ -1,0 +1,51 @@
+// `glint run --record DIR`: the live kiosk's inputs written as a session that `glint replay` reads
+// (docs/capture.md "Session directory", "Kiosk sessions"): session.json and calibration.json at
+// once, then as they come the camera frames (JPEG, quality 90: a 320x180 frame in ~15 kB) with
+// frames.csv, the sensor board's byte stream (sensors.glrec, serial sources: the recorder of
+// firmware_bridge/recording, synced every second) and the button events (events.csv). Lines are
+// flushed as written; a power cut loses at most the last second, and the reader skips a torn
+// last record.
+#pragma once
+
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <mutex>
+#include <string>
+
+#include "appliance/capture/camera_frame.hpp"
+#include "appliance/capture/camera_model.hpp"
+#include "appliance/capture/kiosk_session.hpp"
+#include "firmware_bridge/host/source_spec.hpp"
+#include "firmware_bridge/recording/recorder.hpp"
+
+namespace glint::app {
+
+class SessionRecorder {
+public:
+    // DIR must not exist (a recording is never written over). The sensor stream is recorded for a
+    // serial source only (the others have no byte stream): then attach() before it starts.
+    SessionRecorder(const std::filesystem::path& dir, const capture::CameraCalibration& calibration,
+                    const host::SourceSpec& sensor, recording::Clock& clock);
+    ~SessionRecorder();
+    SessionRecorder(const SessionRecorder&) = delete;
+    SessionRecorder& operator=(const SessionRecorder&) = delete;
+
+    void attach(host::OrientationSource& source);  // the serial source's bytes into sensors.glrec
+    void frame(const capture::CameraFrame& frame);
+    void event(const capture::SessionEvent& event);
+    // Closes every file; returns "" or what failed (the recording stays readable up to there).
+    std::string close();
+    std::uint64_t frames() const { return frames_; }
+
+private:
+    std::filesystem::path dir_;
+    std::unique_ptr<recording::Recorder> sensors_;
+    std::FILE* frames_csv_ = nullptr;
+    std::FILE* events_csv_ = nullptr;
+    std::uint64_t frames_ = 0;
+    std::string error_;
+    std::mutex mutex_;
+};
+
+}  // namespace glint::app

@@ -1,0 +1,84 @@
+#!/usr/bin/env python3
+"""glint run --record on live devices (the camera simulator, the sensor board's firmware on a
+pseudo-terminal): the recording is a session that glint replay reads back, with frames, their
+times, the sensor's byte stream and a calibration; a second --record into the same directory is
+refused.
+
+usage: test_run_record.py GLINT SENSOR_SIM CALIBRATION WORK_DIR
+"""
+import json
+import os
+import shutil
+import subprocess
+import sys
+import time
+
+glint, sensor_sim, calibration, work = sys.argv[1:5]
+shutil.rmtree(work, ignore_errors=True)
+os.makedirs(work)
+failures = []
+
+
+def check(ok, what):
+    print(("ok   " if ok else "FAIL ") + what)
+    if not ok:
+        failures.append(what)
+
+
+link = os.path.join(work, "sensor-pty")
+board = subprocess.Popen([sensor_sim, "--pty-link", link, "--trajectory", "kiosk"], stdout=subprocess.PIPE,
+                         stderr=subprocess.PIPE, text=True)
+for _ in range(100):
+    if os.path.exists(link):
+        break
+    time.sleep(0.05)
+config = os.path.join(work, "glint.toml")
+with open(config, "w") as f:
+    f.write(f"""[display]
+kind = "headless"
+width = 320
+height = 180
+[camera]
+source = "simulator:/usr/share/blender/datafiles/studiolights/world/courtyard.exr"
+calibration = "{calibration}"
+[sensor]
+source = "serial:{link}"
+[gpio]
+chip = ""
+[state]
+dir = "{work}/state"
+""")
+record = os.path.join(work, "recorded")
+try:
+    r = subprocess.run([glint, "run", "--config", config, "--record", record, "--max-seconds", "6"],
+                       capture_output=True, text=True, timeout=120)
+    print(r.stderr[-1500:])
+    check(r.returncode == 0, f"glint run --record exits 0 (got {r.returncode})")
+    again = subprocess.run([glint, "run", "--config", config, "--record", record, "--max-seconds", "1"],
+                           capture_output=True, text=True, timeout=60)
+    check(again.returncode == 2 and "never written over" in again.stderr,
+          "a second --record into the same directory is refused (exit 2, bad input): " + again.stderr.strip()[-160:])
+finally:
+    board.terminate()
+    board.wait(timeout=10)
+
+lines = open(os.path.join(record, "frames.csv")).read().strip().splitlines()
+check(lines[0] == "index,t_ns,exposure_s,analogue_gain,digital_gain,file", "frames.csv header")
+check(len(lines) - 1 >= 10, f"frames recorded: {len(lines) - 1} in 6 s at the simulator's 4 fps")
+times = [int(l.split(",")[1]) for l in lines[1:]]
+check(all(b > a for a, b in zip(times, times[1:])), "frame times increase")
+check(all(os.path.getsize(os.path.join(record, l.split(",")[5])) > 1000 for l in lines[1:]), "every frame file is there")
+check(os.path.getsize(os.path.join(record, "sensors.glrec")) > 10000, "the sensor's byte stream was recorded")
+for name in ["session.json", "calibration.json", "events.csv"]:
+    check(os.path.exists(os.path.join(record, name)), name + " written")
+
+out = os.path.join(work, "replayed")
+r = subprocess.run([glint, "replay", record, "--out", out, "--snapshot-every", "0"], capture_output=True, text=True,
+                   timeout=300)
+print(r.stdout[-800:], r.stderr[-800:])
+check(r.returncode == 0, f"glint replay reads the recording (exit {r.returncode})")
+if r.returncode == 0:
+    s = json.load(open(os.path.join(out, "summary.json")))
+    names = [x["name"] for x in s["states"]]
+    check(names[:2] == ["ATTRACT", "CAPTURE"], f"the replay starts the scan (no recorded press: at the first frame): {names}")
+sys.exit(1 if failures else 0)
