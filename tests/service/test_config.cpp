@@ -16,6 +16,8 @@
 
 #include "appliance/ui/config.hpp"
 #include "appliance/ui/config_keys.hpp"
+#include "appliance/core/errors.hpp"
+#include "appliance/render/mesh.hpp"
 #include "firmware_bridge/host/source_spec.hpp"
 
 namespace fs = std::filesystem;
@@ -268,9 +270,36 @@ TEST(Config, OutOfRangeNamesFileLineAndKey) {
     EXPECT_EQ(error_of("[ar]\nmaterials = []\n"), "test.toml:2: key 'ar.materials': needs at least one material");
     EXPECT_EQ(error_of("[ar]\nmaterials = [\"matte\", \"matte\"]\n"),
               "test.toml:2: key 'ar.materials': 'matte' is listed twice");
+}
+
+TEST(Config, MaterialsAreWhatTheRendererParses) {
+    EXPECT_EQ(error_of("[ar]\nmaterials = [\"matte\", \"glossy:40\", \"mirror\", \"kd=0.8,0.1,0.1;ks=0.2;n=60\"]\n"), "");
+    EXPECT_EQ(error_of("[ar]\nmaterials = [\"matte\", \"shiny\"]\n"),
+              "test.toml:2: key 'ar.materials': material 'shiny': not a material (want matte, glossy:N, mirror or "
+              "kd=R,G,B;ks=R,G,B;n=N)");
+    const std::string e = error_of("[ar]\nmaterials = [\"glossy:-3\"]\n");
+    EXPECT_EQ(e.rfind("test.toml:2: key 'ar.materials': material 'glossy:-3'", 0), 0u) << e;
+}
+
+// The model check stands in for render::load_model without building meshes; both must agree.
+TEST(Config, ModelsAreWhatTheRendererLoads) {
+    TempDir dir;
+    const fs::path obj = dir.path() / "Tri.OBJ";
+    std::ofstream(obj) << "v 0 0 0\nv 1 0 0\nv 0 1 0\nf 1 2 3\n";
+    for (const std::string& spec : std::vector<std::string>{"sphere", "teapot", "teapot:1", "teapot:3", obj.string()}) {
+        EXPECT_EQ(error_of("[ar]\nmodel = \"" + spec + "\"\n"), "") << spec;
+        EXPECT_NO_THROW(glint::render::load_model(spec, "ar.model")) << spec;
+    }
+    for (const std::string spec : {"teapot:0", "teapot:401", "teapot:x", "teapot:", "bunny.ply", "cube"}) {
+        EXPECT_NE(error_of("[ar]\nmodel = \"" + spec + "\"\n"), "") << spec;
+        EXPECT_THROW(glint::render::load_model(spec, "ar.model"), glint::InputError) << spec;
+    }
     EXPECT_EQ(error_of("[ar]\nmodel = \"bunny.ply\"\n"),
-              "test.toml:2: key 'ar.model': 'bunny.ply' is neither teapot, sphere nor a .gltf, .glb or .obj file");
-    EXPECT_EQ(error_of("[ar]\nmodel = \"/srv/bunny.glb\"\n"), "");
+              "test.toml:2: key 'ar.model': 'bunny.ply' is neither sphere, teapot, teapot:LEVEL nor an .obj, .gltf or .glb file");
+    EXPECT_EQ(error_of("[ar]\nmodel = \"teapot:401\"\n"),
+              "test.toml:2: key 'ar.model': 'teapot:401': the teapot's level must be an integer in [1, 400]");
+    const std::string missing = (dir.path() / "gone.glb").string();
+    EXPECT_EQ(error_of("[ar]\nmodel = \"" + missing + "\"\n"), "test.toml:2: key 'ar.model': '" + missing + "': no such file");
 }
 
 TEST(Config, DisplayModeAndChordSyntax) {
