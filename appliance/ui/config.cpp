@@ -455,19 +455,26 @@ Config parse(const std::string& text, const std::string& source, const std::file
     Config config;
     config.file = file;
     std::map<std::string, std::uint32_t> lines;  // key name -> line it was read from
+    // toml++ iterates tables by key, not in file order: every problem is collected and the one
+    // nearest the top of the file is reported, as a reader of the file would meet it.
+    std::optional<std::pair<std::uint32_t, std::string>> first;
+    const auto note = [&](std::uint32_t line, const std::string& message) {
+        if (!first || line < first->first) first = {line, where(source, line) + ": " + message};
+    };
     const auto sections = config_sections();
     for (auto&& [section_key, section_node] : root) {
         const std::string section(section_key.str());
         const std::uint32_t section_line = section_key.source().begin.line;
         if (std::find(sections.begin(), sections.end(), section) == sections.end()) {
             const char* what = section_node.is_table() ? "unknown section" : "unknown key at the top level";
-            throw ConfigError(where(source, section_line) + ": key '" + section + "': " + what + " (sections: " +
-                              join(sections) + ")");
+            note(section_line, "key '" + section + "': " + what + " (sections: " + join(sections) + ")");
+            continue;
         }
         const auto* table = section_node.as_table();
-        if (!table)
-            throw ConfigError(where(source, section_line) + ": key '" + section + "': must be a table ([" + section +
-                              "]), not " + type_name(section_node));
+        if (!table) {
+            note(section_line, "key '" + section + "': must be a table ([" + section + "]), not " + type_name(section_node));
+            continue;
+        }
         for (auto&& [name_key, value] : *table) {
             const std::string name = section + "." + std::string(name_key.str());
             const std::uint32_t line = name_key.source().begin.line;
@@ -476,18 +483,19 @@ Config parse(const std::string& text, const std::string& source, const std::file
                 std::vector<std::string> known;
                 for (const auto& other : keys())
                     if (other.info.section == section) known.push_back(other.info.key);
-                throw ConfigError(where(source, line) + ": key '" + name + "': unknown key (" + section + " has " +
-                                  join(known) + ")");
+                note(line, "key '" + name + "': unknown key (" + section + " has " + join(known) + ")");
+                continue;
             }
             try {
                 k->read(config, value);
             } catch (const Reason& r) {
-                throw ConfigError(where(source, value.source().begin.line ? value.source().begin.line : line) + ": key '" +
-                                  name + "': " + r.text);
+                note(value.source().begin.line ? value.source().begin.line : line, "key '" + name + "': " + r.text);
             }
             lines[name] = line;
         }
     }
+    if (first) throw ConfigError(first->second);
+    // Rules across keys are checked once every key is valid on its own.
     if (auto p = cross_check(config)) {
         const auto it = lines.find(p->key);
         throw ConfigError(where(source, it == lines.end() ? 0 : it->second) + ": key '" + p->key + "': " + p->why);

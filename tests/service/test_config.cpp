@@ -355,6 +355,17 @@ TEST(Config, RulesAcrossKeysNameTheKeyAndItsLine) {
               "test.toml:3: key 'state.export_dir': '/srv/glint' is the state directory itself");
 }
 
+TEST(Config, TheFirstProblemInTheFileIsReported) {
+    // toml++ keeps tables sorted by name ([ar] before [timeouts]); the report follows the file.
+    EXPECT_EQ(error_of("[timeouts]\nar_idle_s = -1\n[ar]\nmodel = \"cube\"\n[zzz]\n"),
+              "test.toml:2: key 'timeouts.ar_idle_s': -1.0 is out of range (0.0, 86400.0]");
+    EXPECT_EQ(error_of("[state]\nnope = 1\n[display]\nkind = \"x\"\n"),
+              "test.toml:2: key 'state.nope': unknown key (state has dir, export_dir)");
+    // A key error comes before a rule across keys, wherever it is.
+    EXPECT_EQ(error_of("[frame]\nhard_cap_ms = 1\n[timeouts]\nmessage_s = 0\n"),
+              "test.toml:4: key 'timeouts.message_s': 0.0 is out of range (0.0, 86400.0]");
+}
+
 TEST(Config, SyntaxErrorNamesFileAndLine) {
     const std::string e = error_of("[display]\nkind = \"kms\"\nwidth = \n");
     EXPECT_EQ(e.rfind("test.toml:3: TOML syntax: ", 0), 0u) << e;
