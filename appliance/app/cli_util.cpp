@@ -1,3 +1,4 @@
+#include <cstdlib>
 // Sizes and lists on the command line (cli_util.hpp).
 #include "appliance/app/cli_util.hpp"
 
@@ -55,6 +56,25 @@ std::vector<std::string> split_list(const std::string& text, const std::string& 
         start = comma + 1;
     }
     return items;
+}
+
+}  // namespace glint::app
+
+namespace glint::app {
+
+std::filesystem::path find_data_file(const std::string& relative) {
+    namespace fs = std::filesystem;
+    std::vector<fs::path> places;
+    if (const char* dir = std::getenv("GLINT_DATA_DIR"); dir && *dir) places.push_back(fs::path(dir) / relative);
+    std::error_code ec;
+    const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
+    if (!ec) places.push_back(exe.parent_path().parent_path() / "share" / "glint" / relative);
+    places.push_back(fs::path(GLINT_SOURCE_DIR) / relative);
+    for (const fs::path& p : places)
+        if (fs::is_regular_file(p, ec)) return p;
+    std::string tried;
+    for (const fs::path& p : places) tried += (tried.empty() ? "" : ", ") + p.string();
+    throw InputError(relative + ": not found (looked in " + tried + ")");
 }
 
 }  // namespace glint::app

@@ -2,6 +2,8 @@
 // each failure an InputError naming the flag. Numbers: appliance/core/strict_number.hpp.
 #pragma once
 
+#include <filesystem>
+
 #include <CLI/CLI.hpp>
 #include <string>
 #include <vector>
@@ -17,5 +19,10 @@ CLI::Validator size_validator();
 
 // Comma-separated list, empty items rejected.
 std::vector<std::string> split_list(const std::string& text, const std::string& flag);
+
+// A file the appliance ships (`relative`, e.g. "data/ui/strings.toml"): under $GLINT_DATA_DIR when
+// set, else beside the installed executable (<prefix>/share/glint/), else in the source tree the
+// executable was built from. Throws InputError listing every place looked in.
+std::filesystem::path find_data_file(const std::string& relative);
 
 }  // namespace glint::app

@@ -6,10 +6,15 @@
 #include <memory>
 #include <string>
 
+#include "appliance/app/cli_util.hpp"
 #include "appliance/app/commands.hpp"
 #include "appliance/core/errors.hpp"
 #include "appliance/core/progress.hpp"
+#include "appliance/ui/config.hpp"
+#include "appliance/ui/imgui_layer.hpp"
 #include "appliance/ui/kiosk_replay.hpp"
+#include "appliance/ui/screens.hpp"
+#include "appliance/ui/strings.hpp"
 
 namespace glint::app {
 namespace {
@@ -17,7 +22,8 @@ namespace {
 namespace fs = std::filesystem;
 
 struct ReplayArgs {
-    std::string session, out, display = "headless";
+    std::string session, out, display = "headless", config;
+    bool no_overlay = false;
     bool realtime = false;
     double snapshot_every_s = 5;
     int threads = 0;
@@ -30,7 +36,20 @@ int run_replay_command(const ReplayArgs& a) {
     o.session = a.session;
     o.out = a.out;
     o.realtime = a.realtime;
+    if (!a.config.empty()) o.config = ui::load_config(a.config);
+    // A replay shows headless unless asked: the config's display is the appliance's.
     o.config.display.kind = a.display;
+    if (!a.no_overlay) {
+        const ui::Strings strings = ui::Strings::load(find_data_file(ui::kStringsRelativePath));
+        o.make_overlay = [strings](int width, int height) -> ui::ReplayOptions::Overlay {
+            auto layer = std::make_shared<ui::ImGuiLayer>(width, height);
+            return [layer, strings, width, height](const ui::ScreenModel& model, double dt_s) {
+                layer->begin_frame(dt_s, {});
+                ui::draw_visitor_screen(model, strings, width, height);
+                layer->end_frame();
+            };
+        };
+    }
     o.snapshot_every_s = a.snapshot_every_s;
     o.threads = a.threads;
     std::unique_ptr<ProgressBar> bar;
@@ -65,6 +84,9 @@ Command add_replay_command(CLI::App& app) {
     CLI::App* cmd = app.add_subcommand("replay", std::string(command_summary("replay").summary));
     cmd->add_option("SESSION", a->session, "A recorded session directory (glint simulate --kiosk, glint run --record)")->required();
     cmd->add_option("--out", a->out, "Directory for the PNG frames (DIR/frames/), the maps and summary.json")->required();
+    cmd->add_option("--config", a->config, "The appliance's TOML configuration (budgets, timeouts, capture, AR); its display "
+                                           "section is not used: see --display");
+    cmd->add_flag("--no-overlay", a->no_overlay, "Frames without the visitor screens' text and graphics");
     cmd->add_flag("--realtime", a->realtime, "Deliver the session at its recorded pace (default: as fast as possible)");
     cmd->add_option("--display", a->display, "headless (default), window, kms or auto")
         ->check(CLI::IsMember({"headless", "window", "kms", "auto"}));

@@ -23,7 +23,7 @@ ShadingMaps coarse_maps(const HdrImage& environment, const std::vector<Material>
 }
 
 LiveMaps::LiveMaps(const gl::GlContext& main, const HdrImage& environment, std::vector<Material> materials,
-                   double frame_budget_ms)
+                   double frame_budget_ms, bool wait_until_ready)
     : budget_ms_(frame_budget_ms), display_(eglGetCurrentDisplay()) {
     if (!(frame_budget_ms > 0)) throw InputError("--frame-budget-ms: must be positive");
     if (display_.handle() == EGL_NO_DISPLAY) throw RuntimeError("live maps: no EGL display is current");
@@ -57,7 +57,7 @@ LiveMaps::LiveMaps(const gl::GlContext& main, const HdrImage& environment, std::
         ready_ = true;
         gate_.finish();
     });
-    while (!ready_) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+    while (wait_until_ready && !ready_) std::this_thread::sleep_for(std::chrono::milliseconds(1));
 }
 
 LiveMaps::~LiveMaps() {

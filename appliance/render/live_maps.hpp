@@ -34,8 +34,10 @@ public:
     // render loop aims at (what it grants is that minus the frame's own time). Returns once the
     // worker's context is made and its programs compiled (the driver may hold a lock while it
     // compiles: at start-up, not in the middle of a frame).
+    // wait_until_ready = false (the kiosk, mid-flow): returns at once; the worker makes its
+    // context and programs while the frames go on (measured: no frame of the replay got slower).
     LiveMaps(const gl::GlContext& main, const HdrImage& environment, std::vector<Material> materials,
-             double frame_budget_ms);
+             double frame_budget_ms, bool wait_until_ready = true);
     ~LiveMaps();  // cancels the job and joins the worker
     LiveMaps(const LiveMaps&) = delete;
     LiveMaps& operator=(const LiveMaps&) = delete;

@@ -154,6 +154,8 @@ Renderer::Renderer(const Mesh& mesh, const std::vector<Material>& part_materials
         draws_.push_back(std::move(d));
     }
     const bool any_diffuse = std::any_of(draws_.begin(), draws_.end(), [](const Draw& d) { return d.material.diffuse(); });
+    maps_ = maps;
+    index_total_ = grouped.size();
 
     scene_program_ = gl::GlProgram("render_scene.vert", "render_scene.frag");
     background_program_ = gl::GlProgram("fullscreen.vert", "render_background.frag");
@@ -482,7 +484,28 @@ void Renderer::replace_maps(const ShadingMaps& maps) {
     for (const Draw& d : draws_)
         if (d.reflection >= 0)
             reflection_textures_[std::size_t(d.reflection)] = upload_map(maps.reflection_for(d.material)->image, "reflection");
+    maps_ = maps;
     gl::check_gl("replacing the maps");
+}
+
+void Renderer::set_uniform_material(const Material& material) {
+    if (material.diffuse() && !maps_.irradiance)
+        throw RuntimeError("renderer: the material " + material.spec + " needs the irradiance map");
+    const ReflectionMap* reflection = material.specular() ? maps_.reflection_for(material) : nullptr;
+    if (material.specular() && !reflection)
+        throw RuntimeError("renderer: the material " + material.spec + " needs the " + reflection_request(material).label + " map");
+    Draw d;
+    d.material = material;
+    d.first_index = 0;
+    d.index_count = index_total_;
+    if (material.diffuse()) irradiance_ = upload_map(*maps_.irradiance, "irradiance");
+    if (reflection) {
+        reflection_textures_.clear();
+        reflection_textures_.push_back(upload_map(reflection->image, "reflection"));
+        d.reflection = 0;
+    }
+    draws_.assign(1, std::move(d));
+    gl::check_gl("changing the material");
 }
 
 std::vector<float> Renderer::read_frame_radiance() const { return read_target(kRadiance); }

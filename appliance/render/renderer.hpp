@@ -144,6 +144,10 @@ public:
     // Shades with other maps of the same lobes from the next draw on (live_maps.hpp: the final
     // maps after the coarse ones). Throws RuntimeError when one the materials need is missing.
     void replace_maps(const ShadingMaps& maps);
+    // One material for every part from the next draw on (the kiosk's button cycles the object's
+    // materials without a renderer, and its shaders, per material). The maps last given (at
+    // construction or by replace_maps) must hold its lobes; its maps are uploaded now.
+    void set_uniform_material(const Material& material);
 
 private:
     std::vector<float> read_target(int k) const;  // rows top first
@@ -163,6 +167,8 @@ private:
         int reflection = -1;  // into reflection_textures_
     };
     std::vector<Draw> draws_;
+    ShadingMaps maps_;             // the last maps given, for set_uniform_material
+    std::size_t index_total_ = 0;  // indices of every part
     std::vector<gl::GlTexture> reflection_textures_;
     Background background_ = Background::Black;
     bool ao_ = true;
