@@ -373,6 +373,16 @@ TEST(Config, SyntaxErrorNamesFileAndLine) {
     EXPECT_EQ(dup.rfind("test.toml:4: TOML syntax: ", 0), 0u) << dup;
 }
 
+TEST(Config, ErrorsAreBadInputForTheExitCode) {
+    // The commands map glint::InputError to exit code 2, which the unit does not restart.
+    try {
+        parse_config("[display]\nkind = 1\n", "test.toml");
+        FAIL() << "parsed";
+    } catch (const glint::InputError& e) {
+        EXPECT_NE(dynamic_cast<const ConfigError*>(&e), nullptr);
+    }
+}
+
 TEST(Config, FileErrorsNameTheFile) {
     TempDir dir;
     const fs::path missing = dir.path() / "nope.toml";
