@@ -17,5 +17,5 @@ add_library(glint_ui_config STATIC
 )
 target_include_directories(glint_ui_config PUBLIC ${PROJECT_SOURCE_DIR})
 target_link_libraries(glint_ui_config PUBLIC glint_core
-                      PRIVATE tomlplusplus::tomlplusplus PkgConfig::LIBXCRYPT PkgConfig::LIBSYSTEMD
+                      PRIVATE glint_render_model tomlplusplus::tomlplusplus PkgConfig::LIBXCRYPT PkgConfig::LIBSYSTEMD
                       glint_warnings glint_tuning)

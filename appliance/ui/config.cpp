@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <cerrno>
 #include <charconv>
+#include <cctype>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
@@ -23,6 +24,9 @@
 
 #include <toml++/toml.h>
 
+#include "appliance/core/errors.hpp"
+#include "appliance/render/material.hpp"
+#include "appliance/render/mesh.hpp"
 #include "appliance/ui/config_keys.hpp"
 #include "appliance/ui/pin_lock.hpp"
 
@@ -260,18 +264,37 @@ Check materials(const std::vector<std::string>& v) {
     if (v.empty()) return "needs at least one material";
     std::set<std::string> seen;
     for (const auto& m : v) {
-        if (m.empty()) return "an empty material name";
         if (!seen.insert(m).second) return "'" + m + "' is listed twice";
+        // The renderer's own parser: what it accepts here, the kiosk can shade.
+        try {
+            render::parse_material(m, "material");
+        } catch (const InputError& e) {
+            return std::string(e.what());
+        }
     }
     return std::nullopt;
 }
 
+// What render::load_model accepts, checked without building the mesh (a teapot:400 is ten
+// million triangles): sphere, teapot, teapot:LEVEL (1-400), or an existing .obj, .gltf or .glb
+// file. tests/service/test_config.cpp holds this to load_model.
 Check model(const std::string& v) {
-    if (v == "teapot" || v == "sphere") return std::nullopt;
-    static const std::vector<std::string> suffixes = {".gltf", ".glb", ".obj"};
-    for (const auto& s : suffixes)
-        if (v.size() > s.size() && v.compare(v.size() - s.size(), s.size(), s) == 0) return std::nullopt;
-    return "'" + v + "' is neither teapot, sphere nor a .gltf, .glb or .obj file";
+    if (!render::model_is_file(v)) {
+        if (v == "sphere" || v == "teapot") return std::nullopt;
+        const std::string_view level_text = std::string_view(v).substr(7);
+        int level = 0;
+        const auto [end, ec] = std::from_chars(level_text.data(), level_text.data() + level_text.size(), level);
+        if (level_text.empty() || ec != std::errc() || end != level_text.data() + level_text.size() || level < 1 || level > 400)
+            return "'" + v + "': the teapot's level must be an integer in [1, 400]";
+        return std::nullopt;
+    }
+    std::string ext = std::filesystem::path(v).extension().string();
+    std::transform(ext.begin(), ext.end(), ext.begin(), [](unsigned char c) { return char(std::tolower(c)); });
+    if (ext != ".obj" && ext != ".gltf" && ext != ".glb")
+        return "'" + v + "' is neither sphere, teapot, teapot:LEVEL nor an .obj, .gltf or .glb file";
+    std::error_code ec;
+    if (!std::filesystem::is_regular_file(v, ec)) return "'" + v + "': no such file";
+    return std::nullopt;
 }
 
 // --- the table of keys ------------------------------------------------------------------------
@@ -432,19 +455,26 @@ Config parse(const std::string& text, const std::string& source, const std::file
     Config config;
     config.file = file;
     std::map<std::string, std::uint32_t> lines;  // key name -> line it was read from
+    // toml++ iterates tables by key, not in file order: every problem is collected and the one
+    // nearest the top of the file is reported, as a reader of the file would meet it.
+    std::optional<std::pair<std::uint32_t, std::string>> first;
+    const auto note = [&](std::uint32_t line, const std::string& message) {
+        if (!first || line < first->first) first = {line, where(source, line) + ": " + message};
+    };
     const auto sections = config_sections();
     for (auto&& [section_key, section_node] : root) {
         const std::string section(section_key.str());
         const std::uint32_t section_line = section_key.source().begin.line;
         if (std::find(sections.begin(), sections.end(), section) == sections.end()) {
             const char* what = section_node.is_table() ? "unknown section" : "unknown key at the top level";
-            throw ConfigError(where(source, section_line) + ": key '" + section + "': " + what + " (sections: " +
-                              join(sections) + ")");
+            note(section_line, "key '" + section + "': " + what + " (sections: " + join(sections) + ")");
+            continue;
         }
         const auto* table = section_node.as_table();
-        if (!table)
-            throw ConfigError(where(source, section_line) + ": key '" + section + "': must be a table ([" + section +
-                              "]), not " + type_name(section_node));
+        if (!table) {
+            note(section_line, "key '" + section + "': must be a table ([" + section + "]), not " + type_name(section_node));
+            continue;
+        }
         for (auto&& [name_key, value] : *table) {
             const std::string name = section + "." + std::string(name_key.str());
             const std::uint32_t line = name_key.source().begin.line;
@@ -453,18 +483,19 @@ Config parse(const std::string& text, const std::string& source, const std::file
                 std::vector<std::string> known;
                 for (const auto& other : keys())
                     if (other.info.section == section) known.push_back(other.info.key);
-                throw ConfigError(where(source, line) + ": key '" + name + "': unknown key (" + section + " has " +
-                                  join(known) + ")");
+                note(line, "key '" + name + "': unknown key (" + section + " has " + join(known) + ")");
+                continue;
             }
             try {
                 k->read(config, value);
             } catch (const Reason& r) {
-                throw ConfigError(where(source, value.source().begin.line ? value.source().begin.line : line) + ": key '" +
-                                  name + "': " + r.text);
+                note(value.source().begin.line ? value.source().begin.line : line, "key '" + name + "': " + r.text);
             }
             lines[name] = line;
         }
     }
+    if (first) throw ConfigError(first->second);
+    // Rules across keys are checked once every key is valid on its own.
     if (auto p = cross_check(config)) {
         const auto it = lines.find(p->key);
         throw ConfigError(where(source, it == lines.end() ? 0 : it->second) + ": key '" + p->key + "': " + p->why);

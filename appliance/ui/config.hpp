@@ -10,11 +10,16 @@
 #include <string>
 #include <vector>
 
+#include "appliance/core/errors.hpp"
+
 namespace glint::ui {
 
-// An unusable configuration. what(): "FILE:LINE: key 'section.key': what is wrong".
-class ConfigError : public std::runtime_error {
-    using std::runtime_error::runtime_error;
+// An unusable configuration. what(): "FILE:LINE: key 'section.key': what is wrong". It is bad
+// input, so the commands exit with 2 (docs/architecture.md, "Commands"), which the unit's
+// RestartPreventExitStatus=2 relies on: a broken file is not restarted in a loop.
+class ConfigError : public InputError {
+public:
+    using InputError::InputError;
 };
 
 struct DisplaySection {          // [display]

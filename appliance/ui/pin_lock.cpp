@@ -207,7 +207,9 @@ void PinLock::load() {
         report(PinEvent::Kind::LockedOut, "lock-out in progress before a reboot, started again");
         return;
     }
-    locked_until_ns_ = until;
+    // A lock never runs longer than one lock-out from now: a file edited (or damaged into a
+    // valid-looking form) to a far end, or a lockout_s shortened since, cannot lock for ever.
+    locked_until_ns_ = std::min<std::int64_t>(until, now_() + lockout_ns(policy_));
     expire_if_due(now_());
     if (locked_until_ns_ > 0) report(PinEvent::Kind::LockedOut, "lock-out in progress before a restart, continued");
 }

@@ -63,6 +63,9 @@ std::int64_t monotonic_now_ns();
 // This boot's id (/proc/sys/kernel/random/boot_id), "" when unreadable.
 std::string current_boot_id();
 
+// Not thread-safe: one thread (the kiosk's main loop) uses it. try_pin() hashes once with
+// yescrypt (about 20 ms on the build machine, more on the appliance's cores): call it from the
+// PIN prompt's confirm, not every frame.
 class PinLock {
 public:
     using Clock = std::function<std::int64_t()>;  // monotonic ns

@@ -12,6 +12,8 @@
 
 namespace glint::ui {
 
+// sd_notify itself may be called from any thread (each call sends one datagram); last_error()
+// is the one piece of state, so give each thread that notifies its own ServiceNotifier.
 class ServiceNotifier {
 public:
     // Reads NOTIFY_SOCKET once; the environment is left as it is (children started later,

@@ -147,6 +147,8 @@ REQUIRED = {
     ("Service", "RestrictAddressFamilies"): "AF_UNIX",
     ("Service", "KillSignal"): "SIGTERM",
     ("Service", "TimeoutStopSec"): "5s",
+    # A config error (exit 2) is not restarted (docs/architecture.md's exit codes).
+    ("Service", "RestartPreventExitStatus"): "2",
 }
 
 # DeviceAllow= groups (/proc/devices names) the kiosk's devices belong to.

@@ -185,6 +185,14 @@ TEST(PinLock, ARebootStartsALockOutInProgressAgain) {
     EXPECT_DOUBLE_EQ(unknown.lock->remaining_s(), 300.0);
 }
 
+TEST(PinLock, AStoredEndFarAwayIsCutToOneLockOut) {
+    TempDir dir;
+    const fs::path file = dir.path() / "pin-lock";
+    std::ofstream(file) << "glint-pin-lock 1\nboot boot-a\nfailures 5\nlocked_until_ns 9000000000000000000\n";
+    Rig rig(file);
+    EXPECT_DOUBLE_EQ(rig.lock->remaining_s(), 300.0);
+}
+
 TEST(PinLock, TheCountSurvivesARestart) {
     TempDir dir;
     const fs::path file = dir.path() / "pin-lock";

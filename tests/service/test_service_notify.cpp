@@ -2,60 +2,19 @@
 // binding the datagram socket NOTIFY_SOCKET names and reading what arrives.
 #include <gtest/gtest.h>
 
-#include <sys/socket.h>
-#include <sys/un.h>
 #include <unistd.h>
 
 #include <cstdlib>
-#include <filesystem>
 #include <optional>
 #include <string>
 
 #include "appliance/ui/service_notify.hpp"
+#include "tests/service/fake_systemd.hpp"
 
-namespace fs = std::filesystem;
 using namespace glint::ui;
 using namespace std::chrono_literals;
 
-namespace {
-
-// systemd's end of the notify socket: a bound AF_UNIX datagram socket, NOTIFY_SOCKET set to it
-// for the test's life.
-class FakeSystemd {
-public:
-    FakeSystemd() {
-        char tmpl[] = "/tmp/glint-notify-XXXXXX";
-        dir_ = ::mkdtemp(tmpl);
-        path_ = dir_ / "notify";
-        fd_ = ::socket(AF_UNIX, SOCK_DGRAM | SOCK_CLOEXEC, 0);
-        sockaddr_un addr{};
-        addr.sun_family = AF_UNIX;
-        std::snprintf(addr.sun_path, sizeof addr.sun_path, "%s", path_.c_str());
-        EXPECT_EQ(::bind(fd_, reinterpret_cast<sockaddr*>(&addr), sizeof addr), 0);
-        // A test that waits for a message that never comes fails instead of hanging.
-        timeval timeout{0, 200'000};
-        ::setsockopt(fd_, SOL_SOCKET, SO_RCVTIMEO, &timeout, sizeof timeout);
-        ::setenv("NOTIFY_SOCKET", path_.c_str(), 1);
-    }
-    ~FakeSystemd() {
-        ::unsetenv("NOTIFY_SOCKET");
-        ::close(fd_);
-        fs::remove_all(dir_);
-    }
-    // The next datagram, or nullopt after 200 ms without one.
-    std::optional<std::string> receive() {
-        char buf[4096];
-        const ssize_t n = ::recv(fd_, buf, sizeof buf, 0);
-        if (n < 0) return std::nullopt;
-        return std::string(buf, static_cast<std::size_t>(n));
-    }
-
-private:
-    fs::path dir_, path_;
-    int fd_ = -1;
-};
-
-}  // namespace
+using glint::test::FakeSystemd;
 
 TEST(ServiceNotify, SendsWhatTheKioskSendsInOrder) {
     FakeSystemd systemd;
@@ -140,5 +99,27 @@ TEST(ServiceNotify, FeederWithoutWatchdogNeverPings) {
     EXPECT_EQ(feeder.period_ns(), 0);
     EXPECT_FALSE(feeder.tick(0));
     EXPECT_FALSE(feeder.tick(5'000'000'000));
+    EXPECT_EQ(systemd.receive(), std::nullopt);
+}
+
+// What issue 18 asks of a stalled frame loop, on a simulated clock: READY, pings while frames
+// come, none while the loop is stuck, and pings again once it runs.
+TEST(ServiceNotify, AStalledLoopStopsThePings) {
+    FakeSystemd systemd;
+    ServiceNotifier notifier;
+    WatchdogFeeder feeder(notifier, 2s);
+    notifier.ready("ATTRACT");
+    std::int64_t t = 0;
+    const auto frames = [&](double seconds) {
+        int pings = 0;
+        for (const std::int64_t end = t + static_cast<std::int64_t>(seconds * 1e9); t < end; t += 33'333'333)
+            pings += feeder.tick(t);
+        return pings;
+    };
+    EXPECT_EQ(frames(2.5), 3);        // at 0, 1 and 2 s
+    t += 10'000'000'000;              // one frame that takes 10 s: no tick, no ping
+    EXPECT_EQ(frames(0.1), 1);        // the loop is back: at once
+    EXPECT_EQ(systemd.receive(), "READY=1\nSTATUS=ATTRACT");
+    for (int k = 0; k < 4; ++k) EXPECT_EQ(systemd.receive(), "WATCHDOG=1") << k;
     EXPECT_EQ(systemd.receive(), std::nullopt);
 }
