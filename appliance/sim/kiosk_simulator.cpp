@@ -44,11 +44,14 @@ constexpr std::uint64_t kStepUs = 5'000;
 constexpr double kPickupS = 1.5, kCarryS = 2.0;
 // The button is held this long.
 constexpr double kPressS = 0.08;
-// The dropout: a visitor's arm in a dark sleeve passes between the device and the board,
-// kSleeveDistanceM in front of the camera, across its line of sight at the middle of the AR
-// phase's kDropoutAt; its speed is chosen so that the board is wholly hidden for dropout_s.
+// The dropout: a visitor's arm in a grey sleeve (about the scene's mean albedo, so that the
+// auto-exposure hardly moves) passes between the device and the board, kSleeveDistanceM in front
+// of the camera, across its line of sight at kDropoutAt of the AR phase; its speed is chosen so
+// that for dropout_s fewer than kTrackableMarkers markers are wholly in view and uncovered (the
+// tracker needs 3, docs/tracking.md): the time the tracker cannot see the board.
 constexpr double kDropoutAt = 0.55;
-constexpr double kSleeveDistanceM = 0.15, kSleeveWidthM = 0.14, kSleeveLengthM = 0.8, kSleeveAlbedo = 0.15;
+constexpr double kSleeveDistanceM = 0.15, kSleeveWidthM = 0.14, kSleeveLengthM = 0.8, kSleeveAlbedo = 0.35;
+constexpr int kTrackableMarkers = 3;
 
 double ease(double u) { return 0.5 - 0.5 * std::cos(kPi * std::clamp(u, 0.0, 1.0)); }
 
@@ -200,27 +203,32 @@ struct KioskPath {
     }
 };
 
-// Is any point of the board in the view of the camera at time t (in the image, not behind the
-// sleeve)?
+// Can the tracker see the board at time t: are kTrackableMarkers markers wholly in the image
+// (their four corners) and uncovered by the sleeve (which is wider than a marker, so a marker
+// whose corners it misses it misses)?
 bool board_in_view(const capture::Intrinsics& k, const tracking::Board& board, const KioskScene& scene,
                    const KioskPath& path, double t) {
     const glm::dquat camera_from_world = glm::conjugate(path.view(t));
     const glm::dvec3 position = path.position(t);
-    // A 9 x 13 grid over the sheet: the board is never so close that it fits between them.
-    for (int j = 0; j <= 12; ++j)
-        for (int i = 0; i <= 8; ++i) {
-            const glm::dvec3 b((i / 8.0 - 0.5) * board.width_m(), (j / 12.0 - 0.5) * board.height_m(), 0);
-            const glm::dvec3 w = scene.board_centre() + scene.world_from_board() * b;
-            if (!capture::project(k, camera_from_world * (w - position), 0.0)) continue;
+    int seen = 0;
+    for (int i = 0; i < board.marker_count(); ++i) {
+        bool whole = true;
+        for (const cv::Point3f& c : board.corners(i)) {
+            const glm::dvec3 w = scene.board_centre() + scene.world_from_board() * glm::dvec3(c.x, c.y, c.z);
             const double distance = glm::length(w - position);
             const std::optional<double> arm = scene.sleeve.hit(t, position, (w - position) / distance);
-            if (!arm || *arm > distance) return true;
+            if (!capture::project(k, camera_from_world * (w - position), 0.0) || (arm && *arm < distance)) {
+                whole = false;
+                break;
+            }
         }
+        if (whole && ++seen >= kTrackableMarkers) return true;
+    }
     return false;
 }
 
-// The span of camera time (first, last) in [t0, t1] during which no board point is in view,
-// sampled every ms; (-1, -1) when there is none.
+// The span of camera time (first, last) in [t0, t1] during which the tracker cannot see the
+// board (board_in_view), sampled every ms; (-1, -1) when there is none.
 std::pair<double, double> hidden_span(const capture::Intrinsics& k, const tracking::Board& board,
                                       const KioskScene& scene, const KioskPath& path, double t0, double t1) {
     double first = -1, last = -1;
@@ -335,7 +343,7 @@ KioskSummary simulate_kiosk_session(const SimulateKioskOptions& ko,
         // The sleeve crosses the line of sight from the camera to the board's centre at t_mid,
         // kSleeveDistanceM from the camera, moving to the camera's right; the slower it moves,
         // the longer it hides the board: its speed by bisection (the hidden span shrinks as the
-        // speed grows) so that the board is wholly hidden for dropout_s.
+        // speed grows) so that the tracker cannot see the board for dropout_s.
         Sleeve& arm = scene.sleeve;
         arm.t_mid = path.ar_start_s + kDropoutAt * ko.ar_s;
         const glm::dvec3 p = path.position(arm.t_mid);
