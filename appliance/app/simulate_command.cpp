@@ -92,7 +92,7 @@ Command add_simulate_command(CLI::App& app) {
                   "Instead of a scan: a kiosk session for glint replay (docs/capture.md \"Kiosk sessions\"): 3 s of "
                   "attract looking at the marker board on the table, a button press, the guided scan as the "
                   "capture benchmark takes it (35 deg/s, 3 fps, --hdr-bracket, 1 deg/min of heading drift), then "
-                  "12 s of AR at 12 fps walking round the board with a 0.3 s dropout; writes events.csv, "
+                  "12 s of AR at 12 fps walking round the board, hidden once for 0.3 s by an arm passing in front; writes events.csv, "
                   "kiosk.json and truth/board.csv besides the session's files. With --env, --out, --seed, "
                   "--threads, --force, and for measurements --size (default 320x180), --frame-format, "
                   "--jpeg-quality");
@@ -132,10 +132,12 @@ Command add_simulate_command(CLI::App& app) {
         });
         if (bar) bar->finish();
         std::printf("kiosk session %s: %d frames over %.1f s (attract %d, scan %d with brackets, AR %d), %llu sensor "
-                    "bytes; the board out of view %.2f-%.2f s; irradiance on the table %.4g %.4g %.4g\n",
+                    "bytes; the board hidden %.2f-%.2f s (t_ns %lld-%lld, an arm at %.2f m/s); irradiance on the table "
+                    "%.4g %.4g %.4g\n",
                     args.out.c_str(), r.session.frames, r.session.duration_s, r.attract_frames, r.scan_frames,
                     r.ar_frames, static_cast<unsigned long long>(r.session.sensor_bytes), r.dropout_start_s,
-                    r.dropout_end_s, r.irradiance_up[0], r.irradiance_up[1], r.irradiance_up[2]);
+                    r.dropout_end_s, static_cast<long long>(r.dropout_start_ns),
+                    static_cast<long long>(r.dropout_end_ns), r.sleeve_speed_m_s, r.irradiance_up[0], r.irradiance_up[1], r.irradiance_up[2]);
         return 0;
     };
     return {cmd, [a, cmd, run_kiosk] {

@@ -159,7 +159,8 @@ int CameraSimulator::time_samples(const CameraPath& path, int v) const {
 
 void CameraSimulator::splat_bright_texels(cv::Mat& light, const std::vector<std::vector<glm::dquat>>& row_views,
                                           const LocalView& local,
-                                          const std::vector<std::vector<glm::dvec3>>& row_positions) const {
+                                          const std::vector<std::vector<glm::dvec3>>& row_positions,
+                                          const std::vector<std::vector<double>>& row_times) const {
     if (splats_.empty()) return;
     const Intrinsics& k = truth_.intrinsics;
     // Cull by the middle row's first view: a pixel ray is within acos(min_cos_to_axis) of the
@@ -183,7 +184,9 @@ void CameraSimulator::splat_bright_texels(cv::Mat& light, const std::vector<std:
             const auto at = capture::project(k, glm::conjugate(q) * p.direction, 1.0);
             if (!at) continue;
             // The table in front of a bright texel hides it.
-            if (local.scene && local.scene->radiance(row_positions[std::size_t(row)][m], p.direction)) continue;
+            if (local.scene &&
+                local.scene->radiance(row_times[std::size_t(row)][m], row_positions[std::size_t(row)][m], p.direction))
+                continue;
             // Shared among the four nearest pixels by bilinear weights (which sum to 1, so the
             // frame keeps the energy): a point landing whole in one pixel left a bright area's
             // points, 0.4 pixels apart, in a moire of 4 to 9 a pixel.
@@ -227,8 +230,9 @@ CameraFrame CameraSimulator::render(const CameraPath& path, const LocalView& loc
     // Each row's orientations: its exposure (centred on the row's readout time, the rolling
     // shutter) cut into n equal slices, each seen at its middle. One slice when still.
     std::vector<std::vector<glm::dquat>> row_views(std::size_t(k.height));
-    // With a local scene, the camera's position at the same times.
+    // With a local scene, the camera's position at the same times, and those times.
     std::vector<std::vector<glm::dvec3>> row_positions(local.scene ? std::size_t(k.height) : 0);
+    std::vector<std::vector<double>> row_times(local.scene ? std::size_t(k.height) : 0);
     parallel_for(k.height, threads, [&](int v) {
         const int n = time_samples(path, v);
         const double tau = truth_.row_time_offset_s(v);
@@ -237,8 +241,14 @@ CameraFrame CameraSimulator::render(const CameraPath& path, const LocalView& loc
         for (int m = 0; m < n; ++m) views[std::size_t(m)] = path(tau + exposure_s_ * ((m + 0.5) / n - 0.5));
         if (!local.scene) return;
         std::vector<glm::dvec3>& positions = row_positions[std::size_t(v)];
+        std::vector<double>& times = row_times[std::size_t(v)];
         positions.resize(std::size_t(n));
-        for (int m = 0; m < n; ++m) positions[std::size_t(m)] = local.position(tau + exposure_s_ * ((m + 0.5) / n - 0.5));
+        times.resize(std::size_t(n));
+        for (int m = 0; m < n; ++m) {
+            const double offset = tau + exposure_s_ * ((m + 0.5) / n - 0.5);
+            positions[std::size_t(m)] = local.position(offset);
+            times[std::size_t(m)] = local.t_s + offset;
+        }
     });
     parallel_for(k.height, threads, [&](int v) {
         double* out = light.ptr<double>(v);
@@ -251,7 +261,8 @@ CameraFrame CameraSimulator::render(const CameraPath& path, const LocalView& loc
                 for (std::size_t sub = 0; sub < kSubsamples; ++sub) {
                     const glm::dvec3 d = views[m] * rays_[i * kSubsamples + sub];
                     std::optional<Rgb> near;
-                    if (local.scene) near = local.scene->radiance(row_positions[std::size_t(v)][m], d);
+                    if (local.scene)
+                        near = local.scene->radiance(row_times[std::size_t(v)][m], row_positions[std::size_t(v)][m], d);
                     const Rgb l = near ? *near : sample_bilinear(env_, d);
                     radiance[0] += l.r * share;
                     radiance[1] += l.g * share;
@@ -260,7 +271,7 @@ CameraFrame CameraSimulator::render(const CameraPath& path, const LocalView& loc
             for (int c = 0; c < 3; ++c) out[3 * u + c] = radiance[c] * vignette_[i];
         }
     });
-    splat_bright_texels(light, row_views, local, row_positions);
+    splat_bright_texels(light, row_views, local, row_positions, row_times);
     if (truth_.glare_fraction > 0) {
         // The glare's width is an angle: a pixel off the axis spans less of it (cos^2 of the
         // off-axis angle for a pinhole), so its width in pixels grows there. Two blurs, at the

@@ -41,21 +41,23 @@ struct SensorModel {
 using CameraPath = std::function<glm::dquat(double offset_s)>;
 
 // Geometry near the camera, in front of the environment (which lies at infinity): the kiosk's
-// table with the board on it (kiosk_simulator.hpp). A ray from `origin` (world frame, metres)
-// along the unit `direction` that meets it gets the radiance returned; nullopt: it sees the map.
+// table with the board on it and a visitor's arm passing by (kiosk_simulator.hpp). A ray from
+// `origin` (world frame, metres) along the unit `direction`, at time `t_s` of the scene's clock,
+// that meets it gets the radiance returned; nullopt: it sees the map.
 class LocalScene {
 public:
     virtual ~LocalScene() = default;
-    virtual std::optional<Rgb> radiance(const glm::dvec3& origin, const glm::dvec3& direction) const = 0;
+    virtual std::optional<Rgb> radiance(double t_s, const glm::dvec3& origin, const glm::dvec3& direction) const = 0;
 };
 
 // Where the camera is, for a frame that sees a LocalScene: the camera's position (world frame,
 // metres) at `offset_s` seconds after the frame's time, sampled at the same times as its
 // orientation (the motion blur's time samples follow the turn only; a slow walk adds parallax
-// of well under a pixel per exposure).
+// of well under a pixel per exposure); the frame's time is t_s on the scene's clock.
 struct LocalView {
     const LocalScene* scene = nullptr;
     std::function<glm::dvec3(double offset_s)> position;
+    double t_s = 0;
 };
 
 struct AutoExposureModel {
@@ -132,7 +134,8 @@ private:
     static constexpr std::size_t kMaxSplatTexels = 65536;  // at most this many texels split
     void split_bright_texels();
     void splat_bright_texels(cv::Mat& light, const std::vector<std::vector<glm::dquat>>& row_views,
-                             const LocalView& local, const std::vector<std::vector<glm::dvec3>>& row_positions) const;
+                             const LocalView& local, const std::vector<std::vector<glm::dvec3>>& row_positions,
+                             const std::vector<std::vector<double>>& row_times) const;
 
     HdrImage env_;  // the map, less the split texels' excess
     capture::CameraCalibration truth_;

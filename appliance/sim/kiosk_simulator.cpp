@@ -44,10 +44,14 @@ constexpr std::uint64_t kStepUs = 5'000;
 constexpr double kPickupS = 1.5, kCarryS = 2.0;
 // The button is held this long.
 constexpr double kPressS = 0.08;
-// The look up that takes the board out of view: a raised-cosine pitch of at least kDropoutPitchDeg
-// (more if the board is still in view at its peak), its length chosen so that the board is
-// wholly out of view for dropout_s; it starts at kDropoutAt of the AR phase.
-constexpr double kDropoutPitchDeg = 50, kDropoutAt = 0.55;
+// The dropout: a visitor's arm in a grey sleeve (about the scene's mean albedo, so that the
+// auto-exposure hardly moves) passes between the device and the board, kSleeveDistanceM in front
+// of the camera, across its line of sight at kDropoutAt of the AR phase; its speed is chosen so
+// that for dropout_s fewer than kTrackableMarkers markers are wholly in view and uncovered (the
+// tracker needs 3, docs/tracking.md): the time the tracker cannot see the board.
+constexpr double kDropoutAt = 0.55;
+constexpr double kSleeveDistanceM = 0.15, kSleeveWidthM = 0.14, kSleeveLengthM = 0.8, kSleeveAlbedo = 0.35;
+constexpr int kTrackableMarkers = 3;
 
 double ease(double u) { return 0.5 - 0.5 * std::cos(kPi * std::clamp(u, 0.0, 1.0)); }
 
@@ -57,23 +61,45 @@ firmware::Quatd to_firmware(const glm::dquat& q) {
 }
 
 // world_from_camera of a camera at `from` looking at `to` with world +Y up in the image, rolled
-// by `roll_rad` about its view axis and pitched up by `pitch_rad` (Glint's camera frame: -Z
-// forward, +Y up).
-glm::dquat look_at(const glm::dvec3& from, const glm::dvec3& to, double roll_rad, double pitch_rad) {
+// by `roll_rad` about its view axis (Glint's camera frame: -Z forward, +Y up).
+glm::dquat look_at(const glm::dvec3& from, const glm::dvec3& to, double roll_rad) {
     const glm::dvec3 forward = glm::normalize(to - from);
     const glm::dvec3 right = glm::normalize(glm::cross(forward, glm::dvec3(0, 1, 0)));
     const glm::dvec3 up = glm::cross(right, forward);
     const glm::dquat look = glm::quat_cast(glm::dmat3(right, up, -forward));
-    return unit_rotation(look * glm::angleAxis(pitch_rad, glm::dvec3(1, 0, 0)) *
-                         glm::angleAxis(roll_rad, glm::dvec3(0, 0, -1)));
+    return unit_rotation(look * glm::angleAxis(roll_rad, glm::dvec3(0, 0, -1)));
 }
+
+// A visitor's arm in a sleeve: a flat strip facing the camera's position at the crossing,
+// moving across the line of sight (world frame, metres, camera time in seconds).
+struct Sleeve {
+    glm::dvec3 centre{0};    // at t_mid
+    glm::dvec3 velocity{0};  // along `across`
+    glm::dvec3 normal{0, 0, 1}, across{1, 0, 0}, along{0, 1, 0};
+    double t_mid = 0, half_width = kSleeveWidthM / 2, half_length = kSleeveLengthM / 2;
+    double active_s = 0;  // present for |t - t_mid| <= active_s (well out of the view beyond)
+
+    // Distance along the ray to the sleeve at time t, or nullopt.
+    std::optional<double> hit(double t, const glm::dvec3& origin, const glm::dvec3& d) const {
+        if (!(std::abs(t - t_mid) <= active_s)) return std::nullopt;
+        const glm::dvec3 c = centre + velocity * (t - t_mid);
+        const double dn = glm::dot(d, normal);
+        if (std::abs(dn) < 1e-9) return std::nullopt;
+        const double s = glm::dot(c - origin, normal) / dn;
+        if (!(s > 0)) return std::nullopt;
+        const glm::dvec3 p = origin + s * d - c;
+        if (std::abs(glm::dot(p, across)) > half_width || std::abs(glm::dot(p, along)) > half_length) return std::nullopt;
+        return s;
+    }
+};
 
 // The table and the board on it, lit by the map's irradiance on an upward normal: a diffuse
 // surface of albedo a has radiance a E / pi. Both are flat and face up, so one irradiance holds
-// everywhere on them (the map is at infinity; the visitor's shadow is not modelled).
-class KioskTable final : public LocalScene {
+// everywhere on them (the map is at infinity; the visitor's shadow is not modelled). The sleeve
+// is lit the same way (a simplification: its face is nearly vertical).
+class KioskScene final : public LocalScene {
 public:
-    KioskTable(const SimulateKioskOptions& o, const tracking::Board& board, const Rgb& irradiance)
+    KioskScene(const SimulateKioskOptions& o, const tracking::Board& board, const Rgb& irradiance)
         : height_(o.table_height_m), half_w_(o.table_width_m / 2), half_d_(o.table_depth_m / 2),
           table_albedo_(o.table_albedo), board_half_w_(board.width_m() / 2), board_half_h_(board.height_m() / 2) {
         for (int c = 0; c < 3; ++c) radiance_per_albedo_[c] = double((&irradiance.r)[c]) / kPi;
@@ -85,25 +111,38 @@ public:
     // +Y away from the visitor. board +X = world +X, board +Y = world -Z, board +Z = world +Y.
     glm::dquat world_from_board() const { return glm::angleAxis(-0.5 * kPi, glm::dvec3(1, 0, 0)); }
     glm::dvec3 board_centre() const { return {0, height_, 0}; }
+    Sleeve sleeve;  // active_s = 0: none
 
-    std::optional<Rgb> radiance(const glm::dvec3& origin, const glm::dvec3& d) const override {
-        if (!(d.y < 0) || !(origin.y > height_)) return std::nullopt;  // the top is seen from above only
-        const double s = (height_ - origin.y) / d.y;
-        const glm::dvec3 p = origin + s * d;
-        if (std::abs(p.x) > half_w_ || std::abs(p.z) > half_d_) return std::nullopt;
+    std::optional<Rgb> radiance(double t, const glm::dvec3& origin, const glm::dvec3& d) const override {
+        const std::optional<double> table = table_hit(origin, d);
+        const std::optional<double> arm = sleeve.hit(t, origin, d);
+        if (arm && (!table || *arm < *table)) return lit(kSleeveAlbedo);
+        if (!table) return std::nullopt;
+        const glm::dvec3 p = origin + *table * d;
         // Board frame: x = world x, y = -world z (world_from_board above).
         const double bx = p.x, by = -p.z;
-        double albedo = table_albedo_;
         if (std::abs(bx) <= board_half_w_ && std::abs(by) <= board_half_h_) {
             // Print texel centres at integers (tracking::board_to_print, minus half a texel).
             const double k = kPrintPxPerMm * 1000;
-            albedo = bilinear((bx + board_half_w_) * k - 0.5, (board_half_h_ - by) * k - 0.5);
+            return lit(bilinear((bx + board_half_w_) * k - 0.5, (board_half_h_ - by) * k - 0.5));
         }
-        return Rgb{float(albedo * radiance_per_albedo_[0]), float(albedo * radiance_per_albedo_[1]),
-                   float(albedo * radiance_per_albedo_[2])};
+        return lit(table_albedo_);
+    }
+
+    // Distance along the ray to the table top (seen from above only), or nullopt.
+    std::optional<double> table_hit(const glm::dvec3& origin, const glm::dvec3& d) const {
+        if (!(d.y < 0) || !(origin.y > height_)) return std::nullopt;
+        const double s = (height_ - origin.y) / d.y;
+        const glm::dvec3 p = origin + s * d;
+        if (std::abs(p.x) > half_w_ || std::abs(p.z) > half_d_) return std::nullopt;
+        return s;
     }
 
 private:
+    Rgb lit(double albedo) const {
+        return {float(albedo * radiance_per_albedo_[0]), float(albedo * radiance_per_albedo_[1]),
+                float(albedo * radiance_per_albedo_[2])};
+    }
     double bilinear(double u, double v) const {
         u = std::clamp(u, 0.0, double(albedo_.cols - 1));
         v = std::clamp(v, 0.0, double(albedo_.rows - 1));
@@ -128,28 +167,25 @@ struct KioskPath {
     glm::dquat stand_view{1, 0, 0, 0};
     const firmware::sim::Trajectory* scan = nullptr;  // the guided scan from its own time 0
     glm::dvec3 board{0};           // the board's centre
-    double dropout_start_s = 0, dropout_len_s = 0, dropout_pitch_rad = 0;
 
-    // The AR phase: an orbit round the board, from 35 degrees on the visitor's left to 35 on
-    // the right, 0.36-0.60 m out and 0.28-0.56 m up (0.45-0.82 m from the board's centre),
-    // the aim wandering 3 cm about the centre and the camera rolling +-4 degrees.
+    // The AR phase: an orbit round the board at a walker's pace, whatever the phase's length:
+    // from the visitor's left to the right through up to 70 degrees at 6 deg/s on average,
+    // 0.36-0.60 m out and 0.28-0.56 m up (0.45-0.82 m from the board's centre) over a 12 s
+    // cycle, the aim wandering 3 cm about the centre and the camera rolling +-4 degrees.
+    static constexpr double kCycleS = 12;
     glm::dvec3 ar_position(double t) const {
-        const double u = std::clamp((t - ar_start_s) / (ar_end_s - ar_start_s), 0.0, 1.0);
-        const double a = (-35 + 70 * ease(u)) * kDeg;
-        const double r = 0.48 + 0.12 * std::sin(2 * kPi * u);
-        const double h = 0.42 + 0.14 * std::sin(3 * kPi * u + 0.5);
+        const double len = ar_end_s - ar_start_s, tau = std::clamp(t - ar_start_s, 0.0, len);
+        const double sweep = std::min(70.0, 6 * len);
+        const double a = (-0.5 * sweep + sweep * ease(tau / len)) * kDeg;
+        const double r = 0.48 + 0.12 * std::sin(2 * kPi * tau / kCycleS);
+        const double h = 0.42 + 0.14 * std::sin(3 * kPi * tau / kCycleS + 0.5);
         return board + glm::dvec3(r * std::sin(a), h, r * std::cos(a));
     }
-    glm::dquat ar_view(double t, double extra_pitch_rad) const {
-        const double u = std::clamp((t - ar_start_s) / (ar_end_s - ar_start_s), 0.0, 1.0);
-        const glm::dvec3 aim = board + glm::dvec3(0.03 * std::sin(5 * u), 0, 0.03 * std::cos(4 * u));
-        return look_at(ar_position(t), aim, 4 * kDeg * std::sin(1.6 * kPi * u), extra_pitch_rad);
+    glm::dquat ar_view(double t) const {
+        const double tau = std::clamp(t - ar_start_s, 0.0, ar_end_s - ar_start_s) / kCycleS;
+        const glm::dvec3 aim = board + glm::dvec3(0.03 * std::sin(5 * tau), 0, 0.03 * std::cos(4 * tau));
+        return look_at(ar_position(t), aim, 4 * kDeg * std::sin(1.6 * kPi * tau));
     }
-    double dropout_pitch(double t) const {
-        if (dropout_len_s <= 0 || t <= dropout_start_s || t >= dropout_start_s + dropout_len_s) return 0;
-        return dropout_pitch_rad * (0.5 - 0.5 * std::cos(2 * kPi * (t - dropout_start_s) / dropout_len_s));
-    }
-
     // On the stand until the device is picked up; from the scan on (whose frames see no table)
     // the AR orbit's, which holds its first point until the AR phase begins: the first AR
     // frame's early rows (rolling shutter) are exposed a little before it.
@@ -161,33 +197,43 @@ struct KioskPath {
         if (t <= press_s) return stand_view;
         if (t < scan_start_s) return glm::slerp(stand_view, scan_first, ease((t - press_s) / (scan_start_s - press_s)));
         if (t <= scan_end_s) return host::to_glm(scan->at(std::uint64_t(std::llround((t - scan_start_s) * 1e6))).world_from_sensor);
-        const glm::dquat ar_first = ar_view(ar_start_s, 0);
+        const glm::dquat ar_first = ar_view(ar_start_s);
         if (t < ar_start_s) return glm::slerp(scan_last, ar_first, ease((t - scan_end_s) / (ar_start_s - scan_end_s)));
-        return ar_view(t, dropout_pitch(t));
+        return ar_view(t);
     }
 };
 
-// Is any point of the board's marker area in the view of `camera` at camera pose (q, p)?
-bool board_in_view(const capture::Intrinsics& k, const tracking::Board& board, const glm::dquat& world_from_board,
-                   const glm::dvec3& board_centre, const glm::dquat& world_from_camera, const glm::dvec3& position) {
-    const glm::dquat camera_from_world = glm::conjugate(world_from_camera);
-    // A 9 x 13 grid over the sheet: the board is never so close that it fits between them.
-    for (int j = 0; j <= 12; ++j)
-        for (int i = 0; i <= 8; ++i) {
-            const glm::dvec3 b((i / 8.0 - 0.5) * board.width_m(), (j / 12.0 - 0.5) * board.height_m(), 0);
-            const glm::dvec3 w = board_centre + world_from_board * b;
-            if (capture::project(k, camera_from_world * (w - position), 0.0)) return true;
+// Can the tracker see the board at time t: are kTrackableMarkers markers wholly in the image
+// (their four corners) and uncovered by the sleeve (which is wider than a marker, so a marker
+// whose corners it misses it misses)?
+bool board_in_view(const capture::Intrinsics& k, const tracking::Board& board, const KioskScene& scene,
+                   const KioskPath& path, double t) {
+    const glm::dquat camera_from_world = glm::conjugate(path.view(t));
+    const glm::dvec3 position = path.position(t);
+    int seen = 0;
+    for (int i = 0; i < board.marker_count(); ++i) {
+        bool whole = true;
+        for (const cv::Point3f& c : board.corners(i)) {
+            const glm::dvec3 w = scene.board_centre() + scene.world_from_board() * glm::dvec3(c.x, c.y, c.z);
+            const double distance = glm::length(w - position);
+            const std::optional<double> arm = scene.sleeve.hit(t, position, (w - position) / distance);
+            if (!capture::project(k, camera_from_world * (w - position), 0.0) || (arm && *arm < distance)) {
+                whole = false;
+                break;
+            }
         }
+        if (whole && ++seen >= kTrackableMarkers) return true;
+    }
     return false;
 }
 
-// The span of camera time (start, end) during which no board point is in view, sampled every ms.
-std::pair<double, double> out_of_view_span(const KioskPath& path, const capture::Intrinsics& k,
-                                           const tracking::Board& board, const glm::dquat& world_from_board) {
+// The span of camera time (first, last) in [t0, t1] during which the tracker cannot see the
+// board (board_in_view), sampled every ms; (-1, -1) when there is none.
+std::pair<double, double> hidden_span(const capture::Intrinsics& k, const tracking::Board& board,
+                                      const KioskScene& scene, const KioskPath& path, double t0, double t1) {
     double first = -1, last = -1;
-    const double t0 = path.dropout_start_s, t1 = path.dropout_start_s + path.dropout_len_s;
     for (double t = t0; t <= t1; t += 1e-3)
-        if (!board_in_view(k, board, world_from_board, path.board, path.view(t), path.position(t))) {
+        if (!board_in_view(k, board, scene, path, t)) {
             if (first < 0) first = t;
             last = t;
         }
@@ -268,8 +314,7 @@ KioskSummary simulate_kiosk_session(const SimulateKioskOptions& ko,
     o.hdr_bracket = true;
     o.fps = ko.scan_fps;
     detail::check_common_options(o);
-    const LoadedExr loaded = load_exr(o.env);
-    const HdrImage& env = loaded.image;
+    const HdrImage env = load_exr(o.env).image;
 
     const tracking::Board board;  // tracking's default board
     KioskSummary summary;
@@ -278,47 +323,55 @@ KioskSummary simulate_kiosk_session(const SimulateKioskOptions& ko,
     summary.irradiance_up[1] = e.g;
     summary.irradiance_up[2] = e.b;
     if (!(e.r + e.g + e.b > 0)) throw InputError(o.env.string() + ": the map sends no light onto the table");
-    KioskTable table(ko, board, e);
+    KioskScene scene(ko, board, e);
     const capture::Intrinsics k = detail::true_camera(o).intrinsics;
 
     // --- the path ---
     const firmware::sim::Trajectory scan(guided_camera_trajectory(ko.scan_speed_deg_s));
     KioskPath path;
     path.scan = &scan;
-    path.board = table.board_centre();
+    path.board = scene.board_centre();
     // The stand: 0.55 m in front of the board's centre (on the visitor's side) and 0.35 m up.
     path.stand = path.board + glm::dvec3(0, 0.35, 0.55);
-    path.stand_view = look_at(path.stand, path.board, 0, 0);
+    path.stand_view = look_at(path.stand, path.board, 0);
     path.press_s = on_grid(ko.attract_s);
     path.scan_start_s = on_grid(path.press_s + kPickupS);
     path.scan_end_s = path.scan_start_s + double(scan.end_us()) * 1e-6;
     path.ar_start_s = on_grid(path.scan_end_s + kCarryS);
     path.ar_end_s = path.ar_start_s + ko.ar_s;
     if (ko.dropout_s > 0) {
-        // The look up's length: the shortest whose out-of-view span reaches dropout_s (the span
-        // grows with the length), by bisection; a larger pitch when even 4 s is not enough.
-        path.dropout_start_s = path.ar_start_s + kDropoutAt * ko.ar_s;
-        bool found = false;
-        for (double pitch = kDropoutPitchDeg; pitch <= 90 && !found; pitch += 10) {
-            path.dropout_pitch_rad = pitch * kDeg;
-            const auto span_of = [&](double len) {
-                path.dropout_len_s = len;
-                const auto [a, b] = out_of_view_span(path, k, board, table.world_from_board());
-                return a < 0 ? 0.0 : b - a;
-            };
-            double lo = 0.1, hi = 4.0;
-            if (span_of(hi) < ko.dropout_s) continue;
-            for (int i = 0; i < 30; ++i) {
-                const double mid = 0.5 * (lo + hi);
-                (span_of(mid) < ko.dropout_s ? lo : hi) = mid;
-            }
-            path.dropout_len_s = hi;
-            found = true;
+        // The sleeve crosses the line of sight from the camera to the board's centre at t_mid,
+        // kSleeveDistanceM from the camera, moving to the camera's right; the slower it moves,
+        // the longer it hides the board: its speed by bisection (the hidden span shrinks as the
+        // speed grows) so that the tracker cannot see the board for dropout_s.
+        Sleeve& arm = scene.sleeve;
+        arm.t_mid = path.ar_start_s + kDropoutAt * ko.ar_s;
+        const glm::dvec3 p = path.position(arm.t_mid);
+        const glm::dvec3 f = glm::normalize(path.board - p);
+        arm.normal = -f;
+        arm.across = glm::normalize(glm::cross(f, glm::dvec3(0, 1, 0)));
+        arm.along = glm::cross(arm.across, arm.normal);
+        arm.centre = p + kSleeveDistanceM * f;
+        const auto span_at = [&](double speed) {
+            arm.velocity = speed * arm.across;
+            // Well out of the view (+-35 degrees at kSleeveDistanceM is +-0.1 m) beyond +-0.6 m.
+            arm.active_s = 0.6 / speed;
+            const auto [a, b] = hidden_span(k, board, scene, path, arm.t_mid - 1.0, arm.t_mid + 1.0);
+            return a < 0 ? 0.0 : b - a;
+        };
+        double lo = 0.02, hi = 3.0;
+        if (span_at(lo) < ko.dropout_s) throw InputError("kiosk: the sleeve cannot hide the board for the dropout");
+        for (int i = 0; i < 30; ++i) {
+            const double mid = 0.5 * (lo + hi);
+            (span_at(mid) >= ko.dropout_s ? lo : hi) = mid;
         }
-        if (!found) throw InputError("kiosk: no look up of 4 s takes the board out of view for the dropout");
-        const auto [a, b] = out_of_view_span(path, k, board, table.world_from_board());
+        span_at(lo);
+        const auto [a, b] = hidden_span(k, board, scene, path, arm.t_mid - 1.0, arm.t_mid + 1.0);
         summary.dropout_start_s = a;
         summary.dropout_end_s = b;
+        summary.dropout_start_ns = detail::appliance_time_ns(o, to_us(a));
+        summary.dropout_end_ns = detail::appliance_time_ns(o, to_us(b));
+        summary.sleeve_speed_m_s = lo;
     }
     std::vector<TrajectorySample> samples;
     const std::uint64_t end_us = to_us(path.ar_end_s + 0.5);
@@ -329,16 +382,18 @@ KioskSummary simulate_kiosk_session(const SimulateKioskOptions& ko,
     detail::SessionPlan plan;
     plan.camera = &camera;
     plan.created_by = "glint simulate --kiosk";
-    // truth/env.exr is the map itself when the loader changed nothing (a copy, not a float
-    // re-encoding 13x its size: the shipped session must fit in 15 MB).
-    if (loaded.sanitised.total() == 0 && !loaded.luminance_only) plan.env_file = o.env;
+    // truth/env.exr is a copy of the map's file, not the loaded map saved as float (courtyard:
+    // 0.27 MB against 3.5 MB; the shipped session must fit in 15 MB). load_exr reads the copy to
+    // exactly the map the frames were rendered from: it sanitises (NaN, Inf, negatives) the same
+    // way every time.
+    plan.env_file = o.env;
     const auto position = [&path](double t_s) { return path.position(t_s); };
     detail::SessionSegment attract;
     attract.start_us = 0;
     attract.fps = ko.attract_fps;
     attract.frames = std::max(1, int(std::floor(ko.attract_s * ko.attract_fps - 1e-9)) + 1);
     while (attract.frames > 1 && double(attract.frames - 1) / ko.attract_fps >= path.press_s) --attract.frames;
-    attract.scene = &table;
+    attract.scene = &scene;
     attract.position = position;
     detail::SessionSegment scan_segment;
     scan_segment.start_us = to_us(path.scan_start_s);
@@ -349,7 +404,7 @@ KioskSummary simulate_kiosk_session(const SimulateKioskOptions& ko,
     ar.start_us = to_us(path.ar_start_s);
     ar.fps = ko.ar_fps;
     ar.frames = int(std::floor(ko.ar_s * ko.ar_fps - 1e-9)) + 1;
-    ar.scene = &table;
+    ar.scene = &scene;
     ar.position = position;
     plan.segments = {attract, scan_segment, ar};
 
@@ -381,7 +436,7 @@ KioskSummary simulate_kiosk_session(const SimulateKioskOptions& ko,
             capture::TruthBoardPose p;
             p.index = f.index;
             p.t_ns = f.t_ns;
-            p.camera_from_board = unit_rotation(camera_from_world * table.world_from_board());
+            p.camera_from_board = unit_rotation(camera_from_world * scene.world_from_board());
             p.t_m = camera_from_world * (path.board - path.position(double(f.tc_us) * 1e-6));
             truth += capture::truth_board_csv_line(p) + "\n";
         }
@@ -395,7 +450,7 @@ KioskSummary simulate_kiosk_session(const SimulateKioskOptions& ko,
                        {"ar", first_ar_ns, last_ar_ns + ar_frame_ns}};
         info.board_json = board_json(spec);
         info.table_height_m = ko.table_height_m;
-        info.world_from_board = table.world_from_board();
+        info.world_from_board = scene.world_from_board();
         info.world_board_t = path.board;
         write_text(partial / "kiosk.json", capture::kiosk_json(info));
     };

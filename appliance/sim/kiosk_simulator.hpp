@@ -6,9 +6,10 @@
 //      (session_simulator.hpp: 35 deg/s, 3 fps, the exposure controller's brackets, 1 deg/min of
 //      heading drift), simulated as if taken away from the table (the frames see the map alone,
 //      so truth/env.exr stays the truth of the capture);
-//   3. AR: the visitor walks slowly round the table looking at the board (an orbit 0.45-0.85 m
-//      from it with a change of height), and once looks up so that the board leaves the view
-//      for `dropout_s` (what the sensor bridge must carry).
+//   3. AR: the visitor walks slowly round the table looking at the board (an orbit 0.45-0.82 m
+//      from it with a change of height), and once another visitor's arm passes in front of the
+//      device and leaves the tracker too few markers for `dropout_s` (what the sensor bridge must
+//      carry).
 // The board (tracking's default, drawn by tracking::draw_board) lies on a finite table; both are
 // diffuse and lit by the map's irradiance on an upward normal, and are seen through the same
 // camera model as every other frame. Between the phases the device is carried (to the start of
@@ -47,7 +48,9 @@ struct SimulateKioskOptions {
     double scan_speed_deg_s = 35, scan_fps = 3;  // the capture benchmark's scan
     double heading_drift_deg_per_min = 1;
     double ar_s = 12, ar_fps = 12;
-    double dropout_s = 0.3;  // the board wholly out of view in the AR phase; 0: no dropout
+    // In the AR phase, the time an arm passing in front leaves fewer than 3 markers wholly in
+    // view and uncovered (the tracker needs 3); 0: no dropout.
+    double dropout_s = 0.3;
 
     // The table: its top at table_height_m above the floor (the world's origin, +Y up), centred
     // on the world's Y axis, table_width_m along world X, table_depth_m along Z; the board lies
@@ -60,8 +63,11 @@ struct KioskSummary {
     SimulateSummary session;
     int attract_frames = 0, scan_frames = 0, ar_frames = 0;  // scan_frames with the brackets
     double irradiance_up[3] = {0, 0, 0};  // the map's irradiance on an upward normal (R, G, B)
-    // Camera time (from the first frame) during which no point of the board is in view.
+    // Camera time (from the first frame) during which fewer than 3 markers are wholly in view
+    // and uncovered, and the speed of the arm that covers them.
     double dropout_start_s = 0, dropout_end_s = 0;
+    std::int64_t dropout_start_ns = 0, dropout_end_ns = 0;  // the same on the appliance clock
+    double sleeve_speed_m_s = 0;
 };
 
 // Writes the session (into OUT.partial, renamed to OUT at the end). progress(done, total) per

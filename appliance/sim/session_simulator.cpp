@@ -303,7 +303,8 @@ SimulateSummary write_session(const SimulateOptions& o, const HdrImage& env, con
             f = cam.render(q, t_ns, threads);
         } else if (segment->scene) {
             const double t_s = double(tc_us) * 1e-6;
-            const LocalView local{segment->scene, [segment, t_s](double offset_s) { return segment->position(t_s + offset_s); }};
+            const LocalView local{segment->scene,
+                                  [segment, t_s](double offset_s) { return segment->position(t_s + offset_s); }, t_s};
             f = cam.render(camera_path(camera, tc_us), local, t_ns, threads);
         } else {
             f = cam.render(camera_path(camera, tc_us), t_ns, threads);

@@ -26,7 +26,7 @@ struct SessionSegment {
     // The capture pipeline's exposure controller decides brackets (SimulateOptions::hdr_bracket);
     // at the segment's end a manual exposure still in force returns to auto-exposure.
     bool hdr_bracket = false;
-    const LocalScene* scene = nullptr;  // null: the map alone
+    const LocalScene* scene = nullptr;  // null: the map alone; its clock is camera time, seconds
     // The camera's position (world frame, metres) at camera time t_s; needed with a scene.
     std::function<glm::dvec3(double t_s)> position;
 };

@@ -251,24 +251,32 @@ TEST_F(KioskSimulation, PaperIsAsBrightAsTheMapsIrradianceMakesIt) {
 }
 
 TEST_F(KioskSimulation, TheTrackerFindsTheBoardAtTheTruePose) {
-    const sim_test::KioskTracking m = sim_test::measure_kiosk_tracking(*session_);
+    const sim_test::KioskTracking m =
+        sim_test::measure_kiosk_tracking(*session_, summary_->dropout_start_ns, summary_->dropout_end_ns);
     EXPECT_EQ(m.ar_frames, 30);
     std::cout << "AR frames " << m.ar_frames << ", in view " << m.in_view << ", detected " << m.detected << ", tracked "
               << m.tracked << ", rotation error median " << sim_test::percentile(m.rotation_error_deg, 0.5) << " max "
               << sim_test::percentile(m.rotation_error_deg, 1.0) << " deg, translation median "
-              << sim_test::percentile(m.translation_error, 0.5) << "\n";
-    // The look up: the board wholly out of view for dropout_s (0.3 s: 3 frames at 10 fps, give
-    // or take one), and nothing is found there.
+              << sim_test::percentile(m.translation_error, 0.5) << "; turning slowly: in view " << m.slow_in_view
+              << ", detected " << m.slow_detected << ", rotation error median "
+              << sim_test::percentile(m.slow_rotation_error_deg, 0.5) << " p95 "
+              << sim_test::percentile(m.slow_rotation_error_deg, 0.95) << " max "
+              << sim_test::percentile(m.slow_rotation_error_deg, 1.0) << "\n";
+    // The arm: the board wholly hidden for dropout_s (0.3 s: 3 frames at 10 fps, 4 with the
+    // exposures reaching into it), and nothing is found there.
     EXPECT_NEAR(summary_->dropout_end_s - summary_->dropout_start_s, options_->dropout_s, 0.01);
-    EXPECT_GE(m.ar_frames - m.in_view, 2);
-    EXPECT_LE(m.ar_frames - m.in_view, 8);
+    EXPECT_GE(m.ar_frames - m.in_view, 3);
+    EXPECT_LE(m.ar_frames - m.in_view, 5);
     EXPECT_EQ(m.false_detections, 0);
-    // Measured on this session (320x180, JPEG 90): 25 of 25 frames with 3 whole markers in
-    // view found; rotation error median 0.16, max 0.5 degree. The bounds leave room for
-    // another seed: the detection rate measured on the shipped 144-frame AR phase is 97.9 %,
-    // p95 0.95 degree (docs/capture.md "Kiosk sessions").
-    EXPECT_GE(m.detected, int(0.9 * m.in_view));
-    EXPECT_GE(m.tracked, int(0.9 * m.in_view));
+    // Measured on this session with seeds 1, 2 and 3 (320x180, JPEG 90): of the 26 frames with 3
+    // whole markers in view and not hidden, 24-25 found by the detector and 24 by the tracker
+    // (the misses: frames half covered by the arm); rotation error median 0.17-0.20, max
+    // 0.75-1.54 degree; translation median 0.26 % of the distance. At 320x180 a pixel spans
+    // 0.22 degree, and an edge-line corner is good to about a tenth of it: the bounds are about
+    // twice what was measured, and a wrong truth (a frame convention, a pose a frame off: the camera
+    // turns about 0.6 degree a frame) fails them.
+    EXPECT_GE(m.detected, m.in_view - 3);
+    EXPECT_GE(m.tracked, m.in_view - 3);
     EXPECT_LT(sim_test::percentile(m.rotation_error_deg, 0.5), 0.4);
     EXPECT_LT(sim_test::percentile(m.rotation_error_deg, 1.0), 3.0);
     EXPECT_LT(sim_test::percentile(m.translation_error, 0.5), 0.01);
