@@ -113,7 +113,7 @@ check("keeping the running" in err, "the second SIGHUP reported the broken file 
 bad = os.path.join(work, "bad.toml")
 write_config(bad, extra="[capture]\nmap_widht = 512\n")
 r = subprocess.run([glint, "run", "--config", bad], capture_output=True, text=True, timeout=30)
-check(r.returncode == 1, f"an unknown key: exit 1 (got {r.returncode})")
+check(r.returncode == 2, f"an unknown key: exit 2, bad input (got {r.returncode})")
 check("bad.toml" in r.stderr and "capture.map_widht" in r.stderr, "the error names the file and the key: " + r.stderr.strip()[:200])
 
 sys.exit(1 if failures else 0)
