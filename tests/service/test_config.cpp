@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <random>
 #include <cctype>
 #include <set>
 #include <sstream>
@@ -497,4 +498,37 @@ TEST(Config, CameraKindsAreThoseTheFactoriesRegister) {
 TEST(Config, KeysKnowTheirSections) {
     EXPECT_EQ(config_sections(), (std::vector<std::string>{"display", "camera", "sensor", "gpio", "frame", "capture",
                                                             "convolution", "ar", "timeouts", "maintenance", "state"}));
+}
+
+// Damaged files (a card written half, a slip in an editor): every one either parses or is a
+// ConfigError; nothing else escapes, nothing crashes (run under the sanitizers in issue 18).
+TEST(Config, DamagedFilesAreConfigErrorsOrParse) {
+    const std::string example = read_text(kExample);
+    std::mt19937 rng(17);
+    const std::string alphabet = "[]=\"'#.,{}\n 0123456789-+eEinfatrux_\\";
+    int parsed = 0, rejected = 0;
+    for (int round = 0; round < 3000; ++round) {
+        std::string text = example;
+        const int edits = 1 + static_cast<int>(rng() % 4);
+        for (int e = 0; e < edits && !text.empty(); ++e) {
+            const std::size_t at = rng() % text.size();
+            switch (rng() % 4) {
+                case 0: text[at] = alphabet[rng() % alphabet.size()]; break;        // replace
+                case 1: text.erase(at, 1 + rng() % 8); break;                       // delete
+                case 2: text.insert(at, 1, alphabet[rng() % alphabet.size()]); break;  // insert
+                case 3: text.resize(at); break;                                     // cut short
+            }
+        }
+        try {
+            parse_config(text, "damaged.toml");
+            ++parsed;
+        } catch (const ConfigError& e) {
+            const std::string what = e.what();
+            EXPECT_EQ(what.rfind("damaged.toml", 0), 0u) << what;
+            ++rejected;
+        }
+    }
+    // Both outcomes occur, so the edits neither always break the file nor never do.
+    EXPECT_GT(parsed, 50);
+    EXPECT_GT(rejected, 500);
 }
