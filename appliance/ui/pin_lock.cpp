@@ -90,7 +90,8 @@ std::optional<std::string> pin_hash_problem(const std::string& hash) {
     switch (crypt_checksalt(hash.c_str())) {
         case CRYPT_SALT_OK: break;
         case CRYPT_SALT_METHOD_LEGACY:
-            return "a legacy crypt(3) method (DES, MD5, ...): make a yescrypt hash with the maintenance menu";
+            return "a legacy crypt(3) method (DES, MD5, ...): make a yescrypt or SHA-512 one (mkpasswd -m yescrypt, "
+                   "openssl passwd -6)";
         case CRYPT_SALT_METHOD_DISABLED: return "its crypt(3) method is disabled in this libxcrypt";
         case CRYPT_SALT_TOO_CHEAP: return "its crypt(3) cost is too low";
         default: return std::string(kNotAHash);

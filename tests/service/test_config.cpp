@@ -343,8 +343,8 @@ TEST(Config, PinHashMustBeAModernCompleteCryptHash) {
     EXPECT_EQ(error_of("[maintenance]\npin_hash = \"1234\"\n"),
               "test.toml:2: key 'maintenance.pin_hash': not a crypt(3) hash (a yescrypt hash starts with \"$y$\")");
     EXPECT_EQ(error_of("[maintenance]\npin_hash = \"$1$saltsalt$f7LBW3HdNCxweXy3QoJ.A0\"\n"),
-              "test.toml:2: key 'maintenance.pin_hash': a legacy crypt(3) method (DES, MD5, ...): make a yescrypt hash "
-              "with the maintenance menu");
+              "test.toml:2: key 'maintenance.pin_hash': a legacy crypt(3) method (DES, MD5, ...): make a yescrypt or "
+              "SHA-512 one (mkpasswd -m yescrypt, openssl passwd -6)");
     // The setting alone, and a hash cut short by an editor.
     EXPECT_EQ(error_of("[maintenance]\npin_hash = \"$y$j9T$F5Jx5fExrKuPp53xLKQ..1\"\n"),
               "test.toml:2: key 'maintenance.pin_hash': an incomplete or malformed crypt(3) hash");

@@ -81,6 +81,17 @@ TEST(PinHash, VerifiesAHashMadeElsewhere) {
     EXPECT_FALSE(verify_pin("12345", kHash1234));
 }
 
+// A technician without the maintenance menu makes a hash with `openssl passwd -6` (SHA-512
+// crypt, in every Debian): it is accepted and verifies. This one is
+// `openssl passwd -6 -salt glintsalt 2468`.
+TEST(PinHash, AcceptsAnOpensslSha512Hash) {
+    const std::string sha512 =
+        "$6$glintsalt$bVKSipYXNX9hhWBpXw1i5j8lgHCDsSrZ0M2m4dJ9e8HBBL62kdO13DTR/HfM3te4h3HxZpiOFr9G.YkbyLvv40";
+    EXPECT_EQ(pin_hash_problem(sha512), std::nullopt);
+    EXPECT_TRUE(verify_pin("2468", sha512));
+    EXPECT_FALSE(verify_pin("2469", sha512));
+}
+
 TEST(PinHash, MalformedHashesMatchNothing) {
     EXPECT_FALSE(verify_pin("1234", ""));
     EXPECT_FALSE(verify_pin("1234", "1234"));
