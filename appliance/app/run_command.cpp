@@ -209,7 +209,7 @@ int run_appliance(const RunArgs& a) {
         notifier.reloading();
         const ui::ReloadReport report = reloader.reload();
         std::fprintf(stderr, "glint: %s\n", report.summary().c_str());
-        notifier.status(report.summary());
+        notifier.ready(report.summary());  // the reload is over (systemd waits for READY=1 after RELOADING=1)
         if (!report.ok) return std::nullopt;
         return reloader.current();
     };

@@ -373,12 +373,12 @@ const std::vector<Key>& keys() {
         // [convolution]: read when PROCESSING plans the maps.
         t.push_back(key("convolution", &C::convolution, "tolerance", &ConvolutionSection::tolerance, kLive,
                         real_range(0, 1, true)));
-        // [ar]: the model, its size and the board are loaded or measured once; the materials
-        // are only the list the button cycles through.
+        // [ar]: the model, its size and the board are loaded or measured once; the materials too
+        // (their lobes are the maps PROCESSING makes; the kiosk does not rebuild them on SIGHUP).
         t.push_back(key("ar", &C::ar, "model", &ArSection::model, kRestart, std::function<Check(const std::string&)>(model)));
         t.push_back(key("ar", &C::ar, "object_radius_m", &ArSection::object_radius_m, kRestart, real_range(0, 10, true)));
         t.push_back(key("ar", &C::ar, "board_width_mm", &ArSection::board_width_mm, kRestart, real_range(0, 10000, false)));
-        t.push_back(key("ar", &C::ar, "materials", &ArSection::materials, kLive,
+        t.push_back(key("ar", &C::ar, "materials", &ArSection::materials, kRestart,
                         std::function<Check(const std::vector<std::string>&)>(materials)));
         // [timeouts]: read each time a state is entered. A day is more than any exhibit state.
         t.push_back(key("timeouts", &C::timeouts, "attract_s", &TimeoutsSection::attract_s, kLive, real_range(0, 86400, false)));
@@ -386,12 +386,13 @@ const std::vector<Key>& keys() {
         t.push_back(key("timeouts", &C::timeouts, "processing_s", &TimeoutsSection::processing_s, kLive, real_range(0, 86400, true)));
         t.push_back(key("timeouts", &C::timeouts, "ar_idle_s", &TimeoutsSection::ar_idle_s, kLive, real_range(0, 86400, true)));
         t.push_back(key("timeouts", &C::timeouts, "message_s", &TimeoutsSection::message_s, kLive, real_range(0, 86400, true)));
-        // [maintenance]: a new PIN takes effect on SIGHUP (PinLock::set_policy keeps the count).
-        t.push_back(key("maintenance", &C::maintenance, "pin_hash", &MaintenanceSection::pin_hash, kLive,
+        // [maintenance]: read when the menu's overlay starts (the kiosk does not pass a reload on
+        // to PinLock::set_policy yet): a new PIN needs a restart.
+        t.push_back(key("maintenance", &C::maintenance, "pin_hash", &MaintenanceSection::pin_hash, kRestart,
                         std::function<Check(const std::string&)>(pin_hash)));
-        t.push_back(key("maintenance", &C::maintenance, "max_attempts", &MaintenanceSection::max_attempts, kLive, int_range(1, 100)));
-        t.push_back(key("maintenance", &C::maintenance, "lockout_s", &MaintenanceSection::lockout_s, kLive, real_range(0, 86400, true)));
-        t.push_back(key("maintenance", &C::maintenance, "chord", &MaintenanceSection::chord, kLive,
+        t.push_back(key("maintenance", &C::maintenance, "max_attempts", &MaintenanceSection::max_attempts, kRestart, int_range(1, 100)));
+        t.push_back(key("maintenance", &C::maintenance, "lockout_s", &MaintenanceSection::lockout_s, kRestart, real_range(0, 86400, true)));
+        t.push_back(key("maintenance", &C::maintenance, "chord", &MaintenanceSection::chord, kRestart,
                         std::function<Check(const std::string&)>(chord)));
         // [state]: files are placed there from the start; the unit's StateDirectory= makes it.
         t.push_back(key("state", &C::state, "dir", &StateSection::dir, kRestart, std::function<Check(const std::string&)>(absolute_path)));
