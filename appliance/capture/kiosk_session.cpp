@@ -120,9 +120,11 @@ std::string kiosk_json(const KioskSessionInfo& info) {
     if (!board.is_object()) throw InputError("kiosk.json: key 'board': must be a JSON object");
     j["board"] = board;
     j["table_height_m"] = info.table_height_m;
+    // + 0.0 turns a negative zero (from a rotation's arithmetic) into "0.0" rather than "-0.0".
     const glm::dquat& q = info.world_from_board;
-    j["world_from_board"] = {{"w", q.w}, {"x", q.x}, {"y", q.y}, {"z", q.z},
-                             {"t", {info.world_board_t.x, info.world_board_t.y, info.world_board_t.z}}};
+    const glm::dvec3& t = info.world_board_t;
+    j["world_from_board"] = {{"w", q.w + 0.0}, {"x", q.x + 0.0}, {"y", q.y + 0.0}, {"z", q.z + 0.0},
+                             {"t", {t.x + 0.0, t.y + 0.0, t.z + 0.0}}};
     return j.dump(2) + "\n";
 }
 
