@@ -36,6 +36,7 @@ void FrameScheduler::begin_frame(KioskState state) {
     state_ = state;
     start_ = last_ = Clock::now();
     excluded_ms_ = 0;
+    phase_now_ = {};
 }
 
 void FrameScheduler::exclude_since_mark() {
@@ -46,7 +47,9 @@ void FrameScheduler::exclude_since_mark() {
 
 void FrameScheduler::mark(FramePhase phase) {
     const Clock::time_point now = Clock::now();
-    phase_sum_[int(phase)] += std::chrono::duration<double, std::milli>(now - last_).count();
+    const double ms = std::chrono::duration<double, std::milli>(now - last_).count();
+    phase_sum_[int(phase)] += ms;
+    phase_now_[int(phase)] += ms;
     last_ = now;
 }
 
@@ -62,6 +65,7 @@ double FrameScheduler::end_frame() {
     by_state_[state_].ms.push_back(ms);
     ++frames_;
     if (ms > hard_cap_ms_) ++over_cap_;
+    records_.push_back({state_, ms, phase_now_});
     return ms;
 }
 

@@ -51,13 +51,21 @@ public:
     const std::map<KioskState, FrameTimes>& by_state() const { return by_state_; }
     // Mean ms a frame spent in each phase, over every frame.
     std::array<double, int(FramePhase::Count)> phase_means() const;
+    // Every frame: its state, its time and each phase's (for `glint replay --frame-log`).
+    struct FrameRecord {
+        KioskState state;
+        double ms;
+        std::array<double, int(FramePhase::Count)> phase_ms;
+    };
+    const std::vector<FrameRecord>& records() const { return records_; }
 
 private:
     double budget_ms_, hard_cap_ms_;
     KioskState state_ = KioskState::Attract;
     Clock::time_point start_, last_;
     double excluded_ms_ = 0;
-    std::array<double, int(FramePhase::Count)> phase_sum_{};
+    std::array<double, int(FramePhase::Count)> phase_sum_{}, phase_now_{};
+    std::vector<FrameRecord> records_;
     FrameTimes all_;
     std::map<KioskState, FrameTimes> by_state_;
     int frames_ = 0, over_cap_ = 0;

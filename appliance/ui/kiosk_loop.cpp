@@ -554,6 +554,23 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
     if (!o.frames_dir.empty())
         summary["frames_written"] = std::distance(fs::directory_iterator(o.frames_dir), fs::directory_iterator{});
     summary["wall_s"] = seconds_since(process_start);
+    if (!o.frame_log.empty()) {
+        std::string csv = "frame,state,ms";
+        for (int k = 0; k < int(FramePhase::Count); ++k) csv += std::string(",") + frame_phase_name(FramePhase(k)) + "_ms";
+        csv += "\n";
+        long long n = 0;
+        for (const FrameScheduler::FrameRecord& r : scheduler.records()) {
+            char line[64];
+            std::snprintf(line, sizeof line, "%lld,%s,%.3f", n++, kiosk_state_name(r.state), r.ms);
+            csv += line;
+            for (double ms : r.phase_ms) {
+                std::snprintf(line, sizeof line, ",%.3f", ms);
+                csv += line;
+            }
+            csv += "\n";
+        }
+        write_text_atomically(o.frame_log, csv);
+    }
     KioskResult result;
     result.summary = std::move(summary);
     result.capture = std::move(capture_summary);

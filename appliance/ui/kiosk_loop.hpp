@@ -26,6 +26,7 @@ struct KioskOptions {
     std::filesystem::path maps_dir;    // where each visitor's env.exr (and coverage) is written
     std::filesystem::path frames_dir;  // PNG frames at each state change and every snapshot_every_s ("" = none)
     double snapshot_every_s = 5;
+    std::filesystem::path frame_log;   // CSV, one line a frame: t_s,state,ms and each phase's ms ("" = none)
     int threads = 0;                   // capture and convolution workers (0: the cores but the frame thread's)
     // Draws over the frame; gets this frame's keys (window display) and returns true while it
     // takes the keyboard itself (the maintenance menu is open: keys are not the visitor's button).

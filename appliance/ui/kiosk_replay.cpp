@@ -110,6 +110,7 @@ json run_replay(const ReplayOptions& o, const std::function<void(const std::stri
     KioskOptions k = o.kiosk;
     k.maps_dir = o.out;
     k.frames_dir = o.out / "frames";
+    k.frame_log = o.out / "frames.csv";
     if (o.kiosk.progress) {
         const double length = source.length_s();
         k.progress = [&, length](double t_s, double) { o.kiosk.progress(std::min(t_s, length), length); };
