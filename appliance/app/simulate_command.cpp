@@ -93,7 +93,7 @@ Command add_simulate_command(CLI::App& app) {
                   "attract looking at the marker board on the table, a button press, the guided scan as the "
                   "capture benchmark takes it (35 deg/s, 3 fps, --hdr-bracket, 1 deg/min of heading drift), then "
                   "12 s of AR at 12 fps walking round the board, hidden once for 0.3 s by an arm passing in front; writes events.csv, "
-                  "kiosk.json and truth/board.csv besides the session's files. With --env, --out, --seed, "
+                  "kiosk.json and truth/board.csv besides the session's files. With --env, --out, --seed, --no-camera-noise, "
                   "--threads, --force, and for measurements --size (default 320x180), --frame-format, "
                   "--jpeg-quality");
     cmd->add_option("--frame-format", a->k.frame_format, "With --kiosk: frames as jpg or png")

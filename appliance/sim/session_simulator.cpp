@@ -345,7 +345,9 @@ SimulateSummary write_session(const SimulateOptions& o, const HdrImage& env, con
             const glm::dquat q =
                 o.bracket > 0 && o.trajectory == "guided" ? camera_look(0, 0) : world_from_camera_at(camera, tc);
             if (o.bracket > 0) cam.set_exposure(o.bracket_first_exposure_s * std::pow(2.0, k), 1.0);
-            const std::int64_t t_ns = frame_t_ns(tc);
+            // A calibration bracket looks at one still view (tc = 0) but its frames are still taken
+            // one after another at the frame rate.
+            const std::int64_t t_ns = frame_t_ns(frame_tc(*segment, k));
             take(q, tc, t_ns);
             // While the controller brackets (waits for a requested exposure or takes the next), the
             // camera takes frames as fast as it can: one readout time apart (a rolling shutter cannot

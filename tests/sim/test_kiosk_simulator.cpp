@@ -245,7 +245,9 @@ TEST_F(KioskSimulation, PaperIsAsBrightAsTheMapsIrradianceMakesIt) {
             ++n;
         }
     const double expected = 0.85 * e.g / kPi;
-    // Shot and read noise over 9 pixels, the JPEG's rounding and 8-bit bins: a few percent.
+    // Shot and read noise over 9 pixels, the JPEG's rounding and 8-bit bins, and the margin only
+    // 3-4 pixels wide there (the JPEG's ringing and the blur of its edges reach in): measured
+    // -3.5 % to +0.3 % with seeds 1 to 4.
     EXPECT_NEAR(sum / n, expected, 0.06 * expected);
     std::cout << "paper: " << sum / n << " for 0.85 E / pi = " << expected << "\n";
 }
@@ -268,13 +270,13 @@ TEST_F(KioskSimulation, TheTrackerFindsTheBoardAtTheTruePose) {
     EXPECT_GE(m.ar_frames - m.in_view, 3);
     EXPECT_LE(m.ar_frames - m.in_view, 5);
     EXPECT_EQ(m.false_detections, 0);
-    // Measured on this session with seeds 1, 2 and 3 (320x180, JPEG 90): of the 26 frames with 3
-    // whole markers in view and not hidden, 24-25 found by the detector and 24 by the tracker
-    // (the misses: frames half covered by the arm); rotation error median 0.17-0.20, max
-    // 0.75-1.54 degree; translation median 0.26 % of the distance. At 320x180 a pixel spans
-    // 0.22 degree, and an edge-line corner is good to about a tenth of it: the bounds are about
-    // twice what was measured, and a wrong truth (a frame convention, a pose a frame off: the camera
-    // turns about 0.6 degree a frame) fails them.
+    // Measured on this session with seeds 1 to 4 (320x180, JPEG 90): all 26 frames with 3 whole
+    // markers in view and not covered found by the detector and the tracker; rotation error
+    // median 0.15-0.18, max 0.74-0.78 degree; translation median 0.26-0.28 % of the distance.
+    // At 320x180 a pixel spans 0.22 degree, and an edge-line corner is good to about a tenth of
+    // it: the bounds leave room for a seed's bad frames (3 missed, twice the median error), and
+    // a wrong truth (a frame convention, a pose a frame off: the camera turns about 0.6 degree
+    // a frame) fails them.
     EXPECT_GE(m.detected, m.in_view - 3);
     EXPECT_GE(m.tracked, m.in_view - 3);
     EXPECT_LT(sim_test::percentile(m.rotation_error_deg, 0.5), 0.4);
