@@ -263,6 +263,7 @@ std::uint64_t to_us(double t_s) { return std::uint64_t(std::llround(t_s * 1e6));
 double on_grid(double t_s) { return double(to_us(t_s) / kStepUs * kStepUs) * 1e-6; }
 
 void check(const SimulateKioskOptions& o) {
+    if (o.material_presses < 0 || o.material_presses > 20) throw InputError("kiosk session: material_presses must be 0 to 20");
     const auto in = [](double v, double lo, double hi) { return v >= lo && v <= hi; };
     if (!in(o.attract_s, 0.5, 600) || !in(o.attract_fps, 0.5, 60)) throw InputError("kiosk: attract must be 0.5..600 s at 0.5..60 fps");
     if (!in(o.scan_speed_deg_s, 5, 180)) throw InputError("kiosk: the scan's speed must be 5..180 deg/s");
@@ -415,6 +416,12 @@ KioskSummary simulate_kiosk_session(const SimulateKioskOptions& ko,
         std::string events = capture::session_events_csv_header() + "\n";
         events += capture::session_events_csv_line({t_ns(path.press_s), "button", "press"}) + "\n";
         events += capture::session_events_csv_line({t_ns(path.press_s + kPressS), "button", "release"}) + "\n";
+        // The visitor tries the materials while looking at the object.
+        for (int press = 0; press < ko.material_presses; ++press) {
+            const double t = path.ar_start_s + (press + 1) * ko.ar_s / (ko.material_presses + 1);
+            events += capture::session_events_csv_line({t_ns(t), "button", "press"}) + "\n";
+            events += capture::session_events_csv_line({t_ns(t + kPressS), "button", "release"}) + "\n";
+        }
         write_text(partial / "events.csv", events);
 
         // The true camera_from_board of every AR frame, in OpenCV's camera frame (a half turn

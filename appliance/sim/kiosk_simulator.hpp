@@ -51,6 +51,9 @@ struct SimulateKioskOptions {
     // In the AR phase, the time an arm passing in front leaves fewer than 3 markers wholly in
     // view and uncovered (the tracker needs 3); 0: no dropout.
     double dropout_s = 0.3;
+    // Presses of the button in the AR phase (the visitor trying the materials), evenly spread
+    // over it: at (k + 1) / (n + 1) of the phase, each released after 80 ms.
+    int material_presses = 2;
 
     // The table: its top at table_height_m above the floor (the world's origin, +Y up), centred
     // on the world's Y axis, table_width_m along world X, table_depth_m along Z; the board lies

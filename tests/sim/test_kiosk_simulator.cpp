@@ -144,7 +144,14 @@ TEST_F(KioskSimulation, PhasesAndEventsAreInOrderAndHoldTheFrames) {
     // The press starts the scan: it ends attract and begins scan; the release follows before the
     // scan's first frame.
     const std::vector<capture::SessionEvent> events = capture::load_session_events(s);
-    ASSERT_EQ(events.size(), 2u);
+    // The press and release that start the scan, then a press and release per material tried
+    // in the AR phase, inside it.
+    ASSERT_EQ(events.size(), 2u + 2u * 2u);
+    for (std::size_t k = 2; k < events.size(); ++k) {
+        EXPECT_EQ(events[k].event, k % 2 == 0 ? "press" : "release");
+        EXPECT_GT(events[k].t_ns, ar.start_ns);
+        EXPECT_LT(events[k].t_ns, ar.end_ns);
+    }
     EXPECT_EQ(events[0].source, "button");
     EXPECT_EQ(events[0].event, "press");
     EXPECT_EQ(events[1].event, "release");
