@@ -5,7 +5,7 @@
 //   SESSION/session.json     {"format": "glint-session", "version": 1, ...}
 //   SESSION/calibration.json the camera calibration the appliance has on file (calibration_io.hpp)
 //   SESSION/frames.csv       index,t_ns,exposure_s,analogue_gain,digital_gain,file
-//   SESSION/frames/*.png     8-bit RGB frames (lossless)
+//   SESSION/frames/*         8-bit RGB frames: PNG (lossless), or JPEG (kiosk sessions, recordings)
 //   SESSION/sensors.glrec    the sensor board's byte stream (firmware_bridge/recording/FORMAT.md)
 //   SESSION/truth/           simulated sessions only: env.exr, camera.csv (index,t_ns,w,x,y,z:
 //                            true world_from_camera per frame), calibration.json (the true one)
@@ -50,7 +50,7 @@ struct Session {
 // Reads session.json, calibration.json and frames.csv. Throws InputError naming the file (and
 // line or key) for anything missing or malformed; frames must have increasing times.
 Session open_session(const std::filesystem::path& dir);
-// Loads one frame's image (PNG); throws InputError naming the file.
+// Loads one frame's image (PNG or JPEG); throws InputError naming the file.
 CameraFrame load_frame(const Session& session, const FrameRecord& record);
 // truth/camera.csv and truth/env.exr of a simulated session.
 std::vector<TruthPose> load_truth_poses(const Session& session);
