@@ -1,0 +1,59 @@
+#!/usr/bin/env bash
+# The kiosk's figures (issue 17's targets) from one `glint replay` of the shipped session, written
+# as tests/bench/results/kiosk.md: states, frame time per state against the budget, the scan's
+# end to the lit object, start-up, the map's and the irradiance's errors, tracking.
+# usage: tests/bench/run_kiosk_bench.sh [BUILD_DIR] [OUT_MD]
+set -euo pipefail
+cd "$(dirname "$0")/../.."
+build=${1:-build}
+out_md=${2:-tests/bench/results/kiosk.md}
+work=$(mktemp -d)
+trap 'rm -rf "$work"' EXIT
+load_before=$(cut -d' ' -f1-3 /proc/loadavg)
+"$build/appliance/app/glint" replay data/sessions/kiosk --out "$work/replay" --snapshot-every 0 > "$work/log" 2>&1
+load_after=$(cut -d' ' -f1-3 /proc/loadavg)
+python3 - "$work/replay/summary.json" "$out_md" "$load_before" "$load_after" <<'PY'
+import json, sys, datetime, platform
+s = json.load(open(sys.argv[1]))
+out, before, after = sys.argv[2], sys.argv[3], sys.argv[4]
+cpu = next((l.split(":", 1)[1].strip() for l in open("/proc/cpuinfo") if l.startswith("model name")), platform.machine())
+f = s["frame_ms"]
+budget = f["budget"]
+lines = [
+    "# Kiosk figures (issue 17)",
+    "",
+    f"Command: `tests/bench/run_kiosk_bench.sh` (`glint replay data/sessions/kiosk --snapshot-every 0`), "
+    f"date {datetime.datetime.utcnow().strftime('%Y-%m-%dT%H:%MZ')}, machine: {cpu}, 2 cores, Mesa llvmpipe (headless "
+    f"1280x720), load average before {before}, after {after}. One run: quote ratios from it, not across runs.",
+    "",
+    "| state | entered at (s) | frames | median ms | p99 ms | max ms | p99 / budget |",
+    "|---|---|---|---|---|---|---|",
+]
+entered = {x["name"]: x["t_s"] for x in s["states"]}
+for name in ["ATTRACT", "CAPTURE", "PROCESSING", "AR"]:
+    t = f["by_state"].get(name)
+    if not t:
+        continue
+    lines.append(f"| {name} | {entered.get(name, float('nan')):.2f} | {t['frames']} | {t['median']:.1f} | {t['p99']:.1f} | "
+                 f"{t['max']:.1f} | {t['p99'] / budget:.2f} |")
+lines += [
+    "",
+    f"Budget {budget:.1f} ms, hard cap {f['hard_cap']:.0f} ms: {f['over_hard_cap']} frames over it. Mean ms a frame per phase: "
+    + ", ".join(f"{k} {v:.2f}" for k, v in f["phase_mean"].items()) + ".",
+    "",
+    "| figure | value | target |",
+    "|---|---|---|",
+    f"| process start to the first frame on screen | {s['startup_to_first_frame_s']:.2f} s | <= 1.5 s |",
+    f"| the scan's last frame to the lit object on screen (coarse maps) | {s['scan_end_to_lit_s']:.2f} s | <= 2 s |",
+    f"| ... to the final maps (1 %, GPU engine in the frames' leftover time) | {s['scan_end_to_final_maps_s']:.2f} s | |",
+    f"| the capture's last frame to the adjusted map | {s['capture']['last_frame_to_map_s']:.2f} s | |",
+    f"| coverage | {s['coverage']:.3f} | |",
+    f"| the captured map against the truth (weighted relative RMS, covered texels) | {s['env_error']:.4f} | |",
+    f"| irradiance against the truth's (weighted relative RMS) | {100 * s['irradiance_error']:.2f} % | <= 5 % |",
+    f"| board detected in the AR phase | {100 * s['tracking_detection_rate']:.1f} % of {s['tracking_frames']} frames | |",
+    f"| tracking rotation error, median / max | {s['tracking_rotation_error_deg']['median']:.3f} / {s['tracking_rotation_error_deg']['max']:.3f} deg | |",
+    f"| wall time of the replay | {s['wall_s']:.0f} s | |",
+]
+open(out, "w").write("\n".join(lines) + "\n")
+print("\n".join(lines))
+PY
