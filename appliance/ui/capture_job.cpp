@@ -61,6 +61,10 @@ std::vector<std::uint8_t> minimap_of(const std::vector<std::uint32_t>& samples, 
 }
 }  // namespace
 
+namespace {
+struct CaptureCancelled {};  // thrown through the pipeline from its progress callback
+}  // namespace
+
 CaptureJob::CaptureJob(capture::CaptureOptions options) : options_(std::move(options)) {
     options_.on_frame = [this](const capture::GuidedStep& step, const glm::dquat& q, const std::vector<std::uint32_t>& samples) {
         CaptureLiveStatus s;
@@ -77,6 +81,8 @@ CaptureJob::CaptureJob(capture::CaptureOptions options) : options_(std::move(opt
                 capture::run_capture(options_, feed_, nullptr, [this](long long d, long long t) { on_progress(d, t); });
             std::lock_guard lock(mutex_);
             summary_ = std::move(s);
+        } catch (const CaptureCancelled&) {
+            // Nobody waits for this map any more.
         } catch (...) {
             std::lock_guard lock(mutex_);
             error_ = std::current_exception();
@@ -91,11 +97,13 @@ CaptureJob::CaptureJob(capture::CaptureOptions options) : options_(std::move(opt
 }
 
 CaptureJob::~CaptureJob() {
+    cancelled_ = true;
     feed_.close();
     if (worker_.joinable()) worker_.join();
 }
 
 void CaptureJob::on_progress(long long done, long long) {
+    if (cancelled_) throw CaptureCancelled{};
     progress_ = done;
     progressed_.notify_all();
 }

@@ -60,7 +60,10 @@ public:
     // options.session: the session whose calibration and sensor stream the frames go with (the
     // replayed one, or the live recording); options.out: where the map is saved.
     explicit CaptureJob(capture::CaptureOptions options);
-    ~CaptureJob();  // closes the feed and joins (the worker finishes the map first)
+    // Closes the feed and joins. A job still finishing its map is cancelled first: the worker
+    // stops at its next progress step (one frame of the final map), so that SIGTERM or a
+    // timeout does not wait for a map nobody will see.
+    ~CaptureJob();
     CaptureJob(const CaptureJob&) = delete;
     CaptureJob& operator=(const CaptureJob&) = delete;
 
@@ -86,6 +89,7 @@ private:
     FeedCamera feed_;
     std::size_t pushed_ = 0;
     std::atomic<long long> progress_{0};
+    std::atomic<bool> cancelled_{false};
     long long progress_at_finish_ = -1;
     std::size_t used_at_finish_ = 0;
     mutable std::mutex mutex_;

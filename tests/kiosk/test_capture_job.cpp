@@ -5,6 +5,14 @@
 #include <chrono>
 #include <thread>
 
+#include <unistd.h>
+
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+
+#include "appliance/capture/kiosk_session.hpp"
+#include "appliance/capture/session.hpp"
 #include "appliance/ui/capture_job.hpp"
 
 namespace glint::ui {
@@ -59,6 +67,55 @@ TEST(CaptureJob, AnUnusableSessionIsReportedByTakeNotLost) {
     for (int i = 0; i < 500 && !job.done(); ++i) std::this_thread::sleep_for(std::chrono::milliseconds(10));
     ASSERT_TRUE(job.done());
     EXPECT_THROW(job.take(), std::exception);
+}
+
+}  // namespace
+}  // namespace glint::ui
+
+namespace glint::ui {
+namespace {
+
+// A job dropped after its last frame (SIGTERM, a timeout) stops at its next progress step
+// instead of finishing and saving a map nobody will see; one that is finished saves it. On the
+// shipped session's first 40 scan frames.
+TEST(CaptureJob, ADroppedJobDoesNotFinishItsMap) {
+    const std::filesystem::path session_dir = std::filesystem::path(GLINT_SOURCE_DIR) / "data/sessions/kiosk";
+    const capture::Session session = capture::open_session(session_dir);
+    const std::optional<capture::KioskSessionInfo> info = capture::load_kiosk_info(session);
+    ASSERT_TRUE(info && info->phase("scan"));
+    const auto run = [&](bool drop) {
+        capture::CaptureOptions o;
+        o.session = session_dir;
+        o.out = std::filesystem::temp_directory_path() /
+                ("glint-capture-job-" + std::to_string(::getpid()) + (drop ? "-dropped" : "-finished") + ".exr");
+        o.width = 256;
+        o.height = 128;
+        o.threads = 1;
+        std::filesystem::remove(o.out);
+        auto job = std::make_unique<CaptureJob>(o);
+        int pushed = 0;
+        for (const capture::FrameRecord& r : session.frames) {
+            if (r.t_ns < info->phase("scan")->start_ns) continue;
+            capture::CameraFrame f = capture::load_frame(session, r);
+            f.sequence = r.index;
+            job->push(f);
+            if (++pushed == 40) break;
+        }
+        job->wait_for_frames();  // the live pass has taken every frame in
+        if (drop) {
+            job.reset();  // cancels, closes the feed, joins
+        } else {
+            job->finish();
+            while (!job->done()) std::this_thread::sleep_for(std::chrono::milliseconds(1));
+            EXPECT_TRUE(job->take().has_value());
+        }
+        const bool saved = std::filesystem::exists(o.out);
+        std::filesystem::remove(o.out);
+        std::filesystem::remove(capture::coverage_path_for(o.out));
+        return saved;
+    };
+    EXPECT_TRUE(run(false));
+    EXPECT_FALSE(run(true));
 }
 
 }  // namespace
