@@ -2,6 +2,7 @@
 
 #include <memory>
 
+#include "appliance/app/scene_export.hpp"
 #include "appliance/ui/imgui_layer.hpp"
 #include "appliance/ui/maintenance_menu.hpp"
 #include "appliance/ui/pin_lock.hpp"
@@ -19,6 +20,7 @@ struct OverlayState {
     ui::MaintenanceMenu menu;
     ui::MenuChord chord;
     int width, height;
+    std::string export_result;
 
     OverlayState(OverlayContext c, int w, int h)
         : context(std::move(c)), layer(w, h),
@@ -44,10 +46,25 @@ struct OverlayState {
             status.free_disk = ui::bytes_text(ui::free_disk_bytes(context.config.state.dir));
             status.uptime = ui::duration_text(ui::uptime_s());
             status.settings = {context.config.capture, context.config.convolution};
+            std::error_code ec;
+            if (std::filesystem::is_directory(context.config.state.export_dir, ec))
+                status.export_targets = {context.config.state.export_dir + " (" +
+                                         ui::bytes_text(ui::free_disk_bytes(context.config.state.export_dir)) + " free)"};
+            status.export_result = export_result;
             for (const ui::MenuAction& a : menu.draw(status, keys, context.strings, width, height)) {
                 context.log(std::string("maintenance menu: ") + ui::menu_action_name(a.kind));
-                if (a.kind == ui::MenuAction::Kind::RestartKiosk && context.request_restart) context.request_restart();
-                else if (a.kind != ui::MenuAction::Kind::Close)
+                if (a.kind == ui::MenuAction::Kind::RestartKiosk && context.request_restart) {
+                    context.request_restart();
+                } else if (a.kind == ui::MenuAction::Kind::Export) {
+                    try {
+                        export_result = export_scene(a.export_items, {context.maps_dir, context.frames_dir, context.sessions_dir},
+                                                     context.config.state.export_dir, utc_stamp())
+                                            .summary();
+                    } catch (const std::exception& e) {
+                        export_result = e.what();
+                    }
+                    context.log("maintenance menu: " + export_result);
+                } else if (a.kind != ui::MenuAction::Kind::Close)
                     context.log(std::string("maintenance menu: ") + ui::menu_action_name(a.kind) + " is not built yet");
             }
         }

@@ -1,9 +1,11 @@
 // What `glint run` and `glint replay` draw over the kiosk's frames: the visitor screens, and the
 // maintenance menu (docs/screens.md) opened by the configured key chord and the PIN, or by the
 // key switch. The menu's actions are carried out here (journalled on stderr): a restart exits
-// with 0 so that systemd starts the appliance again; the rest are reported as not built.
+// with 0 so that systemd starts the appliance again; an export copies the scene to the export
+// directory (scene_export.hpp); the rest are reported as not built.
 #pragma once
 
+#include <filesystem>
 #include <functional>
 #include <string>
 
@@ -19,6 +21,8 @@ struct OverlayContext {
     std::function<void(const std::string&)> log;  // the journal
     // Ends the kiosk loop (a restart requested from the menu).
     std::function<void()> request_restart;
+    // What the menu's export copies (docs/kiosk.md), to config.state.export_dir.
+    std::filesystem::path maps_dir, frames_dir, sessions_dir;
 };
 
 // The factory KioskOptions::make_overlay wants.

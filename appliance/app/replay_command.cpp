@@ -45,7 +45,8 @@ int run_replay_command(const ReplayArgs& a) {
         ui::Config overlay_config = o.kiosk.config;
         overlay_config.state.dir = a.out;  // the PIN's lock state stays with the replay
         o.kiosk.make_overlay = make_kiosk_overlay({overlay_config, strings,
-                                                   [](const std::string& line) { std::fprintf(stderr, "glint: %s\n", line.c_str()); }, {}});
+                                                   [](const std::string& line) { std::fprintf(stderr, "glint: %s\n", line.c_str()); }, {},
+                                                   a.out, fs::path(a.out) / "frames", {}});
     }
     o.kiosk.snapshot_every_s = a.snapshot_every_s;
     o.kiosk.threads = a.threads;

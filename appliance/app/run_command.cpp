@@ -197,7 +197,8 @@ int run_appliance(const RunArgs& a) {
     o.snapshot_every_s = 0;
     bool restart = false;
     o.make_overlay = make_kiosk_overlay({cfg, strings, [](const std::string& line) { std::fprintf(stderr, "glint: %s\n", line.c_str()); },
-                                         [&restart] { restart = true; }});
+                                         [&restart] { restart = true; }, o.maps_dir, {},
+                                         a.record.empty() ? fs::path() : fs::path(a.record)});
     const auto started = std::chrono::steady_clock::now();
     o.stop_requested = [&] {
         if (stop.requested() || restart) return true;
