@@ -107,6 +107,12 @@ private:
 
 json run_replay(const ReplayOptions& o, const std::function<void(const std::string&)>& log) {
     ReplaySource source(o.session, o.realtime);
+    // A replay into the directory of an earlier one: its frames go, so that OUT/frames holds this
+    // run's only (the files are the replay's own: NNNNN_STATE_....png).
+    std::error_code ec;
+    if (fs::is_directory(o.out / "frames", ec))
+        for (const fs::directory_entry& e : fs::directory_iterator(o.out / "frames", ec))
+            if (e.path().extension() == ".png" && e.path().filename().string().find('_') == 5) fs::remove(e.path(), ec);
     KioskOptions k = o.kiosk;
     k.maps_dir = o.out;
     k.frames_dir = o.out / "frames";
