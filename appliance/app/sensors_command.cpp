@@ -96,13 +96,9 @@ Command add_sensors_command(CLI::App& app) {
                 }
                 std::unique_ptr<recording::Recorder> recorder;
                 if (!a->record.empty()) {
-                    recording::RecorderOptions ro;
-                    ro.header.transport = recording::Transport::Serial;
-                    ro.header.device = spec.path;
-                    ro.header.baud = std::uint32_t(spec.baud);
-                    ro.header.decoded_types = recording::board_message_types();
                     try {
-                        recorder = std::make_unique<recording::Recorder>(a->record, ro, clock);
+                        recorder = std::make_unique<recording::Recorder>(
+                            a->record, recording::serial_board_recording(spec.path, std::uint32_t(spec.baud)), clock);
                     } catch (const std::exception& e) {
                         throw InputError(std::string("--record: ") + e.what());
                     }

@@ -36,13 +36,9 @@ SessionRecorder::SessionRecorder(const fs::path& dir, const capture::CameraCalib
     frames_csv_ = open_for_lines(dir / "frames.csv", capture::frames_csv_header());
     events_csv_ = open_for_lines(dir / "events.csv", capture::session_events_csv_header());
     if (sensor.kind == host::SourceKind::Serial) {
-        recording::RecorderOptions ro;
-        ro.header.transport = recording::Transport::Serial;
-        ro.header.device = sensor.path;
-        ro.header.baud = std::uint32_t(sensor.baud);
-        ro.header.decoded_types = recording::board_message_types();
         try {
-            sensors_ = std::make_unique<recording::Recorder>(dir / "sensors.glrec", ro, clock);
+            sensors_ = std::make_unique<recording::Recorder>(
+                dir / "sensors.glrec", recording::serial_board_recording(sensor.path, std::uint32_t(sensor.baud)), clock);
         } catch (const std::exception& e) {
             throw InputError(std::string("--record: ") + e.what());
         }

@@ -43,6 +43,17 @@ struct RecorderOptions {
     bool overwrite = false;                  // false: refuse to replace an existing file
 };
 
+// The options of a sensor board's serial stream: its device and line rate in the header, the
+// board's messages decoded (what `glint sensors --record` and `glint run --record` write).
+inline RecorderOptions serial_board_recording(const std::string& device, std::uint32_t baud) {
+    RecorderOptions o;
+    o.header.transport = Transport::Serial;
+    o.header.device = device;
+    o.header.baud = baud;
+    o.header.decoded_types = board_message_types();
+    return o;
+}
+
 class Recorder {
 public:
     // Creates `path` and writes and syncs the header. Throws RecordingError naming the path.
