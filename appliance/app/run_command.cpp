@@ -30,6 +30,8 @@
 #include "appliance/ui/strings.hpp"
 #include "firmware_bridge/host/gpio_lines.hpp"
 #include "firmware_bridge/host/orientation_history.hpp"
+#include "firmware_bridge/host/serial_source.hpp"
+#include "firmware_bridge/protocol/messages.hpp"
 #include "firmware_bridge/host/source_spec.hpp"
 #include "firmware_bridge/recording/clock.hpp"
 
@@ -69,6 +71,15 @@ public:
         } catch (const std::exception& e) {
             throw InputError(std::string("sensor.source: ") + e.what());
         }
+        // The sensor board's own buttons (a serial board reports debounced edges) are the
+        // visitor's button too: an exhibit may wire the big button to the board, not to GPIO.
+        if (sensor_spec.kind == host::SourceKind::Serial)
+            static_cast<host::SerialSource&>(*sensor_).set_message_sink([this](std::int64_t host_ns, const protocol::Message& m) {
+                if (m.type != protocol::MessageType::ButtonEvent) return;
+                const std::lock_guard lock(mutex_);
+                events_.push_back({host_ns, "button",
+                                   m.button_event.state == protocol::ButtonState::Pressed ? "press" : "release"});
+            });
         if (!record_dir.empty()) {
             if (sensor_spec.kind != host::SourceKind::Serial)
                 throw InputError("--record: the sensor stream is recorded from a serial source only (sensor.source is " +

@@ -1,13 +1,15 @@
 #!/usr/bin/env python3
 """glint run --record on live devices (the camera simulator, the sensor board's firmware on a
-pseudo-terminal): the recording is a session that glint replay reads back, with frames, their
-times, the sensor's byte stream and a calibration; a second --record into the same directory is
-refused.
+pseudo-terminal): the board's button starts a live scan (CAPTURE); SIGTERM in the middle of it
+ends the appliance within 2 s; the recording is a session that glint replay reads back, with
+frames, their times, the sensor's byte stream, the button's events and a calibration; a second
+--record into the same directory is refused.
 
 usage: test_run_record.py GLINT SENSOR_SIM CALIBRATION WORK_DIR
 """
 import json
 import os
+import signal
 import shutil
 import subprocess
 import sys
@@ -26,7 +28,8 @@ def check(ok, what):
 
 
 link = os.path.join(work, "sensor-pty")
-board = subprocess.Popen([sensor_sim, "--pty-link", link, "--trajectory", "kiosk"], stdout=subprocess.PIPE,
+# The board's button 0 pressed 1.5 s after it starts (the visitor's button, wired to the board).
+board = subprocess.Popen([sensor_sim, "--pty-link", link, "--trajectory", "kiosk", "--press", "0:1.5:1.6"], stdout=subprocess.PIPE,
                          stderr=subprocess.PIPE, text=True)
 for _ in range(100):
     if os.path.exists(link):
@@ -50,10 +53,21 @@ dir = "{work}/state"
 """)
 record = os.path.join(work, "recorded")
 try:
-    r = subprocess.run([glint, "run", "--config", config, "--record", record, "--max-seconds", "6"],
-                       capture_output=True, text=True, timeout=120)
-    print(r.stderr[-1500:])
-    check(r.returncode == 0, f"glint run --record exits 0 (got {r.returncode})")
+    run = subprocess.Popen([glint, "run", "--config", config, "--record", record], stderr=subprocess.PIPE, text=True)
+    time.sleep(7)
+    t_term = time.monotonic()
+    run.send_signal(signal.SIGTERM)
+    try:
+        _, err = run.communicate(timeout=30)
+    except subprocess.TimeoutExpired:
+        run.kill()
+        _, err = run.communicate()
+    t_exit = time.monotonic() - t_term
+    print(err[-1500:])
+    check(run.returncode == 0, f"glint run --record ends with 0 on SIGTERM (got {run.returncode})")
+    check("ATTRACT -> CAPTURE" in err, "the board's button started a live scan")
+    check("-> PROCESSING" not in err, "SIGTERM came while the scan was running")
+    check(t_exit <= 2.0, f"SIGTERM in the middle of a scan: out within 2 s ({t_exit:.2f} s)")
     again = subprocess.run([glint, "run", "--config", config, "--record", record, "--max-seconds", "1"],
                            capture_output=True, text=True, timeout=60)
     check(again.returncode == 2 and "never written over" in again.stderr,
@@ -64,13 +78,15 @@ finally:
 
 lines = open(os.path.join(record, "frames.csv")).read().strip().splitlines()
 check(lines[0] == "index,t_ns,exposure_s,analogue_gain,digital_gain,file", "frames.csv header")
-check(len(lines) - 1 >= 10, f"frames recorded: {len(lines) - 1} in 6 s at the simulator's 4 fps")
+check(len(lines) - 1 >= 10, f"frames recorded: {len(lines) - 1} in 7 s at the simulator's 4 fps")
 times = [int(l.split(",")[1]) for l in lines[1:]]
 check(all(b > a for a, b in zip(times, times[1:])), "frame times increase")
 check(all(os.path.getsize(os.path.join(record, l.split(",")[5])) > 1000 for l in lines[1:]), "every frame file is there")
 check(os.path.getsize(os.path.join(record, "sensors.glrec")) > 10000, "the sensor's byte stream was recorded")
 for name in ["session.json", "calibration.json", "events.csv"]:
     check(os.path.exists(os.path.join(record, name)), name + " written")
+events = open(os.path.join(record, "events.csv")).read().strip().splitlines()
+check(len(events) >= 2 and events[1].endswith(",button,press"), f"the press is in events.csv: {events[1:3]}")
 
 out = os.path.join(work, "replayed")
 r = subprocess.run([glint, "replay", record, "--out", out, "--snapshot-every", "0"], capture_output=True, text=True,
@@ -80,5 +96,5 @@ check(r.returncode == 0, f"glint replay reads the recording (exit {r.returncode}
 if r.returncode == 0:
     s = json.load(open(os.path.join(out, "summary.json")))
     names = [x["name"] for x in s["states"]]
-    check(names[:2] == ["ATTRACT", "CAPTURE"], f"the replay starts the scan (no recorded press: at the first frame): {names}")
+    check(names[:2] == ["ATTRACT", "CAPTURE"], f"the replay starts the scan at the recorded press: {names}")
 sys.exit(1 if failures else 0)
