@@ -19,6 +19,7 @@
 #include "appliance/app/session_recorder.hpp"
 #include "appliance/capture/calibration_io.hpp"
 #include "appliance/capture/camera_factory.hpp"
+#include "appliance/capture/exposure_controller.hpp"
 #include "appliance/core/errors.hpp"
 #include "appliance/sim/session_simulator.hpp"
 #include "appliance/ui/config.hpp"
@@ -31,7 +32,6 @@
 #include "firmware_bridge/host/gpio_lines.hpp"
 #include "firmware_bridge/host/orientation_history.hpp"
 #include "firmware_bridge/host/serial_source.hpp"
-#include "firmware_bridge/protocol/messages.hpp"
 #include "firmware_bridge/host/source_spec.hpp"
 #include "firmware_bridge/recording/clock.hpp"
 
@@ -74,11 +74,9 @@ public:
         // The sensor board's own buttons (a serial board reports debounced edges) are the
         // visitor's button too: an exhibit may wire the big button to the board, not to GPIO.
         if (sensor_spec.kind == host::SourceKind::Serial)
-            static_cast<host::SerialSource&>(*sensor_).set_message_sink([this](std::int64_t host_ns, const protocol::Message& m) {
-                if (m.type != protocol::MessageType::ButtonEvent) return;
+            static_cast<host::SerialSource&>(*sensor_).set_button_sink([this](std::int64_t host_ns, unsigned, bool pressed) {
                 const std::lock_guard lock(mutex_);
-                events_.push_back({host_ns, "button",
-                                   m.button_event.state == protocol::ButtonState::Pressed ? "press" : "release"});
+                events_.push_back({host_ns, "button", pressed ? "press" : "release"});
             });
         if (!record_dir.empty()) {
             if (sensor_spec.kind != host::SourceKind::Serial)
@@ -147,6 +145,8 @@ public:
         // Every frame the camera has ready, without waiting: the loop keeps its own pace.
         while (std::optional<capture::CameraFrame> f = camera_->next_frame(std::chrono::milliseconds(0))) {
             if (recorder_) recorder_->frame(*f);
+            if (exposure_)
+                if (const std::optional<capture::ExposureRequest> request = exposure_->on_frame(*f)) camera_->set_exposure(*request);
             p.frames.push_back(std::move(*f));
         }
         {
@@ -159,6 +159,20 @@ public:
         if (recorder_)
             for (const capture::SessionEvent& e : p.events) recorder_->event(e);
         return p;
+    }
+
+    void set_scanning(bool scanning) override {
+        if (scanning) {
+            capture::ExposureControlSettings settings;
+            settings.min_exposure_s = calibration_.min_exposure_s;
+            exposure_ = std::make_unique<capture::ExposureController>(settings);
+        } else if (exposure_) {
+            exposure_.reset();
+            camera_->set_exposure(capture::ExposureRequest{});  // the camera's own automatic exposure again
+        }
+    }
+    std::string exposure_state() const override {
+        return exposure_ && exposure_->bracketing() ? "bracketing" : std::string();
     }
 
     std::optional<glm::dquat> world_from_sensor(std::int64_t t_ns) const override {
@@ -175,6 +189,7 @@ private:
     std::unique_ptr<host::GpioChip> chip_;
     std::unique_ptr<host::ButtonService> buttons_;
     std::unique_ptr<SessionRecorder> recorder_;
+    std::unique_ptr<capture::ExposureController> exposure_;  // while the visitor scans
     mutable std::mutex mutex_;
     // 2 s at 200 Hz, gaps over 100 ms not bridged, the newest held 20 ms.
     host::OrientationHistory history_{400, 100'000'000, 20'000'000};

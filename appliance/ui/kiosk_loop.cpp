@@ -233,6 +233,8 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
     };
     const auto on_transition = [&](const std::optional<Transition>& tr) {
         if (!tr) return;
+        if (tr->to == KioskState::Capture) source.set_scanning(true);
+        else if (tr->from == KioskState::Capture) source.set_scanning(false);
         states.push_back({{"name", kiosk_state_name(tr->to)}, {"t_s", tr->t_s}, {"reason", tr->reason}});
         log(std::string("state ") + kiosk_state_name(tr->from) + " -> " + kiosk_state_name(tr->to) + " at " +
             std::to_string(tr->t_s) + " s: " + tr->reason);
@@ -447,6 +449,7 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
                 model.capture.exposure = live.step.exposure == capture::ExposureStatus::TooBright ? "too_bright"
                                          : live.step.exposure == capture::ExposureStatus::TooDark ? "too_dark"
                                                                                                  : "ok";
+                if (source.exposure_state() == "bracketing") model.capture.exposure = "bracketing";
                 model.capture.progress = live.step.progress;
                 model.capture.time_left_s = std::max(0.0, cfg.capture.max_scan_s - live.step.elapsed_s);
                 model.capture.minimap_width = live.minimap_width;

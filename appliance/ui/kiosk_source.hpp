@@ -43,6 +43,13 @@ public:
     // No more input will come (a replay past its last frame; live: never).
     virtual bool ended(std::int64_t now_ns) const = 0;
 
+    // The visitor's scan starts (true) or ends (false): a live camera's exposure is then driven
+    // by the capture's exposure controller (brackets of the clipped views), and handed back to
+    // the camera's own automatic exposure after. A replay's exposures are recorded: nothing to do.
+    virtual void set_scanning(bool) {}
+    // The exposure control's state for the screen ("" = none; "bracketing" while it brackets).
+    virtual std::string exposure_state() const { return {}; }
+
     // A replay: the clock is the loop's own (one frame period a frame), the capture takes in each
     // frame before the guide is asked; live: the wall clock.
     virtual bool replayed() const { return false; }

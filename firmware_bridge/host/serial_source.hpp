@@ -40,6 +40,15 @@ public:
     // Must be called before start(); the recorder must outlive the source (or stop() first).
     void set_recorder(recording::Recorder* recorder) { recorder_ = recorder; }
     void set_message_sink(BoardStream::MessageSink sink) { message_sink_ = std::move(sink); }
+    // The board's debounced button edges only (the kiosk's visitor button may be wired to the
+    // board): host time of arrival, the board's button number, pressed or released. Replaces any
+    // message sink. Before start().
+    void set_button_sink(std::function<void(std::int64_t host_ns, unsigned button, bool pressed)> sink) {
+        set_message_sink([sink = std::move(sink)](std::int64_t host_ns, const protocol::Message& m) {
+            if (m.type == protocol::MessageType::ButtonEvent)
+                sink(host_ns, m.button_event.button_id, m.button_event.state == protocol::ButtonState::Pressed);
+        });
+    }
 
     void start() override;
     void stop() override;

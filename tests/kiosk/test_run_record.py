@@ -80,6 +80,11 @@ lines = open(os.path.join(record, "frames.csv")).read().strip().splitlines()
 check(lines[0] == "index,t_ns,exposure_s,analogue_gain,digital_gain,file", "frames.csv header")
 check(len(lines) - 1 >= 10, f"frames recorded: {len(lines) - 1} in 7 s at the simulator's 4 fps")
 times = [int(l.split(",")[1]) for l in lines[1:]]
+# The scan's exposure control: the courtyard's sun clips the auto-exposed frames, and the
+# controller asks for frames 64 times shorter (the capture's brackets) while the visitor scans.
+exposures = [float(l.split(",")[2]) for l in lines[1:]]
+check(min(exposures) < max(exposures) / 32,
+      f"the exposure controller bracketed the live scan (exposures {min(exposures):.3g} .. {max(exposures):.3g} s)")
 check(all(b > a for a, b in zip(times, times[1:])), "frame times increase")
 check(all(os.path.getsize(os.path.join(record, l.split(",")[5])) > 1000 for l in lines[1:]), "every frame file is there")
 check(os.path.getsize(os.path.join(record, "sensors.glrec")) > 10000, "the sensor's byte stream was recorded")
