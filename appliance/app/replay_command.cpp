@@ -51,9 +51,9 @@ int run_replay_command(const ReplayArgs& a) {
     o.kiosk.snapshot_every_s = a.snapshot_every_s;
     o.kiosk.threads = a.threads;
     std::unique_ptr<ProgressBar> bar;
+    long long shown = 0;  // tenths of a session second drawn
     o.kiosk.progress = [&](double t_s, double end_s) {
         if (!bar) bar = std::make_unique<ProgressBar>("replay (session seconds x 10)", (long long)(end_s * 10) + 1);
-        static long long shown = 0;
         const long long now = (long long)(t_s * 10);
         if (now > shown) {
             bar->advance(now - shown);

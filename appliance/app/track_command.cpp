@@ -9,7 +9,6 @@
 #include <fstream>
 #include <map>
 #include <memory>
-#include <numbers>
 #include <opencv2/imgcodecs.hpp>
 #include <sstream>
 
@@ -21,6 +20,7 @@
 #include "appliance/core/strict_number.hpp"
 #include "appliance/tracking/board_print.hpp"
 #include "appliance/tracking/tracker.hpp"
+#include "appliance/ui/ar_camera.hpp"
 #include "firmware_bridge/host/replay_source.hpp"
 #include "firmware_bridge/host/source_spec.hpp"
 
@@ -63,8 +63,8 @@ CameraSetup setup_from_calibration(const std::string& path) {
     const capture::CameraCalibration cal = capture::load_calibration(path);
     CameraSetup s;
     const capture::Intrinsics& k = cal.intrinsics;
-    s.camera = {k.width, k.height, k.fx, k.fy, k.cx, k.cy, k.k1, k.k2, k.p1, k.p2, k.k3};
-    s.sensor_from_camera = unit_rotation(cal.sensor_from_camera * glm::angleAxis(std::numbers::pi, glm::dvec3(1, 0, 0)));
+    s.camera = ui::tracking_camera(k);
+    s.sensor_from_camera = unit_rotation(cal.sensor_from_camera * ui::kGlFromCv);
     s.time_offset_s = cal.time_offset_s;
     return s;
 }

@@ -4,6 +4,10 @@
 
 namespace glint::ui {
 
+tracking::Camera tracking_camera(const capture::Intrinsics& k) {
+    return {k.width, k.height, k.fx, k.fy, k.cx, k.cy, k.k1, k.k2, k.p1, k.p2, k.k3};
+}
+
 glm::dquat world_from_board(const glm::dquat& world_from_camera, const tracking::Pose& camera_from_board) {
     return glm::normalize(world_from_camera * kGlFromCv * camera_from_board.rotation);
 }

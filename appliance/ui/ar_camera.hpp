@@ -25,6 +25,9 @@ struct ArPlacement {
 // OpenCV's camera frame -> Glint's: C = diag(1, -1, -1), a half turn about X.
 inline const glm::dquat kGlFromCv{0.0, 1.0, 0.0, 0.0};
 
+// The calibration's intrinsics as the tracker's camera: the same numbers (both are OpenCV's model).
+tracking::Camera tracking_camera(const capture::Intrinsics& intrinsics);
+
 // The board's orientation in the world: world_from_camera x C x camera_from_board.
 glm::dquat world_from_board(const glm::dquat& world_from_camera, const tracking::Pose& camera_from_board);
 

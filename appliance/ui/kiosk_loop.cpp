@@ -159,20 +159,8 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
     const std::string board_json = source.board_json();
     const tracking::Board board(board_json.empty() ? tracking::BoardSpec{}
                                                    : tracking::board_spec_from_json(board_json, source.describe() + ": board"));
-    tracking::Camera track_camera;
-    track_camera.width = cal.intrinsics.width;
-    track_camera.height = cal.intrinsics.height;
-    track_camera.fx = cal.intrinsics.fx;
-    track_camera.fy = cal.intrinsics.fy;
-    track_camera.cx = cal.intrinsics.cx;
-    track_camera.cy = cal.intrinsics.cy;
-    track_camera.k1 = cal.intrinsics.k1;
-    track_camera.k2 = cal.intrinsics.k2;
-    track_camera.p1 = cal.intrinsics.p1;
-    track_camera.p2 = cal.intrinsics.p2;
-    track_camera.k3 = cal.intrinsics.k3;
     // The tracker's mounting is in OpenCV's camera frame.
-    tracking::Tracker tracker(board, track_camera, glm::normalize(cal.sensor_from_camera * kGlFromCv));
+    tracking::Tracker tracker(board, tracking_camera(cal.intrinsics), glm::normalize(cal.sensor_from_camera * kGlFromCv));
 
     ImageQuad picture;
     KioskOptions::Overlay overlay = o.make_overlay ? o.make_overlay(width, height) : KioskOptions::Overlay{};

@@ -48,9 +48,6 @@ public:
     bool ended(std::int64_t now_ns) const override { return now_ns > session_.frames.back().t_ns; }
 
     KioskPoll poll(std::int64_t now_ns) override {
-        if (realtime_) {
-            // The wall clock runs: wait for nothing, take what is due.
-        }
         KioskPoll p;
         for (; next_sensor_ < sensors_.size() && sensors_[next_sensor_].t_ns <= now_ns; ++next_sensor_)
             p.orientations.push_back(sensors_[next_sensor_]);
