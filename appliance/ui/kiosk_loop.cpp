@@ -297,9 +297,10 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
             scheduler.exclude_since_mark();
         }
 
-        // The flow.
+        // The flow. The scan's status is read once a frame: the flow and the screen use the same.
+        CaptureLiveStatus live;
         if (flow.state() == KioskState::Capture && capture_job) {
-            const CaptureLiveStatus live = capture_job->live();
+            live = capture_job->live();
             std::string why;
             if (live.has_step && live.step.state == capture::GuidedState::Complete) why = "scan complete";
             else if (live.has_step && live.step.state == capture::GuidedState::TimedOut) why = "scan time limit";
@@ -424,7 +425,6 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
 
         // The screen's model and the overlay.
         if (flow.state() == KioskState::Capture && capture_job) {
-            const CaptureLiveStatus live = capture_job->live();
             if (live.has_step) {
                 // The target in the camera frame, OpenCV axes (the screens draw the arrow from it).
                 const glm::dvec3 c = kGlFromCv * (glm::conjugate(live.world_from_camera) * live.step.next_target);
