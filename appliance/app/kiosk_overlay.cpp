@@ -41,7 +41,15 @@ struct OverlayState {
             status.kiosk_state = ui::kiosk_state_name(model.state);
             status.display_degraded = model.degraded;
             status.sensor_ok = !model.sensor_lost;
-            status.sensor_health = model.sensor_lost ? "no orientation" : "ok";
+            status.sensor_health = model.devices.sensor_health.empty() ? (model.sensor_lost ? "no orientation" : "ok")
+                                                                         : model.devices.sensor_health;
+            status.sensor_rate_hz = model.devices.sensor_rate_hz;
+            status.camera_fps = model.devices.camera_fps;
+            status.exposure_s = model.devices.exposure_s;
+            status.gain = model.devices.gain;
+            status.display_mode = model.devices.display_mode;
+            status.gl_renderer = model.devices.gl_renderer;
+            if (context.log_tail) status.log_lines = context.log_tail->lines();
             status.cpu_temperature = ui::temperature_text(ui::cpu_temperature_c());
             status.free_disk = ui::bytes_text(ui::free_disk_bytes(context.config.state.dir));
             status.uptime = ui::duration_text(ui::uptime_s());

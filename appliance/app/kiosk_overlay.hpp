@@ -7,8 +7,10 @@
 
 #include <filesystem>
 #include <functional>
+#include <memory>
 #include <string>
 
+#include "appliance/app/log_tail.hpp"
 #include "appliance/ui/config.hpp"
 #include "appliance/ui/kiosk_loop.hpp"
 #include "appliance/ui/strings.hpp"
@@ -19,6 +21,7 @@ struct OverlayContext {
     ui::Config config;
     ui::Strings strings;
     std::function<void(const std::string&)> log;  // the journal
+    std::shared_ptr<const LogTail> log_tail;      // what the menu's log page shows (null: nothing)
     // Ends the kiosk loop (a restart requested from the menu).
     std::function<void()> request_restart;
     // What the menu's export copies (docs/kiosk.md), to config.state.export_dir.

@@ -9,6 +9,7 @@
 #include "appliance/app/cli_util.hpp"
 #include "appliance/app/commands.hpp"
 #include "appliance/app/kiosk_overlay.hpp"
+#include "appliance/app/log_tail.hpp"
 #include "appliance/core/errors.hpp"
 #include "appliance/core/progress.hpp"
 #include "appliance/ui/config.hpp"
@@ -23,7 +24,7 @@ namespace {
 namespace fs = std::filesystem;
 
 struct ReplayArgs {
-    std::string session, out, display = "headless", config;
+    std::string session, out, display = "headless", config, faults;
     bool no_overlay = false;
     bool realtime = false;
     double snapshot_every_s = 5;
@@ -37,15 +38,17 @@ int run_replay_command(const ReplayArgs& a) {
     o.session = a.session;
     o.out = a.out;
     o.realtime = a.realtime;
+    o.faults = ui::parse_fault_plan(a.faults);
     if (!a.config.empty()) o.kiosk.config = ui::load_config(a.config);
     // A replay shows headless unless asked: the config's display is the appliance's.
     o.kiosk.config.display.kind = a.display;
+    const auto journal = std::make_shared<LogTail>();
+    const auto log = [journal](const std::string& line) { journal->write(line); };
     if (!a.no_overlay) {
         const ui::Strings strings = ui::Strings::load(find_data_file(ui::kStringsRelativePath));
         ui::Config overlay_config = o.kiosk.config;
         overlay_config.state.dir = a.out;  // the PIN's lock state stays with the replay
-        o.kiosk.make_overlay = make_kiosk_overlay({overlay_config, strings,
-                                                   [](const std::string& line) { std::fprintf(stderr, "glint: %s\n", line.c_str()); }, {},
+        o.kiosk.make_overlay = make_kiosk_overlay({overlay_config, strings, log, journal, {},
                                                    a.out, fs::path(a.out) / "frames", {}});
     }
     o.kiosk.snapshot_every_s = a.snapshot_every_s;
@@ -60,7 +63,7 @@ int run_replay_command(const ReplayArgs& a) {
             shown = now;
         }
     };
-    const nlohmann::json s = ui::run_replay(o, [](const std::string& line) { std::fprintf(stderr, "glint: %s\n", line.c_str()); });
+    const nlohmann::json s = ui::run_replay(o, log);
     if (bar) bar->finish();
     std::printf("states:");
     for (const auto& st : s["states"]) std::printf(" %s@%.1fs", st["name"].get<std::string>().c_str(), st["t_s"].get<double>());
@@ -93,6 +96,7 @@ Command add_replay_command(CLI::App& app) {
         ->check(CLI::Range(0.0, 3600.0));
     cmd->add_option("--threads", a->threads, "Capture and convolution worker threads (0: the cores but one)")
         ->check(CLI::Range(0, 256));
+    cmd->add_option("--inject-fault", a->faults, std::string(ui::kInjectFaultHelp));
     return {cmd, [a] { return run_replay_command(*a); }};
 }
 

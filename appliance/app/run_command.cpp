@@ -16,6 +16,7 @@
 #include "appliance/app/commands.hpp"
 #include "appliance/app/interrupt.hpp"
 #include "appliance/app/kiosk_overlay.hpp"
+#include "appliance/app/log_tail.hpp"
 #include "appliance/app/session_recorder.hpp"
 #include "appliance/capture/calibration_io.hpp"
 #include "appliance/capture/camera_factory.hpp"
@@ -24,6 +25,7 @@
 #include "appliance/sim/session_simulator.hpp"
 #include "appliance/ui/config.hpp"
 #include "appliance/ui/config_reload.hpp"
+#include "appliance/ui/fault_injection.hpp"
 #include "appliance/ui/imgui_layer.hpp"
 #include "appliance/ui/kiosk_loop.hpp"
 #include "appliance/ui/screens.hpp"
@@ -45,6 +47,7 @@ struct RunArgs {
     std::string display;  // overrides display.kind
     std::string record;   // a session directory to record into
     double max_seconds = 0;  // tests: stop after this long (0: run until a signal)
+    std::string faults;      // --inject-fault
 };
 
 // The live devices as the kiosk's input. The sensor's samples and the button's events arrive on
@@ -163,9 +166,7 @@ public:
 
     void set_scanning(bool scanning) override {
         if (scanning) {
-            capture::ExposureControlSettings settings;
-            settings.min_exposure_s = calibration_.min_exposure_s;
-            exposure_ = std::make_unique<capture::ExposureController>(settings);
+            exposure_ = std::make_unique<capture::ExposureController>(exposure_settings());
         } else if (exposure_) {
             exposure_.reset();
             camera_->set_exposure(capture::ExposureRequest{});  // the camera's own automatic exposure again
@@ -175,12 +176,41 @@ public:
         return exposure_ && exposure_->bracketing() ? "bracketing" : std::string();
     }
 
+    std::string restart_camera() override {
+        // The same device again (a camera that hung recovers on a new start; one unplugged fails
+        // here and the kiosk tries again later).
+        try {
+            camera_->stop();
+            camera_->start();
+            if (exposure_) exposure_ = std::make_unique<capture::ExposureController>(exposure_settings());
+            return {};
+        } catch (const std::exception& e) {
+            return e.what();
+        }
+    }
+
+    ui::SourceHealth health() const override {
+        ui::SourceHealth h;
+        const host::LinkHealth link = sensor_->health();
+        h.sensor = host::link_state_name(link.state);
+        if (!link.last_error.empty() && link.state != host::LinkState::Streaming) h.sensor += ": " + link.last_error;
+        h.sensor_rate_hz = link.rate_hz;
+        h.camera_error = camera_->health().last_error;
+        return h;
+    }
+
     std::optional<glm::dquat> world_from_sensor(std::int64_t t_ns) const override {
         const std::lock_guard lock(mutex_);
         return history_.at(t_ns).world_from_sensor;
     }
 
 private:
+    capture::ExposureControlSettings exposure_settings() const {
+        capture::ExposureControlSettings settings;
+        settings.min_exposure_s = calibration_.min_exposure_s;
+        return settings;
+    }
+
     recording::SteadyClock clock_;
     capture::CameraCalibration calibration_;
     render::CameraResponse response_;
@@ -199,6 +229,7 @@ private:
 };
 
 int run_appliance(const RunArgs& a) {
+    const ui::FaultPlan faults = ui::parse_fault_plan(a.faults);
     ui::Config cfg = a.config.empty() ? ui::default_config() : ui::load_config(a.config);
     if (!a.display.empty()) cfg.display.kind = a.display;
     StopRequest stop;
@@ -215,14 +246,16 @@ int run_appliance(const RunArgs& a) {
         notifier.status(std::string("failed: ") + e.what());
         throw;
     }
-    std::fprintf(stderr, "glint: %s\n", source->describe().c_str());
+    const auto journal = std::make_shared<LogTail>();
+    const auto log = [journal](const std::string& line) { journal->write(line); };
+    log(source->describe());
 
     ui::KioskOptions o;
     o.config = cfg;
     o.maps_dir = fs::path(cfg.state.dir) / "scene";
     o.snapshot_every_s = 0;
     bool restart = false;
-    o.make_overlay = make_kiosk_overlay({cfg, strings, [](const std::string& line) { std::fprintf(stderr, "glint: %s\n", line.c_str()); },
+    o.make_overlay = make_kiosk_overlay({cfg, strings, log, journal,
                                          [&restart] { restart = true; }, o.maps_dir, {},
                                          a.record.empty() ? fs::path() : fs::path(a.record)});
     const auto started = std::chrono::steady_clock::now();
@@ -235,7 +268,7 @@ int run_appliance(const RunArgs& a) {
         if (!reload_request.take() || a.config.empty()) return std::nullopt;
         notifier.reloading();
         const ui::ReloadReport report = reloader.reload();
-        std::fprintf(stderr, "glint: %s\n", report.summary().c_str());
+        log(report.summary());
         notifier.ready(report.summary());  // the reload is over (systemd waits for READY=1 after RELOADING=1)
         if (!report.ok) return std::nullopt;
         return reloader.current();
@@ -247,8 +280,9 @@ int run_appliance(const RunArgs& a) {
         shown = state;
         watchdog.tick(std::chrono::duration_cast<std::chrono::nanoseconds>(std::chrono::steady_clock::now().time_since_epoch()).count());
     };
-    const ui::KioskResult result =
-        ui::run_kiosk(*source, o, [](const std::string& line) { std::fprintf(stderr, "glint: %s\n", line.c_str()); });
+    o.fault_gl_lost_at_s = faults.gl_lost_at_s;
+    ui::FaultInjectingSource faulty(*source, faults, log);
+    const ui::KioskResult result = faults.empty() ? ui::run_kiosk(*source, o, log) : ui::run_kiosk(faulty, o, log);
     notifier.stopping();
     const auto t_stop = std::chrono::steady_clock::now();
     source.reset();  // camera, sensor and buttons released before the display (its destructor ran in run_kiosk)
@@ -272,6 +306,7 @@ Command add_run_command(CLI::App& app) {
                     "session glint replay reads");
     cmd->add_option("--max-seconds", a->max_seconds, "Stop cleanly after this many seconds (tests; 0: until SIGTERM)")
         ->check(CLI::Range(0.0, 1e9));
+    cmd->add_option("--inject-fault", a->faults, std::string(ui::kInjectFaultHelp));
     return {cmd, [a] { return run_appliance(*a); }};
 }
 

@@ -357,6 +357,7 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
         }
         if (!q) {
             ++summary.frames_without_orientation;
+            guide.frame_unplaced(f.t_ns);
         } else if (o.max_blur_px > 0 && blur_px.back() > o.max_blur_px) {
             ++summary.frames_blurred;
         } else {

@@ -29,7 +29,18 @@ GuidedStep GuidedCapture::update(const CameraFrame& frame, const glm::dquat& q,
                                  const std::vector<std::uint32_t>& samples, int w, int h) {
     GuidedStep s;
     if (!start_ns_) start_ns_ = frame.t_ns;
-    s.elapsed_s = double(frame.t_ns - *start_ns_) * 1e-9;
+    if (paused_from_ns_) {
+        // Back after a pause: from the first unplaced frame to this one is not scanning time, and
+        // the turn since the last placed frame is no speed (the visitor moved while waiting).
+        if (frame.t_ns > *paused_from_ns_) paused_ns_ += frame.t_ns - *paused_from_ns_;
+        paused_from_ns_.reset();
+        previous_t_ns_.reset();
+    } else if (last_t_ns_ && double(frame.t_ns - *last_t_ns_) * 1e-9 > settings_.pause_after_gap_s) {
+        paused_ns_ += frame.t_ns - *last_t_ns_;
+        previous_t_ns_.reset();
+    }
+    last_t_ns_ = frame.t_ns;
+    s.elapsed_s = double(frame.t_ns - *start_ns_ - paused_ns_) * 1e-9;
 
     // Speed and the blur it would give this frame.
     if (previous_t_ns_ && frame.t_ns > *previous_t_ns_) {
@@ -83,6 +94,10 @@ GuidedStep GuidedCapture::update(const CameraFrame& frame, const glm::dquat& q,
         s.state = GuidedState::TimedOut;
     last_ = s;
     return s;
+}
+
+void GuidedCapture::frame_unplaced(std::int64_t t_ns) {
+    if (start_ns_ && !paused_from_ns_ && t_ns > *start_ns_) paused_from_ns_ = t_ns;
 }
 
 }  // namespace glint::capture

@@ -32,6 +32,10 @@ struct GuidedSettings {
     double max_clipped_share = 0.02;
     double min_mean_code = 25;
     int min_samples = 1;
+    // A gap between two of the scan's frames longer than this is the scan waiting (the kiosk
+    // feeds no frames while the sensor or the camera is lost) and does not count against the time
+    // limit. Several frame periods of a slow (3 fps) scan with frames rejected for blur.
+    double pause_after_gap_s = 1.5;
 };
 
 enum class GuidedState : std::uint8_t { Scanning, Complete, TimedOut };
@@ -62,6 +66,12 @@ public:
     GuidedStep update(const CameraFrame& frame, const glm::dquat& world_from_camera,
                       const std::vector<std::uint32_t>& samples, int map_width, int map_height);
 
+    // A frame the capture could not place (no orientation: the sensor lost, replugging): the
+    // scan is paused from it until the next placed frame, and that time does not count against
+    // the time limit (the visitor is waiting for the sensor, not scanning).
+    void frame_unplaced(std::int64_t t_ns);
+    double paused_s() const { return double(paused_ns_) * 1e-9; }
+
     const GuidedStep& last() const { return last_; }
 
 private:
@@ -69,7 +79,10 @@ private:
     Intrinsics camera_;
     std::optional<std::int64_t> start_ns_;
     std::optional<std::int64_t> previous_t_ns_;
+    std::optional<std::int64_t> last_t_ns_;       // the last placed frame's time
     glm::dquat previous_q_{1, 0, 0, 0};
+    std::optional<std::int64_t> paused_from_ns_;  // the first unplaced frame since the last placed one
+    std::int64_t paused_ns_ = 0;                  // time spent paused, excluded from elapsed_s
     GuidedStep last_;
 };
 

@@ -19,6 +19,8 @@ KioskFlow::KioskFlow(const TimeoutsSection& timeouts, int materials, double star
 
 Transition KioskFlow::go(KioskState to, double t_s, const std::string& reason) {
     Transition t{state_, to, t_s, reason};
+    if (paused()) paused_total_s_ += t_s - paused_since_s_;
+    paused_since_s_ = -1;
     state_ = to;
     entered_s_ = t_s;
     last_input_s_ = t_s;
@@ -65,6 +67,11 @@ std::optional<Transition> KioskFlow::tick(double t_s) {
             if (timeouts_.attract_s > 0 && in_state > timeouts_.attract_s) return go(KioskState::Attract, t_s, "timeout");
             return std::nullopt;
         case KioskState::Capture:
+            if (paused()) {
+                if (timeouts_.capture_s > 0 && t_s - paused_since_s_ > timeouts_.capture_s)
+                    return failure(t_s, pause_message_, "timeout: the scan waited longer than timeouts.capture_s for a device");
+                return std::nullopt;
+            }
             if (timeouts_.capture_s > 0 && in_state > timeouts_.capture_s)
                 return failure(t_s, "message.capture_timeout", "timeout: the scan took longer than timeouts.capture_s");
             return std::nullopt;
@@ -77,6 +84,20 @@ std::optional<Transition> KioskFlow::tick(double t_s) {
             return std::nullopt;
     }
     return std::nullopt;
+}
+
+void KioskFlow::set_paused(double t_s, bool paused_now, const std::string& message_key) {
+    if (state_ != KioskState::Capture || paused_now == paused()) return;
+    if (paused_now) {
+        paused_since_s_ = t_s;
+        pause_message_ = message_key;
+    } else {
+        // The wait does not count against the scan: CAPTURE is entered again that much later.
+        const double waited = t_s - paused_since_s_;
+        entered_s_ += waited;
+        paused_total_s_ += waited;
+        paused_since_s_ = -1;
+    }
 }
 
 std::string KioskFlow::message(double t_s) const { return t_s < message_until_s_ ? message_ : std::string(); }

@@ -41,6 +41,13 @@ public:
     std::optional<Transition> failure(double t_s, const std::string& message_key, const std::string& detail);
     // Timeouts; call every frame.
     std::optional<Transition> tick(double t_s);
+    // The scan waits for a device to come back (the orientation sensor replugged, the camera
+    // restarted): CAPTURE's timeout stops while it waits, and a wait longer than
+    // timeouts.capture_s ends the visit with `message_key` (tick() reports it). Outside CAPTURE a
+    // pause means nothing and is ignored; any transition ends it.
+    void set_paused(double t_s, bool paused, const std::string& message_key = "message.capture_failed");
+    bool paused() const { return paused_since_s_ >= 0; }
+    double paused_total_s() const { return paused_total_s_; }
 
     // The message to show at t_s ("" when none).
     std::string message(double t_s) const;
@@ -57,6 +64,9 @@ private:
     int material_ = 0;
     std::string message_;
     double message_until_s_ = -1;
+    double paused_since_s_ = -1;  // < 0: not paused
+    double paused_total_s_ = 0;   // every pause of the run, for the summary
+    std::string pause_message_;
     std::vector<Transition> history_;
 };
 

@@ -12,6 +12,7 @@
 #include <optional>
 #include <thread>
 
+#include <GLES3/gl32.h>
 #include <opencv2/imgproc.hpp>
 
 #include "appliance/capture/capture_pipeline.hpp"
@@ -229,6 +230,8 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
     };
 
     const bool replayed = source.replayed();
+    DeviceWatch devices(o.devices, t_s);
+    const std::string gl_renderer = reinterpret_cast<const char*>(glGetString(GL_RENDERER));
     std::vector<std::string> window_keys;  // keys from a window display, handled next frame
     bool return_requested = false;          // the window was closed
     bool menu_has_keyboard = false;         // the overlay's maintenance menu is open
@@ -253,6 +256,18 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
         const KioskState state_at_start = flow.state();
         // Inputs that arrived by now: orientation samples, button and key events, camera frames.
         KioskPoll input = source.poll(now_ns);
+        // The devices: frames out of order dropped, a silent camera restarted, a silent sensor
+        // pausing the scan (docs/kiosk.md, "Devices that misbehave").
+        std::erase_if(input.frames, [&](const capture::CameraFrame& f) { return !devices.accept_frame(f.t_ns); });
+        {
+            const DeviceWatch::Step watch = devices.update(t_s, input.frames.size(), input.orientations.size());
+            for (const std::string& line : watch.log) log(line);
+            if (watch.restart_camera) log(devices.camera_restarted(t_s, source.restart_camera()));
+            const bool paused_before = flow.paused();
+            flow.set_paused(t_s, devices.camera_lost() || devices.sensor_lost(),
+                            devices.camera_lost() ? "message.camera_problem" : "message.sensor_problem");
+            if (flow.paused() != paused_before) log(flow.paused() ? "scan paused: waiting for the devices" : "scan resumed");
+        }
         // The window's keys go to the overlay (the menu) first; the visitor's button only when
         // the menu does not hold the keyboard.
         std::vector<gl::InputEvent> keys_now;
@@ -282,7 +297,8 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
         }
         bool pushed = false;
         for (capture::CameraFrame& f : input.frames) {
-            if (flow.state() == KioskState::Capture && capture_job) {
+            // While the scan waits for the sensor its frames cannot be placed: not fed.
+            if (flow.state() == KioskState::Capture && capture_job && !flow.paused()) {
                 capture_job->push(f);
                 pushed = true;
             }
@@ -369,7 +385,20 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
         const std::int64_t frame_t_ns = last_frame.t_ns;
         const std::optional<glm::dquat> world_from_sensor =
             source.world_from_sensor(frame_t_ns + std::int64_t(std::llround(cal.time_offset_s * 1e9)));
-        model.sensor_lost = !world_from_sensor;
+        model.sensor_lost = devices.sensor_lost();
+        model.camera_lost = devices.camera_lost();
+        model.devices.camera_fps = devices.camera_fps();
+        model.devices.sensor_rate_hz = devices.sensor_rate_hz();
+        model.devices.exposure_s = last_frame.exposure_s;
+        model.devices.gain = last_frame.total_gain();
+        model.devices.camera_restarts = devices.counts().camera_restarts;
+        model.devices.display_mode = display->describe();
+        model.devices.gl_renderer = gl_renderer;
+        {
+            const SourceHealth health = source.health();
+            model.devices.sensor_health = devices.sensor_lost() ? "no orientation (" + health.sensor + ")" : health.sensor;
+            model.devices.camera_error = health.camera_error;
+        }
         const glm::dquat world_from_camera = world_from_sensor ? glm::normalize(*world_from_sensor * cal.sensor_from_camera) : glm::dquat(1, 0, 0, 0);
         if (flow.state() == KioskState::Ar && new_picture && !last_rgb.empty()) {
             cv::Mat gray;
@@ -476,6 +505,10 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
         }
         display->present();
         scheduler.mark(FramePhase::Present);
+        // A GPU reset loses every texture and program: no way on but a new process (systemd
+        // restarts it), so one clear line and a non-zero exit.
+        if (glGetGraphicsResetStatus() != GL_NO_ERROR || (o.fault_gl_lost_at_s && t_s >= *o.fault_gl_lost_at_s))
+            throw RuntimeError("the GL context was lost (GPU reset) on " + display->describe() + "; the kiosk must restart");
         if (o.after_present) o.after_present(flow.state(), frame_no);
         for (const gl::InputEvent& e : display->poll_events()) {
             if (e.type == gl::InputEvent::Type::Quit) return_requested = true;
@@ -523,6 +556,15 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
     frame_ms["phase_mean"] = phases;
     summary["frame_ms"] = frame_ms;
     summary["startup_to_first_frame_s"] = first_frame_s;
+    const DeviceWatch::Counts& device_counts = devices.counts();
+    summary["devices"] = {{"camera_losses", device_counts.camera_losses},
+                          {"camera_restarts", device_counts.camera_restarts},
+                          {"camera_restart_failures", device_counts.camera_restart_failures},
+                          {"camera_lost_s", device_counts.camera_lost_s},
+                          {"sensor_losses", device_counts.sensor_losses},
+                          {"sensor_lost_s", device_counts.sensor_lost_s},
+                          {"frames_out_of_order", device_counts.frames_out_of_order},
+                          {"scan_paused_s", flow.paused_total_s()}};
     summary["scan_end_reason"] = scan_end_reason.empty() ? json() : json(scan_end_reason);
     summary["scan_end_to_lit_s"] = lit_wall_s >= 0 ? json(lit_wall_s - scan_end_wall_s) : json();
     summary["scan_end_to_final_maps_s"] = final_maps_wall_s >= 0 && scan_end_wall_s >= 0 ? json(final_maps_wall_s - scan_end_wall_s) : json();

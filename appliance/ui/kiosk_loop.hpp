@@ -16,6 +16,7 @@
 #include "appliance/core/hdr_image.hpp"
 #include "appliance/gl/display.hpp"
 #include "appliance/ui/config.hpp"
+#include "appliance/ui/device_watch.hpp"
 #include "appliance/ui/kiosk_source.hpp"
 #include "appliance/ui/screen_model.hpp"
 
@@ -41,6 +42,10 @@ struct KioskOptions {
     std::function<void(KioskState state, long long frame)> after_present;
     // Polled once a frame: a new configuration to apply (SIGHUP); only its live keys are used.
     std::function<std::optional<Config>()> reload;
+    // When the camera counts as stalled and the sensor as lost (device_watch.hpp).
+    DeviceWatchSettings devices;
+    // --inject-fault gl-lost:AT (fault_injection.hpp): the context reports itself lost at AT s.
+    std::optional<double> fault_gl_lost_at_s;
 };
 
 struct KioskResult {

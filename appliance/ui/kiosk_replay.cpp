@@ -118,7 +118,9 @@ json run_replay(const ReplayOptions& o, const std::function<void(const std::stri
         const double length = source.length_s();
         k.progress = [&, length](double t_s, double) { o.kiosk.progress(std::min(t_s, length), length); };
     }
-    KioskResult r = run_kiosk(source, k, log);
+    if (o.faults.gl_lost_at_s) k.fault_gl_lost_at_s = o.faults.gl_lost_at_s;
+    FaultInjectingSource faulty(source, o.faults, log);
+    KioskResult r = o.faults.empty() ? run_kiosk(source, k, log) : run_kiosk(faulty, k, log);
     json& summary = r.summary;
     summary["session"] = fs::absolute(o.session).string();
     summary["env_error"] = json();

@@ -18,6 +18,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "appliance/ui/fault_injection.hpp"
 #include "appliance/ui/kiosk_loop.hpp"
 
 namespace glint::ui {
@@ -27,6 +28,7 @@ struct ReplayOptions {
     std::filesystem::path out;
     bool realtime = false;
     KioskOptions kiosk;  // config, snapshots, threads, overlay, progress (dirs are set from `out`)
+    FaultPlan faults;    // --inject-fault (fault_injection.hpp)
 };
 
 // Returns summary.json's content (also written to OUT/summary.json). Throws InputError for an

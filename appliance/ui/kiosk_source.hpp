@@ -23,6 +23,13 @@ struct KioskPoll {
     std::vector<capture::SessionEvent> events;  // "button"/"press", "key"/"<keysym>", ...
 };
 
+// The devices' own account of themselves, for the maintenance menu's status page.
+struct SourceHealth {
+    std::string sensor = "ok";  // the orientation link: "streaming", "disconnected: hang-up (device unplugged?)", ...
+    double sensor_rate_hz = 0;  // as the link counts it (samples in the last second)
+    std::string camera_error;   // the camera's last error ("" = none)
+};
+
 class KioskSource {
 public:
     virtual ~KioskSource() = default;
@@ -49,6 +56,10 @@ public:
     virtual void set_scanning(bool) {}
     // The exposure control's state for the screen ("" = none; "bracketing" while it brackets).
     virtual std::string exposure_state() const { return {}; }
+    // The camera stopped delivering frames: stop it and start it again. "" when it started, else
+    // why not (the kiosk keeps trying). A replay has nothing to restart.
+    virtual std::string restart_camera() { return {}; }
+    virtual SourceHealth health() const { return {}; }
 
     // A replay: the clock is the loop's own (one frame period a frame), the capture takes in each
     // frame before the guide is asked; live: the wall clock.

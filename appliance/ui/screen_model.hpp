@@ -46,6 +46,18 @@ struct ArView {
     double visibility = 0;    // 1 seen, fading to 0 through a dropout
 };
 
+// The devices as the kiosk sees them, for the maintenance menu's status page.
+struct DeviceView {
+    double camera_fps = 0;       // frames in the last second
+    double exposure_s = 0, gain = 0;  // of the newest frame
+    double sensor_rate_hz = 0;   // orientation samples in the last second
+    unsigned long long camera_restarts = 0;
+    std::string sensor_health;   // "Streaming", "no orientation (Disconnected: ...)"
+    std::string camera_error;    // the camera's last error ("" = none)
+    std::string display_mode;    // gl::Display::describe()
+    std::string gl_renderer;     // GL_RENDERER
+};
+
 struct ScreenModel {
     KioskState state = KioskState::Attract;
     double t_in_state_s = 0;
@@ -56,6 +68,8 @@ struct ScreenModel {
     std::string message;            // key of a friendly message shown over any state ("" = none)
     bool degraded = false;          // the display fell back (shown small, for the technician)
     bool sensor_lost = false;       // "sensor lost, please wait"
+    bool camera_lost = false;       // "camera restarting, please wait"
+    DeviceView devices;
 };
 
 }  // namespace glint::ui

@@ -343,10 +343,11 @@ void draw_visitor_screen(const ScreenModel& model, const Strings& strings, int w
     if (banner)
         p.panel_text(FontRole::Body, layer.font_size(FontRole::Body), strings.get(model.message), w / 2, p.m, colours::kText,
                      w * 0.8f, kBanner);
-    if (model.sensor_lost) {
-        // Over everything, with a turning arc: the kiosk waits for the sensor to come back.
+    if (model.sensor_lost || model.camera_lost) {
+        // Over everything, with a turning arc: the kiosk waits for the device to come back.
         const float body = layer.font_size(FontRole::Body);
-        const float bottom = p.panel_text(FontRole::Body, body, strings.get("status.sensor_lost"), w / 2, h * 0.5f - body,
+        const char* key = model.camera_lost ? "status.camera_lost" : "status.sensor_lost";
+        const float bottom = p.panel_text(FontRole::Body, body, strings.get(key), w / 2, h * 0.5f - body,
                                           colours::kAccent, w * 0.8f);
         const ImVec2 c(w / 2, bottom + body);
         const float a0 = float(std::fmod(model.t_s, 1.5) / 1.5) * 2 * kPi;

@@ -81,9 +81,44 @@ TEST(GuidedCapture, CompletesOnCoverageOrTimesOut) {
     for (int j = 0; j < kH / 2; ++j)
         for (int i = 0; i < kW; ++i) half[std::size_t(j * kW + i)] = 1;
     GuidedCapture slow(settings, camera());
-    EXPECT_EQ(slow.update(grey_frame(0, 0.01), camera_look(0, 0), half, kW, kH).state, GuidedState::Scanning);
-    EXPECT_EQ(slow.update(grey_frame(9'000'000'000, 0.01), camera_look(0, 0), half, kW, kH).state, GuidedState::Scanning);
+    // A frame a second (a gap over GuidedSettings::pause_after_gap_s would be a pause).
+    for (std::int64_t t = 0; t <= 9'000'000'000; t += 1'000'000'000)
+        EXPECT_EQ(slow.update(grey_frame(t, 0.01), camera_look(0, 0), half, kW, kH).state, GuidedState::Scanning);
     EXPECT_EQ(slow.update(grey_frame(10'000'000'000, 0.01), camera_look(0, 0), half, kW, kH).state, GuidedState::TimedOut);
+}
+
+TEST(GuidedCapture, ASensorLossPausesTheTimeLimit) {
+    GuidedSettings settings;
+    settings.time_limit_s = 10;
+    std::vector<std::uint32_t> half(std::size_t(kW * kH), 0);
+    for (int j = 0; j < kH / 2; ++j)
+        for (int i = 0; i < kW; ++i) half[std::size_t(j * kW + i)] = 1;
+    GuidedCapture g(settings, camera());
+    for (std::int64_t t = 0; t <= 4'000'000'000; t += 1'000'000'000)
+        EXPECT_EQ(g.update(grey_frame(t, 0.01), camera_look(0, 0), half, kW, kH).state, GuidedState::Scanning);
+    // No orientation from 4.1 s to 9 s (the sensor unplugged and replugged): 4.9 s paused.
+    for (std::int64_t t = 4'100'000'000; t < 9'000'000'000; t += 100'000'000) g.frame_unplaced(t);
+    // Back at 9 s having turned 90 degrees while waiting: that is no speed.
+    GuidedStep s = g.update(grey_frame(9'000'000'000, 0.01), camera_look(90, 0), half, kW, kH);
+    EXPECT_NEAR(s.elapsed_s, 4.1, 1e-9);
+    EXPECT_NEAR(g.paused_s(), 4.9, 1e-9);
+    EXPECT_FALSE(s.too_fast);
+    // Without the pause 14 s would be past the limit; with it, 9.1 s of scanning is not.
+    for (std::int64_t t = 10'000'000'000; t <= 14'000'000'000; t += 1'000'000'000)
+        EXPECT_EQ(g.update(grey_frame(t, 0.01), camera_look(90, 0), half, kW, kH).state, GuidedState::Scanning);
+    EXPECT_EQ(g.update(grey_frame(15'000'000'000, 0.01), camera_look(90, 0), half, kW, kH).state, GuidedState::TimedOut);
+    // Frames not fed at all for 5 s (the kiosk holds them back while a device is lost): paused too.
+    GuidedCapture fed(settings, camera());
+    fed.update(grey_frame(0, 0.01), camera_look(0, 0), half, kW, kH);
+    fed.update(grey_frame(1'000'000'000, 0.01), camera_look(0, 0), half, kW, kH);
+    s = fed.update(grey_frame(6'000'000'000, 0.01), camera_look(0, 0), half, kW, kH);
+    EXPECT_NEAR(s.elapsed_s, 1.0, 1e-9);
+    EXPECT_NEAR(fed.paused_s(), 5.0, 1e-9);
+    // An unplaced frame before the scan's first placed one is no pause.
+    GuidedCapture early(settings, camera());
+    early.frame_unplaced(0);
+    early.update(grey_frame(2'000'000'000, 0.01), camera_look(0, 0), half, kW, kH);
+    EXPECT_EQ(early.paused_s(), 0.0);
 }
 
 }  // namespace

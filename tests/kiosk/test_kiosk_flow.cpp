@@ -120,6 +120,37 @@ TEST(KioskFlow, EveryVisitorStartsOnTheFirstMaterial) {
     EXPECT_EQ(flow.material(), 0);
 }
 
+TEST(KioskFlow, AScanWaitingForADeviceDoesNotTimeOutUntilTheWaitIsTooLong) {
+    KioskFlow flow(timeouts(), 3);  // capture_s = 100
+    ASSERT_TRUE(flow.button(0.0));
+    flow.set_paused(60.0, true, "message.sensor_problem");
+    EXPECT_TRUE(flow.paused());
+    EXPECT_FALSE(flow.tick(120.0));  // 120 s in CAPTURE, 60 of them waiting: no timeout
+    flow.set_paused(130.0, false);
+    EXPECT_FALSE(flow.paused());
+    EXPECT_DOUBLE_EQ(flow.paused_total_s(), 70.0);
+    EXPECT_FALSE(flow.tick(165.0));  // 95 s of scanning
+    const auto timeout = flow.tick(171.0);  // 101 s of scanning
+    ASSERT_TRUE(timeout);
+    EXPECT_EQ(flow.message(172.0), "message.capture_timeout");
+
+    // A wait longer than the scan's own limit gives up with the device's message.
+    KioskFlow stuck(timeouts(), 3);
+    ASSERT_TRUE(stuck.button(0.0));
+    stuck.set_paused(10.0, true, "message.sensor_problem");
+    EXPECT_FALSE(stuck.tick(109.0));
+    const auto given_up = stuck.tick(111.0);
+    ASSERT_TRUE(given_up);
+    EXPECT_EQ(stuck.state(), KioskState::Attract);
+    EXPECT_EQ(stuck.message(112.0), "message.sensor_problem");
+    EXPECT_FALSE(stuck.paused());
+
+    // Outside CAPTURE a pause is ignored.
+    KioskFlow idle(timeouts(), 3);
+    idle.set_paused(1.0, true);
+    EXPECT_FALSE(idle.paused());
+}
+
 TEST(KioskFlow, StateNamesAreTheOnesSummaryJsonUses) {
     EXPECT_STREQ(kiosk_state_name(KioskState::Attract), "ATTRACT");
     EXPECT_STREQ(kiosk_state_name(KioskState::Capture), "CAPTURE");
