@@ -1,6 +1,8 @@
 // The kiosk's last scene as a state item (scene_state.hpp).
 #include "appliance/core/scene_state.hpp"
 
+#include <unistd.h>
+
 #include "appliance/core/errors.hpp"
 #include "appliance/core/exr_io.hpp"
 
@@ -13,14 +15,28 @@ fs::path staging_dir(const fs::path& scene_dir) {
     return scene_dir.parent_path() / ("." + scene_dir.filename().string() + ".capture");
 }
 
-state::LoadPolicy scene_policy() {
+// Where the capture writes when the state directory cannot take it (read-only): the visitor still
+// gets the map; its commit then fails, is logged and shown (take_captured_scene).
+fs::path fallback_dir() { return fs::temp_directory_path() / ("glint-scene-capture-" + std::to_string(::geteuid())); }
+
+bool fresh_directory(const fs::path& dir) {
+    std::error_code ec;
+    // A capture cut short (a crash, a power cut) left its files and temporaries: a new one starts
+    // from nothing.
+    fs::remove_all(dir, ec);
+    fs::create_directories(dir, ec);
+    return !ec && ::access(dir.c_str(), W_OK) == 0;
+}
+
+// Loads the map (kept for the caller) and the coverage: the scene must parse to be used.
+state::LoadPolicy scene_policy(std::optional<HdrImage>& env) {
     state::LoadPolicy p;
     p.files = {kSceneEnv, kSceneCoverage};
     // An older build's plain directory has no checksums: it could be torn, and the scene is only
     // what ATTRACT shows, so it is set aside rather than trusted.
     p.unverified = state::Unverified::SetAside;
-    p.check = [](const fs::path& item) {
-        (void)load_exr(item / kSceneEnv);
+    p.check = [&env](const fs::path& item) {
+        env = load_exr(item / kSceneEnv).image;
         (void)load_exr(item / kSceneCoverage);
     };
     return p;
@@ -30,20 +46,19 @@ state::LoadPolicy scene_policy() {
 
 fs::path scene_capture_path(const fs::path& scene_dir, bool replayed) {
     if (replayed) return scene_dir / kSceneEnv;
+    // Never throws: it is called from the frame loop when a visitor starts a scan.
     const fs::path dir = staging_dir(scene_dir);
-    std::error_code ec;
-    // A capture cut short (a crash, a power cut) left its files and temporaries: a new one starts
-    // from nothing.
-    fs::remove_all(dir, ec);
-    fs::create_directories(dir, ec);
-    if (ec) throw RuntimeError(dir.string() + ": cannot create the capture's staging directory: " + ec.message());
-    return dir / kSceneEnv;
+    if (fresh_directory(dir)) return dir / kSceneEnv;
+    if (fresh_directory(fallback_dir())) return fallback_dir() / kSceneEnv;
+    return dir / kSceneEnv;  // the capture's own save will fail and say why
 }
 
 HdrImage take_captured_scene(const fs::path& scene_dir, bool replayed, const state::Log& log) {
-    const fs::path env_path = replayed ? scene_dir / kSceneEnv : staging_dir(scene_dir) / kSceneEnv;
+    if (replayed) return load_exr(scene_dir / kSceneEnv).image;
+    std::error_code ec;
+    fs::path env_path = staging_dir(scene_dir) / kSceneEnv;
+    if (!fs::exists(env_path, ec) && fs::exists(fallback_dir() / kSceneEnv, ec)) env_path = fallback_dir() / kSceneEnv;
     HdrImage env = load_exr(env_path).image;
-    if (replayed) return env;
     const fs::path coverage = env_path.parent_path() / kSceneCoverage;
     try {
         state::save_item(scene_dir.parent_path(), scene_dir.filename().string(),
@@ -55,21 +70,17 @@ HdrImage take_captured_scene(const fs::path& scene_dir, bool replayed, const sta
 }
 
 std::optional<fs::path> last_scene_env(const fs::path& scene_dir, const state::Log& log) {
-    const state::LoadedItem item = state::load_item(scene_dir.parent_path(), scene_dir.filename().string(), scene_policy(), log);
+    std::optional<HdrImage> env;
+    const state::LoadedItem item = state::load_item(scene_dir.parent_path(), scene_dir.filename().string(), scene_policy(env), log);
     if (!item.path) return std::nullopt;
     return *item.path / kSceneEnv;
 }
 
 std::optional<HdrImage> load_last_scene(const fs::path& scene_dir, const state::Log& log) {
-    const std::optional<fs::path> env = last_scene_env(scene_dir, log);
-    if (!env) return std::nullopt;
-    try {
-        return load_exr(*env).image;
-    } catch (const std::exception& e) {
-        // Verified a moment ago: only a disk failing under us gets here.
-        if (log) log(std::string("state: the last scene could not be read: ") + e.what());
-        return std::nullopt;
-    }
+    std::optional<HdrImage> env;
+    const state::LoadedItem item = state::load_item(scene_dir.parent_path(), scene_dir.filename().string(), scene_policy(env), log);
+    if (!item.path) return std::nullopt;
+    return env;
 }
 
 }  // namespace glint

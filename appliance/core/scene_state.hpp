@@ -20,7 +20,9 @@ inline constexpr const char* kSceneCoverage = "env.coverage.exr";
 
 // Where the capture writes the visitor's env.exr (and, beside it, env.coverage.exr): the staging
 // directory of `scene_dir` (emptied and created: call it when a capture starts), or `scene_dir`
-// itself for a replay.
+// itself for a replay. Never throws: when the state directory cannot take the capture
+// (read-only) it is a directory under the temporary directory, so that the visitor still gets
+// the map (its commit then fails and is logged).
 std::filesystem::path scene_capture_path(const std::filesystem::path& scene_dir, bool replayed);
 
 // Reads the captured map back and, live, commits it with its coverage as the new version of the

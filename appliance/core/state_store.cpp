@@ -121,15 +121,19 @@ std::optional<fs::path> read_link(const fs::path& path) {
 }
 
 // Removes what a save cut short left behind: generations other than `keep` and link temps.
+// Garbage only: a failure here (a read-only directory) changes nothing that is read.
 void remove_leftovers(const fs::path& dir, const std::string& item, const std::string& keep) {
-    std::error_code ec;
-    const fs::path root = dir / gen_root_name(item);
-    if (fs::is_directory(root, ec))
-        for (const fs::directory_entry& e : fs::directory_iterator(root, ec))
-            if (e.path().filename() != keep) fs::remove_all(e.path(), ec);
-    const std::string link_temp = "." + item + ".link-";
-    for (const fs::directory_entry& e : fs::directory_iterator(dir, ec))
-        if (e.path().filename().string().rfind(link_temp, 0) == 0) fs::remove(e.path(), ec);
+    try {
+        std::error_code ec;
+        const fs::path root = dir / gen_root_name(item);
+        if (fs::is_directory(root, ec))
+            for (const fs::directory_entry& e : fs::directory_iterator(root, ec))
+                if (e.path().filename() != keep) fs::remove_all(e.path(), ec);
+        const std::string link_temp = "." + item + ".link-";
+        for (const fs::directory_entry& e : fs::directory_iterator(dir, ec))
+            if (e.path().filename().string().rfind(link_temp, 0) == 0) fs::remove(e.path(), ec);
+    } catch (const std::exception&) {
+    }
 }
 
 std::mutex& errors_mutex() {
@@ -359,7 +363,10 @@ LoadedItem load_item(const fs::path& dir, const std::string& item, const LoadPol
         r.defaults_because = "none saved yet";
         return r;
     }
-    const std::optional<fs::path> target = read_link(item_path);
+    // A link the store did not make (a technician's link to a file elsewhere) is read as what it
+    // points at: an item the store did not write.
+    std::optional<fs::path> target = read_link(item_path);
+    if (target && !parse_link(item, *target)) target.reset();
     if (!target) {
         // Not the store's: an empty directory made before the first save is "none yet".
         if (fs::is_directory(status) && fs::is_empty(item_path, ec)) {
@@ -373,7 +380,6 @@ LoadedItem load_item(const fs::path& dir, const std::string& item, const LoadPol
         return r;
     }
     const std::optional<LinkTarget> link = parse_link(item, *target);
-    if (!link) return fault("a link to " + target->string() + ", not to one of its generations");
     const std::string gen = gen_name(link->generation);
     const fs::path gen_dir = dir / gen_root_name(item) / gen;
     if (!fs::is_directory(gen_dir, ec)) return fault("its generation " + gen_dir.string() + " is missing");

@@ -256,6 +256,24 @@ int read_only_child_impl(const fs::path& base) {
         }
     }
     expect_all_refused(c, reason, true, lock);
+    {
+        // A visitor's scan now: the capture goes to a temporary directory, the visitor gets the
+        // map, the commit fails and is logged with its reason, the last scene stays.
+        const fs::path staged = scene_capture_path(c.dir / kSceneItem, false);
+        if (staged.string().rfind(c.dir.string(), 0) == 0) c.problem("the capture was sent into the read-only directory: " + staged.string());
+        save_exr(staged.parent_path() / kSceneCoverage, scene_coverage(5));
+        save_exr(staged, scene_env(5));
+        std::string logged;
+        const HdrImage shown = take_captured_scene(c.dir / kSceneItem, false, [&](const std::string& l) { logged += l; });
+        if (shown.data() != scene_env(5).data()) c.problem("take_captured_scene: not the captured map");
+        if (logged.find("the scene was not saved") == std::string::npos || logged.find(reason) == std::string::npos)
+            c.problem("take_captured_scene: the failed commit was not logged with its reason: " + logged);
+        else std::fprintf(stderr, "logged as expected: %s\n", logged.c_str());
+        const std::optional<HdrImage> last = load_last_scene(c.dir / kSceneItem, {});
+        if (!last || last->data() != scene_env(1).data()) c.problem("after the failed commit the last scene is not version 1");
+        std::error_code ec;
+        fs::remove_all(staged.parent_path(), ec);  // the temporary directory is not the test's to leave
+    }
     if (bind) {
         // Writable again: the saves work.
         if (::umount(c.dir.c_str()) != 0) c.problem(std::string("umount: ") + std::strerror(errno));

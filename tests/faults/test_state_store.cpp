@@ -208,6 +208,28 @@ TEST(StateStore, AnItemTheStoreDidNotWriteIsAcceptedOrSetAsideByPolicy) {
     EXPECT_EQ(set_asides(t.path()).size(), 2u);
 }
 
+TEST(StateStore, ATechniciansLinkIsReadAsAnItemTheStoreDidNotWrite) {
+    TempDir t;
+    fs::create_directory(t.path() / "elsewhere");
+    write_text(t.path() / "elsewhere" / "cal.json", "7");
+    fs::create_symlink(t.path() / "elsewhere" / "cal.json", t.path() / "cal.json");
+    EXPECT_FALSE(state::is_store_item(t.path() / "cal.json"));
+    LoadPolicy accept;
+    accept.files = {"cal.json"};
+    accept.unverified = state::Unverified::Accept;
+    accept.check = [](const fs::path& f) { (void)std::stoi(read_text(f)); };
+    Logged logged;
+    const state::LoadedItem r = state::load_item(t.path(), "cal.json", accept, logged.log());
+    ASSERT_TRUE(r.path);
+    EXPECT_FALSE(r.verified);
+    EXPECT_NE(logged.all().find("loaded unverified"), std::string::npos);
+    // A save replaces the link with the store's own; the file it pointed at is left alone.
+    state::save_item(t.path(), "cal.json", {state::text_file("cal.json", "8")});
+    EXPECT_TRUE(state::is_store_item(t.path() / "cal.json"));
+    EXPECT_EQ(read_text(t.path() / "elsewhere" / "cal.json"), "7");
+    EXPECT_TRUE(state::load_item(t.path(), "cal.json", accept, {}).verified);
+}
+
 TEST(StateStore, WhatASaveCutShortLeftIsRemoved) {
     TempDir t;
     save_two(t.path(), "a1", "b1");
