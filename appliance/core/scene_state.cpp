@@ -80,6 +80,11 @@ std::optional<HdrImage> load_last_scene(const fs::path& scene_dir, const state::
     std::optional<HdrImage> env;
     const state::LoadedItem item = state::load_item(scene_dir.parent_path(), scene_dir.filename().string(), scene_policy(env), log);
     if (!item.path) return std::nullopt;
+    if (log) {
+        std::error_code ec;
+        log("state: " + scene_dir.string() + ": the last scene (" + fs::canonical(scene_dir, ec).filename().string() + ", " +
+            std::to_string(env->width()) + "x" + std::to_string(env->height()) + ") verified and loaded");
+    }
     return env;
 }
 
