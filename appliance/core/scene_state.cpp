@@ -3,6 +3,9 @@
 
 #include <unistd.h>
 
+#include <chrono>
+#include <cmath>
+
 #include "appliance/core/errors.hpp"
 #include "appliance/core/exr_io.hpp"
 
@@ -77,13 +80,16 @@ std::optional<fs::path> last_scene_env(const fs::path& scene_dir, const state::L
 }
 
 std::optional<HdrImage> load_last_scene(const fs::path& scene_dir, const state::Log& log) {
+    const auto started = std::chrono::steady_clock::now();
     std::optional<HdrImage> env;
     const state::LoadedItem item = state::load_item(scene_dir.parent_path(), scene_dir.filename().string(), scene_policy(env), log);
     if (!item.path) return std::nullopt;
     if (log) {
         std::error_code ec;
         log("state: " + scene_dir.string() + ": the last scene (" + fs::canonical(scene_dir, ec).filename().string() + ", " +
-            std::to_string(env->width()) + "x" + std::to_string(env->height()) + ") verified and loaded");
+            std::to_string(env->width()) + "x" + std::to_string(env->height()) + ") verified and loaded in " +
+            std::to_string(std::lround(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - started).count())) +
+            " ms");
     }
     return env;
 }
