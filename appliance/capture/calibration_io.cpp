@@ -7,6 +7,7 @@
 
 #include "appliance/core/atomic_file.hpp"
 #include "appliance/core/errors.hpp"
+#include "appliance/core/state_store.hpp"
 
 namespace glint::capture {
 
@@ -137,7 +138,30 @@ CameraCalibration calibration_from_json(const std::string& text, const std::stri
 }
 
 void save_calibration(const std::filesystem::path& path, const CameraCalibration& calibration) {
+    if (state::is_store_item(path)) {
+        state::save_item(path.parent_path(), path.filename().string(),
+                         {state::text_file(path.filename().string(), calibration_to_json(calibration))});
+        return;
+    }
     write_text_atomically(path, calibration_to_json(calibration));
+}
+
+void save_state_calibration(const std::filesystem::path& state_dir, const CameraCalibration& calibration) {
+    state::save_item(state_dir, kStateCalibrationName, {state::text_file(kStateCalibrationName, calibration_to_json(calibration))});
+}
+
+std::optional<CameraCalibration> load_state_calibration(const std::filesystem::path& state_dir,
+                                                        const std::function<void(const std::string&)>& log) {
+    std::optional<CameraCalibration> calibration;
+    state::LoadPolicy policy;
+    policy.files = {kStateCalibrationName};
+    // A technician may copy a calibration in by hand (glint calibrate's, a session's): no checksum,
+    // but it must parse.
+    policy.unverified = state::Unverified::Accept;
+    policy.check = [&](const std::filesystem::path& file) { calibration = load_calibration(file); };
+    const state::LoadedItem item = state::load_item(state_dir, kStateCalibrationName, policy, log);
+    if (!item.path) return std::nullopt;
+    return calibration;
 }
 
 CameraCalibration load_calibration(const std::filesystem::path& path) {

@@ -3,6 +3,8 @@
 #pragma once
 
 #include <filesystem>
+#include <functional>
+#include <optional>
 #include <string>
 
 #include "appliance/capture/camera_model.hpp"
@@ -15,7 +17,20 @@ std::string calibration_to_json(const CameraCalibration& calibration);
 // Throws InputError "FILE: key 'k': reason" (the file name is `source`).
 CameraCalibration calibration_from_json(const std::string& text, const std::string& source);
 
+// Writes `path` atomically; when `path` is a state item (docs/state.md: the state directory's
+// calibration.json saved by save_state_calibration) it saves a new checksummed version of it.
 void save_calibration(const std::filesystem::path& path, const CameraCalibration& calibration);
 CameraCalibration load_calibration(const std::filesystem::path& path);
+
+// The appliance's own calibration, <state_dir>/calibration.json, as a state item
+// (core/state_store.hpp): saved with a checksum (throws state::SaveError naming the file, the old
+// version kept), loaded only when it verifies and parses. A faulty one is set aside into
+// <state_dir>/corrupt/ and logged, and nullopt returned (the caller's default: no calibration).
+// A calibration.json copied in by hand (no checksum) is loaded if it parses, and logged as
+// unverified.
+inline constexpr const char* kStateCalibrationName = "calibration.json";
+void save_state_calibration(const std::filesystem::path& state_dir, const CameraCalibration& calibration);
+std::optional<CameraCalibration> load_state_calibration(const std::filesystem::path& state_dir,
+                                                        const std::function<void(const std::string&)>& log);
 
 }  // namespace glint::capture

@@ -25,6 +25,7 @@
 #include "appliance/core/exr_io.hpp"
 #include "appliance/core/parallel.hpp"
 #include "appliance/core/rotation.hpp"
+#include "appliance/core/scene_state.hpp"
 #include "appliance/gl/display.hpp"
 #include "appliance/gl/png_writer.hpp"
 #include "appliance/render/camera_response.hpp"
@@ -109,6 +110,9 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
     Config cfg = o.config;
     const std::int64_t t0_ns = source.start_ns();
     const auto kiosk_s = [&](std::int64_t t_ns) { return double(t_ns - t0_ns) * 1e-9; };
+    // After a restart ATTRACT shows the last visitor's scene if it verifies (docs/state.md); a
+    // faulty one is set aside and logged. Before maps_dir is made: a damaged item may be in its way.
+    const std::optional<HdrImage> last_scene = source.replayed() ? std::nullopt : load_last_scene(o.maps_dir, log);
     std::error_code ec;
     for (const fs::path& dir : {o.maps_dir, o.frames_dir}) {
         if (dir.empty()) continue;
@@ -131,15 +135,15 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
         log(std::string("display ") + gl::display_kind_name(a.kind) + ": " + (a.ok ? "opened " : "not opened: ") + a.detail);
     const int width = display->width(), height = display->height();
 
-    // The object, its materials and a renderer per material, lit at first by a neutral grey room
-    // (there is no last scene before the first visitor).
+    // The object, its materials and a renderer per material, lit at first by the last scene or,
+    // without one (a new appliance, a replay, a scene that did not verify), a neutral grey room.
     std::vector<render::Material> materials;
     for (const std::string& name : cfg.ar.materials) materials.push_back(render::parse_material(name, "ar.materials"));
     if (materials.empty()) throw InputError("ar.materials: the list is empty");
     const render::Mesh mesh = render::load_model(cfg.ar.model, "ar.model");
     HdrImage grey(64, 32);
     std::fill(grey.data().begin(), grey.data().end(), 0.5f);
-    render::ShadingMaps maps = render::coarse_maps(grey, materials, 1);
+    render::ShadingMaps maps = render::coarse_maps(last_scene ? *last_scene : grey, materials, 1);
     // One renderer; the button changes its material (its shaders are compiled once).
     // The 3D view is drawn at the camera's resolution (at most the display's) and stretched over
     // the display: the object gets the pixel footprint of the real scene around it (a sharper
@@ -177,7 +181,7 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
     std::optional<HdrImage> env;
     double scan_end_wall_s = -1, lit_wall_s = -1, final_maps_wall_s = -1;
     std::string scan_end_reason;
-    bool have_scene = false;  // a lit scene for ATTRACT to show
+    bool have_scene = last_scene.has_value();  // a lit scene for ATTRACT to show
     bool attract_background_set = false;  // the renderer's background is the room now
 
     // What the replay measures.
@@ -286,7 +290,7 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
             if (flow.state() == KioskState::Capture && !capture_job) {
                 capture::CaptureOptions co;
                 source.configure_capture(co);
-                co.out = o.maps_dir / "env.exr";
+                co.out = scene_capture_path(o.maps_dir, source.replayed());  // committed with its coverage once read back
                 co.width = cfg.capture.map_width;
                 co.height = cfg.capture.map_height;
                 co.threads = threads;
@@ -332,9 +336,9 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
             try {
                 capture_summary = capture_job->take();
                 // The map read back, its preview and the coarse maps on a worker: the frames go on.
-                scene_job = std::async(std::launch::async, [path = o.maps_dir / "env.exr", &materials, threads] {
+                scene_job = std::async(std::launch::async, [maps_dir = o.maps_dir, replayed = source.replayed(), &log, &materials, threads] {
                     NewScene scene;
-                    scene.env = load_exr(path).image;
+                    scene.env = take_captured_scene(maps_dir, replayed, log);
                     scene.preview = preview_of(scene.env, 256, 128);
                     scene.maps = render::coarse_maps(scene.env, materials, threads);
                     return scene;
@@ -439,7 +443,7 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
             // The last visitor's object, slowly orbiting in the room it was lit by.
             renderer.set_camera(orbit_camera(t_s * 12.0));
             if (!attract_background_set) {  // 6 MB of texture: once per visit of ATTRACT
-                renderer.set_background_environment(*env);
+                renderer.set_background_environment(env ? *env : *last_scene);
                 attract_background_set = true;
             }
             renderer.draw_scene();

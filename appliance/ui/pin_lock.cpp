@@ -12,7 +12,7 @@
 #include <memory>
 #include <sstream>
 
-#include "appliance/core/atomic_file.hpp"
+#include "appliance/core/state_store.hpp"
 #include "appliance/core/errors.hpp"
 
 namespace glint::ui {
@@ -178,26 +178,62 @@ void PinLock::report(PinEvent::Kind kind, std::string detail) {
     report_(e);
 }
 
-void PinLock::load() {
-    std::error_code ec;
-    if (!std::filesystem::exists(state_file_, ec) && !ec) return;  // first start: nothing counted yet
-    std::ifstream in(state_file_);
-    std::string magic, boot_word, boot, failures_word, until_word;
-    int version = 0, failures = -1;
-    long long until = -1;
-    in >> magic >> version >> boot_word >> boot >> failures_word >> failures >> until_word >> until;
+namespace {
+
+struct StoredLock {
+    std::string boot;
+    int failures = -1;
+    long long locked_until_ns = -1;
+};
+
+std::optional<StoredLock> parse_lock_state(const std::string& text) {
+    std::istringstream in(text);
+    std::string magic, boot_word, failures_word, until_word;
+    int version = 0;
+    StoredLock s;
+    in >> magic >> version >> boot_word >> s.boot >> failures_word >> s.failures >> until_word >> s.locked_until_ns;
     const bool valid = in && magic == kStateMagic && version == kStateVersion && boot_word == "boot" &&
-                       failures_word == "failures" && until_word == "locked_until_ns" && failures >= 0 && until >= 0;
-    if (!valid) {
+                       failures_word == "failures" && until_word == "locked_until_ns" && s.failures >= 0 &&
+                       s.locked_until_ns >= 0;
+    if (!valid) return std::nullopt;
+    return s;
+}
+
+}  // namespace
+
+void PinLock::load() {
+    // The state file is a state item (core/state_store.hpp): checksummed when this build wrote it;
+    // an older build's plain file is read if it parses.
+    std::optional<StoredLock> stored;
+    state::LoadPolicy policy;
+    policy.files = {state_file_.filename().string()};
+    policy.unverified = state::Unverified::Accept;
+    policy.check = [&](const std::filesystem::path& file) {
+        std::ifstream in(file);
+        std::stringstream text;
+        text << in.rdbuf();
+        stored = parse_lock_state(text.str());
+        if (!stored) throw RuntimeError("not a PIN lock state (" + std::string(kStateMagic) + " " +
+                                        std::to_string(kStateVersion) + ", boot, failures, locked_until_ns)");
+    };
+    const std::filesystem::path dir = state_file_.parent_path().empty() ? std::filesystem::path(".") : state_file_.parent_path();
+    const state::LoadedItem item = state::load_item(dir, state_file_.filename().string(), policy, {});
+    if (!item.path && !item.fault) return;  // first start: nothing counted yet
+    if (!item.path || !stored) {
         // Fail closed: a damaged file must not be a way to reset the count.
         failures_ = policy_.max_attempts;
         locked_until_ns_ = now_() + lockout_ns(policy_);
-        report(PinEvent::Kind::StateError, state_file_.string() + " unreadable or damaged; locking as after too many PINs");
+        report(PinEvent::Kind::StateError,
+               state_file_.string() + " unreadable or damaged (" + item.defaults_because + ")" +
+                   (item.set_aside.empty() ? std::string() : "; set aside in " + item.set_aside.string()) +
+                   "; locking as after too many PINs");
         save();
         report(PinEvent::Kind::LockedOut, "state file damaged");
         return;
     }
-    failures_ = failures;
+    const std::string boot = stored->boot;
+    const long long until = stored->locked_until_ns;
+    failures_ = stored->failures;
     if (until == 0) return;
     // An unknown boot id (either side) counts as a reboot: the safe reading of "cannot tell".
     if (boot_id_.empty() || boot != boot_id_) {
@@ -221,7 +257,9 @@ void PinLock::save() {
     out << kStateMagic << ' ' << kStateVersion << "\nboot " << (boot_id_.empty() ? "-" : boot_id_) << "\nfailures "
         << failures_ << "\nlocked_until_ns " << locked_until_ns_ << "\n";
     try {
-        write_text_atomically(state_file_, out.str());
+        const std::string name = state_file_.filename().string();
+        state::save_item(state_file_.parent_path().empty() ? std::filesystem::path(".") : state_file_.parent_path(), name,
+                         {state::text_file(name, out.str())});
     } catch (const std::exception& e) {
         // The count and the lock still hold in this process; only a restart would lose them.
         report(PinEvent::Kind::StateError, e.what());
