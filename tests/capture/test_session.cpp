@@ -468,6 +468,11 @@ TEST(CalibrationIo, RoundTripsAndRejectsBadValues) {
     const std::string bad = std::regex_replace(text, std::regex("\"fx\": [0-9.e+-]+"), "\"fx\": -3");
     EXPECT_THROW(calibration_from_json(bad, "c.json"), InputError);
     EXPECT_THROW(calibration_from_json("{", "c.json"), InputError);
+    // A number beyond double's range: nlohmann throws out_of_range, not parse_error (found by
+    // tests/fuzz's calibration target).
+    EXPECT_THROW(calibration_from_json(std::regex_replace(text, std::regex("\"fx\": [0-9.e+-]+"), "\"fx\": 1e999"),
+                                       "c.json"),
+                 InputError);
 }
 
 }  // namespace
