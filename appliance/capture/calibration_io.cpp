@@ -62,7 +62,7 @@ CameraCalibration calibration_from_json(const std::string& text, const std::stri
     json j;
     try {
         j = json::parse(text);
-    } catch (const json::parse_error& e) {
+    } catch (const json::exception& e) {  // parse_error, and out_of_range for a number beyond double's range
         throw InputError(source + ": not valid JSON (" + e.what() + ")");
     }
     const json& format = member(j, "format", source, "");

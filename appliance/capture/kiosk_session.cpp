@@ -114,7 +114,7 @@ std::string kiosk_json(const KioskSessionInfo& info) {
     nlohmann::ordered_json board;
     try {
         board = nlohmann::ordered_json::parse(info.board_json);
-    } catch (const nlohmann::json::parse_error& e) {
+    } catch (const nlohmann::json::exception& e) {
         throw InputError(std::string("kiosk.json: key 'board': not JSON (") + e.what() + ")");
     }
     if (!board.is_object()) throw InputError("kiosk.json: key 'board': must be a JSON object");
@@ -153,7 +153,7 @@ std::optional<KioskSessionInfo> load_kiosk_info(const Session& s) {
     nlohmann::json j;
     try {
         j = nlohmann::json::parse(read_text(p));
-    } catch (const nlohmann::json::parse_error& e) {
+    } catch (const nlohmann::json::exception& e) {  // parse_error, and out_of_range for a number beyond double's range
         throw InputError(file + ": not valid JSON (" + e.what() + ")");
     }
     const auto key_error = [&](const std::string& key, const std::string& why) {

@@ -98,10 +98,11 @@ Session open_session(const fs::path& dir) {
     nlohmann::json j;
     try {
         j = nlohmann::json::parse(read_text(meta, "session description"));
-    } catch (const nlohmann::json::parse_error& e) {
+    } catch (const nlohmann::json::exception& e) {  // parse_error, and out_of_range for a number beyond double's range
         throw InputError(meta.string() + ": not valid JSON (" + e.what() + ")");
     }
-    if (!j.is_object() || j.value("format", "") != "glint-session")
+    // Not j.value("format", ""): it throws nlohmann's type_error when "format" is not a string.
+    if (!j.is_object() || !j.contains("format") || !j["format"].is_string() || j["format"] != "glint-session")
         throw InputError(meta.string() + ": key 'format': not a Glint session");
     if (!j.contains("version") || !j["version"].is_number_integer() || j["version"].get<int>() != kSessionVersion)
         throw InputError(meta.string() + ": key 'version': this build reads version " +

@@ -80,7 +80,7 @@ BoardSpec board_spec_from_json(const std::string& text, const std::string& sourc
     nlohmann::json j;
     try {
         j = nlohmann::json::parse(text);
-    } catch (const nlohmann::json::parse_error& e) {
+    } catch (const nlohmann::json::exception& e) {  // parse_error, and out_of_range for a number beyond double's range
         throw InputError(source + ": not JSON: " + e.what());
     }
     if (!j.is_object()) throw InputError(source + ": the board must be a JSON object");

@@ -243,6 +243,20 @@ TEST_F(SessionTest, MalformedFilesNameTheFileAndTheLine) {
         EXPECT_NE(std::string(e.what()).find("calibration.json: key 'version'"), std::string::npos) << e.what();
     }
     EXPECT_THROW(open_session(dir_ / "nothing-here"), InputError);
+    // nlohmann's other exceptions are InputErrors naming session.json too: a number beyond
+    // double's range (out_of_range; tests/fuzz's calibration target found it in that reader), a
+    // format that is not a string (type_error from j.value()).
+    for (const char* text : {R"({"format": "glint-session", "version": 1e999})", R"({"format": 7, "version": 1})"}) {
+        std::ofstream(dir_ / "session" / "session.json") << text;
+        try {
+            open_session(dir_ / "session");
+            ADD_FAILURE() << "no error for " << text;
+        } catch (const InputError& e) {
+            EXPECT_NE(std::string(e.what()).find("session.json"), std::string::npos) << e.what();
+        } catch (const std::exception& e) {
+            ADD_FAILURE() << "not an InputError for " << text << ": " << e.what();
+        }
+    }
 }
 
 TEST_F(SessionTest, ResponseCalibrationFromABracketFindsTheTrueCurve) {
@@ -468,6 +482,11 @@ TEST(CalibrationIo, RoundTripsAndRejectsBadValues) {
     const std::string bad = std::regex_replace(text, std::regex("\"fx\": [0-9.e+-]+"), "\"fx\": -3");
     EXPECT_THROW(calibration_from_json(bad, "c.json"), InputError);
     EXPECT_THROW(calibration_from_json("{", "c.json"), InputError);
+    // A number beyond double's range: nlohmann throws out_of_range, not parse_error (found by
+    // tests/fuzz's calibration target).
+    EXPECT_THROW(calibration_from_json(std::regex_replace(text, std::regex("\"fx\": [0-9.e+-]+"), "\"fx\": 1e999"),
+                                       "c.json"),
+                 InputError);
 }
 
 }  // namespace

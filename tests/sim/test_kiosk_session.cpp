@@ -169,6 +169,9 @@ TEST_F(KioskSessionFiles, MalformedKioskJsonNamesTheFileAndKey) {
     expect_input_error(load, {f, "key 'x'"});
     write_kiosk([](std::string& t) { replace(t, "\"w\": ", "\"w\": 0.5 + 0 * "); });
     expect_input_error(load, {f, "not valid JSON"});
+    // A number beyond double's range: nlohmann throws out_of_range, not parse_error.
+    write_kiosk([](std::string& t) { replace(t, "\"table_height_m\": 0.75", "\"table_height_m\": 1e999"); });
+    expect_input_error(load, {f, "not valid JSON"});
     write_kiosk([](std::string& t) { replace(t, "\"w\": ", "\"w\": 0.1, \"ww\": "); });
     expect_input_error(load, {f, "key 'world_from_board.ww'"});
     write_kiosk([](std::string& t) { replace(t, "\"table_height_m\": 0.75", "\"table_height_m\": \"high\""); });

@@ -78,6 +78,8 @@ TEST(TrackingBoard, BoardFileErrorsNameTheKey) {
     EXPECT_NE(message(R"({"rows": 2.5})").find("key 'rows': must be a whole number"), std::string::npos);
     EXPECT_NE(message(R"({"marker_mm": -1})").find("key 'marker_mm'"), std::string::npos);
     EXPECT_NE(message(R"({"dictionary": "DICT_9X9"})").find("key 'dictionary': unknown dictionary"), std::string::npos);
+    // A number beyond double's range: nlohmann throws out_of_range, not parse_error.
+    EXPECT_NE(message(R"({"marker_mm": 1e999})").find("b.json: not JSON"), std::string::npos);
     EXPECT_NE(message(R"({"columns": 10, "rows": 10})").find("exceed DICT_4X4_50"), std::string::npos);
     EXPECT_NE(message("[1, 2]").find("must be a JSON object"), std::string::npos);
     EXPECT_NE(message("{").find("b.json: not JSON"), std::string::npos);
