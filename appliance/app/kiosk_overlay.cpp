@@ -21,6 +21,8 @@ struct OverlayState {
     ui::MenuChord chord;
     int width, height;
     std::string export_result;
+    bool key_switch_on = false;
+    std::optional<ui::LampMode> lamp_test;  // set by the menu's lamp test until the menu closes
 
     OverlayState(OverlayContext c, int w, int h)
         : context(std::move(c)), layer(w, h),
@@ -30,9 +32,25 @@ struct OverlayState {
           chord(context.config.maintenance.chord), width(w), height(h) {}
 
     bool draw(const ui::ScreenModel& model, double dt_s, const std::vector<gl::InputEvent>& keys) {
+        // The key switch opens the menu without the PIN (the key is the credential) and closes it
+        // when turned back; the lamp test's setting ends with the menu.
+        if (model.devices.key_switch_on != key_switch_on) {
+            key_switch_on = model.devices.key_switch_on;
+            if (key_switch_on && !menu.is_open()) {
+                menu.open(/*unlocked=*/true);
+                context.log("maintenance menu: opened by the key switch");
+            } else if (!key_switch_on && menu.is_open()) {
+                menu.close();
+                context.log("maintenance menu: closed by the key switch");
+            }
+        }
         if (!menu.is_open() && chord.feed(keys)) {
             menu.open();
             context.log("maintenance menu: opened by the key chord, asking for the PIN");
+        }
+        if (!menu.is_open() && lamp_test) {
+            lamp_test.reset();
+            if (context.set_lamp_test) context.set_lamp_test(std::nullopt);
         }
         layer.begin_frame(dt_s, keys);
         ui::draw_visitor_screen(model, context.strings, width, height);
@@ -49,6 +67,9 @@ struct OverlayState {
             status.gain = model.devices.gain;
             status.display_mode = model.devices.display_mode;
             status.gl_renderer = model.devices.gl_renderer;
+            status.button_pressed = model.devices.button_pressed;
+            status.key_switch_on = model.devices.key_switch_on;
+            status.lamp = lamp_test.value_or(model.devices.lamp);
             if (context.log_tail) status.log_lines = context.log_tail->lines();
             status.cpu_temperature = ui::temperature_text(ui::cpu_temperature_c());
             status.free_disk = ui::bytes_text(ui::free_disk_bytes(context.config.state.dir));
@@ -63,6 +84,10 @@ struct OverlayState {
                 context.log(std::string("maintenance menu: ") + ui::menu_action_name(a.kind));
                 if (a.kind == ui::MenuAction::Kind::RestartKiosk && context.request_restart) {
                     context.request_restart();
+                } else if (a.kind == ui::MenuAction::Kind::Lamp) {
+                    lamp_test = a.lamp;
+                    if (context.set_lamp_test) context.set_lamp_test(a.lamp);
+                    else context.log("maintenance menu: no lamp to test (no GPIO)");
                 } else if (a.kind == ui::MenuAction::Kind::Export) {
                     try {
                         export_result = export_scene(a.export_items, {context.maps_dir, context.frames_dir, context.sessions_dir},

@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <functional>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "appliance/app/log_tail.hpp"
@@ -24,6 +25,8 @@ struct OverlayContext {
     std::shared_ptr<const LogTail> log_tail;      // what the menu's log page shows (null: nothing)
     // Ends the kiosk loop (a restart requested from the menu).
     std::function<void()> request_restart;
+    // The lamp test: a mode to hold until nullopt (the menu closed); null when there is no lamp.
+    std::function<void(std::optional<ui::LampMode>)> set_lamp_test;
     // What the menu's export copies (docs/kiosk.md), to config.state.export_dir.
     std::filesystem::path maps_dir, frames_dir, sessions_dir;
 };

@@ -48,8 +48,15 @@ int run_replay_command(const ReplayArgs& a) {
         const ui::Strings strings = ui::Strings::load(find_data_file(ui::kStringsRelativePath));
         ui::Config overlay_config = o.kiosk.config;
         overlay_config.state.dir = a.out;  // the PIN's lock state stays with the replay
-        o.kiosk.make_overlay = make_kiosk_overlay({overlay_config, strings, log, journal, {},
-                                                   a.out, fs::path(a.out) / "frames", {}});
+        o.kiosk.make_overlay = make_kiosk_overlay({.config = overlay_config,
+                                                   .strings = strings,
+                                                   .log = log,
+                                                   .log_tail = journal,
+                                                   .request_restart = {},
+                                                   .set_lamp_test = {},
+                                                   .maps_dir = a.out,
+                                                   .frames_dir = fs::path(a.out) / "frames",
+                                                   .sessions_dir = {}});
     }
     o.kiosk.snapshot_every_s = a.snapshot_every_s;
     o.kiosk.threads = a.threads;

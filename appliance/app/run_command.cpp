@@ -14,6 +14,7 @@
 
 #include "appliance/app/cli_util.hpp"
 #include "appliance/app/commands.hpp"
+#include "appliance/app/fifo_gpio_chip.hpp"
 #include "appliance/app/interrupt.hpp"
 #include "appliance/app/kiosk_overlay.hpp"
 #include "appliance/app/log_tail.hpp"
@@ -94,23 +95,38 @@ public:
             samples_.push_back({s.t_ns, s.world_from_sensor});
         });
         if (!cfg.gpio.chip.empty()) {
-            chip_ = std::make_unique<host::LibgpiodChip>(cfg.gpio.chip);
-            buttons_ = std::make_unique<host::ButtonService>(*chip_, std::vector<unsigned>{unsigned(cfg.gpio.button_line)},
-                                                             /*active_low=*/true, clock_,
+            // The real chip, or a test's pipe (fifo_gpio_chip.hpp).
+            if (cfg.gpio.chip.rfind("fifo:", 0) == 0) chip_ = std::make_unique<FifoGpioChip>(cfg.gpio.chip.substr(5), clock_);
+            else chip_ = std::make_unique<host::LibgpiodChip>(cfg.gpio.chip);
+            // The visitor's button and the technician's key switch, both to ground (active low).
+            std::vector<unsigned> inputs{unsigned(cfg.gpio.button_line)};
+            if (cfg.gpio.key_switch_line >= 0) inputs.push_back(unsigned(cfg.gpio.key_switch_line));
+            buttons_ = std::make_unique<host::ButtonService>(*chip_, inputs, /*active_low=*/true, clock_,
                                                              std::int64_t(cfg.gpio.debounce_ms * 1e6));
-            buttons_->set_callback([this](const host::ButtonEvent& e) {
+            buttons_->set_callback([this, key_switch = cfg.gpio.key_switch_line](const host::ButtonEvent& e) {
                 const std::lock_guard lock(mutex_);
-                events_.push_back({e.t_ns, "button", e.pressed ? "press" : "release"});
+                if (int(e.line) == key_switch) events_.push_back({e.t_ns, "key_switch", e.pressed ? "on" : "off"});
+                else events_.push_back({e.t_ns, "button", e.pressed ? "press" : "release"});
             });
+            if (cfg.gpio.lamp_line >= 0) {
+                lamp_line_ = unsigned(cfg.gpio.lamp_line);
+                lamp_ = std::make_unique<host::LampDriver>(*chip_, std::vector<unsigned>{lamp_line_}, clock_);
+            }
         }
         camera_->start();
         sensor_->start();
         if (buttons_) buttons_->start();
+        if (lamp_) lamp_->start();
         start_ns_ = std::int64_t(clock_.now_us()) * 1000;
     }
 
     ~LiveSource() override {
         // SIGTERM's path: everything released in order, each quickly.
+        if (lamp_) {
+            lamp_->set_pattern(lamp_line_, host::LampPattern::off());  // dark while the kiosk is down
+            lamp_->update();
+            lamp_->stop();
+        }
         if (buttons_) buttons_->stop();
         sensor_->stop();
         camera_->stop();
@@ -189,6 +205,16 @@ public:
         }
     }
 
+    bool has_lamp() const { return lamp_ != nullptr; }
+    void set_lamp(ui::LampMode mode) override {
+        lamp_mode_ = mode;
+        apply_lamp();
+    }
+    void set_lamp_test(std::optional<ui::LampMode> mode) {
+        lamp_test_ = mode;
+        apply_lamp();
+    }
+
     ui::SourceHealth health() const override {
         ui::SourceHealth h;
         const host::LinkHealth link = sensor_->health();
@@ -205,6 +231,15 @@ public:
     }
 
 private:
+    void apply_lamp() {
+        if (!lamp_) return;
+        switch (lamp_test_.value_or(lamp_mode_)) {
+            case ui::LampMode::Off: lamp_->set_pattern(lamp_line_, host::LampPattern::off()); break;
+            case ui::LampMode::On: lamp_->set_pattern(lamp_line_, host::LampPattern::on()); break;
+            case ui::LampMode::Blink: lamp_->set_pattern(lamp_line_, host::LampPattern::blink(1'000'000'000)); break;
+        }
+    }
+
     capture::ExposureControlSettings exposure_settings() const {
         capture::ExposureControlSettings settings;
         settings.min_exposure_s = calibration_.min_exposure_s;
@@ -218,6 +253,10 @@ private:
     std::unique_ptr<host::OrientationSource> sensor_;
     std::unique_ptr<host::GpioChip> chip_;
     std::unique_ptr<host::ButtonService> buttons_;
+    std::unique_ptr<host::LampDriver> lamp_;
+    unsigned lamp_line_ = 0;
+    ui::LampMode lamp_mode_ = ui::LampMode::Off;
+    std::optional<ui::LampMode> lamp_test_;  // the menu's lamp test, over the kiosk's mode
     std::unique_ptr<SessionRecorder> recorder_;
     std::unique_ptr<capture::ExposureController> exposure_;  // while the visitor scans
     mutable std::mutex mutex_;
@@ -255,9 +294,18 @@ int run_appliance(const RunArgs& a) {
     o.maps_dir = fs::path(cfg.state.dir) / "scene";
     o.snapshot_every_s = 0;
     bool restart = false;
-    o.make_overlay = make_kiosk_overlay({cfg, strings, log, journal,
-                                         [&restart] { restart = true; }, o.maps_dir, {},
-                                         a.record.empty() ? fs::path() : fs::path(a.record)});
+    o.make_overlay = make_kiosk_overlay({.config = cfg,
+                                         .strings = strings,
+                                         .log = log,
+                                         .log_tail = journal,
+                                         .request_restart = [&restart] { restart = true; },
+                                         .set_lamp_test = source->has_lamp()
+                                                              ? std::function<void(std::optional<ui::LampMode>)>(
+                                                                    [s = source.get()](std::optional<ui::LampMode> m) { s->set_lamp_test(m); })
+                                                              : nullptr,
+                                         .maps_dir = o.maps_dir,
+                                         .frames_dir = {},
+                                         .sessions_dir = a.record.empty() ? fs::path() : fs::path(a.record)});
     const auto started = std::chrono::steady_clock::now();
     o.stop_requested = [&] {
         if (stop.requested() || restart) return true;

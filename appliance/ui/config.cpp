@@ -357,8 +357,8 @@ const std::vector<Key>& keys() {
         // any SBC header and catches a pin number typed with an extra digit.
         t.push_back(key("gpio", &C::gpio, "chip", &GpioSection::chip, kRestart));
         t.push_back(key("gpio", &C::gpio, "button_line", &GpioSection::button_line, kRestart, int_range(0, 1023)));
-        t.push_back(key("gpio", &C::gpio, "key_switch_line", &GpioSection::key_switch_line, kRestart, int_range(0, 1023)));
-        t.push_back(key("gpio", &C::gpio, "lamp_line", &GpioSection::lamp_line, kRestart, int_range(0, 1023)));
+        t.push_back(key("gpio", &C::gpio, "key_switch_line", &GpioSection::key_switch_line, kRestart, int_range(-1, 1023)));
+        t.push_back(key("gpio", &C::gpio, "lamp_line", &GpioSection::lamp_line, kRestart, int_range(-1, 1023)));
         t.push_back(key("gpio", &C::gpio, "debounce_ms", &GpioSection::debounce_ms, kRestart, real_range(0, 1000, false)));
         // [frame]: read by the frame scheduler every frame.
         t.push_back(key("frame", &C::frame, "budget_ms", &FrameSection::budget_ms, kLive, real_range(0, 1000, true)));
@@ -433,7 +433,7 @@ std::optional<Problem> cross_check(const Config& c) {
             {"gpio.button_line", c.gpio.button_line}, {"gpio.key_switch_line", c.gpio.key_switch_line}, {"gpio.lamp_line", c.gpio.lamp_line}};
         for (std::size_t a = 0; a < lines.size(); ++a)
             for (std::size_t b = a + 1; b < lines.size(); ++b)
-                if (lines[a].second == lines[b].second)
+                if (lines[a].second >= 0 && lines[a].second == lines[b].second)
                     return Problem{lines[b].first, "line " + std::to_string(lines[b].second) + " is also " + lines[a].first};
     }
     // A state dir that holds the export mount point would copy exports into what is exported.

@@ -41,8 +41,8 @@ struct SensorSection {                      // [sensor]
 struct GpioSection {                  // [gpio]
     std::string chip = "gpiochip0";   // "" = no GPIO (keyboard only)
     int button_line = 17;             // the visitor's big button (active low)
-    int key_switch_line = 27;         // the technician's key switch: opens the maintenance menu
-    int lamp_line = 22;               // the button's lamp
+    int key_switch_line = 27;         // the technician's key switch: opens the maintenance menu (-1: none)
+    int lamp_line = 22;               // the button's lamp (-1: none)
     double debounce_ms = 20;
 };
 

@@ -66,6 +66,7 @@ public:
     std::string exposure_state() const override { return inner_.exposure_state(); }
     std::string restart_camera() override;
     SourceHealth health() const override { return inner_.health(); }
+    void set_lamp(LampMode mode) override { inner_.set_lamp(mode); }
     bool replayed() const override { return inner_.replayed(); }
     std::optional<std::int64_t> scan_end_ns() const override { return inner_.scan_end_ns(); }
     bool in_ar_phase(std::int64_t t_ns) const override { return inner_.in_ar_phase(t_ns); }

@@ -224,8 +224,16 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
         std::snprintf(name, sizeof name, "%05d_%s_%07.2fs_%s.png", frame_no, kiosk_state_name(flow.state()), t_s, why.c_str());
         gl::save_png(o.frames_dir / name, image);
     };
+    // The lamp follows the state (screen_model.hpp, LampMode).
+    LampMode lamp = LampMode::Blink;
+    source.set_lamp(lamp);
+    const auto lamp_for = [](KioskState s) {
+        return s == KioskState::Attract ? LampMode::Blink : s == KioskState::Ar ? LampMode::On : LampMode::Off;
+    };
+    bool button_pressed = false, key_switch_on = false;
     const auto on_transition = [&](const std::optional<Transition>& tr) {
         if (!tr) return;
+        if (lamp_for(tr->to) != lamp) source.set_lamp(lamp = lamp_for(tr->to));
         if (tr->to == KioskState::Capture) source.set_scanning(true);
         else if (tr->from == KioskState::Capture) source.set_scanning(false);
         states.push_back({{"name", kiosk_state_name(tr->to)}, {"t_s", tr->t_s}, {"reason", tr->reason}});
@@ -283,6 +291,11 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
             // The tracker's clock is the camera's: sensor time minus the calibrated offset.
             tracker.add_orientation({kiosk_s(s.t_ns) - cal.time_offset_s, s.world_from_sensor});
         for (const capture::SessionEvent& e : input.events) {
+            if (e.source == "button") button_pressed = e.event == "press";
+            if (e.source == "key_switch" && key_switch_on != (e.event == "on")) {
+                key_switch_on = e.event == "on";
+                log(std::string("key switch ") + (key_switch_on ? "on" : "off"));
+            }
             const bool press = (e.source == "button" && e.event == "press") ||
                                (e.source == "key" && (e.event == "space" || e.event == "Return"));
             if (!press) continue;
@@ -398,6 +411,9 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
         model.devices.camera_restarts = devices.counts().camera_restarts;
         model.devices.display_mode = display->describe();
         model.devices.gl_renderer = gl_renderer;
+        model.devices.button_pressed = button_pressed;
+        model.devices.key_switch_on = key_switch_on;
+        model.devices.lamp = lamp;
         {
             const SourceHealth health = source.health();
             model.devices.sensor_health = devices.sensor_lost() ? "no orientation (" + health.sensor + ")" : health.sensor;

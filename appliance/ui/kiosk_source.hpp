@@ -13,6 +13,7 @@
 #include "appliance/capture/capture_pipeline.hpp"
 #include "appliance/capture/kiosk_session.hpp"
 #include "appliance/render/camera_response.hpp"
+#include "appliance/ui/screen_model.hpp"
 
 namespace glint::ui {
 
@@ -60,6 +61,8 @@ public:
     // why not (the kiosk keeps trying). A replay has nothing to restart.
     virtual std::string restart_camera() { return {}; }
     virtual SourceHealth health() const { return {}; }
+    // The button's lamp (GPIO output; nothing without one).
+    virtual void set_lamp(LampMode) {}
 
     // A replay: the clock is the loop's own (one frame period a frame), the capture takes in each
     // frame before the guide is asked; live: the wall clock.

@@ -18,6 +18,7 @@
 #include "appliance/gl/display.hpp"
 #include "appliance/ui/config.hpp"
 #include "appliance/ui/pin_lock.hpp"
+#include "appliance/ui/screen_model.hpp"
 #include "appliance/ui/strings.hpp"
 
 namespace glint::ui {
@@ -71,7 +72,7 @@ struct MenuSettings {
     }
 };
 
-enum class LampMode : std::uint8_t { Off, On, Blink };
+// LampMode: screen_model.hpp (the kiosk drives the lamp too).
 
 // Everything the pages show, filled by the kiosk (texts ready to show, except where noted).
 struct MaintenanceStatus {

@@ -10,6 +10,9 @@
 namespace glint::ui {
 
 enum class KioskState : std::uint8_t { Attract, Capture, Processing, Ar };
+// The button's lamp: blinking in ATTRACT (press me), on in AR (press for another material), off
+// while the visitor scans and waits; the maintenance menu's lamp test sets it by hand.
+enum class LampMode : std::uint8_t { Off, On, Blink };
 // "ATTRACT", "CAPTURE", "PROCESSING", "AR" (summary.json, STATUS=, the journal).
 const char* kiosk_state_name(KioskState state);
 
@@ -56,6 +59,9 @@ struct DeviceView {
     std::string camera_error;    // the camera's last error ("" = none)
     std::string display_mode;    // gl::Display::describe()
     std::string gl_renderer;     // GL_RENDERER
+    bool button_pressed = false; // the visitor's button, as its last event left it
+    bool key_switch_on = false;  // the technician's key switch (GPIO)
+    LampMode lamp = LampMode::Off;
 };
 
 struct ScreenModel {
