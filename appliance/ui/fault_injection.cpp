@@ -48,12 +48,19 @@ FaultPlan parse_fault_plan(const std::string& spec, const std::string& flag) {
             const double at = number(1), seconds = number(2);
             if (!(seconds > 0 && seconds <= 600)) throw InputError(where + ": SECONDS must be in (0, 600]");
             plan.loop_stall = FaultWindow{at, at + seconds};
+        } else if (f[0] == "input-flood") {
+            if (f.size() != 4) throw InputError(where + ": expected input-flood:FROM:TO:EVENTS_PER_S");
+            const FaultWindow w{number(1), number(2)};
+            if (!(w.to_s > w.from_s)) throw InputError(where + ": TO must be after FROM");
+            const double rate = number(3);
+            if (!(rate > 0 && rate <= 1e6)) throw InputError(where + ": EVENTS_PER_S must be in (0, 1e6]");
+            plan.input_floods.push_back({w, rate});
         } else if (f[0] == "gl-lost") {
             if (f.size() != 2) throw InputError(where + ": expected gl-lost:AT");
             plan.gl_lost_at_s = number(1);
         } else {
             throw InputError(where + ": unknown fault '" + f[0] +
-                             "' (sensor-gap, camera-stall, camera-shuffle, loop-stall, gl-lost)");
+                             "' (sensor-gap, camera-stall, camera-shuffle, loop-stall, gl-lost, input-flood)");
         }
     }
     return plan;
@@ -100,8 +107,35 @@ KioskPoll FaultInjectingSource::poll(std::int64_t now_ns) {
     announce(plan_.sensor_gaps, "sensor gap");
     announce(plan_.camera_stalls, "camera stall");
     announce(plan_.camera_shuffles, "frames out of order");
+    for (const FaultPlan::Flood& flood : plan_.input_floods)
+        if (!flood.window.contains(t) && t >= flood.window.to_s && flood_events_ > 0 && log_) {
+            log_("fault injected: an input flood of " + std::to_string(flood_events_) + " events ended");
+            flood_events_ = 0;
+        }
 
     KioskPoll p = inner_.poll(now_ns);
+    // The flood: events spread over the time since the last poll.
+    const double dt = last_poll_ns_ ? double(now_ns - *last_poll_ns_) * 1e-9 : 0;
+    last_poll_ns_ = now_ns;
+    for (const FaultPlan::Flood& flood : plan_.input_floods) {
+        if (!flood.window.contains(t)) continue;
+        flood_owed_ += flood.events_per_s * dt;
+        static const char* const kKeys[] = {"0", "1", "2", "3", "4", "5", "6", "7", "8", "9", "Return", "Escape",
+                                            "space", "BackSpace", "Control_L", "Alt_L", "m", "F1", "F4", "F7", "F8",
+                                            "Up", "Down", "Left", "Right", "Prior", "Next", "Tab", "q"};
+        const auto next = [&] {  // xorshift64*
+            flood_state_ ^= flood_state_ >> 12;
+            flood_state_ ^= flood_state_ << 25;
+            flood_state_ ^= flood_state_ >> 27;
+            return flood_state_ * 0x2545F4914F6CDD1Dull;
+        };
+        for (; flood_owed_ >= 1; flood_owed_ -= 1) {
+            const std::uint64_t r = next();
+            if (r % 2 == 0) p.events.push_back({now_ns, "button", (r >> 8) % 2 ? "press" : "release"});
+            else p.events.push_back({now_ns, (r >> 8) % 2 ? "key" : "key_up", kKeys[(r >> 16) % std::size(kKeys)]});
+            ++flood_events_;
+        }
+    }
     std::erase_if(p.orientations, [&](const capture::SensorOrientation& s) { return in_sensor_gap(s.t_ns); });
     for (const FaultWindow& w : plan_.camera_stalls)
         if (w.contains(t)) p.frames.clear();

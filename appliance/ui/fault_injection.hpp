@@ -13,6 +13,10 @@
 //   camera-shuffle:FROM:TO  frames in [FROM, TO) delivered in swapped pairs (out of order)
 //   loop-stall:AT:SECONDS   the frame loop blocks once for SECONDS at AT (the watchdog's test)
 //   gl-lost:AT              the GL context reports itself lost at AT (a GPU reset)
+//   input-flood:FROM:TO:RATE  RATE input events a second in [FROM, TO): half of them presses and
+//                           releases of the visitor's button, half random keys going down and up
+//                           (digits, Return, Escape, the menu chord's modifiers and letter,
+//                           function and arrow keys), from a fixed seed (a visitor mashing buttons)
 #pragma once
 
 #include <functional>
@@ -33,17 +37,24 @@ struct FaultWindow {
 
 struct FaultPlan {
     std::vector<FaultWindow> sensor_gaps, camera_stalls, camera_shuffles;
+    struct Flood {
+        FaultWindow window;
+        double events_per_s = 0;
+    };
+    std::vector<Flood> input_floods;
     std::optional<FaultWindow> loop_stall;  // from_s = when, to_s - from_s = how long
     std::optional<double> gl_lost_at_s;
     bool empty() const {
-        return sensor_gaps.empty() && camera_stalls.empty() && camera_shuffles.empty() && !loop_stall && !gl_lost_at_s;
+        return sensor_gaps.empty() && camera_stalls.empty() && camera_shuffles.empty() && input_floods.empty() && !loop_stall &&
+               !gl_lost_at_s;
     }
 };
 
 // The commands' help for --inject-fault.
 inline constexpr std::string_view kInjectFaultHelp =
     "Faults for tests (docs/kiosk.md, \"Devices that misbehave\"), comma-separated, times in kiosk seconds: "
-    "sensor-gap:FROM:TO, camera-stall:FROM:TO, camera-shuffle:FROM:TO, loop-stall:AT:SECONDS, gl-lost:AT";
+    "sensor-gap:FROM:TO, camera-stall:FROM:TO, camera-shuffle:FROM:TO, loop-stall:AT:SECONDS, gl-lost:AT, "
+    "input-flood:FROM:TO:EVENTS_PER_S";
 
 // Throws InputError naming `flag` and the item at fault.
 FaultPlan parse_fault_plan(const std::string& spec, const std::string& flag = "--inject-fault");
@@ -83,6 +94,10 @@ private:
     std::function<void(const std::string&)> log_;
     std::optional<capture::CameraFrame> held_;  // the first of a pair being swapped
     bool loop_stalled_ = false;
+    std::optional<std::int64_t> last_poll_ns_;
+    double flood_owed_ = 0;           // events due but not yet made (a fraction carried over)
+    std::uint64_t flood_state_ = 0x9E3779B97F4A7C15ull;  // the flood's generator (fixed seed)
+    std::uint64_t flood_events_ = 0;
     std::vector<bool> announced_;  // per window, in the order sensor gaps, stalls, shuffles
 };
 

@@ -244,7 +244,7 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
     const bool replayed = source.replayed();
     DeviceWatch devices(o.devices, t_s);
     const std::string gl_renderer = reinterpret_cast<const char*>(glGetString(GL_RENDERER));
-    std::vector<std::string> window_keys;  // keys from a window display, handled next frame
+    std::vector<gl::InputEvent> window_keys;  // keys from a window display, handled next frame
     bool return_requested = false;          // the window was closed
     bool menu_has_keyboard = false;         // the overlay's maintenance menu is open
     const WallClock::time_point loop_start = WallClock::now();
@@ -282,11 +282,16 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
         }
         // The window's keys go to the overlay (the menu) first; the visitor's button only when
         // the menu does not hold the keyboard.
-        std::vector<gl::InputEvent> keys_now;
-        for (const std::string& key : window_keys) keys_now.push_back({gl::InputEvent::Type::KeyDown, key});
-        if (!menu_has_keyboard)
-            for (const std::string& key : window_keys) input.events.push_back({now_ns, "key", key});
+        // A recorded session's keys ("key" down, "key_up") are what a window's keyboard gave.
+        std::vector<gl::InputEvent> keys_now = std::move(window_keys);
         window_keys.clear();
+        for (const capture::SessionEvent& e : input.events)
+            if (e.source == "key" || e.source == "key_up")
+                keys_now.push_back({e.source == "key" ? gl::InputEvent::Type::KeyDown : gl::InputEvent::Type::KeyUp, e.event});
+        std::erase_if(input.events, [](const capture::SessionEvent& e) { return e.source == "key" || e.source == "key_up"; });
+        if (!menu_has_keyboard)
+            for (const gl::InputEvent& k : keys_now)
+                if (k.type == gl::InputEvent::Type::KeyDown) input.events.push_back({now_ns, "key", k.key});
         for (const capture::SensorOrientation& s : input.orientations)
             // The tracker's clock is the camera's: sensor time minus the calibrated offset.
             tracker.add_orientation({kiosk_s(s.t_ns) - cal.time_offset_s, s.world_from_sensor});
@@ -532,7 +537,7 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
         if (o.after_present) o.after_present(flow.state(), frame_no);
         for (const gl::InputEvent& e : display->poll_events()) {
             if (e.type == gl::InputEvent::Type::Quit) return_requested = true;
-            else if (e.type == gl::InputEvent::Type::KeyDown) window_keys.push_back(e.key);
+            else window_keys.push_back(e);  // key down and up (the menu's chord tracks held modifiers)
         }
         if (flow.state() == KioskState::Ar && lit_wall_s < 0 && scan_end_wall_s >= 0) lit_wall_s = seconds_since(wall_start);
         if (first_frame_s < 0) first_frame_s = process_age_s();

@@ -12,6 +12,9 @@ devices: the camera simulator and the sensor board's firmware on a pseudo-termin
    socket sees READY=1, WATCHDOG=1 pings, then none for longer than the watchdog interval.
 3. A lost GL context (gl-lost) ends the program with one error line and exit code 1, so that
    systemd restarts it.
+4. An input flood (input-flood: 3000 button and random key events a second for 10 s, the menu's
+   chord among them): no crash, no way out of the kiosk, the PIN's lock-out holds (the flood types
+   wrong PINs, never the right one), SIGTERM still ends it with 0.
 
 usage: test_run_faults.py GLINT SENSOR_SIM CALIBRATION WORK_DIR
 """
@@ -172,4 +175,41 @@ print(r.stderr[-600:])
 check(r.returncode == 1, f"a lost GL context exits with 1 (got {r.returncode})")
 check(len(failed_lines) == 1 and "GL context was lost" in failed_lines[0],
       f"one error line naming the lost context: {failed_lines}")
+
+# 4. An input flood with a PIN set.
+pin_hash = subprocess.run(["openssl", "passwd", "-6", "93517284"], capture_output=True, text=True, check=True).stdout.strip()
+with open(config, "a") as f:
+    f.write(f"""[maintenance]
+pin_hash = "{pin_hash}"
+""")
+lines = []
+board = start_board(None)
+try:
+    run = subprocess.Popen([glint, "run", "--config", config, "--max-seconds", "120", "--inject-fault", "input-flood:3:13:3000"],
+                           stderr=subprocess.PIPE, text=True)
+    reader = threading.Thread(target=read_stderr, args=(run.stderr,), daemon=True)
+    reader.start()
+    ended = wait_for("an input flood of", 90)
+    time.sleep(1.0)
+    alive = run.poll() is None
+    run.send_signal(signal.SIGTERM)
+    try:
+        run.wait(timeout=30)
+    except subprocess.TimeoutExpired:
+        run.kill()
+        run.wait()
+    reader.join(timeout=10)
+finally:
+    board.terminate()
+    board.wait(timeout=10)
+err = "".join(lines)
+flood = [l for l in lines if "input flood of" in l]
+print("".join(flood), err[-1500:])
+check(ended and alive, "the kiosk lived through the flood: " + (flood[0].strip() if flood else "no flood logged"))
+check(run.returncode == 0, f"SIGTERM after the flood: exit 0 (got {run.returncode})")
+check("ATTRACT -> CAPTURE" in err, "the flood's presses reached the visitor flow")
+check("opened by the key chord" in err, "the flood typed the menu's chord (the PIN prompt opened)")
+check("maintenance PIN: locked out" in err, "the flood's wrong PINs locked the prompt")
+check("maintenance PIN: success" not in err, "the flood never unlocked the menu")
+check("maintenance menu: restart" not in err and "stopped after" in err, "no restart or exit but SIGTERM's")
 sys.exit(1 if failures else 0)
