@@ -22,6 +22,7 @@ struct OverlayState {
     int width, height;
     std::string export_result;
     bool key_switch_on = false;
+    std::optional<ui::MenuSettings> applied_settings;  // the settings page's last Apply
     std::optional<ui::LampMode> lamp_test;  // set by the menu's lamp test until the menu closes
 
     OverlayState(OverlayContext c, int w, int h)
@@ -74,7 +75,7 @@ struct OverlayState {
             status.cpu_temperature = ui::temperature_text(ui::cpu_temperature_c());
             status.free_disk = ui::bytes_text(ui::free_disk_bytes(context.config.state.dir));
             status.uptime = ui::duration_text(ui::uptime_s());
-            status.settings = {context.config.capture, context.config.convolution};
+            status.settings = applied_settings.value_or(ui::MenuSettings{context.config.capture, context.config.convolution});
             std::error_code ec;
             if (std::filesystem::is_directory(context.config.state.export_dir, ec))
                 status.export_targets = {context.config.state.export_dir + " (" +
@@ -84,6 +85,13 @@ struct OverlayState {
                 context.log(std::string("maintenance menu: ") + ui::menu_action_name(a.kind));
                 if (a.kind == ui::MenuAction::Kind::RestartKiosk && context.request_restart) {
                     context.request_restart();
+                } else if (a.kind == ui::MenuAction::Kind::ApplySettings) {
+                    if (context.apply_settings) {
+                        context.log("maintenance menu: " + context.apply_settings(a.settings));
+                        applied_settings = a.settings;
+                    } else {
+                        context.log("maintenance menu: settings cannot be applied in a replay");
+                    }
                 } else if (a.kind == ui::MenuAction::Kind::Lamp) {
                     lamp_test = a.lamp;
                     if (context.set_lamp_test) context.set_lamp_test(a.lamp);

@@ -14,6 +14,7 @@
 #include "appliance/app/log_tail.hpp"
 #include "appliance/ui/config.hpp"
 #include "appliance/ui/kiosk_loop.hpp"
+#include "appliance/ui/maintenance_menu.hpp"
 #include "appliance/ui/strings.hpp"
 
 namespace glint::app {
@@ -27,6 +28,9 @@ struct OverlayContext {
     std::function<void()> request_restart;
     // The lamp test: a mode to hold until nullopt (the menu closed); null when there is no lamp.
     std::function<void(std::optional<ui::LampMode>)> set_lamp_test;
+    // The settings page's Apply: applies and keeps them; returns the line to journal ("" = none
+    // wired: the menu says so).
+    std::function<std::string(const ui::MenuSettings&)> apply_settings;
     // What the menu's export copies (docs/kiosk.md), to config.state.export_dir.
     std::filesystem::path maps_dir, frames_dir, sessions_dir;
 };

@@ -54,6 +54,7 @@ int run_replay_command(const ReplayArgs& a) {
                                                    .log_tail = journal,
                                                    .request_restart = {},
                                                    .set_lamp_test = {},
+                                                   .apply_settings = {},
                                                    .maps_dir = a.out,
                                                    .frames_dir = fs::path(a.out) / "frames",
                                                    .sessions_dir = {}});

@@ -18,6 +18,7 @@
 #include "appliance/app/interrupt.hpp"
 #include "appliance/app/kiosk_overlay.hpp"
 #include "appliance/app/log_tail.hpp"
+#include "appliance/app/menu_settings.hpp"
 #include "appliance/app/session_recorder.hpp"
 #include "appliance/capture/calibration_io.hpp"
 #include "appliance/capture/camera_factory.hpp"
@@ -271,6 +272,15 @@ int run_appliance(const RunArgs& a) {
     const ui::FaultPlan faults = ui::parse_fault_plan(a.faults);
     ui::Config cfg = a.config.empty() ? ui::default_config() : ui::load_config(a.config);
     if (!a.display.empty()) cfg.display.kind = a.display;
+    const auto journal = std::make_shared<LogTail>();
+    const auto log = [journal](const std::string& line) { journal->write(line); };
+    // The technician's settings from the menu, over the file's (menu_settings.hpp).
+    std::optional<ui::MenuSettings> menu_settings = load_menu_settings(cfg.state.dir, log);
+    if (menu_settings) {
+        apply_menu_settings(cfg, *menu_settings);
+        log("settings from the maintenance menu (" + (fs::path(cfg.state.dir) / kMenuSettingsItem).string() +
+            ") override glint.toml's [capture] and [convolution]");
+    }
     StopRequest stop;
     ReloadRequest reload_request;
     ui::ServiceNotifier notifier;
@@ -285,8 +295,6 @@ int run_appliance(const RunArgs& a) {
         notifier.status(std::string("failed: ") + e.what());
         throw;
     }
-    const auto journal = std::make_shared<LogTail>();
-    const auto log = [journal](const std::string& line) { journal->write(line); };
     log(source->describe());
 
     ui::KioskOptions o;
@@ -294,6 +302,7 @@ int run_appliance(const RunArgs& a) {
     o.maps_dir = fs::path(cfg.state.dir) / "scene";
     o.snapshot_every_s = 0;
     bool restart = false;
+    std::optional<ui::Config> applied;  // settings applied in the menu, for the loop's next frame
     o.make_overlay = make_kiosk_overlay({.config = cfg,
                                          .strings = strings,
                                          .log = log,
@@ -303,6 +312,21 @@ int run_appliance(const RunArgs& a) {
                                                               ? std::function<void(std::optional<ui::LampMode>)>(
                                                                     [s = source.get()](std::optional<ui::LampMode> m) { s->set_lamp_test(m); })
                                                               : nullptr,
+                                         .apply_settings =
+                                             [&](const ui::MenuSettings& s) {
+                                                 menu_settings = s;
+                                                 ui::Config next = reloader.current();
+                                                 apply_menu_settings(next, s);
+                                                 applied = next;
+                                                 try {
+                                                     save_menu_settings(cfg.state.dir, s);
+                                                     return std::string("settings applied and kept in ") +
+                                                            (fs::path(cfg.state.dir) / kMenuSettingsItem).string();
+                                                 } catch (const std::exception& e) {
+                                                     return std::string("settings applied until the next restart; ") +
+                                                            "keeping them failed: " + e.what();
+                                                 }
+                                             },
                                          .maps_dir = o.maps_dir,
                                          .frames_dir = {},
                                          .sessions_dir = a.record.empty() ? fs::path() : fs::path(a.record)});
@@ -313,13 +337,20 @@ int run_appliance(const RunArgs& a) {
                std::chrono::duration<double>(std::chrono::steady_clock::now() - started).count() > a.max_seconds;
     };
     o.reload = [&]() -> std::optional<ui::Config> {
+        if (applied) {
+            std::optional<ui::Config> next = std::move(applied);
+            applied.reset();
+            return next;
+        }
         if (!reload_request.take() || a.config.empty()) return std::nullopt;
         notifier.reloading();
         const ui::ReloadReport report = reloader.reload();
         log(report.summary());
         notifier.ready(report.summary());  // the reload is over (systemd waits for READY=1 after RELOADING=1)
         if (!report.ok) return std::nullopt;
-        return reloader.current();
+        ui::Config next = reloader.current();
+        if (menu_settings) apply_menu_settings(next, *menu_settings);  // the menu's still win
+        return next;
     };
     ui::KioskState shown = ui::KioskState::Attract;
     o.after_present = [&](ui::KioskState state, long long frame) {
