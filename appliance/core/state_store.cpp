@@ -50,7 +50,8 @@ std::string errno_text() { return std::strerror(errno); }
     throw SaveError("cannot save " + item_path.string() + ": " + what);
 }
 
-void write_all(const fs::path& path, const std::string& bytes) {
+// `sync`: fsync before returning (the store's own files; an item's files are synced by the save).
+void write_all(const fs::path& path, const std::string& bytes, bool sync = true) {
     Fd fd(::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644));
     if (fd.get() < 0) throw RuntimeError(path.string() + ": cannot create: " + errno_text());
     std::size_t done = 0;
@@ -62,7 +63,7 @@ void write_all(const fs::path& path, const std::string& bytes) {
         }
         done += std::size_t(n);
     }
-    if (::fsync(fd.get()) != 0) throw RuntimeError(path.string() + ": cannot sync: " + errno_text());
+    if (sync && ::fsync(fd.get()) != 0) throw RuntimeError(path.string() + ": cannot sync: " + errno_text());
 }
 
 void fsync_file(const fs::path& path) {
@@ -263,7 +264,7 @@ std::uint64_t file_hash(const fs::path& path) {
 }
 
 StateFile text_file(std::string name, std::string text) {
-    return {std::move(name), [text = std::move(text)](const fs::path& path) { write_all(path, text); }};
+    return {std::move(name), [text = std::move(text)](const fs::path& path) { write_all(path, text, false); }};
 }
 
 StateFile moved_file(std::string name, fs::path from) {
