@@ -199,6 +199,7 @@ void save_item_unrecorded(const fs::path& dir, const std::string& item, const st
     fs::remove_all(gen_dir, ec);
     fs::create_directories(gen_dir, ec);
     if (ec) fail(item_path, gen_dir.string() + ": cannot create: " + ec.message());
+    bool linked = false;  // from the rename on, the new generation is what readers see: it stays
     try {
         json manifest{{"format", kManifestFormat}, {"version", kManifestVersion}, {"item", item},
                       {"generation", generation}, {"files", json::array()}};
@@ -224,12 +225,11 @@ void save_item_unrecorded(const fs::path& dir, const std::string& item, const st
             fs::remove(link_temp, ec);
             throw RuntimeError(item_path.string() + ": cannot replace: " + why);
         }
+        linked = true;
         sync_directory(dir);
-    } catch (const SaveError&) {
-        fs::remove_all(gen_dir, ec);
-        throw;
     } catch (const std::exception& e) {
-        fs::remove_all(gen_dir, ec);
+        if (!linked) fs::remove_all(gen_dir, ec);
+        // Linked but not synced: the new version is in place, a power cut may still undo it.
         fail(item_path, e.what());
     }
     // The new version is durable; the old ones are garbage now.
