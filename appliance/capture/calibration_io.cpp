@@ -150,26 +150,51 @@ void save_state_calibration(const std::filesystem::path& state_dir, const Camera
     state::save_item(state_dir, kStateCalibrationName, {state::text_file(kStateCalibrationName, calibration_to_json(calibration))});
 }
 
-std::optional<CameraCalibration> load_state_calibration(const std::filesystem::path& state_dir,
-                                                        const std::function<void(const std::string&)>& log) {
-    std::optional<CameraCalibration> calibration;
-    state::LoadPolicy policy;
-    policy.files = {kStateCalibrationName};
-    // A technician may copy a calibration in by hand (glint calibrate's, a session's): no checksum,
-    // but it must parse.
-    policy.unverified = state::Unverified::Accept;
-    policy.check = [&](const std::filesystem::path& file) { calibration = load_calibration(file); };
-    const state::LoadedItem item = state::load_item(state_dir, kStateCalibrationName, policy, log);
-    if (!item.path) return std::nullopt;
-    return calibration;
-}
+namespace {
 
-CameraCalibration load_calibration(const std::filesystem::path& path) {
+CameraCalibration read_calibration_file(const std::filesystem::path& path) {
     std::ifstream in(path);
     if (!in) throw InputError(path.string() + ": cannot open the camera calibration");
     std::stringstream text;
     text << in.rdbuf();
     return calibration_from_json(text.str(), path.string());
+}
+
+// A state item's calibration: verified, and a faulty one set aside (core/state_store.hpp).
+std::optional<CameraCalibration> load_item_calibration(const std::filesystem::path& dir, const std::string& name,
+                                                       const std::function<void(const std::string&)>& log,
+                                                       state::LoadedItem& item) {
+    std::optional<CameraCalibration> calibration;
+    state::LoadPolicy policy;
+    policy.files = {name};
+    // A technician may copy a calibration in by hand (glint calibrate's, a session's): no checksum,
+    // but it must parse.
+    policy.unverified = state::Unverified::Accept;
+    policy.check = [&](const std::filesystem::path& file) { calibration = read_calibration_file(file); };
+    item = state::load_item(dir, name, policy, log);
+    if (!item.path) return std::nullopt;
+    return calibration;
+}
+
+}  // namespace
+
+CameraCalibration load_calibration(const std::filesystem::path& path) {
+    if (!state::is_store_item(path)) return read_calibration_file(path);
+    // The state directory's calibration (a link into its generations): a bit flipped in a number
+    // would still parse, so it is verified; a faulty one is set aside and named here.
+    state::LoadedItem item;
+    const std::optional<CameraCalibration> calibration =
+        load_item_calibration(path.parent_path(), path.filename().string(), {}, item);
+    if (!calibration)
+        throw InputError(path.string() + ": the camera calibration did not verify: " + item.defaults_because +
+                         (item.set_aside.empty() ? std::string() : "; set aside in " + item.set_aside.string()));
+    return *calibration;
+}
+
+std::optional<CameraCalibration> load_state_calibration(const std::filesystem::path& state_dir,
+                                                        const std::function<void(const std::string&)>& log) {
+    state::LoadedItem item;
+    return load_item_calibration(state_dir, kStateCalibrationName, log, item);
 }
 
 }  // namespace glint::capture

@@ -20,6 +20,9 @@ CameraCalibration calibration_from_json(const std::string& text, const std::stri
 // Writes `path` atomically; when `path` is a state item (docs/state.md: the state directory's
 // calibration.json saved by save_state_calibration) it saves a new checksummed version of it.
 void save_calibration(const std::filesystem::path& path, const CameraCalibration& calibration);
+// Reads and checks `path`. When it is a state item (the state directory's calibration.json, as
+// glint run reads it) it is verified against its checksum too; a faulty one is set aside into
+// <dir>/corrupt/ and the InputError says why and where it went.
 CameraCalibration load_calibration(const std::filesystem::path& path);
 
 // The appliance's own calibration, <state_dir>/calibration.json, as a state item

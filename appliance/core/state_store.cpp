@@ -50,7 +50,8 @@ std::string errno_text() { return std::strerror(errno); }
     throw SaveError("cannot save " + item_path.string() + ": " + what);
 }
 
-void write_all(const fs::path& path, const std::string& bytes) {
+// `sync`: fsync before returning (the store's own files; an item's files are synced by the save).
+void write_all(const fs::path& path, const std::string& bytes, bool sync = true) {
     Fd fd(::open(path.c_str(), O_WRONLY | O_CREAT | O_TRUNC | O_CLOEXEC, 0644));
     if (fd.get() < 0) throw RuntimeError(path.string() + ": cannot create: " + errno_text());
     std::size_t done = 0;
@@ -62,7 +63,7 @@ void write_all(const fs::path& path, const std::string& bytes) {
         }
         done += std::size_t(n);
     }
-    if (::fsync(fd.get()) != 0) throw RuntimeError(path.string() + ": cannot sync: " + errno_text());
+    if (sync && ::fsync(fd.get()) != 0) throw RuntimeError(path.string() + ": cannot sync: " + errno_text());
 }
 
 void fsync_file(const fs::path& path) {
@@ -198,6 +199,7 @@ void save_item_unrecorded(const fs::path& dir, const std::string& item, const st
     fs::remove_all(gen_dir, ec);
     fs::create_directories(gen_dir, ec);
     if (ec) fail(item_path, gen_dir.string() + ": cannot create: " + ec.message());
+    bool linked = false;  // from the rename on, the new generation is what readers see: it stays
     try {
         json manifest{{"format", kManifestFormat}, {"version", kManifestVersion}, {"item", item},
                       {"generation", generation}, {"files", json::array()}};
@@ -223,12 +225,11 @@ void save_item_unrecorded(const fs::path& dir, const std::string& item, const st
             fs::remove(link_temp, ec);
             throw RuntimeError(item_path.string() + ": cannot replace: " + why);
         }
+        linked = true;
         sync_directory(dir);
-    } catch (const SaveError&) {
-        fs::remove_all(gen_dir, ec);
-        throw;
     } catch (const std::exception& e) {
-        fs::remove_all(gen_dir, ec);
+        if (!linked) fs::remove_all(gen_dir, ec);
+        // Linked but not synced: the new version is in place, a power cut may still undo it.
         fail(item_path, e.what());
     }
     // The new version is durable; the old ones are garbage now.
@@ -263,7 +264,7 @@ std::uint64_t file_hash(const fs::path& path) {
 }
 
 StateFile text_file(std::string name, std::string text) {
-    return {std::move(name), [text = std::move(text)](const fs::path& path) { write_all(path, text); }};
+    return {std::move(name), [text = std::move(text)](const fs::path& path) { write_all(path, text, false); }};
 }
 
 StateFile moved_file(std::string name, fs::path from) {

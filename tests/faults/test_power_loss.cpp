@@ -39,7 +39,9 @@ namespace fs = std::filesystem;
 constexpr long kTmpfsMagic = 0x01021994;
 
 // The kills need no disk: on tmpfs they test the same renames without waiting for fsyncs.
+// GLINT_FAULTS_STATE_PARENT puts the state elsewhere (a real disk, another file system).
 fs::path state_parent() {
+    if (const char* parent = std::getenv("GLINT_FAULTS_STATE_PARENT"); parent && *parent) return parent;
     struct statfs s {};
     if (::statfs("/dev/shm", &s) == 0 && s.f_type == kTmpfsMagic && ::access("/dev/shm", W_OK) == 0) return "/dev/shm";
     return fs::temp_directory_path();

@@ -2,7 +2,8 @@
 """glint run after a restart (docs/state.md): the last scene saved in the state directory is
 verified and loaded (ATTRACT shows it); a damaged scene, or an older build's plain scene
 directory, is set aside into <state>/corrupt/, logged naming the file and the reason, and the
-appliance still starts (the grey room).
+appliance still starts (the grey room); a damaged calibration in the state directory is refused
+(exit 2, the file and the reason named) and set aside.
 
 usage: test_restart_scene.py GLINT STATE_WRITER SESSION_DIR WORK_DIR
 STATE_WRITER: tests/faults' glint_state_writer, which saves a scene through the state store.
@@ -85,5 +86,25 @@ err = run("an unverified scene directory")
 line = next((l for l in err.splitlines() if "set aside" in l), "")
 check("not written by the state store" in line, "an unverified scene is set aside and logged: " + line)
 check(len(glob.glob(os.path.join(state, "corrupt", "*"))) == 2, "two set-asides kept")
+
+# The state directory's calibration (glint run's default) with one digit changed: it still parses,
+# but it does not verify; glint run refuses it naming the file and the reason, and sets it aside.
+cal = os.path.join(state, "calibration.json")
+check(os.path.islink(cal), "the writer saved the calibration as a state item")
+real = os.path.realpath(cal)
+text = open(real).read()
+at = text.find('"time_offset_s": 1')
+if at >= 0:
+    open(real, "w").write(text[:at + 17] + "2" + text[at + 18:])
+with open(config) as f:
+    cfg = f.read()
+with open(config, "w") as f:
+    f.write(cfg.replace(f'calibration = "{session}/calibration.json"', 'calibration = ""'))
+r = subprocess.run([glint, "run", "--config", config, "--max-seconds", "2"], capture_output=True, text=True, timeout=120)
+check(r.returncode == 2, f"a damaged calibration: glint run exits 2, bad input (got {r.returncode})")
+check("calibration.json: the camera calibration did not verify: calibration.json: checksum" in r.stderr and "set aside in" in r.stderr,
+      "the error names the file and the reason: " + r.stderr.strip()[-300:])
+check(len(glob.glob(os.path.join(state, "corrupt", "*", "calibration.json.generation-*", "calibration.json"))) == 1,
+      "the damaged calibration was moved aside")
 
 sys.exit(1 if failures else 0)

@@ -270,7 +270,8 @@ TEST(StateStore, AFailedSaveNamesTheFileKeepsTheOldVersionAndIsReported) {
     EXPECT_EQ(read_text(t.path() / "item" / "a.txt"), "a1");
     EXPECT_EQ(generations(t.path(), "item"), 1);  // the failed generation removed
     save_two(t.path(), "a3", "b3");
-    EXPECT_FALSE(state::last_save_error());
+    // Saved since: no longer reported (another test's failure may be, in the same process).
+    EXPECT_EQ(state::last_save_error().value_or("").find((t.path() / "item").string()), std::string::npos);
 }
 
 TEST(StateStore, ASaveIntoAnUnusableDirectoryFailsNamingIt) {
@@ -343,6 +344,33 @@ TEST(CalibrationState, SavedVerifiedAndADamagedOneGivesNone) {
     write_text(t.path() / capture::kStateCalibrationName, capture::calibration_to_json(calibration_version(9)));
     EXPECT_EQ(capture::load_state_calibration(t.path(), logged.log())->time_offset_s, 9);
     EXPECT_NE(logged.lines.back().find("loaded unverified"), std::string::npos);
+}
+
+TEST(CalibrationState, GlintRunsReadOfTheStateCalibrationVerifiesIt) {
+    // glint run reads <state.dir>/calibration.json with load_calibration: a flipped digit that
+    // still parses must not become the camera model.
+    TempDir t;
+    capture::save_state_calibration(t.path(), calibration_version(5));
+    const fs::path file = t.path() / capture::kStateCalibrationName;
+    EXPECT_EQ(capture::load_calibration(file).time_offset_s, 5);
+    std::string text = read_text(file);
+    const std::size_t at = text.find("\"time_offset_s\": 5");
+    ASSERT_NE(at, std::string::npos) << text;
+    text[at + 17] = '6';
+    write_text(fs::canonical(file), text);
+    EXPECT_EQ(capture::calibration_from_json(text, "x").time_offset_s, 6);  // it does parse
+    try {
+        (void)capture::load_calibration(file);
+        FAIL() << "the damaged calibration was read";
+    } catch (const InputError& e) {
+        const std::string what = e.what();
+        EXPECT_NE(what.find("did not verify: calibration.json: checksum"), std::string::npos) << what;
+        EXPECT_NE(what.find("set aside in " + (t.path() / "corrupt").string()), std::string::npos) << what;
+    }
+    EXPECT_EQ(set_asides(t.path()).size(), 1u);
+    // Plain files (sessions, glint calibrate's elsewhere) are read as before.
+    write_text(t.path() / "plain.json", capture::calibration_to_json(calibration_version(3)));
+    EXPECT_EQ(capture::load_calibration(t.path() / "plain.json").time_offset_s, 3);
 }
 
 TEST(PinLockState, ADamagedLockFileIsSetAsideAndLocks) {
