@@ -70,7 +70,8 @@ CameraCalibration calibration_from_json(const std::string& text, const std::stri
         bad(source, "format", "not a Glint camera calibration");
     const double version = number(j, "version", source, "");
     if (version != kCalibrationVersion)
-        bad(source, "version", "version " + std::to_string(int(version)) + " is not supported (this build reads " +
+        // The file's own text of the number: int(version) is undefined beyond int's range.
+        bad(source, "version", "version " + j.at("version").dump() + " is not supported (this build reads " +
                                    std::to_string(kCalibrationVersion) + ")");
     CameraCalibration c;
     const json& k = member(j, "intrinsics", source, "");

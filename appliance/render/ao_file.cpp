@@ -112,6 +112,19 @@ AoFile load_ao_file(const std::filesystem::path& path) {
     for (int k = 0; k < 7; ++k)
         if (!seen[k]) throw InputError(name + ": the header has no '" + keys[k] + "' line");
     if (vertices > (std::uint64_t(1) << 32)) throw InputError(name + ": " + std::to_string(vertices) + " vertices is too many");
+    // The count decides an allocation: hold it to the bytes that follow the header first, so that
+    // a corrupt count cannot make the kiosk zero-fill gigabytes (tests/fuzz's ao target: 16 GiB
+    // from a 150-byte file).
+    const std::streamoff data_start = in.tellg();
+    in.seekg(0, std::ios::end);
+    const std::streamoff file_end = in.tellg();
+    in.seekg(data_start);
+    if (data_start < 0 || file_end < data_start) throw InputError(name + ": cannot find the data block");
+    const std::uint64_t following = std::uint64_t(file_end - data_start);
+    if (vertices * sizeof(float) > following)
+        throw InputError(name + ": the data block is short: the header says " + std::to_string(vertices) + " vertices (" +
+                         std::to_string(vertices * sizeof(float)) + " bytes), " + std::to_string(following) +
+                         " bytes follow it");
     f.ao.resize(std::size_t(vertices));
     in.read(reinterpret_cast<char*>(f.ao.data()), std::streamsize(f.ao.size() * sizeof(float)));
     if (std::uint64_t(in.gcount()) != vertices * sizeof(float))

@@ -461,6 +461,13 @@ TEST(CalibrationIo, SensorLimitsAreOptionalAndRoundTrip) {
                                                           "\"shortest_exposure_s\": 5"),
                                        "c.json"),
                  InputError);
+    // A version beyond int's range is named as written (int(version) was undefined behaviour).
+    try {
+        calibration_from_json(std::regex_replace(text, std::regex("\"version\": 1"), "\"version\": 1e10"), "c.json");
+        ADD_FAILURE() << "accepted version 1e10";
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("c.json: key 'version': version 10000000000"), std::string::npos) << e.what();
+    }
 }
 
 TEST(CalibrationIo, RoundTripsAndRejectsBadValues) {
@@ -487,6 +494,13 @@ TEST(CalibrationIo, RoundTripsAndRejectsBadValues) {
     EXPECT_THROW(calibration_from_json(std::regex_replace(text, std::regex("\"fx\": [0-9.e+-]+"), "\"fx\": 1e999"),
                                        "c.json"),
                  InputError);
+    // A version beyond int's range is named as written (int(version) was undefined behaviour).
+    try {
+        calibration_from_json(std::regex_replace(text, std::regex("\"version\": 1"), "\"version\": 1e10"), "c.json");
+        ADD_FAILURE() << "accepted version 1e10";
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("c.json: key 'version': version 10000000000"), std::string::npos) << e.what();
+    }
 }
 
 }  // namespace

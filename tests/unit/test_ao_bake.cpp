@@ -285,6 +285,11 @@ TEST_F(AoFileTest, CorruptFilesAreRejectedNamingTheFile) {
     flipped[flipped.size() - 1] ^= 0x01;  // a bit of the last float
     expect_bad(flipped, "checksum");
     expect_bad(bytes.substr(0, bytes.size() - 2), "short");
+    // A vertex count far beyond the data is refused before anything is allocated for it (it asked
+    // for 16 GiB before; tests/fuzz/corpus/ao/oom-vertex-count.ao).
+    std::string huge = bytes;
+    huge.replace(huge.find("vertices 2"), 10, "vertices 4294967296");
+    expect_bad(huge, "the header says 4294967296 vertices (17179869184 bytes), 8 bytes follow it");
     expect_bad("glint-ao 2\n" + bytes.substr(bytes.find('\n') + 1), "not a glint ao file");
     expect_bad(bytes + "x", "after the data");
     std::string no_rays = bytes;
