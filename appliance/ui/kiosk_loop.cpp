@@ -42,6 +42,7 @@
 #include "appliance/ui/frame_scheduler.hpp"
 #include "appliance/ui/image_quad.hpp"
 #include "appliance/ui/kiosk_flow.hpp"
+#include "appliance/ui/lens_undistortion.hpp"
 
 namespace glint::ui {
 namespace fs = std::filesystem;
@@ -156,6 +157,10 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
     int renderer_material = 0;
     const render::CameraResponse& response = source.response();
     const capture::CameraCalibration& cal = source.calibration();
+    // The AR background: the camera's picture remapped to the renderer's pinhole.
+    const LensUndistortion lens(cal.intrinsics);
+    cv::Mat background;  // the newest picture, undistorted (remade once per new picture)
+    bool background_stale = true;
     ArPlacement placement;
     placement.object_radius_m = cfg.ar.object_radius_m;
     placement.model_bottom = render::model_bottom(mesh);
@@ -327,6 +332,7 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
             last_frame = std::move(f);
             last_rgb = last_frame.rgb;
             new_picture = true;
+            background_stale = true;
         }
         scheduler.mark(FramePhase::Camera);
         // Deterministic: the capture has taken in this frame's pictures before the guide is asked.
@@ -452,8 +458,13 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
         glClear(GL_COLOR_BUFFER_BIT);
         if (flow.state() == KioskState::Ar && last_track && last_track->has_pose && last_track->visibility > 0 && !last_rgb.empty()) {
             renderer.set_camera(ar_camera(world_from_camera, last_track->pose, cal.intrinsics, placement));
-            renderer.set_background_image(gl::RgbImage{last_rgb.cols, last_rgb.rows,
-                                                       std::vector<std::uint8_t>(last_rgb.data, last_rgb.data + last_rgb.total() * 3)});
+            if (background_stale) {
+                background = lens.apply(last_rgb);
+                if (!background.isContinuous()) background = background.clone();
+                background_stale = false;
+            }
+            renderer.set_background_image(gl::RgbImage{background.cols, background.rows,
+                                                       std::vector<std::uint8_t>(background.data, background.data + background.total() * 3)});
             renderer.set_camera_response(response, {last_frame.exposure_s * 1e3, last_frame.total_gain()});
             renderer.draw_scene();
             view.bind();
