@@ -183,8 +183,8 @@ TableShadowPass::TableShadowPass(int width, int height, const ShadowLighting& li
       table_height_(table_height),
       lighting_(lighting),
       occluders_(std::move(occluders)),
-      program_("fullscreen.vert", "render_shadow.frag"),
-      target_(width, height, 1) {
+      program_(),
+      target_() {
     if (int(lighting_.lights.size()) > kMaxShadowLights) throw RuntimeError("shadow: more lights than the shader holds");
     if (int(occluders_.size()) > kMaxOccluders) throw RuntimeError("shadow: more occluders than the shader holds");
     // The bound: around the spheres' box centre, out to the farthest sphere's far side.
@@ -278,15 +278,17 @@ void TableShadowPass::set_bake(const ShadowBake& bake) {
 }
 
 void TableShadowPass::draw(const glm::mat3& world_from_camera, const glm::vec2& tan_half_fov, const glm::vec3& eye) const {
-    target_.bind();
+    if (!program_) program_.emplace("fullscreen.vert", "render_shadow.frag");
+    if (!target_) target_.emplace(width_, height_, 1);
+    target_->bind();
     glViewport(0, 0, width_, height_);
     glDisable(GL_DEPTH_TEST);
     glDisable(GL_BLEND);
-    program_.use();
-    glUniform2f(program_.uniform("u_size"), float(width_), float(height_));
-    glUniform2f(program_.uniform("u_tan_half_fov"), tan_half_fov.x, tan_half_fov.y);
-    glUniformMatrix3fv(program_.uniform("u_world_from_camera"), 1, GL_FALSE, glm::value_ptr(world_from_camera));
-    set_uniforms(program_, 0, eye);
+    program_->use();
+    glUniform2f(program_->uniform("u_size"), float(width_), float(height_));
+    glUniform2f(program_->uniform("u_tan_half_fov"), tan_half_fov.x, tan_half_fov.y);
+    glUniformMatrix3fv(program_->uniform("u_world_from_camera"), 1, GL_FALSE, glm::value_ptr(world_from_camera));
+    set_uniforms(*program_, 0, eye);
     glBindVertexArray(empty_vao_.id());
     glDrawArrays(GL_TRIANGLES, 0, 3);
     glBindVertexArray(0);
@@ -294,7 +296,8 @@ void TableShadowPass::draw(const glm::mat3& world_from_camera, const glm::vec2& 
 }
 
 std::vector<float> TableShadowPass::read() const {
-    return gl::rows_top_first(target_.read(0), width_, height_);
+    if (!target_) throw RuntimeError("shadow: read() before draw()");
+    return gl::rows_top_first(target_->read(0), width_, height_);
 }
 
 }  // namespace glint::render

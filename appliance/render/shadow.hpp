@@ -24,6 +24,7 @@
 #pragma once
 
 #include <memory>
+#include <optional>
 #include <vector>
 
 #include <glm/glm.hpp>
@@ -112,14 +113,16 @@ private:
     ShadowLighting lighting_;
     std::vector<OccluderSphere> occluders_;
     OccluderSphere bound_;  // around all occluders: render_shadow.glsl tests it first
-    gl::GlProgram program_;
+    // The ratio's own pass, for the AOV only (frames evaluate the ratio in the composite): made at
+    // its first draw, so that a kiosk changing rooms per visitor compiles nothing on the frame.
+    mutable std::optional<gl::GlProgram> program_;
     gl::GlTexture caps_;  // the cap maps stacked
     gl::GlTexture bake_lights_, bake_ambient_;
     int bake_res_ = 0;
     glm::vec2 bake_origin_{0.0f};
     float bake_spacing_ = 0;
     gl::GlVertexArray empty_vao_;
-    gl::RenderTargets target_;
+    mutable std::optional<gl::RenderTargets> target_;
 };
 
 }  // namespace glint::render

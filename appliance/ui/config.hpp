@@ -68,6 +68,9 @@ struct ArSection {                      // [ar]
     double board_width_mm = 0;          // 0 = the default board's own size
     // The materials the button cycles through, in order (Phong, docs/render.md).
     std::vector<std::string> materials = {"matte", "glossy:160", "mirror"};
+    // The object's shadow on the table under the room's dominant lights, baked against the mesh
+    // once per visitor (docs/kiosk.md, "Shadows").
+    bool shadows = true;
 };
 
 struct TimeoutsSection {            // [timeouts], seconds

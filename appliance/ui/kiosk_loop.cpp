@@ -35,6 +35,7 @@
 #include "appliance/render/mesh.hpp"
 #include "appliance/render/renderer.hpp"
 #include "appliance/render/shadow.hpp"
+#include "appliance/render/shadow_bake.hpp"
 #include "appliance/tracking/board.hpp"
 #include "appliance/tracking/tracker.hpp"
 #include "appliance/ui/ar_camera.hpp"
@@ -101,6 +102,30 @@ struct NewScene {
     cv::Mat preview;
     render::ShadingMaps maps;
 };
+
+// The object's shadow on the table for one room (docs/kiosk.md, "Shadows"): the room's dominant
+// lights, the mesh's occluder spheres, and for a mesh that is not a single sphere the shadow baked
+// against the mesh with Embree rays. Made on a worker; the renderer takes it on the frame thread.
+struct SceneShadow {
+    render::ShadowLighting lighting;
+    std::vector<render::OccluderSphere> occluders;
+    std::optional<render::ShadowBake> bake;
+    double seconds = 0;
+};
+
+SceneShadow make_scene_shadow(const HdrImage& room, const render::Mesh& mesh, double table_height, int threads) {
+    const auto t0 = WallClock::now();
+    SceneShadow s;
+    s.lighting = render::shadow_lighting(room);
+    s.occluders = render::occluder_spheres(mesh);
+    if (s.occluders.size() != 1) {
+        render::ShadowBakeOptions options;
+        options.threads = threads;
+        s.bake = render::bake_table_shadow(mesh, s.lighting, table_height, options);
+    }
+    s.seconds = seconds_since(t0);
+    return s;
+}
 
 json frame_times_json(const FrameTimes& t) { return {{"median", t.median()}, {"p99", t.p99()}, {"max", t.max()}, {"frames", t.ms.size()}}; }
 
@@ -188,6 +213,21 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
     std::string scan_end_reason;
     bool have_scene = last_scene.has_value();  // a lit scene for ATTRACT to show
     bool attract_background_set = false;  // the renderer's background is the room now
+    bool scene_requested = false;          // this visit's scene job has been started
+    // The shadow of the room the object is lit by: one bake at a time; a newer room waits for it.
+    std::future<SceneShadow> shadow_job;
+    std::optional<HdrImage> shadow_next;
+    const auto start_shadow = [&](const HdrImage& room) {
+        if (!cfg.ar.shadows) return;
+        if (shadow_job.valid()) {
+            shadow_next = room;  // after the running bake (a future from std::async blocks when dropped)
+            return;
+        }
+        shadow_job = std::async(std::launch::async, [room, &mesh, table = render::model_bottom(mesh), threads] {
+            return make_scene_shadow(room, mesh, table, threads);
+        });
+    };
+    if (last_scene) start_shadow(*last_scene);
 
     // What the replay measures.
     json states = json::array();
@@ -207,6 +247,9 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
     // first use, which no visitor frame should pay.
     // Both backgrounds the visitor will see: the room (attract) and the camera's picture through
     // its response (AR); each is a shader variant compiled at its first draw.
+    // The shadow's paths too (docs/kiosk.md, "Shadows"): the grey room's (no dominant light, the
+    // contact shadow of the object's spheres) until a room's own is made.
+    if (cfg.ar.shadows) renderer.enable_shadows(render::shadow_lighting(grey), render::occluder_spheres(mesh));
     renderer.set_background_environment(grey);
     renderer.draw_scene();
     view.bind();
@@ -320,6 +363,11 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
                 co.guided.target_coverage = cfg.capture.target_coverage;
                 co.guided.time_limit_s = cfg.capture.max_scan_s;
                 capture_job = std::make_unique<CaptureJob>(co);
+                // A new visit: its own scene, final maps and figures (the previous visitor's room
+                // stays in `env` for ATTRACT until this one's is ready).
+                scene_requested = false;
+                scan_end_wall_s = lit_wall_s = final_maps_wall_s = -1;
+                scan_end_reason.clear();
             }
         }
         bool pushed = false;
@@ -356,7 +404,9 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
                 on_transition(flow.scan_finished(t_s, why));
             }
         }
-        if (flow.state() == KioskState::Processing && capture_job && capture_job->done() && !scene_job.valid() && !env) {
+        if (flow.state() == KioskState::Processing && capture_job && capture_job->done() && !scene_job.valid() &&
+            !scene_requested) {
+            scene_requested = true;
             try {
                 capture_summary = capture_job->take();
                 // The map read back, its preview and the coarse maps on a worker: the frames go on.
@@ -383,6 +433,7 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
                 live_maps = std::make_unique<render::LiveMaps>(display->context(), *env, materials, cfg.frame.budget_ms,
                                                                /*wait_until_ready=*/false);
                 have_scene = true;
+                start_shadow(*env);
                 on_transition(flow.maps_ready(t_s));
             } catch (const std::exception& e) {
                 on_transition(flow.failure(t_s, "message.processing_failed", e.what()));
@@ -394,6 +445,25 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
                 renderer.replace_maps(maps);
                 final_maps_wall_s = seconds_since(wall_start);
                 log("final maps after " + std::to_string(final_maps_wall_s - scan_end_wall_s) + " s from the scan's end");
+            }
+        }
+        if (shadow_job.valid() && shadow_job.wait_for(std::chrono::seconds(0)) == std::future_status::ready) {
+            try {
+                SceneShadow shadow = shadow_job.get();
+                if (!shadow_next) {  // else a newer room's shadow is due: this one is stale
+                    renderer.enable_shadows(shadow.lighting, shadow.occluders);
+                    if (shadow.bake) renderer.set_shadow_bake(*shadow.bake);
+                    log("shadow: " + std::to_string(shadow.lighting.lights.size()) + " dominant light(s), " +
+                        (shadow.bake ? std::to_string(shadow.bake->rays) + " rays" : std::string("one sphere")) + " in " +
+                        std::to_string(shadow.seconds) + " s");
+                }
+            } catch (const std::exception& e) {
+                log(std::string("shadow: not made: ") + e.what());  // the object is shown without it
+            }
+            if (shadow_next) {
+                const HdrImage room = std::move(*shadow_next);
+                shadow_next.reset();
+                start_shadow(room);
             }
         }
         on_transition(flow.tick(t_s));
