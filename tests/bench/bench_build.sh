@@ -5,13 +5,14 @@
 # and neither rebuilds the other's objects.
 #
 # usage: tests/bench/bench_build.sh [TARGET...]   (prints the build directory on stdout)
-#   BENCH_BUILD=DIR      another directory (default build-native)
-#   BENCH_NATIVE=OFF     benchmark the portable code instead (e.g. to compare with the package)
+#   BENCH_NATIVE=OFF     benchmark the portable code instead (what the package runs): in build/,
+#                        which is portable already, so no tree changes its flags
+#   BENCH_BUILD=DIR      another directory
 # Without targets: glint and glint-vision (the scripts name their benchmark executable too).
 set -euo pipefail
 cd "$(dirname "$0")/../.."
-dir=${BENCH_BUILD:-build-native}
 native=${BENCH_NATIVE:-ON}
+if [ "$native" = ON ]; then dir=${BENCH_BUILD:-build-native}; else dir=${BENCH_BUILD:-build}; fi
 ./scripts/install-deps.sh >&2
 launcher=()
 command -v ccache >/dev/null && launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache)
