@@ -8,6 +8,9 @@
 # It changes the machine, so: it must run as root; it refuses to start when glint is installed
 # or its directories exist already (they would be someone's); and a trap purges the package and
 # deletes the user, groups and directories it made on any exit, a failure midway included.
+# A /var/lib/glint that is there already (a `glint run` with the default state directory on a
+# shared machine) is hidden rather than purged: the test then runs in a private mount namespace
+# whose /var/lib shows every other entry as it is (dpkg's database among them).
 #
 # usage: test_package.sh BUILD_DIR SOURCE_DIR
 # Exit status 0 when every check passed, 1 when one failed (each on a FAIL: line).
@@ -20,10 +23,33 @@ unset GLINT_DATA_DIR  # the installed lookup is what is tested
 src=$(realpath "$src")
 failures=0
 fail() { echo "FAIL: $*"; failures=$((failures + 1)); }
-ok() { echo "ok: $*"; }
+ok() { echo "ok (${SECONDS} s): $*"; }
 die() { echo "FAIL: $*"; exit 1; }
 
 [ "$(id -u)" -eq 0 ] || die "must run as root: it installs and purges the package (CI runs as root)"
+
+# /var/lib as it is but without glint: a tmpfs over it with the real entries bound back in.
+hide_var_lib_glint() {
+    local real
+    real=$(mktemp -d /tmp/glint_package_varlib.XXXXXX)
+    mount --make-rprivate / && mount --bind /var/lib "$real" && mount -t tmpfs -o mode=0755 tmpfs /var/lib || return 1
+    for e in "$real"/* "$real"/.[!.]*; do
+        [ -e "$e" ] || [ -L "$e" ] || continue
+        n=$(basename "$e")
+        [ "$n" = glint ] && continue
+        if [ -L "$e" ]; then cp -P "$e" "/var/lib/$n"
+        elif [ -d "$e" ]; then mkdir "/var/lib/$n" && mount --bind "$e" "/var/lib/$n"
+        else touch "/var/lib/$n" && mount --bind "$e" "/var/lib/$n"
+        fi || return 1
+    done
+}
+if [ -e /var/lib/glint ]; then
+    if [ -z "${GLINT_PACKAGE_TEST_NAMESPACE:-}" ]; then
+        echo "note: /var/lib/glint exists and is not this test's: running in a mount namespace that hides it"
+        exec unshare --mount env GLINT_PACKAGE_TEST_NAMESPACE=1 "$0" "$@"
+    fi
+    hide_var_lib_glint || die "cannot hide /var/lib/glint in a private mount namespace"
+fi
 for tool in cpack dpkg dpkg-deb dpkg-statoverride systemd-analyze systemd-sysusers; do
     command -v "$tool" >/dev/null || die "$tool not found (scripts/install-deps.sh)"
 done
@@ -80,19 +106,21 @@ arch=$(dpkg --print-architecture)
 depends=$(field Depends)
 echo "Depends: $depends"
 # Package names only (versions and alternatives split off).
-dep_names=$(echo "$depends" | tr ',|' '\n\n' | sed 's/(.*)//; s/^ *//; s/ *$//' | grep -v '^$' | sort -u)
-echo "$dep_names" | grep -- '-dev$' && fail "a -dev package among the dependencies (above)"
+echo "$depends" | tr ',|' '\n\n' | sed 's/(.*)//; s/^ *//; s/ *$//' | grep -v '^$' | sort -u > "$work/depends"
+grep -- '-dev$' "$work/depends" && fail "a -dev package among the dependencies (above)"
 # From dpkg-shlibdeps (libraries the executables link) and from Packaging.cmake (read at run time).
 for want in libc6 libstdc++6 libopenexr-3-1-30 libtomlplusplus3 libcamera0.0.3 libegl1 libgles2 libgbm1 \
             libsystemd0 libembree3-3 fonts-dejavu-core libegl-mesa0 libgl1-mesa-dri systemd; do
-    echo "$dep_names" | grep -qx "$want" || fail "Depends lacks $want"
+    grep -qx -- "$want" "$work/depends" || fail "Depends lacks $want"
 done
-[ "$(echo "$dep_names" | wc -l)" -le 60 ] || fail "Depends has $(echo "$dep_names" | wc -l) packages: more than expected"
-echo "$depends" | grep -q 'libopencv' || fail "Depends has no OpenCV runtime library (glint-vision links it)"
+[ "$(wc -l < "$work/depends")" -le 60 ] || fail "Depends has $(wc -l < "$work/depends") packages: more than expected"
+grep -q '^libopencv-core' "$work/depends" || fail "Depends has no OpenCV runtime library (glint-vision links it)"
 
 # --- contents --------------------------------------------------------------------------------
 dpkg-deb -c "$deb" | awk '{print $1, $NF}' | sed 's| \./| /|' > "$work/contents"
-listing() { awk '{print $2}' "$work/contents"; }
+awk '{print $2}' "$work/contents" > "$work/files"
+# From a file, not a pipe: `grep -q` stops reading early, and pipefail would count that as a miss.
+listing() { cat "$work/files"; }
 for f in /usr/bin/glint /usr/bin/glint-vision /usr/bin/glint-recording /usr/bin/glint-sensor-sim; do
     grep -qx -- "-rwxr-xr-x $f" "$work/contents" || fail "$f missing or not an executable 0755 file"
 done
@@ -102,7 +130,7 @@ for f in /usr/lib/systemd/system/glint.service /usr/lib/sysusers.d/glint.conf /u
          /usr/share/glint/data/sessions/kiosk/session.json \
          /usr/share/man/man1/glint.1.gz /usr/share/man/man1/glint-vision.1.gz \
          /usr/share/man/man1/glint-recording.1.gz /usr/share/man/man1/glint-sensor-sim.1.gz; do
-    listing | grep -qx -- "$f" || fail "$f not in the package"
+    grep -qx -- "$f" "$work/files" || fail "$f not in the package"
 done
 # Nothing of the build's own: headers, static libraries, tests, benchmarks, /usr/local.
 listing | grep -E '^/usr/include|\.a$|^/usr/local|_tests$|glint_bench|glint_fuzz|CMakeFiles' \
@@ -144,7 +172,8 @@ for exe in glint-vision glint-recording glint-sensor-sim; do
     /usr/bin/$exe --help >/dev/null 2>&1 || fail "/usr/bin/$exe --help failed"
 done
 # glint runs glint-vision for the camera commands: from /usr/bin too.
-/usr/bin/glint run --help 2>&1 | grep -q -- '--config' || fail "/usr/bin/glint run --help (through glint-vision) failed"
+run_help=$(/usr/bin/glint run --help 2>&1)
+grep -q -- '--config' <<<"$run_help" || fail "/usr/bin/glint run --help (through glint-vision) failed: $run_help"
 
 # What postinst made: the user and its groups, the state directory, the config's mode.
 user=$(getent passwd glint) || fail "postinst made no user glint"
