@@ -7,6 +7,11 @@
 # files read at run time, the GL drivers loaded by libglvnd, and the tools the maintainer
 # scripts run. The maintainer scripts are in packaging/deb/.
 
+if(GLINT_NATIVE)
+  message(WARNING "GLINT_NATIVE=ON: a package from this build runs only on CPUs with this machine's "
+                  "instruction set (the package test, tests/package, fails on it)")
+endif()
+
 set(CPACK_GENERATOR DEB)
 set(CPACK_PACKAGE_NAME glint)
 set(CPACK_PACKAGE_VERSION ${PROJECT_VERSION})

@@ -151,6 +151,16 @@ grep -q '^\.TH GLINT' "$work/glint.1" || fail "glint.1 has no .TH header"
 for cmd in convolve render run replay capture; do
     grep -q "glint $cmd" "$work/glint.1" || fail "glint.1 lacks the command $cmd"
 done
+# Portable: on amd64 no AVX instruction (VEX-encoded, or on ymm/zmm registers) in the
+# executables, whose baseline is SSE2. A -march=native build (GLINT_NATIVE=ON) has thousands
+# and would stop with SIGILL on a CPU without them.
+if [ "$arch" = amd64 ]; then
+    command -v objdump >/dev/null || die "objdump not found (binutils)"
+    for exe in glint glint-vision glint-recording glint-sensor-sim; do
+        n=$(objdump -d --no-show-raw-insn "$work/root/usr/bin/$exe" | grep -cE '^\s*[0-9a-f]+:\s+v[a-z0-9]+\s|%[yz]mm[0-9]')
+        [ "$n" -eq 0 ] || fail "/usr/bin/$exe has $n AVX instructions: built with -march=native (GLINT_NATIVE=ON)?"
+    done
+fi
 # A page roff renders without warnings (man-db's checker when it is there).
 if command -v groff >/dev/null; then
     warnings=$(groff -man -Tutf8 -ww -z "$work/glint.1" 2>&1)
