@@ -222,9 +222,16 @@ echo "$out" | grep -q 'data/ui/strings.toml: not found (looked in /usr/share/gli
 mv "$strings_moved" /usr/share/glint/data/ui/strings.toml; strings_moved=""
 ok "data found from /usr/bin (and missing data reported)"
 dpkg --verify glint || fail "dpkg --verify glint: installed files changed"
+dpkg-query -L glint | sort > "$work/installed"
+
+# --- upgrade over itself: an edited configuration and its mode are kept ------------------------
+echo "# edited by package.deb" >> /etc/glint/glint.toml
+dpkg -i "$deb" >"$work/upgrade.log" 2>&1 || { cat "$work/upgrade.log"; fail "dpkg -i over the installed package failed"; }
+tail -1 /etc/glint/glint.toml | grep -qx "# edited by package.deb" || fail "the upgrade replaced the edited /etc/glint/glint.toml"
+[ "$(stat -c '%U:%G %a' /etc/glint/glint.toml)" = "root:glint 640" ] || fail "after the upgrade /etc/glint/glint.toml is '$(stat -c '%U:%G %a' /etc/glint/glint.toml)'"
+ok "upgraded over itself, the edited conffile and its mode kept"
 
 # --- remove, then purge ----------------------------------------------------------------------
-dpkg-query -L glint | sort > "$work/installed"
 dpkg -r glint >"$work/remove.log" 2>&1 || { cat "$work/remove.log"; fail "dpkg -r glint failed"; }
 [ ! -e /usr/bin/glint ] || fail "/usr/bin/glint still there after dpkg -r"
 [ -f /etc/glint/glint.toml ] || fail "dpkg -r deleted the conffile (only purge should)"
