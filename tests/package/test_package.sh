@@ -221,7 +221,10 @@ echo "$out" | grep -q 'data/ui/strings.toml: not found (looked in /usr/share/gli
     || fail "without its strings the installed glint said: '$out'"
 mv "$strings_moved" /usr/share/glint/data/ui/strings.toml; strings_moved=""
 ok "data found from /usr/bin (and missing data reported)"
-dpkg --verify glint || fail "dpkg --verify glint: installed files changed"
+# Every installed file as packaged (the strings put back, nothing else touched). A slim image's
+# dpkg path-exclude leaves man pages and docs out: those are reported missing, not changed.
+verify=$(dpkg --verify glint 2>&1 | grep -vE '^missing .* /usr/share/(man|doc)/')
+[ -z "$verify" ] || fail "dpkg --verify glint: $verify"
 dpkg-query -L glint | sort > "$work/installed"
 
 # --- upgrade over itself: an edited configuration and its mode are kept ------------------------
