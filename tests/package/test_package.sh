@@ -29,9 +29,11 @@ die() { echo "FAIL: $*"; exit 1; }
 [ "$(id -u)" -eq 0 ] || die "must run as root: it installs and purges the package (CI runs as root)"
 
 # /var/lib as it is but without glint: a tmpfs over it with the real entries bound back in.
+varlib_real=""
 hide_var_lib_glint() {
     local real
     real=$(mktemp -d /tmp/glint_package_varlib.XXXXXX)
+    varlib_real=$real
     mount --make-rprivate / && mount --bind /var/lib "$real" && mount -t tmpfs -o mode=0755 tmpfs /var/lib || return 1
     for e in "$real"/* "$real"/.[!.]*; do
         [ -e "$e" ] || [ -L "$e" ] || continue
@@ -84,6 +86,8 @@ cleanup() {
     [ "$had_usb" -eq 0 ] && [ -d /media/usb ] && rmdir /media/usb 2>/dev/null
     [ "$had_media" -eq 0 ] && [ -d /media ] && rmdir /media 2>/dev/null
     rm -rf "$work"
+    # The real /var/lib's view in the namespace (the namespace goes with this process).
+    [ -n "$varlib_real" ] && umount "$varlib_real" 2>/dev/null && rmdir "$varlib_real"
 }
 trap cleanup EXIT
 trap 'exit 1' INT TERM HUP
