@@ -32,6 +32,8 @@ packages=(
   libsystemd-dev systemd               # sd_notify and the service file's verification (systemd/)
   libapriltag-dev                      # AprilTag 3 beside ArUco in the tracking benchmark (tests/bench)
   libembree-dev                        # ambient occlusion baked by ray tracing, glint bake-ao (appliance/render)
+  help2man                             # man pages from each tool's --help (cmake/ManPages.cmake)
+  dpkg-dev                             # dpkg-shlibdeps: the .deb's library dependencies (cmake/Packaging.cmake)
 )
 
 missing=()

@@ -68,8 +68,14 @@ std::filesystem::path find_data_file(const std::string& relative) {
     if (const char* dir = std::getenv("GLINT_DATA_DIR"); dir && *dir) places.push_back(fs::path(dir) / relative);
     std::error_code ec;
     const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
-    if (!ec) places.push_back(exe.parent_path().parent_path() / "share" / "glint" / relative);
-    places.push_back(fs::path(GLINT_SOURCE_DIR) / relative);
+    // GLINT_DATA_FROM_BIN: the install's data directory seen from its bin directory
+    // ("../share/glint" for GNUInstallDirs' defaults), so any prefix works.
+    if (!ec) places.push_back((exe.parent_path() / GLINT_DATA_FROM_BIN / relative).lexically_normal());
+    // The source tree only for an executable still in its build tree: an installed one that
+    // lacks its data must say so, not quietly read the build machine's checkout.
+    const fs::path build_tree = fs::path(GLINT_BINARY_DIR).lexically_normal();
+    if (ec || exe.lexically_normal().string().rfind(build_tree.string() + "/", 0) == 0)
+        places.push_back(fs::path(GLINT_SOURCE_DIR) / relative);
     for (const fs::path& p : places)
         if (fs::is_regular_file(p, ec)) return p;
     std::string tried;

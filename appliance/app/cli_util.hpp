@@ -21,8 +21,9 @@ CLI::Validator size_validator();
 std::vector<std::string> split_list(const std::string& text, const std::string& flag);
 
 // A file the appliance ships (`relative`, e.g. "data/ui/strings.toml"): under $GLINT_DATA_DIR when
-// set, else beside the installed executable (<prefix>/share/glint/), else in the source tree the
-// executable was built from. Throws InputError listing every place looked in.
+// set, else beside the installed executable (<prefix>/share/glint/), else, for an executable in
+// its build tree, in the source tree it was built from. Throws InputError listing every place
+// looked in.
 std::filesystem::path find_data_file(const std::string& relative);
 
 }  // namespace glint::app

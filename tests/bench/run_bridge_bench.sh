@@ -3,5 +3,6 @@
 # writes tests/bench/results/bridge.md. Takes about 20 s.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
-./scripts/build.sh
-./build/tests/bench/glint_bench_bridge --out tests/bench/results/bridge.md "$@"
+# The benchmarks run in their own -march=native tree, build-native/ (bench_build.sh).
+b=$(tests/bench/bench_build.sh glint_bench_bridge)
+"$b/tests/bench/glint_bench_bridge" --out tests/bench/results/bridge.md "$@"

@@ -8,7 +8,8 @@
 # SIMFLAGS=--sensor-limits models the sensor's shortest exposure (20 us) and glare: sources still
 # clipped there are estimated (docs/capture.md, "Estimated sources").
 set -e
-BUILD=${BUILD:-build}
+# BUILD=DIR: an existing build tree; without it the -march=native tree build-native/ (bench_build.sh).
+[ -n "$BUILD" ] || BUILD=$("$(dirname "$0")/bench_build.sh" glint_bench_bright_sources)
 G=$BUILD/appliance/app/glint
 X=$BUILD/tests/bench/glint_bench_bright_sources
 W=${1:-/tmp/glint-bright-sources}

@@ -3,9 +3,11 @@
 # as tests/bench/results/kiosk.md: states, frame time per state against the budget, the scan's
 # end to the lit object, start-up, the map's and the irradiance's errors, tracking.
 # usage: tests/bench/run_kiosk_bench.sh [BUILD_DIR] [OUT_MD]
+#   without BUILD_DIR: the -march=native tree build-native/, built first (bench_build.sh)
 set -euo pipefail
 cd "$(dirname "$0")/../.."
-build=${1:-build}
+build=${1:-}
+[ -n "$build" ] || build=$(tests/bench/bench_build.sh)
 out_md=${2:-tests/bench/results/kiosk.md}
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT

@@ -5,8 +5,9 @@
 # e.g. --maps courtyard --targets irradiance,1,5120 for a short run.
 set -euo pipefail
 cd "$(dirname "$0")/../.."
-./scripts/build.sh
+# The benchmarks run in their own -march=native tree, build-native/ (bench_build.sh).
+b=$(tests/bench/bench_build.sh glint_bench_offgrid)
 # The same heap as `glint convolve`, which re-executes itself with huge pages (docs/convolution.md,
 # "Large inputs: loading and memory").
 export GLIBC_TUNABLES=glibc.malloc.hugetlb=1
-./build/tests/bench/glint_bench_offgrid --out tests/bench/results --threads 2 --samples 4096 "$@"
+"$b/tests/bench/glint_bench_offgrid" --out tests/bench/results --threads 2 --samples 4096 "$@"

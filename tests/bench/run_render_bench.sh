@@ -6,12 +6,17 @@
 # two cores with llvmpipe.
 #
 # Usage: tests/bench/run_render_bench.sh [BUILD_DIR]
+#   without BUILD_DIR: the -march=native tree build-native/ (bench_build.sh)
 #   FRAMES=N timed frames a run (default 20), ROUNDS=R runs of each configuration, interleaved
 #   (default 3), PARTS="frames shading consistency" (any of them; the tables not run are kept).
 set -euo pipefail
 cd "$(dirname "$0")/../.."
-BUILD=${1:-build}
-cmake --build "$BUILD" -j2 --target glint glint-vision glint_bench_render >/dev/null
+if [ -n "${1:-}" ]; then
+  BUILD=$1
+  cmake --build "$BUILD" -j2 --target glint glint-vision glint_bench_render >/dev/null
+else
+  BUILD=$(tests/bench/bench_build.sh glint_bench_render)
+fi
 GLINT=$BUILD/appliance/app/glint
 VISION=$BUILD/appliance/app/glint-vision
 BENCH=$BUILD/tests/bench/glint_bench_render

@@ -2,12 +2,13 @@
 # Time, peak memory and error of `glint convolve` (the whole set, the planner's own output sizes)
 # against the input's size, 256x128 to 8192x4096; writes tests/bench/results/scaling.{md,csv} and
 # images/convolution_scaling.png. Inputs and exact references are cached in
-# build/bench-cache/scaling; the exact maps of the 1024x512 inputs are reused from
-# build/bench-cache when run_convolution_bench.sh made them.
+# build-native/bench-cache/scaling; the exact maps of the 1024x512 inputs are reused from
+# build-native/bench-cache when run_convolution_bench.sh made them.
 # Takes ~3 minutes on 2 cores (18 runs; the first run also makes the inputs and exact maps).
 # Arguments are passed on (--help lists them; e.g. --preset issue, --run courtyard:256x128,1024x512).
 set -euo pipefail
 cd "$(dirname "$0")/../.."
-./scripts/build.sh
-./build/tests/bench/glint_bench_scaling --cache build/bench-cache/scaling --exact-cache build/bench-cache \
-    --out tests/bench/results --images images --glint build/appliance/app/glint --threads 2 "$@"
+# The benchmarks run in their own -march=native tree, build-native/ (bench_build.sh).
+b=$(tests/bench/bench_build.sh glint_bench_scaling)
+"$b/tests/bench/glint_bench_scaling" --cache "$b/bench-cache/scaling" --exact-cache "$b/bench-cache" \
+    --out tests/bench/results --images images --glint "$b/appliance/app/glint" --threads 2 "$@"

@@ -160,7 +160,11 @@ TEST(ShLegendre, AdditionTheoremHoldsToOrder512) {
             const double want = (2.0 * l + 1) / (4 * kPi);
             worst = std::max(worst, std::abs(s - want) / want);
         }
-        EXPECT_LT(worst, 1e-12) << "theta " << theta;
+        // The recurrences' rounding, worst near the pole: 8.98e-13 at theta = pi/2048 where FMA
+        // fuses the multiply-adds (-march=native on an FMA CPU), 1.12e-12 with each rounded
+        // apart (the portable x86-64 build, GLINT_NATIVE=OFF). 2e-12 (~9000 ulp over 512 bands)
+        // holds both; a wrong coefficient is off by far more than that.
+        EXPECT_LT(worst, 2e-12) << "theta " << theta;
     }
 }
 
