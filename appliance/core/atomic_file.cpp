@@ -10,23 +10,12 @@
 #include <string>
 
 #include "appliance/core/errors.hpp"
+#include "appliance/core/unique_fd.hpp"
 
 namespace glint {
 namespace {
 
-class Fd {
-public:
-    explicit Fd(int fd) : fd_(fd) {}
-    Fd(const Fd&) = delete;
-    Fd& operator=(const Fd&) = delete;
-    ~Fd() {
-        if (fd_ >= 0) ::close(fd_);
-    }
-    int get() const { return fd_; }
-
-private:
-    int fd_;
-};
+using Fd = UniqueFd;
 
 void fsync_path(const std::filesystem::path& path, int flags) {
     Fd fd(::open(path.c_str(), flags | O_CLOEXEC));

@@ -19,6 +19,7 @@
 #include <sstream>
 
 #include "appliance/core/atomic_file.hpp"
+#include "appliance/core/unique_fd.hpp"
 
 namespace glint::state {
 namespace fs = std::filesystem;
@@ -29,19 +30,7 @@ namespace {
 constexpr const char* kManifestFormat = "glint-state-manifest";
 constexpr int kManifestVersion = 1;
 
-class Fd {
-public:
-    explicit Fd(int fd) : fd_(fd) {}
-    Fd(const Fd&) = delete;
-    Fd& operator=(const Fd&) = delete;
-    ~Fd() {
-        if (fd_ >= 0) ::close(fd_);
-    }
-    int get() const { return fd_; }
-
-private:
-    int fd_;
-};
+using Fd = UniqueFd;
 
 std::string errno_text() { return std::strerror(errno); }
 

@@ -139,6 +139,7 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
     // After a restart ATTRACT shows the last visitor's scene if it verifies (docs/state.md); a
     // faulty one is set aside and logged. Before maps_dir is made: a damaged item may be in its way.
     const std::optional<HdrImage> last_scene = source.replayed() ? std::nullopt : load_last_scene(o.maps_dir, log);
+    source.set_lamp(LampMode::Blink);  // a press is taken from now on (it waits for the first frame)
     std::error_code ec;
     for (const fs::path& dir : {o.maps_dir, o.frames_dir}) {
         if (dir.empty()) continue;
@@ -272,9 +273,8 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
         std::snprintf(name, sizeof name, "%05d_%s_%07.2fs_%s.png", frame_no, kiosk_state_name(flow.state()), t_s, why.c_str());
         gl::save_png(o.frames_dir / name, image);
     };
-    // The lamp follows the state (screen_model.hpp, LampMode).
+    // The lamp follows the state (screen_model.hpp, LampMode); it blinks from the start.
     LampMode lamp = LampMode::Blink;
-    source.set_lamp(lamp);
     const auto lamp_for = [](KioskState s) {
         return s == KioskState::Attract ? LampMode::Blink : s == KioskState::Ar ? LampMode::On : LampMode::Off;
     };

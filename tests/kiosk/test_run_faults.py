@@ -24,20 +24,14 @@ import signal
 import socket
 import subprocess
 import sys
-import threading
 import time
+
+from glint_test_util import Checks, Process
 
 glint, sensor_sim, calibration, work = sys.argv[1:5]
 shutil.rmtree(work, ignore_errors=True)
 os.makedirs(work)
-failures = []
-
-
-def check(ok, what):
-    print(("ok   " if ok else "FAIL ") + what)
-    if not ok:
-        failures.append(what)
-
+check = Checks()
 
 link = os.path.join(work, "sensor-pty")
 
@@ -77,54 +71,27 @@ write_config(config)
 
 # 1. Sensor unplugged and replugged, camera stalled, frames out of order, all mid-scan. Each step
 # waits for the program's own log line (a loaded machine starts it slowly), never for a fixed time.
-lines = []
-
-
-def read_stderr(stream):
-    for line in stream:
-        lines.append(line)
-
-
-def wait_for(text, timeout_s):
-    t0 = time.monotonic()
-    while time.monotonic() - t0 < timeout_s:
-        if any(text in line for line in lines):
-            return True
-        time.sleep(0.05)
-    return False
-
-
 board = start_board("0:1.0:1.1")
-run = subprocess.Popen([glint, "run", "--config", config, "--max-seconds", "120",
-                        "--inject-fault", "camera-shuffle:3:4,camera-stall:10:14.5"],
-                       stderr=subprocess.PIPE, text=True)
-reader = threading.Thread(target=read_stderr, args=(run.stderr,), daemon=True)
-reader.start()
+run = Process([glint, "run", "--config", config, "--max-seconds", "120",
+               "--inject-fault", "camera-shuffle:3:4,camera-stall:10:14.5"])
 try:
-    check(wait_for("ATTRACT -> CAPTURE", 60), "the board's button started a live scan")
+    check(run.wait_for("ATTRACT -> CAPTURE", 60), "the board's button started a live scan")
     time.sleep(1.5)
     board.kill()  # the cable pulled: the pty hangs up
     board.wait()
-    check(wait_for("sensor: no orientation for", 30), "the unplugged sensor was noticed")
+    check(run.wait_for("sensor: no orientation for", 30), "the unplugged sensor was noticed")
     time.sleep(2.0)
     if os.path.lexists(link):
         os.unlink(link)
     board = start_board(None)  # plugged in again
-    check(wait_for("sensor: orientation again after", 30), "the replugged sensor was taken up again")
-    check(wait_for("camera: frames again after", 60), "the camera delivered again")
-    run.send_signal(signal.SIGTERM)
-    try:
-        run.wait(timeout=30)
-    except subprocess.TimeoutExpired:
-        run.kill()
-        run.wait()
-    reader.join(timeout=10)
+    check(run.wait_for("sensor: orientation again after", 30), "the replugged sensor was taken up again")
+    check(run.wait_for("camera: frames again after", 60), "the camera delivered again")
+    returncode, err = run.stop(signal.SIGTERM)
 finally:
     board.terminate()
     board.wait(timeout=10)
-err = "".join(lines)
 print(err[-3000:])
-check(run.returncode == 0, f"glint run rode the faults out and ended with 0 on SIGTERM (got {run.returncode})")
+check(returncode == 0, f"glint run rode the faults out and ended with 0 on SIGTERM (got {returncode})")
 check("scan paused" in err and "scan resumed" in err, "the scan paused while the devices were lost and resumed")
 check("camera: no frame for" in err and "camera: restarted" in err, "the stalled camera was restarted")
 check("CAPTURE -> ATTRACT" not in err, "the visit was not failed by the faults")
@@ -182,34 +149,23 @@ with open(config, "a") as f:
     f.write(f"""[maintenance]
 pin_hash = "{pin_hash}"
 """)
-lines = []
 board = start_board(None)
 try:
-    run = subprocess.Popen([glint, "run", "--config", config, "--max-seconds", "120", "--inject-fault", "input-flood:3:13:3000"],
-                           stderr=subprocess.PIPE, text=True)
-    reader = threading.Thread(target=read_stderr, args=(run.stderr,), daemon=True)
-    reader.start()
-    ended = wait_for("an input flood of", 90)
+    run = Process([glint, "run", "--config", config, "--max-seconds", "120", "--inject-fault", "input-flood:3:13:3000"])
+    ended = run.wait_for("an input flood of", 90)
     time.sleep(1.0)
-    alive = run.poll() is None
-    run.send_signal(signal.SIGTERM)
-    try:
-        run.wait(timeout=30)
-    except subprocess.TimeoutExpired:
-        run.kill()
-        run.wait()
-    reader.join(timeout=10)
+    alive = run.proc.poll() is None
+    returncode, err = run.stop(signal.SIGTERM)
 finally:
     board.terminate()
     board.wait(timeout=10)
-err = "".join(lines)
-flood = [l for l in lines if "input flood of" in l]
-print("".join(flood), err[-1500:])
+flood = [l for l in err.splitlines() if "input flood of" in l]
+print("\n".join(flood), err[-1500:])
 check(ended and alive, "the kiosk lived through the flood: " + (flood[0].strip() if flood else "no flood logged"))
-check(run.returncode == 0, f"SIGTERM after the flood: exit 0 (got {run.returncode})")
+check(returncode == 0, f"SIGTERM after the flood: exit 0 (got {returncode})")
 check("ATTRACT -> CAPTURE" in err, "the flood's presses reached the visitor flow")
 check("opened by the key chord" in err, "the flood typed the menu's chord (the PIN prompt opened)")
 check("maintenance PIN: locked out" in err, "the flood's wrong PINs locked the prompt")
 check("maintenance PIN: success" not in err, "the flood never unlocked the menu")
 check("maintenance menu: restart" not in err and "stopped after" in err, "no restart or exit but SIGTERM's")
-sys.exit(1 if failures else 0)
+check.exit()

@@ -11,22 +11,15 @@ usage: test_run_gpio.py GLINT SESSION_DIR WORK_DIR
 import os
 import shutil
 import signal
-import subprocess
 import sys
-import threading
 import time
+
+from glint_test_util import Checks, Process
 
 glint, session, work = sys.argv[1:4]
 shutil.rmtree(work, ignore_errors=True)
 os.makedirs(work)
-failures = []
-
-
-def check(ok, what):
-    print(("ok   " if ok else "FAIL ") + what)
-    if not ok:
-        failures.append(what)
-
+check = Checks()
 
 fifo = os.path.join(work, "gpio")
 os.mkfifo(fifo)
@@ -50,23 +43,6 @@ lamp_line = 22
 dir = "{work}/state"
 """)
 
-lines = []
-
-
-def read_stderr(stream):
-    for line in stream:
-        lines.append(line)
-
-
-def wait_for(text, timeout_s):
-    t0 = time.monotonic()
-    while time.monotonic() - t0 < timeout_s:
-        if any(text in line for line in lines):
-            return True
-        time.sleep(0.05)
-    return False
-
-
 def lamp_changes():
     path = fifo + ".out"
     if not os.path.exists(path):
@@ -74,9 +50,7 @@ def lamp_changes():
     return [tuple(int(x) for x in l.split()) for l in open(path).read().splitlines() if l.strip()]
 
 
-run = subprocess.Popen([glint, "run", "--config", config, "--max-seconds", "120"], stderr=subprocess.PIPE, text=True)
-reader = threading.Thread(target=read_stderr, args=(run.stderr,), daemon=True)
-reader.start()
+run = Process([glint, "run", "--config", config, "--max-seconds", "120"])
 pipe = open(fifo, "w")
 
 
@@ -86,7 +60,7 @@ def level(line, value):
 
 
 try:
-    check(wait_for("display headless: opened", 60), "the kiosk started")
+    check(run.wait_for("display headless: opened", 60), "the kiosk started")
     time.sleep(3.5)
     attract = [c for c in lamp_changes() if c[1] == 22]
     check(len(attract) >= 4 and {c[2] for c in attract} == {0, 1},
@@ -94,32 +68,23 @@ try:
     level(17, 0)  # pressed (active low)
     time.sleep(0.2)
     level(17, 1)
-    check(wait_for("ATTRACT -> CAPTURE", 30), "the GPIO button started the scan")
+    check(run.wait_for("ATTRACT -> CAPTURE", 30), "the GPIO button started the scan")
     time.sleep(1.5)
     during = lamp_changes()
     time.sleep(1.5)
     after = lamp_changes()
     check(len(after) == len(during) and after[-1][2] == 0, "the lamp is dark and steady while the visitor scans")
     level(27, 0)  # key switch turned on
-    check(wait_for("maintenance menu: opened by the key switch", 30), "the key switch opened the menu (no PIN)")
+    check(run.wait_for("maintenance menu: opened by the key switch", 30), "the key switch opened the menu (no PIN)")
     time.sleep(0.5)
     level(27, 1)
-    check(wait_for("maintenance menu: closed by the key switch", 30), "turning the key back closed it")
-    run.send_signal(signal.SIGTERM)
-    try:
-        run.wait(timeout=30)
-    except subprocess.TimeoutExpired:
-        run.kill()
-        run.wait()
-    reader.join(timeout=10)
+    check(run.wait_for("maintenance menu: closed by the key switch", 30), "turning the key back closed it")
 finally:
     pipe.close()
-    if run.poll() is None:
-        run.kill()
-err = "".join(lines)
+    returncode, err = run.stop(signal.SIGTERM)
 print(err[-2000:])
-check(run.returncode == 0, f"SIGTERM: exit 0 (got {run.returncode})")
+check(returncode == 0, f"SIGTERM: exit 0 (got {returncode})")
 check("key switch on" in err and "key switch off" in err, "the key switch's turns are journalled")
 final = [c for c in lamp_changes() if c[1] == 22]
 check(bool(final) and final[-1][2] == 0, "the lamp is left dark when the kiosk stops")
-sys.exit(1 if failures else 0)
+check.exit()

@@ -1,0 +1,60 @@
+"""What the tests that run glint as a process share: named checks that print ok/FAIL and decide the
+exit code, and a program's stderr read line by line on a thread, so that a test waits for the
+program's own log lines instead of for fixed times (a loaded machine starts glint slowly)."""
+import subprocess
+import sys
+import threading
+import time
+
+
+class Checks:
+    def __init__(self):
+        self.failures = []
+
+    def __call__(self, ok, what):
+        print(("ok   " if ok else "FAIL ") + what)
+        if not ok:
+            self.failures.append(what)
+
+    def exit(self):
+        sys.exit(1 if self.failures else 0)
+
+
+class Process:
+    """A started program whose stderr lines are collected as they come."""
+
+    def __init__(self, args, **popen_args):
+        self.lines = []
+        self.proc = subprocess.Popen(args, stderr=subprocess.PIPE, text=True, **popen_args)
+        self._reader = threading.Thread(target=self._read, daemon=True)
+        self._reader.start()
+
+    def _read(self):
+        for line in self.proc.stderr:
+            self.lines.append(line)
+
+    def wait_for(self, text, timeout_s):
+        """True once a stderr line holds `text`, False after timeout_s."""
+        t0 = time.monotonic()
+        while time.monotonic() - t0 < timeout_s:
+            if any(text in line for line in self.lines):
+                return True
+            if self.proc.poll() is not None and not self._reader.is_alive():
+                return any(text in line for line in self.lines)
+            time.sleep(0.05)
+        return False
+
+    def stop(self, sig, timeout_s=30):
+        """Sends `sig`, waits (kills after timeout_s); returns the exit code and all of stderr."""
+        if self.proc.poll() is None:
+            self.proc.send_signal(sig)
+        try:
+            self.proc.wait(timeout=timeout_s)
+        except subprocess.TimeoutExpired:
+            self.proc.kill()
+            self.proc.wait()
+        self._reader.join(timeout=10)
+        return self.proc.returncode, "".join(self.lines)
+
+    def stderr(self):
+        return "".join(self.lines)
