@@ -2,8 +2,9 @@
 """The main job with its figures asserted: `glint replay` on the session that ships in
 data/sessions/kiosk (the README's first command). Every visitor state is reached in order, the
 scan covers the room, the captured map and the irradiance the object was lit with are close to
-the simulated room's truth, the board is tracked in the AR phase, no frame passed the hard cap,
-and a PNG frame of every state was written.
+the simulated room's truth, the board is tracked in the AR phase, the replay saw no device fault, and a PNG frame of every
+state was written. Frame times are printed, not asserted: they belong to the machine's load
+(tests/bench/run_kiosk_bench.sh measures them).
 
 usage: test_replay_shipped.py GLINT SESSION OUT
 """
@@ -43,7 +44,11 @@ check(s["tracking_detection_rate"] is not None and s["tracking_detection_rate"] 
 rot = s.get("tracking_rotation_error_deg", {})
 check(rot.get("median", 99) <= 1.0, f"tracking rotation error median {rot.get('median')} deg <= 1")
 f = s["frame_ms"]
-check(f["over_hard_cap"] == 0, f"no frame over the hard cap of {f['hard_cap']} ms (max {f['max']:.1f} ms)")
+print(f"frame times (not asserted): median {f['median']:.1f} ms, p99 {f['p99']:.1f} ms, max {f['max']:.1f} ms, "
+      f"{f['over_hard_cap']} over the hard cap of {f['hard_cap']} ms")
+d = s["devices"]
+check(d["camera_losses"] == 0 and d["sensor_losses"] == 0 and d["frames_out_of_order"] == 0 and d["scan_paused_s"] == 0,
+      f"a recorded session has no device faults: {d}")
 check(s["scan_end_to_lit_s"] is not None, f"the object was lit after the scan ({s['scan_end_to_lit_s']} s)")
 frames = os.listdir(os.path.join(out, "frames"))
 for state in ["ATTRACT", "CAPTURE", "PROCESSING", "AR"]:
