@@ -189,6 +189,15 @@ done
 run_help=$(/usr/bin/glint run --help 2>&1)
 grep -q -- '--config' <<<"$run_help" || fail "/usr/bin/glint run --help (through glint-vision) failed: $run_help"
 
+# The files are the repository's (the ones tests/service checks).
+for pair in "/usr/lib/systemd/system/glint.service systemd/glint.service" \
+            "/usr/lib/sysusers.d/glint.conf systemd/glint.sysusers" "/usr/lib/tmpfiles.d/glint.conf systemd/glint.tmpfiles" \
+            "/usr/lib/udev/rules.d/99-glint-sensor.rules systemd/99-glint-sensor.rules" \
+            "/etc/glint/glint.toml config/glint.example.toml" "/usr/share/glint/data/ui/strings.toml data/ui/strings.toml"; do
+    set -- $pair
+    cmp -s "$1" "$src/$2" || fail "$1 differs from the repository's $2"
+done
+
 # What postinst made: the user and its groups, the state directory, the config's mode.
 user=$(getent passwd glint) || fail "postinst made no user glint"
 [ "$(echo "$user" | cut -d: -f6,7)" = "/var/lib/glint:/usr/sbin/nologin" ] || fail "user glint: '$user'"
