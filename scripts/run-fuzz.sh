@@ -14,7 +14,7 @@
 # What the parser targets add to CI, measured 2026-12-03 on this 2-core machine (shared, load
 # about 10): their build from cold (30 instrumented sources, no ccache) is 175 s of CPU (user),
 # so about 90 s on two idle cores (8.5 min wall under that load); running the ten of them took
-# 98 s at 15 s each (five pairs plus start-up), so about 80 s at the default 12 s. About 2.8 min
+# 98 s at 15 s each (five pairs plus start-up) and 75 s at the default 12 s. About 2.8 min
 # in all, beside the bridge targets' 60 s and their small build.
 #
 # Seeds: the protocol seeds are the raw received bytes of
