@@ -21,7 +21,7 @@ packages=(
   xvfb                                 # the window display's tests: an X server without a screen
   libegl-mesa0 libgl1-mesa-dri         # Mesa llvmpipe: the GPU of tests and CI
   zlib1g-dev                           # PNG screenshots of the GPU benchmark
-  clang libclang-rt-14-dev             # libFuzzer targets with ASan/UBSan (scripts/run-fuzz.sh)
+  clang libclang-rt-14-dev lld         # libFuzzer targets with ASan/UBSan (scripts/run-fuzz.sh; lld drops the parsers' unreached code, tests/fuzz)
   libopencv-dev                        # capture: frames, calibration, features (appliance/capture)
   libcamera-dev                        # capture: the real camera source (appliance/capture)
   libglm-dev                           # the appliance's vectors, quaternions and matrices (appliance/core/rotation.hpp)

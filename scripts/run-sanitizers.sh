@@ -33,7 +33,11 @@ echo "run-sanitizers: build took $(( $(date +%s) - start )) s"
 # the test fails), LeakSanitizer's leak report at exit fails it too. The suppressions name only
 # the GL driver's libraries (tests/sanitizers/lsan.supp says why).
 supp="$PWD/tests/sanitizers/lsan.supp"
-export ASAN_OPTIONS="halt_on_error=1:abort_on_error=0:detect_leaks=1:strict_string_checks=1:detect_stack_use_after_return=0:check_initialization_order=1"
+# Shared libraries stay loaded to the end (tests/sanitizers/keep_loaded.c says why); the preload
+# comes before the ASan runtime, hence verify_asan_link_order=0.
+cc -shared -fPIC -O2 -o build-asan/libglint_keep_loaded.so tests/sanitizers/keep_loaded.c
+export LD_PRELOAD="$PWD/build-asan/libglint_keep_loaded.so${LD_PRELOAD:+ $LD_PRELOAD}"
+export ASAN_OPTIONS="halt_on_error=1:abort_on_error=0:detect_leaks=1:strict_string_checks=1:detect_stack_use_after_return=0:check_initialization_order=1:verify_asan_link_order=0"
 export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
 export LSAN_OPTIONS="suppressions=$supp:print_suppressions=0"
 start=$(date +%s)

@@ -46,6 +46,11 @@ LoadedExr load_exr(const std::filesystem::path& path) {
             throw InputError("input " + path.string() +
                              " has neither R, G, B nor Y channels");
         out.luminance_only = !rgb;
+        // Before the image is allocated: a header that names a huge data window over a short file
+        // (16 KB asking for 12 GiB; tests/fuzz/corpus/exr/oom-truncated-huge.exr) is refused
+        // without zero-filling memory for it.
+        if (!file.isComplete())
+            throw InputError("input " + path.string() + " is truncated (missing scanlines)");
         out.image = HdrImage(int(w), int(h));
         float* base = out.image.data().data();
         // Slices address the data window from its origin; x/y strides in bytes.
@@ -61,8 +66,6 @@ LoadedExr load_exr(const std::filesystem::path& path) {
             fb.insert(rgb ? names[c] : "Y",
                       Imf::Slice(Imf::FLOAT, origin + c * sizeof(float), xs, ys, 1, 1, 0.0));
         file.setFrameBuffer(fb);
-        if (!file.isComplete())
-            throw InputError("input " + path.string() + " is truncated (missing scanlines)");
         file.readPixels(dw.min.y, dw.max.y);
         if (!rgb)
             for (std::size_t k = 0; k < out.image.data().size(); k += 3)

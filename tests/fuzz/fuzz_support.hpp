@@ -3,8 +3,10 @@
 // for the parsers that read files, and the split of one input into several files.
 #pragma once
 
+#include <signal.h>
 #include <unistd.h>
 
+#include <cerrno>
 #include <cstddef>
 #include <cstdint>
 #include <cstdlib>
@@ -22,15 +24,25 @@ inline void check(bool ok) {
 }
 
 // /dev/shm/glint-fuzz-NAME-PID: in memory (no disk writes per execution), one per process so
-// that parallel runs (-jobs, -fork) do not share files; removed at exit.
+// that parallel runs (-jobs, -fork) do not share files; removed at exit. libFuzzer ends its runs
+// with _Exit (no atexit handlers), so each process also removes the directories of processes that
+// are gone.
 inline const std::filesystem::path& scratch_dir(const char* name) {
     static const std::filesystem::path dir = [name] {
         const std::filesystem::path base = std::filesystem::exists("/dev/shm") ? "/dev/shm" : "/tmp";
+        std::error_code ec;
+        for (const auto& entry : std::filesystem::directory_iterator(base, ec)) {
+            const std::string n = entry.path().filename().string();
+            if (n.rfind("glint-fuzz-", 0) != 0) continue;
+            const std::size_t dash = n.rfind('-');
+            const long pid = std::strtol(n.c_str() + dash + 1, nullptr, 10);
+            if (pid > 0 && ::kill(pid_t(pid), 0) != 0 && errno == ESRCH) std::filesystem::remove_all(entry.path(), ec);
+        }
         std::filesystem::path d = base / ("glint-fuzz-" + std::string(name) + "-" + std::to_string(::getpid()));
         std::filesystem::create_directories(d);
         std::atexit([] {
-            std::error_code ec;
-            std::filesystem::remove_all(scratch_dir(nullptr), ec);
+            std::error_code ignored;
+            std::filesystem::remove_all(scratch_dir(nullptr), ignored);
         });
         return d;
     }();

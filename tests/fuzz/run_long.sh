@@ -17,7 +17,7 @@ run_one() {
   rm -rf "$dir"; mkdir -p "$dir/corpus"
   cp "tests/fuzz/corpus/$t/"* "$dir/corpus/"
   local start; start=$(date +%s)
-  nice -n 19 "build-fuzz/tests/fuzz/glint_fuzz_$t" -max_total_time="$seconds" -timeout=20 -rss_limit_mb=2560 \
+  nice -n 19 "build-fuzz/tests/fuzz/glint_fuzz_$t" -max_total_time="$seconds" -timeout="${FUZZ_TIMEOUT:-20}" -rss_limit_mb=2560 \
       -print_final_stats=1 -artifact_prefix="build-fuzz/long/$t-" "$dir/corpus" > "build-fuzz/long/$t.log" 2>&1
   local rc=$?
   local execs cov ft corp

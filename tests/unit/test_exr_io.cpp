@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include "tests/unit/test_support.hpp"
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include <ImfChannelList.h>
@@ -332,6 +333,32 @@ TEST_F(ExrIo, TruncatedFileIsAnInputErrorNamingIt) {
     ASSERT_GT(size, 4096u);
     fs::resize_file(path, size / 2);
     expect_input_error_naming(path);
+}
+
+// A header naming a large data window over a file without its scanlines is refused before the
+// image is allocated: 16384x8192 asked for 1.5 GiB (and 32768x32768 for 12 GiB) before the
+// truncation was noticed (found with tests/fuzz's exr target). The peak resident size must not
+// grow by the image's size (each CTest test runs in its own process, so the peak is this test's).
+TEST_F(ExrIo, TruncatedHugeImageIsRefusedBeforeItIsAllocated) {
+    const fs::path path = dir_ / "huge_truncated.exr";
+    {
+        Imf::Header header(16384, 8192);
+        header.compression() = Imf::ZIP_COMPRESSION;
+        for (const char* c : {"R", "G", "B"}) header.channels().insert(c, Imf::Channel(Imf::HALF));
+        Imf::OutputFile out(path.c_str(), header);  // no scanlines: the header and an empty offset table
+    }
+    ASSERT_LT(fs::file_size(path), 8192u);
+    rusage before{};
+    getrusage(RUSAGE_SELF, &before);
+    try {
+        load_exr(path);
+        ADD_FAILURE() << "accepted " << path;
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("truncated"), std::string::npos) << e.what();
+    }
+    rusage after{};
+    getrusage(RUSAGE_SELF, &after);
+    EXPECT_LT(after.ru_maxrss - before.ru_maxrss, 256 * 1024) << "KiB of peak resident size added";
 }
 
 TEST_F(ExrIo, TruncatedHeaderIsAnInputErrorNamingIt) {
