@@ -113,6 +113,7 @@ struct ProcessSample {
     long threads = -1;      // Threads
     long fds = -1;          // entries of /proc/self/fd, the listing's own descriptor not counted
     long heap_kib = -1;     // malloc's bytes in use (mallinfo2: uordblks + hblkhd), all arenas
+    long heap_held_kib = -1;  // what malloc holds from the system (arena + hblkhd): in use or kept free
     long gl[9] = {};        // live GL names per kind (kGlKinds), "other": every other GlName kind
 };
 
@@ -132,6 +133,7 @@ ProcessSample sample_process() {
     if (!ec) s.fds = fds - 1;
     const struct mallinfo2 m = mallinfo2();
     s.heap_kib = long((m.uordblks + m.hblkhd) / 1024);
+    s.heap_held_kib = long((m.arena + m.hblkhd) / 1024);
     const long known[8] = {gl::GlTexture::live(), gl::GlFramebuffer::live(), gl::GlBuffer::live(), gl::GlVertexArray::live(),
                            gl::GlQuery::live(),   gl::GlProgramName::live(), gl::GlShader::live(), gl::GlFence::live()};
     long sum = 0;
@@ -145,7 +147,7 @@ class SoakLog {
 public:
     explicit SoakLog(const fs::path& path) : path_(path), file_(path) {
         if (!file_) throw InputError(path.string() + ": cannot write the soak log");
-        file_ << "pass,kind,wall_s,rss_kib,heap_kib,fds,threads,gl_total";
+        file_ << "pass,kind,wall_s,rss_kib,heap_kib,heap_held_kib,fds,threads,gl_total";
         for (const char* k : kGlKinds) file_ << ",gl_" << k;
         file_ << ",frames,frame_median_ms,frame_p99_ms\n";
         file_.flush();
@@ -157,8 +159,8 @@ public:
         long total = 0;
         for (long n : p.gl) total += n;
         char line[256];
-        std::snprintf(line, sizeof line, "%d,%s,%.1f,%ld,%ld,%ld,%ld,%ld", pass, kind, wall_s, p.rss_kib, p.heap_kib, p.fds,
-                      p.threads, total);
+        std::snprintf(line, sizeof line, "%d,%s,%.1f,%ld,%ld,%ld,%ld,%ld,%ld", pass, kind, wall_s, p.rss_kib, p.heap_kib,
+                      p.heap_held_kib, p.fds, p.threads, total);
         file_ << line;
         for (long n : p.gl) file_ << ',' << n;
         if (summary) {
@@ -266,7 +268,7 @@ json run_replay(const ReplayOptions& o, const std::function<void(const std::stri
         const ProcessSample p = soak.write(pass, "pass", wall_s(), &summary);
         std::ostringstream line;
         line << "soak pass " << pass << " done at " << long(wall_s()) << " s: rss " << p.rss_kib << " KiB, heap "
-             << p.heap_kib << " KiB, fds " << p.fds << ", threads " << p.threads << ", GL objects "
+             << p.heap_kib << " KiB in use (" << p.heap_held_kib << " KiB held), fds " << p.fds << ", threads " << p.threads << ", GL objects "
              << gl::gl_live_total() << ", frame median " << summary["frame_ms"]["median"].get<double>() << " ms, p99 "
              << summary["frame_ms"]["p99"].get<double>() << " ms";
         log(line.str());

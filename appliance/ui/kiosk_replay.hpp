@@ -14,9 +14,9 @@
 // Soak (`--loop-for S` / `--repeat N`, docs/kiosk.md "Soak"): the session replayed pass after pass
 // in this one process, on one display and GL context opened once; each pass is a whole replay
 // (a new source, the kiosk loop from its start). DIR/soak.csv gets a row every
-// `sample_every_s` of wall time and one after each pass: resident memory, the heap in use,
-// open descriptors, threads, live GL objects per kind (gl_objects.hpp) and the pass's frame-time
-// median and p99. The outputs above are the last pass's.
+// `sample_every_s` of wall time and one after each pass: resident memory, the heap in use and
+// what the allocator holds, open descriptors, threads, live GL objects per kind (gl_objects.hpp)
+// and the pass's frame-time median and p99. The outputs above are the last pass's.
 #pragma once
 
 #include <filesystem>

@@ -67,6 +67,17 @@ def main():
         f"| open descriptors | {fd_growth:+d} | 0 | {ok(fd_growth <= 0)} |",
         f"| live GL objects | {gl_growth:+d} | 0 | {ok(gl_growth <= 0)} |",
         f"| threads | {thread_growth:+d} | | |",
+    ]
+    if len(passes) >= 3:
+        # The allocator's arenas may take more than one pass to reach their size: the same growth
+        # from the second pass on, beside the brief's (from the first).
+        p2 = passes[1]
+        lines.append(f"| resident memory from pass 2 to the end | {mib(end, 'rss_kib') - mib(p2, 'rss_kib'):+.2f} MiB | "
+                     f"< {RSS_TARGET_MIB:.0f} MiB | {ok(mib(end, 'rss_kib') - mib(p2, 'rss_kib') < RSS_TARGET_MIB)} |")
+    if "heap_held_kib" in start:
+        lines.append(f"| heap held from the system (mallinfo2 arena + hblkhd) | "
+                     f"{mib(end, 'heap_held_kib') - mib(start, 'heap_held_kib'):+.2f} MiB | | |")
+    lines += [
         "",
         "GL objects by kind at the start / end: "
         + ", ".join(f"{k[3:]} {start[k]} / {end[k]}" for k in gl_kinds) + ".",
