@@ -1,5 +1,5 @@
 // `glint replay SESSION --out DIR [--realtime] [--display headless|window|kms|auto] [--snapshot-every S]
-// [--threads N]`: the kiosk program on a recorded session (appliance/ui/kiosk_replay.hpp;
+// [--threads N] [--loop-for S | --repeat N]`: the kiosk program on a recorded session (appliance/ui/kiosk_replay.hpp;
 // docs/kiosk.md "Replay").
 #include <cstdio>
 #include <filesystem>
@@ -29,6 +29,8 @@ struct ReplayArgs {
     bool realtime = false;
     double snapshot_every_s = 5;
     int threads = 0;
+    double loop_for_s = 0;  // soak (kiosk_replay.hpp)
+    int repeat = 0;
 };
 
 int run_replay_command(const ReplayArgs& a) {
@@ -61,9 +63,13 @@ int run_replay_command(const ReplayArgs& a) {
     }
     o.kiosk.snapshot_every_s = a.snapshot_every_s;
     o.kiosk.threads = a.threads;
+    o.loop_for_s = a.loop_for_s;
+    o.repeat = a.repeat;
+    const bool soak = a.loop_for_s > 0 || a.repeat > 0;
     std::unique_ptr<ProgressBar> bar;
     long long shown = 0;  // tenths of a session second drawn
-    o.kiosk.progress = [&](double t_s, double end_s) {
+    // A soak logs a line a pass instead (its passes would restart the bar).
+    if (!soak) o.kiosk.progress = [&](double t_s, double end_s) {
         if (!bar) bar = std::make_unique<ProgressBar>("replay (session seconds x 10)", (long long)(end_s * 10) + 1);
         const long long now = (long long)(t_s * 10);
         if (now > shown) {
@@ -83,6 +89,7 @@ int run_replay_command(const ReplayArgs& a) {
                 number("scan_end_to_lit_s").c_str(), number("coverage").c_str(), number("env_error").c_str(),
                 number("irradiance_error").c_str(), number("tracking_detection_rate").c_str());
     std::printf("frames: %s/frames/, summary: %s/summary.json\n", a.out.c_str(), a.out.c_str());
+    if (soak) std::printf("soak: one row a pass and every 5 s in %s/soak.csv (the figures above: the last pass)\n", a.out.c_str());
     return 0;
 }
 
@@ -105,6 +112,14 @@ Command add_replay_command(CLI::App& app) {
     cmd->add_option("--threads", a->threads, "Capture and convolution worker threads (0: the cores but one)")
         ->check(CLI::Range(0, 256));
     cmd->add_option("--inject-fault", a->faults, std::string(ui::kInjectFaultHelp));
+    // Soak (docs/kiosk.md "Soak"): leaks show as growth from pass to pass in one process.
+    CLI::Option* loop_for =
+        cmd->add_option("--loop-for", a->loop_for_s,
+                        "Soak: replay the session pass after pass in this process (one display and GL context) "
+                        "while the run is younger than S seconds; DIR/soak.csv gets memory, descriptors, GL objects "
+                        "and frame times every 5 s and after each pass; the other outputs are the last pass's")
+            ->check(CLI::Range(1.0, 7.0 * 24 * 3600));
+    cmd->add_option("--repeat", a->repeat, "Soak: exactly N passes (see --loop-for)")->check(CLI::Range(1, 1000000))->excludes(loop_for);
     return {cmd, [a] { return run_replay_command(*a); }};
 }
 

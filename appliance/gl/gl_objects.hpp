@@ -1,13 +1,27 @@
 // RAII for GL object names: move-only, deleted with the right call when they
 // go out of scope, so a cancelled job or an exception leaks nothing. Create
 // and destroy them with the owning context current.
+//
+// Each kind keeps a process-wide count of its live names (`GlName<Traits>::live()`, and
+// `gl_live_total()` over every kind, those declared elsewhere included): the soak benchmark
+// (`glint replay --loop-for`, docs/kiosk.md "Soak") reads them to see GL objects that are never
+// deleted. Names made with raw glGen* calls outside these wrappers are not counted.
 #pragma once
 
 #include <GLES3/gl3.h>
 
+#include <atomic>
 #include <utility>
 
 namespace glint::gl {
+
+namespace detail {
+// Relaxed atomics: objects are made on the frame thread and on workers' contexts (LiveMaps).
+inline std::atomic<long> live_total{0};
+}  // namespace detail
+
+// Live GL names held by every wrapper of this file (all kinds, fences included).
+inline long gl_live_total() { return detail::live_total.load(std::memory_order_relaxed); }
 
 template <typename Traits>
 class GlName {
@@ -15,7 +29,7 @@ public:
     GlName() = default;
     // Generates a new name (glGen* / glCreate*).
     static GlName create() { return GlName(Traits::create()); }
-    explicit GlName(GLuint id) : id_(id) {}
+    explicit GlName(GLuint id) : id_(id) { count(id_, +1); }
     GlName(GlName&& other) noexcept : id_(std::exchange(other.id_, 0)) {}
     GlName& operator=(GlName&& other) noexcept {
         if (this != &other) {
@@ -31,11 +45,22 @@ public:
     GLuint id() const { return id_; }
     explicit operator bool() const { return id_ != 0; }
     void reset() {
-        if (id_ != 0) Traits::destroy(id_);
+        if (id_ != 0) {
+            Traits::destroy(id_);
+            count(id_, -1);
+        }
         id_ = 0;
     }
+    // Names of this kind alive in the process now.
+    static long live() { return live_.load(std::memory_order_relaxed); }
 
 private:
+    static void count(GLuint id, long delta) {
+        if (id == 0) return;
+        live_.fetch_add(delta, std::memory_order_relaxed);
+        detail::live_total.fetch_add(delta, std::memory_order_relaxed);
+    }
+    static inline std::atomic<long> live_{0};
     GLuint id_ = 0;
 };
 
@@ -81,6 +106,7 @@ class GlFence {
 public:
     GlFence() = default;
     static GlFence insert() { return GlFence(glFenceSync(GL_SYNC_GPU_COMMANDS_COMPLETE, 0)); }
+    static long live() { return live_.load(std::memory_order_relaxed); }
     GlFence(GlFence&& o) noexcept : sync_(std::exchange(o.sync_, nullptr)) {}
     GlFence& operator=(GlFence&& o) noexcept {
         if (this != &o) {
@@ -102,12 +128,22 @@ public:
         return value == GL_SIGNALED;
     }
     void reset() {
-        if (sync_) glDeleteSync(sync_);
+        if (sync_) {
+            glDeleteSync(sync_);
+            count(-1);
+        }
         sync_ = nullptr;
     }
 
 private:
-    explicit GlFence(GLsync s) : sync_(s) {}
+    explicit GlFence(GLsync s) : sync_(s) {
+        if (sync_) count(+1);
+    }
+    static void count(long delta) {
+        live_.fetch_add(delta, std::memory_order_relaxed);
+        detail::live_total.fetch_add(delta, std::memory_order_relaxed);
+    }
+    static inline std::atomic<long> live_{0};
     GLsync sync_ = nullptr;
 };
 

@@ -156,10 +156,15 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
     display_config.width = cfg.display.width;
     display_config.height = cfg.display.height;
     display_config.fullscreen = cfg.display.fullscreen;
-    std::vector<gl::DisplayAttempt> attempts;
-    std::unique_ptr<gl::Display> display = gl::open_display(display_config, &attempts);
-    for (const gl::DisplayAttempt& a : attempts)
-        log(std::string("display ") + gl::display_kind_name(a.kind) + ": " + (a.ok ? "opened " : "not opened: ") + a.detail);
+    std::unique_ptr<gl::Display> own_display;
+    gl::Display* display = o.display;
+    if (!display) {
+        std::vector<gl::DisplayAttempt> attempts;
+        own_display = gl::open_display(display_config, &attempts);
+        display = own_display.get();
+        for (const gl::DisplayAttempt& a : attempts)
+            log(std::string("display ") + gl::display_kind_name(a.kind) + ": " + (a.ok ? "opened " : "not opened: ") + a.detail);
+    }
     const int width = display->width(), height = display->height();
 
     // The object, its materials and a renderer per material, lit at first by the last scene or,

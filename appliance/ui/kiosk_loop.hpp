@@ -46,6 +46,10 @@ struct KioskOptions {
     DeviceWatchSettings devices;
     // --inject-fault gl-lost:AT (fault_injection.hpp): the context reports itself lost at AT s.
     std::optional<double> fault_gl_lost_at_s;
+    // An already-open display to draw on (its context current), kept open after the loop; null:
+    // the loop opens the configured one and closes it at its end. The soak replay
+    // (kiosk_replay.hpp) runs pass after pass on one display and context.
+    gl::Display* display = nullptr;
 };
 
 struct KioskResult {

@@ -1,9 +1,14 @@
 #include "appliance/ui/kiosk_replay.hpp"
 
+#include <malloc.h>
+
 #include <algorithm>
 #include <chrono>
+#include <cstdio>
+#include <fstream>
 #include <map>
 #include <optional>
+#include <sstream>
 #include <thread>
 
 #include "appliance/capture/capture_pipeline.hpp"
@@ -13,6 +18,8 @@
 #include "appliance/core/error_metrics.hpp"
 #include "appliance/core/errors.hpp"
 #include "appliance/core/exr_io.hpp"
+#include "appliance/gl/display.hpp"
+#include "appliance/gl/gl_objects.hpp"
 #include "appliance/render/maps.hpp"
 #include "appliance/render/material.hpp"
 
@@ -100,9 +107,82 @@ private:
     std::size_t next_frame_ = 0, next_event_ = 0, next_sensor_ = 0;
 };
 
-}  // namespace
+// What the soak watches for growth, read from /proc and the allocator (cheap: every few seconds).
+struct ProcessSample {
+    long rss_kib = -1;      // VmRSS
+    long threads = -1;      // Threads
+    long fds = -1;          // entries of /proc/self/fd, the listing's own descriptor not counted
+    long heap_kib = -1;     // malloc's bytes in use (mallinfo2: uordblks + hblkhd), all arenas
+    long heap_held_kib = -1;  // what malloc holds from the system (arena + hblkhd): in use or kept free
+    long gl[9] = {};        // live GL names per kind (kGlKinds), "other": every other GlName kind
+};
 
-json run_replay(const ReplayOptions& o, const std::function<void(const std::string&)>& log) {
+constexpr const char* kGlKinds[9] = {"textures", "framebuffers", "buffers", "vertex_arrays", "queries",
+                                     "programs", "shaders", "fences", "other"};
+
+ProcessSample sample_process() {
+    ProcessSample s;
+    std::ifstream status("/proc/self/status");
+    for (std::string line; std::getline(status, line);) {
+        if (line.rfind("VmRSS:", 0) == 0) s.rss_kib = std::stol(line.substr(6));
+        else if (line.rfind("Threads:", 0) == 0) s.threads = std::stol(line.substr(8));
+    }
+    std::error_code ec;
+    long fds = 0;
+    for (fs::directory_iterator it("/proc/self/fd", ec), end; !ec && it != end; it.increment(ec)) ++fds;
+    if (!ec) s.fds = fds - 1;
+    const struct mallinfo2 m = mallinfo2();
+    s.heap_kib = long((m.uordblks + m.hblkhd) / 1024);
+    s.heap_held_kib = long((m.arena + m.hblkhd) / 1024);
+    const long known[8] = {gl::GlTexture::live(), gl::GlFramebuffer::live(), gl::GlBuffer::live(), gl::GlVertexArray::live(),
+                           gl::GlQuery::live(),   gl::GlProgramName::live(), gl::GlShader::live(), gl::GlFence::live()};
+    long sum = 0;
+    for (int k = 0; k < 8; ++k) sum += s.gl[k] = known[k];
+    s.gl[8] = gl::gl_live_total() - sum;
+    return s;
+}
+
+// DIR/soak.csv, a row at a time and flushed: a soak cut short keeps what it measured.
+class SoakLog {
+public:
+    explicit SoakLog(const fs::path& path) : path_(path), file_(path) {
+        if (!file_) throw InputError(path.string() + ": cannot write the soak log");
+        file_ << "pass,kind,wall_s,rss_kib,heap_kib,heap_held_kib,fds,threads,gl_total";
+        for (const char* k : kGlKinds) file_ << ",gl_" << k;
+        file_ << ",frames,frame_median_ms,frame_p99_ms\n";
+        file_.flush();
+    }
+    // kind: "start" (the display open, before the first pass), "during" or "pass" (after the pass,
+    // with its frame times).
+    ProcessSample write(int pass, const char* kind, double wall_s, const json* summary = nullptr) {
+        const ProcessSample p = sample_process();
+        long total = 0;
+        for (long n : p.gl) total += n;
+        char line[256];
+        std::snprintf(line, sizeof line, "%d,%s,%.1f,%ld,%ld,%ld,%ld,%ld,%ld", pass, kind, wall_s, p.rss_kib, p.heap_kib,
+                      p.heap_held_kib, p.fds, p.threads, total);
+        file_ << line;
+        for (long n : p.gl) file_ << ',' << n;
+        if (summary) {
+            const json& f = (*summary)["frame_ms"];
+            std::snprintf(line, sizeof line, ",%lld,%.3f,%.3f", f["frames"].get<long long>(), f["median"].get<double>(),
+                          f["p99"].get<double>());
+            file_ << line << "\n";
+        } else {
+            file_ << ",,,\n";
+        }
+        file_.flush();
+        if (!file_) throw RuntimeError(path_.string() + ": writing the soak log failed");
+        return p;
+    }
+
+private:
+    fs::path path_;
+    std::ofstream file_;
+};
+
+// One replay of the session: the kiosk loop from its start, summary.json written.
+json replay_pass(const ReplayOptions& o, KioskOptions k, const std::function<void(const std::string&)>& log) {
     ReplaySource source(o.session, o.realtime);
     // A replay into the directory of an earlier one: its frames go, so that OUT/frames holds this
     // run's only (the files are the replay's own: NNNNN_STATE_....png).
@@ -110,13 +190,12 @@ json run_replay(const ReplayOptions& o, const std::function<void(const std::stri
     if (fs::is_directory(o.out / "frames", ec))
         for (const fs::directory_entry& e : fs::directory_iterator(o.out / "frames", ec))
             if (e.path().extension() == ".png" && e.path().filename().string().find('_') == 5) fs::remove(e.path(), ec);
-    KioskOptions k = o.kiosk;
     k.maps_dir = o.out;
     k.frames_dir = o.out / "frames";
     k.frame_log = o.out / "frames.csv";
-    if (o.kiosk.progress) {
+    if (k.progress) {
         const double length = source.length_s();
-        k.progress = [&, length](double t_s, double) { o.kiosk.progress(std::min(t_s, length), length); };
+        k.progress = [length, inner = k.progress](double t_s, double) { inner(std::min(t_s, length), length); };
     }
     if (o.faults.gl_lost_at_s) k.fault_gl_lost_at_s = o.faults.gl_lost_at_s;
     FaultInjectingSource faulty(source, o.faults, log);
@@ -139,6 +218,61 @@ json run_replay(const ReplayOptions& o, const std::function<void(const std::stri
         summary["irradiance_error"] = compare_maps(*ours.irradiance, *theirs.irradiance).weighted_relative_rms;
     }
     write_text_atomically(o.out / "summary.json", summary.dump(2) + "\n");
+    return summary;
+}
+
+gl::DisplayConfig display_config_of(const Config& cfg) {
+    gl::DisplayConfig d;
+    d.kind = cfg.display.kind;
+    d.card = cfg.display.card;
+    d.connector = cfg.display.connector;
+    d.mode = cfg.display.mode;
+    d.width = cfg.display.width;
+    d.height = cfg.display.height;
+    d.fullscreen = cfg.display.fullscreen;
+    return d;
+}
+
+}  // namespace
+
+json run_replay(const ReplayOptions& o, const std::function<void(const std::string&)>& log) {
+    if (o.loop_for_s <= 0 && o.repeat <= 0) return replay_pass(o, o.kiosk, log);
+
+    // Soak: one display and context for every pass, so what a pass leaves behind in GL (and in
+    // the driver) adds up in this process.
+    using Clock = std::chrono::steady_clock;
+    const Clock::time_point start = Clock::now();
+    const auto wall_s = [&] { return std::chrono::duration<double>(Clock::now() - start).count(); };
+    std::error_code ec;
+    fs::create_directories(o.out, ec);
+    if (ec) throw InputError(o.out.string() + ": cannot create it: " + ec.message());
+    std::vector<gl::DisplayAttempt> attempts;
+    const std::unique_ptr<gl::Display> display = gl::open_display(display_config_of(o.kiosk.config), &attempts);
+    for (const gl::DisplayAttempt& a : attempts)
+        log(std::string("display ") + gl::display_kind_name(a.kind) + ": " + (a.ok ? "opened " : "not opened: ") + a.detail);
+    SoakLog soak(o.out / "soak.csv");
+    soak.write(0, "start", wall_s());
+    json summary;
+    for (int pass = 1; o.repeat > 0 ? pass <= o.repeat : wall_s() < o.loop_for_s; ++pass) {
+        KioskOptions k = o.kiosk;
+        k.display = display.get();
+        double next_sample_s = wall_s() + o.sample_every_s;
+        k.progress = [&, pass, inner = o.kiosk.progress](double t_s, double end_s) {
+            if (inner) inner(t_s, end_s);
+            if (o.sample_every_s > 0 && wall_s() >= next_sample_s) {
+                soak.write(pass, "during", wall_s());
+                next_sample_s = wall_s() + o.sample_every_s;
+            }
+        };
+        summary = replay_pass(o, std::move(k), log);
+        const ProcessSample p = soak.write(pass, "pass", wall_s(), &summary);
+        std::ostringstream line;
+        line << "soak pass " << pass << " done at " << long(wall_s()) << " s: rss " << p.rss_kib << " KiB, heap "
+             << p.heap_kib << " KiB in use (" << p.heap_held_kib << " KiB held), fds " << p.fds << ", threads " << p.threads << ", GL objects "
+             << gl::gl_live_total() << ", frame median " << summary["frame_ms"]["median"].get<double>() << " ms, p99 "
+             << summary["frame_ms"]["p99"].get<double>() << " ms";
+        log(line.str());
+    }
     return summary;
 }
 
