@@ -213,6 +213,7 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
     std::unique_ptr<CaptureJob> capture_job;
     std::optional<capture::CaptureSummary> capture_summary;
     std::future<NewScene> scene_job;
+    std::vector<std::future<NewScene>> abandoned_scenes;  // a timed-out visit's job, left to finish
     std::unique_ptr<render::LiveMaps> live_maps;
     std::optional<HdrImage> env;
     double scan_end_wall_s = -1, lit_wall_s = -1, final_maps_wall_s = -1;
@@ -473,10 +474,14 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
         }
         on_transition(flow.tick(t_s));
         if (flow.state() == KioskState::Attract && state_at_start != KioskState::Attract) {
-            // A new visitor's scene starts from nothing; the old job (if any) finishes in the background.
+            // A new visitor's scene starts from nothing; the old job (if any) finishes in the
+            // background: kept aside, since dropping a running std::async future waits for it.
             capture_job.reset();
-            scene_job = {};
+            if (scene_job.valid()) abandoned_scenes.push_back(std::move(scene_job));
         }
+        std::erase_if(abandoned_scenes, [](const std::future<NewScene>& f) {
+            return f.wait_for(std::chrono::seconds(0)) == std::future_status::ready;
+        });
 
         // Tracking and the frame.
         ScreenModel model;
