@@ -61,11 +61,11 @@ double FrameScheduler::left_ms() const { return std::max(0.0, budget_ms_ - used_
 
 double FrameScheduler::end_frame() {
     const double ms = used_ms();
-    all_.ms.push_back(ms);
-    by_state_[state_].ms.push_back(ms);
+    all_.add(ms);
+    by_state_[state_].add(ms);
     ++frames_;
     if (ms > hard_cap_ms_) ++over_cap_;
-    records_.push_back({state_, ms, phase_now_});
+    if (keep_records_) records_.push_back({state_, ms, phase_now_});
     return ms;
 }
 

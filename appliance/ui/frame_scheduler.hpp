@@ -5,6 +5,7 @@
 #pragma once
 
 #include <array>
+#include <cstdint>
 #include <chrono>
 #include <map>
 #include <string>
@@ -18,7 +19,16 @@ enum class FramePhase : int { Camera = 0, Tracking, Render, Overlay, Present, Ba
 const char* frame_phase_name(FramePhase phase);
 
 struct FrameTimes {
-    std::vector<double> ms;  // the frame thread's time per frame
+    // The frame thread's time per frame: the last kWindow frames (a ring once full, so that a kiosk
+    // running for months keeps a fixed 512 KiB per series), and how many frames there were.
+    static constexpr std::size_t kWindow = 65536;  // 36 min at 30 Hz; a whole replay
+    std::vector<double> ms;
+    std::uint64_t count = 0;
+    void add(double frame_ms) {
+        if (ms.size() < kWindow) ms.push_back(frame_ms);
+        else ms[std::size_t(count % kWindow)] = frame_ms;
+        ++count;
+    }
     double median() const;
     double p99() const;
     double max() const;
@@ -27,7 +37,10 @@ struct FrameTimes {
 class FrameScheduler {
 public:
     using Clock = std::chrono::steady_clock;
-    FrameScheduler(double budget_ms, double hard_cap_ms) : budget_ms_(budget_ms), hard_cap_ms_(hard_cap_ms) {}
+    // keep_records: every frame's record for a frame log (a replay's frames.csv); off for the live
+    // appliance, whose loop runs for months (the per-state times stay bounded either way).
+    FrameScheduler(double budget_ms, double hard_cap_ms, bool keep_records = true)
+        : budget_ms_(budget_ms), hard_cap_ms_(hard_cap_ms), keep_records_(keep_records) {}
 
     void begin_frame(KioskState state);
     // The time since the last mark (or the frame's start) is charged to `phase`.
@@ -61,6 +74,7 @@ public:
 
 private:
     double budget_ms_, hard_cap_ms_;
+    bool keep_records_ = true;
     KioskState state_ = KioskState::Attract;
     Clock::time_point start_, last_;
     double excluded_ms_ = 0;

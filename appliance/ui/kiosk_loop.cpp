@@ -127,7 +127,9 @@ SceneShadow make_scene_shadow(const HdrImage& room, const render::Mesh& mesh, do
     return s;
 }
 
-json frame_times_json(const FrameTimes& t) { return {{"median", t.median()}, {"p99", t.p99()}, {"max", t.max()}, {"frames", t.ms.size()}}; }
+constexpr std::size_t kMaxStatesKept = 4096;
+
+json frame_times_json(const FrameTimes& t) { return {{"median", t.median()}, {"p99", t.p99()}, {"max", t.max()}, {"frames", t.count}}; }
 
 }  // namespace
 
@@ -206,7 +208,7 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
     ImageQuad picture;
     KioskOptions::Overlay overlay = o.make_overlay ? o.make_overlay(width, height) : KioskOptions::Overlay{};
     KioskFlow flow(cfg.timeouts, int(materials.size()), 0.0);
-    FrameScheduler scheduler(cfg.frame.budget_ms, cfg.frame.hard_cap_ms);
+    FrameScheduler scheduler(cfg.frame.budget_ms, cfg.frame.hard_cap_ms, /*keep_records=*/!o.frame_log.empty());
     const int threads = o.threads > 0 ? o.threads : std::max(1, hardware_threads() - 1);
 
     // The visitor's scene.
@@ -291,6 +293,9 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
         if (tr->to == KioskState::Capture) source.set_scanning(true);
         else if (tr->from == KioskState::Capture) source.set_scanning(false);
         states.push_back({{"name", kiosk_state_name(tr->to)}, {"t_s", tr->t_s}, {"reason", tr->reason}});
+        // The live loop runs for months: summary.json keeps the last transitions (a replay's are
+        // far fewer).
+        if (states.size() > kMaxStatesKept) states.erase(states.begin());
         log(std::string("state ") + kiosk_state_name(tr->from) + " -> " + kiosk_state_name(tr->to) + " at " +
             std::to_string(tr->t_s) + " s: " + tr->reason);
     };

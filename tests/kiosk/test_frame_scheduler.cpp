@@ -57,5 +57,25 @@ TEST(FrameScheduler, KeepsTimesPerStateCountsTheHardCapAndLeavesOutExcludedTime)
     EXPECT_GT(means[int(FramePhase::Camera)], 0);
 }
 
+TEST(FrameTimes, AKioskRunningForMonthsKeepsAFixedWindow) {
+    FrameTimes t;
+    for (int k = 0; k < 70000; ++k) t.add(k < 60000 ? 1000.0 : 10.0);  // the old slow frames roll out
+    EXPECT_EQ(t.count, 70000u);
+    EXPECT_EQ(t.ms.size(), FrameTimes::kWindow);
+    EXPECT_DOUBLE_EQ(t.median(), 1000.0);  // 55,536 of the window's frames are the old ones
+    for (int k = 0; k < 60000; ++k) t.add(10.0);
+    EXPECT_DOUBLE_EQ(t.max(), 10.0);
+    EXPECT_EQ(t.ms.size(), FrameTimes::kWindow);
+
+    FrameScheduler live(33.3, 100, /*keep_records=*/false);
+    for (int k = 0; k < 10; ++k) {
+        live.begin_frame(KioskState::Attract);
+        live.end_frame();
+    }
+    EXPECT_EQ(live.frames(), 10);
+    EXPECT_TRUE(live.records().empty());
+    EXPECT_EQ(live.all().count, 10u);
+}
+
 }  // namespace
 }  // namespace glint::ui
