@@ -107,9 +107,20 @@ Session open_session(const fs::path& dir) {
     if (!j.contains("version") || !j["version"].is_number_integer() || j["version"].get<int>() != kSessionVersion)
         throw InputError(meta.string() + ": key 'version': this build reads version " +
                          std::to_string(kSessionVersion));
-    for (const char* key : {"calibration", "frames"})
+    // A session names its own files: a path out of it (absolute, or through ..) could read any file
+    // on the appliance, or /dev/zero for ever.
+    const auto inside = [&](const char* key) {
+        const std::string name = j[key].get<std::string>();
+        if (name.empty() || fs::path(name).is_absolute() || name.find("..") != std::string::npos)
+            throw InputError(meta.string() + ": key '" + std::string(key) + "': '" + name +
+                             "' is not a relative path inside the session");
+    };
+    for (const char* key : {"calibration", "frames"}) {
         if (!j.contains(key) || !j[key].is_string())
             throw InputError(meta.string() + ": key '" + std::string(key) + "': missing");
+        inside(key);
+    }
+    if (j.contains("sensors") && j["sensors"].is_string()) inside("sensors");
     s.calibration = load_calibration(dir / j["calibration"].get<std::string>());
     if (j.contains("sensors") && j["sensors"].is_string() && fs::exists(dir / j["sensors"].get<std::string>()))
         s.sensors = dir / j["sensors"].get<std::string>();

@@ -257,6 +257,18 @@ TEST_F(SessionTest, MalformedFilesNameTheFileAndTheLine) {
             ADD_FAILURE() << "not an InputError for " << text << ": " << e.what();
         }
     }
+    // A session's own file names stay inside it (an absolute path or .. could read any file).
+    for (const char* text : {R"({"format": "glint-session", "version": 1, "calibration": "/etc/passwd", "frames": "frames.csv"})",
+                             R"({"format": "glint-session", "version": 1, "calibration": "calibration.json", "frames": "../x.csv"})",
+                             R"({"format": "glint-session", "version": 1, "calibration": "calibration.json", "frames": "frames.csv", "sensors": "/dev/zero"})"}) {
+        std::ofstream(dir_ / "session" / "session.json") << text;
+        try {
+            open_session(dir_ / "session");
+            ADD_FAILURE() << "no error for " << text;
+        } catch (const InputError& e) {
+            EXPECT_NE(std::string(e.what()).find("not a relative path inside the session"), std::string::npos) << e.what();
+        }
+    }
 }
 
 TEST_F(SessionTest, ResponseCalibrationFromABracketFindsTheTrueCurve) {
