@@ -133,6 +133,18 @@ json frame_times_json(const FrameTimes& t) { return {{"median", t.median()}, {"p
 
 }  // namespace
 
+gl::DisplayConfig display_config_of(const Config& cfg) {
+    gl::DisplayConfig d;
+    d.kind = cfg.display.kind;
+    d.card = cfg.display.card;
+    d.connector = cfg.display.connector;
+    d.mode = cfg.display.mode;
+    d.width = cfg.display.width;
+    d.height = cfg.display.height;
+    d.fullscreen = cfg.display.fullscreen;
+    return d;
+}
+
 KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::function<void(const std::string&)>& log) {
     const WallClock::time_point process_start = WallClock::now();
     Config cfg = o.config;
@@ -150,14 +162,7 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
     }
 
     // Display and GL: headless unless the config says otherwise.
-    gl::DisplayConfig display_config;
-    display_config.kind = cfg.display.kind;
-    display_config.card = cfg.display.card;
-    display_config.connector = cfg.display.connector;
-    display_config.mode = cfg.display.mode;
-    display_config.width = cfg.display.width;
-    display_config.height = cfg.display.height;
-    display_config.fullscreen = cfg.display.fullscreen;
+    const gl::DisplayConfig display_config = display_config_of(cfg);
     std::unique_ptr<gl::Display> own_display;
     gl::Display* display = o.display;
     if (!display) {

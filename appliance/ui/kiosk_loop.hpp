@@ -58,6 +58,9 @@ struct KioskResult {
     std::optional<HdrImage> env;                     // ... and the map the object was lit by
 };
 
+// The display section of the configuration as gl::open_display takes it.
+gl::DisplayConfig display_config_of(const Config& config);
+
 KioskResult run_kiosk(KioskSource& source, const KioskOptions& options, const std::function<void(const std::string&)>& log);
 
 }  // namespace glint::ui

@@ -221,18 +221,6 @@ json replay_pass(const ReplayOptions& o, KioskOptions k, const std::function<voi
     return summary;
 }
 
-gl::DisplayConfig display_config_of(const Config& cfg) {
-    gl::DisplayConfig d;
-    d.kind = cfg.display.kind;
-    d.card = cfg.display.card;
-    d.connector = cfg.display.connector;
-    d.mode = cfg.display.mode;
-    d.width = cfg.display.width;
-    d.height = cfg.display.height;
-    d.fullscreen = cfg.display.fullscreen;
-    return d;
-}
-
 }  // namespace
 
 json run_replay(const ReplayOptions& o, const std::function<void(const std::string&)>& log) {
