@@ -3,6 +3,7 @@
 #include <memory>
 
 #include "appliance/app/scene_export.hpp"
+#include "appliance/capture/calibration_io.hpp"
 #include "appliance/ui/imgui_layer.hpp"
 #include "appliance/ui/maintenance_menu.hpp"
 #include "appliance/ui/pin_lock.hpp"
@@ -24,6 +25,10 @@ struct OverlayState {
     bool key_switch_on = false;
     std::optional<ui::MenuSettings> applied_settings;  // the settings page's last Apply
     std::optional<ui::LampMode> lamp_test;  // set by the menu's lamp test until the menu closes
+    std::string wizard_note;                 // why a wizard did not start, or where Apply saved
+    WizardPreview preview;                   // the wizard's latest preview ...
+    std::uintptr_t preview_texture = 0;      // ... on the GPU (the layer's image "calibration")
+    std::optional<capture::ExposureRequest> exposure_asked;
 
     OverlayState(OverlayContext c, int w, int h)
         : context(std::move(c)), layer(w, h),
@@ -53,6 +58,24 @@ struct OverlayState {
             lamp_test.reset();
             if (context.set_lamp_test) context.set_lamp_test(std::nullopt);
         }
+        if (context.wizard) {
+            // A wizard lasts while the menu is open: a technician who walks away leaves no camera
+            // in manual exposure.
+            if (!menu.is_open()) context.wizard->cancel();
+            // A visitor's scan (the big button works while the menu is open) takes the camera.
+            if (model.state == ui::KioskState::Capture && context.wizard->view().running) {
+                context.wizard->cancel();
+                wizard_note = context.strings.get("menu.calib.busy");
+            }
+            const std::optional<capture::ExposureRequest> asked = context.wizard->exposure_request();
+            const bool changed = asked.has_value() != exposure_asked.has_value() ||
+                                 (asked && asked->exposure_s != exposure_asked->exposure_s);
+            if (changed && context.set_exposure) context.set_exposure(asked);
+            exposure_asked = asked;
+            if (context.wizard->preview_since(preview))
+                preview_texture = reinterpret_cast<std::uintptr_t>(
+                    layer.image("calibration", preview.width, preview.height, preview.rgba.data()));
+        }
         layer.begin_frame(dt_s, keys);
         ui::draw_visitor_screen(model, context.strings, width, height);
         if (menu.is_open()) {
@@ -81,6 +104,20 @@ struct OverlayState {
                 status.export_targets = {context.config.state.export_dir + " (" +
                                          ui::bytes_text(ui::free_disk_bytes(context.config.state.export_dir)) + " free)"};
             status.export_result = export_result;
+            if (context.wizard) {
+                const WizardView w = context.wizard->view();
+                status.calibration_running = w.running;
+                status.calibration = w.kind;
+                status.calibration_step = w.step;
+                status.calibration_progress = w.progress;
+                status.calibration_result = wizard_note.empty() ? w.result : wizard_note;
+                status.calibration_can_apply = w.can_apply;
+                if (preview_texture != 0 && (w.running || w.can_apply)) {
+                    status.calibration_preview_texture = unsigned(preview_texture);
+                    status.calibration_preview_width = preview.width;
+                    status.calibration_preview_height = preview.height;
+                }
+            }
             for (const ui::MenuAction& a : menu.draw(status, keys, context.strings, width, height)) {
                 context.log(std::string("maintenance menu: ") + ui::menu_action_name(a.kind));
                 if (a.kind == ui::MenuAction::Kind::RestartKiosk && context.request_restart) {
@@ -105,12 +142,49 @@ struct OverlayState {
                         export_result = e.what();
                     }
                     context.log("maintenance menu: " + export_result);
+                } else if (a.kind == ui::MenuAction::Kind::StartCalibration ||
+                           a.kind == ui::MenuAction::Kind::CancelCalibration ||
+                           a.kind == ui::MenuAction::Kind::ApplyCalibration) {
+                    calibration_action(a, model.state);
                 } else if (a.kind != ui::MenuAction::Kind::Close)
                     context.log(std::string("maintenance menu: ") + ui::menu_action_name(a.kind) + " is not built yet");
             }
         }
         layer.end_frame();
         return menu.is_open();
+    }
+
+    void calibration_action(const ui::MenuAction& a, ui::KioskState state) {
+        if (!context.wizard) {
+            wizard_note = "no calibration wizard here";
+            context.log("maintenance menu: " + wizard_note);
+            return;
+        }
+        wizard_note.clear();
+        if (a.kind == ui::MenuAction::Kind::CancelCalibration) {
+            context.wizard->cancel();
+        } else if (a.kind == ui::MenuAction::Kind::StartCalibration) {
+            // A visitor's scan drives the camera's exposure and needs the frames: not both at once.
+            if (state == ui::KioskState::Capture || state == ui::KioskState::Processing) {
+                wizard_note = context.strings.get("menu.calib.busy");
+                context.log("maintenance menu: calibration wizard not started: a visitor's scan is running");
+                return;
+            }
+            context.wizard->start(a.calibration, utc_stamp());
+        } else if (const std::optional<capture::CameraCalibration> result = context.wizard->result()) {
+            try {
+                capture::save_calibration(context.calibration_file, *result);
+                context.wizard->set_current(*result);
+                wizard_note = "saved to " + context.calibration_file.string() +
+                              (context.request_restart ? "; the kiosk restarts to use it" : "");
+                context.log("maintenance menu: calibration " + wizard_note);
+                if (context.request_restart) context.request_restart();
+            } catch (const std::exception& e) {
+                // The old file stays as it was (the state store writes a new version or nothing).
+                wizard_note = std::string("not saved: ") + e.what();
+                context.log("maintenance menu: calibration " + wizard_note);
+            }
+        }
     }
 };
 

@@ -2,7 +2,9 @@
 // maintenance menu (docs/screens.md) opened by the configured key chord and the PIN, or by the
 // key switch. The menu's actions are carried out here (journalled on stderr): a restart exits
 // with 0 so that systemd starts the appliance again; an export copies the scene to the export
-// directory (scene_export.hpp); the rest are reported as not built.
+// directory (scene_export.hpp); a calibration wizard runs on the kiosk's input
+// (calibration_wizard.hpp) and Apply saves its result, then restarts the kiosk to use it; the rest
+// are reported as not built.
 #pragma once
 
 #include <filesystem>
@@ -11,6 +13,7 @@
 #include <optional>
 #include <string>
 
+#include "appliance/app/calibration_wizard.hpp"
 #include "appliance/app/log_tail.hpp"
 #include "appliance/ui/config.hpp"
 #include "appliance/ui/kiosk_loop.hpp"
@@ -33,6 +36,12 @@ struct OverlayContext {
     std::function<std::string(const ui::MenuSettings&)> apply_settings;
     // What the menu's export copies (docs/kiosk.md), to config.state.export_dir.
     std::filesystem::path maps_dir, frames_dir, sessions_dir;
+    // The calibration wizards (null: the page's Start says they are not available), fed the
+    // kiosk's input by KioskOptions::observe_input; Apply saves the result into calibration_file.
+    std::shared_ptr<CalibrationWizard> wizard;
+    std::filesystem::path calibration_file;
+    // The exposure a wizard needs (nullopt: the camera's own again); null: a replay's recorded exposures.
+    std::function<void(std::optional<capture::ExposureRequest>)> set_exposure;
 };
 
 // The factory KioskOptions::make_overlay wants.

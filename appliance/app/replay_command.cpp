@@ -8,7 +8,9 @@
 
 #include "appliance/app/cli_util.hpp"
 #include "appliance/app/commands.hpp"
+#include "appliance/app/calibration_wizard.hpp"
 #include "appliance/app/kiosk_overlay.hpp"
+#include "appliance/capture/session.hpp"
 #include "appliance/app/log_tail.hpp"
 #include "appliance/core/errors.hpp"
 #include "appliance/core/progress.hpp"
@@ -50,6 +52,13 @@ int run_replay_command(const ReplayArgs& a) {
         const ui::Strings strings = ui::Strings::load(find_data_file(ui::kStringsRelativePath));
         ui::Config overlay_config = o.kiosk.config;
         overlay_config.state.dir = a.out;  // the PIN's lock state stays with the replay
+        // The menu's calibration wizards on the recorded frames: their runs and an applied
+        // calibration stay with the replay's output too.
+        WizardSettings wizard_settings;
+        wizard_settings.sessions_dir = fs::path(a.out) / "calibration-sessions";
+        wizard_settings.never_drop = !a.realtime;  // the same result on any machine
+        auto wizard = std::make_shared<CalibrationWizard>(wizard_settings, capture::open_session(a.session).calibration, log);
+        o.kiosk.observe_input = [wizard](const ui::KioskPoll& input) { wizard->feed(input); };
         o.kiosk.make_overlay = make_kiosk_overlay({.config = overlay_config,
                                                    .strings = strings,
                                                    .log = log,
@@ -59,7 +68,10 @@ int run_replay_command(const ReplayArgs& a) {
                                                    .apply_settings = {},
                                                    .maps_dir = a.out,
                                                    .frames_dir = fs::path(a.out) / "frames",
-                                                   .sessions_dir = {}});
+                                                   .sessions_dir = {},
+                                                   .wizard = wizard,
+                                                   .calibration_file = fs::path(a.out) / "calibration.json",
+                                                   .set_exposure = {}});
     }
     o.kiosk.snapshot_every_s = a.snapshot_every_s;
     o.kiosk.threads = a.threads;

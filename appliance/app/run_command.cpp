@@ -16,6 +16,7 @@
 #include "appliance/app/commands.hpp"
 #include "appliance/app/fifo_gpio_chip.hpp"
 #include "appliance/app/interrupt.hpp"
+#include "appliance/app/calibration_wizard.hpp"
 #include "appliance/app/kiosk_overlay.hpp"
 #include "appliance/app/log_tail.hpp"
 #include "appliance/app/menu_settings.hpp"
@@ -58,8 +59,9 @@ class LiveSource final : public ui::KioskSource {
 public:
     LiveSource(const ui::Config& cfg, const std::string& record_dir) {
         // The calibration on file: the one named, or the state directory's.
-        const fs::path calibration_file =
+        calibration_file_ =
             cfg.camera.calibration.empty() ? fs::path(cfg.state.dir) / "calibration.json" : fs::path(cfg.camera.calibration);
+        const fs::path& calibration_file = calibration_file_;
         if (!fs::is_regular_file(calibration_file))
             throw InputError("camera.calibration: " + calibration_file.string() +
                              " does not exist (glint calibrate writes it; a simulated session's calibration.json will do)");
@@ -206,6 +208,13 @@ public:
         }
     }
 
+    // A calibration wizard's exposure (nullopt: the camera's own again). The visitor's scan
+    // drives the exposure while it runs; the menu starts no wizard then.
+    void set_wizard_exposure(const std::optional<capture::ExposureRequest>& request) {
+        if (!exposure_) camera_->set_exposure(request.value_or(capture::ExposureRequest{}));
+    }
+    const fs::path& calibration_file() const { return calibration_file_; }
+
     bool has_lamp() const { return lamp_ != nullptr; }
     void set_lamp(ui::LampMode mode) override {
         lamp_mode_ = mode;
@@ -248,6 +257,7 @@ private:
     }
 
     recording::SteadyClock clock_;
+    fs::path calibration_file_;  // the calibration read at start, where the menu's wizards save theirs
     capture::CameraCalibration calibration_;
     render::CameraResponse response_;
     std::unique_ptr<capture::CameraSource> camera_;
@@ -303,6 +313,10 @@ int run_appliance(const RunArgs& a) {
     o.snapshot_every_s = 0;
     bool restart = false;
     std::optional<ui::Config> applied;  // settings applied in the menu, for the loop's next frame
+    WizardSettings wizard_settings;
+    wizard_settings.sessions_dir = fs::path(cfg.state.dir) / "calibration-sessions";
+    auto wizard = std::make_shared<CalibrationWizard>(wizard_settings, source->calibration(), log);
+    o.observe_input = [wizard](const ui::KioskPoll& input) { wizard->feed(input); };
     o.make_overlay = make_kiosk_overlay({.config = cfg,
                                          .strings = strings,
                                          .log = log,
@@ -329,7 +343,13 @@ int run_appliance(const RunArgs& a) {
                                              },
                                          .maps_dir = o.maps_dir,
                                          .frames_dir = {},
-                                         .sessions_dir = a.record.empty() ? fs::path() : fs::path(a.record)});
+                                         .sessions_dir = a.record.empty() ? fs::path() : fs::path(a.record),
+                                         .wizard = wizard,
+                                         .calibration_file = source->calibration_file(),
+                                         .set_exposure =
+                                             [s = source.get()](std::optional<capture::ExposureRequest> r) {
+                                                 s->set_wizard_exposure(r);
+                                             }});
     const auto started = std::chrono::steady_clock::now();
     o.stop_requested = [&] {
         if (stop.requested() || restart) return true;

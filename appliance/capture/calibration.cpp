@@ -324,13 +324,14 @@ std::optional<ImageRotation> image_rotation(const cv::Mat& a, const cv::Mat& b, 
 
 AlignmentResult calibrate_alignment(const Session& s, double max_offset_s) {
     if (s.sensors.empty()) throw InputError(s.dir.string() + ": an alignment needs the session's sensor recording");
-    // The sensor's orientations over the whole session.
-    host::ReplaySource replay("replay:" + s.sensors.string(), s.sensors.string());
-    std::vector<host::OrientationSample> samples;
-    replay.set_sample_callback([&](const host::OrientationSample& x) { samples.push_back(x); });
-    replay.run_to_end();
-    host::OrientationHistory history(samples.size() + 1, 100'000'000, 0);
-    for (const auto& x : samples) history.push(x);
+    return calibrate_alignment(s, load_sensor_orientations(s), max_offset_s);
+}
+
+AlignmentResult calibrate_alignment(const Session& s, const std::vector<SensorOrientation>& orientations,
+                                    double max_offset_s) {
+    if (orientations.size() < 2) throw InputError(s.dir.string() + ": an alignment needs the sensor's orientations");
+    host::OrientationHistory history(orientations.size() + 1, 100'000'000, 0);
+    for (const SensorOrientation& x : orientations) history.push({x.t_ns, x.world_from_sensor, 0});
     // Image rotations between consecutive frames.
     struct Pair {
         std::int64_t ta, tb;

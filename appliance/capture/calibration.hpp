@@ -3,7 +3,10 @@
 // stores the result in the camera's calibration file (calibration_io.hpp).
 #pragma once
 
+#include <vector>
+
 #include "appliance/capture/camera_model.hpp"
+#include "appliance/capture/capture_pipeline.hpp"
 #include "appliance/capture/session.hpp"
 
 namespace glint::capture {
@@ -48,5 +51,10 @@ struct AlignmentResult {
 // 1 ms grid within +-`max_offset_s`, with the smallest residual. Needs the session's sensor
 // stream. Throws InputError when fewer than 10 pairs could be measured.
 AlignmentResult calibrate_alignment(const Session& capture, double max_offset_s = 0.05);
+// The same from orientations at hand (the maintenance menu's wizard keeps them as they arrive;
+// a session's sensors.glrec holds only a serial link's bytes). Time order; `capture`'s sensor
+// recording is not read.
+AlignmentResult calibrate_alignment(const Session& capture, const std::vector<SensorOrientation>& orientations,
+                                    double max_offset_s = 0.05);
 
 }  // namespace glint::capture

@@ -335,6 +335,7 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
         // The devices: frames out of order dropped, a silent camera restarted, a silent sensor
         // pausing the scan (docs/kiosk.md, "Devices that misbehave").
         std::erase_if(input.frames, [&](const capture::CameraFrame& f) { return !devices.accept_frame(f.t_ns); });
+        if (o.observe_input) o.observe_input(input);
         {
             const DeviceWatch::Step watch = devices.update(t_s, input.frames.size(), input.orientations.size());
             for (const std::string& line : watch.log) log(line);

@@ -36,6 +36,9 @@ struct KioskOptions {
     std::function<Overlay(int width, int height)> make_overlay;
     // Once a frame: the kiosk clock and how long the input lasts (0: unknown, live).
     std::function<void(double t_s, double end_s)> progress;
+    // Once a frame, what arrived (frames out of order already dropped), before the visitor flow
+    // takes it: the maintenance menu's calibration wizards look at the same frames and samples.
+    std::function<void(const KioskPoll&)> observe_input;
     // Polled once a frame: true ends the loop cleanly (SIGTERM).
     std::function<bool()> stop_requested;
     // After each frame is on screen (READY after the first, STATUS on a change, WATCHDOG pings).

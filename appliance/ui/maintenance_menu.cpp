@@ -106,6 +106,7 @@ const char* menu_action_name(MenuAction::Kind kind) {
         case MenuAction::Kind::Close: return "close";
         case MenuAction::Kind::StartCalibration: return "start-calibration";
         case MenuAction::Kind::CancelCalibration: return "cancel-calibration";
+        case MenuAction::Kind::ApplyCalibration: return "apply-calibration";
         case MenuAction::Kind::ApplySettings: return "apply-settings";
         case MenuAction::Kind::Export: return "export";
         case MenuAction::Kind::Lamp: return "lamp";
@@ -351,11 +352,21 @@ void MaintenanceMenu::draw_calibrations(const MaintenanceStatus& st, const Strin
     if (st.calibration_running) {
         ImGui::Text("%s: %s", s.get(kCalibrationKeys[int(st.calibration)]).c_str(), s.get("menu.calib.step").c_str());
         ImGui::TextUnformatted(st.calibration_step.c_str());
+        ImGui::ProgressBar(float(std::clamp(st.calibration_progress, 0.0, 1.0)), ImVec2(-1, 0));
     } else {
         ImGui::TextDisabled("%s", s.get("menu.calib.idle").c_str());
     }
     if (!st.calibration_result.empty()) ImGui::Text("%s: %s", s.get("menu.calib.result").c_str(), st.calibration_result.c_str());
     ImGui::PopTextWrapPos();
+    // Apply keeps the result; it takes the keyboard focus when it appears, so that the technician
+    // who started the wizard with the keyboard applies it with one more press.
+    if (st.calibration_can_apply) {
+        if (ImGui::Button((s.get("menu.calib.apply") + "###apply").c_str(), ImVec2(ImGui::GetFontSize() * 6, 0)))
+            actions.push_back(action(MenuAction::Kind::ApplyCalibration, st.calibration));
+        if (!apply_shown_ && focus_last_item()) apply_shown_ = true;
+    } else {
+        apply_shown_ = false;
+    }
     if (st.calibration_preview_texture != 0 && st.calibration_preview_width > 0 && st.calibration_preview_height > 0) {
         // The live camera image, as wide as the page allows.
         const float avail = ImGui::GetContentRegionAvail().x, tall = ImGui::GetContentRegionAvail().y;

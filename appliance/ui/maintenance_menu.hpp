@@ -95,6 +95,8 @@ struct MaintenanceStatus {
     CalibrationKind calibration = CalibrationKind::CameraIntrinsics;
     std::string calibration_step;     // "Show the board at the top left corner (3 of 12)"
     std::string calibration_result;   // "RMS reprojection error 0.31 px"
+    double calibration_progress = 0;  // 0..1 of what the step collects
+    bool calibration_can_apply = false;  // a result Apply would keep
     unsigned calibration_preview_texture = 0;  // an RGBA GL texture of the live camera image (0: none)
     int calibration_preview_width = 0, calibration_preview_height = 0;
     // Settings in force (the page edits a copy)
@@ -116,6 +118,7 @@ struct MenuAction {
         Close,              // the menu closed (Escape)
         StartCalibration,   // calibration
         CancelCalibration,
+        ApplyCalibration,   // keep the wizard's result
         ApplySettings,      // settings
         Export,             // export_target, export_items
         Lamp,               // lamp
@@ -180,6 +183,7 @@ private:
     std::uint8_t export_items_ = kExportEnvMap | kExportMaps;
     MenuAction::Kind armed_ = MenuAction::Kind::Close;  // Restart/Reboot pressed once
     double armed_at_ = -1e9;
+    bool apply_shown_ = false;   // the calibration's Apply button was drawn last frame
 };
 
 // The keyboard chord that asks for the PIN ([maintenance] chord, e.g. "ctrl+alt+m": modifiers

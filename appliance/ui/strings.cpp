@@ -103,7 +103,7 @@ const std::vector<std::string>& ui_string_keys() {
             "menu.status.free_disk", "menu.status.uptime", "menu.status.state",
             "menu.calib.camera", "menu.calib.response", "menu.calib.vignetting", "menu.calib.alignment",
             "menu.calib.time_offset", "menu.calib.start", "menu.calib.cancel", "menu.calib.step", "menu.calib.result",
-            "menu.calib.idle",
+            "menu.calib.idle", "menu.calib.apply", "menu.calib.busy",
             "menu.settings.capture", "menu.settings.map_width", "menu.settings.map_height",
             "menu.settings.target_coverage", "menu.settings.max_scan_s", "menu.settings.convolution",
             "menu.settings.tolerance", "menu.settings.apply", "menu.settings.revert",
