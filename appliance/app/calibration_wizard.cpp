@@ -185,10 +185,13 @@ void CalibrationWizard::cancel() {
     running_ = computing_ = false;
     result_text_ = "cancelled";
     log_(std::string("calibration wizard: ") + slug(kind_) + " cancelled");
+    idle_cv_.notify_all();
 }
 
 void CalibrationWizard::feed(const ui::KioskPoll& input) {
     std::unique_lock lock(mutex_);
+    // A replay's clock waits for the calibration too: what follows a run is then the same on any machine.
+    if (settings_.never_drop) idle_cv_.wait(lock, [&] { return !computing_ || stop_; });
     if (!running_ || computing_) return;
     if (collects_motion(kind_)) {
         feed_alignment(input.orientations);

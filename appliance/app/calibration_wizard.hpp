@@ -53,8 +53,9 @@ struct WizardSettings {
     double axis_turn_deg = 60;           // alignment: turning about each axis adds up to this
     double time_offset_turn_deg = 90;    // time offset: about the vertical axis
     int preview_width = 480;             // the preview image's width (its height follows the frame)
-    // A replay's frames are all looked at (the frame thread waits for the worker), so that the
-    // result does not depend on the machine's speed; live frames are skipped while it is busy.
+    // A replay's frames are all looked at, and its frames wait while the calibration is computed
+    // (the frame thread waits for the worker), so that the result and what follows it do not
+    // depend on the machine's speed; live frames are skipped while the worker is busy.
     bool never_drop = false;
 };
 

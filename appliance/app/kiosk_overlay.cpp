@@ -77,7 +77,9 @@ struct OverlayState {
                     layer.image("calibration", preview.width, preview.height, preview.rgba.data()));
         }
         layer.begin_frame(dt_s, keys);
-        ui::draw_visitor_screen(model, context.strings, width, height);
+        // The visitor's texts are drawn over everything else they share the frame with: under
+        // an open menu they would cover its pages, so the technician sees the menu alone.
+        if (!menu.is_open()) ui::draw_visitor_screen(model, context.strings, width, height);
         if (menu.is_open()) {
             ui::MaintenanceStatus status;
             status.kiosk_state = ui::kiosk_state_name(model.state);

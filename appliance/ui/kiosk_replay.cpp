@@ -37,7 +37,9 @@ public:
         if (session_.frames.empty()) throw InputError(dir.string() + ": the session has no frames");
         kiosk_ = capture::load_kiosk_info(session_);
         events_ = capture::load_session_events(session_);
-        sensors_ = capture::load_sensor_orientations(session_);
+        // A session without a sensor stream (board views for the menu's camera calibration) has
+        // no orientations: a scan in it waits for the sensor and ends as a live one would.
+        if (!session_.sensors.empty()) sensors_ = capture::load_sensor_orientations(session_);
         for (const capture::TruthBoardPose& p : capture::load_truth_board_poses(session_)) truth_board_[p.index] = p;
         response_ = render::load_camera_response(session_.dir / "calibration.json", "calibration");
         // A session without a kiosk recording (a plain scan): the visitor pressed the button at its start.
