@@ -8,11 +8,14 @@
 
 #include <cmath>
 #include <filesystem>
+#include <fstream>
 
 #include "appliance/app/calibration_wizard.hpp"
 #include "appliance/capture/calibration_io.hpp"
 #include "appliance/capture/capture_pipeline.hpp"
 #include "appliance/capture/session.hpp"
+#include "appliance/core/exr_io.hpp"
+#include "appliance/core/hdr_image.hpp"
 #include "appliance/core/rotation.hpp"
 #include "appliance/sim/session_simulator.hpp"
 
@@ -190,6 +193,53 @@ TEST_F(WizardTest, BracketConsistencyIsSmallWithTheTrueCurveAndLargeWithAWrongOn
     EXPECT_GE(right, 0);
     EXPECT_LT(right, 0.03);
     EXPECT_GT(wrong, 0.2);
+}
+
+TEST_F(WizardTest, VignettingFromAFlatFieldFindsTheTrueFalloff) {
+    // A uniform grey world seen by a still camera: every frame a flat field.
+    HdrImage flat(64, 32);
+    for (int j = 0; j < 32; ++j)
+        for (int i = 0; i < 64; ++i) flat.set(i, j, {0.5f, 0.5f, 0.5f});
+    save_exr(dir_ / "flat.exr", flat);
+    sim::SimulateOptions o = options();
+    o.env = dir_ / "flat.exr";
+    o.trajectory = (dir_ / "still.csv").string();
+    std::ofstream(dir_ / "still.csv") << "0,1,0,0,0\n5,1,0,0,0\n";
+    o.fps = 2;
+    sim::simulate_session(o);
+    const capture::Session s = capture::open_session(o.out);
+    CalibrationWizard wizard(settings(), s.calibration, log_line);
+    wizard.start(CalibrationKind::Vignetting, "v");
+    play(wizard, s);
+    const WizardView v = wizard.view();
+    ASSERT_FALSE(v.running) << v.step;
+    ASSERT_TRUE(v.can_apply) << v.result;
+    std::printf("vignetting wizard: %s\n", v.result.c_str());
+    const capture::Vignetting r = wizard.result()->vignetting;
+    const capture::Vignetting t = capture::load_calibration(o.out / "truth" / "calibration.json").vignetting;
+    double worst = 0;
+    for (double rr = 0; rr <= 1.0; rr += 0.05) {
+        const double r2 = rr * rr;
+        const auto at = [&](const capture::Vignetting& g) { return 1 + r2 * (g.a1 + r2 * (g.a2 + r2 * g.a3)); };
+        worst = std::max(worst, std::abs(at(r) - at(t)));
+    }
+    EXPECT_LT(worst, 0.01);  // as `glint calibrate vignetting` (test_session.cpp)
+}
+
+TEST_F(WizardTest, VignettingRefusesAClippedView) {
+    CalibrationWizard wizard(settings(), capture::CameraCalibration{}, log_line);
+    wizard.start(CalibrationKind::Vignetting, "clipped");
+    ui::KioskPoll poll;
+    capture::CameraFrame f;
+    f.rgb = cv::Mat(54, 96, CV_8UC3, cv::Scalar(255, 255, 255));
+    f.t_ns = 1'000'000'000;
+    f.exposure_s = 0.01;
+    poll.frames.push_back(f);
+    wizard.feed(poll);
+    wizard.wait_idle();
+    const WizardView v = wizard.view();
+    EXPECT_NE(v.step.find("(0 of 8 frames)"), std::string::npos) << v.step;
+    EXPECT_NE(v.step.find("too bright"), std::string::npos) << v.step;
 }
 
 TEST_F(WizardTest, AlignmentFollowsTheThreeAxisMotionAndFindsTheMounting) {
