@@ -3,8 +3,14 @@
 #include "appliance/app/command_line.hpp"
 #include "appliance/core/memory.hpp"
 
+#include <cstring>
+
 int main(int argc, char** argv) {
-    glint::keep_freed_memory();
+    // The kiosk runs for weeks and gives back what each visit freed; the one-shot commands keep
+    // freed buffers for speed (memory.hpp).
+    const bool kiosk = argc > 1 && (std::strcmp(argv[1], "run") == 0 || std::strcmp(argv[1], "replay") == 0);
+    if (kiosk) glint::bound_freed_memory();
+    else glint::keep_freed_memory();
     constexpr glint::app::CommandRegistrar commands[] = {
         glint::app::add_simulate_command, glint::app::add_capture_command, glint::app::add_calibrate_command,
         glint::app::add_cameras_command, glint::app::add_track_command,

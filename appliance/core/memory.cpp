@@ -17,6 +17,14 @@ void keep_freed_memory() {
     mallopt(M_TRIM_THRESHOLD, 1 << 30);
 }
 
+void bound_freed_memory() {
+    mallopt(M_MMAP_THRESHOLD, 1 << 20);  // setting it also fixes it (no dynamic growth)
+    mallopt(M_TRIM_THRESHOLD, 8 << 20);
+    mallopt(M_ARENA_MAX, 2);
+}
+
+bool return_freed_memory() { return malloc_trim(0) != 0; }
+
 void reexec_with_huge_pages(char** argv) {
     constexpr const char* kTunable = "glibc.malloc.hugetlb";
     const char* current = std::getenv("GLIBC_TUNABLES");
