@@ -4,6 +4,7 @@
 
 #include "appliance/app/scene_export.hpp"
 #include "appliance/capture/calibration_io.hpp"
+#include "appliance/core/state_store.hpp"
 #include "appliance/ui/imgui_layer.hpp"
 #include "appliance/ui/maintenance_menu.hpp"
 #include "appliance/ui/pin_lock.hpp"
@@ -100,6 +101,15 @@ struct OverlayState {
             status.cpu_temperature = ui::temperature_text(ui::cpu_temperature_c());
             status.free_disk = ui::bytes_text(ui::free_disk_bytes(context.config.state.dir));
             status.uptime = ui::duration_text(ui::uptime_s());
+            // A failed save (disk full, read-only) stays on the page until a save succeeds.
+            if (const std::optional<std::string> error = state::last_save_error()) {
+                status.state_store = "last save failed: " + *error;
+                status.state_store_ok = false;
+            } else if (const std::size_t set_aside = state::corrupt_sets(context.config.state.dir); set_aside > 0) {
+                status.state_store = "ok; " + std::to_string(set_aside) + " faulty item(s) set aside in " +
+                                     (std::filesystem::path(context.config.state.dir) / state::kCorruptDir).string();
+                status.state_store_warn = true;
+            }
             status.settings = applied_settings.value_or(ui::MenuSettings{context.config.capture, context.config.convolution});
             std::error_code ec;
             if (std::filesystem::is_directory(context.config.state.export_dir, ec))

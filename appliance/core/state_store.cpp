@@ -7,6 +7,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cstdlib>
 #include <cerrno>
 #include <cinttypes>
 #include <cstdio>
@@ -291,21 +292,49 @@ bool is_store_item(const fs::path& path) {
     return target && parse_link(path.filename().string(), *target).has_value();
 }
 
+std::size_t corrupt_sets(const fs::path& dir) {
+    std::error_code ec;
+    std::size_t n = 0;
+    for (const fs::directory_entry& e : fs::directory_iterator(dir / kCorruptDir, ec))
+        if (e.is_directory(ec)) ++n;
+    return n;
+}
+
 fs::path set_aside(const fs::path& dir, const std::string& item, const std::string& reason) {
     const fs::path item_path = dir / item;
     std::error_code ec;
     const fs::path corrupt = dir / kCorruptDir;
     fs::create_directories(corrupt, ec);
     if (ec) throw RuntimeError(corrupt.string() + ": cannot create: " + ec.message());
-    // Several faults in one second each get their own directory.
+    // Several faults in one second each get their own directory, numbered after the highest
+    // number of that second still there (a pruned name is not used again: it would sort first).
     const std::string stamp = utc_stamp();
+    long first = 1;
+    for (const fs::directory_entry& e : fs::directory_iterator(corrupt, ec)) {
+        const std::string name = e.path().filename().string();
+        if (name == stamp) first = std::max(first, 2L);
+        else if (name.rfind(stamp + "-", 0) == 0) first = std::max(first, std::strtol(name.c_str() + stamp.size() + 1, nullptr, 10) + 1);
+    }
     fs::path dest;
-    for (int k = 1;; ++k) {
+    for (long k = first;; ++k) {
         dest = corrupt / (k == 1 ? stamp : stamp + "-" + std::to_string(k));
         if (fs::create_directory(dest, ec)) break;
         if (ec) throw RuntimeError(dest.string() + ": cannot create: " + ec.message());
     }
     write_all(dest / "REASON.txt", item_path.string() + ": " + reason + "\n");
+    // The oldest sets go. Their names are UTC stamps, which sort by time, and the Nth set of
+    // one second "STAMP-N" (N numerically: "-10" after "-9").
+    std::vector<std::pair<std::pair<std::string, long>, fs::path>> sets;
+    for (const fs::directory_entry& e : fs::directory_iterator(corrupt, ec)) {
+        if (!e.is_directory(ec)) continue;
+        const std::string name = e.path().filename().string();
+        const std::size_t dash = name.find('-', 9);  // after YYYYMMDD-
+        const long n = dash == std::string::npos ? 1 : std::strtol(name.c_str() + dash + 1, nullptr, 10);
+        sets.push_back({{name.substr(0, dash), n}, e.path()});
+    }
+    std::sort(sets.begin(), sets.end());
+    for (std::size_t k = 0; k + kCorruptKept < sets.size(); ++k)
+        if (sets[k].second != dest) fs::remove_all(sets[k].second, ec);
     if (const std::optional<fs::path> target = read_link(item_path)) {
         if (const std::optional<LinkTarget> link = parse_link(item, *target)) {
             const fs::path gen_dir = dir / gen_root_name(item) / gen_name(link->generation);

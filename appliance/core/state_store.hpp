@@ -87,7 +87,12 @@ LoadedItem load_item(const std::filesystem::path& dir, const std::string& item, 
 // Moves <dir>/<item> (the link and its generation, or an unverified file or directory) into
 // <dir>/corrupt/<UTC YYYYMMDD-HHMMSS>[-N]/ with REASON.txt; returns that directory. Throws
 // RuntimeError when nothing could be moved.
+// The newest kCorruptKept sets are kept (a file that is corrupted at every start must not fill
+// the state partition); older ones are removed.
 std::filesystem::path set_aside(const std::filesystem::path& dir, const std::string& item, const std::string& reason);
+inline constexpr std::size_t kCorruptKept = 16;
+// How many sets <dir>/corrupt/ holds (what the maintenance menu's status page shows).
+std::size_t corrupt_sets(const std::filesystem::path& dir);
 
 // Whether <path> is an item the store wrote (a symlink into its generations).
 bool is_store_item(const std::filesystem::path& path);

@@ -328,6 +328,8 @@ void MaintenanceMenu::draw_status(const MaintenanceStatus& st, const Strings& s)
     status_row(s.get("menu.status.cpu_temp"), st.cpu_temperature);
     status_row(s.get("menu.status.free_disk"), st.free_disk);
     status_row(s.get("menu.status.uptime"), st.uptime);
+    status_row(s.get("menu.status.state_store"), st.state_store,
+               !st.state_store_ok ? kErrorColour : st.state_store_warn ? kWarnColour : kGoodColour);
     ImGui::EndTable();
 }
 

@@ -90,6 +90,9 @@ struct MaintenanceStatus {
     std::string cpu_temperature = "n/a";  // system_status.hpp's texts
     std::string free_disk = "n/a";
     std::string uptime = "n/a";
+    std::string state_store = "ok";  // the state directory: "ok", the last failed save, faulty files set aside
+    bool state_store_ok = true;      // false: the last save failed (shown in red)
+    bool state_store_warn = false;   // faulty files were set aside (shown in amber)
     // Calibrations: the wizard running (if any), its step and the last result.
     bool calibration_running = false;
     CalibrationKind calibration = CalibrationKind::CameraIntrinsics;

@@ -400,5 +400,24 @@ TEST(PinLockState, ADamagedLockFileIsSetAsideAndLocks) {
     EXPECT_TRUE(state::is_store_item(file));  // the lock's state saved again, checksummed
 }
 
+TEST(StateStore, OnlyTheNewestSetsAsideAreKept) {
+    // A file damaged at every start must not fill the state partition: 20 faults leave the
+    // newest kCorruptKept sets, the last one among them.
+    TempDir t;
+    fs::path last;
+    for (int k = 0; k < 20; ++k) {
+        save_two(t.path(), "a " + std::to_string(k), "b");
+        last = state::set_aside(t.path(), "item", "fault " + std::to_string(k));
+    }
+    EXPECT_EQ(state::corrupt_sets(t.path()), state::kCorruptKept);
+    EXPECT_EQ(set_asides(t.path()).size(), state::kCorruptKept);
+    ASSERT_TRUE(fs::is_directory(last));
+    EXPECT_NE(read_text(last / "REASON.txt").find("fault 19"), std::string::npos);
+    // The oldest went: no REASON.txt of the first four faults is left.
+    for (const fs::path& set : set_asides(t.path()))
+        for (int k = 0; k < 4; ++k)
+            EXPECT_EQ(read_text(set / "REASON.txt").find("fault " + std::to_string(k) + "\n"), std::string::npos) << set;
+}
+
 }  // namespace
 }  // namespace glint::faults
