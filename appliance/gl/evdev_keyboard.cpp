@@ -150,13 +150,15 @@ void EvdevKeyboards::watch() {
     if (watching_ || inotify_ < 0) return;
     last_watch_try_ns_ = now_ns();
     // IN_ATTRIB too: udev creates the node first and gives it its group a moment later, so the
-    // first open may fail with EACCES and the second succeed.
-    if (inotify_add_watch(inotify_, options_.dir.c_str(), IN_CREATE | IN_ATTRIB) >= 0) watching_ = true;
+    // first open may fail with EACCES and the second succeed. IN_DELETE: the node's name is free
+    // for the next device.
+    if (inotify_add_watch(inotify_, options_.dir.c_str(), IN_CREATE | IN_ATTRIB | IN_DELETE) >= 0) watching_ = true;
 }
 
 void EvdevKeyboards::open_device(const std::string& path) {
     for (const auto& d : devices_)
         if (d->path == path) return;
+    if (passed_over_.count(path)) return;
     const int fd = ::open(path.c_str(), O_RDONLY | O_NONBLOCK | O_CLOEXEC);
     if (fd < 0) {
         const int e = errno;
@@ -170,6 +172,7 @@ void EvdevKeyboards::open_device(const std::string& path) {
     if (ioctl(fd, EVIOCGBIT(EV_KEY, sizeof keys), keys.data()) < 0) {
         ::close(fd);
         log_("keyboard: " + path + ": not an evdev device, left alone");
+        passed_over_.insert(path);
         return;
     }
     ioctl(fd, EVIOCGNAME(sizeof name - 1), name);
@@ -180,6 +183,7 @@ void EvdevKeyboards::open_device(const std::string& path) {
     if (!digits || !enter) {
         ::close(fd);
         log_("keyboard: " + path + " (" + name + "): not a keyboard, left alone");
+        passed_over_.insert(path);
         return;
     }
     if (options_.grab && ioctl(fd, EVIOCGRAB, 1) != 0) {
@@ -223,7 +227,11 @@ void EvdevKeyboards::hotplug() {
         if (n <= 0) break;
         for (ssize_t at = 0; at < n;) {
             const auto* e = reinterpret_cast<const inotify_event*>(buffer + at);
-            if (e->len > 0 && is_event_node(e->name)) open_device(options_.dir + "/" + e->name);
+            if (e->len > 0 && is_event_node(e->name)) {
+                const std::string path = options_.dir + "/" + e->name;
+                if (e->mask & IN_DELETE) passed_over_.erase(path);
+                else open_device(path);
+            }
             if (e->mask & IN_IGNORED) watching_ = false;  // the directory went away
             at += ssize_t(sizeof(inotify_event) + e->len);
         }

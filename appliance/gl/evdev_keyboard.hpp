@@ -71,6 +71,9 @@ private:
     EvdevOptions options_;
     std::function<void(const std::string&)> log_;
     std::vector<std::unique_ptr<Device>> devices_;
+    // Nodes found not to be keyboards: not looked at again on each attribute change, until the
+    // node is deleted (event numbers are reused by the next device plugged in).
+    std::set<std::string> passed_over_;
     int inotify_ = -1;
     bool watching_ = false;
     long long last_watch_try_ns_ = 0;

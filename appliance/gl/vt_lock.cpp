@@ -269,10 +269,11 @@ VtLock::VtLock(std::unique_ptr<VtDevice> device, const VtLockOptions& options)
 }
 
 VtLock::~VtLock() {
-    undo(*device_, *saved_);
-    uninstall_handlers();
+    // Unpublished first, so that restore_now() on the signal thread finds no lock being torn down.
     g_saved = nullptr;
     g_device = nullptr;
+    undo(*device_, *saved_);
+    uninstall_handlers();
     for (int i = 0; i < saved_->count; ++i)
         if (const int e = saved_->restore_errno[std::size_t(i)]; e != 0)
             std::fprintf(stderr, "glint: %s: restoring with %s failed: %s\n", device_->path().c_str(),
