@@ -199,7 +199,6 @@ std::function<Check(const std::string&)> source_spec(std::vector<std::string> ki
     };
 }
 
-// "" or "WIDTHxHEIGHT" or "WIDTHxHEIGHT@HZ" (gl/kms_output.hpp's KmsRequest::mode).
 // "auto", "none" or a VT's device, /dev/tty1 .. /dev/tty63 (gl/vt_lock.hpp; the node itself is
 // checked when the display opens it).
 Check vt_spec(const std::string& v) {
@@ -212,6 +211,7 @@ Check vt_spec(const std::string& v) {
     return "'" + v + "' is not auto, none or a VT /dev/tty1 .. /dev/tty63";
 }
 
+// "" or "WIDTHxHEIGHT" or "WIDTHxHEIGHT@HZ" (gl/kms_output.hpp's KmsRequest::mode).
 Check kms_mode(const std::string& v) {
     if (v.empty()) return std::nullopt;
     const auto bad = [&] { return Check("'" + v + "' is not WIDTHxHEIGHT or WIDTHxHEIGHT@HZ"); };
