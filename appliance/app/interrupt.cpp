@@ -15,6 +15,7 @@
 
 #include "appliance/core/atomic_file.hpp"
 #include "appliance/core/errors.hpp"
+#include "appliance/gl/vt_lock.hpp"
 
 namespace glint::app {
 namespace fs = std::filesystem;
@@ -63,6 +64,10 @@ void on_signal(int signal_number) {
         return;
     }
     std::fprintf(stderr, "glint: stopped by %s\n", strsignal(signal_number));
+    // _Exit runs no destructor: a KMS display's VT would stay in graphics mode with its keyboard
+    // off (gl/vt_lock.hpp). The picture needs nothing: the kernel's fbdev emulation takes the CRTC
+    // back when the card's last descriptor closes.
+    gl::VtLock::restore_now();
     std::_Exit(128 + signal_number);
 }
 

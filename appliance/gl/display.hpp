@@ -2,7 +2,8 @@
 // "Displays"), so the renderer and the kiosk never know which one runs.
 // - kms: the appliance itself. A DRM card found by enumeration, its connected connector and
 //   preferred mode (the config may name others), a GBM surface with EGL, page flips (legacy
-//   drmModePageFlip), the previous CRTC restored on exit.
+//   drmModePageFlip), the previous CRTC restored on exit; the VT locked and the keyboards grabbed
+//   while it is open (vt_lock.hpp, evdev_keyboard.hpp), keys from the keyboards.
 // - window: an X11 window with EGL, for development; keyboard input.
 // - headless: EGL surfaceless and an offscreen framebuffer; frames to PNG on request (tests, CI,
 //   `glint replay`).
@@ -15,6 +16,7 @@
 #include <vector>
 
 #include "appliance/gl/gl_context.hpp"
+#include "appliance/gl/input_event.hpp"
 #include "appliance/gl/png_writer.hpp"
 
 namespace glint::gl {
@@ -30,6 +32,16 @@ struct DisplayConfig {
     // window and headless: the frame's size in pixels.
     int width = 1280, height = 720;
     bool fullscreen = false;  // window: ask the window manager for full screen
+    // kms, the lock-down (docs/lockdown.md): the VT held in graphics mode with its keyboard off and
+    // switches refused while the picture shows ("auto": standard input when it is a VT, else the
+    // active one; "none": left alone; or "/dev/ttyN"), with the kernel's global switch lock too
+    // when vt_lock_switch (needs CAP_SYS_TTY_CONFIG).
+    std::string vt = "auto";
+    bool vt_lock_switch = false;
+    // kms: the evdev keyboards in input_dir: "grab" (read by the kiosk alone), "shared" (read beside
+    // other readers, for development) or "none".
+    std::string keyboard = "grab";
+    std::string input_dir = "/dev/input";
 };
 
 // One try of `auto` (or the one of an explicit kind).
@@ -37,12 +49,6 @@ struct DisplayAttempt {
     DisplayKind kind = DisplayKind::Headless;
     bool ok = false;
     std::string detail;  // what was opened, or why not (one line)
-};
-
-// A key from the window (X11 keysym names: "Escape", "space", "Return", "m", "F1") or replayed.
-struct InputEvent {
-    enum class Type { KeyDown, KeyUp, Quit } type = Type::KeyDown;
-    std::string key;
 };
 
 class Display {
@@ -59,7 +65,7 @@ public:
     // Shows the frame drawn since the last present: a swap (window), a page flip that is waited
     // for (kms: at most one flip in flight), or the end of the GL work (headless).
     virtual void present() = 0;
-    // Input since the last call (window: keys, the close button; others: none).
+    // Input since the last call (window: keys, the close button; kms: keys; headless: none).
     virtual std::vector<InputEvent> poll_events() { return {}; }
     // Fell back from the kind asked for (auto without KMS).
     bool degraded() const { return degraded_; }

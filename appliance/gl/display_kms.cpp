@@ -2,7 +2,8 @@
 // found by enumeration, the connector and mode of choose_kms_output, a GBM surface that EGL draws
 // into, and page flips through the legacy KMS API (drmModeSetCrtc for the first frame,
 // drmModePageFlip after), one in flight at a time. The CRTC's previous state is restored on exit,
-// so the console comes back.
+// so the console comes back. While the display is open its VT is locked (vt_lock.hpp) and the
+// keyboards are the kiosk's alone (evdev_keyboard.hpp); both are released after the CRTC.
 #include <fcntl.h>
 #include <poll.h>
 #include <unistd.h>
@@ -14,8 +15,9 @@
 #include <xf86drm.h>
 #include <xf86drmMode.h>
 
-#include <cerrno>
 #include <algorithm>
+#include <cerrno>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <memory>
@@ -23,7 +25,9 @@
 
 #include "appliance/core/errors.hpp"
 #include "appliance/gl/display.hpp"
+#include "appliance/gl/evdev_keyboard.hpp"
 #include "appliance/gl/kms_output.hpp"
+#include "appliance/gl/vt_lock.hpp"
 
 namespace glint::gl {
 
@@ -85,11 +89,29 @@ KmsCard read_card(int fd, const std::string& path, std::vector<std::vector<drmMo
     return card;
 }
 
+// The VT lock and the keyboards, held by the display and released after its CRTC is restored.
+struct Lockdown {
+    std::unique_ptr<VtLock> vt;
+    std::unique_ptr<EvdevKeyboards> keyboards;
+};
+
+Lockdown lock_down(const DisplayConfig& config) {
+    if (config.keyboard != "grab" && config.keyboard != "shared" && config.keyboard != "none")
+        throw InputError("display: unknown keyboard mode \"" + config.keyboard + "\" (grab, shared or none)");
+    Lockdown l;
+    if (config.vt != "none") l.vt = std::make_unique<VtLock>(open_vt_device(config.vt), VtLockOptions{config.vt_lock_switch, true});
+    if (config.keyboard != "none")
+        l.keyboards = std::make_unique<EvdevKeyboards>(EvdevOptions{config.input_dir, config.keyboard == "grab"},
+                                                       [](const std::string& line) { std::fprintf(stderr, "glint: %s\n", line.c_str()); });
+    return l;
+}
+
 class KmsDisplay final : public Display {
 public:
-    KmsDisplay(int fd, std::string path, const KmsConnector& connector, const drmModeModeInfo& mode, std::uint32_t crtc)
-        : fd_(fd), path_(std::move(path)), connector_id_(connector.id), connector_name_(connector.name), mode_(mode),
-          crtc_(crtc) {
+    KmsDisplay(int fd, std::string path, const KmsConnector& connector, const drmModeModeInfo& mode, std::uint32_t crtc,
+               Lockdown lockdown)
+        : lockdown_(std::move(lockdown)), fd_(fd), path_(std::move(path)), connector_id_(connector.id),
+          connector_name_(connector.name), mode_(mode), crtc_(crtc) {
         try {
             saved_crtc_ = drmModeGetCrtc(fd_, crtc_);
             gbm_ = gbm_create_device(fd_);
@@ -122,7 +144,13 @@ public:
 
     DisplayKind kind() const override { return DisplayKind::Kms; }
     std::string describe() const override {
-        return "kms: " + path_ + " " + connector_name_ + " " + describe_raw_mode() + ", " + renderer_;
+        std::string d = "kms: " + path_ + " " + connector_name_ + " " + describe_raw_mode() + ", " + renderer_;
+        if (lockdown_.vt) d += "; " + lockdown_.vt->describe();
+        if (lockdown_.keyboards) d += "; " + std::to_string(lockdown_.keyboards->devices().size()) + " keyboard(s)";
+        return d;
+    }
+    std::vector<InputEvent> poll_events() override {
+        return lockdown_.keyboards ? lockdown_.keyboards->poll() : std::vector<InputEvent>{};
     }
     int width() const override { return mode_.hdisplay; }
     int height() const override { return mode_.vdisplay; }
@@ -243,6 +271,7 @@ private:
         fd_ = -1;
     }
 
+    Lockdown lockdown_;  // first: destroyed last, after release() gave the CRTC back
     int fd_;
     std::string path_;
     std::uint32_t connector_id_;
@@ -286,7 +315,9 @@ std::unique_ptr<Display> open_kms_display(const DisplayConfig& config) {
                 const KmsCard card = read_card(fd, path, raw);
                 const KmsChoice choice = choose_kms_output(card, {config.connector, config.mode});
                 const KmsConnector& c = card.connectors[choice.connector];
-                return std::make_unique<KmsDisplay>(fd, path, c, raw[choice.connector][choice.mode], choice.crtc);
+                // The VT is locked before the first frame replaces the console's picture.
+                return std::make_unique<KmsDisplay>(fd, path, c, raw[choice.connector][choice.mode], choice.crtc,
+                                                    lock_down(config));
             } catch (...) {
                 close(fd);
                 throw;

@@ -199,6 +199,18 @@ std::function<Check(const std::string&)> source_spec(std::vector<std::string> ki
     };
 }
 
+// "auto", "none" or a VT's device, /dev/tty1 .. /dev/tty63 (gl/vt_lock.hpp; the node itself is
+// checked when the display opens it).
+Check vt_spec(const std::string& v) {
+    if (v == "auto" || v == "none") return std::nullopt;
+    const std::string_view prefix = "/dev/tty";
+    const std::string_view n = std::string_view(v).substr(std::min(v.size(), prefix.size()));
+    if (v.rfind(prefix, 0) == 0 && !n.empty() && n.size() <= 2 && n[0] != '0' &&
+        std::all_of(n.begin(), n.end(), [](char c) { return c >= '0' && c <= '9'; }) && std::stoi(std::string(n)) <= 63)
+        return std::nullopt;
+    return "'" + v + "' is not auto, none or a VT /dev/tty1 .. /dev/tty63";
+}
+
 // "" or "WIDTHxHEIGHT" or "WIDTHxHEIGHT@HZ" (gl/kms_output.hpp's KmsRequest::mode).
 Check kms_mode(const std::string& v) {
     if (v.empty()) return std::nullopt;
@@ -347,6 +359,12 @@ const std::vector<Key>& keys() {
         t.push_back(key("display", &C::display, "width", &DisplaySection::width, kRestart, int_range(16, 16384)));
         t.push_back(key("display", &C::display, "height", &DisplaySection::height, kRestart, int_range(16, 16384)));
         t.push_back(key("display", &C::display, "fullscreen", &DisplaySection::fullscreen, kRestart));
+        // The lock-down of the KMS display (docs/lockdown.md), taken when the display opens.
+        t.push_back(key("display", &C::display, "vt", &DisplaySection::vt, kRestart,
+                        std::function<Check(const std::string&)>(vt_spec)));
+        t.push_back(key("display", &C::display, "vt_lock_switch", &DisplaySection::vt_lock_switch, kRestart));
+        t.push_back(key("display", &C::display, "keyboard", &DisplaySection::keyboard, kRestart,
+                        one_of({"grab", "shared", "none"})));
         // [camera], [sensor], [gpio]: devices opened at start.
         t.push_back(key("camera", &C::camera, "source", &CameraSection::source, kRestart,
                         source_spec({"libcamera", "replay", "simulator"}, false)));

@@ -27,6 +27,9 @@ struct DisplaySection {          // [display]
     std::string card, connector, mode;  // kms: "" = found by enumeration / preferred mode
     int width = 1280, height = 720;     // window and headless
     bool fullscreen = true;             // window
+    std::string vt = "auto";            // kms: the VT locked ("auto", "none", "/dev/ttyN"; docs/lockdown.md)
+    bool vt_lock_switch = false;        // kms: VT_LOCKSWITCH too (needs CAP_SYS_TTY_CONFIG)
+    std::string keyboard = "grab";      // kms: evdev keyboards: grab | shared | none
 };
 
 struct CameraSection {                // [camera]

@@ -144,6 +144,9 @@ gl::DisplayConfig display_config_of(const Config& cfg) {
     d.width = cfg.display.width;
     d.height = cfg.display.height;
     d.fullscreen = cfg.display.fullscreen;
+    d.vt = cfg.display.vt;
+    d.vt_lock_switch = cfg.display.vt_lock_switch;
+    d.keyboard = cfg.display.keyboard;
     return d;
 }
 

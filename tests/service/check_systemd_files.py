@@ -149,11 +149,18 @@ REQUIRED = {
     ("Service", "TimeoutStopSec"): "5s",
     # A config error (exit 2) is not restarted (docs/architecture.md's exit codes).
     ("Service", "RestartPreventExitStatus"): "2",
+    # The VT (docs/lockdown.md): the controlling terminal, output to the journal, reset after any exit.
+    ("Service", "StandardInput"): "tty",
+    ("Service", "StandardOutput"): "journal",
+    ("Service", "StandardError"): "journal",
+    ("Service", "TTYReset"): "yes",
+    ("Service", "TTYVHangup"): "yes",
+    ("Service", "TTYVTDisallocate"): "yes",
 }
 
 # DeviceAllow= groups (/proc/devices names) the kiosk's devices belong to.
 DEVICES = {"char-drm", "char-video4linux", "char-media", "char-gpiochip", "char-i2c", "char-ttyACM",
-           "char-ttyUSB", "char-input"}
+           "char-ttyUSB", "char-input", "char-tty"}
 
 
 def check_settings(repo):
@@ -171,6 +178,16 @@ def check_settings(repo):
     allowed = {v.split()[0] for v in values(unit, "Service", "DeviceAllow")}
     for d in sorted(DEVICES - allowed):
         problem("glint.service: no DeviceAllow=%s" % d)
+
+    # The VT: a VT's node, and the getty of that very VT stopped when the kiosk starts.
+    tty = one(unit, "Service", "TTYPath") or ""
+    if not re.fullmatch(r"/dev/tty([1-9]|[1-5][0-9]|6[0-3])", tty):
+        problem("glint.service: TTYPath=%s is not a VT /dev/tty1 .. /dev/tty63" % tty)
+    else:
+        getty = "getty@%s.service" % tty[len("/dev/"):]
+        for key in ("Conflicts", "After"):
+            if getty not in " ".join(values(unit, "Unit", key)).split():
+                problem("glint.service: [Unit] %s= does not name %s, the getty of TTYPath=" % (key, getty))
 
     with open(os.path.join(repo, "config", "glint.example.toml"), "rb") as f:
         example = tomllib.load(f)

@@ -336,6 +336,26 @@ TEST(Config, DisplayModeAndChordSyntax) {
               "test.toml:2: key 'maintenance.chord': 'ctrl+alt+f13': the key 'f13' is not a-z, 0-9 or f1-f12");
 }
 
+// The KMS display's lock-down (docs/lockdown.md): which VT, and what is done with the keyboards.
+TEST(Config, DisplayVtAndKeyboard) {
+    for (const char* good : {"auto", "none", "/dev/tty1", "/dev/tty7", "/dev/tty63"})
+        EXPECT_EQ(error_of(std::string("[display]\nvt = \"") + good + "\"\n"), "") << good;
+    for (const char* bad : {"", "tty1", "/dev/tty0", "/dev/tty64", "/dev/tty01", "/dev/ttyS0", "/dev/tty", "/dev/pts/1"})
+        EXPECT_EQ(error_of(std::string("[display]\nvt = \"") + bad + "\"\n"),
+                  std::string("test.toml:2: key 'display.vt': '") + bad + "' is not auto, none or a VT /dev/tty1 .. /dev/tty63")
+            << bad;
+    for (const char* good : {"grab", "shared", "none"})
+        EXPECT_EQ(error_of(std::string("[display]\nkeyboard = \"") + good + "\"\n"), "") << good;
+    EXPECT_EQ(error_of("[display]\nkeyboard = \"exclusive\"\n"),
+              "test.toml:2: key 'display.keyboard': 'exclusive' is not one of grab, shared, none");
+    EXPECT_EQ(error_of("[display]\nvt_lock_switch = \"yes\"\n"),
+              "test.toml:2: key 'display.vt_lock_switch': wrong type: a boolean (true or false) is needed, not a string");
+    const Config c = parse_config("[display]\nvt = \"/dev/tty2\"\nvt_lock_switch = true\nkeyboard = \"shared\"\n", "test.toml");
+    EXPECT_EQ(c.display.vt, "/dev/tty2");
+    EXPECT_TRUE(c.display.vt_lock_switch);
+    EXPECT_EQ(c.display.keyboard, "shared");
+}
+
 TEST(Config, PinHashMustBeAModernCompleteCryptHash) {
     // Made outside this code: Python's crypt.crypt("1234", "$y$j9T$F5Jx5fExrKuPp53xLKQ..1").
     const std::string yescrypt = "$y$j9T$F5Jx5fExrKuPp53xLKQ..1$Ep4SUX.oXxnq/KKEBY/E3tIknDNDS9Tu.RwGhF8ZCzA";

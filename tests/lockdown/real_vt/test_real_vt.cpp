@@ -1,0 +1,106 @@
+// The VT lock on a real virtual terminal of this machine's kernel. The VT used is a free one
+// (VT_OPENQRY), never the one on screen: it is allocated, locked, read back through a second
+// descriptor, restored, read back again and deallocated. VT_LOCKSWITCH is global for the few
+// milliseconds the lock lives; the crash handler restores it if the test dies half-way.
+#include <fcntl.h>
+#include <linux/kd.h>
+#include <linux/vt.h>
+#include <sys/ioctl.h>
+#include <sys/stat.h>
+#include <sys/sysmacros.h>
+#include <unistd.h>
+
+#include <gtest/gtest.h>
+
+#include <cstring>
+#include <filesystem>
+#include <string>
+
+#include "appliance/gl/vt_lock.hpp"
+
+namespace glint::test {
+namespace {
+
+namespace fs = std::filesystem;
+
+struct Modes {
+    int kd = -1, kb = -1, mode = -1;
+};
+
+Modes read_modes(const std::string& path) {
+    Modes m;
+    const int fd = open(path.c_str(), O_RDONLY | O_NOCTTY | O_CLOEXEC);
+    EXPECT_GE(fd, 0) << path;
+    vt_mode mode{};
+    EXPECT_EQ(ioctl(fd, KDGETMODE, &m.kd), 0);
+    EXPECT_EQ(ioctl(fd, KDGKBMODE, &m.kb), 0);
+    EXPECT_EQ(ioctl(fd, VT_GETMODE, &mode), 0);
+    m.mode = mode.mode;
+    close(fd);
+    return m;
+}
+
+int active_vt(int tty0) {
+    vt_stat state{};
+    EXPECT_EQ(ioctl(tty0, VT_GETSTATE, &state), 0);
+    return state.v_active;
+}
+
+TEST(RealVt, AFreeVtIsLockedAndRestored) {
+    const int tty0 = open("/dev/tty0", O_RDWR | O_NOCTTY | O_CLOEXEC);
+    ASSERT_GE(tty0, 0) << "/dev/tty0: " << std::strerror(errno);
+    int n = 0;
+    ASSERT_EQ(ioctl(tty0, VT_OPENQRY, &n), 0);
+    ASSERT_GT(n, 0);
+    const int on_screen = active_vt(tty0);
+    ASSERT_NE(n, on_screen);
+    // The container or machine may have no /dev/ttyN for it: a node of our own (major 4, minor N).
+    const fs::path dir = fs::temp_directory_path() / ("glint-vt-" + std::to_string(getpid()));
+    fs::create_directories(dir);
+    const std::string node = (dir / ("tty" + std::to_string(n))).string();
+    ASSERT_EQ(mknod(node.c_str(), S_IFCHR | 0600, makedev(4, unsigned(n))), 0) << node << ": " << std::strerror(errno);
+    const Modes before = read_modes(node);
+    EXPECT_EQ(before.kd, KD_TEXT);
+    EXPECT_EQ(before.mode, VT_AUTO);
+    {
+        gl::VtLock lock(gl::open_vt_device(node), {.lock_switch = true, .activate = false});
+        const Modes locked = read_modes(node);
+        EXPECT_EQ(locked.kd, KD_GRAPHICS);
+        EXPECT_EQ(locked.kb, K_OFF);
+        EXPECT_EQ(locked.mode, VT_PROCESS);
+        EXPECT_EQ(lock.describe(), node + " (VT " + std::to_string(n) +
+                                       "): graphics mode, keyboard off, switches refused (VT_PROCESS, VT_LOCKSWITCH)");
+    }
+    const Modes after = read_modes(node);
+    EXPECT_EQ(after.kd, before.kd);
+    EXPECT_EQ(after.kb, before.kb);
+    EXPECT_EQ(after.mode, before.mode);
+    EXPECT_EQ(active_vt(tty0), on_screen);
+    // Give the VT back: nothing of the test stays allocated. The kernel lets go of a closed tty
+    // in a work queue, and refuses (EBUSY) until it has: asked again for up to a second.
+    int r = -1;
+    for (int k = 0; k < 100 && (r = ioctl(tty0, VT_DISALLOCATE, n)) != 0 && errno == EBUSY; ++k) usleep(10'000);
+    EXPECT_EQ(r, 0) << "VT_DISALLOCATE " << n << ": " << std::strerror(errno);
+    close(tty0);
+    fs::remove_all(dir);
+}
+
+TEST(RealVt, AutoFindsTheVtOnScreenWithoutTouchingIt) {
+    // ctest's standard input is not a VT: auto asks /dev/tty0 which VT is on screen. Only opened.
+    const int tty0 = open("/dev/tty0", O_RDONLY | O_NOCTTY | O_CLOEXEC);
+    ASSERT_GE(tty0, 0);
+    const int on_screen = active_vt(tty0);
+    close(tty0);
+    const std::string path = "/dev/tty" + std::to_string(on_screen);
+    if (!fs::exists(path)) {
+        // Without the node auto names it in its error.
+        EXPECT_THROW(gl::open_vt_device("auto"), std::exception);
+        return;
+    }
+    const auto device = gl::open_vt_device("auto");
+    EXPECT_EQ(device->path(), path);
+    EXPECT_EQ(device->number(), on_screen);
+}
+
+}  // namespace
+}  // namespace glint::test
