@@ -151,9 +151,17 @@ Mesh load_obj(const std::filesystem::path& path) {
                 vn.push_back(p / len);
             }
         } else if (key == "mtllib") {
-            for (std::size_t k = 1; k < words.size(); ++k)
-                for (auto& [name, mat] : read_mtl(path.parent_path() / std::string(words[k])))
+            for (std::size_t k = 1; k < words.size(); ++k) {
+                // A material library sits beside the model: a model from a USB stick must not
+                // make the appliance read /dev/zero or another user's files.
+                const std::filesystem::path lib(std::string(words[k]));
+                const bool inside = lib.is_relative() && std::none_of(lib.begin(), lib.end(), [](const std::filesystem::path& c) {
+                                        return c == "..";
+                                    });
+                if (!inside) throw InputError(where + ": mtllib '" + lib.string() + "' must be a file in the model's folder");
+                for (auto& [name, mat] : read_mtl(path.parent_path() / lib))
                     library.try_emplace(name, mat);  // the first definition of a name wins
+            }
         } else if (key == "usemtl") {
             if (words.size() < 2) throw InputError(where + ": usemtl needs a name");
             const std::string name(words[1]);

@@ -169,6 +169,7 @@ int run_generate(const std::string& path, const SessionOptions& options, bool fo
 int main(int argc, char** argv) {
     CLI::App app{"glint-recording: inspect, replay, verify and generate recorded sensor files "
                  "(firmware_bridge/recording/FORMAT.md)."};
+    app.set_version_flag("--version", "glint-recording " GLINT_VERSION, "Print the version");
     app.require_subcommand(1);
     std::string file;
     std::size_t max_hex = 32;

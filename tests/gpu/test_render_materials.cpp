@@ -9,6 +9,7 @@
 #include <fstream>
 #include <unistd.h>
 
+#include "appliance/core/errors.hpp"
 #include "appliance/render/maps.hpp"
 #include "appliance/render/material.hpp"
 #include "appliance/render/mesh.hpp"
@@ -48,6 +49,30 @@ fs::path write_two_material_obj(const fs::path& dir) {
     group("chrome", [](glm::vec3 c) { return c.y <= 0; });
     group("paint", [](glm::vec3 c) { return c.y > 0 && c.x >= 0; });
     return dir / "two.obj";
+}
+
+TEST(ObjMaterialLibrary, OnlyAFileInTheModelsFolderIsRead) {
+    const fs::path dir = fs::temp_directory_path() / ("glint_test_mtllib_" + std::to_string(::getpid()));
+    fs::remove_all(dir);
+    fs::create_directories(dir / "materials");
+    std::ofstream(dir / "materials" / "m.mtl") << "newmtl red\nKd 0.9 0 0\n";
+    const auto model = [&](const std::string& mtllib) {
+        std::ofstream(dir / "m.obj") << "mtllib " << mtllib << "\nv 0 0 0\nv 1 0 0\nv 0 1 0\nusemtl red\nf 1 2 3\n";
+        return dir / "m.obj";
+    };
+    const render::Mesh inside = render::load_obj(model("materials/m.mtl"));
+    ASSERT_EQ(inside.obj_materials.size(), 1u);
+    EXPECT_DOUBLE_EQ(inside.obj_materials[0].kd.r, 0.9);
+    for (const std::string bad : {"/dev/zero", "../m.mtl", "materials/../../m.mtl"}) {
+        try {
+            render::load_obj(model(bad));
+            ADD_FAILURE() << "mtllib " << bad << " was read";
+        } catch (const InputError& e) {
+            EXPECT_NE(std::string(e.what()).find("must be a file in the model's folder"), std::string::npos) << e.what();
+            EXPECT_NE(std::string(e.what()).find("m.obj"), std::string::npos) << e.what();
+        }
+    }
+    fs::remove_all(dir);
 }
 
 TEST_F(RenderMaterials, EachUsemtlGroupIsShadedWithItsOwnMaterialOneDrawPerMaterial) {

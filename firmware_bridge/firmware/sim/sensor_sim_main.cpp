@@ -58,6 +58,7 @@ int main(int argc, char** argv) {
     using namespace glint::firmware;
     CLI::App app{"Sensor-board simulator: the Glint firmware against a simulated IMU, on a pseudo-terminal.\n"
                  "Prints the serial port (the pty slave, or the device) on the first line of stdout; open it like a real serial device."};
+    app.set_version_flag("--version", "glint-sensor-sim " GLINT_VERSION, "Print the version");
     std::string imu = "bno055";
     std::string trajectory = "kiosk";
     bool no_loop = false;
