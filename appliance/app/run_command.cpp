@@ -164,8 +164,14 @@ public:
 
     ui::KioskPoll poll(std::int64_t) override {
         ui::KioskPoll p;
-        // Every frame the camera has ready, without waiting: the loop keeps its own pace.
-        while (std::optional<capture::CameraFrame> f = camera_->next_frame(std::chrono::milliseconds(0))) {
+        // The frames the camera has ready, without waiting: the loop keeps its own pace. At most
+        // two a frame: a source that is slower to deliver a frame than its frame period (the
+        // simulator on a loaded machine renders each frame as it falls due) would otherwise keep
+        // the loop here for ever; the rest wait for the next frame.
+        constexpr int kMaxFramesPerPoll = 2;
+        for (int n = 0; n < kMaxFramesPerPoll; ++n) {
+            std::optional<capture::CameraFrame> f = camera_->next_frame(std::chrono::milliseconds(0));
+            if (!f) break;
             if (recorder_) recorder_->frame(*f);
             if (exposure_)
                 if (const std::optional<capture::ExposureRequest> request = exposure_->on_frame(*f)) camera_->set_exposure(*request);
