@@ -22,6 +22,7 @@
 #include "appliance/app/menu_settings.hpp"
 #include "appliance/app/session_recorder.hpp"
 #include "appliance/capture/calibration_io.hpp"
+#include "appliance/capture/camera_pump.hpp"
 #include "appliance/capture/camera_factory.hpp"
 #include "appliance/capture/exposure_controller.hpp"
 #include "appliance/core/errors.hpp"
@@ -70,7 +71,8 @@ public:
 
         capture::CameraBackends backends = capture::capture_camera_backends();
         sim::add_simulator_camera(backends);
-        camera_ = capture::make_camera_source(cfg.camera.source, backends, clock_);
+        // Read on its own thread: the frame loop takes what is ready (camera_pump.hpp).
+        camera_ = std::make_unique<capture::CameraPump>(capture::make_camera_source(cfg.camera.source, backends, clock_));
         host::SourceSpec sensor_spec;
         try {
             sensor_spec = host::parse_source_spec(cfg.sensor.source);
@@ -164,10 +166,9 @@ public:
 
     ui::KioskPoll poll(std::int64_t) override {
         ui::KioskPoll p;
-        // The frames the camera has ready, without waiting: the loop keeps its own pace. At most
-        // two a frame: a source that is slower to deliver a frame than its frame period (the
-        // simulator on a loaded machine renders each frame as it falls due) would otherwise keep
-        // the loop here for ever; the rest wait for the next frame.
+        // The frames the camera pump has ready, without waiting: the loop keeps its own pace. At
+        // most two a frame (a burst waits for the next frame; the pump drops the oldest when the
+        // loop falls further behind).
         constexpr int kMaxFramesPerPoll = 2;
         for (int n = 0; n < kMaxFramesPerPoll; ++n) {
             std::optional<capture::CameraFrame> f = camera_->next_frame(std::chrono::milliseconds(0));

@@ -1,10 +1,13 @@
 #include <gtest/gtest.h>
 
+#include <atomic>
 #include <filesystem>
+#include <thread>
 #include <fstream>
 #include <unistd.h>
 
 #include "appliance/capture/camera_factory.hpp"
+#include "appliance/capture/camera_pump.hpp"
 #include "appliance/capture/libcamera_source.hpp"
 #include "appliance/capture/replay_camera.hpp"
 #include "appliance/core/errors.hpp"
@@ -19,6 +22,86 @@ using sim::simulate_session;
 using sim::SimulateOptions;
 
 namespace fs = std::filesystem;
+
+// A source that takes 30 ms to make each frame and remembers from which thread it was called.
+class SlowSource final : public CameraSource {
+public:
+    std::string describe() const override { return "slow"; }
+    void start() override { started = true; }
+    void stop() override { started = false; }
+    std::optional<CameraFrame> next_frame(std::chrono::milliseconds) override {
+        callers_ok = callers_ok && std::this_thread::get_id() != test_thread;
+        if (made >= limit) return std::nullopt;
+        std::this_thread::sleep_for(std::chrono::milliseconds(30));
+        CameraFrame f;
+        f.rgb = cv::Mat(2, 2, CV_8UC3, cv::Scalar(0, 0, 0));
+        f.sequence = std::uint64_t(made++);
+        f.exposure_s = exposure_s;
+        return f;
+    }
+    void set_exposure(const ExposureRequest& r) override {
+        callers_ok = callers_ok && std::this_thread::get_id() != test_thread;
+        exposure_s = r.exposure_s;
+    }
+    bool finished() const override { return made >= limit; }
+    CameraHealth health() const override { return {}; }
+
+    std::thread::id test_thread = std::this_thread::get_id();
+    std::atomic<bool> callers_ok{true}, started{false};
+    std::atomic<int> made{0};
+    int limit = 1000;
+    std::atomic<double> exposure_s{0.01};
+};
+
+TEST(CameraPump, TheFrameLoopNeverWaitsInsideTheCamera) {
+    auto slow = std::make_unique<SlowSource>();
+    SlowSource& source = *slow;
+    CameraPump pump(std::move(slow), 4);
+    pump.start();
+    EXPECT_TRUE(source.started);
+    // Asked for a frame without waiting while the source is making one: none, at once.
+    const auto t0 = std::chrono::steady_clock::now();
+    EXPECT_FALSE(pump.next_frame(std::chrono::milliseconds(0)));
+    EXPECT_LT(std::chrono::steady_clock::now() - t0, std::chrono::milliseconds(25));
+    // Frames come in order; an exposure asked for reaches the source from the pump's thread.
+    ExposureRequest r;
+    r.automatic = false;
+    r.exposure_s = 0.002;
+    pump.set_exposure(r);
+    std::uint64_t last = 0;
+    bool first = true, exposure_seen = false;
+    for (int k = 0; k < 8; ++k) {
+        const std::optional<CameraFrame> f = pump.next_frame(std::chrono::milliseconds(2000));
+        ASSERT_TRUE(f);
+        if (!first) {
+            EXPECT_GT(f->sequence, last);
+        }
+        last = f->sequence;
+        first = false;
+        exposure_seen = exposure_seen || f->exposure_s == 0.002;
+    }
+    EXPECT_TRUE(exposure_seen);
+    EXPECT_TRUE(source.callers_ok);
+    pump.stop();
+    EXPECT_FALSE(source.started);
+    pump.stop();  // idempotent
+}
+
+TEST(CameraPump, AFrameLoopThatFallsBehindLosesTheOldestFramesCounted) {
+    auto slow = std::make_unique<SlowSource>();
+    SlowSource& source = *slow;
+    source.limit = 10;
+    CameraPump pump(std::move(slow), 3);
+    pump.start();
+    // Nobody takes frames until the source has made all 10 and ended.
+    for (int k = 0; k < 400 && !pump.finished() && source.made < 10; ++k) std::this_thread::sleep_for(std::chrono::milliseconds(10));
+    std::this_thread::sleep_for(std::chrono::milliseconds(100));
+    std::vector<std::uint64_t> got;
+    while (const std::optional<CameraFrame> f = pump.next_frame(std::chrono::milliseconds(0))) got.push_back(f->sequence);
+    EXPECT_EQ(got, (std::vector<std::uint64_t>{7, 8, 9}));  // the newest three
+    EXPECT_EQ(pump.health().dropped, 7u);
+    EXPECT_TRUE(pump.finished());
+}
 
 TEST(LibcameraSource, AMissingCameraIsAClearErrorListingWhatWasFound) {
     LibcameraOptions o;
