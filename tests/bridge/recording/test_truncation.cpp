@@ -81,7 +81,9 @@ TEST(RecordingTruncation, TruncatedFileOnDiskNamesPathAndOffset) {
     const std::string path = dir.file("cut.glrec");
     test::write_small_recording(path, clock);
     Bytes bytes = test::read_file(path);
-    bytes.resize(bytes.size() - 3);
+    // erase, not resize(size() - N): with the sanitizers GCC 12 loses that bound and warns
+    // (-Warray-bounds, -Wstringop-overflow) about the memset on resize's growth path.
+    bytes.erase(bytes.end() - 3, bytes.end());
     test::write_file(path, bytes);
     RecordingReader reader(path);
     test::read_all(reader);
