@@ -23,6 +23,8 @@ Environment:
   JOBS            parallel build jobs (default 2)
   TEST_LABELS     ctest label regex (default '^(unit|bridge|capture)$')
   CTEST_ARGS      more ctest arguments (e.g. "-j2" or "-R Sh")
+  BUILD_TARGETS   build only these targets (default: all); "labels": only what the default
+                  test labels and the package need (LABEL_TARGETS in this script)
 
 Needs, as root: scripts/install-deps.sh's packages, and mmdebstrap, qemu-user,
 crossbuild-essential-arm64 (this script installs the last three when they are missing).
@@ -51,6 +53,12 @@ sysroot_packages=(
   libimgui-dev libfreetype-dev fonts-dejavu-core libsystemd-dev libapriltag-dev libembree-dev
 )
 stamp=$sysroot/.glint-sysroot
+PACKAGE_TARGETS="glint glint-vision glint-recording glint-sensor-sim glint_man_pages"
+# The targets of the default test labels and of the package (executables and man pages).
+LABEL_TARGETS="glint glint-vision glint-recording glint-sensor-sim glint_man_pages glint_unit_tests
+  glint_bridge_firmware_tests glint_bridge_host_tests glint_bridge_protocol_tests
+  glint_bridge_recording_tests glint_fuzz_protocol_replay glint_fuzz_recording_replay
+  glint_capture_tests"
 
 timed() {  # timed NAME COMMAND...: runs it, prints its duration
   local name=$1 t0 rc=0
@@ -94,6 +102,9 @@ shlibdeps_db() {
   rm -rf "$db"
   mkdir -p "$db/info" "$db/updates"
   : > "$db/status"
+  # Format 1: multiarch file names (info/<package>:arm64.list for Multi-Arch: same packages).
+  echo 1 > "$db/info/format"
+  printf 'amd64\narm64\n' > "$db/arch"
   tmp=$(mktemp -d)
   for deb in "$sysroot"/var/cache/apt/archives/*.deb; do
     pkg=$(dpkg-deb -f "$deb" Package)
@@ -171,11 +182,19 @@ step_configure() {
   [ -f "$stamp" ] || { echo "cross-arm64: no arm64 root at $sysroot (run the sysroot step)" >&2; exit 1; }
   cmake -S "$src" -B "$build" --toolchain "$src/cmake/toolchains/aarch64-linux-gnu.cmake" \
     -DGLINT_SYSROOT="$sysroot" -DCMAKE_BUILD_TYPE=Release -DGLINT_NATIVE=OFF \
-    -DCMAKE_CXX_COMPILER_LAUNCHER=ccache -DGLINT_BUILD_BENCH=OFF
+    -DCMAKE_CXX_COMPILER_LAUNCHER=ccache -DGLINT_BUILD_BENCH=OFF \
+    -DCMAKE_SKIP_INSTALL_ALL_DEPENDENCY=ON
 }
 
 step_build() {
-  in_arm64_ns nice -n 10 cmake --build "$build" -j"$jobs"
+  local targets=()
+  # shellcheck disable=SC2206
+  case ${BUILD_TARGETS:-} in
+    "") ;;
+    labels) targets=(--target $LABEL_TARGETS) ;;
+    *) targets=(--target $BUILD_TARGETS) ;;
+  esac
+  in_arm64_ns nice -n 10 cmake --build "$build" -j"$jobs" "${targets[@]}"
 }
 
 step_test() {
@@ -184,12 +203,30 @@ step_test() {
 }
 
 step_package() {
+  # What the package holds, built first: the configure step made `install` (and so cpack)
+  # independent of `all`, so the package does not wait for test programs it does not contain.
+  # shellcheck disable=SC2086
+  in_arm64_ns nice -n 10 cmake --build "$build" -j"$jobs" --target $PACKAGE_TARGETS
   rm -rf "$build/packages"
   in_arm64_ns cpack --config "$build/CPackConfig.cmake" -B "$build/packages"
   local deb
   deb=$(ls "$build"/packages/glint_*_arm64.deb)
   echo "cross-arm64: $deb, $(stat -c %s "$deb") bytes"
   dpkg-deb -I "$deb" | grep -E '^ (Package|Version|Architecture|Depends|Recommends|Installed-Size):'
+  # CPack runs dpkg-shlibdeps with --ignore-missing-info: a Depends without the libraries means
+  # it found none of them (the root's package database, cmake/CrossPackaging.cmake).
+  dpkg-deb -f "$deb" Depends | grep -q 'libc6 (>=' \
+    || { echo "cross-arm64: $deb: no library dependencies in Depends (dpkg-shlibdeps found nothing)" >&2; exit 1; }
+  local x=$build/packages/contents
+  rm -rf "$x"
+  dpkg-deb -x "$deb" "$x"
+  for exe in glint glint-vision glint-recording glint-sensor-sim; do
+    file -b "$x/usr/bin/$exe" | grep -q 'ARM aarch64' \
+      || { echo "cross-arm64: $deb: /usr/bin/$exe is not an arm64 executable" >&2; exit 1; }
+  done
+  [ -f "$x/usr/share/man/man1/glint.1.gz" ] \
+    || { echo "cross-arm64: $deb: no man pages (were they made under qemu?)" >&2; exit 1; }
+  rm -rf "$x"
 }
 
 steps=("$@")
