@@ -168,6 +168,10 @@ step_sysroot() {
     "deb http://deb.debian.org/debian bookworm-updates main" \
     "deb http://deb.debian.org/debian-security bookworm-security main"
   relative_links
+  # qemu-user -L looks for every path in the root first: device nodes made there (dev/ptmx
+  # outside a devpts mount gives ENODEV, no pseudo-terminal) and its own tmp/ would hide the
+  # machine's. The root is for libraries and data only.
+  rm -rf "${sysroot:?}"/dev/* "$sysroot/tmp"
   # The only shared libraries behind alternatives (update-alternatives in their postinst, which
   # did not run): OpenCV's BLAS and LAPACK.
   ln -sfn blas/libblas.so.3 "$sysroot/usr/lib/$triple/libblas.so.3"
