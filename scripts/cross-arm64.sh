@@ -116,7 +116,7 @@ shlibdeps_db() {
     echo >> "$db/status"
     dpkg-deb --fsys-tarfile "$deb" | tar -t | sed -e 's|^\./|/|' -e 's|/$||' -e 's|^$|/.|' \
       | awk -v root="$sysroot" '$0 == "/." { print; next } { print root $0 }' > "$db/info/$name.list"
-    rm -rf "$tmp"/*
+    rm -rf "${tmp:?}"/*
     dpkg-deb -e "$deb" "$tmp"
     for f in shlibs symbols; do
       [ -f "$tmp/$f" ] && cp "$tmp/$f" "$db/info/$name.$f"
@@ -137,6 +137,7 @@ in_arm64_ns() {
   local magic mask
   magic='\x7fELF\x02\x01\x01\x00\x00\x00\x00\x00\x00\x00\x00\x00\x02\x00\xb7\x00'
   mask='\xff\xff\xff\xff\xff\xff\xff\x00\xff\xff\xff\xff\xff\xff\xff\xff\xfe\xff\xff\xff'
+  # shellcheck disable=SC2016  # the inner script expands its own arguments
   QEMU_LD_PREFIX=$sysroot unshare --user --map-root-user --mount --fork -- bash -c '
     set -e
     mount -t binfmt_misc binfmt_misc /proc/sys/fs/binfmt_misc || {
