@@ -45,6 +45,12 @@ endif()
 set(CPACK_DEBIAN_PACKAGE_ARCHITECTURE ${GLINT_DEB_ARCHITECTURE})
 
 set(CPACK_DEBIAN_PACKAGE_SHLIBDEPS ON)
+# A cross build (the arm64 one, docs/packaging.md) finds the libraries' packages in its root.
+if(CMAKE_CROSSCOMPILING AND CMAKE_SYSROOT)
+  set(CPACK_GLINT_SYSROOT "${CMAKE_SYSROOT}")
+  set(CPACK_GLINT_TRIPLE "${CMAKE_LIBRARY_ARCHITECTURE}")
+  set(CPACK_PROJECT_CONFIG_FILE "${PROJECT_SOURCE_DIR}/cmake/CrossPackaging.cmake")
+endif()
 set(CPACK_DEBIAN_PACKAGE_GENERATE_SHLIBS OFF)  # no shared library of ours in the package
 # Read at run time, so no ELF names them:
 #   fonts-dejavu-core      DejaVuSans(-Bold).ttf of the visitor screens (appliance/ui/imgui_layer.hpp)
