@@ -154,7 +154,7 @@ Mesh load_obj(const std::filesystem::path& path) {
             for (std::size_t k = 1; k < words.size(); ++k) {
                 // A material library sits beside the model: a model from a USB stick must not
                 // make the appliance read /dev/zero or another user's files.
-                const std::filesystem::path lib(std::string(words[k]));
+                const std::filesystem::path lib{std::string(words[k])};
                 const bool inside = lib.is_relative() && std::none_of(lib.begin(), lib.end(), [](const std::filesystem::path& c) {
                                         return c == "..";
                                     });
