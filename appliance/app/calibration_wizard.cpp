@@ -35,6 +35,16 @@ const char* slug(CalibrationKind k) {
 
 bool collects_motion(CalibrationKind k) { return k == CalibrationKind::Alignment || k == CalibrationKind::TimeOffset; }
 
+// The frames a kind keeps before it computes (-1: the motion decides, feed_alignment).
+int wanted_frames(CalibrationKind k, const WizardSettings& s) {
+    switch (k) {
+        case CalibrationKind::CameraIntrinsics: return s.intrinsics_views;
+        case CalibrationKind::Response: return s.bracket_frames;
+        case CalibrationKind::Vignetting: return s.flat_frames;
+        default: return -1;
+    }
+}
+
 // The board's corners in a frame (empty when fewer than 6 are seen).
 std::vector<cv::Point2f> charuco_corners(const cv::Mat& rgb, const cv::Ptr<cv::aruco::CharucoBoard>& board) {
     cv::Mat grey;
@@ -255,13 +265,17 @@ void CalibrationWizard::feed_alignment(const std::vector<capture::SensorOrientat
     }
 }
 
+double CalibrationWizard::asked_exposure_locked() const {
+    const int half = (settings_.bracket_frames - 1) / 2;
+    return base_exposure_ * std::ldexp(1.0, bracket_index_ - half);
+}
+
 std::optional<capture::ExposureRequest> CalibrationWizard::exposure_request() const {
     const std::lock_guard lock(mutex_);
     if (!running_ || computing_ || kind_ != CalibrationKind::Response || base_exposure_ <= 0) return std::nullopt;
-    const int half = (settings_.bracket_frames - 1) / 2;
     capture::ExposureRequest r;
     r.automatic = false;
-    r.exposure_s = std::max(current_.min_exposure_s, base_exposure_ * std::ldexp(1.0, bracket_index_ - half));
+    r.exposure_s = std::max(current_.min_exposure_s, asked_exposure_locked());
     r.analogue_gain = 1;
     return r;
 }
@@ -314,9 +328,9 @@ WizardView CalibrationWizard::view() const {
     if (!running_) return v;
     v.step = step_text_locked();
     switch (kind_) {
-        case CalibrationKind::CameraIntrinsics: v.progress = double(kept_) / settings_.intrinsics_views; break;
-        case CalibrationKind::Response: v.progress = double(kept_) / settings_.bracket_frames; break;
-        case CalibrationKind::Vignetting: v.progress = double(kept_) / settings_.flat_frames; break;
+        case CalibrationKind::CameraIntrinsics:
+        case CalibrationKind::Response:
+        case CalibrationKind::Vignetting: v.progress = double(kept_) / wanted_frames(kind_, settings_); break;
         case CalibrationKind::Alignment:
             v.progress = (std::min(settings_.axis_turn_deg, turned_deg_[0]) + std::min(settings_.axis_turn_deg, turned_deg_[1]) +
                           std::min(settings_.axis_turn_deg, turned_deg_[2])) /
@@ -435,10 +449,7 @@ void CalibrationWizard::look_at(Job& job) {
         throw RuntimeError(file.string() + ": cannot write the frame");
     const std::lock_guard lock(mutex_);
     if (job.run != run_ || kind_ != kind) return;
-    const int wanted = kind == CalibrationKind::CameraIntrinsics ? settings_.intrinsics_views
-                       : kind == CalibrationKind::Response       ? settings_.bracket_frames
-                       : kind == CalibrationKind::Vignetting     ? settings_.flat_frames
-                                                                 : -1;
+    const int wanted = wanted_frames(kind, settings_);
     const bool bracket_over = kind == CalibrationKind::Response && bracket_index_ >= settings_.bracket_frames;
     if (!computing_ && ((wanted > 0 && kept_ >= wanted) || bracket_over)) {
         computing_ = true;
@@ -484,9 +495,7 @@ bool CalibrationWizard::decide_locked(const capture::CameraFrame& frame, const s
             if (!distinct || mean <= 0) return false;
             exposures_.push_back(e);
             // The exposure asked for came: ask for the next.
-            const int half = (settings_.bracket_frames - 1) / 2;
-            const double asked = base_exposure_ * std::ldexp(1.0, bracket_index_ - half);
-            if (std::abs(e / asked - 1) < 0.05) {
+            if (std::abs(e / asked_exposure_locked() - 1) < 0.05) {
                 ++bracket_index_;
                 frames_since_request_ = 0;
             }

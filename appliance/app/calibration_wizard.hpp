@@ -119,6 +119,8 @@ private:
     void set_preview(const cv::Mat& rgb, const std::function<void(cv::Mat&, double scale)>& draw);
     void feed_alignment(const std::vector<capture::SensorOrientation>& orientations);  // frame thread, locked
     std::string step_text_locked() const;
+    // Response: the exposure x gain the ladder asks for now (2^(index - half) of the camera's own).
+    double asked_exposure_locked() const;
     void finish_locked(std::string result, bool ok);
 
     WizardSettings settings_;
