@@ -1,5 +1,6 @@
 #include "appliance/app/kiosk_overlay.hpp"
 
+#include <chrono>
 #include <memory>
 
 #include "appliance/app/scene_export.hpp"
@@ -105,7 +106,7 @@ struct OverlayState {
             if (const std::optional<std::string> error = state::last_save_error()) {
                 status.state_store = "last save failed: " + *error;
                 status.state_store_ok = false;
-            } else if (const std::size_t set_aside = state::corrupt_sets(context.config.state.dir); set_aside > 0) {
+            } else if (const std::size_t set_aside = corrupt_sets_now(); set_aside > 0) {
                 status.state_store = "ok; " + std::to_string(set_aside) + " faulty item(s) set aside in " +
                                      (std::filesystem::path(context.config.state.dir) / state::kCorruptDir).string();
                 status.state_store_warn = true;
@@ -165,6 +166,18 @@ struct OverlayState {
         layer.end_frame();
         return menu.is_open();
     }
+
+    // The sets in <state>/corrupt/, listed at most every 2 s (not a directory listing a frame).
+    std::size_t corrupt_sets_now() {
+        const auto now = std::chrono::steady_clock::now();
+        if (now - corrupt_listed_at > std::chrono::seconds(2)) {
+            corrupt_count = state::corrupt_sets(context.config.state.dir);
+            corrupt_listed_at = now;
+        }
+        return corrupt_count;
+    }
+    std::size_t corrupt_count = 0;
+    std::chrono::steady_clock::time_point corrupt_listed_at{};
 
     void calibration_action(const ui::MenuAction& a, ui::KioskState state) {
         if (!context.wizard) {
