@@ -84,6 +84,14 @@ struct ShadowLighting {
 };
 ShadowLighting shadow_lighting(const HdrImage& environment, DominantLightOptions options = {});
 
+// One cap level: for each texel centre o of a kCapW x kCapH map, the table's irradiance from the
+// cap of angular radius `radius` (radians) around o, per steradian of cap,
+//   sum_{k: o . w_k >= cos radius} L_k max(0, w_k . y) dOmega_k  /  sum_{same k} dOmega_k,
+// over the texels k of `map` (any size); radius 0 gives L(o) max(0, o . y) (block means), and a
+// cap holding no texel centre the nearest texel's L max(0, w . y).
+inline constexpr int kCapW = 64, kCapH = 32;
+HdrImage ambient_cap_density(const HdrImage& map, double radius);
+
 // The shadow's GL side: its uniforms for any program that includes shaders/render_shadow.glsl
 // (the composite and the metering background evaluate the ratio where they show it), and the
 // ratio of each pixel into one RGBA32F target for the AOV: RGB = the ratio, A = 1 where the

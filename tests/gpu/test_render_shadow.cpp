@@ -535,5 +535,54 @@ TEST(RenderShadowOccluders, SphereIsItselfAndABoxIsFilled) {
     EXPECT_NEAR(render::model_bottom(box), -0.5, 1e-6);
 }
 
+// The cap maps by one prefix-sum difference per row equal the sum over every texel, on maps whose
+// width is and is not a multiple of the cap map's, at caps from below a texel to a hemisphere.
+glm::dvec3 brute_force_cap(const HdrImage& map, const glm::dvec3& o, double radius) {
+    const std::vector<double> domega = row_solid_angles(map.width(), map.height());
+    glm::dvec3 sum(0.0), nearest_value(0.0);
+    double wsum = 0, nearest = -2;
+    for (int y = 0; y < map.height(); ++y)
+        for (int x = 0; x < map.width(); ++x) {
+            const glm::dvec3 d = texel_direction(x, y, map.width(), map.height());
+            const float* p = map.row(y) + 3 * x;
+            const glm::dvec3 l = glm::dvec3(p[0], p[1], p[2]) * std::max(0.0, d.y);
+            const double c = glm::dot(o, d);
+            if (c > nearest) {
+                nearest = c;
+                nearest_value = l;
+            }
+            if (c < std::cos(radius)) continue;
+            sum += l * domega[std::size_t(y)];
+            wsum += domega[std::size_t(y)];
+        }
+    return wsum > 0 ? sum / wsum : nearest_value;
+}
+
+TEST(RenderShadowCaps, PrefixSumsEqualTheSumOverEveryTexel) {
+    std::uint32_t seed = 12345;
+    const auto next = [&] { return float((seed = seed * 1664525u + 1013904223u) >> 8) / float(1 << 24); };
+    for (const auto& [w, h] : {std::pair{128, 64}, std::pair{100, 50}, std::pair{37, 19}}) {
+        HdrImage map(w, h);
+        for (float& v : map.data()) v = next() * next() * 10.0f;  // skewed, some bright texels
+        for (const double deg : {0.5, 4.0, 8.0, 16.0, 32.0, 64.0, 90.0, 150.0}) {
+            const HdrImage fast = render::ambient_cap_density(map, deg * kPi / 180.0);
+            ASSERT_EQ(fast.width(), render::kCapW);
+            ASSERT_EQ(fast.height(), render::kCapH);
+            double worst = 0;
+            for (int j = 0; j < render::kCapH; ++j)
+                for (int i = 0; i < render::kCapW; ++i) {
+                    // Every row (the poles too), the seam's and the middle's columns, a ninth of the rest.
+                    if (i != 0 && i != 1 && i != 32 && i != render::kCapW - 1 && (i + j) % 9 != 0) continue;
+                    const glm::dvec3 want = brute_force_cap(map, texel_direction(i, j, render::kCapW, render::kCapH), deg * kPi / 180.0);
+                    const Rgb a = fast.at(i, j);
+                    const double got[3] = {a.r, a.g, a.b};
+                    for (int c = 0; c < 3; ++c)
+                        worst = std::max(worst, std::abs(double(got[c]) - want[c]) / std::max(1e-6, std::abs(want[c])));
+                }
+            EXPECT_LT(worst, 1e-5) << w << "x" << h << " map, cap of " << deg << " degrees";
+        }
+    }
+}
+
 }  // namespace
 }  // namespace glint
