@@ -159,7 +159,6 @@ Renderer::Renderer(const Mesh& mesh, const std::vector<Material>& part_materials
 
     scene_program_ = gl::GlProgram("render_scene.vert", "render_scene.frag");
     background_program_ = gl::GlProgram("fullscreen.vert", "render_background.frag");
-    composite_program_ = gl::GlProgram("fullscreen.vert", "render_composite.frag");
 
     // The mesh: interleaved position and normal, 32-bit indices.
     std::vector<float> interleaved;
@@ -307,9 +306,23 @@ void Renderer::set_background_environment(const HdrImage& environment) {
 
 void Renderer::set_background_image(const gl::RgbImage& image) {
     if (image.width < 1 || image.height < 1) throw InputError("--background: the image is empty");
-    image_ = gl::GlTexture::create();
-    glBindTexture(GL_TEXTURE_2D, image_.id());
+    if (image.pixels.size() != std::size_t(image.width) * std::size_t(image.height) * 3)
+        throw InputError("--background: the image's pixels do not match its size");
     glPixelStorei(GL_UNPACK_ALIGNMENT, 1);
+    // The kiosk sends every camera picture: the same texture is refilled while the size holds (a
+    // new one a frame made the driver allocate and free a few hundred kB a frame, which
+    // fragments a heap that must stay flat for weeks).
+    if (image_.id() != 0 && image_width_ == image.width && image_height_ == image.height) {
+        glBindTexture(GL_TEXTURE_2D, image_.id());
+        glTexSubImage2D(GL_TEXTURE_2D, 0, 0, 0, image.width, image.height, GL_RGB, GL_UNSIGNED_BYTE, image.pixels.data());
+        gl::check_gl("uploading the background image");
+        background_ = Background::Image;
+        return;
+    }
+    image_ = gl::GlTexture::create();
+    image_width_ = image.width;
+    image_height_ = image.height;
+    glBindTexture(GL_TEXTURE_2D, image_.id());
     glTexImage2D(GL_TEXTURE_2D, 0, GL_RGB8, image.width, image.height, 0, GL_RGB, GL_UNSIGNED_BYTE,
                  image.pixels.data());
     glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_LINEAR);
@@ -325,8 +338,12 @@ void Renderer::set_background_black() { background_ = Background::Black; }
 void Renderer::set_camera_response(const CameraResponse& response, const CameraExposure& exposure) {
     if (!(exposure.exposure_ms > 0)) throw InputError("--exposure-ms: must be positive");
     if (!(exposure.gain > 0)) throw InputError("--gain: must be positive");
-    response_curve_ = response;
     exposure_ = exposure;
+    // A frame's new exposure and gain are uniforms; the curve's table is uploaded when it changes.
+    if (response_curve_ && response_curve_->inverse == response.inverse && response_curve_->gamma == response.gamma &&
+        response_curve_->shoulder == response.shoulder && response_curve_->sensitivity == response.sensitivity)
+        return;
+    response_curve_ = response;
     std::vector<float> table(response.inverse.begin(), response.inverse.end());
     response_ = gl::GlTexture::create();
     glBindTexture(GL_TEXTURE_2D, response_.id());
@@ -435,37 +452,50 @@ const ToneMap& Renderer::meter(double key) {
     return tone_;
 }
 
+const gl::GlProgram& Renderer::composite_program() const {
+    const int background = background_ == Background::Image ? 1 : background_ == Background::Environment ? 2 : 0;
+    const int camera = !response_curve_ ? 0 : response_curve_->parametric() ? 1 : 2;
+    const int shadow = shadow_ ? 1 : 0;
+    const int key = background * 100 + camera * 10 + shadow;
+    auto it = composite_programs_.find(key);
+    if (it == composite_programs_.end())
+        it = composite_programs_
+                 .emplace(key, gl::GlProgram("fullscreen.vert", "render_composite.frag",
+                                             {"BACKGROUND " + std::to_string(background),
+                                              "CAMERA " + std::to_string(camera), "SHADOW " + std::to_string(shadow)}))
+                 .first;
+    return it->second;
+}
+
 void Renderer::composite() const {
     glDisable(GL_DEPTH_TEST);
     glDisable(GL_BLEND);
-    composite_program_.use();
+    const gl::GlProgram& program = composite_program();
+    program.use();
     glActiveTexture(GL_TEXTURE0);
     glBindTexture(GL_TEXTURE_2D, targets_[kRadiance].id());
-    glUniform1i(composite_program_.uniform("u_radiance"), 0);
+    glUniform1i(program.uniform("u_radiance"), 0);
     glActiveTexture(GL_TEXTURE1);
     glBindTexture(GL_TEXTURE_2D, image_.id());
-    glUniform1i(composite_program_.uniform("u_image"), 1);
+    glUniform1i(program.uniform("u_image"), 1);
     glActiveTexture(GL_TEXTURE2);
     glBindTexture(GL_TEXTURE_2D, environment_.id());
-    glUniform1i(composite_program_.uniform("u_environment"), 2);
-    glUniform1i(composite_program_.uniform("u_has_image"), background_ == Background::Image ? 1 : 0);
-    glUniform1i(composite_program_.uniform("u_has_environment"), background_ == Background::Environment ? 1 : 0);
-    bind_shadow(composite_program_, 3);
+    glUniform1i(program.uniform("u_environment"), 2);
+    bind_shadow(program, 3);
     glActiveTexture(GL_TEXTURE4);
     glBindTexture(GL_TEXTURE_2D, targets_[kNormal].id());
-    glUniform1i(composite_program_.uniform("u_normal"), 4);  // a proxy's mark (phantom.hpp)
-    set_camera_ray_uniforms(composite_program_);
-    glUniform1i(composite_program_.uniform("u_camera"), response_curve_ ? 1 : 0);
+    glUniform1i(program.uniform("u_normal"), 4);  // a proxy's mark (phantom.hpp)
+    set_camera_ray_uniforms(program);
     glActiveTexture(GL_TEXTURE5);
     glBindTexture(GL_TEXTURE_2D, response_.id());
-    glUniform1i(composite_program_.uniform("u_response"), 5);
+    glUniform1i(program.uniform("u_response"), 5);
     if (response_curve_) {
-        glUniform1f(composite_program_.uniform("u_camera_scale"), float(exposure_.scale(*response_curve_)));
-        glUniform1f(composite_program_.uniform("u_gamma"), response_curve_->parametric() ? float(response_curve_->gamma) : 0.0f);
-        glUniform1f(composite_program_.uniform("u_shoulder"), float(response_curve_->shoulder));
+        glUniform1f(program.uniform("u_camera_scale"), float(exposure_.scale(*response_curve_)));
+        glUniform1f(program.uniform("u_gamma"), response_curve_->parametric() ? float(response_curve_->gamma) : 0.0f);
+        glUniform1f(program.uniform("u_shoulder"), float(response_curve_->shoulder));
     }
-    glUniform1f(composite_program_.uniform("u_scale"), float(tone_.scale()));
-    glUniform1f(composite_program_.uniform("u_white_sq"), float(tone_.white * tone_.white));
+    glUniform1f(program.uniform("u_scale"), float(tone_.scale()));
+    glUniform1f(program.uniform("u_white_sq"), float(tone_.white * tone_.white));
     glBindVertexArray(empty_vao_.id());
     glDrawArrays(GL_TRIANGLES, 0, 3);
     glBindVertexArray(0);

@@ -10,6 +10,7 @@
 #pragma once
 
 #include <filesystem>
+#include <map>
 #include <memory>
 #include <optional>
 #include <vector>
@@ -173,11 +174,16 @@ private:
     Background background_ = Background::Black;
     bool ao_ = true;
     ToneMap tone_;
-    gl::GlProgram scene_program_, background_program_, composite_program_;
+    gl::GlProgram scene_program_, background_program_;
+    // The composite's variants (background, camera curve, shadow: render_composite.frag's defines),
+    // each compiled at its first use; composite_program() picks the one the state asks for.
+    mutable std::map<int, gl::GlProgram> composite_programs_;
+    const gl::GlProgram& composite_program() const;
     gl::GlVertexArray vao_, empty_vao_;
     gl::GlBuffer vertices_, indices_, ao_values_;
     bool has_ao_ = false;  // the mesh came with baked ao (attribute 2)
     gl::GlTexture irradiance_, environment_, image_;
+    int image_width_ = 0, image_height_ = 0;  // image_'s size
     gl::GlTexture targets_[4];
     gl::GlName<RenderbufferTraits> depth_;
     gl::GlFramebuffer framebuffer_;

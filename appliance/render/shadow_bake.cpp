@@ -21,6 +21,18 @@ struct Direction {
 
 }  // namespace
 
+ShadowBake unshadowed_bake(int resolution, double table_height) {
+    if (resolution < 2) throw InputError("shadow: a bake needs at least 2 points a side");
+    ShadowBake b;
+    b.resolution = resolution;
+    b.table_height = table_height;
+    b.spacing = 1.0;
+    const std::size_t n = std::size_t(resolution) * std::size_t(resolution) * 4;
+    b.lights.assign(n, 1.0f);
+    b.ambient.assign(n, 1.0f);
+    return b;
+}
+
 ShadowBake bake_table_shadow(const Mesh& mesh, const ShadowLighting& lighting, double table_height,
                              const ShadowBakeOptions& options) {
     const auto t0 = std::chrono::steady_clock::now();

@@ -41,6 +41,11 @@ struct ShadowBake {
     double seconds = 0;
 };
 
+// A bake that hides nothing (every light visible, all the ambient left) on a grid of
+// `resolution` points a side: the kiosk binds it during its warm-up so that the driver compiles
+// the baked shadow's shaders before a visitor's frame needs them.
+ShadowBake unshadowed_bake(int resolution, double table_height);
+
 // Throws InputError for a mesh without triangles, RuntimeError when Embree fails.
 ShadowBake bake_table_shadow(const Mesh& mesh, const ShadowLighting& lighting, double table_height,
                              const ShadowBakeOptions& options = {});

@@ -202,8 +202,9 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
     const capture::CameraCalibration& cal = source.calibration();
     // The AR background: the camera's picture remapped to the renderer's pinhole.
     const LensUndistortion lens(cal.intrinsics);
-    cv::Mat background;  // the newest picture, undistorted (remade once per new picture)
-    bool background_stale = true;
+    gl::RgbImage background_upload;  // the newest picture, undistorted (its buffer reused frame to frame)
+    bool background_stale = true;       // a new picture since the last upload
+    bool camera_background_set = false; // the renderer's background is the camera's picture
     ArPlacement placement;
     placement.object_radius_m = cfg.ar.object_radius_m;
     placement.model_bottom = render::model_bottom(mesh);
@@ -263,23 +264,46 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
     std::optional<tracking::TrackResult> last_track;
     int frame_no = 0;
     // One frame of every kind drawn before the clock starts: the driver compiles and allocates on
-    // first use, which no visitor frame should pay.
-    // Both backgrounds the visitor will see: the room (attract) and the camera's picture through
-    // its response (AR); each is a shader variant compiled at its first draw.
-    // The shadow's paths too (docs/kiosk.md, "Shadows"): the grey room's (no dominant light, the
-    // contact shadow of the object's spheres) until a room's own is made.
-    if (cfg.ar.shadows) renderer.enable_shadows(render::shadow_lighting(grey), render::occluder_spheres(mesh));
-    renderer.set_background_environment(grey);
-    renderer.draw_scene();
-    view.bind();
-    renderer.composite();
-    renderer.set_background_image(gl::RgbImage{8, 8, std::vector<std::uint8_t>(8 * 8 * 3, 128)});
+    // first use, which no visitor frame should pay. A software rasteriser (llvmpipe) compiles a
+    // shader again for every new combination of the textures bound to it (their formats, and
+    // whether each side is a power of two), so the warm-up binds what the frames will bind:
+    // - the camera's response first (the frames always go through it once it is set);
+    // - both backgrounds, the room at the captured map's size (ATTRACT) and the camera's picture
+    //   at the camera's size (AR): an 8x8 picture left a 760 ms first AR frame;
+    // - the shadow (docs/kiosk.md, "Shadows") without and with a baked part: the grey room's
+    //   (no dominant light, the contact shadow of the object's spheres) until a room's own is
+    //   made, and a bake of the real bake's size that hides nothing (the first frame after the
+    //   room's bake arrived took 0.9 s before).
     renderer.set_camera_response(response, {10.0, 1.0});
-    renderer.draw_scene();
-    view.bind();
-    renderer.composite();
-    picture.draw_texture(view.texture(), true);
-    picture.upload(cv::Mat(8, 8, CV_8UC3, cv::Scalar(0, 0, 0)));
+    const int picture_width = std::max(1, cal.intrinsics.width), picture_height = std::max(1, cal.intrinsics.height);
+    const gl::RgbImage grey_picture{picture_width, picture_height,
+                                    std::vector<std::uint8_t>(std::size_t(picture_width) * std::size_t(picture_height) * 3, 128)};
+    HdrImage grey_room(std::max(2, cfg.capture.map_width), std::max(1, cfg.capture.map_height));
+    std::fill(grey_room.data().begin(), grey_room.data().end(), 0.5f);
+    const auto warm_frame = [&] {
+        renderer.draw_scene();
+        view.bind();
+        renderer.composite();
+        picture.draw_texture(view.texture(), true);
+    };
+    const auto warm_backgrounds = [&] {
+        renderer.set_background_environment(grey_room);
+        warm_frame();
+        renderer.set_background_image(grey_picture);
+        warm_frame();
+    };
+    const std::vector<render::OccluderSphere> occluders = render::occluder_spheres(mesh);
+    if (cfg.ar.shadows) {
+        const render::ShadowLighting grey_lighting = render::shadow_lighting(grey);
+        if (occluders.size() != 1) {  // a room's shadow will come with a bake (make_scene_shadow)
+            renderer.enable_shadows(grey_lighting, occluders);
+            renderer.set_shadow_bake(render::unshadowed_bake(render::ShadowBakeOptions{}.resolution, render::model_bottom(mesh)));
+            warm_backgrounds();
+        }
+        renderer.enable_shadows(grey_lighting, occluders);
+    }
+    warm_backgrounds();
+    picture.upload(cv::Mat(picture_height, picture_width, CV_8UC3, cv::Scalar(0, 0, 0)));
     picture.draw();
     glFinish();
     const WallClock::time_point wall_start = WallClock::now();
@@ -557,13 +581,18 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
         glClear(GL_COLOR_BUFFER_BIT);
         if (flow.state() == KioskState::Ar && last_track && last_track->has_pose && last_track->visibility > 0 && !last_rgb.empty()) {
             renderer.set_camera(ar_camera(world_from_camera, last_track->pose, cal.intrinsics, placement));
-            if (background_stale) {
-                background = lens.apply(last_rgb);
-                if (!background.isContinuous()) background = background.clone();
+            // The camera's picture, undistorted, goes to the renderer once per new picture (and
+            // after ATTRACT showed the room instead).
+            if (background_stale || !camera_background_set) {
+                cv::Mat undistorted = lens.apply(last_rgb);
+                if (!undistorted.isContinuous()) undistorted = undistorted.clone();
+                background_upload.width = undistorted.cols;
+                background_upload.height = undistorted.rows;
+                background_upload.pixels.assign(undistorted.data, undistorted.data + undistorted.total() * 3);
+                renderer.set_background_image(background_upload);
                 background_stale = false;
+                camera_background_set = true;
             }
-            renderer.set_background_image(gl::RgbImage{background.cols, background.rows,
-                                                       std::vector<std::uint8_t>(background.data, background.data + background.total() * 3)});
             renderer.set_camera_response(response, {last_frame.exposure_s * 1e3, last_frame.total_gain()});
             renderer.draw_scene();
             view.bind();
@@ -576,6 +605,7 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
             if (!attract_background_set) {  // 6 MB of texture: once per visit of ATTRACT
                 renderer.set_background_environment(env ? *env : *last_scene);
                 attract_background_set = true;
+                camera_background_set = false;
             }
             renderer.draw_scene();
             view.bind();
@@ -650,7 +680,12 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
             else window_keys.push_back(e);  // key down and up (the menu's chord tracks held modifiers)
         }
         if (flow.state() == KioskState::Ar && lit_wall_s < 0 && scan_end_wall_s >= 0) lit_wall_s = seconds_since(wall_start);
-        if (first_frame_s < 0) first_frame_s = process_age_s();
+        if (first_frame_s < 0) {
+            first_frame_s = process_age_s();
+            char line[96];
+            std::snprintf(line, sizeof line, "first frame on screen %.2f s after the process started", first_frame_s);
+            log(line);
+        }
         const double frame_ms = scheduler.end_frame();
         if (live_maps) live_maps->after_frame(frame_ms);
         ++frame_no;

@@ -12,12 +12,26 @@ out_md=${2:-tests/bench/results/kiosk.md}
 work=$(mktemp -d)
 trap 'rm -rf "$work"' EXIT
 load_before=$(cut -d' ' -f1-3 /proc/loadavg)
-"$build/appliance/app/glint" replay data/sessions/kiosk --out "$work/replay" --snapshot-every 0 > "$work/log" 2>&1
+# Start-up apart from the long run: Mesa keeps compiled shaders in a disk cache ($XDG_CACHE_HOME,
+# the unit's CacheDirectory=), so the first start after an install or a shader change compiles
+# every shader and the next ones read them. One start with an empty cache, then 5 with it filled;
+# each run is stopped once its first frame is logged.
+startup() {  # prints the seconds from the process's start to its first frame
+    rm -rf "$work/start"
+    XDG_CACHE_HOME="$work/cache" timeout 20 "$build/appliance/app/glint" replay data/sessions/kiosk --out "$work/start" \
+        --snapshot-every 0 2>&1 | sed -n 's/.*first frame on screen \([0-9.]*\) s.*/\1/p' | head -1 || true
+}
+cold=$(startup)
+warm=""
+for _ in 1 2 3 4 5; do warm="$warm $(startup)"; done
+XDG_CACHE_HOME="$work/cache" "$build/appliance/app/glint" replay data/sessions/kiosk --out "$work/replay" --snapshot-every 0 > "$work/log" 2>&1
 load_after=$(cut -d' ' -f1-3 /proc/loadavg)
-python3 - "$work/replay/summary.json" "$out_md" "$load_before" "$load_after" <<'PY'
-import json, sys, datetime, platform
+python3 - "$work/replay/summary.json" "$out_md" "$load_before" "$load_after" "$cold" "$warm" <<'PY'
+import json, sys, datetime, platform, statistics
 s = json.load(open(sys.argv[1]))
 out, before, after = sys.argv[2], sys.argv[3], sys.argv[4]
+cold = float(sys.argv[5]) if sys.argv[5] else float("nan")
+warm = [float(x) for x in sys.argv[6].split()]
 cpu = next((l.split(":", 1)[1].strip() for l in open("/proc/cpuinfo") if l.startswith("model name")), platform.machine())
 f = s["frame_ms"]
 budget = f["budget"]
@@ -45,7 +59,10 @@ lines += [
     "",
     "| figure | value | target |",
     "|---|---|---|",
-    f"| process start to the first frame on screen | {s['startup_to_first_frame_s']:.2f} s | <= 1.5 s |",
+    f"| process start to the first frame on screen, shader cache filled (median of {len(warm)} starts; all: "
+    f"{', '.join(f'{x:.2f}' for x in warm)}) | {statistics.median(warm) if warm else float('nan'):.2f} s | <= 1.5 s |",
+    f"| ... with an empty shader cache (the first start after an install or a shader change) | {cold:.2f} s | |",
+    f"| ... in the long run below (cache filled) | {s['startup_to_first_frame_s']:.2f} s | |",
     f"| the scan's last frame to the lit object on screen (coarse maps) | {s['scan_end_to_lit_s']:.2f} s | <= 2 s |",
     f"| ... to the final maps (1 %, GPU engine in the frames' leftover time) | {s['scan_end_to_final_maps_s']:.2f} s | |",
     f"| the capture's last frame to the adjusted map | {s['capture']['last_frame_to_map_s']:.2f} s | |",
