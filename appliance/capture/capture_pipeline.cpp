@@ -610,8 +610,9 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
     summary.last_frame_to_map_seconds = since(t_last_frame) - truth_seconds;
     summary.coverage_path = coverage_path_for(o.out);
     // Coverage first: a reader that finds env.exr finds its coverage map too.
-    save_exr(summary.coverage_path, coverage_image(samples, map_acc.weights(), o.width, o.height, o.min_samples));
-    save_exr(o.out, env);
+    save_exr(summary.coverage_path, coverage_image(samples, map_acc.weights(), o.width, o.height, o.min_samples),
+             o.compression);
+    save_exr(o.out, env, o.compression);
     summary.last_frame_to_saved_seconds = since(t_last_frame) - truth_seconds;
     if (std::getenv("GLINT_CAPTURE_PROFILE"))
         std::fprintf(stderr,

@@ -16,6 +16,7 @@
 #include "appliance/capture/guided_capture.hpp"
 #include "appliance/capture/hdr_accumulator.hpp"
 #include "appliance/capture/session.hpp"
+#include "appliance/core/exr_io.hpp"
 
 namespace glint::gl {
 class GlContext;
@@ -33,6 +34,9 @@ struct CaptureOptions {
     // from the camera source given to run_capture.
     std::filesystem::path session;
     std::filesystem::path out;  // env.exr; the coverage map goes to <stem>.coverage.exr beside it
+    // How both are written: ZIP by default (`glint capture`); the kiosk writes them uncompressed,
+    // since its visitor waits for the write and float noise barely compresses (docs/kiosk.md).
+    ExrCompression compression = ExrCompression::Zip;
     int width = 1024, height = 512;
     OrientationInput orientations = OrientationInput::Sensors;
     bool drift_correction = true;  // align each frame to the sphere before accumulating it
