@@ -57,7 +57,8 @@ set(CPACK_DEBIAN_PACKAGE_GENERATE_SHLIBS OFF)  # no shared library of ours in th
 #   libegl-mesa0           the EGL vendor libglvnd's libEGL loads (KMS, headless, llvmpipe)
 #   libgl1-mesa-dri        Mesa's GPU drivers (and llvmpipe without a GPU), loaded by EGL and GBM
 #   systemd                systemd-sysusers and systemd-tmpfiles in postinst, the unit itself
-set(CPACK_DEBIAN_PACKAGE_DEPENDS "fonts-dejavu-core, libegl-mesa0, libgl1-mesa-dri, systemd")
+#   libjemalloc2           the kiosk's allocator, preloaded by glint-vision run/replay (core/memory.hpp)
+set(CPACK_DEBIAN_PACKAGE_DEPENDS "fonts-dejavu-core, libegl-mesa0, libgl1-mesa-dri, libjemalloc2, systemd")
 # libcamera-ipa: the image processing modules of most camera pipelines (the Raspberry Pi's
 # among them); the kiosk starts without it, so recommended, not required. udev: the sensor's
 # /dev/glint-sensor name and the GPIO group (not there in a container).

@@ -34,6 +34,7 @@ packages=(
   libembree-dev                        # ambient occlusion baked by ray tracing, glint bake-ao (appliance/render)
   help2man                             # man pages from each tool's --help (cmake/ManPages.cmake)
   dpkg-dev                             # dpkg-shlibdeps: the .deb's library dependencies (cmake/Packaging.cmake)
+  libjemalloc2                         # the kiosk's allocator, preloaded at run time (appliance/core/memory.hpp)
 )
 
 missing=()

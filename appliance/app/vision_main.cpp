@@ -6,10 +6,13 @@
 #include <cstring>
 
 int main(int argc, char** argv) {
-    // The kiosk runs for weeks and gives back what each visit freed; the one-shot commands keep
-    // freed buffers for speed (memory.hpp).
+    // The kiosk runs for weeks on jemalloc and gives back what each visit freed; the one-shot
+    // commands keep freed buffers for speed (memory.hpp).
     const bool kiosk = argc > 1 && (std::strcmp(argv[1], "run") == 0 || std::strcmp(argv[1], "replay") == 0);
-    if (kiosk) glint::bound_freed_memory();
+    if (kiosk) {
+        glint::reexec_with_kiosk_allocator(argv);  // returns when jemalloc is in place or not to be had
+        glint::bound_freed_memory();               // glibc's policy; nothing under jemalloc
+    }
     else glint::keep_freed_memory();
     constexpr glint::app::CommandRegistrar commands[] = {
         glint::app::add_simulate_command, glint::app::add_capture_command, glint::app::add_calibrate_command,

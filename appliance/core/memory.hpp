@@ -23,8 +23,31 @@ void keep_freed_memory();
 // start, before any thread is created.
 void bound_freed_memory();
 
-// Gives free memory inside malloc's heaps back to the kernel (malloc_trim: every arena, also
-// pages in the middle of a heap). Returns true when some was returned. Takes a few ms; the kiosk
+// The kiosk's allocator (`glint run`, `glint replay`): jemalloc, Debian's libjemalloc2, preloaded
+// by re-executing this program with LD_PRELOAD (a few ms, same PID, so systemd's notify and
+// watchdog are unaffected). glibc's malloc fragments over the kiosk's visits even with
+// bound_freed_memory: the soak measured +43 MiB resident from pass 1 to pass 2 with the heap in
+// use flat, and under jemalloc +5 MiB (tests/bench/results/soak.md). Returns (and the program
+// runs on glibc with bound_freed_memory) when jemalloc is preloaded already, when the library is
+// not installed, in a sanitizer build (ASan must own malloc), or when GLINT_KIOSK_ALLOCATOR=glibc
+// (valgrind, heap profilers). Call first thing in main, before any thread exists.
+void reexec_with_kiosk_allocator(char** argv);
+
+// The allocator serving malloc in this process: "jemalloc" or "glibc".
+const char* allocator_name();
+
+// What the allocator reports: bytes the program has allocated and not freed, and bytes the
+// allocator holds from the system for them (in use or kept free). glibc: mallinfo2 over every
+// arena plus the mapped blocks; jemalloc: stats.allocated and stats.resident. -1 when unknown.
+struct HeapUsage {
+    long long in_use_bytes = -1;
+    long long held_bytes = -1;
+};
+HeapUsage heap_usage();
+
+// Gives free memory inside malloc's heaps back to the kernel (glibc: malloc_trim, every arena,
+// also pages in the middle of a heap; jemalloc: every arena's dirty pages purged). Returns true
+// when some was returned (jemalloc: when the purge ran). Takes a few ms; the kiosk
 // calls it once a visit, when the scene's work is done, and the soak after each pass.
 bool return_freed_memory();
 

@@ -1,6 +1,5 @@
 #include "appliance/ui/kiosk_replay.hpp"
 
-#include <malloc.h>
 
 #include <algorithm>
 #include <chrono>
@@ -18,6 +17,7 @@
 #include "appliance/core/error_metrics.hpp"
 #include "appliance/core/errors.hpp"
 #include "appliance/core/exr_io.hpp"
+#include "appliance/core/memory.hpp"
 #include "appliance/gl/display.hpp"
 #include "appliance/gl/gl_objects.hpp"
 #include "appliance/render/maps.hpp"
@@ -114,8 +114,8 @@ struct ProcessSample {
     long rss_kib = -1;      // VmRSS
     long threads = -1;      // Threads
     long fds = -1;          // entries of /proc/self/fd, the listing's own descriptor not counted
-    long heap_kib = -1;     // malloc's bytes in use (mallinfo2: uordblks + hblkhd), all arenas
-    long heap_held_kib = -1;  // what malloc holds from the system (arena + hblkhd): in use or kept free
+    long heap_kib = -1;       // malloc's bytes in use (core/memory.hpp, heap_usage)
+    long heap_held_kib = -1;  // what malloc holds from the system: in use or kept free
     long gl[9] = {};        // live GL names per kind (kGlKinds), "other": every other GlName kind
 };
 
@@ -133,9 +133,9 @@ ProcessSample sample_process() {
     long fds = 0;
     for (fs::directory_iterator it("/proc/self/fd", ec), end; !ec && it != end; it.increment(ec)) ++fds;
     if (!ec) s.fds = fds - 1;
-    const struct mallinfo2 m = mallinfo2();
-    s.heap_kib = long((m.uordblks + m.hblkhd) / 1024);
-    s.heap_held_kib = long((m.arena + m.hblkhd) / 1024);
+    const HeapUsage heap = heap_usage();
+    s.heap_kib = long(heap.in_use_bytes / 1024);
+    s.heap_held_kib = long(heap.held_bytes / 1024);
     const long known[8] = {gl::GlTexture::live(), gl::GlFramebuffer::live(), gl::GlBuffer::live(), gl::GlVertexArray::live(),
                            gl::GlQuery::live(),   gl::GlProgramName::live(), gl::GlShader::live(), gl::GlFence::live()};
     long sum = 0;
@@ -204,6 +204,7 @@ json replay_pass(const ReplayOptions& o, KioskOptions k, const std::function<voi
     KioskResult r = o.faults.empty() ? run_kiosk(source, k, log) : run_kiosk(faulty, k, log);
     json& summary = r.summary;
     summary["session"] = fs::absolute(o.session).string();
+    summary["allocator"] = allocator_name();  // jemalloc in a kiosk, glibc where it is not installed
     summary["env_error"] = json();
     summary["irradiance_error"] = json();
     if (r.capture && r.capture->truth_error) summary["env_error"] = r.capture->truth_error->weighted_relative_rms;

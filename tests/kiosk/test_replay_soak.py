@@ -8,6 +8,7 @@ summary.json is written as without the flag. Without the flag no soak.csv is wri
 usage: test_replay_soak.py GLINT SHIPPED_SESSION WORK_DIR
 """
 import csv
+import glob
 import json
 import os
 import shutil
@@ -58,6 +59,11 @@ if passes:
           "each pass row has its frame count and percentiles")
     check(all(int(x["rss_kib"]) > 0 and int(x["heap_kib"]) > 0 for x in rows), "memory is sampled")
 summary = json.load(open(os.path.join(out, "summary.json"))) if r.returncode == 0 else {}
+# The kiosk re-executes itself on jemalloc where Debian's libjemalloc2 is installed (it is in
+# install-deps.sh and the .deb's Depends), else it stays on glibc (core/memory.hpp).
+jemalloc = glob.glob("/usr/lib/*/libjemalloc.so.2") + glob.glob("/usr/lib/libjemalloc.so.2")
+check(summary.get("allocator") == ("jemalloc" if jemalloc else "glibc"),
+      f"the kiosk's allocator is {'jemalloc' if jemalloc else 'glibc'}: {summary.get('allocator')}")
 check([s["name"] for s in summary.get("states", [])] == ["ATTRACT", "CAPTURE"],
       f"summary.json is the last pass's replay: {summary.get('states')}")
 

@@ -103,3 +103,20 @@ TEST(KeepFreedMemory, LargeBuffersComeFromTheHeapNotFromMmap) {
     EXPECT_EQ(mallinfo2().arena, arena_before) << "the heap grew again for a block it had freed";
     std::free(again);
 }
+
+// The allocator's own figures (core/memory.hpp, heap_usage): this test program runs on glibc, and
+// an 8 MiB block in use shows in what it reports, what it holds covering what is in use.
+TEST(HeapUsage, ReportsTheAllocatorAndABlockInUse) {
+    EXPECT_STREQ(glint::allocator_name(), "glibc");
+    const glint::HeapUsage before = glint::heap_usage();
+    ASSERT_GE(before.in_use_bytes, 0);
+    EXPECT_GE(before.held_bytes, before.in_use_bytes);
+    const std::size_t bytes = std::size_t(8) << 20;
+    char* block = static_cast<char*>(std::malloc(bytes));
+    ASSERT_NE(block, nullptr);
+    static_cast<volatile char*>(block)[bytes - 1] = 1;
+    const glint::HeapUsage during = glint::heap_usage();
+    std::free(block);
+    EXPECT_GE(during.in_use_bytes - before.in_use_bytes, static_cast<long long>(bytes));
+    EXPECT_GE(during.held_bytes, during.in_use_bytes);
+}
