@@ -148,7 +148,7 @@ struct OverlayState {
                     else context.log("maintenance menu: no lamp to test (no GPIO)");
                 } else if (a.kind == ui::MenuAction::Kind::Export) {
                     try {
-                        export_result = export_scene(a.export_items, {context.maps_dir, context.frames_dir, context.sessions_dir},
+                        export_result = export_scene(a.export_items, {context.maps_dir, context.frames_dir, context.sessions_dir, model.shading_maps},
                                                      context.config.state.export_dir, utc_stamp())
                                             .summary();
                     } catch (const std::exception& e) {

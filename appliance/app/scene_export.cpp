@@ -8,8 +8,12 @@
 #include <ctime>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "appliance/core/atomic_file.hpp"
 #include "appliance/core/errors.hpp"
+#include "appliance/core/exr_io.hpp"
+#include "appliance/render/maps.hpp"
 
 namespace glint::app {
 namespace fs = std::filesystem;
@@ -64,7 +68,21 @@ ExportResult export_scene(std::uint8_t items, const ExportSources& from, const f
     if ((items & 8) && fs::is_directory(from.sessions_dir, ec))
         for (const fs::directory_entry& e : fs::recursive_directory_iterator(from.sessions_dir))
             if (e.is_regular_file()) files.emplace_back(e.path(), fs::path("sessions") / fs::relative(e.path(), from.sessions_dir));
-    if (files.empty()) throw InputError("export: nothing to export (no map, frames or sessions of the kinds asked for)");
+    // The shading maps, from memory: (image, name under the export, where it came from).
+    struct MapToWrite {
+        const HdrImage* image;
+        fs::path name;
+        std::string from;
+    };
+    std::vector<MapToWrite> maps;
+    if ((items & 2) && from.shading_maps) {
+        const render::ShadingMaps& m = *from.shading_maps;
+        if (m.irradiance) maps.push_back({&*m.irradiance, "maps/irradiance.exr", m.irradiance_from});
+        for (const render::ReflectionMap& r : m.reflections)
+            maps.push_back({&r.image, fs::path("maps") / (r.request.label + ".exr"), r.from});
+    }
+    if (files.empty() && maps.empty())
+        throw InputError("export: nothing to export (no map, frames or sessions of the kinds asked for)");
 
     // Leftovers of an export cut short are removed first.
     for (const fs::directory_entry& e : fs::directory_iterator(export_dir, ec))
@@ -76,6 +94,19 @@ ExportResult export_scene(std::uint8_t items, const ExportSources& from, const f
     try {
         for (const auto& [source, name] : files) {
             r.bytes += copy_synced(source, partial / name);
+            ++r.files;
+        }
+        if (!maps.empty()) {
+            nlohmann::json index = nlohmann::json::object();
+            for (const MapToWrite& m : maps) {
+                fs::create_directories((partial / m.name).parent_path());
+                save_exr(partial / m.name, *m.image, ExrCompression::None);  // synced by save_exr
+                r.bytes += fs::file_size(partial / m.name);
+                ++r.files;
+                index[m.name.filename().string()] = {{"width", m.image->width()}, {"height", m.image->height()}, {"from", m.from}};
+            }
+            write_text_atomically(partial / "maps" / "maps.json", index.dump(2) + "\n");
+            r.bytes += fs::file_size(partial / "maps" / "maps.json");
             ++r.files;
         }
         sync_directory(partial);

@@ -550,6 +550,7 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
         model.t_in_state_s = t_s - flow.entered_s();
         model.message = flow.message(t_s);
         model.degraded = display->degraded();
+        model.shading_maps = have_scene ? &maps : nullptr;
         const std::int64_t frame_t_ns = last_frame.t_ns;
         const std::optional<glm::dquat> world_from_sensor =
             source.world_from_sensor(frame_t_ns + std::int64_t(std::llround(cal.time_offset_s * 1e9)));

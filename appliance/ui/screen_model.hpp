@@ -7,6 +7,10 @@
 #include <string>
 #include <vector>
 
+namespace glint::render {
+struct ShadingMaps;
+}
+
 namespace glint::ui {
 
 enum class KioskState : std::uint8_t { Attract, Capture, Processing, Ar };
@@ -76,6 +80,9 @@ struct ScreenModel {
     bool sensor_lost = false;       // "sensor lost, please wait"
     bool camera_lost = false;       // "camera restarting, please wait"
     DeviceView devices;
+    // The maps the object is lit with now, for the menu's export (null before a room is lit; the
+    // kiosk loop's own, valid for the frame).
+    const render::ShadingMaps* shading_maps = nullptr;
 };
 
 }  // namespace glint::ui

@@ -47,7 +47,8 @@ def main():
         "frame times are the loaded machine's, compare passes within this run only.",
         "",
         "Rows are sampled between passes (after a pass's kiosk loop, source and GL objects are gone). "
-        "Start: after pass 1 (the warm-up). RSS: VmRSS; heap: malloc's bytes in use (mallinfo2); "
+        "Start: after pass 1 (the warm-up). RSS: VmRSS; heap: the allocator's bytes in use (core/memory.hpp "
+        "heap_usage: jemalloc's stats.allocated, or glibc's mallinfo2); "
         "descriptors: /proc/self/fd; GL: names alive in the RAII wrappers of appliance/gl/gl_objects.hpp "
         "(the headless display's own two renderbuffers are raw calls and not counted).",
         "",
@@ -75,7 +76,7 @@ def main():
         lines.append(f"| resident memory from pass 2 to the end | {mib(end, 'rss_kib') - mib(p2, 'rss_kib'):+.2f} MiB | "
                      f"< {RSS_TARGET_MIB:.0f} MiB | {ok(mib(end, 'rss_kib') - mib(p2, 'rss_kib') < RSS_TARGET_MIB)} |")
     if "heap_held_kib" in start:
-        lines.append(f"| heap held from the system (mallinfo2 arena + hblkhd) | "
+        lines.append(f"| heap held from the system (jemalloc stats.resident, or glibc mallinfo2 arena + hblkhd) | "
                      f"{mib(end, 'heap_held_kib') - mib(start, 'heap_held_kib'):+.2f} MiB | | |")
     lines += [
         "",

@@ -7,8 +7,13 @@
 #include <filesystem>
 #include <fstream>
 
+#include <nlohmann/json.hpp>
+
 #include "appliance/app/scene_export.hpp"
 #include "appliance/core/errors.hpp"
+#include "appliance/core/exr_io.hpp"
+#include "appliance/render/maps.hpp"
+#include "appliance/render/material.hpp"
 
 namespace glint::app {
 namespace {
@@ -72,8 +77,34 @@ TEST_F(SceneExport, ErrorsNameThePlaceAtFault) {
         EXPECT_NE(std::string(e.what()).find("no-stick"), std::string::npos) << e.what();
     }
     EXPECT_THROW(export_scene(1, {"", "", ""}, root_ / "stick", "20261203-061500"), InputError);  // nothing to export
-    EXPECT_THROW(export_scene(2, sources(), root_ / "stick", "20261203-061500"), InputError);      // maps are not stored
+    EXPECT_THROW(export_scene(2, sources(), root_ / "stick", "20261203-061500"), InputError);      // no maps lit anything yet
     EXPECT_TRUE(fs::is_empty(root_ / "stick"));
+}
+
+// The shading maps are written from memory: each map whole (read back equal), and maps.json
+// saying each one's size and where it came from.
+TEST_F(SceneExport, WritesTheShadingMapsFromMemory) {
+    render::ShadingMaps maps;
+    HdrImage irradiance(8, 4);
+    for (std::size_t k = 0; k < irradiance.data().size(); ++k) irradiance.data()[k] = float(k) * 0.25f;
+    maps.irradiance = irradiance;
+    maps.irradiance_from = "live (GPU): sh";
+    HdrImage mirror(16, 8);
+    for (std::size_t k = 0; k < mirror.data().size(); ++k) mirror.data()[k] = 100.0f + 0.5f * float(k);  // positive: the loader sets negatives to 0
+    maps.set_reflection(render::parse_material("mirror"), mirror, "coarse: cone");
+    ExportSources from = sources();
+    from.shading_maps = &maps;
+    const ExportResult r = export_scene(2, from, root_ / "stick", "20261203-070000");
+    EXPECT_EQ(r.files, 3);  // irradiance.exr, mirror.exr, maps.json
+    const fs::path dir = root_ / "stick/glint-20261203-070000/maps";
+    EXPECT_EQ(load_exr(dir / "irradiance.exr").image.data(), irradiance.data());
+    const std::string lobe = maps.reflections.front().request.label;
+    EXPECT_EQ(load_exr(dir / (lobe + ".exr")).image.data(), mirror.data());
+    const nlohmann::json index = nlohmann::json::parse(std::ifstream(dir / "maps.json"));
+    EXPECT_EQ(index["irradiance.exr"]["width"], 8);
+    EXPECT_EQ(index["irradiance.exr"]["from"], "live (GPU): sh");
+    EXPECT_EQ(index[lobe + ".exr"]["from"], "coarse: cone");
+    EXPECT_FALSE(fs::exists(root_ / "stick/glint-20261203-070000/env.exr"));  // only what was asked for
 }
 
 TEST(UtcStamp, HasTheDatedNamesShape) {
