@@ -244,6 +244,9 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
             return;
         }
         shadow_job = std::async(std::launch::async, [room, &mesh, table = render::model_bottom(mesh), threads] {
+            // Background work, like the final maps: it starts in the frame that enters AR, and at
+            // the frames' priority it took the cores from the first AR frames (one took 138 ms).
+            lower_this_thread_priority();
             return make_scene_shadow(room, mesh, table, threads);
         });
     };
