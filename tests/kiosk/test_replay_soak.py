@@ -14,6 +14,8 @@ import shutil
 import subprocess
 import sys
 
+from glint_test_util import scaled
+
 glint, shipped, work = sys.argv[1:4]
 failures = []
 
@@ -36,7 +38,7 @@ with open(os.path.join(shipped, "frames.csv")) as src, open(os.path.join(session
 
 def replay(out, *extra):
     return subprocess.run([glint, "replay", session, "--out", out, "--snapshot-every", "0", *extra],
-                          capture_output=True, text=True, timeout=600)
+                          capture_output=True, text=True, timeout=scaled(600))
 
 
 out = os.path.join(work, "soak")

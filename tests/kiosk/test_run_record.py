@@ -15,6 +15,8 @@ import subprocess
 import sys
 import time
 
+from glint_test_util import scaled
+
 glint, sensor_sim, calibration, work = sys.argv[1:5]
 shutil.rmtree(work, ignore_errors=True)
 os.makedirs(work)
@@ -58,7 +60,7 @@ try:
     t_term = time.monotonic()
     run.send_signal(signal.SIGTERM)
     try:
-        _, err = run.communicate(timeout=30)
+        _, err = run.communicate(timeout=scaled(30))
     except subprocess.TimeoutExpired:
         run.kill()
         _, err = run.communicate()
@@ -69,12 +71,12 @@ try:
     check("-> PROCESSING" not in err, "SIGTERM came while the scan was running")
     check(t_exit <= 2.0, f"SIGTERM in the middle of a scan: out within 2 s ({t_exit:.2f} s)")
     again = subprocess.run([glint, "run", "--config", config, "--record", record, "--max-seconds", "1"],
-                           capture_output=True, text=True, timeout=60)
+                           capture_output=True, text=True, timeout=scaled(60))
     check(again.returncode == 2 and "never written over" in again.stderr,
           "a second --record into the same directory is refused (exit 2, bad input): " + again.stderr.strip()[-160:])
 finally:
     board.terminate()
-    board.wait(timeout=10)
+    board.wait(timeout=scaled(10))
 
 lines = open(os.path.join(record, "frames.csv")).read().strip().splitlines()
 check(lines[0] == "index,t_ns,exposure_s,analogue_gain,digital_gain,file", "frames.csv header")
@@ -95,7 +97,7 @@ check(len(events) >= 2 and events[1].endswith(",button,press"), f"the press is i
 
 out = os.path.join(work, "replayed")
 r = subprocess.run([glint, "replay", record, "--out", out, "--snapshot-every", "0"], capture_output=True, text=True,
-                   timeout=300)
+                   timeout=scaled(300))
 print(r.stdout[-800:], r.stderr[-800:])
 check(r.returncode == 0, f"glint replay reads the recording (exit {r.returncode})")
 if r.returncode == 0:
