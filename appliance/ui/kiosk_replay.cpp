@@ -4,12 +4,29 @@
 
 #include <algorithm>
 #include <chrono>
+#include <cstddef>
 #include <cstdio>
 #include <fstream>
 #include <map>
 #include <optional>
 #include <sstream>
 #include <thread>
+
+// Under AddressSanitizer malloc is the sanitizer's own allocator and glibc's arenas stay empty
+// (mallinfo2 reads 0): the soak's heap figures come from the sanitizer's counters there.
+#if defined(__SANITIZE_ADDRESS__)
+#define GLINT_ASAN_ALLOCATOR 1
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define GLINT_ASAN_ALLOCATOR 1
+#endif
+#endif
+#ifdef GLINT_ASAN_ALLOCATOR
+// The sanitizer runtime's allocator statistics (clang's <sanitizer/allocator_interface.h>, which
+// GCC 12 does not ship).
+extern "C" std::size_t __sanitizer_get_current_allocated_bytes();
+extern "C" std::size_t __sanitizer_get_heap_size();
+#endif
 
 #include "appliance/capture/capture_pipeline.hpp"
 #include "appliance/capture/kiosk_session.hpp"
@@ -133,9 +150,14 @@ ProcessSample sample_process() {
     long fds = 0;
     for (fs::directory_iterator it("/proc/self/fd", ec), end; !ec && it != end; it.increment(ec)) ++fds;
     if (!ec) s.fds = fds - 1;
+#ifdef GLINT_ASAN_ALLOCATOR
+    s.heap_kib = long(__sanitizer_get_current_allocated_bytes() / 1024);
+    s.heap_held_kib = long(__sanitizer_get_heap_size() / 1024);
+#else
     const struct mallinfo2 m = mallinfo2();
     s.heap_kib = long((m.uordblks + m.hblkhd) / 1024);
     s.heap_held_kib = long((m.arena + m.hblkhd) / 1024);
+#endif
     const long known[8] = {gl::GlTexture::live(), gl::GlFramebuffer::live(), gl::GlBuffer::live(), gl::GlVertexArray::live(),
                            gl::GlQuery::live(),   gl::GlProgramName::live(), gl::GlShader::live(), gl::GlFence::live()};
     long sum = 0;
