@@ -19,12 +19,15 @@ if [ "${1:-}" = "--build-only" ]; then build_only=1; shift; fi
 if [ "${1:-}" = "--help" ] || [ "${1:-}" = "-h" ]; then sed -n '2,14p' "$0"; exit 0; fi
 
 flags="-fsanitize=address,undefined -fno-sanitize=vptr -fno-omit-frame-pointer"
+# The instrumented programs run several times slower: the tests' time limits (CTest TIMEOUTs and
+# the Python tests' waits) are multiplied by this; what the tests check does not change.
+time_scale=4
 launcher=()
 if command -v ccache >/dev/null; then launcher=(-DCMAKE_CXX_COMPILER_LAUNCHER=ccache); fi
 start=$(date +%s)
 cmake -S . -B build-asan -DCMAKE_BUILD_TYPE=RelWithDebInfo "${launcher[@]}" \
       -DCMAKE_CXX_FLAGS="$flags" -DCMAKE_EXE_LINKER_FLAGS="$flags" -DCMAKE_SHARED_LINKER_FLAGS="$flags" \
-      -DGLINT_BUILD_BENCH=OFF -DGLINT_FUZZ_REPLAY=ON >/dev/null
+      -DGLINT_BUILD_BENCH=OFF -DGLINT_FUZZ_REPLAY=ON -DGLINT_TEST_TIME_SCALE="$time_scale" >/dev/null
 cmake --build build-asan -j"$(nproc)"
 echo "run-sanitizers: build took $(( $(date +%s) - start )) s"
 [ "$build_only" = 1 ] && exit 0
@@ -40,6 +43,7 @@ export LD_PRELOAD="$PWD/build-asan/libglint_keep_loaded.so${LD_PRELOAD:+ $LD_PRE
 export ASAN_OPTIONS="halt_on_error=1:abort_on_error=0:detect_leaks=1:strict_string_checks=1:detect_stack_use_after_return=0:check_initialization_order=1:verify_asan_link_order=0"
 export UBSAN_OPTIONS="print_stacktrace=1:halt_on_error=1"
 export LSAN_OPTIONS="suppressions=$supp:print_suppressions=0"
+export GLINT_TEST_TIME_SCALE="$time_scale"
 start=$(date +%s)
 status=0
 ctest --test-dir build-asan --output-on-failure -j"$(nproc)" --timeout 1800 "$@" || status=$?

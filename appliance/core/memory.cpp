@@ -10,6 +10,22 @@
 
 #include <malloc.h>
 
+// Under AddressSanitizer malloc is the sanitizer's own allocator and glibc's arenas stay empty
+// (mallinfo2 reads 0): heap_usage reads the sanitizer's counters there.
+#if defined(__SANITIZE_ADDRESS__)
+#define GLINT_ASAN_ALLOCATOR 1
+#elif defined(__has_feature)
+#if __has_feature(address_sanitizer)
+#define GLINT_ASAN_ALLOCATOR 1
+#endif
+#endif
+#ifdef GLINT_ASAN_ALLOCATOR
+// The sanitizer runtime's allocator statistics (clang's <sanitizer/allocator_interface.h>, which
+// GCC 12 does not ship).
+extern "C" std::size_t __sanitizer_get_current_allocated_bytes();
+extern "C" std::size_t __sanitizer_get_heap_size();
+#endif
+
 namespace glint {
 
 namespace {
@@ -44,7 +60,7 @@ void bound_freed_memory() {
 }
 
 void reexec_with_kiosk_allocator(char** argv) {
-#if defined(__SANITIZE_ADDRESS__)
+#if defined(GLINT_ASAN_ALLOCATOR)
     (void)argv;  // AddressSanitizer replaces malloc itself; a preloaded allocator would break it
 #else
     if (jemalloc_mallctl()) return;  // preloaded already (by us or by the caller)
@@ -64,10 +80,21 @@ void reexec_with_kiosk_allocator(char** argv) {
 #endif
 }
 
-const char* allocator_name() { return jemalloc_mallctl() ? "jemalloc" : "glibc"; }
+const char* allocator_name() {
+#ifdef GLINT_ASAN_ALLOCATOR
+    return "asan";
+#else
+    return jemalloc_mallctl() ? "jemalloc" : "glibc";
+#endif
+}
 
 HeapUsage heap_usage() {
     HeapUsage u;
+#ifdef GLINT_ASAN_ALLOCATOR
+    u.in_use_bytes = static_cast<long long>(__sanitizer_get_current_allocated_bytes());
+    u.held_bytes = static_cast<long long>(__sanitizer_get_heap_size());
+    return u;
+#endif
     if (const Mallctl mallctl = jemalloc_mallctl()) {
         // The statistics are a snapshot taken when the epoch advances.
         std::uint64_t epoch = 1;

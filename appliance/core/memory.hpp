@@ -33,12 +33,14 @@ void bound_freed_memory();
 // (valgrind, heap profilers). Call first thing in main, before any thread exists.
 void reexec_with_kiosk_allocator(char** argv);
 
-// The allocator serving malloc in this process: "jemalloc" or "glibc".
+// The allocator serving malloc in this process: "jemalloc", "glibc", or "asan" in an
+// AddressSanitizer build.
 const char* allocator_name();
 
 // What the allocator reports: bytes the program has allocated and not freed, and bytes the
 // allocator holds from the system for them (in use or kept free). glibc: mallinfo2 over every
-// arena plus the mapped blocks; jemalloc: stats.allocated and stats.resident. -1 when unknown.
+// arena plus the mapped blocks; jemalloc: stats.allocated and stats.resident; AddressSanitizer:
+// its allocator's counters. -1 when unknown.
 struct HeapUsage {
     long long in_use_bytes = -1;
     long long held_bytes = -1;

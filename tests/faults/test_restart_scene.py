@@ -15,6 +15,10 @@ import shutil
 import subprocess
 import sys
 
+# The Python tests' shared helpers (GLINT_TEST_TIME_SCALE).
+sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "kiosk"))
+from glint_test_util import scaled  # noqa: E402
+
 glint, writer, session, work = sys.argv[1:5]
 shutil.rmtree(work, ignore_errors=True)
 os.makedirs(work)
@@ -48,7 +52,7 @@ dir = "{state}"
 
 def run(what):
     r = subprocess.run([glint, "run", "--config", config, "--max-seconds", "2"], capture_output=True, text=True,
-                       timeout=120)
+                       timeout=scaled(120))
     check(r.returncode == 0, f"{what}: glint run started and stopped cleanly (exit {r.returncode})")
     if r.returncode != 0:
         print(r.stderr[-3000:])
@@ -100,7 +104,7 @@ with open(config) as f:
     cfg = f.read()
 with open(config, "w") as f:
     f.write(cfg.replace(f'calibration = "{session}/calibration.json"', 'calibration = ""'))
-r = subprocess.run([glint, "run", "--config", config, "--max-seconds", "2"], capture_output=True, text=True, timeout=120)
+r = subprocess.run([glint, "run", "--config", config, "--max-seconds", "2"], capture_output=True, text=True, timeout=scaled(120))
 check(r.returncode == 2, f"a damaged calibration: glint run exits 2, bad input (got {r.returncode})")
 check("calibration.json: the camera calibration did not verify: calibration.json: checksum" in r.stderr and "set aside in" in r.stderr,
       "the error names the file and the reason: " + r.stderr.strip()[-300:])

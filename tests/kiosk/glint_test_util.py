@@ -1,10 +1,34 @@
 """What the tests that run glint as a process share: named checks that print ok/FAIL and decide the
 exit code, and a program's stderr read line by line on a thread, so that a test waits for the
 program's own log lines instead of for fixed times (a loaded machine starts glint slowly)."""
+import os
 import subprocess
 import sys
 import threading
 import time
+
+
+def _time_scale():
+    """GLINT_TEST_TIME_SCALE (default 1): how many times longer than usual the programs under test
+    may take. An instrumented build (scripts/run-sanitizers.sh sets 4) runs several times slower;
+    the tests' time limits, waits and the intervals they allow grow with it, what they check does
+    not change. Unset, every limit is as written."""
+    text = os.environ.get("GLINT_TEST_TIME_SCALE", "1")
+    try:
+        scale = float(text)
+    except ValueError:
+        sys.exit(f"GLINT_TEST_TIME_SCALE={text!r}: not a number")
+    if not scale >= 1:
+        sys.exit(f"GLINT_TEST_TIME_SCALE={text!r}: must be 1 or more")
+    return scale
+
+
+TIME_SCALE = _time_scale()
+
+
+def scaled(seconds):
+    """`seconds` (a time limit or a wait) times GLINT_TEST_TIME_SCALE."""
+    return seconds * TIME_SCALE
 
 
 class Checks:
@@ -34,9 +58,9 @@ class Process:
             self.lines.append(line)
 
     def wait_for(self, text, timeout_s):
-        """True once a stderr line holds `text`, False after timeout_s."""
+        """True once a stderr line holds `text`, False after timeout_s (times TIME_SCALE)."""
         t0 = time.monotonic()
-        while time.monotonic() - t0 < timeout_s:
+        while time.monotonic() - t0 < scaled(timeout_s):
             if any(text in line for line in self.lines):
                 return True
             if self.proc.poll() is not None and not self._reader.is_alive():
@@ -45,11 +69,12 @@ class Process:
         return False
 
     def stop(self, sig, timeout_s=30):
-        """Sends `sig`, waits (kills after timeout_s); returns the exit code and all of stderr."""
+        """Sends `sig`, waits (kills after timeout_s, times TIME_SCALE); returns the exit code and all
+        of stderr."""
         if self.proc.poll() is None:
             self.proc.send_signal(sig)
         try:
-            self.proc.wait(timeout=timeout_s)
+            self.proc.wait(timeout=scaled(timeout_s))
         except subprocess.TimeoutExpired:
             self.proc.kill()
             self.proc.wait()

@@ -14,9 +14,11 @@ import shutil
 import subprocess
 import sys
 
+from glint_test_util import scaled
+
 glint, session, out = sys.argv[1:4]
 shutil.rmtree(out, ignore_errors=True)
-r = subprocess.run([glint, "replay", session, "--out", out], capture_output=True, text=True, timeout=1500)
+r = subprocess.run([glint, "replay", session, "--out", out], capture_output=True, text=True, timeout=scaled(1500))
 print(r.stdout[-3000:])
 print(r.stderr[-3000:])
 failures = []

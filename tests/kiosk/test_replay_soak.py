@@ -15,6 +15,8 @@ import shutil
 import subprocess
 import sys
 
+from glint_test_util import scaled
+
 glint, shipped, work = sys.argv[1:4]
 failures = []
 
@@ -37,7 +39,7 @@ with open(os.path.join(shipped, "frames.csv")) as src, open(os.path.join(session
 
 def replay(out, *extra):
     return subprocess.run([glint, "replay", session, "--out", out, "--snapshot-every", "0", *extra],
-                          capture_output=True, text=True, timeout=600)
+                          capture_output=True, text=True, timeout=scaled(600))
 
 
 out = os.path.join(work, "soak")
@@ -62,7 +64,8 @@ summary = json.load(open(os.path.join(out, "summary.json"))) if r.returncode == 
 # The kiosk re-executes itself on jemalloc where Debian's libjemalloc2 is installed (it is in
 # install-deps.sh and the .deb's Depends), else it stays on glibc (core/memory.hpp).
 jemalloc = glob.glob("/usr/lib/*/libjemalloc.so.2") + glob.glob("/usr/lib/libjemalloc.so.2")
-check(summary.get("allocator") == ("jemalloc" if jemalloc else "glibc"),
+# (An AddressSanitizer build keeps the sanitizer's allocator: "asan".)
+check(summary.get("allocator") in ("jemalloc" if jemalloc else "glibc", "asan"),
       f"the kiosk's allocator is {'jemalloc' if jemalloc else 'glibc'}: {summary.get('allocator')}")
 check([s["name"] for s in summary.get("states", [])] == ["ATTRACT", "CAPTURE"],
       f"summary.json is the last pass's replay: {summary.get('states')}")

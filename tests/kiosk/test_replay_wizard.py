@@ -13,7 +13,7 @@ import subprocess
 import sys
 
 sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
-from glint_test_util import Checks  # noqa: E402
+from glint_test_util import Checks, scaled  # noqa: E402
 
 
 def main():
@@ -45,7 +45,7 @@ def main():
                 f"{apply_ns},key,space\n{apply_ns + 50_000_000},key_up,space\n")
 
     run = subprocess.run([glint, "replay", session, "--out", out, "--snapshot-every", "0"],
-                         capture_output=True, text=True, timeout=600)
+                         capture_output=True, text=True, timeout=scaled(600))
     print(run.stderr[-3000:])
     check = Checks()
     check(run.returncode == 0, f"glint replay exits 0 (got {run.returncode})")

@@ -26,7 +26,7 @@ import subprocess
 import sys
 import time
 
-from glint_test_util import Checks, Process
+from glint_test_util import Checks, Process, scaled
 
 glint, sensor_sim, calibration, work = sys.argv[1:5]
 shutil.rmtree(work, ignore_errors=True)
@@ -89,7 +89,7 @@ try:
     returncode, err = run.stop(signal.SIGTERM)
 finally:
     board.terminate()
-    board.wait(timeout=10)
+    board.wait(timeout=scaled(10))
 print(err[-3000:])
 check(returncode == 0, f"glint run rode the faults out and ended with 0 on SIGTERM (got {returncode})")
 check("scan paused" in err and "scan resumed" in err, "the scan paused while the devices were lost and resumed")
@@ -110,15 +110,15 @@ try:
                            env=env, stderr=subprocess.PIPE, text=True)
     t0 = time.monotonic()
     messages = []  # (t, text)
-    while run.poll() is None and time.monotonic() - t0 < 60:
+    while run.poll() is None and time.monotonic() - t0 < scaled(60):
         try:
             messages.append((time.monotonic() - t0, sock.recv(4096).decode()))
         except socket.timeout:
             pass
-    _, err = run.communicate(timeout=30)
+    _, err = run.communicate(timeout=scaled(30))
 finally:
     board.terminate()
-    board.wait(timeout=10)
+    board.wait(timeout=scaled(10))
 pings = [t for t, m in messages if "WATCHDOG=1" in m]
 ready = [t for t, m in messages if "READY=1" in m]
 check(run.returncode == 0, f"the stalled run ends with 0 (got {run.returncode}): {err[-300:]}")
@@ -133,10 +133,10 @@ check(any(t > (pings[0] if pings else 0) + 5 for t in pings), "pings again after
 board = start_board(None)
 try:
     r = subprocess.run([glint, "run", "--config", config, "--max-seconds", "20", "--inject-fault", "gl-lost:2"],
-                       capture_output=True, text=True, timeout=120)
+                       capture_output=True, text=True, timeout=scaled(120))
 finally:
     board.terminate()
-    board.wait(timeout=10)
+    board.wait(timeout=scaled(10))
 failed_lines = [l for l in r.stderr.splitlines() if "failed" in l]
 print(r.stderr[-600:])
 check(r.returncode == 1, f"a lost GL context exits with 1 (got {r.returncode})")
@@ -158,7 +158,7 @@ try:
     returncode, err = run.stop(signal.SIGTERM)
 finally:
     board.terminate()
-    board.wait(timeout=10)
+    board.wait(timeout=scaled(10))
 flood = [l for l in err.splitlines() if "input flood of" in l]
 print("\n".join(flood), err[-1500:])
 check(ended and alive, "the kiosk lived through the flood: " + (flood[0].strip() if flood else "no flood logged"))

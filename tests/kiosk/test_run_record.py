@@ -15,6 +15,8 @@ import subprocess
 import sys
 import time
 
+from glint_test_util import Process, scaled
+
 glint, sensor_sim, calibration, work = sys.argv[1:5]
 shutil.rmtree(work, ignore_errors=True)
 os.makedirs(work)
@@ -53,32 +55,30 @@ dir = "{work}/state"
 """)
 record = os.path.join(work, "recorded")
 try:
-    run = subprocess.Popen([glint, "run", "--config", config, "--record", record], stderr=subprocess.PIPE, text=True)
-    time.sleep(7)
+    run = Process([glint, "run", "--config", config, "--record", record])
+    # 5.5 s of the scan from the first frame on screen (about 7 s from the start on this machine;
+    # an instrumented build takes longer to start, hence the wait for the line, not a fixed time).
+    check(run.wait_for("first frame on screen", 60), "glint run --record started")
+    time.sleep(5.5)
     t_term = time.monotonic()
-    run.send_signal(signal.SIGTERM)
-    try:
-        _, err = run.communicate(timeout=30)
-    except subprocess.TimeoutExpired:
-        run.kill()
-        _, err = run.communicate()
+    returncode, err = run.stop(signal.SIGTERM)
     t_exit = time.monotonic() - t_term
     print(err[-1500:])
-    check(run.returncode == 0, f"glint run --record ends with 0 on SIGTERM (got {run.returncode})")
+    check(returncode == 0, f"glint run --record ends with 0 on SIGTERM (got {returncode})")
     check("ATTRACT -> CAPTURE" in err, "the board's button started a live scan")
     check("-> PROCESSING" not in err, "SIGTERM came while the scan was running")
-    check(t_exit <= 2.0, f"SIGTERM in the middle of a scan: out within 2 s ({t_exit:.2f} s)")
+    check(t_exit <= scaled(2.0), f"SIGTERM in the middle of a scan: out within {scaled(2.0):g} s ({t_exit:.2f} s)")
     again = subprocess.run([glint, "run", "--config", config, "--record", record, "--max-seconds", "1"],
-                           capture_output=True, text=True, timeout=60)
+                           capture_output=True, text=True, timeout=scaled(60))
     check(again.returncode == 2 and "never written over" in again.stderr,
           "a second --record into the same directory is refused (exit 2, bad input): " + again.stderr.strip()[-160:])
 finally:
     board.terminate()
-    board.wait(timeout=10)
+    board.wait(timeout=scaled(10))
 
 lines = open(os.path.join(record, "frames.csv")).read().strip().splitlines()
 check(lines[0] == "index,t_ns,exposure_s,analogue_gain,digital_gain,file", "frames.csv header")
-check(len(lines) - 1 >= 10, f"frames recorded: {len(lines) - 1} in 7 s at the simulator's 4 fps")
+check(len(lines) - 1 >= 10, f"frames recorded: {len(lines) - 1} in 5.5 s or more at the simulator's 4 fps")
 times = [int(l.split(",")[1]) for l in lines[1:]]
 # The scan's exposure control: the courtyard's sun clips the auto-exposed frames, and the
 # controller asks for frames 64 times shorter (the capture's brackets) while the visitor scans.
@@ -95,7 +95,7 @@ check(len(events) >= 2 and events[1].endswith(",button,press"), f"the press is i
 
 out = os.path.join(work, "replayed")
 r = subprocess.run([glint, "replay", record, "--out", out, "--snapshot-every", "0"], capture_output=True, text=True,
-                   timeout=300)
+                   timeout=scaled(300))
 print(r.stdout[-800:], r.stderr[-800:])
 check(r.returncode == 0, f"glint replay reads the recording (exit {r.returncode})")
 if r.returncode == 0:
