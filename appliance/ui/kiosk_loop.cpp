@@ -115,11 +115,12 @@ struct SceneShadow {
     double seconds = 0;
 };
 
-SceneShadow make_scene_shadow(const HdrImage& room, const render::Mesh& mesh, double table_height, int threads) {
+SceneShadow make_scene_shadow(const HdrImage& room, const render::Mesh& mesh,
+                              const std::vector<render::OccluderSphere>& occluders, double table_height, int threads) {
     const auto t0 = WallClock::now();
     SceneShadow s;
     s.lighting = render::shadow_lighting(room);
-    s.occluders = render::occluder_spheres(mesh);
+    s.occluders = occluders;
     if (s.occluders.size() != 1) {
         render::ShadowBakeOptions options;
         options.threads = threads;
@@ -235,6 +236,8 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
     bool attract_background_set = false;  // the renderer's background is the room now
     bool scene_requested = false;          // this visit's scene job has been started
     // The shadow of the room the object is lit by: one bake at a time; a newer room waits for it.
+    // The mesh's occluder spheres: the mesh does not change, so voxelised once for every room.
+    const std::vector<render::OccluderSphere> occluders = render::occluder_spheres(mesh);
     std::future<SceneShadow> shadow_job;
     std::optional<HdrImage> shadow_next;
     const auto start_shadow = [&](const HdrImage& room) {
@@ -243,11 +246,11 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
             shadow_next = room;  // after the running bake (a future from std::async blocks when dropped)
             return;
         }
-        shadow_job = std::async(std::launch::async, [room, &mesh, table = render::model_bottom(mesh), threads] {
+        shadow_job = std::async(std::launch::async, [room, &mesh, &occluders, table = render::model_bottom(mesh), threads] {
             // Background work, like the final maps: it starts in the frame that enters AR, and at
             // the frames' priority it took the cores from the first AR frames (one took 138 ms).
             lower_this_thread_priority();
-            return make_scene_shadow(room, mesh, table, threads);
+            return make_scene_shadow(room, mesh, occluders, table, threads);
         });
     };
     if (last_scene) start_shadow(*last_scene);
@@ -295,7 +298,6 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
         renderer.set_background_image(grey_picture);
         warm_frame();
     };
-    const std::vector<render::OccluderSphere> occluders = render::occluder_spheres(mesh);
     if (cfg.ar.shadows) {
         const render::ShadowLighting grey_lighting = render::shadow_lighting(grey);
         if (occluders.size() != 1) {  // a room's shadow will come with a bake (make_scene_shadow)
