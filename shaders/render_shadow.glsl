@@ -5,6 +5,11 @@
 // O_a: the ambient irradiance the spheres take (from maps of the ambient's irradiance per cap).
 // Evaluated where it is shown (render_composite.frag, render_background.frag) and into a target
 // for the AOV (render_shadow.frag). Needs equirect.glsl and render_lookup.glsl included before it.
+// SHADOW_BAKE_ONLY 1 (a frame whose bake holds the whole shadow): inside the baked grid as ever,
+// beyond it the table is open (1); the spheres' model is not compiled.
+#ifndef SHADOW_BAKE_ONLY
+#define SHADOW_BAKE_ONLY 0
+#endif
 #define MAX_LIGHTS 4
 #define MAX_SPHERES 64
 uniform vec3 u_eye;
@@ -105,7 +110,11 @@ vec4 table_shadow(vec3 ray) {
         return vec4(1.0, 1.0, 1.0, 0.0);
     }
     vec3 p = u_eye + t * ray;
+#if SHADOW_BAKE_ONLY
+    {
+#else
     if (u_has_bake) {
+#endif
         vec2 g = (p.xz - u_bake_origin) / u_bake_spacing;
         float last = float(u_bake_res - 1);
         if (g.x >= 0.0 && g.y >= 0.0 && g.x <= last && g.y <= last) {
@@ -124,7 +133,9 @@ vec4 table_shadow(vec3 ray) {
             return vec4(r, 1.0);
         }
     }
-
+#if SHADOW_BAKE_ONLY
+    return vec4(1.0, 1.0, 1.0, 1.0);
+#else
     float visible[MAX_LIGHTS];
     for (int i = 0; i < MAX_LIGHTS; ++i) visible[i] = 1.0;
     // The part of the ambient irradiance left: each sphere takes its share of what is left, as if
@@ -167,4 +178,5 @@ vec4 table_shadow(vec3 ray) {
     for (int c = 0; c < 3; ++c)
         if (unshadowed[c] > 0.0) ratio[c] = clamp(lit[c] / unshadowed[c], 0.0, 1.0);
     return vec4(ratio, 1.0);
+#endif
 }

@@ -15,6 +15,8 @@ namespace glint {
 namespace {
 
 thread_local bool in_parallel_body = false;
+// Set by lower_this_thread_priority: this thread's loops go to the background pool.
+thread_local bool background_thread = false;
 
 // One loop handed to the workers.
 struct Job {
@@ -44,6 +46,7 @@ struct Job {
 
 class Pool {
 public:
+    explicit Pool(bool background) : background_(background) {}
     ~Pool() {
         {
             std::lock_guard lock(mutex_);
@@ -75,6 +78,7 @@ public:
 
 private:
     void worker_loop(std::size_t id) {
+        if (background_) lower_this_thread_priority();
         unsigned long seen = 0;
         std::unique_lock lock(mutex_);
         for (;;) {
@@ -99,11 +103,17 @@ private:
     int pending_ = 0;
     unsigned long generation_ = 0;
     bool stopping_ = false;
+    bool background_;
 };
 
-Pool& pool() {
-    static Pool instance;
-    return instance;
+// Two pools: the loops of threads at normal priority (the capture, the scene's coarse maps), and
+// those of background work (the shadow bake, the final maps' CPU parts), whose workers run at
+// the lowered priority too. One pool for both let a background loop run on workers at normal
+// priority, taking the cores from the frames (measured: a 58 ms render in the frame that started
+// the room's shadow bake), and made a foreground loop wait for a background one.
+Pool& pool(bool background) {
+    static Pool foreground_pool(false), background_pool(true);
+    return background ? background_pool : foreground_pool;
 }
 
 }  // namespace
@@ -121,7 +131,7 @@ void parallel_for(int count, int threads, const std::function<void(int)>& body) 
         job.work();
         in_parallel_body = outer;
     } else {
-        pool().run(job, threads - 1);
+        pool(background_thread).run(job, threads - 1);
     }
     if (job.failure) std::rethrow_exception(job.failure);
 }
@@ -137,6 +147,7 @@ namespace glint {
 bool lower_this_thread_priority() {
     // On Linux, nice applies per thread (the thread id as the "process").
     const auto tid = static_cast<id_t>(syscall(SYS_gettid));
+    background_thread = true;
     return setpriority(PRIO_PROCESS, tid, 10) == 0;
 }
 

@@ -24,7 +24,9 @@ namespace glint {
 
 // Lowers the calling thread's scheduling priority (nice 10): for background
 // work like a convolution job, so the render thread and the GL driver's
-// threads keep the cores first. Returns false if the system refused.
+// threads keep the cores first. Its parallel_for loops from then on run on a
+// pool of their own whose workers are lowered too. Returns false if the
+// system refused.
 bool lower_this_thread_priority();
 
 }  // namespace glint

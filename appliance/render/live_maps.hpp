@@ -8,6 +8,7 @@
 #pragma once
 
 #include <atomic>
+#include <condition_variable>
 #include <exception>
 #include <memory>
 #include <mutex>
@@ -27,38 +28,64 @@ namespace glint::render {
 // fair light (a 32-wide irradiance map is within a few per cent; glossy lobes are blurred).
 ShadingMaps coarse_maps(const HdrImage& environment, const std::vector<Material>& materials, int threads = 0);
 
+// A worker thread with its own GL context (sharing the render thread's objects) and the GPU
+// engine's programs, made once and kept: each job (an environment and its materials) runs on it
+// in the slices the render thread grants. The kiosk makes it at start-up, so that a visitor's
+// frame never waits for a context to be made or a program to be compiled: llvmpipe compiles
+// under a lock the render thread's draws need, and the worker's low priority then stalled the
+// frame in which the maps arrived (the kiosk's PROCESSING frame of 92-108 ms).
 class LiveMaps {
 public:
-    // Starts the final maps' job. `main` is the render thread's context, current on the caller's
-    // thread: the worker's context shares its objects. frame_budget_ms: the frame period the
-    // render loop aims at (what it grants is that minus the frame's own time). Returns once the
-    // worker's context is made and its programs compiled (the driver may hold a lock while it
-    // compiles: at start-up, not in the middle of a frame).
-    // wait_until_ready = false (the kiosk, mid-flow): returns at once; the worker makes its
-    // context and programs while the frames go on (measured: no frame of the replay got slower).
+    // Starts the worker. `main` is the render thread's context, current on the caller's thread:
+    // the worker's context shares its objects. frame_budget_ms: the frame period the render loop
+    // aims at (what it grants is that minus the frame's own time). wait_until_ready: returns
+    // once the worker's context is made and its programs compiled (else at once; a job started
+    // before then waits for them).
+    LiveMaps(const gl::GlContext& main, double frame_budget_ms, bool wait_until_ready = true);
+    // A worker with its first job started (glint render --live-maps).
     LiveMaps(const gl::GlContext& main, const HdrImage& environment, std::vector<Material> materials,
              double frame_budget_ms, bool wait_until_ready = true);
     ~LiveMaps();  // cancels the job and joins the worker
     LiveMaps(const LiveMaps&) = delete;
     LiveMaps& operator=(const LiveMaps&) = delete;
 
+    // Render thread: starts the final maps (tolerance 1 %) of `environment`. A job still running
+    // is cancelled first (this waits for its next tile); its maps are dropped.
+    void start(const HdrImage& environment, std::vector<Material> materials);
+    // The worker's context and programs are made (or failed: the next job's take() says why).
+    bool ready() const { return ready_.load(); }
+
     // Render thread, after the frame: grants the job the rest of the budget (budget - frame_ms),
-    // returns the slice granted (0 when the frame used the budget up or the job is done).
+    // returns the slice granted (0 when the frame used the budget up, or no job is running).
     double after_frame(double frame_ms);
     // Render thread: grants slices until the job is done (the files of a still frame).
     void finish();
+    // The job last started is done (false before the first job).
     bool done() const { return done_.load(); }
     // The final maps, once, when done (empty before and after); rethrows the job's error.
     std::optional<ShadingMaps> take();
-    double seconds() const { return seconds_; }  // the job's wall time, when done
-    const convolution::gpu::TileStats& tiles() const { return tiles_; }
+    double seconds() const { return seconds_; }  // the last job's wall time from its start, when done
+    const convolution::gpu::TileStats& tiles() const { return tiles_; }  // the last job's tiles
     double budget_ms() const { return budget_ms_; }
 
 private:
+    struct Job {
+        HdrImage environment;
+        std::vector<Material> materials;
+    };
+    void run(const gl::GlContext& main);  // the worker thread
+
     double budget_ms_;
     convolution::gpu::FrameBudgetGate gate_;
     gl::EglDisplay display_;  // a reference on the renderer's EGL display, for the worker's context
-    std::atomic<bool> done_{false}, taken_{false}, ready_{false};
+    std::atomic<bool> done_{false}, ready_{false};
+    bool started_ = false, taken_ = false;  // render thread only
+    // Shared with the worker, under mutex_: the next job, the end of the worker, the last job's
+    // outcome (written before done_ is set).
+    std::mutex mutex_;
+    std::condition_variable wake_;
+    std::optional<Job> pending_;
+    bool running_ = false, quit_ = false;
     std::optional<ShadingMaps> result_;
     std::exception_ptr error_;
     double seconds_ = 0;

@@ -141,19 +141,10 @@ Renderer::Renderer(const Mesh& mesh, const std::vector<Material>& part_materials
         if (m.specular()) {
             const ReflectionMap* r = maps.reflection_for(m);
             if (!r) throw RuntimeError("renderer: the material " + m.spec + " needs the " + reflection_request(m).label + " map");
-            const auto already = std::find_if(draws_.begin(), draws_.end(), [&](const Draw& e) {
-                return e.material.specular() && reflection_request(e.material).label == r->request.label;
-            });
-            if (already != draws_.end()) {
-                d.reflection = already->reflection;
-            } else {
-                d.reflection = int(reflection_textures_.size());
-                reflection_textures_.push_back(upload_map(r->image, "reflection"));
-            }
+            d.reflection = int(r - maps.reflections.data());  // its texture: upload_maps below
         }
         draws_.push_back(std::move(d));
     }
-    const bool any_diffuse = std::any_of(draws_.begin(), draws_.end(), [](const Draw& d) { return d.material.diffuse(); });
     maps_ = maps;
     index_total_ = grouped.size();
 
@@ -195,7 +186,7 @@ Renderer::Renderer(const Mesh& mesh, const std::vector<Material>& part_materials
     glBindVertexArray(0);
     empty_vao_ = gl::GlVertexArray::create();
 
-    if (any_diffuse) irradiance_ = upload_map(*maps.irradiance, "irradiance");
+    upload_maps(maps);
 
     // The float targets and a depth buffer (the object may hide parts of itself).
     framebuffer_ = gl::GlFramebuffer::create();
@@ -455,7 +446,8 @@ const ToneMap& Renderer::meter(double key) {
 const gl::GlProgram& Renderer::composite_program() const {
     const int background = background_ == Background::Image ? 1 : background_ == Background::Environment ? 2 : 0;
     const int camera = !response_curve_ ? 0 : response_curve_->parametric() ? 1 : 2;
-    const int shadow = shadow_ ? 1 : 0;
+    // 2: the baked grid holds the whole shadow, and the spheres' model beyond it is compiled out.
+    const int shadow = !shadow_ ? 0 : shadow_->bake_holds_all() ? 2 : 1;
     const int key = background * 100 + camera * 10 + shadow;
     auto it = composite_programs_.find(key);
     if (it == composite_programs_.end())
@@ -510,12 +502,50 @@ void Renderer::replace_maps(const ShadingMaps& maps) {
         if (d.material.specular() && !maps.reflection_for(d.material))
             throw RuntimeError("renderer: the new maps have no " + reflection_request(d.material).label + " map");
     }
-    if (irradiance_.id() != 0 && maps.irradiance) irradiance_ = upload_map(*maps.irradiance, "irradiance");
-    for (const Draw& d : draws_)
-        if (d.reflection >= 0)
-            reflection_textures_[std::size_t(d.reflection)] = upload_map(maps.reflection_for(d.material)->image, "reflection");
+    for (Draw& d : draws_)
+        if (d.material.specular()) d.reflection = int(maps.reflection_for(d.material) - maps.reflections.data());
     maps_ = maps;
+    upload_maps(maps_, /*later=*/true);
     gl::check_gl("replacing the maps");
+}
+
+// Every map given gets a texture, not only those the current draws use: the kiosk's button
+// switches materials (set_uniform_material) between frames, and an upload then (8 MB for a
+// mirror's map of 1024x512) cost the visitor's frame 20-40 ms. The maps the draws use are uploaded
+// now; with `later`, the others wait for upload_pending_map (one a frame, in a frame with time to
+// spare: all at once cost the frame the final maps arrived in 34 ms).
+void Renderer::upload_maps(const ShadingMaps& maps, bool later) {
+    const auto drawn = [&](int k) {  // k: a reflection's index, -1 the irradiance
+        return std::any_of(draws_.begin(), draws_.end(),
+                           [&](const Draw& d) { return k < 0 ? d.material.diffuse() : d.reflection == k; });
+    };
+    pending_maps_.clear();
+    irradiance_ = gl::GlTexture{};
+    if (maps.irradiance) {
+        if (!later || drawn(-1)) irradiance_ = upload_map(*maps.irradiance, "irradiance");
+        else pending_maps_.push_back(-1);
+    }
+    reflection_textures_.clear();
+    reflection_textures_.resize(maps.reflections.size());
+    for (std::size_t k = 0; k < maps.reflections.size(); ++k) {
+        if (!later || drawn(int(k))) reflection_textures_[k] = upload_map(maps.reflections[k].image, "reflection");
+        else pending_maps_.push_back(int(k));
+    }
+}
+
+void Renderer::upload_map_now(int k) {
+    const auto it = std::find(pending_maps_.begin(), pending_maps_.end(), k);
+    if (it == pending_maps_.end()) return;
+    pending_maps_.erase(it);
+    if (k < 0) irradiance_ = upload_map(*maps_.irradiance, "irradiance");
+    else reflection_textures_[std::size_t(k)] = upload_map(maps_.reflections[std::size_t(k)].image, "reflection");
+}
+
+bool Renderer::upload_pending_map() {
+    if (pending_maps_.empty()) return false;
+    upload_map_now(pending_maps_.front());
+    gl::check_gl("uploading a map");
+    return true;
 }
 
 void Renderer::set_uniform_material(const Material& material) {
@@ -528,11 +558,10 @@ void Renderer::set_uniform_material(const Material& material) {
     d.material = material;
     d.first_index = 0;
     d.index_count = index_total_;
-    if (material.diffuse()) irradiance_ = upload_map(*maps_.irradiance, "irradiance");
+    if (material.diffuse()) upload_map_now(-1);  // if it is still waiting
     if (reflection) {
-        reflection_textures_.clear();
-        reflection_textures_.push_back(upload_map(reflection->image, "reflection"));
-        d.reflection = 0;
+        d.reflection = int(reflection - maps_.reflections.data());
+        upload_map_now(d.reflection);
     }
     draws_.assign(1, std::move(d));
     gl::check_gl("changing the material");

@@ -149,6 +149,10 @@ public:
     // materials without a renderer, and its shaders, per material). The maps last given (at
     // construction or by replace_maps) must hold its lobes; its maps are uploaded now.
     void set_uniform_material(const Material& material);
+    // replace_maps uploads the maps the draws use at once and the others (for the materials the
+    // button may switch to) one per call of this, from the frames with time to spare. Returns
+    // false when none is left. set_uniform_material uploads what it needs if it is still waiting.
+    bool upload_pending_map();
 
 private:
     std::vector<float> read_target(int k) const;  // rows top first
@@ -165,12 +169,15 @@ private:
     struct Draw {
         Material material;
         std::size_t first_index = 0, index_count = 0;
-        int reflection = -1;  // into reflection_textures_
+        int reflection = -1;  // into reflection_textures_ (and maps_.reflections)
     };
     std::vector<Draw> draws_;
     ShadingMaps maps_;             // the last maps given, for set_uniform_material
     std::size_t index_total_ = 0;  // indices of every part
-    std::vector<gl::GlTexture> reflection_textures_;
+    std::vector<gl::GlTexture> reflection_textures_;  // one per maps_.reflections, in order
+    void upload_maps(const ShadingMaps& maps, bool later = false);
+    void upload_map_now(int k);       // a pending map (k: a reflection, -1 the irradiance)
+    std::vector<int> pending_maps_;   // maps given but not uploaded yet (upload_pending_map)
     Background background_ = Background::Black;
     bool ao_ = true;
     ToneMap tone_;

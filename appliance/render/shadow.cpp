@@ -315,6 +315,7 @@ void TableShadowPass::set_bake(const ShadowBake& bake) {
     bake_lights_ = gl::make_float_texture(bake.resolution, bake.resolution, bake.lights.data());
     bake_ambient_ = gl::make_float_texture(bake.resolution, bake.resolution, bake.ambient.data());
     bake_res_ = bake.resolution;
+    bake_open_beyond_ = bake.open_beyond;
     bake_origin_ = glm::vec2(float(bake.origin.x), float(bake.origin.y));
     bake_spacing_ = float(bake.spacing);
     gl::check_gl("uploading the baked shadow");

@@ -112,6 +112,9 @@ public:
     // units kBakeUnit and kBakeUnit + 1 of every program that shows the shadow.
     void set_bake(const ShadowBake& bake);
     bool baked() const { return bake_res_ > 0; }
+    // The bake holds the whole shadow (ShadowBake::open_beyond): the frames may compile the
+    // spheres' model out (render_shadow.glsl's SHADOW_BAKE_ONLY); the AOV keeps it.
+    bool bake_holds_all() const { return bake_res_ > 0 && bake_open_beyond_; }
     static constexpr int kBakeUnit = 6;
     void set_table_height(double height) { table_height_ = height; }
 
@@ -127,6 +130,7 @@ private:
     gl::GlTexture caps_;  // the cap maps stacked
     gl::GlTexture bake_lights_, bake_ambient_;
     int bake_res_ = 0;
+    bool bake_open_beyond_ = false;
     glm::vec2 bake_origin_{0.0f};
     float bake_spacing_ = 0;
     gl::GlVertexArray empty_vao_;

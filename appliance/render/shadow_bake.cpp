@@ -4,6 +4,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <limits>
 
 #include "appliance/core/equirect.hpp"
 #include "appliance/core/errors.hpp"
@@ -21,9 +22,36 @@ struct Direction {
 
 }  // namespace
 
-ShadowBake unshadowed_bake(int resolution, double table_height) {
+namespace {
+
+// How far from the mesh's centre, along the table, light l's shadow of a mesh of bounding radius
+// `radius` whose top stands `top` above the table reaches: to the penumbra's far edge, where the
+// mesh's top is seen against the light's lowest rim. 0 for a light wholly below the horizon (it
+// lights no table point), infinity for one whose rim touches the horizon.
+double shadow_reach(const DominantLight& l, double radius, double top) {
+    const double beta = std::acos(std::clamp(1.0 - l.solid_angle / (2 * kPi), -1.0, 1.0));
+    const double elevation = std::asin(std::clamp(l.direction.y, -1.0, 1.0));
+    if (elevation + beta <= 0) return 0;
+    const double lowest = elevation - beta;
+    if (lowest <= 0) return std::numeric_limits<double>::infinity();
+    return radius + top / std::tan(lowest);
+}
+
+}  // namespace
+
+bool shadow_grid_holds_every_shadow(const ShadowLighting& lighting, double radius, double top, double half) {
+    // Contact occlusion: past 4 bounding radii the mesh takes under 1 % of the sky (the grid's
+    // least half side, ShadowBakeOptions::min_half_size).
+    if (half < 4 * radius) return false;
+    for (const DominantLight& l : lighting.lights)
+        if (shadow_reach(l, radius, top) > half) return false;
+    return true;
+}
+
+ShadowBake unshadowed_bake(int resolution, double table_height, bool open_beyond) {
     if (resolution < 2) throw InputError("shadow: a bake needs at least 2 points a side");
     ShadowBake b;
+    b.open_beyond = open_beyond;
     b.resolution = resolution;
     b.table_height = table_height;
     b.spacing = 1.0;
@@ -47,15 +75,14 @@ ShadowBake bake_table_shadow(const Mesh& mesh, const ShadowLighting& lighting, d
     const glm::dvec3& hi = bounds.hi;
     const double radius = std::max(bounds.radius, 1e-9);
 
-    // The grid: around the mesh, out to where each light's shadow of the mesh's top ends.
+    // The grid: around the mesh, out to where each light's shadow of the mesh's top ends, its
+    // penumbra included.
     double half = options.min_half_size * radius;
     const double top = hi.y - table_height;
-    for (const DominantLight& l : lighting.lights) {
-        const double elevation = std::asin(std::clamp(l.direction.y, 0.0, 1.0));
-        half = std::max(half, radius + top / std::tan(std::max(elevation, 1e-3)));
-    }
+    for (const DominantLight& l : lighting.lights) half = std::max(half, shadow_reach(l, radius, top));
     half = std::min(half, options.max_half_size * radius);
     ShadowBake out;
+    out.open_beyond = shadow_grid_holds_every_shadow(lighting, radius, top, half);
     out.resolution = options.resolution;
     out.table_height = table_height;
     out.spacing = 2 * half / (options.resolution - 1);

@@ -37,14 +37,24 @@ struct ShadowBake {
     std::vector<float> lights;
     // Per point, 4 floats: RGB = the share of the ambient irradiance left (1 - O_a / E_a), A = 1.
     std::vector<float> ambient;
+    // Beyond the grid the table is open: every light's shadow of the mesh, penumbra included,
+    // ends inside it, and the grid reaches 4 bounding radii, past which the mesh hides under 1 %
+    // of the sky. The display then draws the shadow from the grid alone (render_shadow.glsl's
+    // SHADOW_BAKE_ONLY: the analytic spheres' code, which cost 15 ms of a 17 ms composite at
+    // 320x180 on llvmpipe, is compiled out); else the spheres model the table beyond it.
+    bool open_beyond = false;
     long long rays = 0;      // traced (rays the bound's cone excludes are not)
     double seconds = 0;
 };
 
 // A bake that hides nothing (every light visible, all the ambient left) on a grid of
 // `resolution` points a side: the kiosk binds it during its warm-up so that the driver compiles
-// the baked shadow's shaders before a visitor's frame needs them.
-ShadowBake unshadowed_bake(int resolution, double table_height);
+// the baked shadow's shaders before a visitor's frame needs them (with open_beyond either way).
+ShadowBake unshadowed_bake(int resolution, double table_height, bool open_beyond = true);
+
+// Whether a grid of half side `half` around a mesh of bounding radius `radius`, whose top stands
+// `top` above the table, holds every light's shadow (ShadowBake::open_beyond).
+bool shadow_grid_holds_every_shadow(const ShadowLighting& lighting, double radius, double top, double half);
 
 // Throws InputError for a mesh without triangles, RuntimeError when Embree fails.
 ShadowBake bake_table_shadow(const Mesh& mesh, const ShadowLighting& lighting, double table_height,

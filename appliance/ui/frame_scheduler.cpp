@@ -8,6 +8,7 @@ namespace glint::ui {
 const char* frame_phase_name(FramePhase phase) {
     switch (phase) {
         case FramePhase::Camera: return "camera";
+        case FramePhase::Flow: return "flow";
         case FramePhase::Tracking: return "tracking";
         case FramePhase::Render: return "render";
         case FramePhase::Overlay: return "overlay";

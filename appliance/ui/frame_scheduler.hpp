@@ -15,7 +15,9 @@
 
 namespace glint::ui {
 
-enum class FramePhase : int { Camera = 0, Tracking, Render, Overlay, Present, Background, Count };
+// Flow: the state machine's checks and what they start or take in (a finished scan, the scene's
+// maps swapped in, the shadow and final maps' jobs started).
+enum class FramePhase : int { Camera = 0, Flow, Tracking, Render, Overlay, Present, Background, Count };
 const char* frame_phase_name(FramePhase phase);
 
 struct FrameTimes {

@@ -39,6 +39,7 @@
 #include "appliance/render/shadow.hpp"
 #include "appliance/render/shadow_bake.hpp"
 #include "appliance/tracking/board.hpp"
+#include "appliance/tracking/board_view.hpp"
 #include "appliance/tracking/tracker.hpp"
 #include "appliance/ui/ar_camera.hpp"
 #include "appliance/ui/capture_job.hpp"
@@ -228,7 +229,6 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
     std::optional<capture::CaptureSummary> capture_summary;
     std::future<NewScene> scene_job;
     std::vector<std::future<NewScene>> abandoned_scenes;  // a timed-out visit's job, left to finish
-    std::unique_ptr<render::LiveMaps> live_maps;
     std::optional<HdrImage> env;
     double scan_end_wall_s = -1, lit_wall_s = -1, final_maps_wall_s = -1;
     std::string scan_end_reason;
@@ -301,26 +301,55 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
     if (cfg.ar.shadows) {
         const render::ShadowLighting grey_lighting = render::shadow_lighting(grey);
         if (occluders.size() != 1) {  // a room's shadow will come with a bake (make_scene_shadow)
-            renderer.enable_shadows(grey_lighting, occluders);
-            renderer.set_shadow_bake(render::unshadowed_bake(render::ShadowBakeOptions{}.resolution, render::model_bottom(mesh)));
-            warm_backgrounds();
+            // Both kinds of bake: one that holds the whole shadow (the frames draw it alone) and
+            // one whose grid a low light's shadow outruns (the spheres' model beyond it).
+            for (const bool open_beyond : {true, false}) {
+                renderer.enable_shadows(grey_lighting, occluders);
+                renderer.set_shadow_bake(render::unshadowed_bake(render::ShadowBakeOptions{}.resolution,
+                                                                 render::model_bottom(mesh), open_beyond));
+                warm_backgrounds();
+            }
         }
         renderer.enable_shadows(grey_lighting, occluders);
     }
     warm_backgrounds();
-    // The first frames of AR: OpenCV's first board detection and first remap set up their tables
-    // and threads (measured: a 41 ms tracking step in the frame that entered AR). A tracker of
-    // its own, so that the real one's history starts with the visitor's frames.
+    // Every material the button cycles to: each binds another set of maps (matte the irradiance
+    // only, mirror the reflection only), which llvmpipe compiles a variant for (measured: the
+    // first press in AR took 149 ms, the second 52 ms).
+    for (std::size_t k = 1; k < materials.size(); ++k) {
+        renderer.set_uniform_material(materials[k]);
+        warm_frame();
+    }
+    if (materials.size() > 1) renderer.set_uniform_material(materials.front());
+    // The first frames of AR: OpenCV's first board detection, corner refinement, pose and first
+    // remap set up their tables and threads (measured: a 41 ms tracking step in the frame that
+    // entered AR; a black picture, with no marker found, left the first real detection at 37 ms).
+    // So the warm-up tracks the board itself, drawn at a plain pose filling most of the picture,
+    // with a tracker of its own, so that the real one's history starts with the visitor's frames.
     {
-        const cv::Mat black(picture_height, picture_width, CV_8UC3, cv::Scalar(0, 0, 0));
-        cv::Mat gray;
-        cv::cvtColor(lens.apply(black), gray, cv::COLOR_RGB2GRAY);
-        tracking::Tracker(board, tracking_camera(cal.intrinsics), glm::normalize(cal.sensor_from_camera * kGlFromCv))
-            .track(0.0, gray);
+        const tracking::Camera camera = tracking_camera(cal.intrinsics);
+        const double distance_m = camera.fy * board.height_m() / (0.7 * picture_height);
+        const cv::Mat board_gray = tracking::BoardRenderer(board, camera, /*supersample=*/1, /*texture_px_per_mm=*/2)
+                                       .render(tracking::view_pose(distance_m, 25, 30, 0), {}, 1);
+        cv::Mat board_rgb, gray;
+        cv::cvtColor(board_gray, board_rgb, cv::COLOR_GRAY2RGB);
+        tracking::Tracker warm_tracker(board, camera, glm::normalize(cal.sensor_from_camera * kGlFromCv));
+        int found = 0;
+        for (int k = 0; k < 2; ++k) {  // a first detection, then one from the predicted markers
+            cv::cvtColor(lens.apply(board_rgb), gray, cv::COLOR_RGB2GRAY);
+            found += warm_tracker.track(k * period_s, gray).detected ? 1 : 0;
+        }
+        if (found < 2) log("warm-up: the drawn board was found in " + std::to_string(found) + " of 2 pictures (the first AR frame may be slower)");
     }
     picture.upload(cv::Mat(picture_height, picture_width, CV_8UC3, cv::Scalar(0, 0, 0)));
     picture.draw();
     glFinish();
+    // The final maps' worker: its context and the GPU engine's programs are made now, on its own
+    // thread at low priority, while the first frames (ATTRACT) run. Made in the frame that
+    // received the scene, they stalled it (a PROCESSING frame of 92-108 ms).
+    const std::unique_ptr<render::LiveMaps> live_maps =
+        std::make_unique<render::LiveMaps>(display->context(), cfg.frame.budget_ms, /*wait_until_ready=*/false);
+    bool final_maps_due = false;  // this visit's final maps are being made
     const WallClock::time_point wall_start = WallClock::now();
 
     const auto snapshot = [&](const std::string& why) {
@@ -500,9 +529,9 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
                 maps = std::move(scene.maps);
                 picture.upload(scene.preview);
                 renderer.replace_maps(maps);
-                // The final maps' worker makes its context and programs while the frames go on.
-                live_maps = std::make_unique<render::LiveMaps>(display->context(), *env, materials, cfg.frame.budget_ms,
-                                                               /*wait_until_ready=*/false);
+                // The final maps on the worker made at start-up (its context and programs ready).
+                live_maps->start(*env, materials);
+                final_maps_due = true;
                 have_scene = true;
                 start_shadow(*env);
                 on_transition(flow.maps_ready(t_s));
@@ -510,7 +539,8 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
                 on_transition(flow.failure(t_s, "message.processing_failed", e.what()));
             }
         }
-        if (live_maps && live_maps->done() && final_maps_wall_s < 0) {
+        if (final_maps_due && live_maps->done()) {
+            final_maps_due = false;
             if (std::optional<render::ShadingMaps> final_maps = live_maps->take()) {
                 maps = *final_maps;
                 renderer.replace_maps(maps);
@@ -547,6 +577,8 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
         std::erase_if(abandoned_scenes, [](const std::future<NewScene>& f) {
             return f.wait_for(std::chrono::seconds(0)) == std::future_status::ready;
         });
+
+        scheduler.mark(FramePhase::Flow);
 
         // Tracking and the frame.
         ScreenModel model;
@@ -593,6 +625,9 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
         }
         scheduler.mark(FramePhase::Tracking);
         if (new_picture && !last_rgb.empty() && flow.state() != KioskState::Processing) picture.upload(last_rgb);
+        // A frame without a new picture draws nothing new (8-9 ms of 33): the renderer uploads
+        // one of the maps the button may switch to (8 MB for a mirror's).
+        else renderer.upload_pending_map();
         new_picture = false;
         if (flow.material() != renderer_material) {
             renderer.set_uniform_material(materials[std::size_t(flow.material())]);
@@ -710,7 +745,7 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
             log(line);
         }
         const double frame_ms = scheduler.end_frame();
-        if (live_maps) live_maps->after_frame(frame_ms);
+        live_maps->after_frame(frame_ms);
         ++frame_no;
 
         // The clock: the replay's own, at wall pace while the scan's map is finished (or always
@@ -724,7 +759,7 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
         if (o.progress) o.progress(t_s, 0);
         if (return_requested) break;
     }
-    if (live_maps && final_maps_wall_s < 0) {
+    if (final_maps_due) {
         live_maps->finish();  // the replay ended first: the maps are still made, for the figures
         if (std::optional<render::ShadingMaps> final_maps = live_maps->take()) maps = *final_maps;
         final_maps_wall_s = seconds_since(wall_start);

@@ -107,12 +107,12 @@ lines += [
     "",
     "The steady state's five slowest frames (ms; frames.csv):",
     "",
-    "| frame | state | total | camera | tracking | render | overlay | present |",
-    "|---|---|---|---|---|---|---|---|",
+    "| frame | state | total | camera | flow | tracking | render | overlay | present |",
+    "|---|---|---|---|---|---|---|---|---|",
 ]
 for r in sorted(frames, key=lambda r: float(r["ms"]), reverse=True)[:5]:
     lines.append(f"| {r['frame']} | {r['state']} | {float(r['ms']):.1f} | {float(r['camera_ms']):.1f} | "
-                 f"{float(r['tracking_ms']):.1f} | {float(r['render_ms']):.1f} | {float(r['overlay_ms']):.1f} | "
+                 f"{float(r.get('flow_ms', 'nan')):.1f} | {float(r['tracking_ms']):.1f} | {float(r['render_ms']):.1f} | {float(r['overlay_ms']):.1f} | "
                  f"{float(r['present_ms']):.1f} |")
 open(out, "w").write("\n".join(lines) + "\n")
 print("\n".join(lines))

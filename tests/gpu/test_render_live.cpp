@@ -90,5 +90,59 @@ TEST_F(RenderLive, FinalMapsComeOnlyInGrantedSlicesAndMatchTheCpuEngine) {
     EXPECT_GT(moved, 1e-3);
 }
 
+// The kiosk's worker lives for the whole run: made once (context and programs), then one job per
+// visitor's room. A room started while another is being made replaces it.
+TEST_F(RenderLive, OneWorkerMakesEachRoomsMapsInTurnAndANewRoomReplacesARunningJob) {
+    const HdrImage courtyard = test::small_blender_world("courtyard");
+    const HdrImage studio = test::small_blender_world("studio");
+    const std::vector<render::Material> materials = {render::parse_material("matte"), render::parse_material("glossy:20")};
+    render::LiveMaps live(context(), 40.0);
+    EXPECT_TRUE(live.ready());
+    EXPECT_FALSE(live.done());                 // no job yet
+    EXPECT_EQ(live.after_frame(10.0), 0.0);    // nothing to grant to
+    EXPECT_FALSE(live.take());
+    live.finish();                             // returns: nothing to finish
+
+    const auto run_to_end = [&] {
+        int frames = 0;
+        while (!live.done() && frames < 5000) {
+            live.after_frame(10.0);
+            ++frames;
+        }
+        EXPECT_TRUE(live.done());
+        return frames;
+    };
+    live.start(studio, materials);
+    run_to_end();
+    const std::optional<render::ShadingMaps> first = live.take();
+    ASSERT_TRUE(first && first->irradiance);
+    EXPECT_GT(live.tiles().tiles, 0);
+
+    // The next room: a few slices, then a newer room replaces it before it is done.
+    live.start(courtyard, materials);
+    EXPECT_FALSE(live.done());
+    live.after_frame(35.0);
+    live.start(studio, materials);
+    run_to_end();
+    const std::optional<render::ShadingMaps> again = live.take();
+    ASSERT_TRUE(again && again->irradiance);
+    EXPECT_FALSE(live.take());
+    // The same room gives the same maps on the same worker (the cancelled job left nothing behind).
+    EXPECT_LT(relative_rms(*again->irradiance, *first->irradiance), 1e-6);
+    EXPECT_LT(relative_rms(again->reflection_for(materials[1])->image, first->reflection_for(materials[1])->image), 1e-6);
+
+    // And another room's maps are that room's.
+    live.start(courtyard, materials);
+    live.finish();
+    const std::optional<render::ShadingMaps> third = live.take();
+    ASSERT_TRUE(third && third->irradiance);
+    convolution::Options cpu;
+    cpu.tolerance = 0.01;
+    cpu.threads = 2;
+    const render::ShadingMaps reference = render::convolve_maps(courtyard, materials, cpu);
+    EXPECT_LT(relative_rms(*third->irradiance, *reference.irradiance), 0.005);
+    EXPECT_GT(relative_rms(*third->irradiance, *first->irradiance), 0.05);  // not the studio's
+}
+
 }  // namespace
 }  // namespace glint

@@ -9,6 +9,7 @@
 #include <fstream>
 #include <unistd.h>
 
+#include "appliance/convolution/convolution.hpp"
 #include "appliance/core/errors.hpp"
 #include "appliance/render/maps.hpp"
 #include "appliance/render/material.hpp"
@@ -134,6 +135,46 @@ TEST_F(RenderMaterials, EachUsemtlGroupIsShadedWithItsOwnMaterialOneDrawPerMater
     EXPECT_FALSE(ghost.obj_materials[0].defined);
     EXPECT_EQ(render::part_materials(ghost, fallback, false).front().spec, "matte");
     fs::remove_all(dir);
+}
+
+// The kiosk's button: one renderer, its material switched between frames. After new maps arrive
+// (replace_maps) the maps of the other materials are uploaded one per call of upload_pending_map;
+// a switch draws with the new maps whether its map was uploaded yet or not.
+TEST_F(RenderMaterials, SwitchingMaterialsAfterNewMapsDrawsWithTheNewMaps) {
+    const render::Mesh sphere = render::make_uv_sphere(24, 48);
+    const std::vector<render::Material> materials = {render::parse_material("matte"), render::parse_material("glossy:20"),
+                                                     render::parse_material("mirror")};
+    const auto room = [](float r, float g, float b) {
+        HdrImage img(64, 32);
+        for (int j = 0; j < 32; ++j)
+            for (int i = 0; i < 64; ++i) img.set(i, j, {r * (1 + 0.02f * float(i)), g * (1 + 0.05f * float(j)), b});
+        return img;
+    };
+    convolution::Options o;
+    o.tolerance = 0.05;
+    o.size = convolution::Size{32, 16};
+    const render::ShadingMaps first = render::convolve_maps(room(0.2f, 0.3f, 0.4f), materials, o);
+    const render::ShadingMaps second = render::convolve_maps(room(0.9f, 0.5f, 0.1f), materials, o);
+    const auto radiance = [](render::Renderer& r) {
+        r.draw_scene();
+        return r.read_aovs().radiance;
+    };
+    for (const bool drain : {false, true}) {
+        render::Renderer r(sphere, materials[0], first, 48, 36);
+        EXPECT_FALSE(r.upload_pending_map());  // a new renderer has every map
+        r.replace_maps(second);
+        int uploads = 0;
+        while (drain && r.upload_pending_map()) ++uploads;
+        if (drain) {
+            EXPECT_EQ(uploads, 2);  // glossy's and mirror's maps; matte's is drawn
+        }
+        for (std::size_t k : {2u, 1u, 0u}) {
+            r.set_uniform_material(materials[k]);
+            render::Renderer direct(sphere, materials[k], second, 48, 36);
+            EXPECT_EQ(radiance(r), radiance(direct)) << materials[k].spec << (drain ? ", uploaded ahead" : ", uploaded at the switch");
+        }
+        EXPECT_FALSE(r.upload_pending_map());
+    }
 }
 
 }  // namespace

@@ -405,6 +405,113 @@ TEST_F(RenderShadow, BoxBakedAgainstTheBruteForceSum) {
     EXPECT_GT(bake.rays, 0);
 }
 
+// The frames draw the shadow from the baked grid alone when it holds the whole shadow (the light's
+// penumbra ends inside it, and it reaches 4 bounding radii): beyond the grid the table shows as it
+// is, where the AOV (the spheres' model beyond the grid) differs from open table by under 1 %.
+TEST_F(RenderShadow, AFrameFromTheBakeAloneAgreesWithTheFullModel) {
+    Camera c;
+    c.eye = {0, 5, 9};
+    c.target = {0, -0.5, 0};
+    const int w = 320, h = 180;
+    const glm::vec3 lo(-1.0f, -0.5f, -0.5f), hi(1.0f, 0.5f, 0.5f);
+    const render::Mesh box = box_mesh(lo, hi);
+    const double b = 3.0 * kPi / 180;
+    const HdrImage sky = sky_with_disc(256, 128, 0.3, {-0.5, 1.2, 0.4}, b, 4 * kPi * 0.3 / (kTwoPi * (1 - std::cos(b))));
+    const double table_y = render::model_bottom(box);
+    const render::Material m = render::parse_material("matte");
+    const render::ShadowLighting lighting = render::shadow_lighting(sky);
+    const render::ShadowBake bake = render::bake_table_shadow(box, lighting, table_y);
+    ASSERT_TRUE(bake.open_beyond);
+    gl::RgbImage grey;
+    grey.width = 2;
+    grey.height = 2;
+    grey.pixels.assign(12, 180);
+    gl::DisplayConfig config;
+    config.kind = "headless";
+    config.width = w;
+    config.height = h;
+    {
+        const auto display = gl::open_display(config);
+        render::Renderer r(box, m, constant_maps(m), w, h, c);
+        r.set_background_image(grey);
+        r.set_table(table_y);
+        r.enable_shadows(lighting, render::occluder_spheres(box));
+        r.set_shadow_bake(bake);
+        r.meter();
+        r.draw_scene();
+        display->bind_frame();
+        r.composite();
+        const gl::RgbImage frame = display->read_frame();
+        display->present();
+        const render::Aovs aovs = r.read_aovs();
+        auto decode = [](double v) { return v <= 0.04045 ? v / 12.92 : std::pow((v + 0.055) / 1.055, 2.4); };
+        auto encode = [](double v) { return v <= 0.0031308 ? 12.92 * v : 1.055 * std::pow(v, 1 / 2.4) - 0.055; };
+        const double last = bake.spacing * (bake.resolution - 1);
+        int inside = 0, beyond = 0, darkened_inside = 0;
+        double worst_inside = 0, lowest_beyond = 1, worst_beyond_code = 0;
+        for (int y = 0; y < h; ++y)
+            for (int x = 0; x < w; ++x) {
+                const std::size_t k = (std::size_t(y) * std::size_t(w) + std::size_t(x)) * 4;
+                if (aovs.radiance[k + 3] > 0) continue;  // the object covers it
+                glm::dvec3 p;
+                if (!table_point(c, w, h, table_y, x, y, p)) continue;
+                const double gx = p.x - bake.origin.x, gz = p.z - bake.origin.y;
+                // A pixel's centre may lie a hair either side of the grid's edge: not counted.
+                const double margin = 0.5 * bake.spacing;
+                const bool in = gx > margin && gz > margin && gx < last - margin && gz < last - margin;
+                const bool out = gx < -margin || gz < -margin || gx > last + margin || gz > last + margin;
+                const double ratio = lum_at(aovs.shadow, w, {x, y});
+                const double shown = frame.at(x, y)[1];
+                if (in) {
+                    ++inside;
+                    const double expected = 255 * encode(ratio * decode(180 / 255.0));
+                    worst_inside = std::max(worst_inside, std::abs(shown - expected));
+                    if (ratio < 0.9) ++darkened_inside;
+                } else if (out) {
+                    ++beyond;
+                    lowest_beyond = std::min(lowest_beyond, ratio);
+                    worst_beyond_code = std::max(worst_beyond_code, std::abs(shown - 180));
+                }
+            }
+        std::printf("bake alone: %d pixels inside the grid (%d darkened, worst %.2f codes off the AOV), %d beyond "
+                    "(shown within %.0f codes of the image; the full model's lowest ratio there %.4f)\n",
+                    inside, darkened_inside, worst_inside, beyond, worst_beyond_code, lowest_beyond);
+        EXPECT_GT(darkened_inside, 100);  // the shadow is there and drawn from the bake
+        EXPECT_GT(beyond, 1000);          // the test sees the table beyond the grid
+        EXPECT_LT(worst_inside, 1.5);
+        EXPECT_LE(worst_beyond_code, 0.0);  // open table: the image as it came
+        EXPECT_GT(lowest_beyond, 0.99);     // and what the full model would have darkened there
+    }
+    context().make_current();
+}
+
+TEST(RenderShadowGrid, HoldsEveryShadowOnlyWhenEachPenumbraEndsInsideIt) {
+    render::ShadowLighting lighting;
+    render::DominantLight high;
+    high.direction = glm::normalize(glm::dvec3(0.3, 1.0, 0.2));
+    high.solid_angle = kTwoPi * (1 - std::cos(3.0 * kPi / 180));
+    lighting.lights = {high};
+    const double radius = 1, top = 1.5;
+    // The high light's shadow ends within 2 radii; 4 radii are needed for the contact occlusion.
+    EXPECT_TRUE(render::shadow_grid_holds_every_shadow(lighting, radius, top, 4.0));
+    EXPECT_FALSE(render::shadow_grid_holds_every_shadow(lighting, radius, top, 3.9));
+    // A light 10 degrees up with a 3 degree rim: the penumbra ends at 1 + 1.5 / tan(7 degrees).
+    render::DominantLight low = high;
+    low.direction = glm::dvec3(std::cos(10.0 * kPi / 180), std::sin(10.0 * kPi / 180), 0);
+    lighting.lights = {high, low};
+    const double reach = radius + top / std::tan(7.0 * kPi / 180);
+    EXPECT_FALSE(render::shadow_grid_holds_every_shadow(lighting, radius, top, reach - 0.01));
+    EXPECT_TRUE(render::shadow_grid_holds_every_shadow(lighting, radius, top, reach + 0.01));
+    // A rim on the horizon: the shadow runs to infinity.
+    low.direction = glm::dvec3(std::cos(2.0 * kPi / 180), std::sin(2.0 * kPi / 180), 0);
+    lighting.lights = {high, low};
+    EXPECT_FALSE(render::shadow_grid_holds_every_shadow(lighting, radius, top, 1e6));
+    // Wholly below the horizon: it lights no table point and casts nothing on it.
+    low.direction = glm::dvec3(std::cos(5.0 * kPi / 180), -std::sin(5.0 * kPi / 180), 0);
+    lighting.lights = {high, low};
+    EXPECT_TRUE(render::shadow_grid_holds_every_shadow(lighting, radius, top, 4.0));
+}
+
 // A box (a proxy of a real thing) between the camera and the sphere hides the sphere's pixels
 // behind it: radiance 0 and alpha 0 there, the same elsewhere. The table at y = -0.5 hides what of
 // the sphere lies below it (the unit sphere's normal is its position).

@@ -2,7 +2,16 @@
 // nested loops, exceptions, and loops started from several threads at once.
 #include <gtest/gtest.h>
 
+#include <sys/resource.h>
+#include <sys/syscall.h>
+#include <unistd.h>
+
 #include <atomic>
+#include <cerrno>
+#include <chrono>
+#include <mutex>
+#include <set>
+#include <tuple>
 #include <stdexcept>
 #include <thread>
 #include <vector>
@@ -61,6 +70,42 @@ TEST(ParallelFor, LoopsFromSeveralThreadsTakeTurns) {
         });
     for (auto& t : callers) t.join();
     EXPECT_EQ(total.load(), 4L * 20 * (49 * 50 / 2));
+}
+
+int this_thread_nice() {
+    errno = 0;
+    return getpriority(PRIO_PROCESS, static_cast<id_t>(syscall(SYS_gettid)));
+}
+
+// Background work (the kiosk's shadow bake, the final maps' CPU parts) must not take the cores
+// from the frames through the pool: a lowered thread's loop runs on workers lowered as well, and
+// a normal thread's loop still on workers at its own priority.
+TEST(ParallelFor, ALoweredThreadsLoopRunsOnLoweredWorkers) {
+    const int caller_nice = this_thread_nice();
+    const auto nice_levels = [](int threads) {
+        std::mutex m;
+        std::set<int> levels;
+        std::set<std::thread::id> ids;
+        parallel_for(200, threads, [&](int) {
+            const int n = this_thread_nice();
+            std::this_thread::sleep_for(std::chrono::microseconds(200));  // every worker gets some
+            std::lock_guard lock(m);
+            levels.insert(n);
+            ids.insert(std::this_thread::get_id());
+        });
+        return std::make_pair(levels, ids.size());
+    };
+    std::set<int> background;
+    std::size_t background_threads = 0;
+    std::thread([&] {
+        ASSERT_TRUE(lower_this_thread_priority());
+        std::tie(background, background_threads) = nice_levels(3);
+    }).join();
+    EXPECT_GT(background_threads, 1u);  // the pool's workers took part
+    EXPECT_EQ(background, std::set<int>{10});
+    const auto [foreground, foreground_threads] = nice_levels(3);
+    EXPECT_GT(foreground_threads, 1u);
+    EXPECT_EQ(foreground, std::set<int>{caller_nice});
 }
 
 }  // namespace

@@ -32,6 +32,15 @@ void FrameBudgetGate::finish() {
     render_wake_.notify_all();
 }
 
+void FrameBudgetGate::reset() {
+    std::lock_guard lock(mutex_);
+    allowance_ = 0;
+    slice_open_ = false;
+    job_waiting_ = false;
+    cancelled_ = false;
+    finished_ = false;
+}
+
 double FrameBudgetGate::acquire() {
     std::unique_lock lock(mutex_);
     job_waiting_ = true;

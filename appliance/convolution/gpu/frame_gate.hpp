@@ -26,6 +26,9 @@ public:
     void cancel();
     // Job thread, when it returns or throws: releases a waiting render thread.
     void finish();
+    // Render thread, between two jobs (the job thread is not in the gate): opens the gate for
+    // the next job of a long-lived worker (render/live_maps.hpp).
+    void reset();
 
     // TileGate (job thread).
     double acquire() override;

@@ -47,6 +47,7 @@ public:
     // drawn into (already flushed): a progress view can show the maps filling in.
     void on_tile(std::function<void(const TileRect&, GLuint)> callback) { on_tile_ = std::move(callback); }
     const TileStats& stats() const { return stats_; }
+    void reset_stats() { stats_ = {}; }  // a long-lived engine counts each job apart
 
     // Draws `program` over every texel of `targets` in tiles. Used by the passes.
     // row_work: relative work of a texel of each output row (TileRunner).
