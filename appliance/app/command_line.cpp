@@ -1,5 +1,6 @@
 // The shared front of glint and glint-vision (command_line.hpp).
 #include "appliance/app/command_line.hpp"
+#include "appliance/core/memory.hpp"
 
 #include <unistd.h>
 
@@ -95,6 +96,8 @@ void exec_vision_command_if_named(int argc, char** argv) {
     const std::string vision_path = (self.parent_path() / "glint-vision").string();
     std::vector<char*> args(argv, argv + argc);
     args.push_back(nullptr);
+    // The kiosk's allocator chosen here, so that glint-vision starts once, already on it.
+    if (std::strcmp(name, "run") == 0 || std::strcmp(name, "replay") == 0) preload_kiosk_allocator_for_exec();
     ::execv(vision_path.c_str(), args.data());
     throw RuntimeError("'" + std::string(name) + "' runs in " + vision_path + ", which cannot be started: " +
                        std::strerror(errno));

@@ -59,25 +59,29 @@ void bound_freed_memory() {
     mallopt(M_ARENA_MAX, 2);
 }
 
-void reexec_with_kiosk_allocator(char** argv) {
+bool preload_kiosk_allocator_for_exec() {
 #if defined(GLINT_ASAN_ALLOCATOR)
-    (void)argv;  // AddressSanitizer replaces malloc itself; a preloaded allocator would break it
+    return false;  // AddressSanitizer replaces malloc itself; a preloaded allocator would break it
 #else
-    if (jemalloc_mallctl()) return;  // preloaded already (by us or by the caller)
+    if (jemalloc_mallctl()) return false;  // preloaded already: inherited as it is
     const char* choice = std::getenv("GLINT_KIOSK_ALLOCATOR");
-    if (choice && std::strcmp(choice, "glibc") == 0) return;
-    if (access(GLINT_JEMALLOC_PATH, R_OK) != 0) return;  // not installed: glibc, bound_freed_memory
-    // Once only: if the preload does not take (an LD_PRELOAD the loader refuses), the second run
-    // of this program goes on with glibc instead of re-executing again.
-    if (choice && std::strcmp(choice, "jemalloc-tried") == 0) return;
-    if (setenv("GLINT_KIOSK_ALLOCATOR", "jemalloc-tried", 1) != 0) return;
+    if (choice && std::strcmp(choice, "glibc") == 0) return false;
+    if (access(GLINT_JEMALLOC_PATH, R_OK) != 0) return false;  // not installed: glibc, bound_freed_memory
+    // Once only: if the preload does not take (an LD_PRELOAD the loader refuses), the next start
+    // of the program goes on with glibc instead of re-executing again.
+    if (choice && std::strcmp(choice, "jemalloc-tried") == 0) return false;
+    if (setenv("GLINT_KIOSK_ALLOCATOR", "jemalloc-tried", 1) != 0) return false;
     const char* preload = std::getenv("LD_PRELOAD");
     const std::string wanted =
         preload && *preload ? std::string(GLINT_JEMALLOC_PATH) + ":" + preload : std::string(GLINT_JEMALLOC_PATH);
-    if (setenv("LD_PRELOAD", wanted.c_str(), 1) != 0) return;
+    return setenv("LD_PRELOAD", wanted.c_str(), 1) == 0;
+#endif
+}
+
+void reexec_with_kiosk_allocator(char** argv) {
+    if (!preload_kiosk_allocator_for_exec()) return;
     execv("/proc/self/exe", argv);
     // Still here: run on glibc (bound_freed_memory), only with more growth over the visits.
-#endif
 }
 
 const char* allocator_name() {

@@ -33,6 +33,13 @@ void bound_freed_memory();
 // (valgrind, heap profilers). Call first thing in main, before any thread exists.
 void reexec_with_kiosk_allocator(char** argv);
 
+// The same choice for a program about to exec the kiosk: sets LD_PRELOAD (and marks the attempt)
+// in this process's environment, so that the exec'd program starts on jemalloc and need not
+// re-execute itself. `glint run` and `glint replay` exec glint-vision: each start of glint-vision
+// costs 0.2-0.35 s (173 shared libraries to load and initialise), which the kiosk's start-up
+// (target 1.5 s to the first frame) paid twice. Returns whether it set the preload.
+bool preload_kiosk_allocator_for_exec();
+
 // The allocator serving malloc in this process: "jemalloc", "glibc", or "asan" in an
 // AddressSanitizer build.
 const char* allocator_name();

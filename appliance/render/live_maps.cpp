@@ -85,7 +85,7 @@ void LiveMaps::run(const gl::GlContext& main) {
                     o.tolerance = 0.01;
                     o.threads = 1;  // the render thread keeps the other core
                     o.executor = &*engine;
-                    maps = convolve_maps(job.environment, job.materials, o);
+                    maps = convolve_maps(*job.environment, job.materials, o);
                     if (maps->irradiance) maps->irradiance_from = "live (GPU): " + maps->irradiance_from;
                     for (ReflectionMap& r : maps->reflections) r.from = "live (GPU): " + r.from;
                 } catch (const convolution::gpu::JobCancelled&) {
@@ -117,6 +117,11 @@ void LiveMaps::run(const gl::GlContext& main) {
 }
 
 void LiveMaps::start(const HdrImage& environment, std::vector<Material> materials) {
+    start(std::make_shared<const HdrImage>(environment), std::move(materials));
+}
+
+void LiveMaps::start(std::shared_ptr<const HdrImage> environment, std::vector<Material> materials) {
+    if (!environment) throw InputError("live maps: no environment map");
     std::unique_lock lock(mutex_);
     if (running_) {
         gate_.cancel();
@@ -127,7 +132,7 @@ void LiveMaps::start(const HdrImage& environment, std::vector<Material> material
     taken_ = false;
     result_.reset();
     error_ = nullptr;
-    pending_ = Job{environment, std::move(materials)};
+    pending_ = Job{std::move(environment), std::move(materials)};
     started_ = true;
     lock.unlock();
     wake_.notify_all();

@@ -52,6 +52,8 @@ public:
     // Render thread: starts the final maps (tolerance 1 %) of `environment`. A job still running
     // is cancelled first (this waits for its next tile); its maps are dropped.
     void start(const HdrImage& environment, std::vector<Material> materials);
+    // The same without a copy of the map (the kiosk shares its room with the shadow's job).
+    void start(std::shared_ptr<const HdrImage> environment, std::vector<Material> materials);
     // The worker's context and programs are made (or failed: the next job's take() says why).
     bool ready() const { return ready_.load(); }
 
@@ -70,7 +72,7 @@ public:
 
 private:
     struct Job {
-        HdrImage environment;
+        std::shared_ptr<const HdrImage> environment;
         std::vector<Material> materials;
     };
     void run(const gl::GlContext& main);  // the worker thread

@@ -286,8 +286,10 @@ for sig in TERM INT; do
     GLINT_TEST_HOLD_STAGING_MS=60000 "$GLINT" convolve "$work/in.exr" --out "$work/sig" --irradiance \
         --size 16x8 --engine cpu >"$work/stdout" 2>"$work/stderr" &
     pid=$!
+    # Until the staged report is there (the staging directory appears before its files: waiting
+    # for the directory alone failed on a loaded machine).
     for _ in $(seq 600); do
-        [[ -n $(find "$work/sig" -name '.glint-staging*' -print 2>/dev/null) ]] && break
+        [[ -n $(find "$work/sig" -path '*.glint-staging*' -name report.json -print 2>/dev/null) ]] && break
         sleep 0.05
     done
     [[ -f $(find "$work/sig" -path '*.glint-staging*' -name report.json -print | head -1) ]] ||
