@@ -361,6 +361,52 @@ TEST_F(RenderShadow, BoxSeenAsCellSpheresAgainstTheBruteForceSum) {
     EXPECT_LT(sum / double(points.size()), 0.09);
 }
 
+// A 2x2 picture of one grey level, a headless display, and sRGB's transfer curve both ways: the
+// frames' background and how the composite darkens it.
+gl::RgbImage grey_picture(std::uint8_t level) {
+    gl::RgbImage grey;
+    grey.width = 2;
+    grey.height = 2;
+    grey.pixels.assign(12, level);
+    return grey;
+}
+gl::DisplayConfig headless(int width, int height) {
+    gl::DisplayConfig config;
+    config.kind = "headless";
+    config.width = width;
+    config.height = height;
+    return config;
+}
+// The frame on the display: metered, drawn, composited, read back.
+gl::RgbImage shown_frame(render::Renderer& r, gl::Display& display) {
+    r.meter();
+    r.draw_scene();
+    display.bind_frame();
+    r.composite();
+    gl::RgbImage frame = display.read_frame();
+    display.present();
+    return frame;
+}
+double srgb_decode(double v) { return v <= 0.04045 ? v / 12.92 : std::pow((v + 0.055) / 1.055, 2.4); }
+double srgb_encode(double v) { return v <= 0.0031308 ? 12.92 * v : 1.055 * std::pow(v, 1 / 2.4) - 0.055; }
+
+// The 2 x 1 x 1 box standing on the table, under a uniform sky of 0.3 and a 3-degree disc light
+// towards `sun` that gives the table as much irradiance as the sky.
+struct BoxUnderDisc {
+    glm::vec3 lo{-1.0f, -0.5f, -0.5f}, hi{1.0f, 0.5f, 0.5f};
+    render::Mesh box;
+    HdrImage sky;
+    double table_y = 0;
+};
+BoxUnderDisc box_under_disc(const glm::dvec3& sun) {
+    BoxUnderDisc s;
+    s.box = box_mesh(s.lo, s.hi);
+    const double b = 3.0 * kPi / 180;
+    s.sky = sky_with_disc(256, 128, 0.3, sun, b, 4 * kPi * 0.3 / (kTwoPi * (1 - std::cos(b))));
+    s.table_y = render::model_bottom(s.box);
+    return s;
+}
+
 // The same box with its shadow baked by ray casting against the mesh itself (shadow_bake.hpp):
 // against the same brute-force sum at the same table points, and far closer than the spheres.
 TEST_F(RenderShadow, BoxBakedAgainstTheBruteForceSum) {
@@ -368,11 +414,11 @@ TEST_F(RenderShadow, BoxBakedAgainstTheBruteForceSum) {
     c.eye = {0, 4, 5};
     c.target = {0, -0.5, 0};
     const int w = 320, h = 240;
-    const glm::vec3 lo(-1.0f, -0.5f, -0.5f), hi(1.0f, 0.5f, 0.5f);
-    const render::Mesh box = box_mesh(lo, hi);
-    const double b = 3.0 * kPi / 180;
-    const HdrImage sky = sky_with_disc(256, 128, 0.3, {-0.5, 0.6, 0.4}, b, 4 * kPi * 0.3 / (kTwoPi * (1 - std::cos(b))));
-    const double table_y = render::model_bottom(box);
+    const BoxUnderDisc scene = box_under_disc({-0.5, 0.6, 0.4});
+    const glm::vec3 lo = scene.lo, hi = scene.hi;
+    const render::Mesh& box = scene.box;
+    const HdrImage& sky = scene.sky;
+    const double table_y = scene.table_y;
     const render::Material m = render::parse_material("matte");
     render::Renderer r(box, m, constant_maps(m), w, h, c);
     r.set_background_black();
@@ -413,23 +459,15 @@ TEST_F(RenderShadow, AFrameFromTheBakeAloneAgreesWithTheFullModel) {
     c.eye = {0, 5, 9};
     c.target = {0, -0.5, 0};
     const int w = 320, h = 180;
-    const glm::vec3 lo(-1.0f, -0.5f, -0.5f), hi(1.0f, 0.5f, 0.5f);
-    const render::Mesh box = box_mesh(lo, hi);
-    const double b = 3.0 * kPi / 180;
-    const HdrImage sky = sky_with_disc(256, 128, 0.3, {-0.5, 1.2, 0.4}, b, 4 * kPi * 0.3 / (kTwoPi * (1 - std::cos(b))));
-    const double table_y = render::model_bottom(box);
+    const BoxUnderDisc scene = box_under_disc({-0.5, 1.2, 0.4});  // a high sun
+    const render::Mesh& box = scene.box;
+    const double table_y = scene.table_y;
     const render::Material m = render::parse_material("matte");
-    const render::ShadowLighting lighting = render::shadow_lighting(sky);
+    const render::ShadowLighting lighting = render::shadow_lighting(scene.sky);
     const render::ShadowBake bake = render::bake_table_shadow(box, lighting, table_y);
     ASSERT_TRUE(bake.open_beyond);
-    gl::RgbImage grey;
-    grey.width = 2;
-    grey.height = 2;
-    grey.pixels.assign(12, 180);
-    gl::DisplayConfig config;
-    config.kind = "headless";
-    config.width = w;
-    config.height = h;
+    const gl::RgbImage grey = grey_picture(180);
+    const gl::DisplayConfig config = headless(w, h);
     {
         const auto display = gl::open_display(config);
         render::Renderer r(box, m, constant_maps(m), w, h, c);
@@ -437,15 +475,8 @@ TEST_F(RenderShadow, AFrameFromTheBakeAloneAgreesWithTheFullModel) {
         r.set_table(table_y);
         r.enable_shadows(lighting, render::occluder_spheres(box));
         r.set_shadow_bake(bake);
-        r.meter();
-        r.draw_scene();
-        display->bind_frame();
-        r.composite();
-        const gl::RgbImage frame = display->read_frame();
-        display->present();
+        const gl::RgbImage frame = shown_frame(r, *display);
         const render::Aovs aovs = r.read_aovs();
-        auto decode = [](double v) { return v <= 0.04045 ? v / 12.92 : std::pow((v + 0.055) / 1.055, 2.4); };
-        auto encode = [](double v) { return v <= 0.0031308 ? 12.92 * v : 1.055 * std::pow(v, 1 / 2.4) - 0.055; };
         const double last = bake.spacing * (bake.resolution - 1);
         int inside = 0, beyond = 0, darkened_inside = 0;
         double worst_inside = 0, lowest_beyond = 1, worst_beyond_code = 0;
@@ -464,7 +495,7 @@ TEST_F(RenderShadow, AFrameFromTheBakeAloneAgreesWithTheFullModel) {
                 const double shown = frame.at(x, y)[1];
                 if (in) {
                     ++inside;
-                    const double expected = 255 * encode(ratio * decode(180 / 255.0));
+                    const double expected = 255 * srgb_encode(ratio * srgb_decode(180 / 255.0));
                     worst_inside = std::max(worst_inside, std::abs(shown - expected));
                     if (ratio < 0.9) ++darkened_inside;
                 } else if (out) {
@@ -568,14 +599,8 @@ TEST_F(RenderShadow, ProxyAndTableHideTheObject) {
 TEST_F(RenderShadow, FrameDarkensTheImageByTheRatio) {
     const HdrImage sky = sky_with_disc(128, 64, 0.2, {0, 1, 0}, 4.0 * kPi / 180, 200.0);
     const render::Material m = render::parse_material("matte");
-    gl::RgbImage grey;
-    grey.width = 2;
-    grey.height = 2;
-    grey.pixels.assign(12, 180);
-    gl::DisplayConfig config;
-    config.kind = "headless";
-    config.width = 160;
-    config.height = 120;
+    const gl::RgbImage grey = grey_picture(180);
+    const gl::DisplayConfig config = headless(160, 120);
     Camera c;
     c.eye = {0, 3, 6};
     c.target = {0, -2, 0};
@@ -585,19 +610,12 @@ TEST_F(RenderShadow, FrameDarkensTheImageByTheRatio) {
         r.set_background_image(grey);
         r.set_table(-2);
         r.enable_shadows(render::shadow_lighting(sky), render::occluder_spheres(render::make_uv_sphere()));
-        r.meter();
-        r.draw_scene();
-        display->bind_frame();
-        r.composite();
-        const gl::RgbImage frame = display->read_frame();
-        display->present();
+        const gl::RgbImage frame = shown_frame(r, *display);
         const std::vector<float> shadow = r.read_aovs().shadow;
         const glm::ivec2 under = pixel_of(c, 160, 120, {0, -2, 0}), far = pixel_of(c, 160, 120, {3, -2, -3});
         const double ratio = lum_at(shadow, 160, under);
         ASSERT_LT(ratio, 0.5);
-        auto decode = [](double v) { return v <= 0.04045 ? v / 12.92 : std::pow((v + 0.055) / 1.055, 2.4); };
-        auto encode = [](double v) { return v <= 0.0031308 ? 12.92 * v : 1.055 * std::pow(v, 1 / 2.4) - 0.055; };
-        const double expected = 255 * encode(ratio * decode(180 / 255.0));
+        const double expected = 255 * srgb_encode(ratio * srgb_decode(180 / 255.0));
         EXPECT_NEAR(frame.at(under.x, under.y)[1], expected, 1.5);
         EXPECT_NEAR(frame.at(far.x, far.y)[1], 180, 1);
 
@@ -608,12 +626,7 @@ TEST_F(RenderShadow, FrameDarkensTheImageByTheRatio) {
         rp.set_table(-2);
         rp.add_proxy(box_mesh({-0.3f, -2.0f, 0.49f}, {0.3f, -1.2f, 0.5f}));
         rp.enable_shadows(render::shadow_lighting(sky), render::occluder_spheres(render::make_uv_sphere()));
-        rp.meter();
-        rp.draw_scene();
-        display->bind_frame();
-        rp.composite();
-        const gl::RgbImage with_card = display->read_frame();
-        display->present();
+        const gl::RgbImage with_card = shown_frame(rp, *display);
         EXPECT_NEAR(with_card.at(under.x, under.y)[1], 180, 1);
         const glm::ivec2 beside = pixel_of(c, 160, 120, {0.55, -2, 0});
         EXPECT_LT(lum_at(shadow, 160, beside), 0.5);
