@@ -257,6 +257,10 @@ json run_replay(const ReplayOptions& o, const std::function<void(const std::stri
             }
         };
         summary = replay_pass(o, std::move(k), log);
+        // What the live kiosk does when a visit ends (run_kiosk, on entering ATTRACT): a pass
+        // starts in ATTRACT, so without this the next purge came only with the next pass's AR and
+        // the row below counted the pass's freed pages still held.
+        return_freed_memory();
         const ProcessSample p = soak.write(pass, "pass", wall_s(), &summary);
         std::ostringstream line;
         line << "soak pass " << pass << " done at " << long(wall_s()) << " s: rss " << p.rss_kib << " KiB, heap "
