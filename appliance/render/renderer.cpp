@@ -186,7 +186,7 @@ Renderer::Renderer(const Mesh& mesh, const std::vector<Material>& part_materials
     glBindVertexArray(0);
     empty_vao_ = gl::GlVertexArray::create();
 
-    upload_maps(maps);
+    upload_maps(/*later=*/false);
 
     // The float targets and a depth buffer (the object may hide parts of itself).
     framebuffer_ = gl::GlFramebuffer::create();
@@ -505,7 +505,7 @@ void Renderer::replace_maps(const ShadingMaps& maps) {
     for (Draw& d : draws_)
         if (d.material.specular()) d.reflection = int(maps.reflection_for(d.material) - maps.reflections.data());
     maps_ = maps;
-    upload_maps(maps_, /*later=*/true);
+    upload_maps(/*later=*/true);
     gl::check_gl("replacing the maps");
 }
 
@@ -514,7 +514,8 @@ void Renderer::replace_maps(const ShadingMaps& maps) {
 // mirror's map of 1024x512) cost the visitor's frame 20-40 ms. The maps the draws use are uploaded
 // now; with `later`, the others wait for upload_pending_map (one a frame, in a frame with time to
 // spare: all at once cost the frame the final maps arrived in 34 ms).
-void Renderer::upload_maps(const ShadingMaps& maps, bool later) {
+void Renderer::upload_maps(bool later) {
+    const ShadingMaps& maps = maps_;
     const auto drawn = [&](int k) {  // k: a reflection's index, -1 the irradiance
         return std::any_of(draws_.begin(), draws_.end(),
                            [&](const Draw& d) { return k < 0 ? d.material.diffuse() : d.reflection == k; });

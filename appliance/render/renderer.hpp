@@ -175,7 +175,7 @@ private:
     ShadingMaps maps_;             // the last maps given, for set_uniform_material
     std::size_t index_total_ = 0;  // indices of every part
     std::vector<gl::GlTexture> reflection_textures_;  // one per maps_.reflections, in order
-    void upload_maps(const ShadingMaps& maps, bool later = false);
+    void upload_maps(bool later);     // textures for maps_ (upload_pending_map)
     void upload_map_now(int k);       // a pending map (k: a reflection, -1 the irradiance)
     std::vector<int> pending_maps_;   // maps given but not uploaded yet (upload_pending_map)
     Background background_ = Background::Black;

@@ -20,16 +20,12 @@ struct Direction {
     glm::dvec3 weight;  // RGB irradiance on the table from this direction's share of the ambient
 };
 
-}  // namespace
-
-namespace {
-
 // How far from the mesh's centre, along the table, light l's shadow of a mesh of bounding radius
 // `radius` whose top stands `top` above the table reaches: to the penumbra's far edge, where the
 // mesh's top is seen against the light's lowest rim. 0 for a light wholly below the horizon (it
 // lights no table point), infinity for one whose rim touches the horizon.
 double shadow_reach(const DominantLight& l, double radius, double top) {
-    const double beta = std::acos(std::clamp(1.0 - l.solid_angle / (2 * kPi), -1.0, 1.0));
+    const double beta = l.angular_radius();
     const double elevation = std::asin(std::clamp(l.direction.y, -1.0, 1.0));
     if (elevation + beta <= 0) return 0;
     const double lowest = elevation - beta;

@@ -349,8 +349,7 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
     // The final maps' worker: its context and the GPU engine's programs are made now, on its own
     // thread at low priority, while the first frames (ATTRACT) run. Made in the frame that
     // received the scene, they stalled it (a PROCESSING frame of 92-108 ms).
-    const std::unique_ptr<render::LiveMaps> live_maps =
-        std::make_unique<render::LiveMaps>(display->context(), cfg.frame.budget_ms, /*wait_until_ready=*/false);
+    render::LiveMaps live_maps(display->context(), cfg.frame.budget_ms, /*wait_until_ready=*/false);
     bool final_maps_due = false;  // this visit's final maps are being made
     const WallClock::time_point wall_start = WallClock::now();
 
@@ -532,7 +531,7 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
                 picture.upload(scene.preview);
                 renderer.replace_maps(maps);
                 // The final maps on the worker made at start-up (its context and programs ready).
-                live_maps->start(env, materials);
+                live_maps.start(env, materials);
                 final_maps_due = true;
                 have_scene = true;
                 start_shadow(env);
@@ -541,9 +540,9 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
                 on_transition(flow.failure(t_s, "message.processing_failed", e.what()));
             }
         }
-        if (final_maps_due && live_maps->done()) {
+        if (final_maps_due && live_maps.done()) {
             final_maps_due = false;
-            if (std::optional<render::ShadingMaps> final_maps = live_maps->take()) {
+            if (std::optional<render::ShadingMaps> final_maps = live_maps.take()) {
                 maps = *final_maps;
                 renderer.replace_maps(maps);
                 final_maps_wall_s = seconds_since(wall_start);
@@ -564,8 +563,7 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
                 log(std::string("shadow: not made: ") + e.what());  // the object is shown without it
             }
             if (shadow_next) {
-                start_shadow(std::move(shadow_next));
-                shadow_next.reset();
+                start_shadow(std::move(shadow_next));  // leaves shadow_next empty
             }
         }
         on_transition(flow.tick(t_s));
@@ -746,7 +744,7 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
             log(line);
         }
         const double frame_ms = scheduler.end_frame();
-        live_maps->after_frame(frame_ms);
+        live_maps.after_frame(frame_ms);
         ++frame_no;
 
         // The clock: the replay's own, at wall pace while the scan's map is finished (or always
@@ -761,8 +759,8 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
         if (return_requested) break;
     }
     if (final_maps_due) {
-        live_maps->finish();  // the replay ended first: the maps are still made, for the figures
-        if (std::optional<render::ShadingMaps> final_maps = live_maps->take()) maps = *final_maps;
+        live_maps.finish();  // the replay ended first: the maps are still made, for the figures
+        if (std::optional<render::ShadingMaps> final_maps = live_maps.take()) maps = *final_maps;
         final_maps_wall_s = seconds_since(wall_start);
     }
     capture_job.reset();
