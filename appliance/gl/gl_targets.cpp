@@ -30,18 +30,43 @@ GlTexture make_float_texture(int width, int height, const float* rgba) {
 }
 
 GlTexture upload_image(const HdrImage& image) {
-    std::vector<float> rgba(std::size_t(image.width()) * std::size_t(image.height()) * 4);
-    for (int j = 0; j < image.height(); ++j) {
-        const float* src = image.row(j);
-        float* dst = rgba.data() + std::size_t(j) * std::size_t(image.width()) * 4;
-        for (int i = 0; i < image.width(); ++i) {
+    TextureUpload upload(image);
+    while (!upload.step(std::size_t(1) << 20)) {  // 1 MiB bands: no image-sized conversion buffer
+    }
+    return upload.take();
+}
+
+TextureUpload::TextureUpload(const HdrImage& image)
+    : image_(&image), texture_(make_float_texture(image.width(), image.height(), nullptr)) {}
+
+bool TextureUpload::step(std::size_t max_bytes) {
+    if (done()) return true;
+    const int width = image_->width();
+    const std::size_t row_bytes = std::size_t(width) * 4 * sizeof(float);
+    const int rows = std::clamp(int(max_bytes / row_bytes), 1, image_->height() - next_row_);
+    band_.resize(std::size_t(rows) * std::size_t(width) * 4);
+    for (int j = 0; j < rows; ++j) {
+        const float* src = image_->row(next_row_ + j);
+        float* dst = band_.data() + std::size_t(j) * std::size_t(width) * 4;
+        for (int i = 0; i < width; ++i) {
             dst[4 * i] = src[3 * i];
             dst[4 * i + 1] = src[3 * i + 1];
             dst[4 * i + 2] = src[3 * i + 2];
             dst[4 * i + 3] = 1.0f;
         }
     }
-    return make_float_texture(image.width(), image.height(), rgba.data());
+    glBindTexture(GL_TEXTURE_2D, texture_.id());
+    glPixelStorei(GL_UNPACK_ALIGNMENT, 4);
+    glTexSubImage2D(GL_TEXTURE_2D, 0, 0, next_row_, width, rows, GL_RGBA, GL_FLOAT, band_.data());
+    check_gl("uploading rows of an RGBA32F texture");
+    next_row_ += rows;
+    if (done()) band_ = std::vector<float>();  // the band's memory back once the texture is whole
+    return done();
+}
+
+GlTexture TextureUpload::take() {
+    if (!done()) throw RuntimeError("texture upload: taken before its last rows");
+    return std::move(texture_);
 }
 
 RenderTargets::RenderTargets(int width, int height, int count)

@@ -20,6 +20,26 @@ GlTexture make_float_texture(int width, int height, const float* rgba);
 // The RGB of an image as an RGBA32F texture.
 GlTexture upload_image(const HdrImage& image);
 
+// The RGB of an image into an RGBA32F texture (as upload_image) a band of rows at a time, so
+// that a frame pays for at most `max_bytes` of texels: a 1024x512 map at once cost a kiosk frame
+// 44 ms on llvmpipe, half of it converting into a fresh 8 MB buffer (its pages faulted in), half
+// in the driver's copy. The band's buffer is reused. The image must outlive the upload.
+class TextureUpload {
+public:
+    explicit TextureUpload(const HdrImage& image);  // allocates the texture (undefined texels)
+    // Uploads the next rows, at least one, about max_bytes of RGBA32F. Returns done().
+    bool step(std::size_t max_bytes);
+    bool done() const { return next_row_ >= image_->height(); }
+    // The texture, once done() (throws RuntimeError before).
+    GlTexture take();
+
+private:
+    const HdrImage* image_;
+    GlTexture texture_;
+    int next_row_ = 0;
+    std::vector<float> band_;
+};
+
 // A framebuffer drawing into `count` RGBA32F textures of one size (MRT). Throws RuntimeError when
 // the driver cannot render to them (no GL_EXT_color_buffer_float).
 class RenderTargets {

@@ -145,7 +145,7 @@ Renderer::Renderer(const Mesh& mesh, const std::vector<Material>& part_materials
         }
         draws_.push_back(std::move(d));
     }
-    maps_ = maps;
+    maps_ = std::make_shared<const ShadingMaps>(maps);
     index_total_ = grouped.size();
 
     scene_program_ = gl::GlProgram("render_scene.vert", "render_scene.frag");
@@ -495,7 +495,11 @@ void Renderer::composite() const {
     gl::check_gl("compositing the frame");
 }
 
-void Renderer::replace_maps(const ShadingMaps& maps) {
+void Renderer::replace_maps(const ShadingMaps& maps) { replace_maps(std::make_shared<const ShadingMaps>(maps)); }
+
+void Renderer::replace_maps(std::shared_ptr<const ShadingMaps> shared) {
+    if (!shared) throw RuntimeError("renderer: no maps given");
+    const ShadingMaps& maps = *shared;
     for (const Draw& d : draws_) {
         if (d.material.diffuse() && !maps.irradiance)
             throw RuntimeError("renderer: the new maps have no irradiance map for " + d.material.spec);
@@ -504,7 +508,8 @@ void Renderer::replace_maps(const ShadingMaps& maps) {
     }
     for (Draw& d : draws_)
         if (d.material.specular()) d.reflection = int(maps.reflection_for(d.material) - maps.reflections.data());
-    maps_ = maps;
+    uploading_.reset();  // it reads the old maps
+    maps_ = std::move(shared);
     upload_maps(/*later=*/true);
     gl::check_gl("replacing the maps");
 }
@@ -515,7 +520,8 @@ void Renderer::replace_maps(const ShadingMaps& maps) {
 // now; with `later`, the others wait for upload_pending_map (one a frame, in a frame with time to
 // spare: all at once cost the frame the final maps arrived in 34 ms).
 void Renderer::upload_maps(bool later) {
-    const ShadingMaps& maps = maps_;
+    const ShadingMaps& maps = *maps_;
+    uploading_.reset();
     const auto drawn = [&](int k) {  // k: a reflection's index, -1 the irradiance
         return std::any_of(draws_.begin(), draws_.end(),
                            [&](const Draw& d) { return k < 0 ? d.material.diffuse() : d.reflection == k; });
@@ -534,25 +540,49 @@ void Renderer::upload_maps(bool later) {
     }
 }
 
-void Renderer::upload_map_now(int k) {
-    const auto it = std::find(pending_maps_.begin(), pending_maps_.end(), k);
-    if (it == pending_maps_.end()) return;
-    pending_maps_.erase(it);
-    if (k < 0) irradiance_ = upload_map(*maps_.irradiance, "irradiance");
-    else reflection_textures_[std::size_t(k)] = upload_map(maps_.reflections[std::size_t(k)].image, "reflection");
+const HdrImage& Renderer::map_image(int k) const {
+    return k < 0 ? *maps_->irradiance : maps_->reflections[std::size_t(k)].image;
 }
 
-bool Renderer::upload_pending_map() {
+void Renderer::finish_upload(int k, gl::GlTexture texture) {
+    pending_maps_.erase(std::find(pending_maps_.begin(), pending_maps_.end(), k));
+    if (k < 0) irradiance_ = std::move(texture);
+    else reflection_textures_[std::size_t(k)] = std::move(texture);
+}
+
+void Renderer::upload_map_now(int k) {
+    if (std::find(pending_maps_.begin(), pending_maps_.end(), k) == pending_maps_.end()) return;
+    if (k == pending_maps_.front() && uploading_) {  // under way: its remaining rows
+        while (!uploading_->step(kPendingBandBytes)) {
+        }
+        finish_upload(k, uploading_->take());
+        uploading_.reset();
+        return;
+    }
+    const HdrImage& image = map_image(k);
+    finish_upload(k, upload_map(image, k < 0 ? "irradiance" : "reflection"));
+}
+
+bool Renderer::upload_pending_map(std::size_t max_bytes) {
     if (pending_maps_.empty()) return false;
-    upload_map_now(pending_maps_.front());
+    const int k = pending_maps_.front();
+    if (!uploading_) {
+        const HdrImage& image = map_image(k);
+        if (image.empty()) throw RuntimeError(std::string("renderer: the ") + (k < 0 ? "irradiance" : "reflection") + " map is empty");
+        uploading_.emplace(image);
+    }
+    if (uploading_->step(max_bytes)) {
+        finish_upload(k, uploading_->take());
+        uploading_.reset();
+    }
     gl::check_gl("uploading a map");
     return true;
 }
 
 void Renderer::set_uniform_material(const Material& material) {
-    if (material.diffuse() && !maps_.irradiance)
+    if (material.diffuse() && !maps_->irradiance)
         throw RuntimeError("renderer: the material " + material.spec + " needs the irradiance map");
-    const ReflectionMap* reflection = material.specular() ? maps_.reflection_for(material) : nullptr;
+    const ReflectionMap* reflection = material.specular() ? maps_->reflection_for(material) : nullptr;
     if (material.specular() && !reflection)
         throw RuntimeError("renderer: the material " + material.spec + " needs the " + reflection_request(material).label + " map");
     Draw d;
@@ -561,7 +591,7 @@ void Renderer::set_uniform_material(const Material& material) {
     d.index_count = index_total_;
     if (material.diffuse()) upload_map_now(-1);  // if it is still waiting
     if (reflection) {
-        d.reflection = int(reflection - maps_.reflections.data());
+        d.reflection = int(reflection - maps_->reflections.data());
         upload_map_now(d.reflection);
     }
     draws_.assign(1, std::move(d));

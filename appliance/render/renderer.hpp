@@ -20,6 +20,7 @@
 #include "appliance/core/hdr_image.hpp"
 #include "appliance/gl/gl_objects.hpp"
 #include "appliance/gl/gl_program.hpp"
+#include "appliance/gl/gl_targets.hpp"  // gl::TextureUpload
 #include "appliance/gl/png_writer.hpp"  // gl::RgbImage (the struct only)
 #include "appliance/render/camera_response.hpp"
 #include "appliance/render/maps.hpp"
@@ -145,14 +146,19 @@ public:
     // Shades with other maps of the same lobes from the next draw on (live_maps.hpp: the final
     // maps after the coarse ones). Throws RuntimeError when one the materials need is missing.
     void replace_maps(const ShadingMaps& maps);
+    // The same without a copy: the renderer keeps `maps` (the kiosk's final maps are 10 MB, and
+    // two copies of them cost the frame they arrived in 33 ms).
+    void replace_maps(std::shared_ptr<const ShadingMaps> maps);
     // One material for every part from the next draw on (the kiosk's button cycles the object's
     // materials without a renderer, and its shaders, per material). The maps last given (at
     // construction or by replace_maps) must hold its lobes; its maps are uploaded now.
     void set_uniform_material(const Material& material);
     // replace_maps uploads the maps the draws use at once and the others (for the materials the
-    // button may switch to) one per call of this, from the frames with time to spare. Returns
-    // false when none is left. set_uniform_material uploads what it needs if it is still waiting.
-    bool upload_pending_map();
+    // button may switch to) in bands of about `max_bytes` per call of this, from the frames with
+    // time to spare (gl::TextureUpload). Returns false when none is left. set_uniform_material
+    // uploads what it needs if it is still waiting.
+    static constexpr std::size_t kPendingBandBytes = std::size_t(1) << 20;
+    bool upload_pending_map(std::size_t max_bytes = kPendingBandBytes);
 
 private:
     std::vector<float> read_target(int k) const;  // rows top first
@@ -172,12 +178,15 @@ private:
         int reflection = -1;  // into reflection_textures_ (and maps_.reflections)
     };
     std::vector<Draw> draws_;
-    ShadingMaps maps_;             // the last maps given, for set_uniform_material
+    std::shared_ptr<const ShadingMaps> maps_;  // the last maps given, for set_uniform_material
     std::size_t index_total_ = 0;  // indices of every part
     std::vector<gl::GlTexture> reflection_textures_;  // one per maps_.reflections, in order
     void upload_maps(bool later);     // textures for maps_ (upload_pending_map)
     void upload_map_now(int k);       // a pending map (k: a reflection, -1 the irradiance)
+    const HdrImage& map_image(int k) const;                // k as upload_map_now's
+    void finish_upload(int k, gl::GlTexture texture);     // k's texture in use, no longer pending
     std::vector<int> pending_maps_;   // maps given but not uploaded yet (upload_pending_map)
+    std::optional<gl::TextureUpload> uploading_;  // the first pending map's, under way
     Background background_ = Background::Black;
     bool ao_ = true;
     ToneMap tone_;

@@ -78,6 +78,9 @@ double process_age_s() {
 // string key is "material." + the name before any ':'.
 std::string material_key(const std::string& name) { return "material." + name.substr(0, name.find(':')); }
 
+// The size of the room's preview, the picture PROCESSING shows once the map is read.
+constexpr int kPreviewWidth = 256, kPreviewHeight = 128;
+
 // An HDR map as an 8-bit picture (Reinhard on luminance, sRGB-ish gamma): the processing screen's
 // preview of the room just captured.
 cv::Mat preview_of(const HdrImage& env, int width, int height) {
@@ -189,14 +192,16 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
     const render::Mesh mesh = render::load_model(cfg.ar.model, "ar.model");
     HdrImage grey(64, 32);
     std::fill(grey.data().begin(), grey.data().end(), 0.5f);
-    render::ShadingMaps maps = render::coarse_maps(last_scene ? *last_scene : grey, materials, 1);
+    // Shared with the renderer (Renderer::replace_maps): new maps are moved in, never copied.
+    std::shared_ptr<const render::ShadingMaps> maps =
+        std::make_shared<const render::ShadingMaps>(render::coarse_maps(last_scene ? *last_scene : grey, materials, 1));
     // One renderer; the button changes its material (its shaders are compiled once).
     // The 3D view is drawn at the camera's resolution (at most the display's) and stretched over
     // the display: the object gets the pixel footprint of the real scene around it (a sharper
     // object than its surroundings looks pasted on), and the GPU shades a fraction of the pixels.
     const int view_width = std::min(width, source.calibration().intrinsics.width);
     const int view_height = std::min(height, source.calibration().intrinsics.height);
-    render::Renderer renderer(mesh, materials.front(), maps, view_width, view_height);
+    render::Renderer renderer(mesh, materials.front(), *maps, view_width, view_height);
     ViewTarget view(view_width, view_height);
     renderer.set_table(render::model_bottom(mesh));  // the table hides what is under it
     int renderer_material = 0;
@@ -288,10 +293,11 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
                                     std::vector<std::uint8_t>(std::size_t(picture_width) * std::size_t(picture_height) * 3, 128)};
     HdrImage grey_room(std::max(2, cfg.capture.map_width), std::max(1, cfg.capture.map_height));
     std::fill(grey_room.data().begin(), grey_room.data().end(), 0.5f);
-    const auto warm_frame = [&] {
+    const auto warm_frame = [&] {  // as the frames draw it: the renderer's view, then the screen
         renderer.draw_scene();
         view.bind();
         renderer.composite();
+        display->bind_frame();
         picture.draw_texture(view.texture(), true);
     };
     const auto warm_backgrounds = [&] {
@@ -343,8 +349,16 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
         }
         if (found < 2) log("warm-up: the drawn board was found in " + std::to_string(found) + " of 2 pictures (the first AR frame may be slower)");
     }
-    picture.upload(cv::Mat(picture_height, picture_width, CV_8UC3, cv::Scalar(0, 0, 0)));
-    picture.draw();
+    // The full-screen picture: the room's preview (PROCESSING), then the camera's (ATTRACT before a
+    // first visit, CAPTURE). The preview's sides are powers of two, which llvmpipe compiles
+    // another variant of the quad's shader for: the frame the scene arrived in drew it first and
+    // took 19-52 ms, most of it in that draw call.
+    // Into the screen's frame, as the frames draw it (llvmpipe's variants also depend on the target).
+    display->bind_frame();
+    for (const auto& [w, h] : {std::pair{kPreviewWidth, kPreviewHeight}, std::pair{picture_width, picture_height}}) {
+        picture.upload(cv::Mat(h, w, CV_8UC3, cv::Scalar(0, 0, 0)));
+        picture.draw();
+    }
     glFinish();
     // The final maps' worker: its context and the GPU engine's programs are made now, on its own
     // thread at low priority, while the first frames (ATTRACT) run. Made in the frame that
@@ -510,7 +524,7 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
                     NewScene scene;
                     scene.env = take_captured_scene(maps_dir, replayed, log);
                     const double read_s = seconds_since(t0);
-                    scene.preview = preview_of(scene.env, 256, 128);
+                    scene.preview = preview_of(scene.env, kPreviewWidth, kPreviewHeight);
                     scene.maps = render::coarse_maps(scene.env, materials, threads);
                     char line[128];
                     std::snprintf(line, sizeof line, "scene: map read in %.3f s, preview and coarse maps in %.3f s", read_s,
@@ -527,7 +541,7 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
             try {
                 NewScene scene = scene_job.get();
                 env = std::make_shared<const HdrImage>(std::move(scene.env));
-                maps = std::move(scene.maps);
+                maps = std::make_shared<const render::ShadingMaps>(std::move(scene.maps));
                 picture.upload(scene.preview);
                 renderer.replace_maps(maps);
                 // The final maps on the worker made at start-up (its context and programs ready).
@@ -543,7 +557,7 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
         if (final_maps_due && live_maps.done()) {
             final_maps_due = false;
             if (std::optional<render::ShadingMaps> final_maps = live_maps.take()) {
-                maps = *final_maps;
+                maps = std::make_shared<const render::ShadingMaps>(std::move(*final_maps));
                 renderer.replace_maps(maps);
                 final_maps_wall_s = seconds_since(wall_start);
                 log("final maps after " + std::to_string(final_maps_wall_s - scan_end_wall_s) + " s from the scan's end");
@@ -586,7 +600,7 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
         model.t_in_state_s = t_s - flow.entered_s();
         model.message = flow.message(t_s);
         model.degraded = display->degraded();
-        model.shading_maps = have_scene ? &maps : nullptr;
+        model.shading_maps = have_scene ? maps.get() : nullptr;
         const std::int64_t frame_t_ns = last_frame.t_ns;
         const std::optional<glm::dquat> world_from_sensor =
             source.world_from_sensor(frame_t_ns + std::int64_t(std::llround(cal.time_offset_s * 1e9)));
@@ -760,7 +774,8 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
     }
     if (final_maps_due) {
         live_maps.finish();  // the replay ended first: the maps are still made, for the figures
-        if (std::optional<render::ShadingMaps> final_maps = live_maps.take()) maps = *final_maps;
+        if (std::optional<render::ShadingMaps> final_maps = live_maps.take())
+            maps = std::make_shared<const render::ShadingMaps>(std::move(*final_maps));
         final_maps_wall_s = seconds_since(wall_start);
     }
     capture_job.reset();

@@ -7,10 +7,12 @@
 #include <cmath>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <unistd.h>
 
 #include "appliance/convolution/convolution.hpp"
 #include "appliance/core/errors.hpp"
+#include "appliance/gl/gl_targets.hpp"
 #include "appliance/render/maps.hpp"
 #include "appliance/render/material.hpp"
 #include "appliance/render/mesh.hpp"
@@ -159,21 +161,67 @@ TEST_F(RenderMaterials, SwitchingMaterialsAfterNewMapsDrawsWithTheNewMaps) {
         r.draw_scene();
         return r.read_aovs().radiance;
     };
-    for (const bool drain : {false, true}) {
+    // How the undrawn maps reach the GPU before the switches: not at all (uploaded at the switch),
+    // in whole maps, in one row per call (every row), or three rows and no more (the switch
+    // finishes the map under way and uploads the other).
+    enum class Ahead { None, Whole, RowByRow, ThreeRows };
+    std::size_t pending_rows = 0;  // the rows of glossy's and mirror's maps
+    for (std::size_t k : {1u, 2u}) pending_rows += std::size_t(second.reflection_for(materials[k])->image.height());
+    for (const Ahead ahead : {Ahead::None, Ahead::Whole, Ahead::RowByRow, Ahead::ThreeRows}) {
+        const char* how = ahead == Ahead::None ? "uploaded at the switch" : ahead == Ahead::Whole ? "uploaded ahead"
+                          : ahead == Ahead::RowByRow                       ? "uploaded ahead a row a call"
+                                                                           : "three rows uploaded ahead";
         render::Renderer r(sphere, materials[0], first, 48, 36);
         EXPECT_FALSE(r.upload_pending_map());  // a new renderer has every map
-        r.replace_maps(second);
-        int uploads = 0;
-        while (drain && r.upload_pending_map()) ++uploads;
-        if (drain) {
-            EXPECT_EQ(uploads, 2);  // glossy's and mirror's maps; matte's is drawn
+        r.replace_maps(std::make_shared<const render::ShadingMaps>(second));
+        std::size_t calls = 0;
+        if (ahead == Ahead::Whole) {
+            while (r.upload_pending_map()) ++calls;
+            EXPECT_EQ(calls, 2u);  // glossy's and mirror's maps; matte's is drawn
+        } else if (ahead == Ahead::RowByRow) {
+            while (r.upload_pending_map(1)) ++calls;  // 1 byte: a row a call
+            EXPECT_EQ(calls, pending_rows);
+        } else if (ahead == Ahead::ThreeRows) {
+            for (int k = 0; k < 3; ++k) EXPECT_TRUE(r.upload_pending_map(1));
         }
         for (std::size_t k : {2u, 1u, 0u}) {
             r.set_uniform_material(materials[k]);
             render::Renderer direct(sphere, materials[k], second, 48, 36);
-            EXPECT_EQ(radiance(r), radiance(direct)) << materials[k].spec << (drain ? ", uploaded ahead" : ", uploaded at the switch");
+            EXPECT_EQ(radiance(r), radiance(direct)) << materials[k].spec << ", " << how;
         }
-        EXPECT_FALSE(r.upload_pending_map());
+        EXPECT_FALSE(r.upload_pending_map()) << how;
+    }
+}
+
+// A map uploaded in bands (gl::TextureUpload) is the map uploaded at once, texel for texel: bands
+// of one row, of a few rows that do not divide the height, and larger than the image.
+TEST_F(RenderMaterials, AMapUploadedInBandsIsTheMapUploadedAtOnce) {
+    HdrImage image(37, 23);  // odd sizes: rows not a multiple of 4 floats' alignment
+    for (int j = 0; j < image.height(); ++j)
+        for (int i = 0; i < image.width(); ++i) image.set(i, j, {float(i) + 0.25f, float(j) * 3.0f, float(i * j) - 7.5f});
+    const auto texels = [&](const gl::GlTexture& t) {
+        gl::GlFramebuffer fb = gl::GlFramebuffer::create();
+        glBindFramebuffer(GL_FRAMEBUFFER, fb.id());
+        glFramebufferTexture2D(GL_FRAMEBUFFER, GL_COLOR_ATTACHMENT0, GL_TEXTURE_2D, t.id(), 0);
+        std::vector<float> out(std::size_t(image.width()) * std::size_t(image.height()) * 4);
+        glReadPixels(0, 0, image.width(), image.height(), GL_RGBA, GL_FLOAT, out.data());
+        glBindFramebuffer(GL_FRAMEBUFFER, 0);
+        return out;
+    };
+    const std::vector<float> whole = texels(gl::upload_image(image));
+    ASSERT_EQ(whole[0], 0.25f);
+    ASSERT_EQ(whole[4 * (std::size_t(image.width()) * 5 + 3) + 1], 15.0f);  // row 5, column 3: green 3 j
+    ASSERT_EQ(whole[3], 1.0f);                                              // alpha
+    const std::size_t row_bytes = std::size_t(image.width()) * 16;
+    for (const std::size_t band : {std::size_t(1), 3 * row_bytes + 5, 1000 * row_bytes}) {
+        gl::TextureUpload upload(image);
+        EXPECT_THROW(upload.take(), RuntimeError);
+        int steps = 1;
+        while (!upload.step(band)) ++steps;
+        const int rows = int(std::max<std::size_t>(1, band / row_bytes));
+        EXPECT_EQ(steps, (image.height() + rows - 1) / rows) << band << " bytes a band";
+        EXPECT_TRUE(upload.step(band));  // done stays done
+        EXPECT_EQ(texels(upload.take()), whole) << band << " bytes a band";
     }
 }
 
