@@ -517,8 +517,9 @@ void Renderer::replace_maps(std::shared_ptr<const ShadingMaps> shared) {
 // Every map given gets a texture, not only those the current draws use: the kiosk's button
 // switches materials (set_uniform_material) between frames, and an upload then (8 MB for a
 // mirror's map of 1024x512) cost the visitor's frame 20-40 ms. The maps the draws use are uploaded
-// now; with `later`, the others wait for upload_pending_map (one a frame, in a frame with time to
-// spare: all at once cost the frame the final maps arrived in 34 ms).
+// now; with `later`, the others wait for upload_pending_map (a band of rows a call, from frames
+// with time to spare: all at once cost the frame the final maps arrived in 34 ms, and one whole
+// 1024x512 map a frame 44 ms).
 void Renderer::upload_maps(bool later) {
     const ShadingMaps& maps = *maps_;
     uploading_.reset();
