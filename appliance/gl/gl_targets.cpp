@@ -31,7 +31,7 @@ GlTexture make_float_texture(int width, int height, const float* rgba) {
 
 GlTexture upload_image(const HdrImage& image) {
     TextureUpload upload(image);
-    while (!upload.step(std::size_t(1) << 20)) {  // 1 MiB bands: no image-sized conversion buffer
+    while (!upload.step(kUploadBandBytes)) {  // no image-sized conversion buffer
     }
     return upload.take();
 }

@@ -4,6 +4,7 @@
 
 #include <GLES3/gl3.h>
 
+#include <cstddef>
 #include <vector>
 
 #include "appliance/core/hdr_image.hpp"
@@ -24,6 +25,7 @@ GlTexture upload_image(const HdrImage& image);
 // that a frame pays for at most `max_bytes` of texels: a 1024x512 map at once cost a kiosk frame
 // 44 ms on llvmpipe, half of it converting into a fresh 8 MB buffer (its pages faulted in), half
 // in the driver's copy. The band's buffer is reused. The image must outlive the upload.
+inline constexpr std::size_t kUploadBandBytes = std::size_t(1) << 20;  // upload_image's bands
 class TextureUpload {
 public:
     explicit TextureUpload(const HdrImage& image);  // allocates the texture (undefined texels)

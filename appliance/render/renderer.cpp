@@ -508,7 +508,6 @@ void Renderer::replace_maps(std::shared_ptr<const ShadingMaps> shared) {
     }
     for (Draw& d : draws_)
         if (d.material.specular()) d.reflection = int(maps.reflection_for(d.material) - maps.reflections.data());
-    uploading_.reset();  // it reads the old maps
     maps_ = std::move(shared);
     upload_maps(/*later=*/true);
     gl::check_gl("replacing the maps");
@@ -553,15 +552,11 @@ void Renderer::finish_upload(int k, gl::GlTexture texture) {
 
 void Renderer::upload_map_now(int k) {
     if (std::find(pending_maps_.begin(), pending_maps_.end(), k) == pending_maps_.end()) return;
-    if (k == pending_maps_.front() && uploading_) {  // under way: its remaining rows
-        while (!uploading_->step(kPendingBandBytes)) {
-        }
-        finish_upload(k, uploading_->take());
-        uploading_.reset();
+    if (k == pending_maps_.front()) {  // perhaps under way: its remaining bands
+        while (!pending_maps_.empty() && pending_maps_.front() == k) upload_pending_map(kPendingBandBytes);
         return;
     }
-    const HdrImage& image = map_image(k);
-    finish_upload(k, upload_map(image, k < 0 ? "irradiance" : "reflection"));
+    finish_upload(k, upload_map(map_image(k), k < 0 ? "irradiance" : "reflection"));
 }
 
 bool Renderer::upload_pending_map(std::size_t max_bytes) {

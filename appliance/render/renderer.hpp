@@ -157,7 +157,7 @@ public:
     // button may switch to) in bands of about `max_bytes` per call of this, from the frames with
     // time to spare (gl::TextureUpload). Returns false when none is left. set_uniform_material
     // uploads what it needs if it is still waiting.
-    static constexpr std::size_t kPendingBandBytes = std::size_t(1) << 20;
+    static constexpr std::size_t kPendingBandBytes = gl::kUploadBandBytes;
     bool upload_pending_map(std::size_t max_bytes = kPendingBandBytes);
 
 private:

@@ -349,11 +349,11 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
         }
         if (found < 2) log("warm-up: the drawn board was found in " + std::to_string(found) + " of 2 pictures (the first AR frame may be slower)");
     }
-    // The full-screen picture: the room's preview (PROCESSING), then the camera's (ATTRACT before a
-    // first visit, CAPTURE). The preview's sides are powers of two, which llvmpipe compiles
-    // another variant of the quad's shader for: the frame the scene arrived in drew it first and
-    // took 19-52 ms, most of it in that draw call.
-    // Into the screen's frame, as the frames draw it (llvmpipe's variants also depend on the target).
+    // The full-screen picture, into the screen's frame as the frames draw it (llvmpipe's variants
+    // also depend on the target): the room's preview (PROCESSING), then the camera's (ATTRACT
+    // before a first visit, CAPTURE). The preview's sides are powers of two, which llvmpipe
+    // compiles another variant of the quad's shader for: the frame the scene arrived in drew it
+    // first and took 19-52 ms, most of it in that draw call.
     display->bind_frame();
     for (const auto& [w, h] : {std::pair{kPreviewWidth, kPreviewHeight}, std::pair{picture_width, picture_height}}) {
         picture.upload(cv::Mat(h, w, CV_8UC3, cv::Scalar(0, 0, 0)));
