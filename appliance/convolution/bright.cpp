@@ -103,6 +103,12 @@ BrightScatter::BrightScatter(const std::vector<BrightTexel>& bright, double n, S
     }
 }
 
+bool BrightScatter::may_reach_row(int row) const {
+    for (std::size_t k = 0; k < bright_.size(); ++k)
+        if (row >= first_row_[k] && row <= last_row_[k]) return true;
+    return false;
+}
+
 void BrightScatter::add_row(int row, const double* cmax_row, int classes, double* nb_row,
                             const LobeSummer::ColumnRuns* columns, int first_column) const {
     const int ow = out_.width;

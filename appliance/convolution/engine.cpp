@@ -297,8 +297,12 @@ void deliver_output(MapResult& r, Size input, double tau, const PlannerModel& mo
             // aliases); a grid capped at a coarser input's resolution is summed again instead.
             const bool resolved = kPi / p.sum_size.height <= lobe_width(n) * 1.0001;
             const auto resample = [&] {
-                r.image = resample_cubic(r.image, finer, threads, &r.clamped_texels);
-                if (split) add_bright_lobes(*bright, n, floor_value, LobeOp::AddClamped, r.image, threads);
+                if (split) {
+                    const BrightLobes lobes(*bright, n, finer, floor_value, LobeOp::AddClamped);
+                    r.image = resample_cubic(r.image, finer, threads, &r.clamped_texels, &lobes);
+                } else {
+                    r.image = resample_cubic(r.image, finer, threads, &r.clamped_texels);
+                }
             };
             const std::string resampled = "; resampled 4-point from " + to_string(p.sum_size);
             const std::string added = split ? ", bright texels added exactly" : "";

@@ -60,6 +60,10 @@ public:
     // Per bright texel: the cosine below which its term is dropped (> 1: never used).
     const std::vector<double>& min_cos() const { return min_cos_; }
     double shininess() const { return n_; }
+    Size grid() const { return out_; }
+    // Whether some bright texel's cut-off cone may reach output row `row` (false: add_row adds
+    // nothing there).
+    bool may_reach_row(int row) const;
 
 private:
     const std::vector<BrightTexel>& bright_;

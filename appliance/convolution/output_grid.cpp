@@ -307,7 +307,7 @@ TexelSelection fine_texels_near(const std::vector<char>& marked, Size coarse, Si
     return selection;
 }
 
-HdrImage resample_cubic(const HdrImage& map, Size out, int threads, long long* clamped) {
+HdrImage resample_cubic(const HdrImage& map, Size out, int threads, long long* clamped, const BrightLobes* lobes) {
     const int w = map.width(), h = map.height();
     // Per output column: its four input columns (wrapped) and weights.
     std::vector<Tap> columns;
@@ -350,29 +350,40 @@ HdrImage resample_cubic(const HdrImage& map, Size out, int threads, long long* c
             }
             dst[i] = float(v);
         }
+        if (lobes) lobes->apply_row(j, dst);
         negative += below;
     });
     if (clamped) *clamped += negative.load();
     return result;
 }
 
+BrightLobes::BrightLobes(const std::vector<BrightTexel>& bright, double n, Size out, double floor_value, LobeOp op)
+    // The weights here are the lobe's own, max(0, r.w_b)^n (cmax = 1): the cut needs no allowance.
+    : scatter_(bright, n, out, floor_value, 1e-6, 1.0),
+      norm_((op == LobeOp::Subtract ? -1.0 : 1.0) * (n + 1.0) / kTwoPi),
+      op_(op),
+      reached_(std::size_t(out.height), 0) {
+    for (int j = 0; j < out.height; ++j) reached_[std::size_t(j)] = scatter_.may_reach_row(j);
+}
+
+void BrightLobes::apply_row(int row, float* dst) const {
+    if (!reached_[std::size_t(row)]) return;
+    const int width = 3 * scatter_.grid().width;
+    thread_local std::vector<double> sums;
+    sums.assign(std::size_t(width), 0.0);
+    const double one = 1.0;
+    scatter_.add_row(row, &one, 1, sums.data());
+    for (int i = 0; i < width; ++i) {
+        const float v = float(double(dst[i]) + norm_ * sums[std::size_t(i)]);
+        dst[i] = op_ == LobeOp::AddClamped ? std::max(0.0f, v) : v;
+    }
+}
+
 void add_bright_lobes(const std::vector<BrightTexel>& bright, double n, double floor_value, LobeOp op,
                       HdrImage& map, int threads) {
     if (bright.empty()) return;
-    const Size out{map.width(), map.height()};
-    // The weights here are the lobe's own, max(0, r.w_b)^n (cmax = 1): the cut needs no allowance.
-    const BrightScatter scatter(bright, n, out, floor_value, 1e-6, 1.0);
-    const double norm = (op == LobeOp::Subtract ? -1.0 : 1.0) * (n + 1.0) / kTwoPi;
-    const std::vector<double> ones(1, 1.0);
-    parallel_for(out.height, threads, [&](int j) {
-        std::vector<double> sums(std::size_t(3 * out.width), 0.0);
-        scatter.add_row(j, ones.data(), 1, sums.data());
-        float* dst = map.row(j);
-        for (int i = 0; i < 3 * out.width; ++i) {
-            const float v = float(double(dst[i]) + norm * sums[std::size_t(i)]);
-            dst[i] = op == LobeOp::AddClamped ? std::max(0.0f, v) : v;
-        }
-    });
+    const BrightLobes lobes(bright, n, {map.width(), map.height()}, floor_value, op);
+    parallel_for(map.height(), threads, [&](int j) { lobes.apply_row(j, map.row(j)); });
 }
 
 HdrImage filter_to_footprint(const HdrImage& env, Size out, int threads) {

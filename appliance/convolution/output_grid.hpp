@@ -58,19 +58,37 @@ struct TexelSelection {
 };
 TexelSelection fine_texels_near(const std::vector<char>& marked, Size coarse, Size fine, int threads);
 
-// `map` at the texel centres of an `out`-sized grid by separable 4-point Lagrange
-// interpolation (exact for cubics), periodic in phi, across the poles in theta. Negative
-// results (overshoot next to a sharp edge) are clamped to 0 and counted in *clamped.
-HdrImage resample_cubic(const HdrImage& map, Size out, int threads, long long* clamped = nullptr);
-
-// The bright texels' part of a map of shininess n at the texel centres of `map`'s grid,
+// The bright texels' part of a map of shininess n at the texel centres of an out-sized grid,
 // (n+1)/(2 pi) sum_b max(0, r.w_b)^n L_b dOmega_b, normalised by the continuous lobe, taken
-// from the map (Subtract) or added to it with negative sums clamped to 0 (AddClamped), in
-// place. Terms below 1e-6 floor_value are dropped. A map summed with its bright texels split
-// out (cone, sh with the bright split) is resampled without them and gets them back here.
+// from the map (Subtract) or added to it with negative sums clamped to 0 (AddClamped), one
+// row at a time. Terms below 1e-6 floor_value are dropped. A map summed with its bright texels
+// split out (cone, sh with the bright split) is resampled without them and gets them back here.
+// Holds a reference to `bright`, which must outlive it.
 enum class LobeOp { Subtract, AddClamped };
+class BrightLobes {
+public:
+    BrightLobes(const std::vector<BrightTexel>& bright, double shininess, Size out, double floor_value, LobeOp op);
+    // Row `row` of an out-sized map (3 floats per texel), in place; rows no bright texel
+    // reaches are left as they are. Thread-safe across rows.
+    void apply_row(int row, float* dst) const;
+
+private:
+    BrightScatter scatter_;
+    double norm_;
+    LobeOp op_;
+    std::vector<char> reached_;  // per output row: some bright texel's cut-off cone reaches it
+};
+// BrightLobes over every row of `map`.
 void add_bright_lobes(const std::vector<BrightTexel>& bright, double shininess, double floor_value, LobeOp op,
                       HdrImage& map, int threads);
+
+// `map` at the texel centres of an `out`-sized grid by separable 4-point Lagrange
+// interpolation (exact for cubics), periodic in phi, across the poles in theta. Negative
+// results (overshoot next to a sharp edge) are clamped to 0 and counted in *clamped. With
+// `lobes` (built for `out`), each output row gets them as soon as it is written, while it is
+// still in cache, instead of in a second pass over the whole map.
+HdrImage resample_cubic(const HdrImage& map, Size out, int threads, long long* clamped = nullptr,
+                        const BrightLobes* lobes = nullptr);
 
 // The mirror map (n = infinity): the environment averaged over each output texel's footprint,
 // weighted by solid angle (exact overlaps of the equirect cells). At the input's own size it
