@@ -3,6 +3,8 @@
 // full resolution, to every output texel whose weight for them matters.
 #include <algorithm>
 #include <cmath>
+#include <map>
+#include <utility>
 
 #include "appliance/convolution/lobe_sum.hpp"
 #include "appliance/convolution/methods.hpp"
@@ -10,6 +12,12 @@
 #include "appliance/core/parallel.hpp"
 
 namespace glint::convolution {
+namespace {
+
+// i modulo m in [0, m), for column indices that may be negative or past the width.
+int column_modulo(long long i, int m) { return int(((i % m) + m) % m); }
+
+}  // namespace
 
 BrightSplit split_bright(HdrImage image, double contrast, int max_count, int threads) {
     // The remainder is the map itself with its bright texels zeroed: no copy when the caller
@@ -95,6 +103,22 @@ BrightScatter::BrightScatter(const std::vector<BrightTexel>& bright, double n, S
             last_row_[k] = std::min(out.height - 1, int(std::ceil((bright[k].theta + reach) * rows_per_radian - 0.5)) + 1);
         }
     }
+    // Groups: texels of one polar angle whose centres sit at the same phase between output
+    // columns (a bright region of an input whose width divides the output's, row by row).
+    std::map<std::pair<double, long long>, std::size_t> group_of;
+    for (std::size_t k = 0; k < bright.size(); ++k) {
+        if (first_row_[k] > last_row_[k]) continue;
+        const double centre = (bright[k].phi + kPi) / kTwoPi * out.width - 0.5;
+        const double whole = std::floor(centre + 1e-10);
+        const auto key = std::make_pair(bright[k].theta, std::llround((centre - whole) * 1e9));
+        const auto [it, added] = group_of.emplace(key, groups_.size());
+        if (added) groups_.push_back({{}, {}, first_row_[k], last_row_[k]});
+        Group& g = groups_[it->second];
+        g.members.push_back(k);
+        g.shift.push_back(int(whole));
+        g.first_row = std::min(g.first_row, first_row_[k]);
+        g.last_row = std::max(g.last_row, last_row_[k]);
+    }
     cos_phi_.resize(std::size_t(out.width));
     sin_phi_.resize(std::size_t(out.width));
     for (int i = 0; i < out.width; ++i) {
@@ -117,11 +141,14 @@ void BrightScatter::add_row(int row, const double* cmax_row, int classes, double
     const double st = std::sin(theta_r);
     // The row's runs (one per bright texel and reach, often a few dozen columns) are staged
     // into one buffer of weights and raised to the power n together, kBatch at a time: one
-    // call per batch instead of one per run, with no short vector tails. The products and the
-    // order of the sums are those of one run at a time.
+    // call per batch instead of one per run, with no short vector tails. The texels of a group
+    // (same polar angle, same phase of their centre between output columns) have the same
+    // weights shifted by whole columns: the weights are staged once for the group's widest
+    // reach, and each texel's runs read them at its own shift.
     constexpr std::size_t kBatch = 4096;
     thread_local std::vector<double> weights;
     thread_local std::vector<Staged> staged;
+    thread_local std::vector<Reach> reach;
     weights.resize(kBatch + std::size_t(ow));
     staged.clear();
     std::size_t filled = 0;
@@ -140,46 +167,94 @@ void BrightScatter::add_row(int row, const double* cmax_row, int classes, double
         staged.clear();
         filled = 0;
     };
-    const auto stage = [&](std::size_t k, int i0, int end, double a, double bq) {
-        stage_weights(k, i0, end, a, bq, cmax_row, classes, weights.data() + filled);
-        staged.push_back({k, i0, end - i0, filled});
-        filled += std::size_t(end - i0);
+    // One member's physical run [lo, hi), whose weights start at position pos of a staged span
+    // (positions past the end of a whole-row span continue at its start).
+    const auto read_run = [&](std::size_t k, int lo, int hi, int pos, int span, std::size_t base) {
+        const int len = hi - lo;
+        const int head = std::min(len, span - pos);
+        staged.push_back({k, lo, head, base + std::size_t(pos)});
+        if (head < len) staged.push_back({k, lo + head, len - head, base});
+    };
+    // The members reach[a, b) share their reference's weights (reach[a]'s texel): staged once
+    // over the union of their reaches, seen from the reference.
+    const auto stage_shared = [&](std::size_t a, std::size_t b, double sa, double bq) {
+        const Reach& ref = reach[a];
+        long long u0 = ref.first, u1 = ref.first + ref.count;
+        for (std::size_t m = a + 1; m < b; ++m) {
+            const long long f = reach[m].first - (reach[m].shift - ref.shift);
+            u0 = std::min(u0, f);
+            u1 = std::max(u1, f + reach[m].count);
+        }
+        const int span = int(std::min<long long>(u1 - u0, ow));
+        const int start = column_modulo(u0, ow);
+        const std::size_t base = filled;
+        // The span's physical columns, at most two runs, into consecutive positions.
+        const int head = std::min(span, ow - start);
+        stage_weights(ref.texel, start, start + head, sa, bq, cmax_row, classes, weights.data() + filled);
+        if (head < span) stage_weights(ref.texel, 0, span - head, sa, bq, cmax_row, classes,
+                                       weights.data() + filled + std::size_t(head));
+        filled += std::size_t(span);
+        for (std::size_t m = a; m < b; ++m) {
+            const Reach& r = reach[m];
+            // Physical column p of this member reads the reference's weight at p - (shift offset).
+            const int offset = r.shift - ref.shift;
+            const int first = column_modulo(r.first, ow);
+            const int runs[2][2] = {{first, std::min(ow, first + r.count)}, {0, std::max(0, first + r.count - ow)}};
+            for (const auto& run : runs) {
+                if (run[1] <= run[0]) continue;
+                const auto pos = [&](int lo) { return column_modulo(lo - offset - u0, ow); };
+                if (!columns) {
+                    read_run(r.texel, run[0], run[1], pos(run[0]), span, base);
+                    continue;
+                }
+                // Only the asked columns (patches of a finer grid: a few texels of a wide row).
+                for (const auto& [first_col, last_col] : *columns) {
+                    const int lo = std::max(first_col, run[0]), hi = std::min(last_col, run[1]);
+                    if (lo < hi) read_run(r.texel, lo, hi, pos(lo), span, base);
+                }
+            }
+        }
         if (filled >= kBatch) flush();
     };
-    for (std::size_t k = 0; k < bright_.size(); ++k) {
-        const BrightTexel& b = bright_[k];
-        if (row < first_row_[k] || row > last_row_[k]) continue;
-        const double c_b = min_cos_[k];
-        // cos(theta_r - theta_b) < c_b: no column of this row reaches.
-        if (ct * b.y + st * sin_theta_[k] < c_b) continue;
-        const double a = st * sin_theta_[k];
-        const double bq = ct * b.y;  // b.y = cos(theta_b)
-        int first, count;
-        const double q = a > 1e-300 ? (c_b - bq) / a : (bq >= c_b ? -2.0 : 2.0);
-        if (q > 1.0) continue;
-        if (q <= -1.0) {
-            first = 0;
-            count = ow;
-        } else {
-            const double centre = (b.phi + kPi) / kTwoPi * ow - 0.5;  // output column units
-            const double half = std::acos(q) / kTwoPi * ow;
-            first = int(std::floor(centre - half)) - 1;  // one column of margin: weights decide
-            count = std::min(ow, int(std::ceil(centre + half)) + 1 - first + 1);
+    for (const Group& g : groups_) {
+        if (row < g.first_row || row > g.last_row) continue;
+        const BrightTexel& lead = bright_[g.members.front()];
+        const double sa = st * sin_theta_[g.members.front()];
+        const double bq = ct * lead.y;  // lead.y = cos(theta_b), the group's
+        reach.clear();
+        for (std::size_t m = 0; m < g.members.size(); ++m) {
+            const std::size_t k = g.members[m];
+            if (row < first_row_[k] || row > last_row_[k]) continue;
+            const double c_b = min_cos_[k];
+            // cos(theta_r - theta_b) < c_b: no column of this row reaches.
+            if (bq + sa < c_b) continue;
+            const double q = sa > 1e-300 ? (c_b - bq) / sa : (bq >= c_b ? -2.0 : 2.0);
+            if (q > 1.0) continue;
+            int first, count;
+            if (q <= -1.0) {
+                first = 0;
+                count = ow;
+            } else {
+                const double centre = (bright_[k].phi + kPi) / kTwoPi * ow - 0.5;  // output column units
+                const double half = std::acos(q) / kTwoPi * ow;
+                first = int(std::floor(centre - half)) - 1;  // one column of margin: weights decide
+                count = std::min(ow, int(std::ceil(centre + half)) + 1 - first + 1);
+            }
+            reach.push_back({k, first, count, g.shift[m]});
         }
-        // The columns as at most two runs inside [0, ow) (the range may wrap).
-        first = ((first % ow) + ow) % ow;
-        const int runs[2][2] = {{first, std::min(ow, first + count)}, {0, std::max(0, first + count - ow)}};
-        for (const auto& reach : runs) {
-            if (reach[1] <= reach[0]) continue;
-            if (!columns) {
-                stage(k, reach[0], reach[1], a, bq);
-                continue;
-            }
-            // Only the asked columns (patches of a finer grid: a few texels of a wide row).
-            for (const auto& [first_col, last_col] : *columns) {
-                const int lo = std::max(first_col, reach[0]), hi = std::min(last_col, reach[1]);
-                if (lo < hi) stage(k, lo, hi, a, bq);
-            }
+        if (reach.empty()) continue;
+        // Columns of one class share cmax: members share weights only with a shift of whole
+        // classes (always, for one class).
+        if (classes > 1)
+            std::stable_sort(reach.begin(), reach.end(), [&](const Reach& x, const Reach& y) {
+                return column_modulo(x.shift, classes) < column_modulo(y.shift, classes);
+            });
+        for (std::size_t a = 0; a < reach.size();) {
+            std::size_t b = a + 1;
+            while (b < reach.size() && (classes == 1 || column_modulo(reach[b].shift, classes) == column_modulo(reach[a].shift, classes)))
+                ++b;
+            stage_shared(a, b, sa, bq);
+            a = b;
         }
     }
     if (filled > 0) flush();

@@ -78,6 +78,21 @@ private:
     // (a = sin theta_r sin theta_b, bq = cos theta_r cos theta_b).
     void stage_weights(std::size_t k, int i0, int end, double a, double bq, const double* cmax_row, int classes,
                        double* w) const;
+    // Bright texels whose weights on every output row are the same up to a shift by whole
+    // columns: one polar angle, centres at one phase between output columns. shift[m]: member
+    // m's centre column, rounded down; rows: the union of the members' first_row_/last_row_.
+    struct Group {
+        std::vector<std::size_t> members;
+        std::vector<int> shift;
+        int first_row = 0, last_row = -1;
+    };
+    std::vector<Group> groups_;
+    // A member's reach on one row: columns [first, first + count), unwrapped (add_row).
+    struct Reach {
+        std::size_t texel;
+        int first, count;
+        int shift;
+    };
     // A run of a row's weights staged for the power n and the sums (add_row).
     struct Staged {
         std::size_t texel;

@@ -126,6 +126,64 @@ TEST(OutputGrid, BrightLobeAtItsOwnDirectionIsTheNormalisedPeak) {
     EXPECT_EQ(lobes.at(40, 7).r, 0.0f);
 }
 
+// Bright texels of one polar angle at one phase between output columns share their staged
+// weights (BrightScatter's groups): the sums must be those of each texel on its own, across
+// the seam, at the pole, with one or several column classes, whole rows or asked columns only.
+TEST(OutputGrid, GroupedBrightTexelsSumAsEachOnItsOwn) {
+    const int in_w = 32, in_h = 16;
+    std::vector<BrightTexel> bright;
+    const auto add = [&](double i, int j, double value) {
+        BrightTexel t;
+        t.theta = row_theta(j, in_h);
+        t.phi = -kPi + (i + 0.5) * kTwoPi / in_w;
+        const glm::dvec3 d = direction_from_angles(t.theta, t.phi);
+        t.x = d.x, t.y = d.y, t.z = d.z;
+        t.r = value, t.g = 0.5 * value, t.b = 0.25 * value;
+        bright.push_back(t);
+    };
+    double value = 3e4;
+    for (int i : {0, 1, 2, 3, 7, 28, 29, 30, 31}) add(i, 5, value *= 0.8);   // a strip over the seam
+    for (int i : {10, 11, 12, 13}) add(i, 6, value *= 1.3);                  // the next row
+    for (int i : {0, 9, 17}) add(i, 0, 2e3);                                 // the polar row
+    add(3.37, 5, 5e3);                                                       // same row, another phase
+    const std::vector<double> one_class{1.0}, four_classes{1.0, 0.9993, 0.9998, 0.9991};
+    const LobeSummer::ColumnRuns columns{{0, 5}, {40, 60}, {90, 96}};
+    // 4x the input's columns: the texels of a row are 4 columns apart, as are the classes;
+    // 3x: a shift of 3 columns moves a texel into another class.
+    for (const Size out : {Size{128, 64}, Size{96, 48}})
+    // (Not n = 0: its weight jumps from 1 to 0 at the horizon, where a texel centre can lie
+    // exactly and rounding picks either side, grouped or not.)
+    for (const double n : {1.0, 20.0, 500.0, 20480.0, 1e6}) {
+        const BrightScatter all(bright, n, out, 1.0, 1e-6);
+        std::vector<std::vector<BrightTexel>> singles;
+        for (const BrightTexel& t : bright) singles.push_back({t});
+        for (const std::vector<double>* cmax : {&one_class, &four_classes}) {
+            const int classes = int(cmax->size());
+            for (const LobeSummer::ColumnRuns* runs : {static_cast<const LobeSummer::ColumnRuns*>(nullptr), &columns}) {
+                double largest = 0, worst = 0;
+                for (int row = 0; row < out.height; ++row) {
+                    std::vector<double> grouped(std::size_t(3 * out.width), 0.0), alone(grouped.size(), 0.0);
+                    all.add_row(row, cmax->data(), classes, grouped.data(), runs);
+                    for (const auto& single : singles) {
+                        const BrightScatter one(single, n, out, 1.0, 1e-6);
+                        one.add_row(row, cmax->data(), classes, alone.data(), runs);
+                    }
+                    for (std::size_t i = 0; i < grouped.size(); ++i) {
+                        largest = std::max(largest, alone[i]);
+                        worst = std::max(worst, std::abs(grouped[i] - alone[i]) / std::max(1e-300, alone[i]));
+                        if (alone[i] == 0) {
+                            EXPECT_EQ(grouped[i], 0.0) << "n " << n << " row " << row << " i " << i;
+                        }
+                    }
+                }
+                EXPECT_GT(largest, 0.0) << "n " << n;
+                EXPECT_LT(worst, 1e-9) << out.width << " columns, n " << n << ", " << classes << " classes"
+                                       << (runs ? ", asked columns" : "");
+            }
+        }
+    }
+}
+
 // A map with one bright texel on a smooth field: the sharpest content a lobe gets.
 HdrImage field_with_sun(int w, int h) {
     HdrImage m = sampled(w, h, smooth_field);
