@@ -119,6 +119,64 @@ BrightScatter::BrightScatter(const std::vector<BrightTexel>& bright, double n, S
         g.first_row = std::min(g.first_row, first_row_[k]);
         g.last_row = std::max(g.last_row, last_row_[k]);
     }
+    // For n = 1 (irradiance), clusters of bright texels within cells of kClusterCell radians:
+    // where a whole cluster is in front and below cmax, its members' terms are one dot product
+    // (add_linear_row). The cell balances a cluster's own cost (a pass over the columns where it
+    // is linear) against its members' terms left in the band around its horizon and peak, whose
+    // width grows with the cell: about 3 degrees for texels packed at 1024x512's spacing.
+    if (n == 1.0) {
+        constexpr double kClusterCell = 0.05;
+        std::map<std::pair<int, int>, std::size_t> cluster_of;
+        for (std::size_t k = 0; k < bright.size(); ++k) {
+            if (first_row_[k] > last_row_[k]) continue;
+            const int band = int(std::floor(bright[k].theta / kClusterCell));
+            const double mid = (band + 0.5) * kClusterCell;
+            const int cells = std::max(1, int(std::floor(kTwoPi * std::sin(std::min(mid, kPi - 1e-9)) / kClusterCell)));
+            const int cell = std::min(cells - 1, int(std::floor((bright[k].phi + kPi) / kTwoPi * cells)));
+            const auto [it, added] = cluster_of.emplace(std::make_pair(band, cell), clusters_.size());
+            if (added) clusters_.push_back(Cluster{});
+            Cluster& c = clusters_[it->second];
+            if (added) {
+                c.first_row = first_row_[k];
+                c.last_row = last_row_[k];
+            }
+            c.members.push_back(k);
+            c.first_row = std::min(c.first_row, first_row_[k]);
+            c.last_row = std::max(c.last_row, last_row_[k]);
+        }
+        for (Cluster& c : clusters_) {
+            glm::dvec3 sum(0.0);
+            for (const std::size_t k : c.members) sum += glm::dvec3(bright[k].x, bright[k].y, bright[k].z);
+            const glm::dvec3 centre = glm::normalize(sum);
+            c.cos_theta = std::clamp(centre.y, -1.0, 1.0);
+            c.sin_theta = std::sqrt(std::max(0.0, 1.0 - c.cos_theta * c.cos_theta));
+            c.phi = std::atan2(centre.x, -centre.z);
+            for (const std::size_t k : c.members) {
+                const BrightTexel& b = bright[k];
+                // The angle to the centre from the chord (accurate for small angles, unlike acos).
+                const double chord = glm::length(glm::dvec3(b.x, b.y, b.z) - centre);
+                c.radius = std::max(c.radius, 2.0 * std::asin(std::min(1.0, chord / 2.0)));
+                // Sums of L dOmega times the direction's parts as stage_weights writes the cosine.
+                const double st_b = std::sin(b.theta), u = st_b * std::cos(b.phi), v = st_b * std::sin(b.phi),
+                             w = std::cos(b.theta);
+                const double l[3] = {b.r, b.g, b.b};
+                for (int ch = 0; ch < 3; ++ch) {
+                    c.u[ch] += u * l[ch];
+                    c.v[ch] += v * l[ch];
+                    c.w[ch] += w * l[ch];
+                    c.ml.push_back(l[ch]);
+                }
+                c.mu.push_back(u);
+                c.mv.push_back(v);
+                c.mw.push_back(w);
+                c.cut.push_back(std::max(min_cos_[k], 1e-300));  // a term needs cosine > 0 too
+            }
+            c.radius = c.radius * (1.0 + 1e-9) + 1e-9;  // rounding of the centre and the chords
+            // The cone that holds every member's cut-off cone.
+            const double widest = std::acos(std::clamp(*std::min_element(c.cut.begin(), c.cut.end()), -1.0, 1.0));
+            c.reach_cos = widest + c.radius >= kPi ? -2.0 : std::cos(widest + c.radius);
+        }
+    }
     cos_phi_.resize(std::size_t(out.width));
     sin_phi_.resize(std::size_t(out.width));
     for (int i = 0; i < out.width; ++i) {
@@ -216,6 +274,30 @@ void BrightScatter::add_row(int row, const double* cmax_row, int classes, double
         }
         if (filled >= kBatch) flush();
     };
+    // Bright texel k's columns on this row, [first, first + count) unwrapped, or false when its
+    // cut-off cone misses the row (sa = sin theta_r sin theta_b, bq = cos theta_r cos theta_b).
+    const auto member_reach = [&](std::size_t k, double sa, double bq, int& first, int& count) {
+        if (row < first_row_[k] || row > last_row_[k]) return false;
+        const double c_b = min_cos_[k];
+        // cos(theta_r - theta_b) < c_b: no column of this row reaches.
+        if (bq + sa < c_b) return false;
+        const double q = sa > 1e-300 ? (c_b - bq) / sa : (bq >= c_b ? -2.0 : 2.0);
+        if (q > 1.0) return false;
+        if (q <= -1.0) {
+            first = 0;
+            count = ow;
+        } else {
+            const double centre = (bright_[k].phi + kPi) / kTwoPi * ow - 0.5;  // output column units
+            const double half = std::acos(q) / kTwoPi * ow;
+            first = int(std::floor(centre - half)) - 1;  // one column of margin: weights decide
+            count = std::min(ow, int(std::ceil(centre + half)) + 1 - first + 1);
+        }
+        return true;
+    };
+    if (!clusters_.empty()) {
+        add_linear_row(row, ct, st, cmax_row, classes, nb_row, columns, first_column);
+        return;
+    }
     for (const Group& g : groups_) {
         if (row < g.first_row || row > g.last_row) continue;
         const BrightTexel& lead = bright_[g.members.front()];
@@ -224,23 +306,8 @@ void BrightScatter::add_row(int row, const double* cmax_row, int classes, double
         reach.clear();
         for (std::size_t m = 0; m < g.members.size(); ++m) {
             const std::size_t k = g.members[m];
-            if (row < first_row_[k] || row > last_row_[k]) continue;
-            const double c_b = min_cos_[k];
-            // cos(theta_r - theta_b) < c_b: no column of this row reaches.
-            if (bq + sa < c_b) continue;
-            const double q = sa > 1e-300 ? (c_b - bq) / sa : (bq >= c_b ? -2.0 : 2.0);
-            if (q > 1.0) continue;
-            int first, count;
-            if (q <= -1.0) {
-                first = 0;
-                count = ow;
-            } else {
-                const double centre = (bright_[k].phi + kPi) / kTwoPi * ow - 0.5;  // output column units
-                const double half = std::acos(q) / kTwoPi * ow;
-                first = int(std::floor(centre - half)) - 1;  // one column of margin: weights decide
-                count = std::min(ow, int(std::ceil(centre + half)) + 1 - first + 1);
-            }
-            reach.push_back({k, first, count, g.shift[m]});
+            int first = 0, count = 0;
+            if (member_reach(k, sa, bq, first, count)) reach.push_back({k, first, count, g.shift[m]});
         }
         if (reach.empty()) continue;
         // Columns of one class share cmax: members share weights only with a shift of whole
@@ -258,6 +325,122 @@ void BrightScatter::add_row(int row, const double* cmax_row, int classes, double
         }
     }
     if (filled > 0) flush();
+}
+
+void BrightScatter::add_linear_row(int row, double ct, double st, const double* cmax_row, int classes,
+                                   double* nb_row, const LobeSummer::ColumnRuns* columns, int first_column) const {
+    const int ow = out_.width;
+    const double cm_lo = *std::min_element(cmax_row, cmax_row + classes);
+    // A run of physical columns [lo, hi) cut to the asked ones (all, without `columns`).
+    const auto for_asked = [&](int lo, int hi, const auto& f) {
+        if (!columns) {
+            f(lo, hi);
+            return;
+        }
+        for (const auto& [first_col, last_col] : *columns) {
+            const int a = std::max(first_col, lo), b = std::min(last_col, hi);
+            if (a < b) f(a, b);
+        }
+    };
+    thread_local std::vector<std::pair<int, int>> linear;  // physical runs, ascending
+    thread_local std::vector<std::pair<int, int>> pieces;
+    for (const Cluster& c : clusters_) {
+        if (row < c.first_row || row > c.last_row) continue;
+        // The columns where every member is in front (angle to the centre <= pi/2 - radius) and
+        // below cmax (angle >= acos(cm_lo) + radius): there each weight is cosine / cmax, and the
+        // members' sum is the dot product of the texel's direction with their radiance-weighted
+        // directions. As column ranges around the centre's column cc: h_lo <= |i - cc| <= h_hi,
+        // one column of margin at each end (the boundaries come from acos).
+        linear.clear();
+        const double ac = st * c.sin_theta, bc = ct * c.cos_theta;
+        const double beta = std::acos(std::min(1.0, cm_lo)) + c.radius;
+        if (beta < kPi / 2 - c.radius) {
+            const double s_out = std::sin(c.radius), c_in = std::cos(beta);
+            double q_out, q_in;  // linear where q_out <= cos(dphi) <= q_in
+            if (ac > 1e-300) {
+                q_out = (s_out - bc) / ac;
+                q_in = (c_in - bc) / ac;
+            } else {
+                q_out = bc >= s_out ? -2.0 : 2.0;
+                q_in = bc <= c_in ? 2.0 : -2.0;
+            }
+            if (q_out <= 1.0 && q_in >= -1.0 && q_out <= q_in) {
+                const double cc = (c.phi + kPi) / kTwoPi * ow - 0.5;
+                const double h_hi = std::min(std::acos(std::max(-1.0, q_out)) / kTwoPi * ow, ow / 2.0 - 1.0);
+                const double h_lo = q_in >= 1.0 ? 0.0 : std::acos(q_in) / kTwoPi * ow;
+                std::pair<long long, long long> ranges[2];  // inclusive, unwrapped
+                int count = 0;
+                if (h_lo == 0.0) {
+                    ranges[count++] = {std::llround(std::ceil(cc - h_hi)) + 1, std::llround(std::floor(cc + h_hi)) - 1};
+                } else {
+                    ranges[count++] = {std::llround(std::ceil(cc - h_hi)) + 1, std::llround(std::floor(cc - h_lo)) - 1};
+                    ranges[count++] = {std::llround(std::ceil(cc + h_lo)) + 1, std::llround(std::floor(cc + h_hi)) - 1};
+                }
+                for (int r = 0; r < count; ++r) {
+                    const auto [lo, hi] = ranges[r];
+                    if (hi < lo) continue;
+                    const int start = column_modulo(lo, ow);
+                    const int end = start + int(hi - lo + 1);
+                    linear.emplace_back(start, std::min(end, ow));
+                    if (end > ow) linear.emplace_back(0, end - ow);
+                }
+                std::sort(linear.begin(), linear.end());
+            }
+        }
+        for (const auto& [lo, hi] : linear)
+            for_asked(lo, hi, [&](int a, int b) {
+                for (int i = a; i < b; ++i) {
+                    const double cm = cmax_row[classes == 1 ? 0 : i % classes];
+                    const double u = st * cos_phi_[std::size_t(i)] / cm, v = st * sin_phi_[std::size_t(i)] / cm,
+                                 w = ct / cm;
+                    double* o = nb_row + 3 * std::size_t(i - first_column);
+                    for (int ch = 0; ch < 3; ++ch) o[ch] += u * c.u[ch] + v * c.v[ch] + w * c.w[ch];
+                }
+            });
+        // Elsewhere in the cluster's reach (the band around its horizon, and near its texels where
+        // cmax clamps), each member's own term, with its own cut, texel by texel.
+        const double cq = ac > 1e-300 ? (c.reach_cos - bc) / ac : (bc >= c.reach_cos ? -2.0 : 2.0);
+        if (cq > 1.0) continue;
+        int first = 0, count = ow;
+        if (cq > -1.0) {
+            const double cc = (c.phi + kPi) / kTwoPi * ow - 0.5;
+            const double half = std::acos(cq) / kTwoPi * ow;
+            first = int(std::floor(cc - half)) - 1;
+            count = std::min(ow, int(std::ceil(cc + half)) + 1 - first + 1);
+        }
+        first = column_modulo(first, ow);
+        const int runs[2][2] = {{first, std::min(ow, first + count)}, {0, std::max(0, first + count - ow)}};
+        const std::size_t members = c.members.size();
+        for (const auto& run : runs) {
+            if (run[1] <= run[0]) continue;
+            pieces.clear();
+            int cur = run[0];
+            for (const auto& [lo, hi] : linear) {
+                if (hi <= cur || lo >= run[1]) continue;
+                if (lo > cur) pieces.emplace_back(cur, lo);
+                cur = std::max(cur, hi);
+            }
+            if (cur < run[1]) pieces.emplace_back(cur, run[1]);
+            for (const auto& [lo, hi] : pieces)
+                for_asked(lo, hi, [&](int a, int b) {
+                    for (int i = a; i < b; ++i) {
+                        const double cm = cmax_row[classes == 1 ? 0 : i % classes];
+                        const double x = st * cos_phi_[std::size_t(i)], y = st * sin_phi_[std::size_t(i)];
+                        double sum[3] = {0, 0, 0};
+                        for (std::size_t m = 0; m < members; ++m) {
+                            const double cosine = x * c.mu[m] + y * c.mv[m] + ct * c.mw[m];
+                            if (!(cosine >= c.cut[m])) continue;
+                            const double w = std::min(1.0, cosine / cm);
+                            sum[0] += w * c.ml[3 * m];
+                            sum[1] += w * c.ml[3 * m + 1];
+                            sum[2] += w * c.ml[3 * m + 2];
+                        }
+                        double* o = nb_row + 3 * std::size_t(i - first_column);
+                        o[0] += sum[0], o[1] += sum[1], o[2] += sum[2];
+                    }
+                });
+        }
+    }
 }
 
 void BrightScatter::stage_weights(std::size_t k, int i0, int end, double a, double bq, const double* cmax_row,

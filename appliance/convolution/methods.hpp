@@ -93,6 +93,21 @@ private:
         int first, count;
         int shift;
     };
+    // For n = 1: bright texels of one cell of the sphere, with their centre, angular radius and
+    // the sums of L dOmega times (sin theta cos phi, sin theta sin phi, cos theta) per channel.
+    struct Cluster {
+        std::vector<std::size_t> members;
+        double cos_theta = 1, sin_theta = 0, phi = 0, radius = 0;
+        double u[3] = {0, 0, 0}, v[3] = {0, 0, 0}, w[3] = {0, 0, 0};
+        int first_row = 0, last_row = -1;
+        // Per member: its direction's parts, L dOmega (3 each) and its cut (cosine >= cut[m]).
+        std::vector<double> mu, mv, mw, ml, cut;
+        double reach_cos = 2;  // the cosine of the cone around the centre holding every member's cut
+    };
+    std::vector<Cluster> clusters_;
+    // add_row for n = 1: each cluster's sum where it is linear, its members' terms elsewhere.
+    void add_linear_row(int row, double ct, double st, const double* cmax_row, int classes, double* nb_row,
+                        const LobeSummer::ColumnRuns* columns, int first_column) const;
     // A run of a row's weights staged for the power n and the sums (add_row).
     struct Staged {
         std::size_t texel;

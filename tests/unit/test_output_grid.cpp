@@ -3,6 +3,7 @@
 // added back exactly, the mirror map's footprint filter, and lobes up to n = 1e7.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <random>
 
@@ -179,6 +180,72 @@ TEST(OutputGrid, GroupedBrightTexelsSumAsEachOnItsOwn) {
                 EXPECT_GT(largest, 0.0) << "n " << n;
                 EXPECT_LT(worst, 1e-9) << out.width << " columns, n " << n << ", " << classes << " classes"
                                        << (runs ? ", asked columns" : "");
+            }
+        }
+    }
+}
+
+// For n = 1 a cluster of bright texels wholly in front of a texel adds one dot product instead
+// of its members' terms (BrightScatter's clusters): against the plain sum of every term, with
+// clusters at the seam, around the pole and in the open, cmax below 1 (the clamp min(1, c/cmax)
+// near the texels), one and four column classes and asked columns.
+TEST(OutputGrid, BrightClustersForIrradianceMatchThePlainSum) {
+    const int in_w = 512, in_h = 256;
+    std::vector<BrightTexel> bright;
+    const auto add = [&](int i, int j, double value) {
+        BrightTexel t;
+        t.theta = row_theta(j, in_h);
+        t.phi = column_phi(i, in_w);
+        const glm::dvec3 d = direction_from_angles(t.theta, t.phi);
+        t.x = d.x, t.y = d.y, t.z = d.z;
+        t.r = value, t.g = 0.7 * value, t.b = 0.2 * value;
+        bright.push_back(t);
+    };
+    for (int j = 90; j < 96; ++j)
+        for (int i = 300; i < 310; ++i) add(i, j, 50.0 + i - j);           // a lamp in the open
+    for (int j = 40; j < 44; ++j)
+        for (int i : {508, 509, 510, 511, 0, 1, 2}) add(i, j, 80.0 + j);   // a window over the seam
+    for (int i = 0; i < in_w; i += 37) add(i, 1, 30.0);                    // around the pole
+    add(100, 200, 400.0);                                                  // a lone sun below
+    const std::vector<double> one_class{1.0}, four_classes{0.9993, 0.9981, 0.9998, 0.9989};
+    for (const Size out : {Size{128, 64}, Size{96, 48}, Size{512, 256}}) {
+        const LobeSummer::ColumnRuns columns{{0, 5}, {40, 60}, {out.width - 6, out.width}};
+        const BrightScatter scatter(bright, 1.0, out, 1.0, 1e-6);
+        for (const std::vector<double>* cmax : {&one_class, &four_classes}) {
+            const int classes = int(cmax->size());
+            for (const LobeSummer::ColumnRuns* runs : {static_cast<const LobeSummer::ColumnRuns*>(nullptr), &columns}) {
+                double worst = 0, largest = 0;
+                for (int row = 0; row < out.height; ++row) {
+                    std::vector<double> got(std::size_t(3 * out.width), 0.0);
+                    scatter.add_row(row, cmax->data(), classes, got.data(), runs);
+                    for (int i = 0; i < out.width; ++i) {
+                        const bool asked = !runs || std::any_of(runs->begin(), runs->end(), [&](const auto& r) {
+                            return i >= r.first && i < r.second;
+                        });
+                        const glm::dvec3 d = texel_direction(i, row, out.width, out.height);
+                        const double cm = (*cmax)[std::size_t(i % classes)];
+                        double want[3] = {0, 0, 0};
+                        for (const BrightTexel& b : bright) {
+                            const double c = glm::dot(d, glm::dvec3(b.x, b.y, b.z));
+                            const double w = c > 0 ? std::min(1.0, c / cm) : 0.0;
+                            want[0] += w * b.r, want[1] += w * b.g, want[2] += w * b.b;
+                        }
+                        for (int ch = 0; ch < 3; ++ch) {
+                            const double g = got[std::size_t(3 * i + ch)];
+                            if (!asked) {
+                                EXPECT_EQ(g, 0.0) << "a column not asked for";
+                                continue;
+                            }
+                            largest = std::max(largest, want[ch]);
+                            // Terms below 1e-6 of the floor (1 here) times the lobe's sum may be
+                            // dropped: at most one such term per bright texel.
+                            worst = std::max(worst, std::abs(g - want[ch]) / (1e-9 * want[ch] + 1e-6 * kPi * double(bright.size())));
+                        }
+                    }
+                }
+                EXPECT_GT(largest, 100.0);
+                EXPECT_LT(worst, 1.0) << out.width << " columns, " << classes << " classes"
+                                      << (runs ? ", asked columns" : "");
             }
         }
     }
