@@ -127,6 +127,16 @@ TEST(OutputGrid, BrightLobeAtItsOwnDirectionIsTheNormalisedPeak) {
     EXPECT_EQ(lobes.at(40, 7).r, 0.0f);
 }
 
+// A bright texel at (theta, phi) holding `value` times `colour` (radiance times solid angle).
+BrightTexel bright_texel(double theta, double phi, Rgb colour, double value) {
+    BrightTexel t;
+    t.theta = theta, t.phi = phi;
+    const glm::dvec3 d = direction_from_angles(theta, phi);
+    t.x = d.x, t.y = d.y, t.z = d.z;
+    t.r = value * colour.r, t.g = value * colour.g, t.b = value * colour.b;
+    return t;
+}
+
 // Bright texels of one polar angle at one phase between output columns share their staged
 // weights (BrightScatter's groups): the sums must be those of each texel on its own, across
 // the seam, at the pole, with one or several column classes, whole rows or asked columns only.
@@ -134,13 +144,7 @@ TEST(OutputGrid, GroupedBrightTexelsSumAsEachOnItsOwn) {
     const int in_w = 32, in_h = 16;
     std::vector<BrightTexel> bright;
     const auto add = [&](double i, int j, double value) {
-        BrightTexel t;
-        t.theta = row_theta(j, in_h);
-        t.phi = -kPi + (i + 0.5) * kTwoPi / in_w;
-        const glm::dvec3 d = direction_from_angles(t.theta, t.phi);
-        t.x = d.x, t.y = d.y, t.z = d.z;
-        t.r = value, t.g = 0.5 * value, t.b = 0.25 * value;
-        bright.push_back(t);
+        bright.push_back(bright_texel(row_theta(j, in_h), -kPi + (i + 0.5) * kTwoPi / in_w, {1.0f, 0.5f, 0.25f}, value));
     };
     double value = 3e4;
     for (int i : {0, 1, 2, 3, 7, 28, 29, 30, 31}) add(i, 5, value *= 0.8);   // a strip over the seam
@@ -193,13 +197,7 @@ TEST(OutputGrid, BrightClustersForIrradianceMatchThePlainSum) {
     const int in_w = 512, in_h = 256;
     std::vector<BrightTexel> bright;
     const auto add = [&](int i, int j, double value) {
-        BrightTexel t;
-        t.theta = row_theta(j, in_h);
-        t.phi = column_phi(i, in_w);
-        const glm::dvec3 d = direction_from_angles(t.theta, t.phi);
-        t.x = d.x, t.y = d.y, t.z = d.z;
-        t.r = value, t.g = 0.7 * value, t.b = 0.2 * value;
-        bright.push_back(t);
+        bright.push_back(bright_texel(row_theta(j, in_h), column_phi(i, in_w), {1.0f, 0.7f, 0.2f}, value));
     };
     for (int j = 90; j < 96; ++j)
         for (int i = 300; i < 310; ++i) add(i, j, 50.0 + i - j);           // a lamp in the open
