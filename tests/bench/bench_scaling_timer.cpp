@@ -41,6 +41,16 @@ int main(int argc, char** argv) {
             }
             return std::string(argv[++i]);
         };
+        if (a == "--help" || a == "-h") {
+            std::printf("usage: glint_bench_scaling_timer MAP.exr [--reference-sizes | --size WxH] [--only N] "
+                        "[--repeats K >= 1] [--threads T]\n"
+                        "Times the whole set (irradiance and n = 1 ... 20480) through convolve() in this process, K\n"
+                        "times: each repeat's wall and CPU time, their medians, and the per-map times of the median\n"
+                        "run. --reference-sizes: each map at its reference size; --size: every map at WxH; without\n"
+                        "either, the planner's sizes. --only N: the single map of shininess N (0 = irradiance).\n"
+                        "Run with GLIBC_TUNABLES=glibc.malloc.hugetlb=1 for the heap glint convolve uses.\n");
+            return 0;
+        }
         if (a == "--reference-sizes") reference = true;
         else if (a == "--only") only = std::atof(value().c_str());
         else if (a == "--size") {
