@@ -17,6 +17,20 @@ namespace {
 // i modulo m in [0, m), for column indices that may be negative or past the width.
 int column_modulo(long long i, int m) { return int(((i % m) + m) % m); }
 
+// The columns [first, first + count) (unwrapped, one column of margin each side) of a row of
+// `ow` columns where cos(phi - phi_c) >= q, around azimuth phi_c; q <= -1: the whole row.
+void cone_columns(double phi_c, double q, int ow, int& first, int& count) {
+    if (q <= -1.0) {
+        first = 0;
+        count = ow;
+        return;
+    }
+    const double centre = (phi_c + kPi) / kTwoPi * ow - 0.5;  // output column units
+    const double half = std::acos(q) / kTwoPi * ow;
+    first = int(std::floor(centre - half)) - 1;  // one column of margin: weights decide
+    count = std::min(ow, int(std::ceil(centre + half)) + 1 - first + 1);
+}
+
 }  // namespace
 
 BrightSplit split_bright(HdrImage image, double contrast, int max_count, int threads) {
@@ -106,7 +120,7 @@ BrightScatter::BrightScatter(const std::vector<BrightTexel>& bright, double n, S
     // Groups: texels of one polar angle whose centres sit at the same phase between output
     // columns (a bright region of an input whose width divides the output's, row by row).
     std::map<std::pair<double, long long>, std::size_t> group_of;
-    for (std::size_t k = 0; k < bright.size(); ++k) {
+    for (std::size_t k = 0; k < bright.size() && n != 1.0; ++k) {  // n = 1 uses the clusters below
         if (first_row_[k] > last_row_[k]) continue;
         const double centre = (bright[k].phi + kPi) / kTwoPi * out.width - 0.5;
         const double whole = std::floor(centre + 1e-10);
@@ -283,15 +297,7 @@ void BrightScatter::add_row(int row, const double* cmax_row, int classes, double
         if (bq + sa < c_b) return false;
         const double q = sa > 1e-300 ? (c_b - bq) / sa : (bq >= c_b ? -2.0 : 2.0);
         if (q > 1.0) return false;
-        if (q <= -1.0) {
-            first = 0;
-            count = ow;
-        } else {
-            const double centre = (bright_[k].phi + kPi) / kTwoPi * ow - 0.5;  // output column units
-            const double half = std::acos(q) / kTwoPi * ow;
-            first = int(std::floor(centre - half)) - 1;  // one column of margin: weights decide
-            count = std::min(ow, int(std::ceil(centre + half)) + 1 - first + 1);
-        }
+        cone_columns(bright_[k].phi, q, ow, first, count);
         return true;
     };
     if (!clusters_.empty()) {
@@ -402,12 +408,7 @@ void BrightScatter::add_linear_row(int row, double ct, double st, const double* 
         const double cq = ac > 1e-300 ? (c.reach_cos - bc) / ac : (bc >= c.reach_cos ? -2.0 : 2.0);
         if (cq > 1.0) continue;
         int first = 0, count = ow;
-        if (cq > -1.0) {
-            const double cc = (c.phi + kPi) / kTwoPi * ow - 0.5;
-            const double half = std::acos(cq) / kTwoPi * ow;
-            first = int(std::floor(cc - half)) - 1;
-            count = std::min(ow, int(std::ceil(cc + half)) + 1 - first + 1);
-        }
+        cone_columns(c.phi, cq, ow, first, count);
         first = column_modulo(first, ow);
         const int runs[2][2] = {{first, std::min(ow, first + count)}, {0, std::max(0, first + count - ow)}};
         const std::size_t members = c.members.size();
