@@ -3,8 +3,10 @@
 #include <tiny_gltf.h>
 
 #include <algorithm>
+#include <cmath>
 #include <cstring>
 #include <functional>
+#include <limits>
 
 #include <glm/gtc/matrix_transform.hpp>
 #include <glm/gtc/quaternion.hpp>
@@ -26,6 +28,12 @@ glm::dmat4 local_transform(const tinygltf::Node& node) {
         m *= glm::mat4_cast(glm::dquat(node.rotation[3], node.rotation[0], node.rotation[1], node.rotation[2]));
     if (node.scale.size() == 3) m = glm::scale(m, glm::dvec3(node.scale[0], node.scale[1], node.scale[2]));
     return m;
+}
+
+// Every component finite and within a float's range (the mesh stores floats).
+bool finite_float(const glm::dvec3& p) {
+    constexpr double kMax = double(std::numeric_limits<float>::max());
+    return std::abs(p.x) <= kMax && std::abs(p.y) <= kMax && std::abs(p.z) <= kMax;  // false for NaN
 }
 
 class Reader {
@@ -143,8 +151,15 @@ Mesh load_gltf(const std::filesystem::path& path) {
             if (pos == prim.attributes.end()) reader.fail("a primitive has no POSITION");
             const std::size_t base = mesh.positions.size();
             const std::size_t n = reader.count(pos->second);
-            reader.read(pos->second, 3, "POSITION", [&](std::size_t, const double* v) {
-                mesh.positions.push_back(glm::vec3(world * glm::dvec4(v[0], v[1], v[2], 1.0)));
+            reader.read(pos->second, 3, "POSITION", [&](std::size_t k, const double* v) {
+                // A NaN or infinite coordinate (garbage bytes, or a node transform that scales past
+                // a float's range) would make every normal and bound computed from it NaN.
+                const glm::dvec3 p(world * glm::dvec4(v[0], v[1], v[2], 1.0));
+                if (!finite_float(p))
+                    reader.fail("POSITION " + std::to_string(k) + " of accessor " + std::to_string(pos->second) +
+                                (finite_float(glm::dvec3(v[0], v[1], v[2])) ? " is beyond a float's range after its node's transform"
+                                                                           : " is not a finite number"));
+                mesh.positions.push_back(glm::vec3(p));
                 mesh.normals.push_back(glm::vec3(0));
                 position_of.push_back(position_of.size());
             });
@@ -152,9 +167,14 @@ Mesh load_gltf(const std::filesystem::path& path) {
             if (nor != prim.attributes.end()) {
                 if (reader.count(nor->second) != n) reader.fail("NORMAL and POSITION counts differ");
                 reader.read(nor->second, 3, "NORMAL", [&](std::size_t k, const double* v) {
+                    if (!finite_float(glm::dvec3(v[0], v[1], v[2])))
+                        reader.fail("NORMAL " + std::to_string(k) + " of accessor " + std::to_string(nor->second) +
+                                    " is not a finite number");
+                    // A singular transform (a scale of 0) has no normal matrix: such normals, and
+                    // zero-length ones, are left at 0 and filled from the faces below.
                     const glm::dvec3 d = normal_matrix * glm::dvec3(v[0], v[1], v[2]);
                     const double len = glm::length(d);
-                    mesh.normals[base + k] = len > 0 ? glm::vec3(d / len) : glm::vec3(0);
+                    mesh.normals[base + k] = std::isfinite(len) && len > 0 ? glm::vec3(d / len) : glm::vec3(0);
                 });
             }
             const std::size_t first_index = mesh.indices.size();

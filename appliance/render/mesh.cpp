@@ -4,6 +4,7 @@
 #include <cctype>
 #include <cmath>
 #include <fstream>
+#include <limits>
 #include <map>
 #include <sstream>
 #include <utility>
@@ -141,14 +142,22 @@ Mesh load_obj(const std::filesystem::path& path) {
             if (key == "vn" ? n != 3 : (n != 3 && n != 4 && n != 6))
                 throw InputError(where + ": '" + std::string(key) + "' needs 3 numbers" +
                                  (key == "v" ? " (x y z, x y z w or x y z r g b)" : "") + ", got " + std::to_string(n));
-            const glm::vec3 p(float(parse_double(words[1], where)), float(parse_double(words[2], where)),
-                              float(parse_double(words[3], where)));
+            // Each number must also fit a float: 1e39 parses as a finite double but becomes an
+            // infinite coordinate, and every normal and bound computed from it NaN.
+            glm::vec3 p;
+            for (int c = 0; c < 3; ++c) {
+                const double x = parse_double(words[std::size_t(c) + 1], where);
+                if (!(std::abs(x) <= double(std::numeric_limits<float>::max())))
+                    throw InputError(where + ": '" + std::string(words[std::size_t(c) + 1]) + "' is beyond a float's range");
+                p[c] = float(x);
+            }
             if (key == "v") {
                 v.push_back(p);
             } else {
-                const float len = glm::length(p);
+                const glm::dvec3 d(p);  // in double: a float's square overflows from 1.8e19
+                const double len = glm::length(d);
                 if (!(len > 0)) throw InputError(where + ": normal of zero length");
-                vn.push_back(p / len);
+                vn.push_back(glm::vec3(d / len));
             }
         } else if (key == "mtllib") {
             for (std::size_t k = 1; k < words.size(); ++k) {

@@ -13,6 +13,7 @@ inline void check_mesh(const render::Mesh& m) {
     check(!m.indices.empty() && m.indices.size() % 3 == 0);
     check(m.normals.size() == m.positions.size());
     for (const std::uint32_t i : m.indices) check(i < m.positions.size());
+    for (const auto& p : m.positions) check(std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z));
     for (const auto& n : m.normals) check(std::isfinite(n.x) && std::isfinite(n.y) && std::isfinite(n.z));
     for (const auto& part : m.parts) {
         check(part.first_index % 3 == 0 && part.index_count % 3 == 0);

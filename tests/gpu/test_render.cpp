@@ -16,6 +16,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <limits>
 #include <string>
 
 #include "appliance/convolution/convolution.hpp"
@@ -447,6 +448,14 @@ TEST(RenderMesh, ObjErrorsNameTheFileAndLine) {
     EXPECT_NE(e.find("zero.obj:4"), std::string::npos) << e;
     e = obj_error("five.obj", "v 0 0 0 1 1\n");
     EXPECT_NE(e.find("five.obj:1"), std::string::npos) << e;
+    // Finite as a double, infinite as the float the mesh stores: refused, not turned into NaN normals.
+    e = obj_error("huge.obj", "v 0 0 0\nv 1e39 0 0\nv 0 1 0\nf 1 2 3\n");
+    EXPECT_NE(e.find("huge.obj:2"), std::string::npos) << e;
+    EXPECT_NE(e.find("float"), std::string::npos) << e;
+    {  // a long normal is still a direction (its length in float would overflow to infinity)
+        const render::Mesh m = render::load_obj(write_file(dir, "long.obj", tri + "vn 0 0 3e30\nf 1//1 2//1 3//1\n"));
+        EXPECT_EQ(m.normals[0], glm::vec3(0, 0, 1));
+    }
     e = obj_error("empty.obj", tri);
     EXPECT_NE(e.find("empty.obj"), std::string::npos) << e;
     EXPECT_NE(e.find("no faces"), std::string::npos) << e;
@@ -524,6 +533,26 @@ TEST(RenderMesh, GltfTrianglesAreReadWithTheirNodeTransform) {
         render::load_gltf(write_file(dir, "range.gltf", bad));
     });
     EXPECT_NE(range.find("range.gltf"), std::string::npos) << range;
+
+    // Garbage coordinates (a NaN in the buffer) and a node scale past a float's range are refused,
+    // naming the accessor: either would make every normal and bound computed from it NaN (found by
+    // the glTF fuzzer).
+    std::vector<unsigned char> nan_bytes = bytes;
+    const float nan = std::numeric_limits<float>::quiet_NaN();
+    std::memcpy(nan_bytes.data() + 4 * 4, &nan, 4);  // vertex 1's y
+    std::string with_nan = gltf;
+    with_nan.replace(with_nan.find(base64(bytes)), base64(bytes).size(), base64(nan_bytes));
+    const std::string e_nan = error_of([&] { render::load_gltf(write_file(dir, "nan.gltf", with_nan)); });
+    EXPECT_NE(e_nan.find("nan.gltf: POSITION 1 of accessor 0 is not a finite number"), std::string::npos) << e_nan;
+    std::string huge = gltf;
+    huge.replace(huge.find("\"scale\": [2, 2, 2]"), 18, "\"scale\": [1e39, 1, 1]");
+    const std::string e_huge = error_of([&] { render::load_gltf(write_file(dir, "huge.gltf", huge)); });
+    EXPECT_NE(e_huge.find("huge.gltf: POSITION 1 of accessor 0 is beyond a float's range"), std::string::npos) << e_huge;
+    // A scale of 0 flattens the mesh: its normals, computed from the faces, stay finite.
+    std::string flat = gltf;
+    flat.replace(flat.find("\"scale\": [2, 2, 2]"), 18, "\"scale\": [0, 1, 1]");
+    const render::Mesh m_flat = render::load_gltf(write_file(dir, "flat.gltf", flat));
+    for (const auto& n : m_flat.normals) EXPECT_TRUE(std::isfinite(n.x) && std::isfinite(n.y) && std::isfinite(n.z));
     fs::remove_all(dir);
 }
 
