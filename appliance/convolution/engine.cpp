@@ -99,9 +99,11 @@ public:
         }
         return *cone_pyramid_;
     }
-    // Level k of the remainder laid out for the cone. Slots are fixed once the pyramid exists,
-    // so one map may build or release its level while others read theirs.
+    // Level k of the remainder laid out for the cone, built on first use. Maps running in
+    // parallel may ask for a level at the same time (an SH map's fallback level is built only
+    // when its bound fails somewhere); the first builds it while the others wait.
     const PreparedLevel& cone_level(int k) {
+        const std::lock_guard lock(cone_levels_mutex_);
         if (cone_levels_.empty()) cone_levels_.resize(std::size_t(cone_pyramid().levels()));
         auto& slot = cone_levels_.at(std::size_t(k));
         if (!slot) slot = std::make_unique<PreparedLevel>(cone_pyramid().level(k), threads_);
@@ -111,6 +113,7 @@ public:
     // merged columns) and its pyramid level are freed (a 4096x2048 level with its layouts
     // for two output widths is ~500 MB).
     void release_cone_level(int k) {
+        const std::lock_guard lock(cone_levels_mutex_);
         if (std::size_t(k) < cone_levels_.size()) cone_levels_[std::size_t(k)].reset();
         if (cone_pyramid_ && !cone_pyramid_->released(k)) cone_pyramid_->release_level(k);
     }
@@ -166,6 +169,7 @@ private:
     std::unique_ptr<BrightSplit> bright_;
     std::unique_ptr<Pyramid> cone_pyramid_;
     std::vector<std::unique_ptr<PreparedLevel>> cone_levels_;
+    std::mutex cone_levels_mutex_;
     std::unique_ptr<Pyramid> mip_pyramid_;
     std::unique_ptr<ShCoefficients> sh_;
     std::unique_ptr<ShCoefficients> remainder_sh_;
@@ -428,7 +432,8 @@ void prepare_shared(SharedInputs& shared, const std::vector<MapResult>& results,
                     shared.remainder_ones(p.input_level, p.projection_order);
                     shared.legendre(p.projection_order);
                     shared.remainder_mean(p.input_level);
-                    shared.cone_level(p.fallback_level);  // rows whose SH bound fails
+                    // Not the fallback level (for rows whose SH bound fails): most maps have none,
+                    // and laying out a level costs as much as the map at small sizes.
                 } else {
                     max_sh_order = std::max(max_sh_order, p.sh_order);
                 }
@@ -565,12 +570,21 @@ std::vector<MapResult> convolve_map(const HdrImage& env, HdrImage* consumable, c
     const RowProgress no_progress = [](long long) {};
     // Maps still to run per level of the remainder they read (cone, SH with the split): a
     // level is freed when its last map is done.
+    // An SH map with the split reads its projection's level and, for rows whose bound fails and
+    // texels of a finer grid, its cone's fallback level.
     std::map<int, int> level_readers;
-    const auto reads_level = [](const MapPlan& p) {
-        return p.method == Method::Cone || (p.method == Method::Sh && p.bright_split) ? p.input_level : -1;
+    const auto levels_read = [](const MapPlan& p) {
+        std::vector<int> levels;
+        if (p.method == Method::Cone) levels.push_back(p.input_level);
+        if (p.method == Method::Sh && p.bright_split) {
+            levels.push_back(p.input_level);
+            if (p.fallback_level != p.input_level) levels.push_back(p.fallback_level);
+        }
+        return levels;
     };
     for (std::size_t k : to_run)
-        if (!batched[k] && reads_level(results[k].plan) >= 0) ++level_readers[reads_level(results[k].plan)];
+        if (!batched[k])
+            for (int level : levels_read(results[k].plan)) ++level_readers[level];
     std::mutex level_readers_mutex;
     const MapRunner run_map = [&](std::size_t k, int map_threads) {
         MapResult& r = results[k];
@@ -593,10 +607,11 @@ std::vector<MapResult> convolve_map(const HdrImage& env, HdrImage* consumable, c
                        split ? &shared.bright().texels : nullptr, [&](Size grid) { return sum_on(r, grid, map_threads, no_progress); },
                        split ? sum_texels : TexelSummer{});
         r.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-        if (const int level = reads_level(r.plan); level >= 0 && !batched[k]) {
-            const std::lock_guard lock(level_readers_mutex);
-            if (--level_readers[level] == 0) shared.release_cone_level(level);
-        }
+        if (!batched[k])
+            for (int level : levels_read(r.plan)) {
+                const std::lock_guard lock(level_readers_mutex);
+                if (--level_readers[level] == 0) shared.release_cone_level(level);
+            }
     };
     if (options.executor || threads == 1) {
         // The GPU engine owns one context, driven from this thread: maps in order.
