@@ -80,6 +80,12 @@ public:
             each(k, v);
         }
     }
+    bool unsigned_integers(int accessor_index) const {
+        if (accessor_index < 0 || accessor_index >= int(model_.accessors.size())) return false;
+        const int type = model_.accessors[std::size_t(accessor_index)].componentType;
+        return type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE || type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT ||
+               type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT;
+    }
     std::size_t count(int accessor_index) const {
         return accessor_index >= 0 && accessor_index < int(model_.accessors.size())
                    ? model_.accessors[std::size_t(accessor_index)].count : 0;
@@ -179,8 +185,11 @@ Mesh load_gltf(const std::filesystem::path& path) {
             }
             const std::size_t first_index = mesh.indices.size();
             if (prim.indices >= 0) {
+                // glTF 2.0 (3.7.2.1): indices are unsigned bytes, shorts or ints, never floats.
+                if (!reader.unsigned_integers(prim.indices))
+                    reader.fail("indices: accessor " + std::to_string(prim.indices) + " is not of unsigned integers");
                 reader.read(prim.indices, 1, "indices", [&](std::size_t, const double* v) {
-                    if (v[0] >= double(n)) reader.fail("index " + std::to_string(std::size_t(v[0])) + " >= " + std::to_string(n) + " vertices");
+                    if (v[0] >= double(n)) reader.fail("index " + std::to_string(std::uint64_t(v[0])) + " >= " + std::to_string(n) + " vertices");
                     mesh.indices.push_back(std::uint32_t(base + std::size_t(v[0])));
                 });
             } else {

@@ -548,6 +548,11 @@ TEST(RenderMesh, GltfTrianglesAreReadWithTheirNodeTransform) {
     huge.replace(huge.find("\"scale\": [2, 2, 2]"), 18, "\"scale\": [1e39, 1, 1]");
     const std::string e_huge = error_of([&] { render::load_gltf(write_file(dir, "huge.gltf", huge)); });
     EXPECT_NE(e_huge.find("huge.gltf: POSITION 1 of accessor 0 is beyond a float's range"), std::string::npos) << e_huge;
+    // Indices are unsigned integers (a float index of 7e31 overflowed its conversion; fuzzer).
+    std::string float_indices = gltf;
+    float_indices.replace(float_indices.find("\"componentType\": 5123"), 21, "\"componentType\": 5126");
+    const std::string e_float = error_of([&] { render::load_gltf(write_file(dir, "float.gltf", float_indices)); });
+    EXPECT_NE(e_float.find("float.gltf: indices: accessor 1 is not of unsigned integers"), std::string::npos) << e_float;
     // A scale of 0 flattens the mesh: its normals, computed from the faces, stay finite.
     std::string flat = gltf;
     flat.replace(flat.find("\"scale\": [2, 2, 2]"), 18, "\"scale\": [0, 1, 1]");
