@@ -202,12 +202,18 @@ struct ShSplitResult {
     std::vector<int> failed_rows;
     long long failed_values = 0;
     long long clamped = 0;
+    int bright_fold_order = 0;  // > 0: the bright texels were projected into SH at this order
 };
+// How the bright texels' terms are added: Auto projects them into SH with the remainder (at an
+// order whose truncation bound is no looser than the remainder's alone) where that is predicted
+// cheaper than scattering their lobes over the grid (wide lobes, small grids), Scattered always
+// scatters them.
+enum class BrightTerms { Auto, Scattered };
 ShSplitResult sh_split_convolve(const ShCoefficients& remainder, const std::vector<double>& remainder_ones,
                                 const ShLegendre& legendre, double remainder_mean,
                                 const std::vector<BrightTexel>& bright, double shininess, int order,
                                 Size out, double texel_tolerance, double bright_tolerance, int threads,
-                                MethodExecutor* executor = nullptr);
+                                MethodExecutor* executor = nullptr, BrightTerms terms = BrightTerms::Auto);
 
 // The zonal coefficients c_l0, l < order, of the all-ones map projected from a
 // map of size `input` (texel solid angle quadrature; the m > 0 sums vanish).

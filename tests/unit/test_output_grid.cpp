@@ -13,6 +13,7 @@
 #include "appliance/convolution/offgrid.hpp"
 #include "appliance/convolution/output_grid.hpp"
 #include "appliance/convolution/planner.hpp"
+#include "appliance/convolution/sh.hpp"
 #include "appliance/core/equirect.hpp"
 #include "appliance/core/error_metrics.hpp"
 #include "appliance/core/errors.hpp"
@@ -520,6 +521,52 @@ TEST(OutputGrid, ShininessAboveTheLimitIsRefusedNamingTheMirror) {
         FAIL() << "n = 2e7 was accepted";
     } catch (const InputError& e) {
         EXPECT_NE(std::string(e.what()).find("mirror"), std::string::npos) << e.what();
+    }
+}
+
+
+// Wide lobes from SH with the bright split: the bright texels projected into SH with the remainder
+// (BrightTerms::Auto folds them for n = 10 and 20 on a small grid) give the same map as their
+// lobes scattered over the grid, and both match the exact sums. Two lamps of 1e3 and 5e3 (one on
+// the seam, one near the north pole) over a smooth floor.
+TEST(OutputGrid, BrightTexelsFoldedIntoShMatchTheirScatteredLobes) {
+    HdrImage env = sampled(128, 64, smooth_field);
+    const auto lamp = [&](int i0, int j0, int size, float v) {
+        for (int j = j0; j < j0 + size; ++j)
+            for (int i = i0; i < i0 + size; ++i) env.set((i + 128) % 128, j, {v, 0.8f * v, 0.6f * v});
+    };
+    lamp(-2, 30, 4, 1e3f);
+    lamp(40, 2, 3, 5e3f);
+    const BrightSplit split = split_bright(env, 64.0, 1024, 2);
+    ASSERT_GE(split.texels.size(), 20u);
+    constexpr int kOrder = 64;
+    const ShLegendre legendre(kOrder);
+    const ShCoefficients remainder =
+        sh_project(split.remainder, kOrder, 2, ShQuadrature::TexelSolidAngle, ShSummation::Plain);
+    const std::vector<double> ones = sh_ones_projection({128, 64}, kOrder, legendre);
+    const double mean = max_channel_power(split.remainder) / (4.0 * kPi);
+    const PreparedLevel full(env, 2);
+    for (const double n : {10.0, 20.0}) {
+        const Size out{128, 64};
+        const int order = 24;
+        const ShSplitResult folded = sh_split_convolve(remainder, ones, legendre, mean, split.texels, n, order, out,
+                                                       0.01, 1e-4, 2, nullptr, BrightTerms::Auto);
+        const ShSplitResult scattered = sh_split_convolve(remainder, ones, legendre, mean, split.texels, n, order, out,
+                                                          0.01, 1e-4, 2, nullptr, BrightTerms::Scattered);
+        EXPECT_GT(folded.bright_fold_order, order) << "n = " << n;
+        EXPECT_LE(folded.bright_fold_order, kOrder) << "n = " << n;
+        EXPECT_EQ(scattered.bright_fold_order, 0);
+        EXPECT_EQ(folded.failed_rows.size(), scattered.failed_rows.size()) << "n = " << n;
+        double worst = 0;
+        for (std::size_t v = 0; v < folded.image.data().size(); ++v) {
+            const double a = folded.image.data()[v], b = scattered.image.data()[v];
+            worst = std::max(worst, std::abs(a - b) / std::max(std::abs(b), 1e-30));
+        }
+        EXPECT_LT(worst, 5e-4) << "n = " << n;  // the scatter's cut (1e-4 of the floor) and float rounding
+        const HdrImage exact = exact_convolve(full, n, out, 2, [](long long) {});
+        const MapError e = compare_maps(folded.image, exact);
+        EXPECT_LT(e.weighted_relative_rms, 1e-3) << "n = " << n;
+        EXPECT_LT(e.worst_texel, 5e-3) << "n = " << n;
     }
 }
 
