@@ -102,19 +102,20 @@ public:
     // Level k of the remainder laid out for the cone, built on first use. Maps running in
     // parallel may ask for a level at the same time (an SH map's fallback level is built only
     // when its bound fails somewhere); the first builds it while the others wait.
+    // Each level is built under its own lock, so maps reading other levels do not wait for it.
     const PreparedLevel& cone_level(int k) {
-        const std::lock_guard lock(cone_levels_mutex_);
-        if (cone_levels_.empty()) cone_levels_.resize(std::size_t(cone_pyramid().levels()));
-        auto& slot = cone_levels_.at(std::size_t(k));
-        if (!slot) slot = std::make_unique<PreparedLevel>(cone_pyramid().level(k), threads_);
-        return *slot;
+        LevelSlot& slot = level_slot(k);
+        const std::lock_guard lock(slot.build);
+        if (!slot.level) slot.level = std::make_unique<PreparedLevel>(cone_pyramid().level(k), threads_);
+        return *slot.level;
     }
     // No map still to run reads level k of the remainder: its layouts (planes, phase copies,
     // merged columns) and its pyramid level are freed (a 4096x2048 level with its layouts
     // for two output widths is ~500 MB).
     void release_cone_level(int k) {
-        const std::lock_guard lock(cone_levels_mutex_);
-        if (std::size_t(k) < cone_levels_.size()) cone_levels_[std::size_t(k)].reset();
+        LevelSlot& slot = level_slot(k);
+        const std::lock_guard lock(slot.build);
+        slot.level.reset();
         if (cone_pyramid_ && !cone_pyramid_->released(k)) cone_pyramid_->release_level(k);
     }
     const Pyramid& mip_pyramid() {
@@ -168,7 +169,21 @@ private:
     std::unique_ptr<PreparedLevel> full_;
     std::unique_ptr<BrightSplit> bright_;
     std::unique_ptr<Pyramid> cone_pyramid_;
-    std::vector<std::unique_ptr<PreparedLevel>> cone_levels_;
+    struct LevelSlot {
+        std::mutex build;
+        std::unique_ptr<PreparedLevel> level;
+    };
+    // The slots are made once, with the pyramid (prepare_shared builds it before maps run in
+    // parallel); the lock only guards making them.
+    LevelSlot& level_slot(int k) {
+        const std::lock_guard lock(cone_levels_mutex_);
+        if (cone_levels_.empty()) {
+            const int levels = cone_pyramid().levels();
+            for (int i = 0; i < levels; ++i) cone_levels_.push_back(std::make_unique<LevelSlot>());
+        }
+        return *cone_levels_.at(std::size_t(k));
+    }
+    std::vector<std::unique_ptr<LevelSlot>> cone_levels_;
     std::mutex cone_levels_mutex_;
     std::unique_ptr<Pyramid> mip_pyramid_;
     std::unique_ptr<ShCoefficients> sh_;
@@ -609,8 +624,12 @@ std::vector<MapResult> convolve_map(const HdrImage& env, HdrImage* consumable, c
         r.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         if (!batched[k])
             for (int level : levels_read(r.plan)) {
-                const std::lock_guard lock(level_readers_mutex);
-                if (--level_readers[level] == 0) shared.release_cone_level(level);
+                bool last = false;
+                {
+                    const std::lock_guard lock(level_readers_mutex);
+                    last = --level_readers[level] == 0;
+                }
+                if (last) shared.release_cone_level(level);  // outside the count's lock: maps finishing do not wait
             }
     };
     if (options.executor || threads == 1) {

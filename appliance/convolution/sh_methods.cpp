@@ -104,10 +104,14 @@ HdrImage sh_convolve(const ShCoefficients& coefficients, Size input, double n, i
 namespace {
 
 // The order at which the bright texels are folded into the remainder's SH (0: scattered over the
-// grid instead): see sh_split_convolve.
-int bright_fold_order(const std::vector<BrightTexel>& bright, double n, int order, int available, double remainder_mean,
-                      Size out, double bright_tolerance) {
-    if (bright.empty() || !(remainder_mean > 0) || available < order) return 0;
+// grid instead), and the truncation bound of the two together there: see sh_split_convolve.
+struct BrightFold {
+    int order = 0;
+    double bound = 0;
+};
+BrightFold bright_fold(const std::vector<BrightTexel>& bright, double n, int order, int available, double remainder_mean,
+                       Size out, double bright_tolerance) {
+    if (bright.empty() || !(remainder_mean > 0) || available < order) return {};
     double r = 0, g = 0, b = 0;
     for (const BrightTexel& t : bright) {
         r += t.r;
@@ -119,21 +123,24 @@ int bright_fold_order(const std::vector<BrightTexel>& bright, double n, int orde
     // than the remainder's alone at `order`: every texel that passed its check still passes.
     const std::vector<double> tails = sh_truncation_tails(n, available);
     const double bound = tails[std::size_t(order)] * remainder_mean;
-    int fold = 0;
+    BrightFold fold;
     for (int l = order; l <= available; ++l)
         if (tails[std::size_t(l)] * (remainder_mean + bright_mean) <= bound) {
-            fold = l;
+            fold = {l, tails[std::size_t(l)] * (remainder_mean + bright_mean)};
             break;
         }
-    if (fold == 0) return 0;
-    // Cost per bright texel: fold^2 basis values to project it, against a power and a few
+    if (fold.order == 0) return {};
+    // Cost: per bright texel fold^2 basis values to project it, and per output row the Legendre
+    // sums of the bands added (3 channels), against, per bright texel, a power and a few
     // multiply-adds for each output texel inside its cut-off cone (cos >= tolerance^(1/n); the
-    // scatter's cut also scales with the smallest output, which only narrows it). The factor 0.5
+    // scatter's cut also scales with the smallest output, which only narrows it). The factor 2
     // is measured: on studio (1024 bright texels) n = 10 and 20 at 128x64 fold at orders 28 and
     // 26 and gain; n = 80 at 256x128 folded at 58 took twice as long as its scatter.
     const double cap_share = 0.5 * (1.0 - std::pow(bright_tolerance, 1.0 / std::max(n, 1.0)));
-    const double scatter_terms = double(out.width) * double(out.height) * cap_share;
-    return double(fold) * double(fold) < 0.5 * scatter_terms ? fold : 0;
+    const double scatter_cost = double(bright.size()) * double(out.width) * double(out.height) * cap_share;
+    const double added_bands = double(fold.order) * fold.order - double(order) * order;
+    const double fold_cost = double(bright.size()) * fold.order * fold.order + 3.0 * out.height * added_bands;
+    return 2.0 * fold_cost < scatter_cost ? fold : BrightFold{};
 }
 
 // The remainder's first `order` bands plus the bright texels projected as points (each one's
@@ -178,10 +185,14 @@ ShSplitResult sh_split_convolve(const ShCoefficients& remainder, const std::vect
                                 int threads, MethodExecutor* executor, BrightTerms terms) {
     // Wide lobes on small grids: the bright texels projected into SH with the remainder, at an
     // order where the truncation bound does not grow, instead of their terms scattered over the grid.
+    // Not on another device: the GPU evaluates in float, and a sun's energy inside the
+    // coefficients would cancel in the dark texels far above the truncation bound.
     const int available = std::min({remainder.order, int(remainder_ones.size()), legendre.order()});
-    const int fold = terms == BrightTerms::Scattered
-                         ? 0
-                         : bright_fold_order(bright_texels, n, sh_order, available, remainder_mean, out, bright_tolerance);
+    const BrightFold bright_fold_plan =
+        terms == BrightTerms::Scattered || executor
+            ? BrightFold{}
+            : bright_fold(bright_texels, n, sh_order, available, remainder_mean, out, bright_tolerance);
+    const int fold = bright_fold_plan.order;
     const ShCoefficients folded = fold > 0 ? with_bright_texels(remainder, bright_texels, fold, threads) : ShCoefficients{};
     const ShCoefficients& coefficients = fold > 0 ? folded : remainder;
     const int order = fold > 0 ? fold : sh_order;
@@ -217,8 +228,8 @@ ShSplitResult sh_split_convolve(const ShCoefficients& remainder, const std::vect
     const double one = 1.0;
 
     const double lobe_den = kTwoPi / (n + 1.0);
-    // Folded: the bound of both together, which the fold order keeps at or below this one.
-    const double error_bound = sh_truncation_tail(n, sh_order) * remainder_mean;
+    // Folded: the bound of both together (at or below the remainder's alone at sh_order).
+    const double error_bound = fold > 0 ? bright_fold_plan.bound : sh_truncation_tail(n, sh_order) * remainder_mean;
     ShSplitResult result;
     result.bright_fold_order = fold;
     result.image = HdrImage(out.width, out.height);

@@ -60,10 +60,16 @@ public:
         const std::vector<unsigned char>& data = model_.buffers[std::size_t(view.buffer)].data;
         const std::size_t element = std::size_t(size) * std::size_t(components);
         const std::size_t stride = view.byteStride ? view.byteStride : element;
+        if (stride < element)
+            fail(std::string(what) + ": byteStride " + std::to_string(stride) + " is less than an element's " +
+                 std::to_string(element) + " bytes");
+        // Every offset and count comes from the file as any 64-bit number: compared by subtraction,
+        // so that no sum can wrap round and pass.
+        const bool inside = view.byteOffset <= data.size() && view.byteLength <= data.size() - view.byteOffset &&
+                            a.byteOffset <= view.byteLength && element <= view.byteLength - a.byteOffset &&
+                            (a.count == 0 || a.count - 1 <= (view.byteLength - a.byteOffset - element) / stride);
+        if (!inside) fail(std::string(what) + ": accessor reads past its buffer");
         const std::size_t begin = view.byteOffset + a.byteOffset;
-        if (a.count > 0 && (begin + stride * (a.count - 1) + element > view.byteOffset + view.byteLength ||
-                            view.byteOffset + view.byteLength > data.size()))
-            fail(std::string(what) + ": accessor reads past its buffer");
         double v[4];
         for (std::size_t k = 0; k < a.count; ++k) {
             const unsigned char* p = data.data() + begin + stride * k;
@@ -79,6 +85,10 @@ public:
             }
             each(k, v);
         }
+    }
+    bool floats(int accessor_index) const {
+        return accessor_index >= 0 && accessor_index < int(model_.accessors.size()) &&
+               model_.accessors[std::size_t(accessor_index)].componentType == TINYGLTF_COMPONENT_TYPE_FLOAT;
     }
     bool unsigned_integers(int accessor_index) const {
         if (accessor_index < 0 || accessor_index >= int(model_.accessors.size())) return false;
@@ -157,6 +167,9 @@ Mesh load_gltf(const std::filesystem::path& path) {
             if (pos == prim.attributes.end()) reader.fail("a primitive has no POSITION");
             const std::size_t base = mesh.positions.size();
             const std::size_t n = reader.count(pos->second);
+            // Quantised attributes (KHR_mesh_quantization: normalised or integer components) are
+            // not supported: read as plain integers they would be finite but wrong.
+            if (!reader.floats(pos->second)) reader.fail("POSITION: accessor " + std::to_string(pos->second) + " is not of floats");
             reader.read(pos->second, 3, "POSITION", [&](std::size_t k, const double* v) {
                 // A NaN or infinite coordinate (garbage bytes, or a node transform that scales past
                 // a float's range) would make every normal and bound computed from it NaN.
@@ -172,6 +185,7 @@ Mesh load_gltf(const std::filesystem::path& path) {
             const auto nor = prim.attributes.find("NORMAL");
             if (nor != prim.attributes.end()) {
                 if (reader.count(nor->second) != n) reader.fail("NORMAL and POSITION counts differ");
+                if (!reader.floats(nor->second)) reader.fail("NORMAL: accessor " + std::to_string(nor->second) + " is not of floats");
                 reader.read(nor->second, 3, "NORMAL", [&](std::size_t k, const double* v) {
                     if (!finite_float(glm::dvec3(v[0], v[1], v[2])))
                         reader.fail("NORMAL " + std::to_string(k) + " of accessor " + std::to_string(nor->second) +
@@ -207,9 +221,15 @@ Mesh load_gltf(const std::filesystem::path& path) {
         }
     };
 
+    // glTF 2.0 (3.5.3): the nodes form disjoint strict trees, so each is visited once. A node named
+    // twice would be drawn twice, and a chain of nodes each naming the next twice 2^depth times.
+    std::vector<bool> visited(model.nodes.size(), false);
     const std::function<void(int, const glm::dmat4&, int)> visit = [&](int node_index, const glm::dmat4& parent, int depth) {
         if (node_index < 0 || node_index >= int(model.nodes.size())) reader.fail("no node " + std::to_string(node_index));
-        if (depth > 256) reader.fail("the node tree is deeper than 256 (a cycle?)");
+        if (visited[std::size_t(node_index)])
+            reader.fail("node " + std::to_string(node_index) + " has more than one parent (or is in a cycle)");
+        visited[std::size_t(node_index)] = true;
+        if (depth > 256) reader.fail("the node tree is deeper than 256");
         const tinygltf::Node& node = model.nodes[std::size_t(node_index)];
         const glm::dmat4 world = parent * local_transform(node);
         if (node.mesh >= 0) add_mesh(node.mesh, world);

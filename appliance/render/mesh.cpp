@@ -305,16 +305,10 @@ MeshBounds mesh_bounds(const Mesh& mesh) {
 
 void normalise_to_unit_sphere(Mesh& mesh) {
     if (mesh.positions.empty()) return;
-    glm::vec3 lo = mesh.positions[0], hi = mesh.positions[0];
-    for (const auto& p : mesh.positions) {
-        lo = glm::min(lo, p);
-        hi = glm::max(hi, p);
-    }
-    const glm::vec3 centre = 0.5f * (lo + hi);
-    float radius = 0;
-    for (const auto& p : mesh.positions) radius = std::max(radius, glm::length(p - centre));
-    const float scale = radius > 0 ? 1.0f / radius : 1.0f;
-    for (auto& p : mesh.positions) p = (p - centre) * scale;
+    // In double: float coordinates up to 3.4e38 overflow lo + hi and any length past 1.8e19.
+    const MeshBounds b = mesh_bounds(mesh);
+    const double scale = b.radius > 0 ? 1.0 / b.radius : 1.0;
+    for (auto& p : mesh.positions) p = glm::vec3((glm::dvec3(p) - b.centre) * scale);
 }
 
 }  // namespace glint::render

@@ -456,6 +456,12 @@ TEST(RenderMesh, ObjErrorsNameTheFileAndLine) {
         const render::Mesh m = render::load_obj(write_file(dir, "long.obj", tri + "vn 0 0 3e30\nf 1//1 2//1 3//1\n"));
         EXPECT_EQ(m.normals[0], glm::vec3(0, 0, 1));
     }
+    {  // finite floats near the range's end: scaled to the unit sphere in double, still finite
+        render::Mesh m = render::load_obj(write_file(dir, "far.obj", "v 2e38 0 0\nv 3e38 0 0\nv 2e38 1e38 0\nf 1 2 3\n"));
+        render::normalise_to_unit_sphere(m);
+        for (const auto& p : m.positions) EXPECT_TRUE(std::isfinite(p.x) && std::isfinite(p.y) && std::isfinite(p.z));
+        EXPECT_NEAR(glm::length(m.positions[1]), 1.0f, 1e-5f);
+    }
     e = obj_error("empty.obj", tri);
     EXPECT_NE(e.find("empty.obj"), std::string::npos) << e;
     EXPECT_NE(e.find("no faces"), std::string::npos) << e;
@@ -553,6 +559,21 @@ TEST(RenderMesh, GltfTrianglesAreReadWithTheirNodeTransform) {
     float_indices.replace(float_indices.find("\"componentType\": 5123"), 21, "\"componentType\": 5126");
     const std::string e_float = error_of([&] { render::load_gltf(write_file(dir, "float.gltf", float_indices)); });
     EXPECT_NE(e_float.find("float.gltf: indices: accessor 1 is not of unsigned integers"), std::string::npos) << e_float;
+    // Offsets and counts near 2^64 wrap a sum round: compared by subtraction, refused (review).
+    std::string wrap = gltf;
+    wrap.replace(wrap.find("\"count\": 4,"), 11, "\"count\": 1537228672809129302,");  // 12 x this wraps to 8
+    const std::string e_wrap = error_of([&] { render::load_gltf(write_file(dir, "wrap.gltf", wrap)); });
+    EXPECT_NE(e_wrap.find("wrap.gltf: POSITION: accessor reads past its buffer"), std::string::npos) << e_wrap;
+    // Quantised positions are not read as if they were plain numbers.
+    std::string shorts = gltf;
+    shorts.replace(shorts.find("\"componentType\": 5126"), 21, "\"componentType\": 5123");
+    const std::string e_shorts = error_of([&] { render::load_gltf(write_file(dir, "shorts.gltf", shorts)); });
+    EXPECT_NE(e_shorts.find("shorts.gltf: POSITION: accessor 0 is not of floats"), std::string::npos) << e_shorts;
+    // A node with two parents (the nodes must form trees): refused, not drawn twice (or 2^depth times).
+    std::string twice = gltf;
+    twice.replace(twice.find("\"nodes\": [0]}]"), 14, "\"nodes\": [0, 0]}]");
+    const std::string e_twice = error_of([&] { render::load_gltf(write_file(dir, "twice.gltf", twice)); });
+    EXPECT_NE(e_twice.find("twice.gltf: node 0 has more than one parent"), std::string::npos) << e_twice;
     // A scale of 0 flattens the mesh: its normals, computed from the faces, stay finite.
     std::string flat = gltf;
     flat.replace(flat.find("\"scale\": [2, 2, 2]"), 18, "\"scale\": [0, 1, 1]");
