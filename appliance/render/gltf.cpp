@@ -109,8 +109,50 @@ private:
 
 }  // namespace
 
+namespace {
+
+// TinyGLTF opens a .gltf file's buffer and image URIs as paths. A model from a USB stick must not
+// make the appliance read files outside the model's folder ("../../etc/shadow", "/dev/zero"), as
+// the OBJ reader's mtllib is held to it: every file TinyGLTF asks for is resolved and checked.
+struct ModelFolder {
+    std::filesystem::path dir;  // canonical
+    bool holds(const std::string& file) const {
+        if (dir.empty()) return false;  // the folder itself could not be resolved
+        std::error_code ec;
+        const std::filesystem::path p = std::filesystem::weakly_canonical(file, ec);
+        if (ec) return false;
+        const auto [end, _] = std::mismatch(dir.begin(), dir.end(), p.begin(), p.end());
+        return end == dir.end();
+    }
+};
+
+tinygltf::FsCallbacks confined_to(const ModelFolder& folder) {
+    tinygltf::FsCallbacks fs{};
+    fs.user_data = const_cast<ModelFolder*>(&folder);
+    // Whether a file exists is not confined, so that the read below names the reason.
+    fs.FileExists = [](const std::string& file, void*) { return tinygltf::FileExists(file, nullptr); };
+    fs.ExpandFilePath = [](const std::string& file, void*) { return file; };  // no ~ or $VAR
+    fs.ReadWholeFile = [](std::vector<unsigned char>* out, std::string* err, const std::string& file, void* user) {
+        if (!static_cast<const ModelFolder*>(user)->holds(file)) {
+            if (err) *err += "'" + file + "' is outside the model's folder";
+            return false;
+        }
+        return tinygltf::ReadWholeFile(out, err, file, nullptr);
+    };
+    fs.WriteWholeFile = [](std::string* err, const std::string&, const std::vector<unsigned char>&, void*) {
+        if (err) *err += "writing is not allowed";
+        return false;
+    };
+    return fs;
+}
+
+}  // namespace
+
 Mesh load_gltf(const std::filesystem::path& path) {
     tinygltf::TinyGLTF loader;
+    std::error_code folder_error;
+    const ModelFolder folder{std::filesystem::weakly_canonical(std::filesystem::absolute(path).parent_path(), folder_error)};
+    loader.SetFsCallbacks(confined_to(folder));
     tinygltf::Model model;
     std::string err, warn;
     const std::string file = path.string();

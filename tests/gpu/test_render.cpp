@@ -574,6 +574,23 @@ TEST(RenderMesh, GltfTrianglesAreReadWithTheirNodeTransform) {
     twice.replace(twice.find("\"nodes\": [0]}]"), 14, "\"nodes\": [0, 0]}]");
     const std::string e_twice = error_of([&] { render::load_gltf(write_file(dir, "twice.gltf", twice)); });
     EXPECT_NE(e_twice.find("twice.gltf: node 0 has more than one parent"), std::string::npos) << e_twice;
+    // Buffers are read from the model's folder only: "../" is refused (a model from a USB stick
+    // must not read other files), a file beside the model is read.
+    {
+        const fs::path sub = dir / "model";
+        fs::create_directories(sub);
+        std::ofstream(dir / "outside.bin", std::ios::binary).write(reinterpret_cast<const char*>(bytes.data()),
+                                                                   std::streamsize(bytes.size()));
+        fs::copy_file(dir / "outside.bin", sub / "inside.bin", fs::copy_options::overwrite_existing);
+        const std::string data_uri = "data:application/octet-stream;base64," + base64(bytes);
+        std::string escape = gltf;
+        escape.replace(escape.find(data_uri), data_uri.size(), "../outside.bin");
+        const std::string e_escape = error_of([&] { render::load_gltf(write_file(sub, "escape.gltf", escape)); });
+        EXPECT_NE(e_escape.find("outside the model's folder"), std::string::npos) << e_escape;
+        std::string beside = gltf;
+        beside.replace(beside.find(data_uri), data_uri.size(), "inside.bin");
+        EXPECT_EQ(render::load_gltf(write_file(sub, "beside.gltf", beside)).triangle_count(), 4u);
+    }
     // A scale of 0 flattens the mesh: its normals, computed from the faces, stay finite.
     std::string flat = gltf;
     flat.replace(flat.find("\"scale\": [2, 2, 2]"), 18, "\"scale\": [0, 1, 1]");
