@@ -52,11 +52,13 @@ int make(const std::string& dir) {
 
 int map(const std::string& truth_path, const std::string& captured_path, const std::string& sources) {
     const HdrImage truth = load_exr(truth_path).image, got = load_exr(captured_path).image;
+    const HdrImage truth_on_grid = bench::truth_on_grid(truth, got.width(), got.height());  // the same texels as got
     std::printf("%-8s %-7s %-8s %12s %12s %8s %12s %12s\n", "omega", "peak", "where", "E_true", "E_captured",
                 "error%", "peak_true", "peak_capt");
     for (const Source& s : read_sources(sources)) {
         double pt = 0, pg = 0;
-        const double et = region_energy(truth, s, &pt), eg = region_energy(got, s, &pg);
+        region_energy(truth, s, &pt);  // the true peak at the true resolution
+        const double et = region_energy(truth_on_grid, s), eg = region_energy(got, s, &pg);
         std::printf("%-8.0e %-7.0e %-8s %12.5g %12.5g %+8.2f %12.5g %12.5g\n", s.omega, s.peak, s.where.c_str(), et, eg,
                     100 * (eg / et - 1), pt, pg);
     }

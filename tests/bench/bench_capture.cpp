@@ -424,8 +424,9 @@ int main(int argc, char** argv) {
         const fs::path listed = stress_dir / (name + ".sources");
         const std::vector<bench::LightSource> sources =
             fs::exists(listed) ? bench::read_sources(listed.string()) : bench::find_sources(truth);
+        // Each source's true energy on the captured map's grid (light_sources.hpp, truth_on_grid).
         std::vector<double> e_true;
-        for (const bench::LightSource& ls : sources) e_true.push_back(bench::source_energy(truth, ls));
+        int e_true_width = 0, e_true_height = 0;
         for (const std::uint64_t seed : seeds) {
             std::fprintf(stderr, "bench: %s, seed %llu\n", name.c_str(), static_cast<unsigned long long>(seed));
             const std::string tag = name + "-s" + std::to_string(seed);
@@ -459,6 +460,13 @@ int main(int argc, char** argv) {
             const std::vector<HdrImage> have = bench::downstream_maps(got);
             r.irr = compare_maps(have[0], want[0]).weighted_relative_rms;
             r.n160 = compare_maps(have[1], want[1]).weighted_relative_rms;
+            if (got.width() != e_true_width || got.height() != e_true_height) {
+                const HdrImage on_grid = bench::truth_on_grid(truth, got.width(), got.height());
+                e_true.clear();
+                for (const bench::LightSource& ls : sources) e_true.push_back(bench::source_energy(on_grid, ls));
+                e_true_width = got.width();
+                e_true_height = got.height();
+            }
             for (std::size_t k = 0; k < sources.size(); ++k)
                 r.source_error.push_back(bench::source_energy(got, sources[k]) / e_true[k] - 1);
             if (reuse == made.end()) {

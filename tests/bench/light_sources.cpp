@@ -9,6 +9,7 @@
 
 #include <glm/geometric.hpp>
 
+#include "appliance/convolution/mipmap.hpp"
 #include "appliance/core/equirect.hpp"
 #include "appliance/core/exr_io.hpp"
 
@@ -136,6 +137,14 @@ std::vector<LightSource> read_sources(const std::string& path) {
     while (in >> s.dir.x >> s.dir.y >> s.dir.z >> s.radius >> s.omega >> s.peak >> s.where) out.push_back(s);
     if (out.empty()) throw std::runtime_error(path + ": no sources");
     return out;
+}
+
+HdrImage truth_on_grid(const HdrImage& truth, int width, int height) {
+    if (truth.width() == width && truth.height() == height) return truth;
+    const convolution::Pyramid pyramid(truth, 2);
+    for (int k = 1; k < pyramid.levels(); ++k)
+        if (pyramid.level(k).width() == width && pyramid.level(k).height() == height) return pyramid.level(k);
+    return truth;
 }
 
 double source_energy(const HdrImage& m, const LightSource& s, double margin_rad, double* peak) {
