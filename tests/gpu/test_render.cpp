@@ -540,40 +540,44 @@ TEST(RenderMesh, GltfTrianglesAreReadWithTheirNodeTransform) {
     });
     EXPECT_NE(range.find("range.gltf"), std::string::npos) << range;
 
-    // Garbage coordinates (a NaN in the buffer) and a node scale past a float's range are refused,
-    // naming the accessor: either would make every normal and bound computed from it NaN (found by
-    // the glTF fuzzer).
+    // The model with the first `from` replaced by `to`, and the error of loading it as `name`.
+    const auto edited = [&](const std::string& from, const std::string& to) {
+        std::string text = gltf;
+        text.replace(text.find(from), from.size(), to);
+        return text;
+    };
+    const auto gltf_error = [&](const std::string& name, const std::string& text) {
+        return error_of([&] { render::load_gltf(write_file(dir, name, text)); });
+    };
     std::vector<unsigned char> nan_bytes = bytes;
     const float nan = std::numeric_limits<float>::quiet_NaN();
     std::memcpy(nan_bytes.data() + 4 * 4, &nan, 4);  // vertex 1's y
-    std::string with_nan = gltf;
-    with_nan.replace(with_nan.find(base64(bytes)), base64(bytes).size(), base64(nan_bytes));
-    const std::string e_nan = error_of([&] { render::load_gltf(write_file(dir, "nan.gltf", with_nan)); });
-    EXPECT_NE(e_nan.find("nan.gltf: POSITION 1 of accessor 0 is not a finite number"), std::string::npos) << e_nan;
-    std::string huge = gltf;
-    huge.replace(huge.find("\"scale\": [2, 2, 2]"), 18, "\"scale\": [1e39, 1, 1]");
-    const std::string e_huge = error_of([&] { render::load_gltf(write_file(dir, "huge.gltf", huge)); });
-    EXPECT_NE(e_huge.find("huge.gltf: POSITION 1 of accessor 0 is beyond a float's range"), std::string::npos) << e_huge;
-    // Indices are unsigned integers (a float index of 7e31 overflowed its conversion; fuzzer).
-    std::string float_indices = gltf;
-    float_indices.replace(float_indices.find("\"componentType\": 5123"), 21, "\"componentType\": 5126");
-    const std::string e_float = error_of([&] { render::load_gltf(write_file(dir, "float.gltf", float_indices)); });
-    EXPECT_NE(e_float.find("float.gltf: indices: accessor 1 is not of unsigned integers"), std::string::npos) << e_float;
-    // Offsets and counts near 2^64 wrap a sum round: compared by subtraction, refused (review).
-    std::string wrap = gltf;
-    wrap.replace(wrap.find("\"count\": 4,"), 11, "\"count\": 1537228672809129302,");  // 12 x this wraps to 8
-    const std::string e_wrap = error_of([&] { render::load_gltf(write_file(dir, "wrap.gltf", wrap)); });
-    EXPECT_NE(e_wrap.find("wrap.gltf: POSITION: accessor reads past its buffer"), std::string::npos) << e_wrap;
-    // Quantised positions are not read as if they were plain numbers.
-    std::string shorts = gltf;
-    shorts.replace(shorts.find("\"componentType\": 5126"), 21, "\"componentType\": 5123");
-    const std::string e_shorts = error_of([&] { render::load_gltf(write_file(dir, "shorts.gltf", shorts)); });
-    EXPECT_NE(e_shorts.find("shorts.gltf: POSITION: accessor 0 is not of floats"), std::string::npos) << e_shorts;
-    // A node with two parents (the nodes must form trees): refused, not drawn twice (or 2^depth times).
-    std::string twice = gltf;
-    twice.replace(twice.find("\"nodes\": [0]}]"), 14, "\"nodes\": [0, 0]}]");
-    const std::string e_twice = error_of([&] { render::load_gltf(write_file(dir, "twice.gltf", twice)); });
-    EXPECT_NE(e_twice.find("twice.gltf: node 0 has more than one parent"), std::string::npos) << e_twice;
+    const struct {
+        const char* name;
+        std::string text;
+        const char* error;
+    } refused[] = {
+        // Garbage coordinates and a node scale past a float's range: either would make every
+        // normal and bound computed from them NaN (the glTF fuzzer's first finding).
+        {"nan.gltf", edited(base64(bytes), base64(nan_bytes)), "nan.gltf: POSITION 1 of accessor 0 is not a finite number"},
+        {"huge.gltf", edited("\"scale\": [2, 2, 2]", "\"scale\": [1e39, 1, 1]"),
+         "huge.gltf: POSITION 1 of accessor 0 is beyond a float's range"},
+        // Indices are unsigned integers (a float index of 7e31 overflowed its conversion; fuzzer).
+        {"float.gltf", edited("\"componentType\": 5123", "\"componentType\": 5126"),
+         "float.gltf: indices: accessor 1 is not of unsigned integers"},
+        // Counts near 2^64 wrap a sum round (12 x this is 8): compared by subtraction (review).
+        {"wrap.gltf", edited("\"count\": 4,", "\"count\": 1537228672809129302,"),
+         "wrap.gltf: POSITION: accessor reads past its buffer"},
+        // Quantised positions are not read as if they were plain numbers.
+        {"shorts.gltf", edited("\"componentType\": 5126", "\"componentType\": 5123"),
+         "shorts.gltf: POSITION: accessor 0 is not of floats"},
+        // A node with two parents (nodes form trees): not drawn twice, or 2^depth times.
+        {"twice.gltf", edited("\"nodes\": [0]}]", "\"nodes\": [0, 0]}]"), "twice.gltf: node 0 has more than one parent"},
+    };
+    for (const auto& r : refused) {
+        const std::string why = gltf_error(r.name, r.text);
+        EXPECT_NE(why.find(r.error), std::string::npos) << why;
+    }
     // Buffers are read from the model's folder only: "../" is refused (a model from a USB stick
     // must not read other files), a file beside the model is read.
     {
@@ -583,18 +587,14 @@ TEST(RenderMesh, GltfTrianglesAreReadWithTheirNodeTransform) {
                                                                    std::streamsize(bytes.size()));
         fs::copy_file(dir / "outside.bin", sub / "inside.bin", fs::copy_options::overwrite_existing);
         const std::string data_uri = "data:application/octet-stream;base64," + base64(bytes);
-        std::string escape = gltf;
-        escape.replace(escape.find(data_uri), data_uri.size(), "../outside.bin");
-        const std::string e_escape = error_of([&] { render::load_gltf(write_file(sub, "escape.gltf", escape)); });
+        const std::string e_escape =
+            error_of([&] { render::load_gltf(write_file(sub, "escape.gltf", edited(data_uri, "../outside.bin"))); });
         EXPECT_NE(e_escape.find("outside the model's folder"), std::string::npos) << e_escape;
-        std::string beside = gltf;
-        beside.replace(beside.find(data_uri), data_uri.size(), "inside.bin");
-        EXPECT_EQ(render::load_gltf(write_file(sub, "beside.gltf", beside)).triangle_count(), 4u);
+        EXPECT_EQ(render::load_gltf(write_file(sub, "beside.gltf", edited(data_uri, "inside.bin"))).triangle_count(), 4u);
     }
     // A scale of 0 flattens the mesh: its normals, computed from the faces, stay finite.
-    std::string flat = gltf;
-    flat.replace(flat.find("\"scale\": [2, 2, 2]"), 18, "\"scale\": [0, 1, 1]");
-    const render::Mesh m_flat = render::load_gltf(write_file(dir, "flat.gltf", flat));
+    const render::Mesh m_flat =
+        render::load_gltf(write_file(dir, "flat.gltf", edited("\"scale\": [2, 2, 2]", "\"scale\": [0, 1, 1]")));
     for (const auto& n : m_flat.normals) EXPECT_TRUE(std::isfinite(n.x) && std::isfinite(n.y) && std::isfinite(n.z));
     fs::remove_all(dir);
 }
