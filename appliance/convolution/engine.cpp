@@ -99,10 +99,9 @@ public:
         }
         return *cone_pyramid_;
     }
-    // Level k of the remainder laid out for the cone, built on first use. Maps running in
-    // parallel may ask for a level at the same time (an SH map's fallback level is built only
-    // when its bound fails somewhere); the first builds it while the others wait.
-    // Each level is built under its own lock, so maps reading other levels do not wait for it.
+    // Level k of the remainder laid out for the cone, built on first use (an SH map's fallback
+    // level only when its bound fails somewhere). Maps running in parallel may ask for a level at
+    // once: the first builds it under the level's own lock, and maps reading others do not wait.
     const PreparedLevel& cone_level(int k) {
         LevelSlot& slot = level_slot(k);
         const std::lock_guard lock(slot.build);

@@ -3,10 +3,9 @@
 #include <tiny_gltf.h>
 
 #include <algorithm>
-#include <cmath>
 #include <cstring>
 #include <functional>
-#include <limits>
+#include <initializer_list>
 
 #include <glm/gtc/matrix_transform.hpp>
 #include <glm/gtc/quaternion.hpp>
@@ -30,11 +29,7 @@ glm::dmat4 local_transform(const tinygltf::Node& node) {
     return m;
 }
 
-// Every component finite and within a float's range (the mesh stores floats).
-bool finite_float(const glm::dvec3& p) {
-    constexpr double kMax = double(std::numeric_limits<float>::max());
-    return std::abs(p.x) <= kMax && std::abs(p.y) <= kMax && std::abs(p.z) <= kMax;  // false for NaN
-}
+bool finite_float(const glm::dvec3& p) { return fits_float(p.x) && fits_float(p.y) && fits_float(p.z); }
 
 class Reader {
 public:
@@ -86,15 +81,11 @@ public:
             each(k, v);
         }
     }
-    bool floats(int accessor_index) const {
-        return accessor_index >= 0 && accessor_index < int(model_.accessors.size()) &&
-               model_.accessors[std::size_t(accessor_index)].componentType == TINYGLTF_COMPONENT_TYPE_FLOAT;
-    }
-    bool unsigned_integers(int accessor_index) const {
+    // Whether the accessor's components are of one of `types` (false for no such accessor).
+    bool of_type(int accessor_index, std::initializer_list<int> types) const {
         if (accessor_index < 0 || accessor_index >= int(model_.accessors.size())) return false;
         const int type = model_.accessors[std::size_t(accessor_index)].componentType;
-        return type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE || type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT ||
-               type == TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT;
+        return std::find(types.begin(), types.end(), type) != types.end();
     }
     std::size_t count(int accessor_index) const {
         return accessor_index >= 0 && accessor_index < int(model_.accessors.size())
@@ -106,10 +97,6 @@ private:
     const tinygltf::Model& model_;
     std::string file_;
 };
-
-}  // namespace
-
-namespace {
 
 // TinyGLTF opens a .gltf file's buffer and image URIs as paths. A model from a USB stick must not
 // make the appliance read files outside the model's folder ("../../etc/shadow", "/dev/zero"), as
@@ -211,7 +198,7 @@ Mesh load_gltf(const std::filesystem::path& path) {
             const std::size_t n = reader.count(pos->second);
             // Quantised attributes (KHR_mesh_quantization: normalised or integer components) are
             // not supported: read as plain integers they would be finite but wrong.
-            if (!reader.floats(pos->second)) reader.fail("POSITION: accessor " + std::to_string(pos->second) + " is not of floats");
+            if (!reader.of_type(pos->second, {TINYGLTF_COMPONENT_TYPE_FLOAT})) reader.fail("POSITION: accessor " + std::to_string(pos->second) + " is not of floats");
             reader.read(pos->second, 3, "POSITION", [&](std::size_t k, const double* v) {
                 // A NaN or infinite coordinate (garbage bytes, or a node transform that scales past
                 // a float's range) would make every normal and bound computed from it NaN.
@@ -227,7 +214,7 @@ Mesh load_gltf(const std::filesystem::path& path) {
             const auto nor = prim.attributes.find("NORMAL");
             if (nor != prim.attributes.end()) {
                 if (reader.count(nor->second) != n) reader.fail("NORMAL and POSITION counts differ");
-                if (!reader.floats(nor->second)) reader.fail("NORMAL: accessor " + std::to_string(nor->second) + " is not of floats");
+                if (!reader.of_type(nor->second, {TINYGLTF_COMPONENT_TYPE_FLOAT})) reader.fail("NORMAL: accessor " + std::to_string(nor->second) + " is not of floats");
                 reader.read(nor->second, 3, "NORMAL", [&](std::size_t k, const double* v) {
                     if (!finite_float(glm::dvec3(v[0], v[1], v[2])))
                         reader.fail("NORMAL " + std::to_string(k) + " of accessor " + std::to_string(nor->second) +
@@ -242,7 +229,8 @@ Mesh load_gltf(const std::filesystem::path& path) {
             const std::size_t first_index = mesh.indices.size();
             if (prim.indices >= 0) {
                 // glTF 2.0 (3.7.2.1): indices are unsigned bytes, shorts or ints, never floats.
-                if (!reader.unsigned_integers(prim.indices))
+                if (!reader.of_type(prim.indices, {TINYGLTF_COMPONENT_TYPE_UNSIGNED_BYTE, TINYGLTF_COMPONENT_TYPE_UNSIGNED_SHORT,
+                                                   TINYGLTF_COMPONENT_TYPE_UNSIGNED_INT}))
                     reader.fail("indices: accessor " + std::to_string(prim.indices) + " is not of unsigned integers");
                 reader.read(prim.indices, 1, "indices", [&](std::size_t, const double* v) {
                     if (v[0] >= double(n)) reader.fail("index " + std::to_string(std::uint64_t(v[0])) + " >= " + std::to_string(n) + " vertices");

@@ -4,7 +4,6 @@
 #include <cctype>
 #include <cmath>
 #include <fstream>
-#include <limits>
 #include <map>
 #include <sstream>
 #include <utility>
@@ -147,7 +146,7 @@ Mesh load_obj(const std::filesystem::path& path) {
             glm::vec3 p;
             for (int c = 0; c < 3; ++c) {
                 const double x = parse_double(words[std::size_t(c) + 1], where);
-                if (!(std::abs(x) <= double(std::numeric_limits<float>::max())))
+                if (!fits_float(x))
                     throw InputError(where + ": '" + std::string(words[std::size_t(c) + 1]) + "' is beyond a float's range");
                 p[c] = float(x);
             }

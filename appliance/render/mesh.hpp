@@ -3,8 +3,10 @@
 // bounding sphere is the unit sphere at the world origin (normalise_to_unit_sphere).
 #pragma once
 
+#include <cmath>
 #include <cstdint>
 #include <filesystem>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -105,6 +107,10 @@ struct MeshBounds {
     double radius = 0;
 };
 MeshBounds mesh_bounds(const Mesh& mesh);
+
+// Whether a coordinate read as a double is finite and within a float's range (the mesh stores
+// floats: 1e39 would become infinite, and every normal and bound computed from it NaN).
+inline bool fits_float(double x) { return std::abs(x) <= double(std::numeric_limits<float>::max()); }  // false for NaN
 
 // Moves and scales the mesh so that its axis-aligned bounding box is centred on the origin and
 // the farthest vertex is at distance 1 (the camera of renderer.hpp frames the unit sphere).
