@@ -16,6 +16,7 @@
 // restores the discrete ratio: a constant map gives the constant exactly.
 #include <algorithm>
 #include <cmath>
+#include <numbers>
 
 #include "appliance/convolution/methods.hpp"
 #include "appliance/convolution/sh.hpp"
@@ -103,14 +104,114 @@ HdrImage sh_convolve(const ShCoefficients& coefficients, Size input, double n, i
 
 namespace {
 
+// Bright texels that share a polar angle (one input row): their basis values differ only in
+// cos(m phi) and sin(m phi), so the row's Legendre values are computed once and its texels add
+// only their Fourier sums. Indices into the bright texels, by row.
+struct BrightRow {
+    double x = 0, s = 0;  // cos(theta), sin(theta)
+    std::vector<std::size_t> members;
+};
+std::vector<BrightRow> bright_rows(const std::vector<BrightTexel>& bright) {
+    // Keyed by theta itself: directions computed from one theta can differ in their last bits.
+    std::vector<std::pair<double, std::size_t>> keyed;
+    keyed.reserve(bright.size());
+    for (std::size_t t = 0; t < bright.size(); ++t) keyed.push_back({bright[t].theta, t});
+    std::sort(keyed.begin(), keyed.end());
+    std::vector<BrightRow> rows;
+    double theta = NAN;
+    for (const auto& [key, t] : keyed) {
+        if (rows.empty() || key != theta) {
+            theta = key;
+            rows.push_back({std::cos(theta), std::abs(std::sin(theta)), {}});
+        }
+        rows.back().members.push_back(t);
+    }
+    return rows;
+}
+
+// The remainder's first `order` bands plus the bright texels projected as points (each one's
+// radiance x solid angle times Y_lm at its direction, as the texel would be in the projection).
+// Per row of bright texels: order^2/2 Legendre values and, per texel, 2 x order angle sums,
+// instead of order^2 basis values per texel (studio's 1024 bright texels lie on 53 rows).
+ShCoefficients with_bright_texels(const ShCoefficients& remainder, const std::vector<BrightTexel>& bright, int order,
+                                  int threads) {
+    ShCoefficients c;
+    c.order = order;
+    const std::size_t values = 3 * std::size_t(order) * std::size_t(order);
+    c.rgb.assign(remainder.rgb.begin(), remainder.rgb.begin() + std::ptrdiff_t(values));
+    const std::vector<BrightRow> rows = bright_rows(bright);
+    // Fixed chunks of rows summed in order, so the result does not depend on `threads`.
+    constexpr std::size_t kChunk = 4;
+    const std::size_t chunks = (rows.size() + kChunk - 1) / kChunk;
+    std::vector<std::vector<double>> partial(chunks);
+    const ShLegendre legendre(order);
+    const std::size_t m_values = 3 * std::size_t(order);
+    parallel_for(int(chunks), threads, [&](int k) {
+        std::vector<double>& sum = partial[std::size_t(k)];
+        sum.assign(values, 0.0);
+        std::vector<double> p(std::size_t(order) * std::size_t(order + 1) / 2);
+        // Per m and channel: sum over the row's texels of E cos(m phi) and E sin(m phi).
+        std::vector<double> cos_sums(m_values), sin_sums(m_values);
+        const std::size_t end = std::min(rows.size(), (std::size_t(k) + 1) * kChunk);
+        for (std::size_t q = std::size_t(k) * kChunk; q < end; ++q) {
+            const BrightRow& row = rows[q];
+            std::fill(cos_sums.begin(), cos_sums.end(), 0.0);
+            std::fill(sin_sums.begin(), sin_sums.end(), 0.0);
+            for (const std::size_t t : row.members) {
+                const BrightTexel& b = bright[t];
+                // phi = atan2(x, -z), as sh_basis: cos(phi) = -z / sin(theta), sin(phi) = x / sin(theta).
+                const double h = std::hypot(b.x, b.z);
+                const double cp = h > 0.0 ? -b.z / h : 1.0, sp = h > 0.0 ? b.x / h : 0.0;
+                double cm = 1.0, sm = 0.0;
+                for (int m = 0; m < order; ++m) {
+                    double* cs = cos_sums.data() + 3 * std::size_t(m);
+                    double* ss = sin_sums.data() + 3 * std::size_t(m);
+                    cs[0] += b.r * cm;
+                    cs[1] += b.g * cm;
+                    cs[2] += b.b * cm;
+                    ss[0] += b.r * sm;
+                    ss[1] += b.g * sm;
+                    ss[2] += b.b * sm;
+                    const double c_next = cm * cp - sm * sp;
+                    sm = sm * cp + cm * sp;
+                    cm = c_next;
+                }
+            }
+            legendre.evaluate(row.x, row.s, p.data());
+            for (int m = 0; m < order; ++m) {
+                const double* cs = cos_sums.data() + 3 * std::size_t(m);
+                const double* ss = sin_sums.data() + 3 * std::size_t(m);
+                for (int l = m; l < order; ++l) {
+                    const double v = p[std::size_t(legendre_index(l, m))];
+                    if (m == 0) {
+                        double* o = sum.data() + 3 * std::size_t(l * (l + 1));
+                        for (int ch = 0; ch < 3; ++ch) o[ch] += v * cs[ch];
+                    } else {
+                        const double w = std::numbers::sqrt2 * v;
+                        double* oc = sum.data() + 3 * std::size_t(l * (l + 1) + m);
+                        double* os = sum.data() + 3 * std::size_t(l * (l + 1) - m);
+                        for (int ch = 0; ch < 3; ++ch) {
+                            oc[ch] += w * cs[ch];
+                            os[ch] += w * ss[ch];
+                        }
+                    }
+                }
+            }
+        }
+    });
+    for (const std::vector<double>& sum : partial)
+        for (std::size_t v = 0; v < values; ++v) c.rgb[v] += sum[v];
+    return c;
+}
+
 // The order at which the bright texels are folded into the remainder's SH (0: scattered over the
 // grid instead), and the truncation bound of the two together there: see sh_split_convolve.
 struct BrightFold {
     int order = 0;
     double bound = 0;
 };
-BrightFold bright_fold(const std::vector<BrightTexel>& bright, double n, int order, int available, double remainder_mean,
-                       Size out, double bright_tolerance) {
+BrightFold bright_fold(const std::vector<BrightTexel>& bright, std::size_t rows, double n, int order, int available,
+                       double remainder_mean, Size out, double bright_tolerance) {
     if (bright.empty() || !(remainder_mean > 0) || available < order) return {};
     double r = 0, g = 0, b = 0;
     for (const BrightTexel& t : bright) {
@@ -130,50 +231,20 @@ BrightFold bright_fold(const std::vector<BrightTexel>& bright, double n, int ord
             break;
         }
     if (fold.order == 0) return {};
-    // Cost: per bright texel fold^2 basis values to project it, and per output row the Legendre
-    // sums of the bands added (3 channels), against, per bright texel, a power and a few
-    // multiply-adds for each output texel inside its cut-off cone (cos >= tolerance^(1/n); the
-    // scatter's cut also scales with the smallest output, which only narrows it). The factor 2
-    // is measured: on studio (1024 bright texels) n = 10 and 20 at 128x64 fold at orders 28 and
-    // 26 and gain; n = 80 at 256x128 folded at 58 took twice as long as its scatter.
+    // Cost: per row of bright texels fold^2 Legendre values and multiply-adds, per bright texel
+    // 2 x fold angle sums, and per output row the Legendre sums of the bands added (3 channels),
+    // against, per bright texel, a power and a few multiply-adds for each output texel inside its
+    // cut-off cone (cos >= tolerance^(1/n); the scatter's cut also scales with the smallest
+    // output, which only narrows it). Compared one to one, as measured on studio (1024 bright
+    // texels on 53 rows, sh_split_convolve alone, one thread): folded n = 10 ... 160 at orders
+    // 28 ... 82 took 0.55-2.1 ms against 2.8-5.6 ms scattered; at n = 320 (order 119, cost ratio
+    // 2.5) 3.6 ms against 2.8, at n = 640 (169, ratio 3.2) 9.0 against 5.7.
     const double cap_share = 0.5 * (1.0 - std::pow(bright_tolerance, 1.0 / std::max(n, 1.0)));
     const double scatter_cost = double(bright.size()) * double(out.width) * double(out.height) * cap_share;
     const double added_bands = double(fold.order) * fold.order - double(order) * order;
-    const double fold_cost = double(bright.size()) * fold.order * fold.order + 3.0 * out.height * added_bands;
-    return 2.0 * fold_cost < scatter_cost ? fold : BrightFold{};
-}
-
-// The remainder's first `order` bands plus the bright texels projected as points (each one's
-// radiance x solid angle times Y_lm at its direction, as the texel would be in the projection).
-ShCoefficients with_bright_texels(const ShCoefficients& remainder, const std::vector<BrightTexel>& bright, int order,
-                                  int threads) {
-    ShCoefficients c;
-    c.order = order;
-    const std::size_t values = 3 * std::size_t(order) * std::size_t(order);
-    c.rgb.assign(remainder.rgb.begin(), remainder.rgb.begin() + std::ptrdiff_t(values));
-    // Fixed chunks of texels summed in order, so the result does not depend on `threads`.
-    constexpr std::size_t kChunk = 64;
-    const std::size_t chunks = (bright.size() + kChunk - 1) / kChunk;
-    std::vector<std::vector<double>> partial(chunks);
-    const ShLegendre legendre(order);
-    parallel_for(int(chunks), threads, [&](int k) {
-        std::vector<double>& sum = partial[std::size_t(k)];
-        sum.assign(values, 0.0);
-        std::vector<double> y(std::size_t(order) * std::size_t(order));
-        const std::size_t end = std::min(bright.size(), (std::size_t(k) + 1) * kChunk);
-        for (std::size_t t = std::size_t(k) * kChunk; t < end; ++t) {
-            const BrightTexel& b = bright[t];
-            sh_basis(legendre, glm::dvec3(b.x, b.y, b.z), y.data());
-            for (std::size_t i = 0; i < y.size(); ++i) {
-                sum[3 * i] += b.r * y[i];
-                sum[3 * i + 1] += b.g * y[i];
-                sum[3 * i + 2] += b.b * y[i];
-            }
-        }
-    });
-    for (const std::vector<double>& sum : partial)
-        for (std::size_t v = 0; v < values; ++v) c.rgb[v] += sum[v];
-    return c;
+    const double L = fold.order;
+    const double fold_cost = double(rows) * L * L + 1.5 * double(bright.size()) * L + 3.0 * out.height * added_bands;
+    return fold_cost < scatter_cost ? fold : BrightFold{};
 }
 
 }  // namespace
@@ -191,7 +262,8 @@ ShSplitResult sh_split_convolve(const ShCoefficients& remainder, const std::vect
     const BrightFold bright_fold_plan =
         terms == BrightTerms::Scattered || executor
             ? BrightFold{}
-            : bright_fold(bright_texels, n, sh_order, available, remainder_mean, out, bright_tolerance);
+            : bright_fold(bright_texels, bright_rows(bright_texels).size(), n, sh_order, available, remainder_mean, out,
+                          bright_tolerance);
     const int fold = bright_fold_plan.order;
     const ShCoefficients folded = fold > 0 ? with_bright_texels(remainder, bright_texels, fold, threads) : ShCoefficients{};
     const ShCoefficients& coefficients = fold > 0 ? folded : remainder;
