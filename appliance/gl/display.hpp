@@ -1,8 +1,9 @@
 // Where the appliance's frames go: one interface over three displays (docs/architecture.md,
 // "Displays"), so the renderer and the kiosk never know which one runs.
 // - kms: the appliance itself. A DRM card found by enumeration, its connected connector and
-//   preferred mode (the config may name others), a GBM surface with EGL, page flips (legacy
-//   drmModePageFlip), the previous CRTC restored on exit; the VT locked and the keyboards grabbed
+//   preferred mode (the config may name others), a GBM surface with EGL, page flips (atomic
+//   commits where the driver has them, legacy drmModePageFlip otherwise), the previous CRTC
+//   restored on exit; the VT locked and the keyboards grabbed
 //   while it is open (vt_lock.hpp, evdev_keyboard.hpp), keys from the keyboards.
 // - window: an X11 window with EGL, for development; keyboard input.
 // - headless: EGL surfaceless and an offscreen framebuffer; frames to PNG on request (tests, CI,
@@ -29,6 +30,9 @@ struct DisplayConfig {
     // kms: the card ("" = the first /dev/dri/card* with a connected connector), the connector
     // ("" = the first connected) and the mode ("" = preferred; "1920x1080" or "1920x1080@60").
     std::string card, connector, mode;
+    // kms: "auto" (atomic commits where the driver accepts them, else the legacy calls, saying
+    // why in describe()), "atomic" (fail without them) or "legacy".
+    std::string kms_api = "auto";
     // window and headless: the frame's size in pixels.
     int width = 1280, height = 720;
     bool fullscreen = false;  // window: ask the window manager for full screen
@@ -38,6 +42,9 @@ struct DisplayConfig {
     // when vt_lock_switch (needs CAP_SYS_TTY_CONFIG).
     std::string vt = "auto";
     bool vt_lock_switch = false;
+    // kms: a switch to another VT is "refuse"d, or let go ("release": the card and keyboards given
+    // up until the VT is back on screen; not with vt_lock_switch).
+    std::string vt_switch = "refuse";
     // kms: the evdev keyboards in input_dir: "grab" (read by the kiosk alone), "shared" (read beside
     // other readers, for development) or "none".
     std::string keyboard = "grab";

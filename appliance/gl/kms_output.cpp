@@ -126,4 +126,70 @@ KmsChoice choose_kms_output(const KmsCard& card, const KmsRequest& request) {
     return choice;
 }
 
+std::string fourcc_name(std::uint32_t format) {
+    std::string s;
+    for (int i = 0; i < 4; ++i) {
+        const char c = char((format >> (8 * i)) & 0xff);
+        s += (c >= 32 && c < 127) ? c : '?';
+    }
+    return s;
+}
+
+std::size_t choose_primary_plane(const std::string& card, const std::vector<KmsPlane>& planes, int crtc_index,
+                                 std::uint32_t crtc_id, std::uint32_t format) {
+    if (planes.empty()) throw RuntimeError(card + ": no planes (the driver lists none with universal planes on)");
+    if (crtc_index < 0 || crtc_index >= 32)
+        throw RuntimeError(card + ": CRTC " + std::to_string(crtc_id) + " is not among the first 32 a plane can name");
+    bool primary_for_crtc = false;
+    for (std::size_t i = 0; i < planes.size(); ++i) {
+        const KmsPlane& p = planes[i];
+        const auto type = p.properties.find("type");
+        if (type == p.properties.end() || type->second.value != std::uint64_t(kPlaneTypePrimary)) continue;
+        if (!(p.possible_crtcs & (1u << crtc_index))) continue;
+        primary_for_crtc = true;
+        for (const std::uint32_t f : p.formats)
+            if (f == format) return i;
+    }
+    throw RuntimeError(card + ": no primary plane for CRTC " + std::to_string(crtc_id) +
+                       (primary_for_crtc ? " that scans out " + fourcc_name(format) : ""));
+}
+
+std::vector<AtomicSet> atomic_modeset(const AtomicOutput& out, std::uint32_t mode_blob, std::uint32_t fb) {
+    const std::uint64_t w = std::uint64_t(out.width), h = std::uint64_t(out.height);
+    return {
+        {out.connector, "connector", "CRTC_ID", out.crtc},
+        {out.crtc, "CRTC", "MODE_ID", mode_blob},
+        {out.crtc, "CRTC", "ACTIVE", 1},
+        {out.plane, "plane", "FB_ID", fb},
+        {out.plane, "plane", "CRTC_ID", out.crtc},
+        {out.plane, "plane", "SRC_X", 0},
+        {out.plane, "plane", "SRC_Y", 0},
+        {out.plane, "plane", "SRC_W", w << 16},
+        {out.plane, "plane", "SRC_H", h << 16},
+        {out.plane, "plane", "CRTC_X", 0},
+        {out.plane, "plane", "CRTC_Y", 0},
+        {out.plane, "plane", "CRTC_W", w},
+        {out.plane, "plane", "CRTC_H", h},
+    };
+}
+
+std::vector<AtomicSet> atomic_flip(const AtomicOutput& out, std::uint32_t fb) {
+    return {{out.plane, "plane", "FB_ID", fb}};
+}
+
+std::vector<AtomicIds> resolve_atomic(const std::string& card, const std::vector<AtomicSet>& sets,
+                                      const std::map<std::uint32_t, KmsProperties>& properties) {
+    std::vector<AtomicIds> ids;
+    ids.reserve(sets.size());
+    for (const AtomicSet& s : sets) {
+        const std::string object = std::string(s.object_kind) + " " + std::to_string(s.object);
+        const auto props = properties.find(s.object);
+        if (props == properties.end()) throw RuntimeError(card + ": " + object + " has no properties");
+        const auto p = props->second.find(s.property);
+        if (p == props->second.end()) throw RuntimeError(card + ": " + object + " has no property " + s.property);
+        ids.push_back({s.object, p->second.id, s.value});
+    }
+    return ids;
+}
+
 }  // namespace glint::gl

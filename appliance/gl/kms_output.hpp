@@ -4,6 +4,7 @@
 #pragma once
 
 #include <cstdint>
+#include <map>
 #include <string>
 #include <vector>
 
@@ -51,5 +52,63 @@ KmsChoice choose_kms_output(const KmsCard& card, const KmsRequest& request);
 
 // "1920x1080@60.00"
 std::string describe_mode(const KmsMode& mode);
+
+// --- Atomic modesetting (docs/architecture.md, "Displays") ----------------------------------
+// The same split: display_kms.cpp reads the card's planes and properties into these, the choices
+// and the property lists of each commit are made here and unit-tested against made-up cards.
+
+// A KMS object's properties by name: property id and current value.
+struct KmsProperty {
+    std::uint32_t id = 0;
+    std::uint64_t value = 0;
+};
+using KmsProperties = std::map<std::string, KmsProperty>;
+
+inline constexpr int kPlaneTypeOverlay = 0, kPlaneTypePrimary = 1, kPlaneTypeCursor = 2;  // DRM_PLANE_TYPE_*
+
+struct KmsPlane {
+    std::uint32_t id = 0;
+    std::uint32_t possible_crtcs = 0;  // bit i: the CRTC at index i of the card's CRTC list
+    std::vector<std::uint32_t> formats;  // DRM fourcc codes it scans out
+    KmsProperties properties;            // "type" among them on a card with universal planes
+};
+
+// The primary plane for the CRTC at `crtc_index` that scans out `format`; throws RuntimeError with
+// one line naming the card and the CRTC when there is none ("no primary plane for CRTC 41 that
+// scans out XR24", or that the card lists no planes at all).
+std::size_t choose_primary_plane(const std::string& card, const std::vector<KmsPlane>& planes, int crtc_index,
+                                 std::uint32_t crtc_id, std::uint32_t format);
+
+// One property set in an atomic commit, by name; resolve_atomic turns names into ids.
+struct AtomicSet {
+    std::uint32_t object = 0;
+    const char* object_kind = "";  // "connector", "CRTC", "plane": for the error
+    std::string property;
+    std::uint64_t value = 0;
+};
+struct AtomicIds {
+    std::uint32_t object = 0, property = 0;
+    std::uint64_t value = 0;
+};
+
+struct AtomicOutput {
+    std::uint32_t connector = 0, crtc = 0, plane = 0;
+    int width = 0, height = 0;  // the mode's, which the plane fills 1:1
+};
+
+// The first commit (needs DRM_MODE_ATOMIC_ALLOW_MODESET): the connector on the CRTC, the CRTC on
+// with the mode's blob, and the plane showing framebuffer `fb` whole (SRC_* in 16.16 fixed point).
+std::vector<AtomicSet> atomic_modeset(const AtomicOutput& out, std::uint32_t mode_blob, std::uint32_t fb);
+// A page flip: only the plane's framebuffer changes.
+std::vector<AtomicSet> atomic_flip(const AtomicOutput& out, std::uint32_t fb);
+
+// Property names to ids from each object's properties (`properties`: object id -> its
+// properties); throws RuntimeError naming the card, the object and the property one lacks
+// ("/dev/dri/card0: plane 31 has no property FB_ID").
+std::vector<AtomicIds> resolve_atomic(const std::string& card, const std::vector<AtomicSet>& sets,
+                                      const std::map<std::uint32_t, KmsProperties>& properties);
+
+// "XR24" for DRM_FORMAT_XRGB8888.
+std::string fourcc_name(std::uint32_t format);
 
 }  // namespace glint::gl

@@ -116,6 +116,7 @@ struct VtLock::Saved {
     std::array<Step, kMaxSteps> done{};
     int count = 0;
     bool lock_switch = false;
+    bool release_on_switch = false;
     std::atomic<bool> restored{false};
     // What went wrong while restoring, for the destructor's report (the signal path cannot print).
     std::array<int, kMaxSteps> restore_errno{};
@@ -126,6 +127,9 @@ namespace {
 // The live lock, for the signal handlers (at most one per process).
 std::atomic<VtDevice*> g_device{nullptr};
 std::atomic<VtLock::Saved*> g_saved{nullptr};
+// Release mode: the handler only notes the kernel's request; the frame loop answers it.
+std::atomic<bool> g_release_mode{false}, g_away_requested{false}, g_back{false};
+static_assert(std::atomic<bool>::is_always_lock_free, "the switch flags are set from a signal handler");
 struct sigaction g_old_release {}, g_old_acquire {};
 std::array<struct sigaction, kCrashSignals.size()> g_old_crash{};
 
@@ -161,8 +165,17 @@ void undo(VtDevice& device, VtLock::Saved& saved) noexcept {
 void on_switch_signal(int signal_number) {
     const int saved_errno = errno;
     if (VtDevice* device = g_device.load()) {
-        // A switch away is refused (0); a switch back (after one refused elsewhere) is acknowledged.
-        device->ioctl(VT_RELDISP, signal_number == kReleaseSignal ? 0 : VT_ACKACQ);
+        if (signal_number == kReleaseSignal) {
+            // Refuse mode: at once (0). Release mode: the frame loop first gives up the card and
+            // keyboards, then answers (VtLock::allow_switch_away); the kernel waits for it.
+            if (g_release_mode.load()) g_away_requested.store(true);
+            else device->ioctl(VT_RELDISP, 0);
+        } else {
+            // Back on screen: acknowledged at once in both modes; release mode takes the card back
+            // in the frame loop.
+            device->ioctl(VT_RELDISP, VT_ACKACQ);
+            if (g_release_mode.load()) g_back.store(true);
+        }
     }
     errno = saved_errno;
 }
@@ -212,7 +225,11 @@ VtLock::VtLock(std::unique_ptr<VtDevice> device, const VtLockOptions& options)
     : device_(std::move(device)), saved_(std::make_unique<Saved>()) {
     VtDevice& d = *device_;
     Saved& s = *saved_;
+    if (options.release_on_switch && options.lock_switch)
+        throw InputError(d.path() + ": a VT switch cannot be both let go (display.vt_switch = release) and locked "
+                                    "(display.vt_lock_switch)");
     s.lock_switch = options.lock_switch;
+    s.release_on_switch = options.release_on_switch;
     const auto query = [&](unsigned long request, const char* name, void* out) {
         if (d.ioctl(request, reinterpret_cast<unsigned long>(out)) < 0) throw RuntimeError(failure(d, name, errno));
     };
@@ -230,6 +247,9 @@ VtLock::VtLock(std::unique_ptr<VtDevice> device, const VtLockOptions& options)
     if (!g_device.compare_exchange_strong(expected, &d))
         throw RuntimeError(d.path() + ": another VT lock is live in this process (" + expected->path() + ")");
     g_saved = &s;
+    g_away_requested = false;
+    g_back = false;
+    g_release_mode = options.release_on_switch;
     install_handlers();
     const auto step = [&](Step done, unsigned long request, const char* name, unsigned long arg) {
         if (d.ioctl(request, arg) < 0) throw RuntimeError(failure(d, name, errno));
@@ -264,6 +284,7 @@ VtLock::VtLock(std::unique_ptr<VtDevice> device, const VtLockOptions& options)
         uninstall_handlers();
         g_saved = nullptr;
         g_device = nullptr;
+        g_release_mode = false;
         throw;
     }
 }
@@ -272,6 +293,9 @@ VtLock::~VtLock() {
     // Unpublished first, so that restore_now() on the signal thread finds no lock being torn down.
     g_saved = nullptr;
     g_device = nullptr;
+    g_release_mode = false;
+    // A switch away still waiting for an answer is let go: the process no longer holds the screen.
+    if (g_away_requested.exchange(false)) device_->ioctl(VT_RELDISP, 1);
     undo(*device_, *saved_);
     uninstall_handlers();
     for (int i = 0; i < saved_->count; ++i)
@@ -281,8 +305,29 @@ VtLock::~VtLock() {
 }
 
 std::string VtLock::describe() const {
+    if (saved_->release_on_switch)
+        return device_->path() + " (VT " + std::to_string(device_->number()) +
+               "): graphics mode, keyboard off, switches let go with the card and keyboards (VT_PROCESS)";
     return device_->path() + " (VT " + std::to_string(device_->number()) +
            "): graphics mode, keyboard off, switches refused (VT_PROCESS" + (saved_->lock_switch ? ", VT_LOCKSWITCH)" : ")");
+}
+
+VtSwitchRequest VtLock::take_switch_request() {
+    if (!saved_->release_on_switch) return VtSwitchRequest::None;
+    // Away first: the kernel is waiting for its answer.
+    if (g_away_requested.load()) return VtSwitchRequest::Away;
+    if (g_back.exchange(false)) return VtSwitchRequest::Back;
+    return VtSwitchRequest::None;
+}
+
+void VtLock::allow_switch_away() {
+    if (!g_away_requested.exchange(false)) return;
+    if (device_->ioctl(VT_RELDISP, 1) < 0) throw RuntimeError(failure(*device_, "VT_RELDISP", errno));
+}
+
+void VtLock::refuse_switch_away() {
+    if (!g_away_requested.exchange(false)) return;
+    if (device_->ioctl(VT_RELDISP, 0) < 0) throw RuntimeError(failure(*device_, "VT_RELDISP", errno));
 }
 
 void VtLock::restore_now() noexcept {

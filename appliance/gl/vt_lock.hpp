@@ -5,7 +5,8 @@
 // the console stops drawing), its keyboard is switched off (KDSKBMODE K_OFF: no key reaches the
 // tty's line discipline), and switches away from it are refused (VT_SETMODE VT_PROCESS: the kernel
 // asks the process, which says no; optionally VT_LOCKSWITCH, the kernel's global switch lock, which
-// needs CAP_SYS_TTY_CONFIG). Everything is restored in reverse order when the lock ends, when a
+// needs CAP_SYS_TTY_CONFIG), or, in release mode, let go once the display has given up the card
+// and the keyboards (take_switch_request, allow_switch_away). Everything is restored in reverse order when the lock ends, when a
 // step fails half-way, and from a crash's signal handler (restore_now()).
 //
 // The ioctls go through VtDevice so that the unit tests check the sequence and the restore order
@@ -39,6 +40,18 @@ struct VtLockOptions {
     bool lock_switch = false;
     // When the VT is not the one on screen: switch to it first and back at the end.
     bool activate = true;
+    // A switch away (`chvt 2` over SSH, a console a technician asks for) is let go once the caller
+    // has given up the card and the keyboards (take_switch_request(), allow_switch_away()), and the
+    // VT is taken back when it returns. false: every switch away is refused. Not with lock_switch
+    // (the kernel would refuse before asking).
+    bool release_on_switch = false;
+};
+
+// What the kernel asked of a VT in release mode since the last take_switch_request().
+enum class VtSwitchRequest {
+    None,
+    Away,  // a switch away waits for allow_switch_away() or refuse_switch_away()
+    Back,  // the VT is on screen again (already acknowledged to the kernel)
 };
 
 // The lock itself: the constructor applies the steps, the destructor restores them in reverse.
@@ -52,6 +65,16 @@ public:
 
     // "/dev/tty1 (VT 1): graphics mode, keyboard off, switches refused"
     std::string describe() const;
+
+    // Release mode (VtLockOptions::release_on_switch): the switch asked for since the last call
+    // (the kernel's signals only set flags; this is called from the frame loop). An Away and a
+    // Back both pending (a switch away and back within one frame, which the kernel only allows
+    // after allow_switch_away) give Away first. Always None in refuse mode.
+    VtSwitchRequest take_switch_request();
+    // Lets the pending switch away go ahead (VT_RELDISP 1), or refuses it (VT_RELDISP 0). Throws
+    // RuntimeError naming the device if the kernel refuses the answer.
+    void allow_switch_away();
+    void refuse_switch_away();
     // Restores the live lock, if any, at once; async-signal-safe (only the device's ioctls). The
     // crash handlers call it, and so does a signal that ends the process without unwinding
     // (app/interrupt.cpp). Idempotent: the destructor then has nothing left to do.

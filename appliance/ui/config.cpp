@@ -356,6 +356,8 @@ const std::vector<Key>& keys() {
         t.push_back(key("display", &C::display, "connector", &DisplaySection::connector, kRestart));
         t.push_back(key("display", &C::display, "mode", &DisplaySection::mode, kRestart,
                         std::function<Check(const std::string&)>(kms_mode)));
+        t.push_back(key("display", &C::display, "kms_api", &DisplaySection::kms_api, kRestart,
+                        one_of({"auto", "atomic", "legacy"})));
         t.push_back(key("display", &C::display, "width", &DisplaySection::width, kRestart, int_range(16, 16384)));
         t.push_back(key("display", &C::display, "height", &DisplaySection::height, kRestart, int_range(16, 16384)));
         t.push_back(key("display", &C::display, "fullscreen", &DisplaySection::fullscreen, kRestart));
@@ -363,6 +365,8 @@ const std::vector<Key>& keys() {
         t.push_back(key("display", &C::display, "vt", &DisplaySection::vt, kRestart,
                         std::function<Check(const std::string&)>(vt_spec)));
         t.push_back(key("display", &C::display, "vt_lock_switch", &DisplaySection::vt_lock_switch, kRestart));
+        t.push_back(key("display", &C::display, "vt_switch", &DisplaySection::vt_switch, kRestart,
+                        one_of({"refuse", "release"})));
         t.push_back(key("display", &C::display, "keyboard", &DisplaySection::keyboard, kRestart,
                         one_of({"grab", "shared", "none"})));
         // [camera], [sensor], [gpio]: devices opened at start.

@@ -25,10 +25,12 @@ public:
 struct DisplaySection {          // [display]
     std::string kind = "auto";   // auto | kms | window | headless
     std::string card, connector, mode;  // kms: "" = found by enumeration / preferred mode
+    std::string kms_api = "auto";       // kms: auto | atomic | legacy page flips
     int width = 1280, height = 720;     // window and headless
     bool fullscreen = true;             // window
     std::string vt = "auto";            // kms: the VT locked ("auto", "none", "/dev/ttyN"; docs/lockdown.md)
     bool vt_lock_switch = false;        // kms: VT_LOCKSWITCH too (needs CAP_SYS_TTY_CONFIG)
+    std::string vt_switch = "refuse";   // kms: a switch away refused, or let go with card and keyboards
     std::string keyboard = "grab";      // kms: evdev keyboards: grab | shared | none
 };
 

@@ -146,11 +146,13 @@ gl::DisplayConfig display_config_of(const Config& cfg) {
     d.card = cfg.display.card;
     d.connector = cfg.display.connector;
     d.mode = cfg.display.mode;
+    d.kms_api = cfg.display.kms_api;
     d.width = cfg.display.width;
     d.height = cfg.display.height;
     d.fullscreen = cfg.display.fullscreen;
     d.vt = cfg.display.vt;
     d.vt_lock_switch = cfg.display.vt_lock_switch;
+    d.vt_switch = cfg.display.vt_switch;
     d.keyboard = cfg.display.keyboard;
     return d;
 }

@@ -12,6 +12,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <thread>
 
 #include "appliance/core/errors.hpp"
@@ -106,6 +107,109 @@ TEST(KmsOutput, EachFailureIsOneLineNamingTheCard) {
     no_crtc.path = "/dev/dri/card2";
     no_crtc.connectors.push_back(connector(9, "HDMI-A-1", true, {{1920, 1080, 60, true}}, {}, 0));
     EXPECT_EQ(error_of(no_crtc, {}), "/dev/dri/card2: no CRTC can drive connector HDMI-A-1");
+}
+
+namespace {
+
+constexpr std::uint32_t kXrgb8888 = 0x34325258;  // 'XR24'
+constexpr std::uint32_t kArgb8888 = 0x34325241;  // 'AR24'
+
+KmsPlane plane(std::uint32_t id, int type, std::uint32_t crtcs, std::vector<std::uint32_t> formats) {
+    KmsPlane p;
+    p.id = id;
+    p.possible_crtcs = crtcs;
+    p.formats = std::move(formats);
+    p.properties["type"] = {id * 100 + 1, std::uint64_t(type)};
+    return p;
+}
+
+// A card like a Raspberry Pi's: per CRTC a primary, overlays and a cursor; CRTC ids 60 and 61.
+std::vector<KmsPlane> pi_like_planes() {
+    return {plane(30, kPlaneTypeOverlay, 0b11, {kXrgb8888, kArgb8888}), plane(31, kPlaneTypeCursor, 0b01, {kArgb8888}),
+            plane(32, kPlaneTypePrimary, 0b01, {kArgb8888}),             plane(33, kPlaneTypePrimary, 0b01, {kXrgb8888}),
+            plane(34, kPlaneTypePrimary, 0b10, {kXrgb8888})};
+}
+
+std::string plane_error(const std::vector<KmsPlane>& planes, int crtc_index, std::uint32_t crtc_id) {
+    try {
+        choose_primary_plane("/dev/dri/card0", planes, crtc_index, crtc_id, kXrgb8888);
+    } catch (const RuntimeError& e) {
+        return e.what();
+    }
+    return "";
+}
+
+}  // namespace
+
+TEST(KmsAtomic, TakesThePrimaryPlaneOfTheCrtcThatScansOutTheFormat) {
+    const std::vector<KmsPlane> planes = pi_like_planes();
+    // Not the overlay (30) though it can show XR24 on CRTC 0, not the primary without XR24 (32).
+    EXPECT_EQ(planes[choose_primary_plane("/dev/dri/card0", planes, 0, 60, kXrgb8888)].id, 33u);
+    EXPECT_EQ(planes[choose_primary_plane("/dev/dri/card0", planes, 1, 61, kXrgb8888)].id, 34u);
+    EXPECT_EQ(fourcc_name(kXrgb8888), "XR24");
+}
+
+TEST(KmsAtomic, EachPlaneFailureIsOneLineNamingTheCardAndCrtc) {
+    std::vector<KmsPlane> planes = pi_like_planes();
+    planes.erase(planes.begin() + 3);  // CRTC 0's XR24 primary gone: 32 remains, AR24 only
+    EXPECT_EQ(plane_error(planes, 0, 60), "/dev/dri/card0: no primary plane for CRTC 60 that scans out XR24");
+    EXPECT_EQ(plane_error(planes, 2, 62), "/dev/dri/card0: no primary plane for CRTC 62");
+    EXPECT_EQ(plane_error({}, 0, 60), "/dev/dri/card0: no planes (the driver lists none with universal planes on)");
+    EXPECT_EQ(plane_error(planes, 40, 99), "/dev/dri/card0: CRTC 99 is not among the first 32 a plane can name");
+}
+
+TEST(KmsAtomic, ModesetSetsConnectorCrtcAndAWholePlaneAndAFlipOnlyTheFramebuffer) {
+    const AtomicOutput out{41, 60, 33, 1920, 1080};
+    const std::vector<AtomicSet> first = atomic_modeset(out, 77, 500);
+    std::map<std::string, std::uint64_t> plane_values;
+    for (const AtomicSet& s : first) {
+        if (s.object == 33) plane_values[s.property] = s.value;
+        if (s.object == 41) {
+            EXPECT_EQ(s.property, "CRTC_ID");
+            EXPECT_EQ(s.value, 60u);
+        }
+    }
+    EXPECT_EQ(plane_values["FB_ID"], 500u);
+    EXPECT_EQ(plane_values["CRTC_ID"], 60u);
+    EXPECT_EQ(plane_values["SRC_W"], 1920u << 16);  // 16.16 fixed point
+    EXPECT_EQ(plane_values["SRC_H"], 1080u << 16);
+    EXPECT_EQ(plane_values["CRTC_W"], 1920u);
+    EXPECT_EQ(plane_values["CRTC_H"], 1080u);
+    EXPECT_EQ(plane_values.size(), 10u);
+    const std::vector<AtomicSet> flip = atomic_flip(out, 501);
+    ASSERT_EQ(flip.size(), 1u);
+    EXPECT_EQ(flip[0].object, 33u);
+    EXPECT_EQ(flip[0].property, "FB_ID");
+    EXPECT_EQ(flip[0].value, 501u);
+}
+
+TEST(KmsAtomic, ResolvesPropertyNamesAndNamesTheOneMissing) {
+    const AtomicOutput out{41, 60, 33, 800, 480};
+    std::map<std::uint32_t, KmsProperties> props;
+    std::uint32_t next = 1000;
+    props[41]["CRTC_ID"] = {next++, 0};
+    for (const char* name : {"MODE_ID", "ACTIVE"}) props[60][name] = {next++, 0};
+    for (const char* name : {"FB_ID", "CRTC_ID", "SRC_X", "SRC_Y", "SRC_W", "SRC_H", "CRTC_X", "CRTC_Y", "CRTC_W"})
+        props[33][name] = {next++, 0};
+    const auto error = [&] {
+        try {
+            resolve_atomic("/dev/dri/card0", atomic_modeset(out, 5, 6), props);
+        } catch (const RuntimeError& e) {
+            return std::string(e.what());
+        }
+        return std::string();
+    };
+    EXPECT_EQ(error(), "/dev/dri/card0: plane 33 has no property CRTC_H");
+    props[33]["CRTC_H"] = {next++, 0};
+    const std::vector<AtomicIds> ids = resolve_atomic("/dev/dri/card0", atomic_modeset(out, 5, 6), props);
+    ASSERT_EQ(ids.size(), 13u);
+    EXPECT_EQ(ids[0].object, 41u);
+    EXPECT_EQ(ids[0].property, props[41]["CRTC_ID"].id);
+    EXPECT_EQ(ids[0].value, 60u);
+    EXPECT_EQ(ids.back().property, props[33]["CRTC_H"].id);
+    EXPECT_EQ(ids.back().value, 480u);
+    props.erase(60);
+    EXPECT_EQ(error(), "/dev/dri/card0: CRTC 60 has no properties");
 }
 
 TEST(Png, RoundTripsAndRejectsTruncatedFiles) {

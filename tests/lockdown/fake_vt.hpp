@@ -84,7 +84,9 @@ public:
                               arg == K_OFF ? "off" : arg == K_UNICODE ? "unicode" : arg == K_XLATE ? "xlate" : "?");
                 break;
             case TCFLSH: std::snprintf(line, sizeof line, "TCFLSH"); break;
-            case VT_RELDISP: std::snprintf(line, sizeof line, "VT_RELDISP %s", arg == 0 ? "refuse" : "ackacq"); break;
+            case VT_RELDISP:
+                std::snprintf(line, sizeof line, "VT_RELDISP %s", arg == 0 ? "refuse" : arg == 1 ? "allow" : arg == VT_ACKACQ ? "ackacq" : "?");
+                break;
             default: errno = ENOTTY; return -1;
         }
         record(line);

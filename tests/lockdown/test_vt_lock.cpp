@@ -172,6 +172,65 @@ TEST(VtLock, SwitchRequestsAreRefused) {
     EXPECT_EQ(s.log, (Log{"VT_RELDISP refuse", "VT_RELDISP ackacq"}));
 }
 
+// Release mode: the kernel's request away only sets a flag; the frame loop gives up the card and
+// keyboards, then lets the switch go (VT_RELDISP 1); back on screen is acknowledged at once and
+// reported once.
+TEST(VtLock, InReleaseModeASwitchAwayWaitsForTheCallerAndBackIsReportedOnce) {
+    FakeVtState s;
+    gl::VtLock lock(fake(s), {.lock_switch = false, .activate = true, .release_on_switch = true});
+    EXPECT_NE(lock.describe().find("switches let go with the card and keyboards"), std::string::npos);
+    s.log.clear();
+    EXPECT_EQ(lock.take_switch_request(), gl::VtSwitchRequest::None);
+    raise(SIGUSR1);
+    EXPECT_TRUE(s.log.empty());  // not answered from the handler
+    EXPECT_EQ(lock.take_switch_request(), gl::VtSwitchRequest::Away);
+    EXPECT_EQ(lock.take_switch_request(), gl::VtSwitchRequest::Away);  // until answered
+    lock.allow_switch_away();
+    EXPECT_EQ(s.log, (Log{"VT_RELDISP allow"}));
+    EXPECT_EQ(lock.take_switch_request(), gl::VtSwitchRequest::None);
+    lock.allow_switch_away();  // nothing pending: nothing sent
+    EXPECT_EQ(s.log.size(), 1u);
+    raise(SIGUSR2);
+    EXPECT_EQ(s.log, (Log{"VT_RELDISP allow", "VT_RELDISP ackacq"}));
+    EXPECT_EQ(lock.take_switch_request(), gl::VtSwitchRequest::Back);
+    EXPECT_EQ(lock.take_switch_request(), gl::VtSwitchRequest::None);
+    // A request the caller cannot honour is refused.
+    raise(SIGUSR1);
+    lock.refuse_switch_away();
+    EXPECT_EQ(s.log.back(), "VT_RELDISP refuse");
+}
+
+// A switch away still unanswered when the lock ends is let go (the process gives up the screen),
+// before the VT's modes are restored.
+TEST(VtLock, APendingSwitchAwayIsLetGoWhenTheLockEnds) {
+    FakeVtState s;
+    {
+        gl::VtLock lock(fake(s), {.lock_switch = false, .activate = true, .release_on_switch = true});
+        s.log.clear();
+        raise(SIGUSR1);
+    }
+    ASSERT_FALSE(s.log.empty());
+    EXPECT_EQ(s.log.front(), "VT_RELDISP allow");
+    EXPECT_EQ(s.kd, KD_TEXT);
+}
+
+TEST(VtLock, ReleaseAndTheKernelsSwitchLockExcludeEachOther) {
+    FakeVtState s;
+    try {
+        gl::VtLock lock(fake(s), {.lock_switch = true, .activate = true, .release_on_switch = true});
+        FAIL() << "no error";
+    } catch (const InputError& e) {
+        EXPECT_EQ(std::string(e.what()), "/dev/tty1: a VT switch cannot be both let go (display.vt_switch = release) and "
+                                         "locked (display.vt_lock_switch)");
+    }
+    EXPECT_TRUE(s.log.empty());
+    // In refuse mode take_switch_request never reports anything: the handler answered.
+    gl::VtLock lock(fake(s), {});
+    raise(SIGUSR1);
+    EXPECT_EQ(lock.take_switch_request(), gl::VtSwitchRequest::None);
+    EXPECT_EQ(s.log.back(), "VT_RELDISP refuse");
+}
+
 TEST(VtLock, TheSwitchSignalsAreGivenBack) {
     struct sigaction before {};
     sigaction(SIGUSR1, nullptr, &before);

@@ -354,6 +354,15 @@ TEST(Config, DisplayVtAndKeyboard) {
     EXPECT_EQ(c.display.vt, "/dev/tty2");
     EXPECT_TRUE(c.display.vt_lock_switch);
     EXPECT_EQ(c.display.keyboard, "shared");
+    EXPECT_EQ(c.display.vt_switch, "refuse");
+    EXPECT_EQ(c.display.kms_api, "auto");
+    EXPECT_EQ(error_of("[display]\nvt_switch = \"allow\"\n"),
+              "test.toml:2: key 'display.vt_switch': 'allow' is not one of refuse, release");
+    EXPECT_EQ(error_of("[display]\nkms_api = \"modern\"\n"),
+              "test.toml:2: key 'display.kms_api': 'modern' is not one of auto, atomic, legacy");
+    const Config r = parse_config("[display]\nvt_switch = \"release\"\nkms_api = \"legacy\"\n", "test.toml");
+    EXPECT_EQ(r.display.vt_switch, "release");
+    EXPECT_EQ(r.display.kms_api, "legacy");
 }
 
 TEST(Config, PinHashMustBeAModernCompleteCryptHash) {

@@ -14,6 +14,7 @@
 
 #include <cstring>
 #include <filesystem>
+#include <functional>
 #include <string>
 
 #include "appliance/gl/vt_lock.hpp"
@@ -78,6 +79,53 @@ TEST(RealVt, AFreeVtIsLockedAndRestored) {
     EXPECT_EQ(active_vt(tty0), on_screen);
     // Give the VT back: nothing of the test stays allocated. The kernel lets go of a closed tty
     // in a work queue, and refuses (EBUSY) until it has: asked again for up to a second.
+    int r = -1;
+    for (int k = 0; k < 100 && (r = ioctl(tty0, VT_DISALLOCATE, n)) != 0 && errno == EBUSY; ++k) usleep(10'000);
+    EXPECT_EQ(r, 0) << "VT_DISALLOCATE " << n << ": " << std::strerror(errno);
+    close(tty0);
+    fs::remove_all(dir);
+}
+
+// Release mode against the kernel: a free VT is brought on screen and locked; a switch to the VT
+// that was on screen is asked for (as `chvt` would); the kernel waits for the kiosk's answer, the
+// switch completes only after allow_switch_away(), and the switch back is reported. The lock's end
+// puts the earlier VT on screen again. The screen changes for a few milliseconds.
+TEST(RealVt, InReleaseModeTheKernelWaitsForTheAnswerAndReportsTheReturn) {
+    const int tty0 = open("/dev/tty0", O_RDWR | O_NOCTTY | O_CLOEXEC);
+    ASSERT_GE(tty0, 0) << "/dev/tty0: " << std::strerror(errno);
+    int n = 0;
+    ASSERT_EQ(ioctl(tty0, VT_OPENQRY, &n), 0);
+    const int on_screen = active_vt(tty0);
+    ASSERT_NE(n, on_screen);
+    const fs::path dir = fs::temp_directory_path() / ("glint-vt-release-" + std::to_string(getpid()));
+    fs::create_directories(dir);
+    const std::string node = (dir / ("tty" + std::to_string(n))).string();
+    ASSERT_EQ(mknod(node.c_str(), S_IFCHR | 0600, makedev(4, unsigned(n))), 0) << node << ": " << std::strerror(errno);
+    const auto wait_for = [&](const std::function<bool()>& done) {
+        for (int k = 0; k < 200; ++k) {
+            if (done()) return true;
+            usleep(10'000);
+        }
+        return false;
+    };
+    {
+        gl::VtLock lock(gl::open_vt_device(node), {.lock_switch = false, .activate = true, .release_on_switch = true});
+        ASSERT_EQ(active_vt(tty0), n);
+        ASSERT_EQ(ioctl(tty0, VT_ACTIVATE, on_screen), 0);
+        EXPECT_TRUE(wait_for([&] { return lock.take_switch_request() == gl::VtSwitchRequest::Away; }));
+        usleep(50'000);
+        EXPECT_EQ(active_vt(tty0), n) << "the kernel switched before the kiosk answered";
+        lock.allow_switch_away();
+        EXPECT_TRUE(wait_for([&] { return active_vt(tty0) == on_screen; }));
+        EXPECT_EQ(lock.take_switch_request(), gl::VtSwitchRequest::None);
+        ASSERT_EQ(ioctl(tty0, VT_ACTIVATE, n), 0);
+        EXPECT_TRUE(wait_for([&] { return lock.take_switch_request() == gl::VtSwitchRequest::Back; }));
+        EXPECT_EQ(active_vt(tty0), n);
+        EXPECT_EQ(read_modes(node).kd, KD_GRAPHICS);
+    }
+    EXPECT_TRUE(wait_for([&] { return active_vt(tty0) == on_screen; }));
+    EXPECT_EQ(read_modes(node).kd, KD_TEXT);
+    EXPECT_EQ(read_modes(node).mode, VT_AUTO);
     int r = -1;
     for (int k = 0; k < 100 && (r = ioctl(tty0, VT_DISALLOCATE, n)) != 0 && errno == EBUSY; ++k) usleep(10'000);
     EXPECT_EQ(r, 0) << "VT_DISALLOCATE " << n << ": " << std::strerror(errno);
