@@ -1,8 +1,9 @@
 // Generated maps that none of the planner's constants were set on, through the whole set at the
 // planner's own sizes, each map judged off-grid (offgrid.hpp): a 3-texel checkerboard at 100:1
-// with 50 suns of 1e4, one 1e6 sun on a 1e-3 floor, and 2000x1000 noise (off the power-of-two
-// ladder). Prints a table; no files. Run: build/tests/bench/glint_bench_stress_maps
+// with 50 suns of 1e4, one 1e6 sun on a 1e-3 floor, 2000x1000 noise (off the power-of-two
+// ladder), and four area lights of 150-2000 over dozens of rows. Prints a table; no files. Run: build/tests/bench/glint_bench_stress_maps
 // (with GLIBC_TUNABLES=glibc.malloc.hugetlb=1 for the heap glint convolve uses).
+#include <algorithm>
 #include <chrono>
 #include <cstdio>
 #include <random>
@@ -17,7 +18,7 @@ using namespace glint::convolution;
 
 namespace {
 
-enum class Kind { CheckerWithSuns, OneSun, Noise };
+enum class Kind { CheckerWithSuns, OneSun, Noise, Panels };
 
 HdrImage make_map(Kind kind, Size size) {
     HdrImage m(size.width, size.height);
@@ -33,6 +34,23 @@ HdrImage make_map(Kind kind, Size size) {
     if (kind == Kind::CheckerWithSuns)
         for (int s = 0; s < 50; ++s) m.set(int(rng() % unsigned(size.width)), int(rng() % unsigned(size.height)), {1e4f, 9e3f, 8e3f});
     if (kind == Kind::OneSun) m.set(size.width / 3, size.height / 4, {1e6f, 1e6f, 9e5f});
+    if (kind == Kind::Panels) {
+        // Area lights over many rows, as in a photo studio: more bright texels than the split takes,
+        // on dozens of rows (the SH fold's row-by-row projection), one across the seam, one at a pole.
+        const auto panel = [&](int i0, int j0, int w, int h, Rgb v) {
+            for (int j = std::max(0, j0); j < std::min(size.height, j0 + h); ++j)
+                for (int i = i0; i < i0 + w; ++i) m.set(((i % size.width) + size.width) % size.width, j, v);
+        };
+        for (int j = 0; j < size.height; ++j)
+            for (int i = 0; i < size.width; ++i) {
+                const float v = 0.05f + 0.3f * float(j) / float(size.height) + 0.02f * u(rng);
+                m.set(i, j, {v, 0.9f * v, 0.8f * v});
+            }
+        panel(size.width / 8, size.height / 5, size.width / 40, size.height / 6, {800, 780, 700});
+        panel(size.width / 2, size.height / 3, size.width / 10, size.height / 60 + 1, {2e3f, 2e3f, 2.1e3f});
+        panel(-size.width / 50, size.height / 4, size.width / 25, size.width / 25, {300, 320, 350});
+        panel(0, 0, size.width, size.height / 80 + 1, {150, 150, 160});
+    }
     return m;
 }
 
@@ -45,7 +63,7 @@ int main(int argc, char** argv) {
             std::fprintf(stderr, "glint_bench_stress_maps: unknown argument '%s' (it takes none; --help)\n", a.c_str());
             return 2;
         }
-        std::printf("glint_bench_stress_maps: the whole set (irradiance, n = 10, 160, 1280, 5120, 20480) of three\n"
+        std::printf("glint_bench_stress_maps: the whole set (irradiance, n = 10, 40, 160, 1280, 5120, 20480) of four\n"
                     "generated maps at the planner's sizes, each map's bilinear lookups judged at 1024 random\n"
                     "directions against the conventions' sum (predicted, off-grid RMS +- its standard error, worst).\n");
         return 0;
@@ -57,11 +75,12 @@ int main(int argc, char** argv) {
         Size size;
     } cases[] = {{Kind::CheckerWithSuns, "checkerboard 100:1 with 50 suns", {1024, 512}},
                  {Kind::OneSun, "one 1e6 sun on 1e-3", {1024, 512}},
-                 {Kind::Noise, "noise", {2000, 1000}}};
+                 {Kind::Noise, "noise", {2000, 1000}},
+                 {Kind::Panels, "four area lights on a dim gradient", {1024, 512}}};
     for (const auto& c : cases) {
         const HdrImage env = make_map(c.kind, c.size);
         std::vector<MapRequest> maps{MapRequest::make_irradiance()};
-        for (double n : {10.0, 160.0, 1280.0, 5120.0, 20480.0})
+        for (double n : {10.0, 40.0, 160.0, 1280.0, 5120.0, 20480.0})
             maps.push_back(MapRequest::make_phong(n, std::to_string(int(n))));
         Options o;
         o.threads = 2;
