@@ -20,6 +20,9 @@
 //   SHADOW: 0 none; 1 the table's shadow on the background; 2 the same from the baked grid
 //   alone, where it holds the whole shadow (ShadowBake::open_beyond): the spheres' model is
 //   compiled out (it cost 15 of 17 ms at 320x180)
+//   NOISE: 1 the sensor's noise on virtual pixels (with CAMERA 1 or 2: it is in exposure units)
+//   BLUR: 1 the object smeared along its motion during the exposure
+// (docs/render.md, "Matching the camera").
 #ifndef BACKGROUND
 #define BACKGROUND 0
 #endif
@@ -29,10 +32,19 @@
 #ifndef SHADOW
 #define SHADOW 0
 #endif
+#ifndef NOISE
+#define NOISE 0
+#endif
+#ifndef BLUR
+#define BLUR 0
+#endif
 #if SHADOW == 2
 #define SHADOW_BAKE_ONLY 1
 #endif
 precision highp float;
+// The noise's hash needs 32-bit integers: ES's default for them in a fragment shader is mediump,
+// which Mesa runs in 16 bits (every hash then fell below 256).
+precision highp int;
 #include "equirect.glsl"
 #include "render_lookup.glsl"
 #include "render_shadow.glsl"
@@ -52,7 +64,52 @@ uniform float u_camera_scale;
 uniform float u_gamma;
 uniform float u_shoulder;
 uniform highp sampler2D u_response;
+uniform vec2 u_noise;     // variance of X: x X + y (gain / full well, read noise^2)
+uniform uint u_seed;      // the frame's: a new noise pattern each frame
+uniform vec2 u_blur;      // the object's motion on screen during the exposure, pixels
+uniform int u_blur_taps;
 out vec4 o_color;
+
+#if NOISE
+// A hash per pixel, channel and frame (PCG, O'Neill 2014: the output permutation of one LCG step),
+// made Gaussian by Box-Muller: no texture, no state between frames.
+uint pcg(uint v) {
+    uint state = v * 747796405u + 2891336453u;
+    uint word = ((state >> ((state >> 28u) + 4u)) ^ state) * 277803737u;
+    return (word >> 22u) ^ word;
+}
+float unit_open(uint h) { return (float(h >> 8u) + 0.5) / 16777216.0; }  // in (0, 1)
+vec3 gaussian3() {
+    uvec2 p = uvec2(gl_FragCoord.xy);
+    uint h = pcg(p.x ^ pcg(p.y ^ pcg(u_seed)));
+    uint h1 = pcg(h), h2 = pcg(h1 ^ 0x9e3779b9u), h3 = pcg(h2 ^ 0x85ebca6bu), h4 = pcg(h3 ^ 0xc2b2ae35u);
+    float r1 = sqrt(-2.0 * log(unit_open(h1))), r2 = sqrt(-2.0 * log(unit_open(h3)));
+    float a1 = 6.2831853 * unit_open(h2), a2 = 6.2831853 * unit_open(h4);
+    return vec3(r1 * cos(a1), r1 * sin(a1), r2 * cos(a2));
+}
+// Relative exposure as the sensor would record it: shot and read noise.
+vec3 sensor_noise(vec3 x) { return x + sqrt(max(x, 0.0) * u_noise.x + u_noise.y) * gaussian3(); }
+#else
+vec3 sensor_noise(vec3 x) { return x; }
+#endif
+
+// The object's radiance target at this pixel: premultiplied RGB and coverage, averaged along the
+// object's path during the exposure with BLUR (a box filter of the smear, as the sensor
+// integrates it; the background behind is the video's, already blurred by the real motion).
+vec4 object_at_pixel() {
+#if BLUR
+    vec4 sum = vec4(0.0);
+    ivec2 last = ivec2(u_size) - 1;
+    for (int k = 0; k < u_blur_taps; ++k) {
+        float t = (float(k) + 0.5) / float(u_blur_taps) - 0.5;
+        ivec2 q = clamp(ivec2(floor(gl_FragCoord.xy + t * u_blur)), ivec2(0), last);
+        sum += texelFetch(u_radiance, q, 0);
+    }
+    return sum / float(u_blur_taps);
+#else
+    return texelFetch(u_radiance, ivec2(gl_FragCoord.xy), 0);
+#endif
+}
 
 vec3 srgb_encode(vec3 c) {
     c = clamp(c, 0.0, 1.0);
@@ -110,7 +167,7 @@ vec3 expose(vec3 hdr) { return u_camera_scale * hdr; }
 #endif
 
 void main() {
-    vec4 object = texelFetch(u_radiance, ivec2(gl_FragCoord.xy), 0);
+    vec4 object = object_at_pixel();
     vec2 ndc = gl_FragCoord.xy / u_size * 2.0 - 1.0;
     vec3 ray = normalize(u_world_from_camera * vec3(ndc * u_tan_half_fov, -1.0));
 #if SHADOW
@@ -120,12 +177,13 @@ void main() {
     vec3 shadow = vec3(1.0);
 #endif
     if (object.a >= 1.0) {
-        o_color = vec4(encode(expose(object.rgb)), 1.0);
+        o_color = vec4(encode(sensor_noise(expose(object.rgb))), 1.0);
         return;
     }
 #if BACKGROUND == 2
+    // The environment is virtual too: the whole pixel gets the sensor's noise.
     vec3 background = shadow * equirect_bilinear(u_environment, ray);
-    o_color = vec4(encode(expose(object.rgb + (1.0 - object.a) * background)), 1.0);
+    o_color = vec4(encode(sensor_noise(expose(object.rgb + (1.0 - object.a) * background))), 1.0);
 #else
     // The image's rows are top first; the frame's y grows upwards.
     vec2 uv = vec2(gl_FragCoord.x / u_size.x, 1.0 - gl_FragCoord.y / u_size.y);
@@ -139,7 +197,7 @@ void main() {
     vec3 image = vec3(0.0);
 #endif
     if (object.a > 0.0) {
-        vec3 front = object.a * expose(object.rgb / object.a);
+        vec3 front = object.a * sensor_noise(expose(object.rgb / object.a));
         image = encode(front + (1.0 - object.a) * decode(image));
     }
     o_color = vec4(image, 1.0);

@@ -4,6 +4,7 @@
 // It lives in `glint`, not glint-vision: it needs GL, the displays, the convolution and core, and
 // no OpenCV or libcamera (docs/architecture.md, "Commands: two executables").
 #include <algorithm>
+#include <cstdlib>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -64,6 +65,8 @@ struct RenderArgs {
     double exposure_ms = 10;
     double gain = 1;
     bool exposure_given = false, gain_given = false;
+    bool camera_noise = false;          // the sensor's noise on virtual pixels (needs --camera with "noise")
+    std::string motion_blur;            // "DX,DY": the object's motion during the exposure, pixels
     bool live_maps = false;             // final maps by the GPU engine in the frames' leftover time
     double frame_budget_ms = 1000.0 / 30.0;
     bool budget_given = false;
@@ -151,6 +154,24 @@ int run_render(const RenderArgs& args) {
     if (!camera && (args.exposure_given || args.gain_given))
         throw InputError(std::string(args.exposure_given ? "--exposure-ms" : "--gain") + ": needs --camera CAL.json");
     if (!(args.exposure_ms > 0 && std::isfinite(args.exposure_ms))) throw InputError("--exposure-ms: must be positive");
+    // Checked before the convolution: a mistyped flag should not cost its seconds.
+    render::Renderer::CameraMatch match;
+    if (!args.motion_blur.empty()) {
+        const std::size_t comma = args.motion_blur.find(',');
+        char* end = nullptr;
+        const std::string dx = args.motion_blur.substr(0, comma);
+        match.blur_px.x = std::strtod(dx.c_str(), &end);
+        const bool x_ok = comma != std::string::npos && !dx.empty() && *end == '\0';
+        const std::string dy = comma == std::string::npos ? "" : args.motion_blur.substr(comma + 1);
+        match.blur_px.y = std::strtod(dy.c_str(), &end);
+        if (!x_ok || dy.empty() || *end != '\0')
+            throw InputError("--motion-blur: \"" + args.motion_blur + "\" is not DX,DY (pixels, e.g. 12,-3)");
+    }
+    if (args.camera_noise && !camera) throw InputError("--camera-noise: needs --camera CAL.json (with \"noise\")");
+    if (args.camera_noise && !camera->has_noise())
+        throw InputError("--camera-noise: " + camera->source +
+                         " has no \"noise\" (full_well_electrons, read_noise); add the sensor's from its datasheet");
+    match.noise = args.camera_noise;
     if (!(args.gain > 0 && std::isfinite(args.gain))) throw InputError("--gain: must be positive");
     render::Mesh mesh = render::load_model(args.model);
     if (!args.no_ao) load_ambient_occlusion(args.model, mesh);
@@ -260,6 +281,12 @@ int run_render(const RenderArgs& args) {
                     camera->source.c_str(), camera->parametric() ? "parametric" : "tabulated", camera->sensitivity,
                     args.exposure_ms, args.gain, camera->code(exposure.scale(*camera)));
     }
+    renderer.set_camera_match(match);
+    if (match.noise || glm::length(match.blur_px) > 0)
+        std::printf("matching the camera:%s%s\n", match.noise ? " the sensor's noise (a new pattern each frame)" : "",
+                    glm::length(match.blur_px) > 0 ? (" motion blur of (" + std::to_string(match.blur_px.x) + ", " +
+                                                      std::to_string(match.blur_px.y) + ") pixels").c_str()
+                                                   : "");
     // The scene is still, so the tone map is metered once, before the timed frames.
     const render::ToneMap& tone = renderer.meter(args.key);
     if (!camera) std::printf("tone map: Reinhard, key %.3g, log-average luminance %.6g, white %.6g (scaled), %lld pixels metered\n",
@@ -290,6 +317,8 @@ int run_render(const RenderArgs& args) {
         const auto t0 = Clock::now();
         renderer.draw_scene();
         display->bind_frame();
+        match.frame = std::uint32_t(f);
+        renderer.set_camera_match(match);
         renderer.composite();
         display->present();
         frame_ms.push_back(std::chrono::duration<double, std::milli>(Clock::now() - t0).count());
@@ -414,6 +443,12 @@ Command add_render_command(CLI::App& app) {
                     "With --camera: the camera's exposure time, ms")->capture_default_str();
     CLI::Option* gain_option = cmd->add_option("--gain", args->gain, "With --camera: the camera's analogue gain")
         ->capture_default_str();
+    cmd->add_flag("--camera-noise", args->camera_noise,
+                  "With --camera: give the object the sensor's shot and read noise (the calibration's \"noise\": "
+                  "full_well_electrons, read_noise), a new pattern each frame, so it matches the video");
+    cmd->add_option("--motion-blur", args->motion_blur,
+                    "DX,DY: smear the object along its motion on screen during the exposure, pixels (x right, y up; "
+                    "at most 256), as the camera blurs the real scene");
     cmd->add_flag("--live-maps", args->live_maps,
                   "Start with coarse maps (32x16) and make the final ones (tolerance 1 %) with the GPU engine in each "
                   "frame's time left of --frame-budget-ms; the object switches to them when they are done");

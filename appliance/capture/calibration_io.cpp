@@ -55,6 +55,8 @@ std::string calibration_to_json(const CameraCalibration& c) {
     j["shortest_exposure_s"] = c.min_exposure_s;
     j["glare"] = {{"fraction", c.glare_fraction}, {"sigma_rad", c.glare_sigma_rad}};
     j["readout_s"] = c.readout_s;
+    if (c.noise_full_well_electrons > 0)
+        j["noise"] = {{"full_well_electrons", c.noise_full_well_electrons}, {"read_noise", c.noise_read}};
     return j.dump(2) + "\n";
 }
 
@@ -134,6 +136,15 @@ CameraCalibration calibration_from_json(const std::string& text, const std::stri
     if (j.contains("readout_s")) {
         c.readout_s = number(j, "readout_s", source, "");
         if (!(c.readout_s >= 0 && c.readout_s < 1)) bad(source, "readout_s", "must be 0 to 1 s");
+    }
+    // The sensor's noise, optional (what the renderer matches on virtual pixels).
+    if (j.contains("noise")) {
+        const json& n = member(j, "noise", source, "");
+        c.noise_full_well_electrons = number(n, "full_well_electrons", source, "noise");
+        c.noise_read = number(n, "read_noise", source, "noise");
+        if (!(c.noise_full_well_electrons >= 1 && c.noise_full_well_electrons <= 1e9))
+            bad(source, "noise.full_well_electrons", "must be 1 to 1e9");
+        if (!(c.noise_read >= 0 && c.noise_read < 1)) bad(source, "noise.read_noise", "must be 0 to 1 (relative exposure)");
     }
     return c;
 }

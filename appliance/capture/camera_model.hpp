@@ -115,6 +115,13 @@ struct CameraCalibration {
     // row's mid-exposure. 0: a global shutter (and every file written before 2026-12-02). Stored
     // as calibration.json's "readout_s".
     double readout_s = 0;
+    // The sensor's noise in relative exposure X (docs/render.md, "Matching the camera"): shot noise
+    // of X x full_well_electrons / gain photo-electrons and a read noise of standard deviation
+    // noise_read, i.e. variance X gain / full_well + read^2. Used to give virtual pixels the
+    // video's noise; a sensor's datasheet gives both (`glint calibrate` does not measure them).
+    // 0: unknown. Stored as calibration.json's "noise": {"full_well_electrons", "read_noise"}.
+    double noise_full_well_electrons = 0;
+    double noise_read = 0;
     double row_time_offset_s(double v) const {
         return intrinsics.height > 0 ? readout_s * (v - 0.5 * (intrinsics.height - 1)) / intrinsics.height : 0.0;
     }

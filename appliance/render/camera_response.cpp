@@ -56,6 +56,14 @@ CameraResponse load_camera_response(const std::filesystem::path& path, const std
     out.shoulder = number(r, "shoulder", "response.shoulder");
     out.sensitivity = number(j, "sensitivity", "sensitivity");
     if (!(out.sensitivity > 0)) throw InputError(where + ": \"sensitivity\" must be positive");
+    if (j.contains("noise")) {
+        out.full_well_electrons = number(j["noise"], "full_well_electrons", "noise.full_well_electrons");
+        out.read_noise = number(j["noise"], "read_noise", "noise.read_noise");
+        if (!(out.full_well_electrons >= 1 && out.full_well_electrons <= 1e9))
+            throw InputError(where + ": \"noise.full_well_electrons\" must be 1 to 1e9");
+        if (!(out.read_noise >= 0 && out.read_noise < 1))
+            throw InputError(where + ": \"noise.read_noise\" must be 0 to 1 (relative exposure)");
+    }
     return out;
 }
 

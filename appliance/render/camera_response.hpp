@@ -7,7 +7,8 @@
 //   X = radiance x exposure_s x gain x sensitivity        (X = 1 just saturates)
 // and its code value Z = forward(X), rounded, clamped to 0..255. The file is read here, not
 // through capture's reader: the renderer's layer may not depend on capture, and `glint render`
-// links no OpenCV (docs/architecture.md). Vignetting and noise are not applied.
+// links no OpenCV (docs/architecture.md). The sensor's noise, when the file has it, can be matched
+// on virtual pixels (Renderer::set_camera_match); vignetting is not applied.
 #pragma once
 
 #include <array>
@@ -23,8 +24,12 @@ struct CameraResponse {
     // Z = 255 (1 + c) X^(1/g) / (X^(1/g) + c)); 0 when only the table is known.
     double gamma = 0, shoulder = 0;
     double sensitivity = 1;  // X per unit radiance per second at gain 1
+    // The sensor's noise when the calibration has it ("noise"; 0: unknown): the variance of X is
+    // X gain / full_well_electrons + read_noise^2.
+    double full_well_electrons = 0, read_noise = 0;
     std::string source;      // the file, for messages
 
+    bool has_noise() const { return full_well_electrons > 0; }
     bool parametric() const { return gamma > 0 && shoulder > 0; }
     // The real-valued code of a relative exposure, 0..255: the parametric curve when known, else
     // the table inverted piecewise linearly between its points (inverse[z], z).

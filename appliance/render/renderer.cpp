@@ -437,6 +437,19 @@ void Renderer::set_camera_ray_uniforms(const gl::GlProgram& program) const {
     glUniformMatrix3fv(program.uniform("u_world_from_camera"), 1, GL_FALSE, glm::value_ptr(world_from_camera));
 }
 
+void Renderer::set_camera_match(const CameraMatch& match) {
+    if (match.noise) {
+        if (!response_curve_)
+            throw InputError("camera noise: needs the camera's response (--camera CAL.json): the noise is in its exposure units");
+        if (!response_curve_->has_noise())
+            throw InputError("camera noise: " + response_curve_->source +
+                             " has no \"noise\" (full_well_electrons, read_noise); add the sensor's from its datasheet");
+    }
+    if (!(std::isfinite(match.blur_px.x) && std::isfinite(match.blur_px.y) && glm::length(match.blur_px) <= 256.0))
+        throw InputError("motion blur: the object's motion during the exposure must be finite and at most 256 pixels");
+    match_ = match;
+}
+
 const ToneMap& Renderer::meter(double key) {
     draw(true, msaa_ > 1);
     tone_ = meter_reinhard(read_target(kHdr), key);
@@ -448,13 +461,16 @@ const gl::GlProgram& Renderer::composite_program() const {
     const int camera = !response_curve_ ? 0 : response_curve_->parametric() ? 1 : 2;
     // 2: the baked grid holds the whole shadow, and the spheres' model beyond it is compiled out.
     const int shadow = !shadow_ ? 0 : shadow_->bake_holds_all() ? 2 : 1;
-    const int key = background * 100 + camera * 10 + shadow;
+    const int noise = match_.noise && camera != 0 ? 1 : 0;
+    const int blur = glm::length(match_.blur_px) >= 0.5 ? 1 : 0;  // under half a pixel: nothing to see
+    const int key = blur * 2000 + noise * 1000 + background * 100 + camera * 10 + shadow;
     auto it = composite_programs_.find(key);
     if (it == composite_programs_.end())
         it = composite_programs_
                  .emplace(key, gl::GlProgram("fullscreen.vert", "render_composite.frag",
                                              {"BACKGROUND " + std::to_string(background),
-                                              "CAMERA " + std::to_string(camera), "SHADOW " + std::to_string(shadow)}))
+                                              "CAMERA " + std::to_string(camera), "SHADOW " + std::to_string(shadow),
+                                              "NOISE " + std::to_string(noise), "BLUR " + std::to_string(blur)}))
                  .first;
     return it->second;
 }
@@ -485,6 +501,17 @@ void Renderer::composite() const {
         glUniform1f(program.uniform("u_camera_scale"), float(exposure_.scale(*response_curve_)));
         glUniform1f(program.uniform("u_gamma"), response_curve_->parametric() ? float(response_curve_->gamma) : 0.0f);
         glUniform1f(program.uniform("u_shoulder"), float(response_curve_->shoulder));
+    }
+    if (match_.noise && response_curve_) {
+        // Variance of X: X gain / full well + read^2 (camera_response.hpp).
+        glUniform2f(program.uniform("u_noise"), float(exposure_.gain / response_curve_->full_well_electrons),
+                    float(response_curve_->read_noise * response_curve_->read_noise));
+        glUniform1ui(program.uniform("u_seed"), match_.frame);
+    }
+    if (glm::length(match_.blur_px) >= 0.5) {
+        glUniform2f(program.uniform("u_blur"), float(match_.blur_px.x), float(match_.blur_px.y));
+        // A tap per pixel of the path (and one more), at most 64: a longer smear is sampled sparser.
+        glUniform1i(program.uniform("u_blur_taps"), std::min(64, int(std::ceil(glm::length(match_.blur_px))) + 1));
     }
     glUniform1f(program.uniform("u_scale"), float(tone_.scale()));
     glUniform1f(program.uniform("u_white_sq"), float(tone_.white * tone_.white));

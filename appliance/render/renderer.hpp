@@ -111,6 +111,17 @@ public:
     // through the response curve; an image background is decoded with the inverse response (its
     // codes are the camera's) wherever it is mixed or shadowed.
     void set_camera_response(const CameraResponse& response, const CameraExposure& exposure);
+    // Matching the camera on virtual pixels (docs/render.md, "Matching the camera"): the sensor's
+    // noise (needs set_camera_response with a calibration that has "noise"; a new pattern for
+    // each `frame`) and the object's motion blur (its motion on screen during the exposure, in
+    // pixels, x right and y up; at most 256). Off by default. Throws InputError naming what is
+    // missing.
+    struct CameraMatch {
+        bool noise = false;
+        std::uint32_t frame = 0;
+        glm::dvec2 blur_px{0.0, 0.0};
+    };
+    void set_camera_match(const CameraMatch& match);
     const ToneMap& tone_map() const { return tone_; }
     // Draws the frame into the bound framebuffer, whose viewport must be width x height.
     void composite() const;
@@ -209,6 +220,7 @@ private:
     gl::GlFramebuffer ms_framebuffer_;
     std::optional<CameraResponse> response_curve_;
     CameraExposure exposure_;
+    CameraMatch match_;
     gl::GlTexture response_;  // 256x1 R32F: inverse[z]
     std::unique_ptr<PhantomGeometry> phantoms_;
     std::unique_ptr<TableShadowPass> shadow_;

@@ -94,6 +94,10 @@ CameraCalibration true_camera(const SimulateOptions& o, const SensorModel& senso
     truth.sensitivity = sensor.electrons_per_radiance_second / sensor.full_well_electrons;
     truth.time_offset_s = o.time_offset_s;
     truth.readout_s = o.readout_s;
+    if (sensor.noise) {
+        truth.noise_full_well_electrons = sensor.full_well_electrons;
+        truth.noise_read = sensor.read_noise;
+    }
     if (o.sensor_limits) {
         truth.min_exposure_s = capture::kModelledMinExposureS;
         truth.glare_fraction = capture::kModelledGlareFraction;

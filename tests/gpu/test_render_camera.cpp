@@ -66,13 +66,17 @@ std::vector<std::uint8_t> composite_8bit(const render::Renderer& r) {
     return rgba;
 }
 
-fs::path write_calibration(const fs::path& dir, bool tabulated) {
+fs::path write_calibration(const fs::path& dir, bool tabulated, bool noise = false) {
     capture::CameraCalibration cal;
+    if (noise) {  // the simulator's sensor
+        cal.noise_full_well_electrons = 6000;
+        cal.noise_read = 0.002;
+    }
     cal.intrinsics = capture::Intrinsics::from_fov(320, 180, 1.2);
     cal.response = capture::Response::parametric(2.2, 0.25);
     if (tabulated) cal.response.gamma = cal.response.shoulder = 0;  // only the table
     cal.sensitivity = 100;  // the simulator's 6e5 electrons per radiance-second over a 6000 full well
-    const fs::path path = dir / (tabulated ? "table.json" : "calibration.json");
+    const fs::path path = dir / (tabulated ? "table.json" : noise ? "noise.json" : "calibration.json");
     capture::save_calibration(path, cal);
     return path;
 }
@@ -142,6 +146,108 @@ TEST_F(RenderCamera, TabulatedResponseAndImageDecodedThroughItsInverse) {
     EXPECT_GT(partial, 10);
     EXPECT_GT(background, 100);
     EXPECT_LE(worst, 1);  // float arithmetic on the GPU against double here
+}
+
+// The sensor's noise on virtual pixels: a grey object of exposure X renders with the spread of
+// codes the model gives (variance of X: X gain / full well + read^2, through the curve's slope),
+// centred on forward(X); a new pattern each frame, the same for the same frame; the black
+// background (the video's, not virtual) untouched.
+TEST_F(RenderCamera, MatchedNoiseHasTheSensorModelsSpread) {
+    const fs::path cal = write_calibration(dir_, false, true);
+    const render::CameraResponse response = render::load_camera_response(cal);
+    ASSERT_TRUE(response.has_noise());
+    EXPECT_EQ(response.full_well_electrons, 6000);
+    EXPECT_EQ(response.read_noise, 0.002);
+    EXPECT_EQ(capture::load_calibration(cal).noise_full_well_electrons, 6000);  // capture's reader too
+    const capture::Response model = capture::Response::parametric(2.2, 0.25);
+    const render::CameraExposure exposure{20.0, 2.0};  // X = radiance x 4
+    render::Material grey = render::parse_material("matte");
+    grey.kd = glm::dvec3(0.0125);  // X = 0.05
+    render::Renderer r(render::make_uv_sphere(16, 32), grey, uniform_maps(), kW, kH);
+    r.set_background_black();
+    r.set_camera_response(response, exposure);
+    r.draw_scene();
+    const double x = 0.05;
+    const double sigma_x = std::sqrt(x * 2.0 / 6000 + 0.002 * 0.002);
+    const double slope = (model.forward(x + 1e-4) - model.forward(x - 1e-4)) / 2e-4;
+    // Rounding to codes adds 1/12 code^2.
+    const double want_sigma = std::sqrt(slope * slope * sigma_x * sigma_x + 1.0 / 12.0);
+    const auto central = [&](const std::vector<std::uint8_t>& frame) {
+        std::vector<int> codes;
+        for (int y = kH / 2 - 5; y < kH / 2 + 5; ++y)
+            for (int xx = kW / 2 - 6; xx < kW / 2 + 6; ++xx)
+                for (int c = 0; c < 3; ++c) codes.push_back(frame[4 * std::size_t(y * kW + xx) + std::size_t(c)]);
+        return codes;
+    };
+    const std::vector<std::uint8_t> clean = composite_8bit(r);
+    for (int code : central(clean)) ASSERT_EQ(code, int(std::lround(model.forward(x))));
+    r.set_camera_match({true, 1, {0, 0}});
+    const std::vector<std::uint8_t> noisy = composite_8bit(r);
+    const std::vector<int> codes = central(noisy);
+    double mean = 0, var = 0;
+    for (int c : codes) mean += c;
+    mean /= double(codes.size());
+    for (int c : codes) var += (c - mean) * (c - mean);
+    const double sigma = std::sqrt(var / double(codes.size() - 1));
+    std::printf("matched noise: %.3f codes measured, %.3f predicted, mean %.2f against %.2f\n", sigma, want_sigma, mean, model.forward(x));
+    EXPECT_GT(want_sigma, 2.0);  // a spread the test can see
+    EXPECT_NEAR(sigma, want_sigma, 0.15 * want_sigma) << "slope " << slope << " codes per unit X";
+    EXPECT_NEAR(mean, model.forward(x), 0.5);
+    EXPECT_EQ(int(noisy[0]), 0);  // the background is the video's: no noise added
+    EXPECT_EQ(composite_8bit(r), noisy);  // the same frame, the same pattern
+    r.set_camera_match({true, 2, {0, 0}});
+    EXPECT_NE(composite_8bit(r), noisy);
+}
+
+TEST_F(RenderCamera, MatchingNeedsTheNoiseModelAndBoundedBlur) {
+    render::Renderer r(render::make_uv_sphere(8, 16), render::parse_material("matte"), uniform_maps(), kW, kH);
+    EXPECT_THROW(r.set_camera_match({true, 0, {0, 0}}), InputError);  // no response yet
+    r.set_camera_response(render::load_camera_response(write_calibration(dir_, false)), {10.0, 1.0});
+    try {
+        r.set_camera_match({true, 0, {0, 0}});
+        FAIL() << "noise without a noise model";
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("has no \"noise\""), std::string::npos) << e.what();
+    }
+    EXPECT_THROW(r.set_camera_match({false, 0, {300, 0}}), InputError);
+    EXPECT_THROW(r.set_camera_match({false, 0, {NAN, 0}}), InputError);
+    EXPECT_NO_THROW(r.set_camera_match({false, 0, {20, -5}}));
+}
+
+// The object's motion blur: a horizontal motion of 16 pixels during the exposure widens the
+// object by 16 pixels across and not at all up and down, and keeps its light (a box filter of the
+// smear): the decoded exposure summed over the frame stays within 3 %.
+TEST_F(RenderCamera, MotionBlurSmearsTheObjectAlongItsPathAndKeepsItsLight) {
+    const render::CameraResponse response = render::load_camera_response(write_calibration(dir_, false));
+    render::Material grey = render::parse_material("matte");
+    grey.kd = glm::dvec3(0.1);
+    render::Renderer r(render::make_uv_sphere(16, 32), grey, uniform_maps(), kW, kH, render::Camera{}, 4);
+    r.set_background_black();
+    r.set_camera_response(response, {10.0, 1.0});
+    r.draw_scene();
+    const auto measure = [&](const std::vector<std::uint8_t>& frame, int& width, int& height, double& light) {
+        int x0 = kW, x1 = -1, y0 = kH, y1 = -1;
+        light = 0;
+        for (int y = 0; y < kH; ++y)
+            for (int x = 0; x < kW; ++x) {
+                const int z = frame[4 * std::size_t(y * kW + x)];
+                if (z == 0) continue;
+                light += response.inverse[std::size_t(z)];
+                if (y == kH / 2) x0 = std::min(x0, x), x1 = std::max(x1, x);
+                if (x == kW / 2) y0 = std::min(y0, y), y1 = std::max(y1, y);
+            }
+        width = x1 - x0 + 1;
+        height = y1 - y0 + 1;
+    };
+    int w0 = 0, h0 = 0, w1 = 0, h1 = 0;
+    double light0 = 0, light1 = 0;
+    measure(composite_8bit(r), w0, h0, light0);
+    r.set_camera_match({false, 0, {16, 0}});
+    measure(composite_8bit(r), w1, h1, light1);
+    EXPECT_LT(w0 + 16, kW);  // the smear fits in the frame
+    EXPECT_NEAR(w1, w0 + 16, 2);
+    EXPECT_EQ(h1, h0);
+    EXPECT_NEAR(light1, light0, 0.03 * light0);
 }
 
 TEST_F(RenderCamera, BadCalibrationsAreNamedWithTheKey) {
