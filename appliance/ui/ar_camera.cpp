@@ -28,6 +28,21 @@ render::Camera ar_camera(const glm::dquat& world_from_camera, const tracking::Po
     return c;
 }
 
+glm::dvec2 ar_motion_blur_px(const tracking::Pose& previous, const tracking::Pose& current, double dt_s, double exposure_s,
+                             const capture::Intrinsics& k, int view_height, const ArPlacement& p) {
+    if (!(dt_s > 0) || !(exposure_s > 0) || k.height <= 0 || view_height <= 0) return {0.0, 0.0};
+    const glm::dvec3 centre_in_board(0.0, 0.0, -p.model_bottom * p.object_radius_m);
+    const glm::dvec3 a = previous.apply(centre_in_board), b = current.apply(centre_in_board);  // OpenCV camera frame
+    if (!(a.z > 0) || !(b.z > 0)) return {0.0, 0.0};
+    const double scale = double(view_height) / double(k.height);  // camera pixels -> view pixels
+    // The view's y grows upwards, OpenCV's downwards.
+    glm::dvec2 motion(scale * k.fx * (b.x / b.z - a.x / a.z), -scale * k.fy * (b.y / b.z - a.y / a.z));
+    motion *= exposure_s / dt_s;
+    const double length = glm::length(motion);
+    if (!std::isfinite(length)) return {0.0, 0.0};
+    return length > 256.0 ? motion * (256.0 / length) : motion;
+}
+
 render::Camera orbit_camera(double azimuth_deg, double elevation_deg, double distance, double fov_y_deg) {
     const double a = azimuth_deg * 3.141592653589793 / 180.0, e = elevation_deg * 3.141592653589793 / 180.0;
     render::Camera c;

@@ -37,6 +37,15 @@ glm::dquat world_from_board(const glm::dquat& world_from_camera, const tracking:
 render::Camera ar_camera(const glm::dquat& world_from_camera, const tracking::Pose& camera_from_board,
                          const capture::Intrinsics& intrinsics, const ArPlacement& placement);
 
+// The object's motion on the AR view during the camera's exposure, for its motion blur
+// (render::Renderer::set_camera_match; docs/render.md, "Matching the camera"): the object's centre
+// as the camera sees it at two tracked frames `dt_s` apart, on a view `view_height` pixels high
+// (the virtual camera's focal length, as ar_camera: fy scaled to the view), times exposure / dt.
+// Pixels, x right and y up. Zero when dt_s <= 0 or the centre is not in front of the camera in
+// both; at most 256 pixels long (set_camera_match's limit).
+glm::dvec2 ar_motion_blur_px(const tracking::Pose& previous, const tracking::Pose& current, double dt_s, double exposure_s,
+                             const capture::Intrinsics& intrinsics, int view_height, const ArPlacement& placement);
+
 // The attract screen's camera: orbiting the object at `distance` (object radii), `elevation_deg`
 // above the horizon, turned `azimuth_deg` about world +Y.
 render::Camera orbit_camera(double azimuth_deg, double elevation_deg = 20, double distance = 3.5, double fov_y_deg = 40);

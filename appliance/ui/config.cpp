@@ -403,6 +403,7 @@ const std::vector<Key>& keys() {
         t.push_back(key("ar", &C::ar, "materials", &ArSection::materials, kRestart,
                         std::function<Check(const std::vector<std::string>&)>(materials)));
         t.push_back(key("ar", &C::ar, "shadows", &ArSection::shadows, kRestart));
+        t.push_back(key("ar", &C::ar, "match_camera", &ArSection::match_camera, kRestart));
         // [timeouts]: read each time a state is entered. A day is more than any exhibit state.
         t.push_back(key("timeouts", &C::timeouts, "attract_s", &TimeoutsSection::attract_s, kLive, real_range(0, 86400, false)));
         t.push_back(key("timeouts", &C::timeouts, "capture_s", &TimeoutsSection::capture_s, kLive, real_range(0, 86400, true)));

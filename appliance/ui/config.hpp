@@ -76,6 +76,9 @@ struct ArSection {                      // [ar]
     // The object's shadow on the table under the room's dominant lights, baked against the mesh
     // once per visitor (docs/kiosk.md, "Shadows").
     bool shadows = true;
+    // The camera matched on the object's pixels (docs/render.md, "Matching the camera"): the
+    // sensor's noise when the calibration has "noise", and motion blur from the marker's motion.
+    bool match_camera = true;
 };
 
 struct TimeoutsSection {            // [timeouts], seconds

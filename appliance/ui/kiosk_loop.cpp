@@ -277,6 +277,9 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
     capture::CameraFrame last_frame;
     bool new_picture = false;
     std::optional<tracking::TrackResult> last_track;
+    // The pose tracked before last_track's, and both pictures' times: the object's motion blur.
+    std::optional<tracking::Pose> pose_before;
+    std::int64_t pose_before_t_ns = 0, pose_t_ns = 0;
     int frame_no = 0;
     // One frame of every kind drawn before the clock starts: the driver compiles and allocates on
     // first use, which no visitor frame should pay. A software rasteriser (llvmpipe) compiles a
@@ -302,11 +305,21 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
         display->bind_frame();
         picture.draw_texture(view.texture(), true);
     };
+    // AR's picture matched with the camera (docs/render.md, "Matching the camera"): noise when the
+    // calibration has the sensor's, motion blur from the marker's motion.
+    const bool match_noise = cfg.ar.match_camera && response.has_noise();
     const auto warm_backgrounds = [&] {
         renderer.set_background_environment(grey_room);
         warm_frame();
         renderer.set_background_image(grey_picture);
         warm_frame();
+        if (cfg.ar.match_camera) {  // the composite's variants AR draws: with and without blur
+            for (const glm::dvec2 blur : {glm::dvec2(0.0), glm::dvec2(8.0, 0.0)}) {
+                renderer.set_camera_match({match_noise, 0, blur});
+                warm_frame();
+            }
+            renderer.set_camera_match({});
+        }
     };
     if (cfg.ar.shadows) {
         const render::ShadowLighting grey_lighting = render::shadow_lighting(grey);
@@ -627,7 +640,11 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
         if (flow.state() == KioskState::Ar && new_picture && !last_rgb.empty()) {
             cv::Mat gray;
             cv::cvtColor(last_rgb, gray, cv::COLOR_RGB2GRAY);
+            pose_before.reset();
+            if (last_track && last_track->has_pose) pose_before = last_track->pose;
+            pose_before_t_ns = pose_t_ns;
             last_track = tracker.track(kiosk_s(frame_t_ns), gray);
+            pose_t_ns = frame_t_ns;
             if (source.in_ar_phase(frame_t_ns)) {
                 ++ar_frames;
                 if (last_track->detected) {
@@ -667,6 +684,17 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
                 camera_background_set = true;
             }
             renderer.set_camera_response(response, {last_frame.exposure_s * 1e3, last_frame.total_gain()});
+            render::Renderer::CameraMatch match;
+            if (cfg.ar.match_camera) {
+                match.noise = match_noise;
+                match.frame = std::uint32_t(frame_no);
+                // Between two pictures at most a quarter of a second apart: after a gap the motion is unknown.
+                const double dt_s = double(pose_t_ns - pose_before_t_ns) * 1e-9;
+                if (pose_before && dt_s > 0 && dt_s <= 0.25)
+                    match.blur_px = ar_motion_blur_px(*pose_before, last_track->pose, dt_s, last_frame.exposure_s,
+                                                      cal.intrinsics, view_height, placement);
+            }
+            renderer.set_camera_match(match);
             renderer.draw_scene();
             view.bind();
             renderer.composite();
@@ -675,6 +703,7 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
         } else if (flow.state() == KioskState::Attract && have_scene) {
             // The last visitor's object, slowly orbiting in the room it was lit by.
             renderer.set_camera(orbit_camera(t_s * 12.0));
+            renderer.set_camera_match({});  // the room's own picture: nothing of the camera to match
             if (!attract_background_set) {  // 6 MB of texture: once per visit of ATTRACT
                 renderer.set_background_environment(env ? *env : *last_scene);
                 attract_background_set = true;

@@ -73,6 +73,34 @@ TEST(ArCamera, EyeTargetUpAndFieldOfViewFollowTheScene) {
     EXPECT_NEAR(c.fov_y_deg, 2 * std::atan(90.0 / 150.0) * 180 / kPi, 1e-9);
 }
 
+// The object's motion blur from two tracked poses: a board sliding 1 cm to the camera's right at
+// 0.5 m, 1/30 s apart, with a 1/60 s exposure, on a view twice the camera's height: the centre
+// moves fx x 0.01 / depth camera pixels between the frames, half of that within the exposure,
+// times 2 on the view; a move down in the image is a move down (negative y) on the view.
+TEST(ArCamera, MotionBlurIsTheCentresImageMotionWithinTheExposure) {
+    capture::Intrinsics k;
+    k.width = 320, k.height = 180, k.fx = 300, k.fy = 300, k.cx = 160, k.cy = 90;
+    const ArPlacement p{0.08, -0.75};  // centre 6 cm above the board
+    tracking::Pose a, b;
+    a.translation = {0.0, 0.0, 0.5};
+    b.translation = {0.01, 0.0, 0.5};
+    const glm::dvec2 m = ar_motion_blur_px(a, b, 1.0 / 30, 1.0 / 60, k, 360, p);
+    // The board faces the camera (identity rotation): the centre, 6 cm up the board's +Z, is 0.56 m away.
+    EXPECT_NEAR(m.x, 300 * 0.01 / 0.56 * 0.5 * 2, 1e-9);
+    EXPECT_NEAR(m.y, 0.0, 1e-9);
+    b.translation = {0.0, 0.02, 0.5};  // OpenCV's +y is down in the image
+    EXPECT_LT(ar_motion_blur_px(a, b, 1.0 / 30, 1.0 / 60, k, 180, p).y, 0.0);
+    EXPECT_EQ(ar_motion_blur_px(a, a, 1.0 / 30, 1.0 / 60, k, 180, p), glm::dvec2(0.0));
+    EXPECT_EQ(ar_motion_blur_px(a, b, 0.0, 1.0 / 60, k, 180, p), glm::dvec2(0.0));  // no interval
+    tracking::Pose behind = b;
+    behind.translation.z = -0.5;
+    EXPECT_EQ(ar_motion_blur_px(a, behind, 1.0 / 30, 1.0 / 60, k, 180, p), glm::dvec2(0.0));
+    b.translation = {0.5, 0.0, 0.5};  // a jump: capped at 256 pixels, direction kept
+    const glm::dvec2 capped = ar_motion_blur_px(a, b, 1.0 / 30, 1.0 / 30, k, 180, p);
+    EXPECT_NEAR(glm::length(capped), 256.0, 1e-9);
+    EXPECT_GT(capped.x, 0.0);
+}
+
 TEST(ArCamera, TheOrbitCirclesTheObjectAtItsDistance) {
     for (double az : {0.0, 90.0, 200.0}) {
         const render::Camera c = orbit_camera(az, 20, 3.5);
