@@ -43,6 +43,15 @@ LIVE=no
 CONFIGS=("1x off|--msaa 1 --shadows off" "1x on|--msaa 1 --shadows on" "4x off|--msaa 4 --shadows off"
          "4x on|--msaa 4 --shadows on")
 [[ $LIVE == yes ]] && CONFIGS+=("4x on live|--msaa 4 --shadows on --live-maps --frame-budget-ms 800")
+# Matching the camera (docs/render.md): the shipped session's calibration with the simulator's
+# sensor noise added, through the camera's response, without and with the noise and a 12x3 pixel
+# motion blur: what the matching costs a frame.
+if "$GLINT" render --help | grep -q -- '--camera-noise'; then
+    python3 -c "import json,sys; j=json.load(open(sys.argv[1])); j['noise']={'full_well_electrons':6000,'read_noise':0.002}; json.dump(j,open(sys.argv[2],'w'))" \
+        data/sessions/kiosk/calibration.json "$WORK/noise_calibration.json"
+    CONFIGS+=("4x on camera|--msaa 4 --shadows on --camera $WORK/noise_calibration.json --exposure-ms 4"
+              "4x on matched|--msaa 4 --shadows on --camera $WORK/noise_calibration.json --exposure-ms 4 --camera-noise --motion-blur 12,3")
+fi
 if want frames; then
     : > "$WORK/loads"
     for round in $(seq 1 "$ROUNDS"); do
@@ -66,7 +75,7 @@ if want frames; then
         echo "the rows' runs are interleaved ($ROUNDS rounds), and median and p99 are over all their frames pooled."
         echo "The frame is: draw the object into the float targets (MSAA: multisampled, resolved), composite (with"
         echo "shadows: the table's ratio per background pixel, baked against the teapot near it), present (glFinish)."
-        echo "The machine is shared with other builds (load average 1 min below): the numbers are noisy."
+        echo "The last column is the load average (1 min) before/after each run: above 2, other work shared the cores."
         echo
         echo "| MSAA | shadows | flags | triangles | frames | median ms | p99 ms | max ms | medians of the runs | load |"
         echo "|---|---|---|---|---|---|---|---|---|---|"
@@ -75,6 +84,7 @@ if want frames; then
             python3 - "$k" "$name" "$flags" "$WORK" "$ROUNDS" <<'PY'
 import json, statistics, sys
 k, name, flags, work, rounds = sys.argv[1], sys.argv[2], sys.argv[3], sys.argv[4], int(sys.argv[5])
+flags = flags.replace(work + "/", "")  # the temporary calibration's directory
 runs = [json.load(open(f"{work}/s_{k}_{r}.json")) for r in range(1, rounds + 1)]
 frames = sorted(x for d in runs for x in d["frame_ms_all"])
 def p(q):
