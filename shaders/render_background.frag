@@ -12,6 +12,7 @@ uniform vec2 u_size;          // the frame in pixels
 uniform vec2 u_tan_half_fov;  // tan(fov_x / 2), tan(fov_y / 2)
 uniform mat3 u_world_from_camera;
 uniform bool u_has_shadow;  // the table's shadow darkens the environment, as in the frame (render_shadow.glsl)
+uniform float u_radiance_cap;  // as render_scene.frag
 layout(location = 0) out vec4 o_radiance;
 layout(location = 1) out vec4 o_normal;
 layout(location = 2) out vec4 o_reflect;
@@ -24,5 +25,5 @@ void main() {
     o_normal = vec4(0.0);
     o_reflect = vec4(0.0);
     vec3 shadow = u_has_shadow ? table_shadow(ray).rgb : vec3(1.0);
-    o_hdr = vec4(shadow * equirect_bilinear(u_environment, ray), 1.0);
+    o_hdr = vec4(min(shadow * equirect_bilinear(u_environment, ray), vec3(u_radiance_cap)), 1.0);
 }

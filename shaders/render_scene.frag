@@ -13,6 +13,7 @@ uniform bool u_specular;  // ks > 0: the reflection map is bound
 uniform vec3 u_eye;
 uniform vec3 u_kd;
 uniform vec3 u_ks;
+uniform float u_radiance_cap;  // 65504 into half-float targets (renderer.cpp), else float's largest
 in vec3 v_normal;
 in float v_ao;  // baked ambient occlusion, interpolated; multiplies the diffuse term only
 in vec3 v_world;
@@ -28,6 +29,7 @@ void main() {
     vec3 radiance = vec3(0.0);
     if (u_diffuse) radiance += u_kd * equirect_bilinear(u_irradiance, n) * v_ao;
     if (u_specular) radiance += u_ks * equirect_bilinear(u_reflection, r);
+    radiance = min(radiance, vec3(u_radiance_cap));
     o_radiance = vec4(radiance, 1.0);
     o_normal = vec4(n, 1.0);
     o_reflect = vec4(r, 1.0);

@@ -61,6 +61,7 @@ struct RenderArgs {
     std::vector<std::string> proxies;   // OBJ files, world coordinates
     std::optional<double> table_height; // default: the model's lowest point
     int msaa = 4;                       // samples a pixel of the frame (1: none)
+    std::string frame_targets = "auto";  // auto | float | half (render::FrameTargets)
     std::string camera;                 // calibration.json: the camera's response instead of Reinhard
     double exposure_ms = 10;
     double gain = 1;
@@ -240,7 +241,11 @@ int run_render(const RenderArgs& args) {
         std::printf("reflection %s: %s\n", r.request.label.c_str(), r.from.c_str());
 
 
-    render::Renderer renderer(mesh, part_materials, maps, display->width(), display->height(), render::Camera{}, args.msaa);
+    const render::FrameTargets targets = args.frame_targets == "half"    ? render::FrameTargets::Half
+                                         : args.frame_targets == "float" ? render::FrameTargets::Float
+                                                                         : render::FrameTargets::Auto;
+    render::Renderer renderer(mesh, part_materials, maps, display->width(), display->height(), render::Camera{}, args.msaa,
+                              targets);
     std::printf("msaa: %dx\n", args.msaa);
     renderer.set_ambient_occlusion(!args.no_ao);
     if (args.background == "env") renderer.set_background_environment(env.image);
@@ -364,6 +369,7 @@ int run_render(const RenderArgs& args) {
         s["draws"] = renderer.draws();
         s["shadows"] = shadows;
         s["msaa"] = args.msaa;
+        s["frame_targets"] = renderer.frame_format();
         if (live)
             s["live_maps"] = {{"frame_budget_ms", args.frame_budget_ms},
                               {"final_from_frame", final_maps_frame >= 0 ? nlohmann::json(final_maps_frame) : nlohmann::json()},
@@ -434,6 +440,11 @@ Command add_render_command(CLI::App& app) {
     cmd->add_option("--msaa", args->msaa,
                     "Samples a pixel of the frame: 1 (none) or 4 (antialiased edges; the AOVs stay one sample a pixel)")
         ->check(CLI::IsMember({1, 4}))
+        ->capture_default_str();
+    cmd->add_option("--frame-targets", args->frame_targets,
+                    "The frames' float targets: auto (RGBA32F where the GPU multisamples it, else RGBA16F), float "
+                    "(RGBA32F) or half (RGBA16F: half the bytes; radiance capped at 65504); the AOVs are RGBA32F always")
+        ->check(CLI::IsMember({"auto", "float", "half"}))
         ->capture_default_str();
     cmd->add_option("--camera", args->camera,
                     "Camera calibration (calibration.json of glint calibrate or glint simulate): the frame goes through "

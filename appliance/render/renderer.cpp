@@ -6,6 +6,7 @@
 #include <ImfOutputFile.h>
 
 #include <algorithm>
+#include <limits>
 #include <cmath>
 #include <glm/gtc/matrix_transform.hpp>
 #include <glm/gtc/type_ptr.hpp>
@@ -101,12 +102,23 @@ void save_aovs(const std::filesystem::path& dir, const Aovs& aovs) {
 }
 
 Renderer::Renderer(const Mesh& mesh, const Material& material, const ShadingMaps& maps, int width, int height,
-                   const Camera& camera, int msaa)
+                   const Camera& camera, int msaa, FrameTargets targets)
     : Renderer(mesh, std::vector<Material>(std::max<std::size_t>(1, mesh.parts.size()), material), maps, width, height,
-               camera, msaa) {}
+               camera, msaa, targets) {}
+
+namespace {
+
+// Whether the driver multisamples `format` renderbuffers `samples` times.
+bool multisamples(GLenum format, int samples) {
+    GLint most = 0;
+    glGetInternalformativ(GL_RENDERBUFFER, format, GL_SAMPLES, 1, &most);  // the largest count
+    return most >= samples;
+}
+
+}  // namespace
 
 Renderer::Renderer(const Mesh& mesh, const std::vector<Material>& part_materials, const ShadingMaps& maps, int width,
-                   int height, const Camera& camera, int msaa)
+                   int height, const Camera& camera, int msaa, FrameTargets targets)
     : width_(width), height_(height), camera_(camera), msaa_(msaa) {
     if (width < 1 || height < 1) throw InputError("renderer: frame size must be positive");
     if (msaa != 1 && msaa != 4) throw InputError("--msaa: want 1 or 4, got " + std::to_string(msaa));
@@ -188,46 +200,60 @@ Renderer::Renderer(const Mesh& mesh, const std::vector<Material>& part_materials
 
     upload_maps(/*later=*/false);
 
+    // The frames' format: a multisampled frame resolves by blit into the single-sampled targets,
+    // and ES 3 blits from a multisampled buffer only into the identical format, so both are one.
+    if (targets == FrameTargets::Float && msaa_ > 1 && !multisamples(GL_RGBA32F, msaa_))
+        throw RuntimeError("renderer: the GL driver cannot multisample RGBA32F " + std::to_string(msaa_) +
+                           "x; use half-float frame targets or --msaa 1");
+    half_ = targets == FrameTargets::Half ||
+            (targets == FrameTargets::Auto && msaa_ > 1 && !multisamples(GL_RGBA32F, msaa_));
     // The float targets and a depth buffer (the object may hide parts of itself).
-    framebuffer_ = gl::GlFramebuffer::create();
-    glBindFramebuffer(GL_FRAMEBUFFER, framebuffer_.id());
-    GLenum buffers[kTargets];
-    for (int k = 0; k < kTargets; ++k) {
-        targets_[k] = gl::make_float_texture(width, height, nullptr);
-        glFramebufferTexture2D(GL_FRAMEBUFFER, GLenum(GL_COLOR_ATTACHMENT0 + k), GL_TEXTURE_2D, targets_[k].id(), 0);
-        buffers[k] = GLenum(GL_COLOR_ATTACHMENT0 + k);
-    }
-    depth_ = gl::GlName<RenderbufferTraits>::create();
-    glBindRenderbuffer(GL_RENDERBUFFER, depth_.id());
-    glRenderbufferStorage(GL_RENDERBUFFER, GL_DEPTH_COMPONENT24, width, height);
-    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, depth_.id());
-    glDrawBuffers(kTargets, buffers);
-    const GLenum status = glCheckFramebufferStatus(GL_FRAMEBUFFER);
-    if (status != GL_FRAMEBUFFER_COMPLETE)
-        throw RuntimeError("renderer: " + std::to_string(kTargets) + " RGBA32F targets of " + std::to_string(width) +
-                           "x" + std::to_string(height) + " with depth are not complete (status " +
-                           std::to_string(status) + "; needs GL_EXT_color_buffer_float)");
+    make_targets(half_, targets_, depth_, framebuffer_);
     if (msaa_ > 1) create_multisampled_targets();
     gl::check_gl("creating the renderer");
 }
 
-// The frame's four targets again, multisampled. RGBA32F when the driver can multisample it
-// (llvmpipe can, 4x), else RGBA16F: half floats hold the radiance to 1e-3 relative, and the AOVs
-// never come from these (read_aovs draws them single-sampled).
+void Renderer::make_targets(bool half, gl::GlTexture (&textures)[4], gl::GlName<RenderbufferTraits>& depth,
+                            gl::GlFramebuffer& framebuffer) {
+    framebuffer = gl::GlFramebuffer::create();
+    glBindFramebuffer(GL_FRAMEBUFFER, framebuffer.id());
+    GLenum buffers[kTargets];
+    for (int k = 0; k < kTargets; ++k) {
+        if (half) {
+            textures[k] = gl::GlTexture::create();
+            glBindTexture(GL_TEXTURE_2D, textures[k].id());
+            glTexImage2D(GL_TEXTURE_2D, 0, GL_RGBA16F, width_, height_, 0, GL_RGBA, GL_HALF_FLOAT, nullptr);
+            glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MIN_FILTER, GL_NEAREST);
+            glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_MAG_FILTER, GL_NEAREST);
+            glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_S, GL_CLAMP_TO_EDGE);
+            glTexParameteri(GL_TEXTURE_2D, GL_TEXTURE_WRAP_T, GL_CLAMP_TO_EDGE);
+        } else {
+            textures[k] = gl::make_float_texture(width_, height_, nullptr);
+        }
+        glFramebufferTexture2D(GL_FRAMEBUFFER, GLenum(GL_COLOR_ATTACHMENT0 + k), GL_TEXTURE_2D, textures[k].id(), 0);
+        buffers[k] = GLenum(GL_COLOR_ATTACHMENT0 + k);
+    }
+    depth = gl::GlName<RenderbufferTraits>::create();
+    glBindRenderbuffer(GL_RENDERBUFFER, depth.id());
+    glRenderbufferStorage(GL_RENDERBUFFER, GL_DEPTH_COMPONENT24, width_, height_);
+    glFramebufferRenderbuffer(GL_FRAMEBUFFER, GL_DEPTH_ATTACHMENT, GL_RENDERBUFFER, depth.id());
+    glDrawBuffers(kTargets, buffers);
+    const GLenum status = glCheckFramebufferStatus(GL_FRAMEBUFFER);
+    if (status != GL_FRAMEBUFFER_COMPLETE)
+        throw RuntimeError("renderer: " + std::to_string(kTargets) + " " + (half ? "RGBA16F" : "RGBA32F") + " targets of " +
+                           std::to_string(width_) + "x" + std::to_string(height_) + " with depth are not complete (status " +
+                           std::to_string(status) + "; needs GL_EXT_color_buffer_float)");
+}
+
+// The frame's four targets again, multisampled, in the frames' format (RGBA32F, or RGBA16F where
+// the driver cannot multisample RGBA32F or half was asked for: half floats hold the radiance to
+// 1e-3 relative, and the AOVs never come from these, read_aovs draws them single-sampled).
 void Renderer::create_multisampled_targets() {
     GLint max_samples = 0;
     glGetIntegerv(GL_MAX_SAMPLES, &max_samples);
-    GLenum format = 0;
-    for (const GLenum candidate : {GLenum(GL_RGBA32F), GLenum(GL_RGBA16F)}) {
-        GLint samples = 0;
-        glGetInternalformativ(GL_RENDERBUFFER, candidate, GL_SAMPLES, 1, &samples);  // the largest count
-        if (samples >= msaa_) {
-            format = candidate;
-            break;
-        }
-    }
-    if (format == 0)
-        throw RuntimeError("--msaa " + std::to_string(msaa_) + ": the GL driver cannot multisample float targets " +
+    const GLenum format = half_ ? GLenum(GL_RGBA16F) : GLenum(GL_RGBA32F);
+    if (!multisamples(format, msaa_))
+        throw RuntimeError("--msaa " + std::to_string(msaa_) + ": the GL driver cannot multisample " + frame_format() + " " +
                            std::to_string(msaa_) + "x (GL_MAX_SAMPLES " + std::to_string(max_samples) + "); use --msaa 1");
     ms_framebuffer_ = gl::GlFramebuffer::create();
     glBindFramebuffer(GL_FRAMEBUFFER, ms_framebuffer_.id());
@@ -346,8 +372,15 @@ void Renderer::set_camera_response(const CameraResponse& response, const CameraE
 
 void Renderer::draw_scene() { draw(false, msaa_ > 1); }
 
-void Renderer::draw(bool with_hdr, bool multisampled, bool with_reflect) {
-    glBindFramebuffer(GL_FRAMEBUFFER, multisampled ? ms_framebuffer_.id() : framebuffer_.id());
+void Renderer::draw(bool with_hdr, bool multisampled, bool with_reflect, bool aov) {
+    if (aov && half_ && aov_framebuffer_.id() == 0) make_targets(false, aov_targets_, aov_depth_, aov_framebuffer_);
+    const bool into_aovs = aov && half_;
+    glBindFramebuffer(GL_FRAMEBUFFER, multisampled ? ms_framebuffer_.id()
+                                      : into_aovs  ? aov_framebuffer_.id()
+                                                   : framebuffer_.id());
+    // Half-float targets hold at most 65504; a mirror's sun would overflow to infinity, and one
+    // infinite sample makes its resolved pixel (and the meter's log-average) NaN.
+    const float radiance_cap = half_ && !into_aovs ? 65504.0f : std::numeric_limits<float>::max();
     // Frames write the radiance and the normal (its alpha: a proxy's mark), which the composite
     // reads; the reflection direction only for the AOVs, the HDR frame only for the meter: a float
     // target less to write each frame (with 4x MSAA, 4 samples of 16 bytes a pixel).
@@ -374,6 +407,7 @@ void Renderer::draw(bool with_hdr, bool multisampled, bool with_reflect) {
         glActiveTexture(GL_TEXTURE0);
         glBindTexture(GL_TEXTURE_2D, environment_.id());
         glUniform1i(background_program_.uniform("u_environment"), 0);
+        glUniform1f(background_program_.uniform("u_radiance_cap"), radiance_cap);
         bind_shadow(background_program_, 1);
         glBindVertexArray(empty_vao_.id());
         glDrawArrays(GL_TRIANGLES, 0, 3);
@@ -391,6 +425,7 @@ void Renderer::draw(bool with_hdr, bool multisampled, bool with_reflect) {
     glUniformMatrix3fv(scene_program_.uniform("u_normal_matrix"), 1, GL_FALSE, glm::value_ptr(normal_matrix));
     glUniformMatrix4fv(scene_program_.uniform("u_view_projection"), 1, GL_FALSE, glm::value_ptr(view_projection));
     glUniform3f(scene_program_.uniform("u_eye"), float(camera_.eye.x), float(camera_.eye.y), float(camera_.eye.z));
+    glUniform1f(scene_program_.uniform("u_radiance_cap"), radiance_cap);
     glActiveTexture(GL_TEXTURE0);
     glBindTexture(GL_TEXTURE_2D, irradiance_.id());
     glUniform1i(scene_program_.uniform("u_irradiance"), 0);
@@ -420,8 +455,8 @@ void Renderer::draw(bool with_hdr, bool multisampled, bool with_reflect) {
     if (multisampled) resolve(with_hdr);
 }
 
-std::vector<float> Renderer::read_target(int k) const {
-    glBindFramebuffer(GL_READ_FRAMEBUFFER, framebuffer_.id());
+std::vector<float> Renderer::read_target(int k, bool aov) const {
+    glBindFramebuffer(GL_READ_FRAMEBUFFER, aov && half_ ? aov_framebuffer_.id() : framebuffer_.id());
     glReadBuffer(GLenum(GL_COLOR_ATTACHMENT0 + k));
     std::vector<float> bottom_up(std::size_t(width_) * std::size_t(height_) * 4);
     glReadPixels(0, 0, width_, height_, GL_RGBA, GL_FLOAT, bottom_up.data());
@@ -624,13 +659,14 @@ void Renderer::set_uniform_material(const Material& material) {
 std::vector<float> Renderer::read_frame_radiance() const { return read_target(kRadiance); }
 
 Aovs Renderer::read_aovs() {
-    draw(false, false, true);  // one sample a pixel (exact AOVs, also with MSAA), with the reflection target
+    // One sample a pixel (exact AOVs, also with MSAA), with the reflection target, in RGBA32F.
+    draw(false, false, true, true);
     Aovs a;
     a.width = width_;
     a.height = height_;
-    a.radiance = read_target(kRadiance);
-    a.normal = read_target(kNormal);
-    a.reflect = read_target(kReflect);
+    a.radiance = read_target(kRadiance, true);
+    a.normal = read_target(kNormal, true);
+    a.reflect = read_target(kReflect, true);
     if (shadow_) {
         draw_shadow();  // the ratio's own target: frames evaluate it in the composite
         a.shadow = shadow_->read();

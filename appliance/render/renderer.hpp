@@ -80,16 +80,22 @@ struct RenderbufferTraits {
     static void destroy(GLuint id) { glDeleteRenderbuffers(1, &id); }
 };
 
+// The float format of the frames' targets (docs/render.md, "Frame targets"). Auto: RGBA32F where
+// the driver can multisample it at the requested count (llvmpipe can), else RGBA16F. Half:
+// RGBA16F (half the bytes a sample: the plan for a tile-based GPU such as the Pi's); the radiance
+// is then capped at 65504, half's largest, and held to 1e-3 relative. AOVs are always RGBA32F.
+enum class FrameTargets { Auto, Float, Half };
+
 class Renderer {
 public:
     // The maps must hold what the material needs (needed_maps). width, height: the frame's.
     // msaa: samples per pixel of the frame's targets, 1 (none) or 4 (docs/render.md, "MSAA").
     Renderer(const Mesh& mesh, const Material& material, const ShadingMaps& maps, int width, int height,
-             const Camera& camera = {}, int msaa = 1);
+             const Camera& camera = {}, int msaa = 1, FrameTargets targets = FrameTargets::Auto);
     // Several materials: one per part of the mesh (Mesh::parts, part_materials), or one for a mesh
     // without parts. The triangles are grouped by distinct material, one draw each.
     Renderer(const Mesh& mesh, const std::vector<Material>& part_materials, const ShadingMaps& maps, int width,
-             int height, const Camera& camera = {}, int msaa = 1);
+             int height, const Camera& camera = {}, int msaa = 1, FrameTargets targets = FrameTargets::Auto);
     Renderer(const Renderer&) = delete;
     Renderer& operator=(const Renderer&) = delete;
 
@@ -134,6 +140,8 @@ public:
     // the object's coverage of the pixel (fractional on its silhouette), RGB premultiplied by it.
     std::vector<float> read_frame_radiance() const;
     int msaa() const { return msaa_; }
+    // "RGBA32F" or "RGBA16F": the frames' targets.
+    const char* frame_format() const { return half_ ? "RGBA16F" : "RGBA32F"; }
 
     // The real table and things on it (docs/render.md, "Table, phantom geometry and shadows").
     // The table plane y = height and proxy meshes (world coordinates, not normalised) go into the
@@ -172,8 +180,9 @@ public:
     bool upload_pending_map(std::size_t max_bytes = kPendingBandBytes);
 
 private:
-    std::vector<float> read_target(int k) const;  // rows top first
-    void draw(bool with_hdr, bool multisampled, bool with_reflect = false);
+    std::vector<float> read_target(int k, bool aov = false) const;  // rows top first
+    // aov: into the AOVs' RGBA32F targets (half-float frames), uncapped.
+    void draw(bool with_hdr, bool multisampled, bool with_reflect = false, bool aov = false);
     void resolve(bool with_hdr) const;
     void create_multisampled_targets();  // the multisampled targets into the textures the composite reads
     void set_camera_ray_uniforms(const gl::GlProgram& program) const;  // u_size, u_tan_half_fov, u_world_from_camera
@@ -214,6 +223,14 @@ private:
     gl::GlTexture targets_[4];
     gl::GlName<RenderbufferTraits> depth_;
     gl::GlFramebuffer framebuffer_;
+    // Half-float frames: the AOVs' own RGBA32F targets and depth, made at the first read_aovs.
+    bool half_ = false;
+    gl::GlTexture aov_targets_[4];
+    gl::GlName<RenderbufferTraits> aov_depth_;
+    gl::GlFramebuffer aov_framebuffer_;
+    // Float targets of this frame's size (RGBA16F or RGBA32F) with depth into `framebuffer`.
+    void make_targets(bool half, gl::GlTexture (&textures)[4], gl::GlName<RenderbufferTraits>& depth,
+                      gl::GlFramebuffer& framebuffer);
     // MSAA: multisampled float renderbuffers (same four targets) and depth, resolved by blit.
     int msaa_ = 1;
     gl::GlName<RenderbufferTraits> ms_colour_[4], ms_depth_;

@@ -43,6 +43,8 @@ LIVE=no
 CONFIGS=("1x off|--msaa 1 --shadows off" "1x on|--msaa 1 --shadows on" "4x off|--msaa 4 --shadows off"
          "4x on|--msaa 4 --shadows on")
 [[ $LIVE == yes ]] && CONFIGS+=("4x on live|--msaa 4 --shadows on --live-maps --frame-budget-ms 800")
+# Half-float frame targets (docs/render.md, "Frame targets"): the Pi's plan, measured here too.
+"$GLINT" render --help | grep -q -- '--frame-targets' && CONFIGS+=("4x on half|--msaa 4 --shadows on --frame-targets half")
 # Matching the camera (docs/render.md): the shipped session's calibration with the simulator's
 # sensor noise added, through the camera's response, without and with the noise and a 12x3 pixel
 # motion blur: what the matching costs a frame.

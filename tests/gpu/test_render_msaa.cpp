@@ -116,6 +116,58 @@ TEST_F(RenderMsaa, AovsAreTheSameWithAndWithoutMsaa) {
     for (std::size_t k = 3; k < b.radiance.size(); k += 4) EXPECT_TRUE(b.radiance[k] == 0.0f || b.radiance[k] == 1.0f);
 }
 
+// Half-float frame targets (RGBA16F, the plan for a tile-based GPU; docs/render.md, "Frame
+// targets"), 4x MSAA: the frame's radiance within half's 1e-3 of the float frame's, the AOVs
+// identical (they have RGBA32F targets of their own), and a mirror of a sun far past half's range
+// at 65504, not infinite: its resolved pixels, the meter and the displayed frame stay finite.
+// (llvmpipe saturates a float too large for half by itself, so this passes here without the
+// shaders' cap too; GPUs that round it to infinity need the cap.)
+TEST_F(RenderMsaa, HalfFloatFramesMatchFloatAndKeepTheAovsExact) {
+    const render::Material glossy = render::parse_material("kd=0.5;ks=0.5;n=40");
+    render::ShadingMaps maps = uniform_maps();
+    HdrImage refl(16, 8);
+    for (int j = 0; j < refl.height(); ++j)
+        for (int i = 0; i < refl.width(); ++i)
+            for (int c = 0; c < 3; ++c) refl.row(j)[3 * i + c] = float(1 + i + 3 * j + c);
+    refl.row(3)[3 * 5] = 1e6f;  // a sun in the reflection map, beyond half's 65504
+    maps.set_reflection(glossy, refl);
+    const render::Mesh sphere = render::make_uv_sphere(24, 48);
+    render::Renderer full(sphere, glossy, maps, kW, kH, render::Camera{}, 4, render::FrameTargets::Float);
+    render::Renderer half(sphere, glossy, maps, kW, kH, render::Camera{}, 4, render::FrameTargets::Half);
+    EXPECT_STREQ(full.frame_format(), "RGBA32F");
+    EXPECT_STREQ(half.frame_format(), "RGBA16F");
+    EXPECT_STREQ(render::Renderer(sphere, glossy, maps, 8, 8, render::Camera{}, 4).frame_format(), "RGBA32F");  // auto, llvmpipe
+    full.draw_scene();
+    half.draw_scene();
+    const std::vector<float> a = full.read_frame_radiance(), b = half.read_frame_radiance();
+    ASSERT_EQ(a.size(), b.size());
+    double worst = 0;
+    int capped = 0;
+    for (std::size_t k = 0; k < a.size(); ++k) {
+        ASSERT_TRUE(std::isfinite(b[k])) << "texel " << k / 4;
+        if (a[k] > 65504.0f) {
+            ++capped;
+            EXPECT_LE(b[k], 65504.0f);
+            continue;
+        }
+        if (a[k] > 1e3f) continue;  // a pixel the sun's cap reached through the resolve
+        worst = std::max(worst, double(std::abs(a[k] - b[k])) / std::max(1.0, double(std::abs(a[k]))));
+    }
+    EXPECT_GT(capped, 0) << "the sun was not reflected: the test does not reach the cap";
+    EXPECT_LT(worst, 2e-3);
+    const render::Aovs fa = full.read_aovs(), ha = half.read_aovs();
+    EXPECT_EQ(fa.radiance, ha.radiance);
+    EXPECT_EQ(fa.normal, ha.normal);
+    EXPECT_EQ(fa.reflect, ha.reflect);
+    const render::ToneMap& tone = half.meter();
+    EXPECT_TRUE(std::isfinite(tone.log_average)) << tone.log_average;
+    gl::RenderTargets shown(kW, kH, 1);
+    shown.bind();
+    glViewport(0, 0, kW, kH);
+    half.composite();
+    for (const float v : shown.read(0)) ASSERT_TRUE(std::isfinite(v));
+}
+
 TEST_F(RenderMsaa, OtherSampleCountsAreRefusedNamingTheFlag) {
     try {
         render::Renderer r(render::make_uv_sphere(8, 16), render::parse_material("matte"), uniform_maps(), 8, 8,
