@@ -273,6 +273,7 @@ private:
                 log_line(std::string("display: before a VT switch: ") + e.what());
             }
         }
+        flip_pending_ = false;  // a flip that never completed: a late event must not end a later wait
         if (drmDropMaster(fd_) != 0) log_line(path_ + ": drmDropMaster: " + std::strerror(errno));
         lockdown_.keyboards.reset();
         lockdown_.vt->allow_switch_away();
@@ -282,6 +283,10 @@ private:
     }
 
     void take_back_screen() {
+        if (!lockdown_.vt->on_screen()) {  // gone again before this frame: the next Back says when
+            take_back_pending_ = false;
+            return;
+        }
         if (!drmIsMaster(fd_) && drmSetMaster(fd_) != 0) {
             if (!master_wait_logged_)
                 log_line(path_ + ": back on the kiosk's VT, but not DRM master yet (" + std::strerror(errno) +
@@ -313,8 +318,16 @@ private:
             const std::vector<KmsPlane> planes = read_planes(fd_);
             const KmsPlane& plane = planes[choose_primary_plane(path_, planes, crtc_index_of(fd_, crtc_), crtc_,
                                                                 GBM_FORMAT_XRGB8888)];
-            atomic_out_ = {connector_id_, crtc_, plane.id, mode_.hdisplay, mode_.vdisplay};
+            atomic_out_ = {connector_id_, crtc_, plane.id, mode_.hdisplay, mode_.vdisplay, {}};
             properties_[plane.id] = plane.properties;
+            // Planes another master left on this CRTC (a cursor, an overlay) are switched off by
+            // the mode set, or they would show over the picture.
+            for (const KmsPlane& other : planes) {
+                const auto on = other.properties.find("CRTC_ID");
+                if (other.id == plane.id || on == other.properties.end() || on->second.value != crtc_) continue;
+                atomic_out_.planes_off.push_back(other.id);
+                properties_[other.id] = other.properties;
+            }
             properties_[connector_id_] = read_properties(fd_, connector_id_, DRM_MODE_OBJECT_CONNECTOR);
             properties_[crtc_] = read_properties(fd_, crtc_, DRM_MODE_OBJECT_CRTC);
             resolve_atomic(path_, atomic_modeset(atomic_out_, 0, 0), properties_);  // every name there

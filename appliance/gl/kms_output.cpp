@@ -1,6 +1,8 @@
 #include "appliance/gl/kms_output.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <optional>
 #include <cstdio>
 
 #include "appliance/core/errors.hpp"
@@ -141,22 +143,26 @@ std::size_t choose_primary_plane(const std::string& card, const std::vector<KmsP
     if (crtc_index < 0 || crtc_index >= 32)
         throw RuntimeError(card + ": CRTC " + std::to_string(crtc_id) + " is not among the first 32 a plane can name");
     bool primary_for_crtc = false;
+    std::optional<std::size_t> found;
     for (std::size_t i = 0; i < planes.size(); ++i) {
         const KmsPlane& p = planes[i];
         const auto type = p.properties.find("type");
         if (type == p.properties.end() || type->second.value != std::uint64_t(kPlaneTypePrimary)) continue;
         if (!(p.possible_crtcs & (1u << crtc_index))) continue;
         primary_for_crtc = true;
-        for (const std::uint32_t f : p.formats)
-            if (f == format) return i;
+        if (std::find(p.formats.begin(), p.formats.end(), format) == p.formats.end()) continue;
+        const auto on = p.properties.find("CRTC_ID");
+        if (on != p.properties.end() && on->second.value == crtc_id) return i;  // on this CRTC now
+        if (!found) found = i;
     }
+    if (found) return *found;
     throw RuntimeError(card + ": no primary plane for CRTC " + std::to_string(crtc_id) +
                        (primary_for_crtc ? " that scans out " + fourcc_name(format) : ""));
 }
 
 std::vector<AtomicSet> atomic_modeset(const AtomicOutput& out, std::uint32_t mode_blob, std::uint32_t fb) {
     const std::uint64_t w = std::uint64_t(out.width), h = std::uint64_t(out.height);
-    return {
+    std::vector<AtomicSet> sets{
         {out.connector, "connector", "CRTC_ID", out.crtc},
         {out.crtc, "CRTC", "MODE_ID", mode_blob},
         {out.crtc, "CRTC", "ACTIVE", 1},
@@ -171,6 +177,11 @@ std::vector<AtomicSet> atomic_modeset(const AtomicOutput& out, std::uint32_t mod
         {out.plane, "plane", "CRTC_W", w},
         {out.plane, "plane", "CRTC_H", h},
     };
+    for (const std::uint32_t p : out.planes_off) {
+        sets.push_back({p, "plane", "FB_ID", 0});
+        sets.push_back({p, "plane", "CRTC_ID", 0});
+    }
+    return sets;
 }
 
 std::vector<AtomicSet> atomic_flip(const AtomicOutput& out, std::uint32_t fb) {

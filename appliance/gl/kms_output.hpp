@@ -73,7 +73,8 @@ struct KmsPlane {
     KmsProperties properties;            // "type" among them on a card with universal planes
 };
 
-// The primary plane for the CRTC at `crtc_index` that scans out `format`; throws RuntimeError with
+// The primary plane for the CRTC at `crtc_index` that scans out `format`, preferring one on that
+// CRTC now (its "CRTC_ID" property; a primary may serve several CRTCs); throws RuntimeError with
 // one line naming the card and the CRTC when there is none ("no primary plane for CRTC 41 that
 // scans out XR24", or that the card lists no planes at all).
 std::size_t choose_primary_plane(const std::string& card, const std::vector<KmsPlane>& planes, int crtc_index,
@@ -94,10 +95,12 @@ struct AtomicIds {
 struct AtomicOutput {
     std::uint32_t connector = 0, crtc = 0, plane = 0;
     int width = 0, height = 0;  // the mode's, which the plane fills 1:1
+    std::vector<std::uint32_t> planes_off;  // other planes on the CRTC now, switched off by the mode set
 };
 
 // The first commit (needs DRM_MODE_ATOMIC_ALLOW_MODESET): the connector on the CRTC, the CRTC on
-// with the mode's blob, and the plane showing framebuffer `fb` whole (SRC_* in 16.16 fixed point).
+// with the mode's blob, the plane showing framebuffer `fb` whole (SRC_* in 16.16 fixed point), and
+// the planes in planes_off off (FB_ID and CRTC_ID 0).
 std::vector<AtomicSet> atomic_modeset(const AtomicOutput& out, std::uint32_t mode_blob, std::uint32_t fb);
 // A page flip: only the plane's framebuffer changes.
 std::vector<AtomicSet> atomic_flip(const AtomicOutput& out, std::uint32_t fb);

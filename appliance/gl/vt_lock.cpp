@@ -314,10 +314,20 @@ std::string VtLock::describe() const {
 
 VtSwitchRequest VtLock::take_switch_request() {
     if (!saved_->release_on_switch) return VtSwitchRequest::None;
-    // Away first: the kernel is waiting for its answer.
-    if (g_away_requested.load()) return VtSwitchRequest::Away;
+    // Away first: the kernel is waiting for its answer. A Back noted before it is stale: the
+    // kernel acknowledged that return at once and may then have been asked to switch away again
+    // (`chvt 1; chvt 2`); taken after the Away it would take the screen from the other VT.
+    if (g_away_requested.load()) {
+        g_back.store(false);
+        return VtSwitchRequest::Away;
+    }
     if (g_back.exchange(false)) return VtSwitchRequest::Back;
     return VtSwitchRequest::None;
+}
+
+bool VtLock::on_screen() const {
+    vt_stat state{};
+    return device_->ioctl(VT_GETSTATE, reinterpret_cast<unsigned long>(&state)) == 0 && state.v_active == device_->number();
 }
 
 void VtLock::allow_switch_away() {

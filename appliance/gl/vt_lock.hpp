@@ -67,10 +67,12 @@ public:
     std::string describe() const;
 
     // Release mode (VtLockOptions::release_on_switch): the switch asked for since the last call
-    // (the kernel's signals only set flags; this is called from the frame loop). An Away and a
-    // Back both pending (a switch away and back within one frame, which the kernel only allows
-    // after allow_switch_away) give Away first. Always None in refuse mode.
+    // (the kernel's signals only set flags; this is called from the frame loop). An Away pending
+    // wins and drops a Back noted before it (a return the kernel was told of at once, followed by
+    // a new switch away before the frame loop looked). Always None in refuse mode.
     VtSwitchRequest take_switch_request();
+    // Whether the VT is the one on screen now (VT_GETSTATE).
+    bool on_screen() const;
     // Lets the pending switch away go ahead (VT_RELDISP 1), or refuses it (VT_RELDISP 0). Throws
     // RuntimeError naming the device if the kernel refuses the answer.
     void allow_switch_away();

@@ -40,7 +40,8 @@ glm::dvec2 ar_motion_blur_px(const tracking::Pose& previous, const tracking::Pos
     motion *= exposure_s / dt_s;
     const double length = glm::length(motion);
     if (!std::isfinite(length)) return {0.0, 0.0};
-    return length > 256.0 ? motion * (256.0 / length) : motion;
+    // Scaled to a little under the limit: the rounded product may come out above 256 itself.
+    return length > 255.99 ? motion * (255.99 / length) : motion;
 }
 
 render::Camera orbit_camera(double azimuth_deg, double elevation_deg, double distance, double fov_y_deg) {

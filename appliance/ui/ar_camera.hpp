@@ -42,7 +42,7 @@ render::Camera ar_camera(const glm::dquat& world_from_camera, const tracking::Po
 // as the camera sees it at two tracked frames `dt_s` apart, on a view `view_height` pixels high
 // (the virtual camera's focal length, as ar_camera: fy scaled to the view), times exposure / dt.
 // Pixels, x right and y up. Zero when dt_s <= 0 or the centre is not in front of the camera in
-// both; at most 256 pixels long (set_camera_match's limit).
+// both; under 256 pixels long (set_camera_match's limit).
 glm::dvec2 ar_motion_blur_px(const tracking::Pose& previous, const tracking::Pose& current, double dt_s, double exposure_s,
                              const capture::Intrinsics& intrinsics, int view_height, const ArPlacement& placement);
 

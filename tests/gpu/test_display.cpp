@@ -149,6 +149,14 @@ TEST(KmsAtomic, TakesThePrimaryPlaneOfTheCrtcThatScansOutTheFormat) {
     EXPECT_EQ(fourcc_name(kXrgb8888), "XR24");
 }
 
+TEST(KmsAtomic, PrefersThePrimaryPlaneOnTheCrtcNow) {
+    std::vector<KmsPlane> planes = pi_like_planes();
+    planes.push_back(plane(35, kPlaneTypePrimary, 0b11, {kXrgb8888}));  // can serve both CRTCs
+    planes.back().properties["CRTC_ID"] = {3501, 61};                    // and shows CRTC 61 now
+    EXPECT_EQ(planes[choose_primary_plane("/dev/dri/card0", planes, 1, 61, kXrgb8888)].id, 35u);
+    EXPECT_EQ(planes[choose_primary_plane("/dev/dri/card0", planes, 0, 60, kXrgb8888)].id, 33u);  // the first that fits
+}
+
 TEST(KmsAtomic, EachPlaneFailureIsOneLineNamingTheCardAndCrtc) {
     std::vector<KmsPlane> planes = pi_like_planes();
     planes.erase(planes.begin() + 3);  // CRTC 0's XR24 primary gone: 32 remains, AR24 only
@@ -159,7 +167,7 @@ TEST(KmsAtomic, EachPlaneFailureIsOneLineNamingTheCardAndCrtc) {
 }
 
 TEST(KmsAtomic, ModesetSetsConnectorCrtcAndAWholePlaneAndAFlipOnlyTheFramebuffer) {
-    const AtomicOutput out{41, 60, 33, 1920, 1080};
+    const AtomicOutput out{41, 60, 33, 1920, 1080, {}};
     const std::vector<AtomicSet> first = atomic_modeset(out, 77, 500);
     std::map<std::string, std::uint64_t> plane_values;
     for (const AtomicSet& s : first) {
@@ -176,6 +184,13 @@ TEST(KmsAtomic, ModesetSetsConnectorCrtcAndAWholePlaneAndAFlipOnlyTheFramebuffer
     EXPECT_EQ(plane_values["CRTC_W"], 1920u);
     EXPECT_EQ(plane_values["CRTC_H"], 1080u);
     EXPECT_EQ(plane_values.size(), 10u);
+    // Planes another master left on the CRTC are switched off by the mode set.
+    AtomicOutput with_cursor = out;
+    with_cursor.planes_off = {31};
+    std::map<std::string, std::uint64_t> cursor_values;
+    for (const AtomicSet& s : atomic_modeset(with_cursor, 77, 500))
+        if (s.object == 31) cursor_values[s.property] = s.value;
+    EXPECT_EQ(cursor_values, (std::map<std::string, std::uint64_t>{{"CRTC_ID", 0}, {"FB_ID", 0}}));
     const std::vector<AtomicSet> flip = atomic_flip(out, 501);
     ASSERT_EQ(flip.size(), 1u);
     EXPECT_EQ(flip[0].object, 33u);
@@ -184,7 +199,7 @@ TEST(KmsAtomic, ModesetSetsConnectorCrtcAndAWholePlaneAndAFlipOnlyTheFramebuffer
 }
 
 TEST(KmsAtomic, ResolvesPropertyNamesAndNamesTheOneMissing) {
-    const AtomicOutput out{41, 60, 33, 800, 480};
+    const AtomicOutput out{41, 60, 33, 800, 480, {}};
     std::map<std::uint32_t, KmsProperties> props;
     std::uint32_t next = 1000;
     props[41]["CRTC_ID"] = {next++, 0};

@@ -95,9 +95,10 @@ TEST(ArCamera, MotionBlurIsTheCentresImageMotionWithinTheExposure) {
     tracking::Pose behind = b;
     behind.translation.z = -0.5;
     EXPECT_EQ(ar_motion_blur_px(a, behind, 1.0 / 30, 1.0 / 60, k, 180, p), glm::dvec2(0.0));
-    b.translation = {0.5, 0.0, 0.5};  // a jump: capped at 256 pixels, direction kept
+    b.translation = {0.5, 0.0, 0.5};  // a jump: capped under 256 pixels, direction kept
     const glm::dvec2 capped = ar_motion_blur_px(a, b, 1.0 / 30, 1.0 / 30, k, 180, p);
-    EXPECT_NEAR(glm::length(capped), 256.0, 1e-9);
+    EXPECT_LT(glm::length(capped), 256.0);  // what set_camera_match accepts
+    EXPECT_GT(glm::length(capped), 255.9);
     EXPECT_GT(capped.x, 0.0);
 }
 

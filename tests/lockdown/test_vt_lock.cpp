@@ -200,6 +200,25 @@ TEST(VtLock, InReleaseModeASwitchAwayWaitsForTheCallerAndBackIsReportedOnce) {
     EXPECT_EQ(s.log.back(), "VT_RELDISP refuse");
 }
 
+// A return the kernel was told of at once, then a new switch away before the frame loop looked
+// (`chvt 1; chvt 2`): the Back is stale and dropped with the Away, or the kiosk would take the
+// screen from the other VT; on_screen() says which VT is showing.
+TEST(VtLock, AStaleReturnIsDroppedWhenASwitchAwayFollows) {
+    FakeVtState s;
+    gl::VtLock lock(fake(s), {.lock_switch = false, .activate = true, .release_on_switch = true});
+    EXPECT_TRUE(lock.on_screen());
+    raise(SIGUSR1);
+    EXPECT_EQ(lock.take_switch_request(), gl::VtSwitchRequest::Away);
+    lock.allow_switch_away();
+    s.active = 2;
+    EXPECT_FALSE(lock.on_screen());
+    raise(SIGUSR2);  // back (acknowledged by the handler) ...
+    raise(SIGUSR1);  // ... and away again before the frame loop looked
+    EXPECT_EQ(lock.take_switch_request(), gl::VtSwitchRequest::Away);
+    lock.allow_switch_away();
+    EXPECT_EQ(lock.take_switch_request(), gl::VtSwitchRequest::None);
+}
+
 // A switch away still unanswered when the lock ends is let go (the process gives up the screen),
 // before the VT's modes are restored.
 TEST(VtLock, APendingSwitchAwayIsLetGoWhenTheLockEnds) {
