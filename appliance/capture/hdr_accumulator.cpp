@@ -216,6 +216,52 @@ bool HdrAccumulator::in_zone(const std::vector<std::uint8_t>& zone, int pw, int 
     return zone[std::size_t(v) * std::size_t(pw) + std::size_t(u)] != 0;
 }
 
+void HdrAccumulator::prepare_footprint_trig(int taps) {
+    if (row_sin_.empty()) {
+        for (int j = 0; j < height_; ++j) {
+            const double theta = row_theta(j, height_);
+            row_sin_.push_back(std::sin(theta));
+            row_cos_.push_back(std::cos(theta));
+        }
+        for (int i = 0; i < width_; ++i) {
+            const double phi = column_phi(i, width_);
+            column_sin_.push_back(std::sin(phi));
+            column_cos_.push_back(std::cos(phi));
+        }
+    }
+    if (taps <= 0 || taps == trig_taps_) return;
+    trig_taps_ = taps;
+    sub_rows_.assign(std::size_t(height_), {});
+    for (int j = 0; j < height_; ++j) {
+        // The two rows round each pole are caps and rings of a few pixels whose sub-rows' areas
+        // grow as (2b + 1): four times the sub-rows there (3 gave a source at the pole -4.6 %, 12
+        // -0.2 %).
+        const int sub_rows = j < 2 || j >= height_ - 2 ? 4 * taps : taps;
+        for (int b = 0; b < sub_rows; ++b) {
+            const double y0 = j + double(b) / sub_rows, y1 = j + double(b + 1) / sub_rows;
+            // The sub-row's solid angle (per unit of azimuth) cos(t0) - cos(t1) = 2 sin(tm) sin(d),
+            // and its tap at the middle by area, where the cosine is the mean of the two:
+            // 1 - cos(theta) = 2 (sin^2(tm / 2) + cos(tm) sin^2(d / 2)), tm the middle angle, d half
+            // the width. These forms, without an inverse cosine, hold in single precision (the
+            // GPU's) near the poles; llvmpipe's acos and asin were far too coarse for it.
+            const double tm = 0.5 * kPi * (y0 + y1) / height_, d = 0.5 * kPi * (y1 - y0) / height_;
+            const double w_row = 2 * std::sin(tm) * std::sin(d);
+            const double sh = std::sin(0.5 * tm), sd = std::sin(0.5 * d);
+            const double one_minus_cos = 2 * (sh * sh + std::cos(tm) * sd * sd);
+            const double cos_t = 1 - one_minus_cos, sin_t = std::sqrt(std::max(0.0, one_minus_cos * (2 - one_minus_cos)));
+            sub_rows_[std::size_t(j)].push_back({w_row, cos_t, sin_t});
+        }
+    }
+    tap_sin_.resize(std::size_t(width_) * std::size_t(taps));
+    tap_cos_.resize(tap_sin_.size());
+    for (int i = 0; i < width_; ++i)
+        for (int a = 0; a < taps; ++a) {
+            const double phi = kTwoPi * (i + (a + 0.5) / taps) / width_ - kPi;
+            tap_sin_[std::size_t(i) * std::size_t(taps) + std::size_t(a)] = std::sin(phi);
+            tap_cos_[std::size_t(i) * std::size_t(taps) + std::size_t(a)] = std::cos(phi);
+        }
+}
+
 void HdrAccumulator::footprint_read(const std::vector<float>& planes, int pw, int ph, int s,
                                     const CameraCalibration& cal, const glm::dquat& camera_from_world,
                                     const glm::dvec3& angular_velocity, int i, int j, int taps,
@@ -230,24 +276,15 @@ void HdrAccumulator::footprint_read(const std::vector<float>& planes, int pw, in
     // sub-pixel source at 100 kept 83 % when such taps were only left out).
     double acc[6] = {0, 0, 0, 0, 0, 0}, wsum = 0;
     bool invalid = false;
-    // The two rows round each pole are caps and rings of a few pixels whose sub-rows' areas grow
-    // as (2b + 1): four times the sub-rows there (3 gave a source at the pole -4.6 %, 12 -0.2 %).
-    const int sub_rows = j < 2 || j >= height_ - 2 ? 4 * taps : taps;
-    for (int b = 0; b < sub_rows; ++b) {
-        const double y0 = j + double(b) / sub_rows, y1 = j + double(b + 1) / sub_rows;
-        // The sub-row's solid angle (per unit of azimuth) cos(t0) - cos(t1) = 2 sin(tm) sin(d),
-        // and its tap at the middle by area, where the cosine is the mean of the two:
-        // 1 - cos(theta) = 2 (sin^2(tm / 2) + cos(tm) sin^2(d / 2)), tm the middle angle, d half
-        // the width. These forms, without an inverse cosine, hold in single precision (the GPU's)
-        // near the poles; llvmpipe's acos and asin were far too coarse for it.
-        const double tm = 0.5 * kPi * (y0 + y1) / height_, d = 0.5 * kPi * (y1 - y0) / height_;
-        const double w_row = 2 * std::sin(tm) * std::sin(d);
-        const double sh = std::sin(0.5 * tm), sd = std::sin(0.5 * d);
-        const double one_minus_cos = 2 * (sh * sh + std::cos(tm) * sd * sd);
-        const double cos_t = 1 - one_minus_cos, sin_t = std::sqrt(std::max(0.0, one_minus_cos * (2 - one_minus_cos)));
+    // The sub-rows' weights and polar angles (four times the sub-rows in the two rows round each
+    // pole) and the taps' azimuths: prepare_footprint_trig, for these taps.
+    const std::vector<SubRow>& rows = sub_rows_[std::size_t(j)];
+    const double* tap_sin = tap_sin_.data() + std::size_t(i) * std::size_t(taps);
+    const double* tap_cos = tap_cos_.data() + std::size_t(i) * std::size_t(taps);
+    for (const SubRow& row : rows) {
+        const double w_row = row.w_row, cos_t = row.cos_t, sin_t = row.sin_t;
         for (int a = 0; a < taps; ++a) {
-            const double phi = kTwoPi * (i + (a + 0.5) / taps) / width_ - kPi;
-            const glm::dvec3 dir(sin_t * std::sin(phi), cos_t, -sin_t * std::cos(phi));
+            const glm::dvec3 dir(sin_t * tap_sin[a], cos_t, -sin_t * tap_cos[a]);
             const auto px = rolling_shutter_project(cal, camera_from_world * dir, angular_velocity);
             if (!px) continue;
             double Q[kPlaneFloats];
@@ -297,6 +334,7 @@ FrameContribution HdrAccumulator::add_frame(const CameraFrame& frame, const Came
         const double b = settings_.downscale <= 0 ? texel_box_width(k, width_, s) : 1.0;
         box_spreads_ = b > 1.0 + 1e-6;  // the footprint's taps reach a clipped cell beside the texel
     }
+    prepare_footprint_trig(taps);
     std::vector<long long> in_view(std::size_t(height_), 0), sampled(std::size_t(height_), 0);
 
     parallel_for(height_, threads, [&](int j) {
@@ -304,8 +342,11 @@ FrameContribution HdrAccumulator::add_frame(const CameraFrame& frame, const Came
         if (!cone_columns(j, width_, height_, fwd, cos_limit, i0, count)) return;
         for (int n = 0; n < count; ++n) {
             const int i = ((i0 + n) % width_ + width_) % width_;
-            const auto px = rolling_shutter_project(cal, camera_from_world * texel_direction(i, j, width_, height_),
-                                                    angular_velocity);
+            // texel_direction(i, j) from the cached sines and cosines (direction_from_angles).
+            const double st = row_sin_[std::size_t(j)];
+            const glm::dvec3 centre(st * column_sin_[std::size_t(i)], row_cos_[std::size_t(j)],
+                                    -st * column_cos_[std::size_t(i)]);
+            const auto px = rolling_shutter_project(cal, camera_from_world * centre, angular_velocity);
             if (!px) continue;
             ++in_view[std::size_t(j)];
             double P[kPlaneFloats];

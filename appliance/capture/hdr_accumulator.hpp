@@ -174,6 +174,17 @@ private:
     mutable std::vector<EstimatedSource> estimated_;
     void estimate_clipped_sources(HdrImage& image) const;
     static bool in_zone(const std::vector<std::uint8_t>& zone, int width, int height, double U, double V);
+    // The trigonometry of the texel grid and of the footprint's taps, which depends on the row
+    // or the column only: made once (for the taps of the frames seen), not per texel and frame.
+    // The same expressions as computed in place, so the sums are bit for bit what they were.
+    struct SubRow {
+        double w_row, cos_t, sin_t;  // the sub-row's weight and its tap's polar cosine and sine
+    };
+    std::vector<double> row_sin_, row_cos_, column_sin_, column_cos_;  // texel centres
+    int trig_taps_ = 0;
+    std::vector<std::vector<SubRow>> sub_rows_;   // per row j
+    std::vector<double> tap_sin_, tap_cos_;       // per column i, taps_ entries: the taps' azimuths
+    void prepare_footprint_trig(int taps);
     // Texel (i, j)'s read over its footprint into P (kPlaneFloats), replacing the centre's.
     void footprint_read(const std::vector<float>& planes, int pw, int ph, int s, const CameraCalibration& cal,
                         const glm::dquat& camera_from_world, const glm::dvec3& angular_velocity, int i, int j,
