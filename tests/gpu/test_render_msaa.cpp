@@ -91,14 +91,22 @@ TEST_F(RenderMsaa, FourSamplesGiveFractionalCoverageOnTheSilhouetteOneDoesNot) {
     EXPECT_LT(partial, centre);
 }
 
-TEST_F(RenderMsaa, AovsAreTheSameWithAndWithoutMsaa) {
-    const render::Material glossy = render::parse_material("kd=0.5;ks=0.5;n=40");
+// The maps of a glossy material: irradiance 1 and a reflection map ramping across the texels,
+// with `sun` (if > 0) at texel (5, 3).
+render::ShadingMaps glossy_maps(const render::Material& glossy, float sun = 0) {
     render::ShadingMaps maps = uniform_maps();
     HdrImage refl(16, 8);
     for (int j = 0; j < refl.height(); ++j)
         for (int i = 0; i < refl.width(); ++i)
             for (int c = 0; c < 3; ++c) refl.row(j)[3 * i + c] = float(1 + i + 3 * j + c);
+    if (sun > 0) refl.row(3)[3 * 5] = sun;
     maps.set_reflection(glossy, refl);
+    return maps;
+}
+
+TEST_F(RenderMsaa, AovsAreTheSameWithAndWithoutMsaa) {
+    const render::Material glossy = render::parse_material("kd=0.5;ks=0.5;n=40");
+    const render::ShadingMaps maps = glossy_maps(glossy);
     const render::Mesh sphere = render::make_uv_sphere(24, 48);
     render::Renderer one(sphere, glossy, maps, kW, kH, render::Camera{}, 1);
     render::Renderer four(sphere, glossy, maps, kW, kH, render::Camera{}, 4);
@@ -124,13 +132,7 @@ TEST_F(RenderMsaa, AovsAreTheSameWithAndWithoutMsaa) {
 // shaders' cap too; GPUs that round it to infinity need the cap.)
 TEST_F(RenderMsaa, HalfFloatFramesMatchFloatAndKeepTheAovsExact) {
     const render::Material glossy = render::parse_material("kd=0.5;ks=0.5;n=40");
-    render::ShadingMaps maps = uniform_maps();
-    HdrImage refl(16, 8);
-    for (int j = 0; j < refl.height(); ++j)
-        for (int i = 0; i < refl.width(); ++i)
-            for (int c = 0; c < 3; ++c) refl.row(j)[3 * i + c] = float(1 + i + 3 * j + c);
-    refl.row(3)[3 * 5] = 1e6f;  // a sun in the reflection map, beyond half's 65504
-    maps.set_reflection(glossy, refl);
+    const render::ShadingMaps maps = glossy_maps(glossy, 1e6f);  // a sun beyond half's 65504
     const render::Mesh sphere = render::make_uv_sphere(24, 48);
     render::Renderer full(sphere, glossy, maps, kW, kH, render::Camera{}, 4, render::FrameTargets::Float);
     render::Renderer half(sphere, glossy, maps, kW, kH, render::Camera{}, 4, render::FrameTargets::Half);
