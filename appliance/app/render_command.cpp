@@ -4,7 +4,6 @@
 // It lives in `glint`, not glint-vision: it needs GL, the displays, the convolution and core, and
 // no OpenCV or libcamera (docs/architecture.md, "Commands: two executables").
 #include <algorithm>
-#include <cstdlib>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -12,14 +11,17 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <string_view>
 #include <nlohmann/json.hpp>
 #include <utility>
 #include <vector>
 
 #include "appliance/app/cli_util.hpp"
+#include "appliance/core/strict_number.hpp"
 #include "appliance/app/commands.hpp"
 #include "appliance/core/atomic_file.hpp"
 #include "appliance/core/errors.hpp"
+#include "appliance/core/strict_number.hpp"
 #include "appliance/core/progress.hpp"
 #include "appliance/core/exr_io.hpp"
 #include "appliance/gl/display.hpp"
@@ -159,14 +161,11 @@ int run_render(const RenderArgs& args) {
     render::Renderer::CameraMatch match;
     if (!args.motion_blur.empty()) {
         const std::size_t comma = args.motion_blur.find(',');
-        char* end = nullptr;
-        const std::string dx = args.motion_blur.substr(0, comma);
-        match.blur_px.x = std::strtod(dx.c_str(), &end);
-        const bool x_ok = comma != std::string::npos && !dx.empty() && *end == '\0';
-        const std::string dy = comma == std::string::npos ? "" : args.motion_blur.substr(comma + 1);
-        match.blur_px.y = std::strtod(dy.c_str(), &end);
-        if (!x_ok || dy.empty() || *end != '\0')
+        if (comma == std::string::npos)
             throw InputError("--motion-blur: \"" + args.motion_blur + "\" is not DX,DY (pixels, e.g. 12,-3)");
+        const std::string_view blur = args.motion_blur;
+        match.blur_px = {parse_double(blur.substr(0, comma), "--motion-blur"),
+                         parse_double(blur.substr(comma + 1), "--motion-blur")};
     }
     if (args.camera_noise && !camera) throw InputError("--camera-noise: needs --camera CAL.json (with \"noise\")");
     if (args.camera_noise && !camera->has_noise())

@@ -19,6 +19,17 @@ HdrAccumulator::HdrAccumulator(int width, int height, AccumulationSettings setti
     samples_.assign(n, 0);
     weight_sum_.assign(n, 0.0f);
     clipped_short_.assign(n, 0);
+    // The texel centres' sines and cosines (texel_direction's), once for every frame.
+    for (int j = 0; j < height_; ++j) {
+        const double theta = row_theta(j, height_);
+        row_sin_.push_back(std::sin(theta));
+        row_cos_.push_back(std::cos(theta));
+    }
+    for (int i = 0; i < width_; ++i) {
+        const double phi = column_phi(i, width_);
+        column_sin_.push_back(std::sin(phi));
+        column_cos_.push_back(std::cos(phi));
+    }
 }
 
 bool HdrAccumulator::cone_columns(int j, int width, int height, const glm::dvec3& axis, double cos_limit, int& i0,
@@ -217,18 +228,6 @@ bool HdrAccumulator::in_zone(const std::vector<std::uint8_t>& zone, int pw, int 
 }
 
 void HdrAccumulator::prepare_footprint_trig(int taps) {
-    if (row_sin_.empty()) {
-        for (int j = 0; j < height_; ++j) {
-            const double theta = row_theta(j, height_);
-            row_sin_.push_back(std::sin(theta));
-            row_cos_.push_back(std::cos(theta));
-        }
-        for (int i = 0; i < width_; ++i) {
-            const double phi = column_phi(i, width_);
-            column_sin_.push_back(std::sin(phi));
-            column_cos_.push_back(std::cos(phi));
-        }
-    }
     if (taps <= 0 || taps == trig_taps_) return;
     trig_taps_ = taps;
     sub_rows_.assign(std::size_t(height_), {});

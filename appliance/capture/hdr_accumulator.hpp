@@ -174,8 +174,9 @@ private:
     mutable std::vector<EstimatedSource> estimated_;
     void estimate_clipped_sources(HdrImage& image) const;
     static bool in_zone(const std::vector<std::uint8_t>& zone, int width, int height, double U, double V);
-    // The trigonometry of the texel grid and of the footprint's taps, which depends on the row
-    // or the column only: made once (for the taps of the frames seen), not per texel and frame.
+    // The trigonometry of the texel grid (made in the constructor) and of the footprint's taps
+    // (for the taps of the frames seen), which depends on the row or the column only: made once,
+    // not per texel and frame.
     // The same expressions as computed in place, so the sums are bit for bit what they were.
     struct SubRow {
         double w_row, cos_t, sin_t;  // the sub-row's weight and its tap's polar cosine and sine

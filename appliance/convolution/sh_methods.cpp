@@ -133,13 +133,12 @@ std::vector<BrightRow> bright_rows(const std::vector<BrightTexel>& bright) {
 // radiance x solid angle times Y_lm at its direction, as the texel would be in the projection).
 // Per row of bright texels: order^2/2 Legendre values and, per texel, 2 x order angle sums,
 // instead of order^2 basis values per texel (studio's 1024 bright texels lie on 53 rows).
-ShCoefficients with_bright_texels(const ShCoefficients& remainder, const std::vector<BrightTexel>& bright, int order,
-                                  int threads) {
+ShCoefficients with_bright_texels(const ShCoefficients& remainder, const std::vector<BrightTexel>& bright,
+                                  const std::vector<BrightRow>& rows, int order, int threads) {
     ShCoefficients c;
     c.order = order;
     const std::size_t values = 3 * std::size_t(order) * std::size_t(order);
     c.rgb.assign(remainder.rgb.begin(), remainder.rgb.begin() + std::ptrdiff_t(values));
-    const std::vector<BrightRow> rows = bright_rows(bright);
     // Fixed chunks of rows summed in order, so the result does not depend on `threads`.
     constexpr std::size_t kChunk = 4;
     const std::size_t chunks = (rows.size() + kChunk - 1) / kChunk;
@@ -259,13 +258,16 @@ ShSplitResult sh_split_convolve(const ShCoefficients& remainder, const std::vect
     // Not on another device: the GPU evaluates in float, and a sun's energy inside the
     // coefficients would cancel in the dark texels far above the truncation bound.
     const int available = std::min({remainder.order, int(remainder_ones.size()), legendre.order()});
+    const bool may_fold = terms != BrightTerms::Scattered && !executor;
+    const std::vector<BrightRow> rows = may_fold ? bright_rows(bright_texels) : std::vector<BrightRow>{};
     const BrightFold bright_fold_plan =
-        terms == BrightTerms::Scattered || executor
+        !may_fold
             ? BrightFold{}
-            : bright_fold(bright_texels, bright_rows(bright_texels).size(), n, sh_order, available, remainder_mean, out,
+            : bright_fold(bright_texels, rows.size(), n, sh_order, available, remainder_mean, out,
                           bright_tolerance);
     const int fold = bright_fold_plan.order;
-    const ShCoefficients folded = fold > 0 ? with_bright_texels(remainder, bright_texels, fold, threads) : ShCoefficients{};
+    const ShCoefficients folded =
+        fold > 0 ? with_bright_texels(remainder, bright_texels, rows, fold, threads) : ShCoefficients{};
     const ShCoefficients& coefficients = fold > 0 ? folded : remainder;
     const int order = fold > 0 ? fold : sh_order;
     static const std::vector<BrightTexel> none;

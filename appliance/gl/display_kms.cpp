@@ -392,11 +392,8 @@ private:
     void present_legacy(std::uint32_t fb) {
         if (!mode_set_) {
             std::uint32_t connector = connector_id_;
-            if (drmModeSetCrtc(fd_, crtc_, fb, 0, 0, &connector, 1, &mode_) != 0) {
-                const int e = errno;
-                throw RuntimeError(path_ + (e == EACCES || e == EPERM ? ": not DRM master (another program drives the card)"
-                                                                      : ": drmModeSetCrtc failed: " + std::string(std::strerror(e))));
-            }
+            if (drmModeSetCrtc(fd_, crtc_, fb, 0, 0, &connector, 1, &mode_) != 0)
+                throw RuntimeError(master_or(errno, "drmModeSetCrtc"));
             mode_set_ = true;
             return;
         }
