@@ -216,7 +216,7 @@ std::optional<PixelCoord> rolling_shutter_project(const CameraCalibration& cal, 
     std::optional<PixelCoord> px = project(k, c, margin + shift_px);
     for (int iteration = 0; iteration < 2 && px; ++iteration) {
         // Row v's orientation is the frame's x exp(w dt(v)): camera_from_world turns by exp(-w dt).
-        const glm::dvec3 row_dir = rotation_from_vector(-cal.row_time_offset_s(px->v) * w) * c;
+        const glm::dvec3 row_dir = rotate_by_vector(-cal.row_time_offset_s(px->v) * w, c);
         px = project(k, row_dir, iteration == 1 ? margin : margin + shift_px);
     }
     return px;
