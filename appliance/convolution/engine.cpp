@@ -94,7 +94,11 @@ public:
         // The pyramid takes the remainder over (its level 0 is the remainder).
         if (!cone_pyramid_) {
             bright();
-            cone_pyramid_ = std::make_unique<Pyramid>(std::move(bright_->remainder), threads_);
+            // Levels built as plans read them (an SH map reads only the input's level), unless
+            // level 0 is released at once: the others are made from it first.
+            cone_pyramid_ = std::make_unique<Pyramid>(std::move(bright_->remainder), threads_,
+                                                      release_level0_ ? Pyramid::Build::AllLevels
+                                                                      : Pyramid::Build::OnDemand);
             if (release_level0_) cone_pyramid_->release_level(0);
         }
         return *cone_pyramid_;
@@ -111,11 +115,12 @@ public:
     // No map still to run reads level k of the remainder: its layouts (planes, phase copies,
     // merged columns) and its pyramid level are freed (a 4096x2048 level with its layouts
     // for two output widths is ~500 MB).
-    void release_cone_level(int k) {
+    // coarser_read: a map still to run reads a coarser level (built from this one if not yet).
+    void release_cone_level(int k, bool coarser_read) {
         LevelSlot& slot = level_slot(k);
         const std::lock_guard lock(slot.build);
         slot.level.reset();
-        if (cone_pyramid_ && !cone_pyramid_->released(k)) cone_pyramid_->release_level(k);
+        if (cone_pyramid_ && !cone_pyramid_->released(k)) cone_pyramid_->release_level(k, coarser_read);
     }
     const Pyramid& mip_pyramid() {
         if (!mip_pyramid_) mip_pyramid_ = std::make_unique<Pyramid>(full_image(), threads_);
@@ -623,12 +628,15 @@ std::vector<MapResult> convolve_map(const HdrImage& env, HdrImage* consumable, c
         r.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         if (!batched[k])
             for (int level : levels_read(r.plan)) {
-                bool last = false;
+                bool last = false, coarser_read = false;
                 {
                     const std::lock_guard lock(level_readers_mutex);
                     last = --level_readers[level] == 0;
+                    for (auto it = level_readers.upper_bound(level); it != level_readers.end(); ++it)
+                        coarser_read = coarser_read || it->second > 0;
                 }
-                if (last) shared.release_cone_level(level);  // outside the count's lock: maps finishing do not wait
+                // Outside the count's lock: maps finishing do not wait.
+                if (last) shared.release_cone_level(level, coarser_read);
             }
     };
     if (options.executor || threads == 1) {

@@ -50,14 +50,23 @@ void level_index_check(int k, int levels) {
 }
 }  // namespace
 
-Pyramid::Pyramid(HdrImage level0, int threads) {
+Pyramid::Pyramid(HdrImage level0, int threads, Build build) : threads_(threads) {
     if (level0.empty()) throw InputError("cannot build a pyramid of an empty map");
-    levels_.push_back(std::move(level0));
-    for (;;) {
-        const HdrImage& last = levels_.back();
-        if (last.width() % 2 != 0 || last.height() % 2 != 0) break;
-        HdrImage next = halve(last, threads);  // separate statement: push_back may move `last`
-        levels_.push_back(std::move(next));
+    sizes_ = level_sizes({level0.width(), level0.height()});
+    levels_.resize(sizes_.size());
+    released_.assign(sizes_.size(), 0);
+    levels_[0] = std::move(level0);
+    built_ = 1;
+    if (build == Build::AllLevels) build_through(levels() - 1);
+}
+
+void Pyramid::build_through(int k) const {
+    for (; built_ <= k; ++built_) {
+        const std::size_t next = std::size_t(built_);
+        if (released_[next - 1])
+            throw std::logic_error("pyramid level " + std::to_string(built_) + " is built from level " +
+                                   std::to_string(built_ - 1) + ", which was released");
+        levels_[next] = halve(levels_[next - 1], threads_);
     }
 }
 
@@ -68,20 +77,27 @@ std::vector<Size> Pyramid::level_sizes(Size level0) {
     return sizes;
 }
 
-void Pyramid::release_level(int k) {
+void Pyramid::release_level(int k, bool coarser_read) {
     level_index_check(k, levels());
+    const std::lock_guard lock(mutex_);
+    if (coarser_read) build_through(std::min(k + 1, levels() - 1));  // the next level is made from this one
     levels_[std::size_t(k)] = HdrImage();
+    released_[std::size_t(k)] = 1;
 }
 
 bool Pyramid::released(int k) const {
     level_index_check(k, levels());
-    return levels_[std::size_t(k)].empty();
+    const std::lock_guard lock(mutex_);
+    return released_[std::size_t(k)] != 0;
 }
 
 const HdrImage& Pyramid::level(int k) const {
     level_index_check(k, levels());
-    if (levels_[std::size_t(k)].empty())
+    const std::lock_guard lock(mutex_);
+    if (released_[std::size_t(k)])
         throw std::logic_error("pyramid level " + std::to_string(k) + " was released and is read again");
+    build_through(k);
+    // levels_ never grows or shrinks after the constructor: the reference stays valid.
     return levels_[std::size_t(k)];
 }
 

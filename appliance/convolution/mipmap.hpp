@@ -1,6 +1,7 @@
 // The thesis' MIP-mapping baseline (§4.2) on an equirect map, and the solid-angle pyramid it reads.
 #pragma once
 
+#include <mutex>
 #include <vector>
 
 #include "appliance/convolution/convolution.hpp"
@@ -19,17 +20,28 @@ class Pyramid {
 public:
     // The sizes of the levels a pyramid of a level0-sized map has, without building it.
     static std::vector<Size> level_sizes(Size level0);
+    // AllLevels halves down to the last level in the constructor; OnDemand builds a level (and
+    // those above it) when level() first asks for it, so that a plan reading only the input's
+    // level (SH with the bright split) does not pay for the others. Level reads are thread-safe.
+    enum class Build { AllLevels, OnDemand };
     // Throws InputError on an empty image; threads: for the halving.
-    explicit Pyramid(HdrImage level0, int threads = 1);
-    int levels() const { return int(levels_.size()); }
+    explicit Pyramid(HdrImage level0, int threads = 1, Build build = Build::AllLevels);
+    int levels() const { return int(sizes_.size()); }
     const HdrImage& level(int k) const;  // 0 = the input; throws std::out_of_range, or logic_error once released
     // Frees level k's texels (a level no plan reads: the full-resolution remainder of a large
-    // input, once the coarser levels are built).
-    void release_level(int k);
+    // input). coarser_read: coarser levels may still be asked for, so the next one is built
+    // first (the others are made from it); else a coarser level not yet built cannot be read.
+    void release_level(int k, bool coarser_read = true);
     bool released(int k) const;
 
 private:
-    std::vector<HdrImage> levels_;
+    std::vector<Size> sizes_;
+    int threads_;
+    mutable std::mutex mutex_;  // guards building and the two vectors below
+    mutable std::vector<HdrImage> levels_;  // one per level; level k made once built_ > k
+    mutable int built_ = 0;
+    std::vector<char> released_;
+    void build_through(int k) const;  // with mutex_ held
 };
 
 // Thesis eq. 4.1-4.3 with the equirect height (the polar resolution) as N:

@@ -311,7 +311,8 @@ ShCoefficients project_impl(int width, int height, int order, int threads, ShQua
         double* gg = f + 4 * uorder;
         double* gb = f + 5 * uorder;
         if (use_fft) {
-            std::vector<std::complex<double>> spectrum(fft->plan.spectrum_size());
+            thread_local std::vector<std::complex<double>> spectrum;  // written whole by forward()
+            spectrum.resize(fft->plan.spectrum_size());
             for (std::size_t ch = 0; ch < 3; ++ch) {
                 fft->plan.forward(row.data() + ch * uwidth, spectrum.data());
                 double* fc = f + ch * uorder;
@@ -372,13 +373,24 @@ ShCoefficients project_impl(int width, int height, int order, int threads, ShQua
     std::vector<double> xs(padded, 0.0);  // the lanes past the last pair hold 0
     parallel_for(height, threads, [&](int j) {
         const std::size_t uj = std::size_t(j);
-        std::vector<double> row(uwidth * 3), f(6 * uorder);
+        // Per thread, not per row: fresh vectors cost an allocation and a zero fill each row (every
+        // value read is written first: read_row fills `row`, fourier_sums all of `f`).
+        thread_local std::vector<double> row, f;
+        row.resize(uwidth * 3);
+        f.resize(6 * uorder);
         fourier_sums(j, row, f.data());
         for (std::size_t g = 0; g < groups; ++g) {
             const std::size_t m0 = g * kColumnGroup, mn = std::min(kColumnGroup, uorder - m0);
             double* dst = fourier.get() + (g * uheight + uj) * 6 * kColumnGroup;
-            for (std::size_t k = 0; k < 6; ++k)
-                std::copy_n(f.data() + k * uorder + m0, mn, dst + k * kColumnGroup);
+            // A whole group is a copy of fixed length, inlined; copy_n of a run-time count was a
+            // library call per 8 values (6 per group, 180 a row at order 236).
+            for (std::size_t k = 0; k < 6; ++k) {
+                const double* src = f.data() + k * uorder + m0;
+                if (mn == kColumnGroup)
+                    for (std::size_t i = 0; i < kColumnGroup; ++i) dst[k * kColumnGroup + i] = src[i];
+                else
+                    for (std::size_t i = 0; i < mn; ++i) dst[k * kColumnGroup + i] = src[i];
+            }
         }
         if (uj >= upairs) return;
         double s = 0;

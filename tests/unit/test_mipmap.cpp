@@ -145,6 +145,30 @@ TEST(MipmapLevel, ShrinksWithShininess) {
     }
 }
 
+// Built on demand (engine: SH plans read only level 0), the levels are those of the eager build,
+// in any order of asking; a released level 0 leaves the coarser ones readable.
+TEST(Pyramid, OnDemandLevelsEqualTheEagerOnesInAnyOrder) {
+    const HdrImage input = noise(128, 64, 17);
+    const Pyramid eager(input);
+    const Pyramid lazy(input, 2, Pyramid::Build::OnDemand);
+    ASSERT_EQ(lazy.levels(), eager.levels());
+    for (int k : {3, 1, 6, 0, 2, 5, 4}) {
+        const HdrImage& a = lazy.level(k);
+        const HdrImage& b = eager.level(k);
+        ASSERT_EQ(a.width(), b.width());
+        ASSERT_EQ(a.data(), b.data()) << "level " << k;
+    }
+    Pyramid released(input, 1, Pyramid::Build::OnDemand);
+    released.release_level(0);
+    EXPECT_TRUE(released.released(0));
+    EXPECT_THROW((void)released.level(0), std::logic_error);
+    EXPECT_EQ(released.level(5).data(), eager.level(5).data());
+    // Released with no coarser level to be read: none is built, and asking for one is a bug.
+    Pyramid done(input, 1, Pyramid::Build::OnDemand);
+    done.release_level(0, false);
+    EXPECT_THROW((void)done.level(2), std::logic_error);
+}
+
 TEST(MipmapConvolve, IrradianceOfA1024x512MapReadsTheFourRowLevel) {
     const Pyramid p(noise(1024, 512, 11));
     ASSERT_EQ(p.level(7).height(), 4);
