@@ -57,6 +57,7 @@ BrightSplit split_bright(HdrImage image, double contrast, int max_count, int thr
     const double mean = power / (4.0 * kPi);
 
     split.threshold = contrast * mean;
+    split.remainder_power = power;
     std::vector<std::vector<Candidate>> row_candidates(static_cast<std::size_t>(h));
     parallel_for(h, threads, [&](int j) {
         const float* row = input.row(j);
@@ -81,6 +82,15 @@ BrightSplit split_bright(HdrImage image, double contrast, int max_count, int thr
         const glm::dvec3 d = direction_from_angles(theta, phi);
         split.texels.push_back({d.x, d.y, d.z, theta, phi, l.r * om, l.g * om, l.b * om});
         split.remainder.set(c.i, c.j, {0, 0, 0});
+    }
+    // The rows that lost texels summed again; the total in the same order as max_channel_power.
+    std::vector<char> changed(std::size_t(h), 0);
+    for (const Candidate& c : candidates) changed[std::size_t(c.j)] = 1;
+    split.remainder_power = 0;
+    for (int j = 0; j < h; ++j) {
+        if (changed[std::size_t(j)])
+            row_power[std::size_t(j)] = max_channel_row_sum(input.row(j), w) * omega[std::size_t(j)];
+        split.remainder_power += row_power[std::size_t(j)];
     }
     return split;
 }

@@ -154,7 +154,9 @@ public:
     // Solid-angle mean of the largest channel of level k of the remainder.
     double remainder_mean(int k) {
         auto [it, inserted] = remainder_means_.try_emplace(k, 0.0);
-        if (inserted) it->second = max_channel_power(cone_pyramid().level(k)) / (4.0 * kPi);
+        // Level 0 is the bright split's remainder, whose power the split has summed.
+        if (inserted)
+            it->second = (k == 0 ? bright().remainder_power : max_channel_power(cone_pyramid().level(k))) / (4.0 * kPi);
         return it->second;
     }
     const ShCoefficients& sh(int order, int threads) {
