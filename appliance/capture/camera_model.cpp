@@ -43,6 +43,8 @@ std::optional<PixelCoord> project(const Intrinsics& k, const glm::dvec3& d, doub
     if (!(d.z < 0)) return std::nullopt;
     // One division: the accumulation projects every texel's taps three times a frame.
     const double inv_depth = 1.0 / -d.z;
+    // A depth too small for its reciprocal, or a focal length no calibration has: nothing seen.
+    if (!std::isfinite(inv_depth) || !(k.fx > 0 && k.fy > 0)) return std::nullopt;
     const double x = d.x * inv_depth;
     const double y = -d.y * inv_depth;
     // Far outside the image the distortion polynomial folds back; reject before evaluating it:

@@ -628,18 +628,24 @@ std::vector<MapResult> convolve_map(const HdrImage& env, HdrImage* consumable, c
                        split ? &shared.bright().texels : nullptr, [&](Size grid) { return sum_on(r, grid, map_threads, no_progress); },
                        split ? sum_texels : TexelSummer{});
         r.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
-        if (!batched[k])
-            for (int level : levels_read(r.plan)) {
-                bool last = false, coarser_read = false;
-                {
-                    const std::lock_guard lock(level_readers_mutex);
-                    last = --level_readers[level] == 0;
-                    for (auto it = level_readers.upper_bound(level); it != level_readers.end(); ++it)
-                        coarser_read = coarser_read || it->second > 0;
-                }
-                // Outside the count's lock: maps finishing do not wait.
-                if (last) shared.release_cone_level(level, coarser_read);
+        if (!batched[k]) {
+            // All of this map's levels counted down first (its own fallback level must not keep
+            // its input level's coarser neighbour alive), then the levels no map reads any more
+            // freed, under the count's lock: the decision that a coarser level is still read and
+            // the release it guards must not interleave with another map's release (a level built
+            // from one released meanwhile). Releasing is a free, or one halving when a coarser
+            // level is still to be read and not built yet.
+            const std::lock_guard lock(level_readers_mutex);
+            const std::vector<int> mine = levels_read(r.plan);
+            for (int level : mine) --level_readers[level];
+            for (int level : mine) {
+                if (level_readers[level] != 0) continue;
+                bool coarser_read = false;
+                for (auto it = level_readers.upper_bound(level); it != level_readers.end(); ++it)
+                    coarser_read = coarser_read || it->second > 0;
+                shared.release_cone_level(level, coarser_read);
             }
+        }
     };
     if (options.executor || threads == 1) {
         // The GPU engine owns one context, driven from this thread: maps in order.

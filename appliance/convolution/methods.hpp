@@ -34,7 +34,8 @@ struct BrightSplit {
     std::vector<BrightTexel> texels;
     HdrImage remainder;          // the input with those texels set to 0
     double threshold = 0;        // max channel above which a texel counted as bright
-    // max_channel_power(remainder), summed the same way (rows in order), without a pass of its own.
+    // max_channel_power(remainder), summed the same way (rows in order; equal up to the rounding
+    // of a multiply-add a compiler fuses), without a pass of its own.
     double remainder_power = 0;
 };
 // Texels whose largest channel exceeds `contrast` times the solid-angle mean of

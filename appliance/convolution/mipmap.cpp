@@ -63,6 +63,8 @@ Pyramid::Pyramid(HdrImage level0, int threads, Build build) : threads_(threads) 
 void Pyramid::build_through(int k) const {
     for (; built_ <= k; ++built_) {
         const std::size_t next = std::size_t(built_);
+        if (released_[next])
+            throw std::logic_error("pyramid level " + std::to_string(built_) + " was released before it was built");
         if (released_[next - 1])
             throw std::logic_error("pyramid level " + std::to_string(built_) + " is built from level " +
                                    std::to_string(built_ - 1) + ", which was released");
