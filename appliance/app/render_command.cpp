@@ -17,7 +17,6 @@
 #include <vector>
 
 #include "appliance/app/cli_util.hpp"
-#include "appliance/core/strict_number.hpp"
 #include "appliance/app/commands.hpp"
 #include "appliance/core/atomic_file.hpp"
 #include "appliance/core/errors.hpp"

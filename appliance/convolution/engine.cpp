@@ -71,7 +71,7 @@ public:
     // The caller handed the map over and no plan reads it whole: the bright split may zero its
     // bright texels in place instead of copying it (a 8192x4096 map is 400 MB).
     void allow_consuming(HdrImage* owned) { consumable_ = owned; }
-    // No plan reads the remainder's full-resolution level: freed once the coarser ones are built.
+    // No plan reads the remainder's full-resolution level: freed once level 1 is made from it.
     void release_level0_after_pyramid() { release_level0_ = true; }
     const PreparedLevel& full_level() {
         if (!full_) full_ = std::make_unique<PreparedLevel>(full_image(), threads_);
@@ -94,11 +94,9 @@ public:
         // The pyramid takes the remainder over (its level 0 is the remainder).
         if (!cone_pyramid_) {
             bright();
-            // Levels built as plans read them (an SH map reads only the input's level), unless
-            // level 0 is released at once: the others are made from it first.
-            cone_pyramid_ = std::make_unique<Pyramid>(std::move(bright_->remainder), threads_,
-                                                      release_level0_ ? Pyramid::Build::AllLevels
-                                                                      : Pyramid::Build::OnDemand);
+            // Levels built as plans read them (an SH map reads only the input's level); releasing
+            // level 0 builds level 1 first, the rest come from it.
+            cone_pyramid_ = std::make_unique<Pyramid>(std::move(bright_->remainder), threads_, Pyramid::Build::OnDemand);
             if (release_level0_) cone_pyramid_->release_level(0);
         }
         return *cone_pyramid_;
@@ -640,9 +638,8 @@ std::vector<MapResult> convolve_map(const HdrImage& env, HdrImage* consumable, c
             for (int level : mine) --level_readers[level];
             for (int level : mine) {
                 if (level_readers[level] != 0) continue;
-                bool coarser_read = false;
-                for (auto it = level_readers.upper_bound(level); it != level_readers.end(); ++it)
-                    coarser_read = coarser_read || it->second > 0;
+                const bool coarser_read = std::any_of(level_readers.upper_bound(level), level_readers.end(),
+                                                      [](const auto& readers) { return readers.second > 0; });
                 shared.release_cone_level(level, coarser_read);
             }
         }

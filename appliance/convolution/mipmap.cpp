@@ -52,9 +52,8 @@ void level_index_check(int k, int levels) {
 
 Pyramid::Pyramid(HdrImage level0, int threads, Build build) : threads_(threads) {
     if (level0.empty()) throw InputError("cannot build a pyramid of an empty map");
-    sizes_ = level_sizes({level0.width(), level0.height()});
-    levels_.resize(sizes_.size());
-    released_.assign(sizes_.size(), 0);
+    levels_.resize(level_sizes({level0.width(), level0.height()}).size());
+    released_.assign(levels_.size(), 0);
     levels_[0] = std::move(level0);
     built_ = 1;
     if (build == Build::AllLevels) build_through(levels() - 1);

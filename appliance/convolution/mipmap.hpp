@@ -26,7 +26,7 @@ public:
     enum class Build { AllLevels, OnDemand };
     // Throws InputError on an empty image; threads: for the halving.
     explicit Pyramid(HdrImage level0, int threads = 1, Build build = Build::AllLevels);
-    int levels() const { return int(sizes_.size()); }
+    int levels() const { return int(levels_.size()); }
     const HdrImage& level(int k) const;  // 0 = the input; throws std::out_of_range, or logic_error once released
     // Frees level k's texels (a level no plan reads: the full-resolution remainder of a large
     // input). coarser_read: coarser levels may still be asked for, so the next one is built
@@ -35,10 +35,11 @@ public:
     bool released(int k) const;
 
 private:
-    std::vector<Size> sizes_;
     int threads_;
     mutable std::mutex mutex_;  // guards building and the two vectors below
-    mutable std::vector<HdrImage> levels_;  // one per level; level k made once built_ > k
+    // One per level, sized once by the constructor (references stay valid); level k made once
+    // built_ > k.
+    mutable std::vector<HdrImage> levels_;
     mutable int built_ = 0;
     std::vector<char> released_;
     void build_through(int k) const;  // with mutex_ held
