@@ -318,11 +318,14 @@ HdrImage resample_cubic(const HdrImage& map, Size out, int threads, long long* c
         for (int k = 0; k < 4; ++k) idx[std::size_t(k)] = 3 * wrap(columns.back().first + k, w);
         column_index.push_back(idx);
     }
-    // Pass 1: every input row to the output's columns.
-    HdrImage across(out.width, h);
-    parallel_for(h, threads, [&](int j) {
+    // Pass 1 (an input row to the output's columns) feeds pass 2 (down the columns, across the
+    // poles) band by band: each band of output rows resamples across only the input rows it
+    // reads, into a buffer of its thread, so no whole map of pass-1 rows is ever made (25 MB of
+    // fresh pages for a 4096x2048 output from 512 rows). The band's rows of input are resampled
+    // once per band, not once per output row; a band of 16 rows four times finer re-does 3 of
+    // every 7. The arithmetic is the two passes' own, so the result is the same to the bit.
+    const auto across_row = [&](int j, float* dst) {
         const float* src = map.row(j);
-        float* dst = across.row(j);
         for (int i = 0; i < out.width; ++i) {
             const std::array<double, 4>& wt = columns[std::size_t(i)].weight;
             const std::array<int, 4>& idx = column_index[std::size_t(i)];
@@ -330,27 +333,48 @@ HdrImage resample_cubic(const HdrImage& map, Size out, int threads, long long* c
                 dst[3 * i + c] = float(wt[0] * src[idx[0] + c] + wt[1] * src[idx[1] + c] + wt[2] * src[idx[2] + c] +
                                        wt[3] * src[idx[3] + c]);
         }
-    });
-    // Pass 2: down the columns, continuing across the poles.
-    HdrImage result(out.width, out.height);
+    };
+    constexpr int kBandRows = 16;
+    const int bands = (out.height + kBandRows - 1) / kBandRows;
+    const std::size_t row_floats = 3 * std::size_t(out.width);
+    HdrImage result(out.width, out.height, HdrImage::Unwritten{});
     std::atomic<long long> negative{0};
-    parallel_for(out.height, threads, [&](int j) {
-        const Tap t = cubic_tap(j, out.height, h);
-        std::array<const float*, 4> rows;
-        std::array<std::vector<float>, 4> turned;
-        for (int k = 0; k < 4; ++k) rows[std::size_t(k)] = continued_row(across, t.first + k, turned[std::size_t(k)]);
-        const std::array<double, 4>& wt = t.weight;
-        float* dst = result.row(j);
-        long long below = 0;
-        for (int i = 0; i < 3 * out.width; ++i) {
-            double v = wt[0] * rows[0][i] + wt[1] * rows[1][i] + wt[2] * rows[2][i] + wt[3] * rows[3][i];
-            if (v < 0) {
-                v = 0;
-                ++below;
-            }
-            dst[i] = float(v);
+    parallel_for(bands, threads, [&](int band) {
+        const int j0 = band * kBandRows, j1 = std::min(out.height, j0 + kBandRows);
+        // Continued input rows first .. last (past the poles: rows mirrored and turned).
+        const int first = cubic_tap(j0, out.height, h).first, last = cubic_tap(j1 - 1, out.height, h).first + 3;
+        thread_local std::vector<float> across;  // rows first .. last resampled across
+        thread_local std::vector<float> turned;
+        across.resize(std::size_t(last - first + 1) * row_floats);
+        for (int k = first; k <= last; ++k) {
+            const RowTap t = row_across_pole(k, h, w);
+            float* dst = across.data() + std::size_t(k - first) * row_floats;
+            across_row(t.row, dst);
+            if (t.shift == 0) continue;
+            // Past a pole: the resampled row turned half a turn, as continued_row turns a map's row.
+            turned.assign(dst, dst + row_floats);
+            const int half = out.width / 2;
+            for (int i = 0; i < out.width; ++i)
+                for (int c = 0; c < 3; ++c) dst[3 * i + c] = turned[std::size_t(3 * wrap(i + half, out.width) + c)];
         }
-        if (lobes) lobes->apply_row(j, dst);
+        long long below = 0;
+        for (int j = j0; j < j1; ++j) {
+            const Tap t = cubic_tap(j, out.height, h);
+            std::array<const float*, 4> rows;
+            for (int k = 0; k < 4; ++k)
+                rows[std::size_t(k)] = across.data() + std::size_t(t.first + k - first) * row_floats;
+            const std::array<double, 4>& wt = t.weight;
+            float* dst = result.row(j);
+            for (std::size_t i = 0; i < row_floats; ++i) {
+                double v = wt[0] * rows[0][i] + wt[1] * rows[1][i] + wt[2] * rows[2][i] + wt[3] * rows[3][i];
+                if (v < 0) {
+                    v = 0;
+                    ++below;
+                }
+                dst[i] = float(v);
+            }
+            if (lobes) lobes->apply_row(j, dst);
+        }
         negative += below;
     });
     if (clamped) *clamped += negative.load();

@@ -1,6 +1,7 @@
 // HDR image storage and input sanitising.
 #include "appliance/core/hdr_image.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <string>
 
@@ -8,11 +9,15 @@
 
 namespace glint {
 
-HdrImage::HdrImage(int width, int height) : width_(width), height_(height) {
+HdrImage::HdrImage(int width, int height) : HdrImage(width, height, Unwritten{}) {
+    std::fill(data_.begin(), data_.end(), 0.0f);
+}
+
+HdrImage::HdrImage(int width, int height, Unwritten) : width_(width), height_(height) {
     if (width <= 0 || height <= 0)
         throw InputError("image size " + std::to_string(width) + "x" + std::to_string(height) +
                          " is empty");
-    data_.assign(std::size_t(width) * std::size_t(height) * 3, 0.0f);
+    data_.resize(std::size_t(width) * std::size_t(height) * 3);
 }
 
 SanitiseCounts sanitise(HdrImage& image) {

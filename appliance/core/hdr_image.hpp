@@ -3,6 +3,8 @@
 #pragma once
 
 #include <cstddef>
+#include <memory>
+#include <utility>
 #include <vector>
 
 namespace glint {
@@ -11,10 +13,38 @@ struct Rgb {
     float r = 0, g = 0, b = 0;
 };
 
+// std::allocator whose value-less construct() leaves a float as it is: a vector resized
+// without a value is not written, so the pages of a large buffer are first touched by the
+// threads that fill it, not by one thread's zero fill (on a VM a fresh page costs more than
+// writing it; docs/convolution.md, "Huge pages").
+template <typename T>
+struct UninitialisedAllocator : std::allocator<T> {
+    template <typename U>
+    struct rebind {
+        using other = UninitialisedAllocator<U>;
+    };
+    UninitialisedAllocator() = default;
+    template <typename U>
+    UninitialisedAllocator(const UninitialisedAllocator<U>&) noexcept {}
+    template <typename U>
+    void construct(U* p) noexcept {
+        ::new (static_cast<void*>(p)) U;
+    }
+    template <typename U, typename... Args>
+    void construct(U* p, Args&&... args) {
+        ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
+    }
+};
+
 class HdrImage {
 public:
+    using Storage = std::vector<float, UninitialisedAllocator<float>>;
+    // Marks a constructor whose texels are left unwritten, for a caller that writes all of them.
+    struct Unwritten {};
+
     HdrImage() = default;
     HdrImage(int width, int height);  // zero-filled; throws InputError on a 0 or negative size
+    HdrImage(int width, int height, Unwritten);  // every value must be written before it is read
 
     int width() const { return width_; }
     int height() const { return height_; }
@@ -33,13 +63,13 @@ public:
         p[1] = c.g;
         p[2] = c.b;
     }
-    std::vector<float>& data() { return data_; }
-    const std::vector<float>& data() const { return data_; }
+    Storage& data() { return data_; }
+    const Storage& data() const { return data_; }
 
 private:
     int width_ = 0;
     int height_ = 0;
-    std::vector<float> data_;
+    Storage data_;
 };
 
 // Counts of texels changed by sanitise() (conventions: "Radiance files").
