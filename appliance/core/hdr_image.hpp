@@ -3,9 +3,9 @@
 #pragma once
 
 #include <cstddef>
-#include <memory>
-#include <utility>
 #include <vector>
+
+#include "appliance/core/buffer.hpp"
 
 namespace glint {
 
@@ -13,32 +13,12 @@ struct Rgb {
     float r = 0, g = 0, b = 0;
 };
 
-// std::allocator whose value-less construct() leaves a float as it is: a vector resized
-// without a value is not written, so the pages of a large buffer are first touched by the
-// threads that fill it, not by one thread's zero fill (on a VM a fresh page costs more than
-// writing it; docs/convolution.md, "Huge pages").
-template <typename T>
-struct UninitialisedAllocator : std::allocator<T> {
-    template <typename U>
-    struct rebind {
-        using other = UninitialisedAllocator<U>;
-    };
-    UninitialisedAllocator() = default;
-    template <typename U>
-    UninitialisedAllocator(const UninitialisedAllocator<U>&) noexcept {}
-    template <typename U>
-    void construct(U* p) noexcept {
-        ::new (static_cast<void*>(p)) U;
-    }
-    template <typename U, typename... Args>
-    void construct(U* p, Args&&... args) {
-        ::new (static_cast<void*>(p)) U(std::forward<Args>(args)...);
-    }
-};
-
 class HdrImage {
 public:
-    using Storage = std::vector<float, UninitialisedAllocator<float>>;
+    // Not zeroed on allocation (buffer.hpp), so an image made Unwritten is first touched by the
+    // threads that fill it, not by one thread's zero fill (on a VM a fresh page costs more than
+    // writing it; docs/convolution.md, "Huge pages").
+    using Storage = UninitVector<float>;
     // Marks a constructor whose texels are left unwritten, for a caller that writes all of them.
     struct Unwritten {};
 
