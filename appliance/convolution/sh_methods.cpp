@@ -306,7 +306,7 @@ ShSplitResult sh_split_convolve(const ShCoefficients& remainder, const std::vect
     const double error_bound = fold > 0 ? bright_fold_plan.bound : sh_truncation_tail(n, sh_order) * remainder_mean;
     ShSplitResult result;
     result.bright_fold_order = fold;
-    result.image = HdrImage(out.width, out.height);
+    result.image = HdrImage(out.width, out.height, HdrImage::Unwritten{});  // every value written below
     float* o = result.image.data().data();
     std::vector<long long> failed(std::size_t(out.height), 0), clamped(std::size_t(out.height), 0);
     parallel_for(out.height, threads, [&](int row) {
