@@ -149,5 +149,6 @@ void main() {
     float wmean = (w.r + w.g + w.b) / 3.0;
     o_num = vec4(u_t * w * x, u_t * wmean);
     o_den = vec4(w * (u_t * u_t), 0.0);
-    o_aux = vec4(wmean, wmean >= u_min_weight ? 1.0 : 0.0, 0.0, 0.0);
+    // aux: the weight, a sample counted in coverage, and a read that did not clip (merge_bands).
+    o_aux = vec4(wmean, wmean >= u_min_weight ? 1.0 : 0.0, 1.0, 0.0);
 }

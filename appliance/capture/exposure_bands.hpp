@@ -31,6 +31,9 @@ namespace glint::capture {
 
 inline constexpr double kBandStops = 4;             // width of a band in stops of exposure x gain
 inline constexpr double kConfidentExposure = 0.02;  // 10x the read noise of the simulated sensor
+// A longer band is left out where a shorter band read the texel without clipping and at least
+// this share of the longer band's reads there clipped (merge_bands).
+inline constexpr double kMostlyClipped = 0.5;
 
 // The band of an exposure t (exposure x gain x sensitivity, > 0).
 inline int exposure_band(double t) { return int(std::floor(std::log2(t) / kBandStops)); }
@@ -58,6 +61,7 @@ struct BandTexel {
     double den[3];  // sum W t^2 per channel
     double wt;      // sum W t (W the mean of the channels' weights)
     double clipped; // reads of this band at this texel left out because they clipped
+    double reads;   // reads of this band at this texel that did not clip
     double t_min;   // shortest exposure of any frame in the band (the whole band, not this texel)
 };
 

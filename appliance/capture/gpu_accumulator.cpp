@@ -110,10 +110,11 @@ std::size_t readback_index(int i, int j, int w, int h) {
 }  // namespace
 
 HdrImage GpuAccumulator::radiance() const {
-    std::vector<std::vector<float>> num, den;
+    std::vector<std::vector<float>> num, den, aux;
     for (const Band& b : bands_) {
         num.push_back(b.targets->read(0));
         den.push_back(b.targets->read(1));
+        aux.push_back(b.targets->read(2));
     }
     HdrImage img(width_, height_);
     std::vector<BandTexel> texel(bands_.size());
@@ -127,6 +128,7 @@ HdrImage GpuAccumulator::radiance() const {
                 }
                 texel[b].wt = num[b][k + 3];
                 texel[b].clipped = den[b][k + 3];
+                texel[b].reads = aux[b][k + 2];
                 texel[b].t_min = bands_[b].t_min;
             }
             img.set(i, j, merge_bands(texel));

@@ -60,6 +60,7 @@ HdrAccumulator::Band& HdrAccumulator::band_for(double t) {
         b.den.assign(3 * n, 0.0f);
         b.wt.assign(n, 0.0f);
         b.clipped.assign(n, 0.0f);
+        b.reads.assign(n, 0.0f);
         return b;
     });
 }
@@ -81,6 +82,14 @@ std::vector<float> HdrAccumulator::filtered_planes(const CameraFrame& frame, con
     out_height = k.height / s;
     std::array<double, 256> weight{};
     for (int z = 0; z < 256; ++z) weight[std::size_t(z)] = code_weight(z);
+    // Code 0 holds every read whose signal plus read noise fell at or below zero: linearised as 0,
+    // a dark pixel averages 0.4 sigma too bright, which the shortest brackets multiply into
+    // radiance (sigma 0.002 at t = 1.7e-7 is ~5e3). With the calibration's read noise, code 0 is
+    // the mean of a zero signal's noise below zero, -sigma sqrt(2 / pi), so a zero signal
+    // averages to zero (a weak signal is left at most -0.05 sigma).
+    std::array<double, 256> linear{};
+    for (int z = 0; z < 256; ++z) linear[std::size_t(z)] = cal.response.inverse[std::size_t(z)];
+    if (cal.noise_read > 0) linear[0] = std::min(linear[0], -cal.noise_read * std::sqrt(2.0 / kPi));
     std::vector<float> planes(std::size_t(out_width) * std::size_t(out_height) * kPlaneFloats, 0.0f);
     const double inv_area = 1.0 / (double(s) * s);
     for (int V = 0; V < out_height; ++V)
@@ -97,7 +106,7 @@ std::vector<float> HdrAccumulator::filtered_planes(const CameraFrame& frame, con
                         const std::uint8_t z = row[3 * u + c];
                         const double wz = weight[z];
                         invalid = invalid || z == 255;
-                        p[c] += cal.response.inverse[z] * inv_v;
+                        p[c] += linear[z] * inv_v;
                         w[c] += wz;
                     }
                 }
@@ -370,6 +379,7 @@ FrameContribution HdrAccumulator::add_frame(const CameraFrame& frame, const Came
             }
             wmean /= 3;
             band.wt[texel] += float(wmean * t);
+            band.reads[texel] += 1.0f;
             weight_sum_[texel] += float(wmean);
             if (wmean >= settings_.min_weight) {
                 ++samples_[texel];
@@ -396,6 +406,7 @@ Rgb HdrAccumulator::merged(std::size_t k, std::vector<BandTexel>& texel) const {
         }
         x.wt = band.wt[k];
         x.clipped = band.clipped[k];
+        x.reads = band.reads[k];
         x.t_min = band.t_min;
     }
     return merge_bands(texel);

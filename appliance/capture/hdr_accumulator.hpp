@@ -153,6 +153,7 @@ private:
         std::vector<float> den;  // 3 per texel: sum W t^2
         std::vector<float> wt;   // 1 per texel: sum W t
         std::vector<float> clipped;  // 1 per texel: reads of this band left out as clipped
+        std::vector<float> reads;    // 1 per texel: reads of this band that did not clip
     };
     Band& band_for(double t);
     Rgb merged(std::size_t texel, std::vector<BandTexel>& scratch) const;

@@ -15,6 +15,7 @@ BandTexel frame_sums(double e, double t, double w, double t_min) {
         b.den[c] = w * t * t;
     }
     b.wt = w * t;
+    b.reads = 1;
     b.t_min = t_min;
     return b;
 }
@@ -71,8 +72,39 @@ TEST(ExposureBands, ClippedReadsDoNotHandATexelToAShortBandInItsNoise) {
     // reads' footprints, so such a texel is mostly the room).
     BandTexel longer = frame_sums(3, 0.02, 1.0, 0.01);
     longer.clipped = 2;
+    longer.reads = 10;
     const std::vector<BandTexel> bands{frame_sums(40, 1e-4, 0.3, 1e-4), longer};
     EXPECT_NEAR(merge_bands(bands).r, 3.0, 0.01);
+}
+
+TEST(ExposureBands, ALongBandMostlyClippedIsLeftOutWhereAShortBandReadUnclipped) {
+    // At the rim of a small source: the short band read the texel unclipped in every frame, 80,
+    // but only at a relative exposure of 0.008 (not "confident"); 10 of the long band's 12 reads
+    // clipped, and its 2 others, from frames that placed the texel off the source, say 3. With
+    // Robertson's t^2 weight those 2 would outweigh the short band: the long band is left out.
+    BandTexel longer = frame_sums(3, 0.02, 1.0, 0.01);
+    longer.clipped = 10;
+    longer.reads = 2;
+    const std::vector<BandTexel> bands{frame_sums(80, 1e-4, 0.3, 1e-4), longer};
+    EXPECT_NEAR(merge_bands(bands).r, 80.0, 1e-3);
+    // Half of them clipped: still left out; fewer than half: kept (the texel is mostly the room).
+    longer.clipped = 2;
+    EXPECT_NEAR(merge_bands(bands).r, 80.0, 1e-3);
+    longer.clipped = 1;
+    const std::vector<BandTexel> kept{frame_sums(80, 1e-4, 0.3, 1e-4), longer};
+    EXPECT_LT(merge_bands(kept).r, 10.0f);
+    // A short band that clipped there itself is no unclipped read of it: the long band stays.
+    BandTexel clipped_short = frame_sums(80, 1e-4, 0.3, 1e-4);
+    clipped_short.clipped = 1;
+    longer.clipped = 10;
+    const std::vector<BandTexel> both_clipped{clipped_short, longer};
+    EXPECT_LT(merge_bands(both_clipped).r, 10.0f);
+}
+
+TEST(ExposureBands, NoTexelIsNegative) {
+    // Dark reads are unbiased, so the dark averages about zero, sometimes below: reported as 0.
+    const std::vector<BandTexel> bands{frame_sums(-0.5, 0.02, 1.0, 0.02)};
+    EXPECT_EQ(merge_bands(bands).r, 0.0f);
 }
 
 TEST(ExposureBands, NoWeightGivesZero) {

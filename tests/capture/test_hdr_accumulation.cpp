@@ -1,5 +1,6 @@
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "appliance/capture/hdr_accumulator.hpp"
@@ -209,6 +210,27 @@ TEST(HdrAccumulation, AClippedTexelGetsNoEstimateFromThatFrame) {
     EXPECT_EQ(acc.radiance().at(int(lamp.x), int(lamp.y)).r, 0.0f);
     const TexelCoord side = direction_to_texel({std::sin(20 * kDeg), 0, -std::cos(20 * kDeg)}, 256, 128);
     EXPECT_EQ(acc.samples()[std::size_t(int(side.y)) * 256 + std::size_t(int(side.x))], 1u);
+}
+
+TEST(HdrAccumulation, ADarkReadStandsForTheMeanOfTheReadNoiseItClipped) {
+    // Code 0 holds every read whose signal plus read noise fell at or below zero. With the
+    // calibration's read noise sigma it is linearised as the mean of a zero signal's noise below
+    // zero, -sigma sqrt(2 / pi) (over the vignetting), so a zero signal averages to zero: half
+    // its reads are code 0, the rest the noise above zero, whose mean is +sigma sqrt(2 / pi).
+    // Without a noise model code 0 is the response's own value.
+    SensorModel sensor;
+    CameraCalibration cal = test_camera(sensor);
+    cal.vignetting = {0, 0, 0};
+    CameraFrame frame;
+    frame.rgb = cv::Mat(cal.intrinsics.height, cal.intrinsics.width, CV_8UC3, cv::Scalar(0, 0, 0));
+    int pw = 0, ph = 0;
+    const std::vector<float> plain = HdrAccumulator::filtered_planes(frame, cal, 1, pw, ph);
+    EXPECT_EQ(plain[0], float(cal.response.inverse[0]));
+    cal.noise_read = 0.002;
+    const std::vector<float> dark = HdrAccumulator::filtered_planes(frame, cal, 1, pw, ph);
+    const double want = std::min(cal.response.inverse[0], -0.002 * std::sqrt(2.0 / kPi));
+    for (int c = 0; c < 3; ++c) EXPECT_NEAR(dark[std::size_t(c)], want, 1e-9) << c;
+    EXPECT_EQ(dark[6], 0.0f) << "a dark read is valid";
 }
 
 TEST(HdrAccumulation, NoisyAutoExposedFramesAverageDown) {
