@@ -173,7 +173,9 @@ std::vector<std::uint8_t> HdrAccumulator::footprint_zone(const std::vector<float
     // on studio (100 -> 63 of 154, measured with a box filter of the same width).
     const auto xmax = [&](int u, int v) {
         const float* c = planes.data() + (std::size_t(v) * std::size_t(pw) + std::size_t(u)) * kPlaneFloats;
-        return c[6] > 0 ? 1e30 : std::max({double(c[0]), double(c[1]), double(c[2])});
+        // At least 0: a dark cell's unbiased code 0 reads below zero, and 8x a negative minimum
+        // would put every dark neighbourhood in the zone.
+        return c[6] > 0 ? 1e30 : std::max({0.0, double(c[0]), double(c[1]), double(c[2])});
     };
     std::vector<std::uint8_t> zone(std::size_t(pw) * std::size_t(ph), 0);
     constexpr int kReach = 2;

@@ -347,15 +347,15 @@ HdrImage resample_cubic(const HdrImage& map, Size out, int threads, long long* c
         thread_local std::vector<float> turned;
         across.resize(std::size_t(last - first + 1) * row_floats);
         for (int k = first; k <= last; ++k) {
-            const RowTap t = row_across_pole(k, h, w);
+            // Past a pole: the resampled row turned half a turn of the output's columns, as
+            // continued_row turns a row of a map as wide as the output.
+            const RowTap t = row_across_pole(k, h, out.width);
             float* dst = across.data() + std::size_t(k - first) * row_floats;
             across_row(t.row, dst);
             if (t.shift == 0) continue;
-            // Past a pole: the resampled row turned half a turn, as continued_row turns a map's row.
             turned.assign(dst, dst + row_floats);
-            const int half = out.width / 2;
             for (int i = 0; i < out.width; ++i)
-                for (int c = 0; c < 3; ++c) dst[3 * i + c] = turned[std::size_t(3 * wrap(i + half, out.width) + c)];
+                for (int c = 0; c < 3; ++c) dst[3 * i + c] = turned[std::size_t(3 * wrap(i + t.shift, out.width) + c)];
         }
         long long below = 0;
         for (int j = j0; j < j1; ++j) {

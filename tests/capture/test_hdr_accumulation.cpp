@@ -233,6 +233,22 @@ TEST(HdrAccumulation, ADarkReadStandsForTheMeanOfTheReadNoiseItClipped) {
     EXPECT_EQ(dark[6], 0.0f) << "a dark read is valid";
 }
 
+TEST(HdrAccumulation, DarkCellsBelowZeroAreNoBrightFeature) {
+    // Unbiased dark reads are below zero: a dark frame has no bright-feature zone (8x a negative
+    // minimum would have put all of it there), a bright cell in it has one round it.
+    const int pw = 12, ph = 9;
+    std::vector<float> planes(std::size_t(pw) * ph * HdrAccumulator::kPlaneFloats, 0.0f);
+    for (std::size_t k = 0; k < std::size_t(pw) * ph; ++k)
+        for (int c = 0; c < 3; ++c) planes[k * HdrAccumulator::kPlaneFloats + std::size_t(c)] = -0.0016f;
+    std::vector<std::uint8_t> zone = HdrAccumulator::footprint_zone(planes, pw, ph);
+    EXPECT_EQ(std::count(zone.begin(), zone.end(), 1), 0);
+    planes[(4 * std::size_t(pw) + 6) * HdrAccumulator::kPlaneFloats] = 0.5f;
+    zone = HdrAccumulator::footprint_zone(planes, pw, ph);
+    EXPECT_EQ(zone[4 * std::size_t(pw) + 6], 1);
+    EXPECT_EQ(zone[4 * std::size_t(pw) + 8], 1);
+    EXPECT_EQ(zone[4 * std::size_t(pw) + 1], 0);
+}
+
 TEST(HdrAccumulation, NoisyAutoExposedFramesAverageDown) {
     // Shot and read noise with the auto-exposure loop drifting between frames: overlapping frames
     // (every texel seen by ~4) still land within a few percent of the sky.

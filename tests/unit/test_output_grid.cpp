@@ -105,7 +105,7 @@ TEST(OutputGrid, ResamplingIsItsTwoSeparablePassesAtAnySizeAndThreadCount) {
     std::mt19937 rng(11);
     std::uniform_real_distribution<double> u(0.0, 1.0);
     for (const auto& [in, out] : std::vector<std::pair<Size, Size>>{
-             {{64, 32}, {256, 128}}, {{64, 32}, {100, 50}}, {{31, 15}, {61, 37}}, {{48, 24}, {96, 48}}, {{40, 20}, {40, 20}}}) {
+             {{64, 32}, {256, 128}}, {{64, 32}, {100, 50}}, {{31, 15}, {61, 37}}, {{48, 24}, {96, 48}}, {{40, 20}, {40, 20}}, {{1, 6}, {4, 12}}}) {
         HdrImage m(in.width, in.height);
         for (float& v : m.data()) v = float(u(rng) < 0.05 ? 100.0 * u(rng) : u(rng));
         long long expected_clamped = 0;
@@ -119,7 +119,7 @@ TEST(OutputGrid, ResamplingIsItsTwoSeparablePassesAtAnySizeAndThreadCount) {
                 ASSERT_NEAR(r.data()[k], expected.data()[k], 1e-5 * (1.0 + std::abs(expected.data()[k])))
                     << in.width << "x" << in.height << " -> " << out.width << "x" << out.height << ", value " << k;
             EXPECT_NEAR(double(clamped), double(expected_clamped), 2.0 + 1e-3 * double(expected_clamped));
-            if (out.width != in.width) {
+            if (out.width != in.width && in.width > 1) {  // a one-column map has too few spikes
                 EXPECT_GT(expected_clamped, 0) << "the spikes should overshoot between texels";
             }
         }
