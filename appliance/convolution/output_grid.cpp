@@ -30,6 +30,12 @@ int wrap(int i, int width) {
     return m < 0 ? m + width : m;
 }
 
+// A row of `width` texels turned by `shift` columns into `dst` (not `src`).
+void copy_turned(const float* src, int width, int shift, float* dst) {
+    for (int i = 0; i < width; ++i)
+        for (int c = 0; c < 3; ++c) dst[3 * i + c] = src[3 * wrap(i + shift, width) + c];
+}
+
 // Row k of `map` continued across the poles (row_across_pole): a pointer into the map, or, for
 // a row past a pole, into `scratch`, which receives the mirrored row turned half a turn.
 const float* continued_row(const HdrImage& map, int k, std::vector<float>& scratch) {
@@ -37,9 +43,7 @@ const float* continued_row(const HdrImage& map, int k, std::vector<float>& scrat
     const RowTap t = row_across_pole(k, map.height(), w);
     if (t.shift == 0) return map.row(t.row);
     scratch.resize(std::size_t(3 * w));
-    const float* src = map.row(t.row);
-    for (int i = 0; i < w; ++i)
-        for (int c = 0; c < 3; ++c) scratch[std::size_t(3 * i + c)] = src[3 * wrap(i + t.shift, w) + c];
+    copy_turned(map.row(t.row), w, t.shift, scratch.data());
     return scratch.data();
 }
 
@@ -354,8 +358,7 @@ HdrImage resample_cubic(const HdrImage& map, Size out, int threads, long long* c
             across_row(t.row, dst);
             if (t.shift == 0) continue;
             turned.assign(dst, dst + row_floats);
-            for (int i = 0; i < out.width; ++i)
-                for (int c = 0; c < 3; ++c) dst[3 * i + c] = turned[std::size_t(3 * wrap(i + t.shift, out.width) + c)];
+            copy_turned(turned.data(), out.width, t.shift, dst);
         }
         long long below = 0;
         for (int j = j0; j < j1; ++j) {
