@@ -1,6 +1,9 @@
 #include "appliance/core/memory.hpp"
 
+#include "appliance/core/buffer.hpp"
+
 #include <dlfcn.h>
+#include <sys/mman.h>
 #include <unistd.h>
 
 #include <cstdint>
@@ -129,6 +132,16 @@ void reexec_with_huge_pages(char** argv) {
     if (setenv("GLIBC_TUNABLES", wanted.c_str(), 1) != 0) return;
     execv("/proc/self/exe", argv);
     // Still here: run as we are (the variable stays set for children, which is harmless).
+}
+
+void advise_huge_pages(void* p, std::size_t bytes) noexcept {
+    constexpr std::uintptr_t kHuge = std::uintptr_t(2) << 20;
+    if (p == nullptr || bytes < 2 * kHuge) return;
+    // Only whole 2 MiB pages inside the block: madvise wants a page-aligned start, and a huge
+    // page that reached past the block would be shared with whatever malloc put beside it.
+    const std::uintptr_t begin = (reinterpret_cast<std::uintptr_t>(p) + kHuge - 1) & ~(kHuge - 1);
+    const std::uintptr_t end = (reinterpret_cast<std::uintptr_t>(p) + bytes) & ~(kHuge - 1);
+    if (end > begin) (void)madvise(reinterpret_cast<void*>(begin), end - begin, MADV_HUGEPAGE);
 }
 
 }  // namespace glint

@@ -8,10 +8,14 @@
 #include <unistd.h>
 
 #include <chrono>
+#include <cstdint>
 #include <cstdlib>
+#include <fstream>
+#include <sstream>
 #include <string>
 #include <thread>
 
+#include "appliance/core/buffer.hpp"
 #include "appliance/core/memory.hpp"
 #include "appliance/core/progress.hpp"
 
@@ -102,6 +106,48 @@ TEST(KeepFreedMemory, LargeBuffersComeFromTheHeapNotFromMmap) {
     void* again = std::malloc(bytes);
     EXPECT_EQ(mallinfo2().arena, arena_before) << "the heap grew again for a block it had freed";
     std::free(again);
+}
+
+// The kernel's transparent huge page mode, as /sys shows it ("always", "madvise", "never"), or ""
+// when the kernel has none.
+static std::string transparent_huge_page_mode() {
+    std::ifstream in("/sys/kernel/mm/transparent_hugepage/enabled");
+    std::string line;
+    std::getline(in, line);
+    const std::size_t open = line.find('['), close = line.find(']');
+    return open == std::string::npos || close == std::string::npos ? "" : line.substr(open + 1, close - open - 1);
+}
+
+// The THPeligible field of the mapping in /proc/self/smaps that holds `address`, or -1.
+static int huge_page_eligible(std::uintptr_t address) {
+    std::ifstream in("/proc/self/smaps");
+    std::string line;
+    bool inside = false;
+    while (std::getline(in, line)) {
+        std::uintptr_t begin = 0, end = 0;
+        char dash = 0;
+        std::istringstream head(line);
+        if (head >> std::hex >> begin >> dash >> end && dash == '-' && line.find(':') > line.find(' ')) {
+            inside = begin <= address && address < end;
+            continue;
+        }
+        if (inside && line.rfind("THPeligible:", 0) == 0) return std::stoi(line.substr(12));
+    }
+    return -1;
+}
+
+// buffer.hpp's allocator advises huge pages for a large buffer (a 100 MB map is then 50 faults,
+// not 25,000), whole 2 MiB pages inside the block only.
+TEST(UninitVector, LargeBuffersAreAdvisedHugePages) {
+    const std::string mode = transparent_huge_page_mode();
+    if (mode != "madvise" && mode != "always")
+        GTEST_SKIP() << "transparent huge pages are '" << mode << "' on this kernel: no advice can show";
+    glint::UninitVector<float> big;
+    big.resize(std::size_t(4) << 20);  // 16 MiB
+    const auto begin = reinterpret_cast<std::uintptr_t>(big.data());
+    const std::uintptr_t huge = std::uintptr_t(2) << 20;
+    const std::uintptr_t inside = (begin + huge - 1) / huge * huge + huge;  // a whole huge page in it
+    EXPECT_EQ(huge_page_eligible(inside), 1) << "mode " << mode;
 }
 
 // The allocator's own figures (core/memory.hpp, heap_usage): this test program runs on glibc (on
