@@ -33,3 +33,68 @@ vec3 equirect_bilinear(highp sampler2D map, vec3 d) {
     vec3 bottom = mix(texelFetch(map, ivec2(x0, y1), 0).rgb, texelFetch(map, ivec2(x1, y1), 0).rgb, ax);
     return mix(top, bottom, ay);
 }
+
+// The lobe lookup of a map whose lobe is narrower than half its texel spacing (report.json
+// "lookup": "lobe"; sample_lobe in appliance/core/equirect.cpp, the same steps in float): the map
+// holds the environment's own texels, and the conventions' sum E^n(d) is taken over those whose
+// weight is within exp(-20) of the texel d falls in (below float's precision), found by the
+// haversine of the angle to each centre, so none is missed across the seam or a pole. One pass:
+// the sums are rescaled whenever a larger weight turns up (weights relative to the largest, as
+// the conventions take them, never overflow).
+vec3 equirect_lobe(highp sampler2D map, vec3 d, float n) {
+    ivec2 size = textureSize(map, 0);
+    float w = float(size.x);
+    float h = float(size.y);
+    float phi_r = atan(d.x, -d.z);
+    float theta_r = atan(length(d.xz), d.y);
+    float sin_r = sin(theta_r);
+    float dphi = TWO_PI / w;
+    int i0 = clamp(int(floor((phi_r + PI) / dphi)), 0, size.x - 1);
+    int j0 = clamp(int(floor(theta_r / PI * h)), 0, size.y - 1);
+    float a0 = sin(0.5 * (theta_r - row_theta(j0, size.y)));
+    float b0 = sin(0.5 * (phi_r - column_phi(i0, size.x)));
+    float h0 = a0 * a0 + sin_r * sin(row_theta(j0, size.y)) * b0 * b0;
+    float reach = min(1.0, h0 + 20.0 / (2.0 * n));
+    float max_dtheta = 2.0 * asin(sqrt(reach));
+    int j_lo = max(0, int(floor((theta_r - max_dtheta) / PI * h - 0.5)));
+    int j_hi = min(size.y - 1, int(ceil((theta_r + max_dtheta) / PI * h - 0.5)));
+    float best = -1e30;
+    vec3 sum = vec3(0.0);
+    float norm = 0.0;
+    for (int j = j_lo; j <= j_hi; ++j) {
+        float theta_k = row_theta(j, size.y);
+        float sin_k = sin(theta_k);
+        float a = sin(0.5 * (theta_r - theta_k));
+        float rest = reach - a * a;
+        if (rest < 0.0) continue;
+        float across = sin_r * sin_k;
+        int i_lo = 0;
+        int count = size.x;
+        if (across > rest) {
+            float max_dphi = 2.0 * asin(sqrt(rest / across));
+            i_lo = int(floor((phi_r - max_dphi + PI) / dphi - 0.5));
+            count = min(size.x, int(ceil((phi_r + max_dphi + PI) / dphi - 0.5)) - i_lo + 1);
+        }
+        // The row's solid angle dphi (cos(theta_top) - cos(theta_bottom)), as a product.
+        float log_omega = log(dphi * 2.0 * sin_k * sin(0.5 * PI / h));
+        for (int c = 0; c < count; ++c) {
+            int i = i_lo + c;
+            if (i < 0) i += size.x;
+            if (i >= size.x) i -= size.x;
+            float b = sin(0.5 * (phi_r - column_phi(i, size.x)));
+            float hk = a * a + across * b * b;
+            if (hk > reach || hk >= 0.5) continue;
+            float lw = n * log1m(2.0 * hk) + log_omega;
+            if (lw > best) {
+                float scale = exp(best - lw);
+                sum *= scale;
+                norm *= scale;
+                best = lw;
+            }
+            float wk = exp(lw - best);
+            sum += wk * texelFetch(map, ivec2(i, j), 0).rgb;
+            norm += wk;
+        }
+    }
+    return norm > 0.0 ? sum / norm : texelFetch(map, ivec2(i0, j0), 0).rgb;
+}

@@ -10,6 +10,7 @@ uniform highp sampler2D u_irradiance;
 uniform highp sampler2D u_reflection;
 uniform bool u_diffuse;   // kd > 0: the irradiance map is bound
 uniform bool u_specular;  // ks > 0: the reflection map is bound
+uniform float u_reflection_lobe;  // > 0: the map is read through this lobe (report.json "lookup": "lobe")
 uniform vec3 u_eye;
 uniform vec3 u_kd;
 uniform vec3 u_ks;
@@ -28,7 +29,9 @@ void main() {
     vec3 r = normalize(reflect(v, n));
     vec3 radiance = vec3(0.0);
     if (u_diffuse) radiance += u_kd * equirect_bilinear(u_irradiance, n) * v_ao;
-    if (u_specular) radiance += u_ks * equirect_bilinear(u_reflection, r);
+    if (u_specular)
+        radiance += u_ks * (u_reflection_lobe > 0.0 ? equirect_lobe(u_reflection, r, u_reflection_lobe)
+                                                    : equirect_bilinear(u_reflection, r));
     radiance = min(radiance, vec3(u_radiance_cap));
     o_radiance = vec4(radiance, 1.0);
     o_normal = vec4(n, 1.0);

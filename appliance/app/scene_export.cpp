@@ -73,13 +73,14 @@ ExportResult export_scene(std::uint8_t items, const ExportSources& from, const f
         const HdrImage* image;
         fs::path name;
         std::string from;
+        MapLookup lookup = MapLookup::Bilinear;  // how a reader reads it between texels (maps.json)
     };
     std::vector<MapToWrite> maps;
     if ((items & 2) && from.shading_maps) {
         const render::ShadingMaps& m = *from.shading_maps;
         if (m.irradiance) maps.push_back({&*m.irradiance, "maps/irradiance.exr", m.irradiance_from});
         for (const render::ReflectionMap& r : m.reflections)
-            maps.push_back({&r.image, fs::path("maps") / (r.request.label + ".exr"), r.from});
+            maps.push_back({&r.image, fs::path("maps") / (r.request.label + ".exr"), r.from, r.lookup});
     }
     if (files.empty() && maps.empty())
         throw InputError("export: nothing to export (no map, frames or sessions of the kinds asked for)");
@@ -103,7 +104,8 @@ ExportResult export_scene(std::uint8_t items, const ExportSources& from, const f
                 save_exr(partial / m.name, *m.image, ExrCompression::None);  // synced by save_exr
                 r.bytes += fs::file_size(partial / m.name);
                 ++r.files;
-                index[m.name.filename().string()] = {{"width", m.image->width()}, {"height", m.image->height()}, {"from", m.from}};
+                index[m.name.filename().string()] = {{"width", m.image->width()}, {"height", m.image->height()}, {"from", m.from},
+                                                    {"lookup", to_string(m.lookup)}};
             }
             write_text_atomically(partial / "maps" / "maps.json", index.dump(2) + "\n");
             r.bytes += fs::file_size(partial / "maps" / "maps.json");

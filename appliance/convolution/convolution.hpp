@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "appliance/core/equirect.hpp"
 #include "appliance/core/hdr_image.hpp"
 
 namespace glint::convolution {
@@ -80,10 +81,16 @@ struct MapPlan {
     Size sum_size;
     bool size_fixed = false;         // output_size was given (--size or MapRequest::size)
     std::string size_reason;         // why output_size is what it is (report.json)
-    // Predicted weighted RMS of bilinear lookups between output texels (measured on the map by
-    // estimate_lookup_error; counted in predicted_error except for a lobe narrower than half the
-    // input's texels, where size_reason says so; 0 for a fixed size or the mirror).
+    // Predicted weighted RMS of lookups between output texels (bilinear: measured on the map by
+    // estimate_lookup_error; the lobe lookup: its truncation, below 1e-9), counted in
+    // predicted_error; 0 for a fixed size or the mirror.
     double lookup_error = 0;
+    // How the map is read between its texels. Bilinear, but for a lobe narrower than half the
+    // input's texel spacing without a fixed size: then the map is the input's own texels and a
+    // reader applies the lobe (sample_lobe, core/equirect.hpp; report.json "lookup": "lobe"),
+    // because between texel centres the exact sum is a step no grid resolves for bilinear
+    // lookups (docs/convolution.md, "The lobe lookup").
+    MapLookup lookup = MapLookup::Bilinear;
     double cutoff_cos = -1;          // cos of the cut-off angle, -1 = whole sphere
     // The cone's settings for this lobe and tolerance: how a cone plan runs, and
     // how auto's sh with the bright split computes its rows that fail the

@@ -289,7 +289,7 @@ std::string percent(double v) {
 // miss its share of tau, `sum_on` sums the plan again on the finer grid, or, where that
 // happens near few texels, `sum_texels` (if given) sums just the finer grid's texels there.
 using TexelSummer = std::function<void(Size, const TexelSelection&, HdrImage& into)>;
-void deliver_output(MapResult& r, Size input, double tau, const PlannerModel& model, int threads,
+void deliver_output(MapResult& r, double tau, const PlannerModel& model, int threads,
                     const std::vector<BrightTexel>* bright, const std::function<HdrImage(Size)>& sum_on,
                     const TexelSummer& sum_texels) {
     MapPlan& p = r.plan;
@@ -375,17 +375,6 @@ void deliver_output(MapResult& r, Size input, double tau, const PlannerModel& mo
     };
     if (resampled_fixed) {
         refine(p.output_size, "fixed by the request", nullptr);
-        return;
-    }
-    if (lobe_narrower_than_input(n, input)) {
-        // A bright texel is then an area light much larger than the lobe, not a point: its
-        // lobe between texels is the input's own interpolation too. The estimate is reported
-        // (lookup_error) but not counted in the prediction.
-        const LookupError step = estimate_lookup_error(r.image, threads);
-        p.lookup_error = step.bilinear_rms;
-        p.size_reason = "the input's grid: the lobe is narrower than half the input's texel spacing, so lookups "
-                        "between texels interpolate the input itself, as for the mirror (not counted: against the "
-                        "point-sampled sum they err " + percent(step.bilinear_rms) + " RMS)";
         return;
     }
     const LookupError e = estimate_lookup_error(r.image, threads);
@@ -622,7 +611,7 @@ std::vector<MapResult> convolve_map(const HdrImage& env, HdrImage* consumable, c
                           no_progress, &stats, selection.rows, backend.get(), &selection.runs, &into);
             r.refined_texels += stats.refined_texels;
         };
-        deliver_output(r, input_size, options.tolerance, model, map_threads,
+        deliver_output(r, options.tolerance, model, map_threads,
                        split ? &shared.bright().texels : nullptr, [&](Size grid) { return sum_on(r, grid, map_threads, no_progress); },
                        split ? sum_texels : TexelSummer{});
         r.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();

@@ -19,6 +19,7 @@
 
 #include <glm/glm.hpp>
 
+#include "appliance/core/equirect.hpp"
 #include "appliance/core/hdr_image.hpp"
 
 namespace glint::convolution {
@@ -79,7 +80,9 @@ struct OffGridError {
 // from its own random stream (seed, i), and the sums are taken in sample order,
 // so the result does not depend on `threads` (<= 0: all hardware threads).
 // Throws InputError on an empty image, samples < 1, or a bad shininess.
+// `lookup`: how the renderer reads `map` (MapPlan::lookup, report.json's "lookup": the lobe
+// lookup for a lobe narrower than half the input's texels, whose map holds the input's texels).
 OffGridError measure_offgrid_error(const HdrImage& input, const HdrImage& map, double shininess, int samples,
-                                   std::uint64_t seed, int threads);
+                                   std::uint64_t seed, int threads, MapLookup lookup = MapLookup::Bilinear);
 
 }  // namespace glint::convolution

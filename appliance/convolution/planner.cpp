@@ -135,6 +135,25 @@ MapPlan plan_map(const MapRequest& request, const Options& options, const Enviro
         plan.size_reason = fixed ? "fixed by the request" : "the input's grid (mirror)";
         return plan;
     }
+    if (!fixed && lobe_narrower_than_input(n, env.input)) {
+        // The lobe lookup: the map is the input's texels (the mirror's map at the input's grid,
+        // its computation), and the reader sums the lobe over the few texels near each direction
+        // (sample_lobe). It skips only terms below exp(-kLobeLookupSpan) of the largest.
+        plan.method = Method::Mirror;
+        plan.lookup = MapLookup::Lobe;
+        plan.input_level = 0;
+        plan.input_size = env.input;
+        plan.output_size = plan.sum_size = env.input;
+        plan.cutoff_cos = -1;
+        plan.lookup_error = 0;
+        plan.predicted_error = 0;
+        plan.predicted_cost = double(texels(env.input));
+        plan.size_reason = "the input's grid, read through the lobe: it is narrower than half the input's texel "
+                           "spacing, so between texel centres the exact sum is a step that bilinear lookups of no "
+                           "grid follow; the map holds the input's texels and a reader applies the lobe to them "
+                           "(lookup \"lobe\")";
+        return plan;
+    }
     // Only the cone sums at a coarser grid than a fixed output and resamples (exact and
     // mipmap are what they are at the size asked; SH reconstructs at any size).
     const bool may_resample = fixed && grid.height < fixed->height &&

@@ -75,10 +75,9 @@ inline constexpr double kMaxShininess = 1e7;
 Size sum_grid_size(double shininess, Size input, const PlannerModel& model);
 
 // Lobe narrower than half the input's texel spacing (width 1/sqrt(n) < pi / (2 H)): between
-// the input's texel centres the exact sum is then the nearest input texel, a step at every
-// texel edge that no output grid resolves for bilinear lookups. Such maps are delivered at
-// the input's grid, and lookups between its texels are taken as the input's own
-// interpolation, as for the mirror (docs/convolution.md).
+// the input's texel centres the exact sum is then a step at every texel edge that no output
+// grid resolves for bilinear lookups. Without a fixed size such a map is the input's texels,
+// read through the lobe (MapPlan::lookup, sample_lobe; docs/convolution.md, "The lobe lookup").
 bool lobe_narrower_than_input(double shininess, Size input);
 
 // The one check of the plan inputs (input size, maps, tolerance, sizes, SH order): throws

@@ -3,6 +3,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
+#include <vector>
 
 namespace glint {
 
@@ -63,6 +65,73 @@ Rgb sample_bilinear(const HdrImage& image, const glm::dvec3& d) {
     }
     return {v[0], v[1], v[2]};
 }
+
+Rgb sample_lobe(const HdrImage& image, const glm::dvec3& d_in, double n) {
+    const int w = image.width();
+    const int h = image.height();
+    const glm::dvec3 d = glm::normalize(d_in);
+    const double theta_r = std::atan2(std::sqrt(d.x * d.x + d.z * d.z), d.y);
+    const double phi_r = std::atan2(d.x, -d.z);
+    const double sin_r = std::sin(theta_r);
+    const double dphi = kTwoPi / w;
+    // hav(angle between d and a texel centre) = sin^2(dtheta/2) + sin(theta_r) sin(theta_k) sin^2(dphi/2):
+    // no cancellation for the small angles a narrow lobe spans.
+    const auto sq = [](double x) { return x * x; };
+    const auto hav = [&](double theta_k, double sin_k, double phi_k) {
+        return sq(std::sin(0.5 * (theta_r - theta_k))) + sin_r * sin_k * sq(std::sin(0.5 * (phi_r - phi_k)));
+    };
+    // The texel the direction falls in bounds the nearest centre's haversine; a texel whose
+    // weight is below exp(-span) of that one's has hav > h0 + span / (2n), because
+    // n log(cos_k / cos_0) <= -2n (hav_k - hav_0) (log(1 - x) falls at least as fast as -x).
+    const TexelCoord t = direction_to_texel(d, w, h);
+    int i0 = int(std::floor(t.x)) % w;
+    if (i0 < 0) i0 += w;
+    const int j0 = std::clamp(int(std::floor(t.y)), 0, h - 1);
+    const double h0 = hav(row_theta(j0, h), std::sin(row_theta(j0, h)), column_phi(i0, w));
+    const double reach = std::min(1.0, h0 + kLobeLookupSpan / (2.0 * n));
+    const double max_dtheta = 2.0 * std::asin(std::sqrt(reach));
+    const int j_lo = std::max(0, int(std::floor((theta_r - max_dtheta) / kPi * h - 0.5)));
+    const int j_hi = std::min(h - 1, int(std::ceil((theta_r + max_dtheta) / kPi * h - 0.5)));
+    struct Tap {
+        double log_weight;
+        const float* value;
+    };
+    static thread_local std::vector<Tap> taps;
+    taps.clear();
+    double best = -std::numeric_limits<double>::infinity();
+    for (int j = j_lo; j <= j_hi; ++j) {
+        const double theta_k = row_theta(j, h), sin_k = std::sin(theta_k);
+        const double rest = reach - sq(std::sin(0.5 * (theta_r - theta_k)));
+        if (rest < 0) continue;
+        const double across = sin_r * sin_k;
+        int i_lo = 0, count = w;
+        if (across > rest) {  // not every column of the row is near enough
+            const double max_dphi = 2.0 * std::asin(std::sqrt(rest / across));
+            i_lo = int(std::floor((phi_r - max_dphi + kPi) / dphi - 0.5));
+            count = std::min(w, int(std::ceil((phi_r + max_dphi + kPi) / dphi - 0.5)) - i_lo + 1);
+        }
+        const double log_omega = std::log(row_solid_angle(j, w, h));
+        const float* row = image.row(j);
+        for (int c = 0; c < count; ++c) {
+            const int i = ((i_lo + c) % w + w) % w;
+            const double hk = hav(theta_k, sin_k, column_phi(i, w));
+            if (hk > reach || hk >= 0.5) continue;  // beyond the span, or behind (d.w_k <= 0)
+            const double lw = n * std::log1p(-2.0 * hk) + log_omega;
+            taps.push_back({lw, row + 3 * i});
+            best = std::max(best, lw);
+        }
+    }
+    double sum[3] = {0, 0, 0}, norm = 0;
+    for (const Tap& tap : taps) {
+        const double wk = std::exp(tap.log_weight - best);
+        norm += wk;
+        for (int c = 0; c < 3; ++c) sum[c] += wk * tap.value[c];
+    }
+    if (!(norm > 0)) return image.at(i0, j0);
+    return {float(sum[0] / norm), float(sum[1] / norm), float(sum[2] / norm)};
+}
+
+const char* to_string(MapLookup lookup) { return lookup == MapLookup::Lobe ? "lobe" : "bilinear"; }
 
 HdrImage resample_bilinear(const HdrImage& image, int width, int height) {
     if (image.width() == width && image.height() == height) return image;

@@ -39,6 +39,28 @@ std::vector<double> row_solid_angles(int width, int height);
 // azimuth, clamps in polar angle (the first and last rows hold up to the poles).
 Rgb sample_bilinear(const HdrImage& image, const glm::dvec3& d);
 
+// The lobe lookup of a map whose lobe is narrower than half its texel spacing (docs/convolution.md,
+// "The lobe lookup"): the conventions' reflection sum E^n(d) itself, taken over the texels of
+// `image` that can matter,
+//   sum_k (d.w_k / cmax)^n dOmega_k L_k  /  sum_k (d.w_k / cmax)^n dOmega_k,
+// where `image` holds the environment's own texels L_k. Between texel centres such a map is a
+// step no grid resolves for bilinear lookups; this lookup follows it. Only texels whose weight
+// is within exp(-kLobeLookupSpan) of the texel the direction falls in are visited (a few
+// neighbours for n = 1e6 on 1024x512, whole rows near a pole), found from the haversine of the
+// angle between the direction and each texel centre, so no candidate is missed across the seam
+// or a pole. `shininess` must be finite and > 0. In double; the renderer's GLSL
+// (shaders/render_lookup.glsl, equirect_lobe) is the same in float.
+inline constexpr double kLobeLookupSpan = 36.0;  // e^-36 = 2.3e-16: below double rounding
+Rgb sample_lobe(const HdrImage& image, const glm::dvec3& d, double shininess);
+
+// How a renderer reads a map between its texel centres (report.json's "lookup").
+enum class MapLookup { Bilinear, Lobe };
+const char* to_string(MapLookup lookup);
+// `shininess`: the lobe's, used by the lobe lookup only.
+inline Rgb sample_map(const HdrImage& image, const glm::dvec3& d, MapLookup lookup, double shininess) {
+    return lookup == MapLookup::Lobe ? sample_lobe(image, d, shininess) : sample_bilinear(image, d);
+}
+
 // Resample a map to another size by bilinear lookup at the new texel centres.
 HdrImage resample_bilinear(const HdrImage& image, int width, int height);
 

@@ -59,6 +59,7 @@ ShadingMaps load_maps(const fs::path& dir, const std::vector<Material>& material
     for (const convolution::MapRequest& want : needed_maps(materials)) {
         std::string file;
         std::string listed;
+        MapLookup lookup = MapLookup::Bilinear;
         for (const auto& entry : report["maps"]) {
             const std::string label = entry.value("map", "");
             listed += (listed.empty() ? "" : ", ") + label;
@@ -67,7 +68,14 @@ ShadingMaps load_maps(const fs::path& dir, const std::vector<Material>& material
             else if (want.mirror) match = label == "mirror";
             else match = label.rfind("phong_", 0) == 0 && entry.contains("shininess") &&
                          entry["shininess"].is_number() && entry["shininess"].get<double>() == want.shininess;
-            if (match && file.empty()) file = entry.value("file", label + ".exr");
+            if (match && file.empty()) {
+                file = entry.value("file", label + ".exr");
+                const std::string how = entry.value("lookup", "bilinear");
+                if (how == "lobe") lookup = MapLookup::Lobe;
+                else if (how != "bilinear")
+                    throw InputError(report_path.string() + ": map " + label + " has lookup \"" + how +
+                                     "\" (this renderer reads \"bilinear\" and \"lobe\")");
+            }
         }
         if (file.empty())
             throw InputError("--maps " + dir.string() + ": report.json lists no " + want.label + " map (it lists: " +
@@ -78,7 +86,7 @@ ShadingMaps load_maps(const fs::path& dir, const std::vector<Material>& material
             out.irradiance = std::move(image);
             out.irradiance_from = path.string();
         } else {
-            out.reflections.push_back({want, std::move(image), path.string()});
+            out.reflections.push_back({want, std::move(image), path.string(), lookup});
         }
     }
     return out;
@@ -100,7 +108,7 @@ ShadingMaps convolve_maps(const HdrImage& environment, const std::vector<Materia
             out.irradiance_from = describe_plan(r);
             out.irradiance = std::move(r.image);
         } else {
-            out.reflections.push_back({r.request, std::move(r.image), describe_plan(r)});
+            out.reflections.push_back({r.request, std::move(r.image), describe_plan(r), r.plan.lookup});
         }
     }
     return out;

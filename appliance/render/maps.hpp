@@ -18,6 +18,9 @@ struct ReflectionMap {
     convolution::MapRequest request;  // its label ("phong_160", "mirror") names it
     HdrImage image;
     std::string from;                 // where it came from, for the log and stats
+    // How it is read between texels: bilinear, or through the lobe for a lobe narrower than half
+    // the input's texels (the map then holds the input's texels; report.json "lookup").
+    MapLookup lookup = MapLookup::Bilinear;
 };
 
 struct ShadingMaps {

@@ -443,6 +443,8 @@ void Renderer::draw(bool with_hdr, bool multisampled, bool with_reflect, bool ao
         glUniform3f(scene_program_.uniform("u_ks"), float(m.ks.x), float(m.ks.y), float(m.ks.z));
         glUniform1i(scene_program_.uniform("u_diffuse"), m.diffuse() ? 1 : 0);
         glUniform1i(scene_program_.uniform("u_specular"), m.specular() ? 1 : 0);
+        const bool lobe = d.reflection >= 0 && maps_->reflections[std::size_t(d.reflection)].lookup == MapLookup::Lobe;
+        glUniform1f(scene_program_.uniform("u_reflection_lobe"), lobe ? float(m.n) : 0.0f);
         glActiveTexture(GL_TEXTURE1);
         glBindTexture(GL_TEXTURE_2D, d.reflection >= 0 ? reflection_textures_[std::size_t(d.reflection)].id() : 0);
         glDrawElements(GL_TRIANGLES, GLsizei(d.index_count), GL_UNSIGNED_INT,

@@ -183,7 +183,7 @@ int run(const Config& cfg) {
             row.predicted = r.plan.predicted_error;
             row.seconds = r.seconds;
             const auto t1 = std::chrono::steady_clock::now();
-            row.offgrid = measure_offgrid_error(env, r.image, n, cfg.samples, cfg.seed, cfg.threads);
+            row.offgrid = measure_offgrid_error(env, r.image, n, cfg.samples, cfg.seed, cfg.threads, r.plan.lookup);
             if (floor_of[k] != SIZE_MAX)
                 row.floor = measure_offgrid_error(env, floors[floor_of[k]].image, n, cfg.samples, cfg.seed, cfg.threads);
             row.judge_seconds = seconds_since(t1);

@@ -89,7 +89,7 @@ int main(int argc, char** argv) {
         const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         std::printf("%s %s: whole set %.2f s\n", c.name, to_string(c.size).c_str(), seconds);
         for (const MapResult& r : results) {
-            const OffGridError e = measure_offgrid_error(env, r.image, r.request.shininess, 1024, 5, 2);
+            const OffGridError e = measure_offgrid_error(env, r.image, r.request.shininess, 1024, 5, 2, r.plan.lookup);
             std::printf("  %-11s %-9s predicted %.4f  off-grid %.4f +- %.4f  worst %.3f%s\n", r.request.label.c_str(),
                         to_string(r.plan.output_size).c_str(), r.plan.predicted_error, e.weighted_relative_rms,
                         e.rms_standard_error, e.worst_texel, r.plan.predicted_error > o.tolerance ? "  over" : "");

@@ -339,10 +339,12 @@ for m in r["maps"]:
     assert m["size_reason"], m
     assert m["output_size"] == [1024, 512], m
     assert not m["over_tolerance"], m
-assert r["maps"][0]["method"] == "cone" and r["maps"][1]["method"] == "mirror", r["maps"]
+# phong_1e7: the input's texels, read through the lobe; the mirror: the input, read bilinearly.
+assert r["maps"][0]["method"] == "mirror" and r["maps"][0]["lookup"] == "lobe", r["maps"][0]
+assert r["maps"][1]["method"] == "mirror" and r["maps"][1]["lookup"] == "bilinear", r["maps"][1]
 assert r["load_seconds"] > 0 and r["load_megatexels_per_s"] > 0, r
 EOF2
-pass "--mirror writes the input itself at its size; phong_1e7 too; load time and size reasons in report.json"
+pass "--mirror writes the input itself at its size; phong_1e7 too, read through its lobe (lookup \"lobe\"); load time and size reasons in report.json"
 rm -rf "$work/mirror" "$work/over"
 
 # The good output directory is still exactly what the good runs wrote.

@@ -199,6 +199,44 @@ TEST_F(Render, ShaderLookupIsTheConventionsBilinearLookup) {
     EXPECT_LT(e.worst, 1e-3);
 }
 
+// A lobe far narrower than half a texel (n = 1e6 on a 256x128 world): the planner's map is the
+// world's own texels read through the lobe (report.json "lookup": "lobe"), and the shader's
+// equirect_lobe follows the step between texels that bilinear lookups blur: against E summed
+// from the definition at each pixel's direction, and against core's sample_lobe at the AOVs.
+TEST_F(Render, SharpLobesAreReadThroughTheLobe) {
+    const HdrImage env = small_blender_world("courtyard");
+    const render::Material m = render::parse_material("kd=0;ks=1;n=1e6");
+    const render::ShadingMaps used = maps_by(env, m, convolution::Method::Auto);
+    ASSERT_EQ(used.reflections.size(), 1u);
+    EXPECT_EQ(used.reflections[0].lookup, MapLookup::Lobe);
+    const Aovs a = render_aovs(m, used);
+    const ShadingError d = direct_error(a, m, env, 3);
+    // The CPU's lobe lookup at the AOV's own directions: the same steps in double.
+    double num = 0, den = 0;
+    for (std::size_t k = 0; k < std::size_t(a.width) * std::size_t(a.height); ++k) {
+        if (a.radiance[4 * k + 3] == 0) continue;
+        const glm::dvec3 r(a.reflect[4 * k], a.reflect[4 * k + 1], a.reflect[4 * k + 2]);
+        const Rgb s = sample_lobe(used.reflections[0].image, r, m.n);
+        const double ref[3] = {s.r, s.g, s.b};
+        for (int c = 0; c < 3; ++c) {
+            num += (a.radiance[4 * k + std::size_t(c)] - ref[c]) * (a.radiance[4 * k + std::size_t(c)] - ref[c]);
+            den += ref[c] * ref[c];
+        }
+    }
+    const double cpu_rms = std::sqrt(num / den);
+    // Bilinear lookups of the same map, as the shader read every map before: the step blurred.
+    render::ShadingMaps blurred = used;
+    blurred.reflections[0].lookup = MapLookup::Bilinear;
+    const ShadingError b = direct_error(render_aovs(m, blurred), m, env, 3);
+    std::printf("[          ] n 1e6, courtyard 256x128: lobe lookup against E rms %.3e worst %.3e (%lld pixels), "
+                "against sample_lobe rms %.3e; bilinear lookups of the same map rms %.3e worst %.3e\n",
+                d.rms, d.worst, d.pixels, cpu_rms, b.rms, b.worst);
+    EXPECT_LT(d.rms, 0.01);
+    EXPECT_LT(d.worst, 0.05);
+    EXPECT_LT(cpu_rms, 1e-3);
+    EXPECT_GT(b.rms, 0.02);
+}
+
 struct ShadingCase {
     const char* world;
     const char* material;

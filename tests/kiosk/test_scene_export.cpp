@@ -104,6 +104,7 @@ TEST_F(SceneExport, WritesTheShadingMapsFromMemory) {
     EXPECT_EQ(index["irradiance.exr"]["width"], 8);
     EXPECT_EQ(index["irradiance.exr"]["from"], "live (GPU): sh");
     EXPECT_EQ(index[lobe + ".exr"]["from"], "coarse: cone");
+    EXPECT_EQ(index[lobe + ".exr"]["lookup"], "bilinear");  // a lobe map's would say "lobe"
     EXPECT_FALSE(fs::exists(root_ / "stick/glint-20261203-070000/env.exr"));  // only what was asked for
 }
 

@@ -343,7 +343,7 @@ TEST(OutputGrid, DeliveredMapsAreWithinTheirPredictionOffGrid) {
     Options o;
     o.threads = 2;
     for (const MapResult& r : convolve(env, maps, o)) {
-        const OffGridError e = measure_offgrid_error(env, r.image, r.request.shininess, 1024, 7, 2);
+        const OffGridError e = measure_offgrid_error(env, r.image, r.request.shininess, 1024, 7, 2, r.plan.lookup);
         std::printf("[  report  ] %-11s %dx%d predicted %.4f off-grid %.4f +- %.4f worst %.3f (%s)\n",
                     r.request.label.c_str(), r.image.width(), r.image.height(), r.plan.predicted_error,
                     e.weighted_relative_rms, e.rms_standard_error, e.worst_texel, r.plan.size_reason.c_str());
@@ -369,7 +369,7 @@ TEST(OutputGrid, OddAndNonSquareInputsGetGridsThatKeepTheirPrediction) {
             EXPECT_EQ(r.image.width(), r.plan.output_size.width) << what;
             EXPECT_FALSE(r.plan.size_reason.empty()) << what;
             if (r.request.mirror || r.plan.size_reason.find("narrower than half") != std::string::npos) continue;
-            const OffGridError e = measure_offgrid_error(env, r.image, r.request.shininess, 512, 3, 2);
+            const OffGridError e = measure_offgrid_error(env, r.image, r.request.shininess, 512, 3, 2, r.plan.lookup);
             std::printf("[  report  ] %-14s %dx%d predicted %.4f off-grid %.4f +- %.4f\n", what.c_str(),
                         r.image.width(), r.image.height(), r.plan.predicted_error, e.weighted_relative_rms,
                         e.rms_standard_error);
@@ -528,7 +528,7 @@ TEST(OutputGrid, PatchedMapsAreWithinTheToleranceOffGrid) {
     long long patched = 0;
     for (const MapResult& r : convolve(env, maps, o)) {
         patched += r.patched_texels;
-        const OffGridError e = measure_offgrid_error(env, r.image, r.request.shininess, 2048, 5, 2);
+        const OffGridError e = measure_offgrid_error(env, r.image, r.request.shininess, 2048, 5, 2, r.plan.lookup);
         std::printf("[  report  ] %-5s %dx%d patched %lld predicted %.4f off-grid %.4f +- %.4f (%s)\n",
                     r.request.label.c_str(), r.image.width(), r.image.height(), r.patched_texels,
                     r.plan.predicted_error, e.weighted_relative_rms, e.rms_standard_error, r.plan.size_reason.c_str());
@@ -589,6 +589,33 @@ TEST(OutputGrid, SharpestLobesStayFiniteAndMatchExactAtOddSizes) {
             EXPECT_LE(err.weighted_relative_rms, 0.01) << n << " " << s.width << "x" << s.height;
             EXPECT_LE(err.worst_texel, 0.05) << n << " " << s.width << "x" << s.height;
         }
+}
+
+// A lobe narrower than half the input's texel spacing (n > (2H/pi)^2 = 415 on 64x32): without a
+// fixed size the map is the input's texels, read through the lobe, and that read is the exact
+// sum anywhere; bilinear lookups of any grid would follow the step between texels poorly.
+TEST(OutputGrid, LobesNarrowerThanHalfATexelAreTheInputReadThroughTheLobe) {
+    const HdrImage env = field_with_sun(64, 32);
+    for (const double n : {500.0, 1e6})
+        for (Method m : {Method::Auto, Method::Cone, Method::Exact}) {
+            Options o;
+            o.method = m;
+            const auto r = convolve(env, {MapRequest::make_phong(n, "sharp")}, o);
+            const std::string where = "n " + std::to_string(n) + " " + to_string(m);
+            EXPECT_EQ(r[0].plan.lookup, MapLookup::Lobe) << where;
+            EXPECT_EQ(r[0].image.data(), env.data()) << where;
+            EXPECT_EQ(r[0].plan.predicted_error, 0.0) << where;
+            const OffGridError lobe = measure_offgrid_error(env, r[0].image, n, 1024, 3, 2, r[0].plan.lookup);
+            EXPECT_LT(lobe.weighted_relative_rms, 1e-6) << where;
+            EXPECT_LT(lobe.worst_texel, 1e-5) << where;
+            const OffGridError bilinear = measure_offgrid_error(env, r[0].image, n, 1024, 3, 2);
+            EXPECT_GT(bilinear.weighted_relative_rms, 0.01) << where;
+        }
+    // Wider than half a texel: bilinear lookups of a grid the planner sizes; a fixed size: that grid.
+    EXPECT_EQ(convolve(env, {MapRequest::make_phong(300, "wide")}, Options{})[0].plan.lookup, MapLookup::Bilinear);
+    Options fixed;
+    fixed.size = Size{64, 32};
+    EXPECT_EQ(convolve(env, {MapRequest::make_phong(1e6, "fixed")}, fixed)[0].plan.lookup, MapLookup::Bilinear);
 }
 
 TEST(OutputGrid, ShininessAboveTheLimitIsRefusedNamingTheMirror) {
