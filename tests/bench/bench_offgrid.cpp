@@ -107,6 +107,9 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 }
 
 // theta, phi of a direction in degrees (docs/conventions.md), for the report.
+// An error to 4 decimals, or in scientific notation below 1e-4 (the lobe lookup's are ~1e-8).
+std::string small(double v) { return v > 0 && v < 1e-4 ? fmt("%.1e", v) : fmt("%.4f", v); }
+
 std::string angles(const glm::dvec3& d) {
     const double theta = std::acos(std::max(-1.0, std::min(1.0, d.y))) * 180.0 / 3.14159265358979323846;
     const double phi = std::atan2(d.x, -d.z) * 180.0 / 3.14159265358979323846;
@@ -180,6 +183,7 @@ int run(const Config& cfg) {
             row.n = n;
             row.size = {r.image.width(), r.image.height()};
             row.method = to_string(r.plan.method);
+            if (r.plan.lookup == MapLookup::Lobe) row.method += ", lobe lookup";
             row.predicted = r.plan.predicted_error;
             row.seconds = r.seconds;
             const auto t1 = std::chrono::steady_clock::now();
@@ -223,7 +227,9 @@ int run(const Config& cfg) {
        << glint::bench::machine_description() << ", " << cfg.threads << " threads.\n\n"
        << "Each environment's whole set is one `convolve()` call with `auto`, tolerance " << cfg.tolerance
        << " and no fixed size, so every map has the output size its plan chose. A renderer reads a map by "
-       << "bilinear lookup at any direction; the error here is that lookup against the conventions' sum "
+       << "bilinear lookup at any direction (a map marked *lobe lookup*, whose lobe is narrower than half the "
+       << "input's texels, holds the input's texels and is read through the lobe: `sample_lobe`, "
+       << "docs/convolution.md); the error here is that lookup against the conventions' sum "
        << "`E^n(r)` over every input texel at the same direction (`exact_at`, "
        << "appliance/convolution/offgrid.hpp), at " << cfg.samples << " random directions (seed " << cfg.seed
        << "): half uniform on the sphere, half drawn from the map in proportion to dOmega |value|^2, "
@@ -240,8 +246,8 @@ int run(const Config& cfg) {
         const bool over = r.offgrid.weighted_relative_rms > cfg.tolerance;
         md << "| " << r.map << " | " << r.target << " | " << r.size.width << "x" << r.size.height << " | "
            << r.method << " | " << fmt("%.4f", r.predicted) << " | " << (over ? "**" : "")
-           << fmt("%.4f", r.offgrid.weighted_relative_rms) << (over ? " over**" : "") << " ± "
-           << fmt("%.4f", r.offgrid.rms_standard_error) << " | " << fmt("%.4f", r.offgrid.worst_texel) << " | "
+           << small(r.offgrid.weighted_relative_rms) << (over ? " over**" : "") << " ± "
+           << small(r.offgrid.rms_standard_error) << " | " << small(r.offgrid.worst_texel) << " | "
            << angles(r.offgrid.worst_direction) << " | " << fmt("%.3f", r.seconds) << " | "
            << (r.floor ? fmt("%.4f", r.floor->weighted_relative_rms) : "") << " | "
            << (r.floor ? fmt("%.4f", r.floor->worst_texel) : "") << " |\n";
