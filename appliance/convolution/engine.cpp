@@ -282,6 +282,15 @@ std::string percent(double v) {
     return s.str();
 }
 
+// A lobe narrower than one of the input's texels (but not than half of one: those are planned
+// as the lobe lookup) whose size the planner chose: where bilinear lookups of every grid up to
+// kMaxOutputHeight would still miss the tolerance (texel-to-texel contrast such as noise), the
+// map falls back to the lobe lookup (deliver_lobe_lookup), which reads the whole input.
+bool may_need_lobe_lookup(const MapRequest& q, const MapPlan& p, Size input) {
+    return !q.irradiance && !q.mirror && !p.size_fixed && p.lookup == MapLookup::Bilinear &&
+           std::isfinite(q.shininess) && lobe_width(q.shininess) < kPi / input.height;
+}
+
 // After a map is summed on its plan's sum grid: the size it is delivered at, the error of
 // bilinear lookups into it and why (docs/convolution.md, "Output size"). A finer grid is
 // made by 4-point resampling of the map without its bright texels (`bright`: those the plan
@@ -490,9 +499,10 @@ std::vector<MapResult> convolve_map(const HdrImage& env, HdrImage* consumable, c
     const std::vector<MapPlan> plans =
         plan_maps(input_size, maps, options, [&] { return shared.cone_level_sizes(); }, model);
     bool reads_whole = options.executor != nullptr, reads_level0 = false;
-    for (const MapPlan& p : plans) {
+    for (std::size_t k = 0; k < plans.size(); ++k) {
+        const MapPlan& p = plans[k];
         if (p.method == Method::Exact || p.method == Method::Mipmap || p.method == Method::Mirror ||
-            (p.method == Method::Sh && !p.bright_split))
+            (p.method == Method::Sh && !p.bright_split) || may_need_lobe_lookup(maps[k], p, input_size))
             reads_whole = true;
         if ((p.method == Method::Cone && p.input_level == 0) ||
             (p.method == Method::Sh && p.bright_split && (p.input_level == 0 || p.fallback_level == 0)))
@@ -614,6 +624,27 @@ std::vector<MapResult> convolve_map(const HdrImage& env, HdrImage* consumable, c
         deliver_output(r, options.tolerance, model, map_threads,
                        split ? &shared.bright().texels : nullptr, [&](Size grid) { return sum_on(r, grid, map_threads, no_progress); },
                        split ? sum_texels : TexelSummer{});
+        if (may_need_lobe_lookup(r.request, r.plan, input_size) && r.plan.predicted_error > options.tolerance) {
+            // Bilinear lookups of every grid tried miss the tolerance: the lobe lookup instead
+            // (exact to rounding, at the price of more texels visited per read than for a lobe
+            // under half a texel: ~170-290 at one texel's width).
+            MapPlan& p = r.plan;
+            const std::string tried = p.size_reason;
+            const double missed = p.predicted_error;
+            r.image = filter_to_footprint(shared.full_image(), input_size, map_threads);  // the input's texels
+            p.method = Method::Mirror;
+            p.lookup = MapLookup::Lobe;
+            p.input_level = 0;
+            p.input_size = p.output_size = p.sum_size = input_size;
+            p.cutoff_cos = -1;
+            p.bright_split = false;
+            p.sh_order = 0;
+            p.lookup_error = 0;
+            p.predicted_error = 0;
+            p.size_reason = "the input's grid, read through the lobe (lookup \"lobe\"): the lobe is narrower than the "
+                            "input's texel spacing and bilinear lookups of the grids tried would err " +
+                            percent(missed) + " (" + tried + ")";
+        }
         r.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         if (!batched[k]) {
             // All of this map's levels counted down first (its own fallback level must not keep

@@ -63,7 +63,7 @@ int main(int argc, char** argv) {
             std::fprintf(stderr, "glint_bench_stress_maps: unknown argument '%s' (it takes none; --help)\n", a.c_str());
             return 2;
         }
-        std::printf("glint_bench_stress_maps: the whole set (irradiance, n = 10, 40, 160, 1280, 5120, 20480) of four\n"
+        std::printf("glint_bench_stress_maps: the whole set (irradiance, n = 10, 40, 160, 1280, 5120, 20480, 2e5, 1e6, 1e7) of four\n"
                     "generated maps at the planner's sizes, each map's bilinear lookups judged at 1024 random\n"
                     "directions against the conventions' sum (predicted, off-grid RMS +- its standard error, worst).\n");
         return 0;
@@ -80,7 +80,7 @@ int main(int argc, char** argv) {
     for (const auto& c : cases) {
         const HdrImage env = make_map(c.kind, c.size);
         std::vector<MapRequest> maps{MapRequest::make_irradiance()};
-        for (double n : {10.0, 40.0, 160.0, 1280.0, 5120.0, 20480.0})
+        for (double n : {10.0, 40.0, 160.0, 1280.0, 5120.0, 20480.0, 2e5, 1e6, 1e7})
             maps.push_back(MapRequest::make_phong(n, std::to_string(int(n))));
         Options o;
         o.threads = 2;
@@ -90,7 +90,7 @@ int main(int argc, char** argv) {
         std::printf("%s %s: whole set %.2f s\n", c.name, to_string(c.size).c_str(), seconds);
         for (const MapResult& r : results) {
             const OffGridError e = measure_offgrid_error(env, r.image, r.request.shininess, 1024, 5, 2, r.plan.lookup);
-            std::printf("  %-11s %-9s predicted %.4f  off-grid %.4f +- %.4f  worst %.3f%s\n", r.request.label.c_str(),
+            std::printf("  %-11s %-9s predicted %.4f  off-grid %.2e +- %.1e  worst %.2e%s\n", r.request.label.c_str(),
                         to_string(r.plan.output_size).c_str(), r.plan.predicted_error, e.weighted_relative_rms,
                         e.rms_standard_error, e.worst_texel, r.plan.predicted_error > o.tolerance ? "  over" : "");
         }
