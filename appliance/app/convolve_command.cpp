@@ -161,6 +161,7 @@ int run_convolve(const ConvolveArgs& args) {
             {"sum_size", size_json(p.sum_size)},
             {"size_reason", p.size_reason},
             {"lookup_error", p.lookup_error},
+            {"lookup_worst", p.lookup_worst},
             {"lookup", to_string(p.lookup)},
             {"cutoff_energy", p.cutoff_energy()},
             {"cutoff_cos", p.cutoff_cos},

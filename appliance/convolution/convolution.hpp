@@ -85,6 +85,8 @@ struct MapPlan {
     // estimate_lookup_error; the lobe lookup: its truncation, below 1e-9), counted in
     // predicted_error; 0 for a fixed size or the mirror.
     double lookup_error = 0;
+    // The largest error of a bilinear lookup, relative, estimated the same way (0 when not).
+    double lookup_worst = 0;
     // How the map is read between its texels. Bilinear, but for a lobe narrower than half the
     // input's texel spacing without a fixed size: then the map is the input's own texels and a
     // reader applies the lobe (sample_lobe, core/equirect.hpp; report.json "lookup": "lobe"),

@@ -399,6 +399,7 @@ void deliver_output(MapResult& r, double tau, const PlannerModel& model, int thr
     const std::string estimate = "bilinear lookups between texels of " + to_string(p.sum_size) + " err " +
                                  percent(e.bilinear_rms) + " RMS, " + percent(e.bilinear_worst) + " worst";
     p.lookup_error = e.bilinear_rms / (double(factor) * factor);
+    p.lookup_worst = e.bilinear_worst / (double(factor) * factor);
     p.predicted_error += p.lookup_error;
     if (factor == 1) {
         p.size_reason = "the lobe's sum grid: " + estimate + (within(1) ? "" : " (no finer grid allowed)");
@@ -412,6 +413,7 @@ void deliver_output(MapResult& r, double tau, const PlannerModel& model, int thr
         // Summed again on the finer grid: its own differences measure its lookups (the coarse
         // grid's, scaled, under-predict where it did not resolve the lobe).
         const LookupError fine = estimate_lookup_error(r.image, threads);
+        p.lookup_worst = std::max(p.lookup_worst, fine.bilinear_worst);
         if (fine.bilinear_rms > p.lookup_error) {
             p.predicted_error += fine.bilinear_rms - p.lookup_error;
             p.lookup_error = fine.bilinear_rms;
@@ -624,10 +626,13 @@ std::vector<MapResult> convolve_map(const HdrImage& env, HdrImage* consumable, c
         deliver_output(r, options.tolerance, model, map_threads,
                        split ? &shared.bright().texels : nullptr, [&](Size grid) { return sum_on(r, grid, map_threads, no_progress); },
                        split ? sum_texels : TexelSummer{});
-        if (may_need_lobe_lookup(r.request, r.plan, input_size) && r.plan.predicted_error > options.tolerance) {
-            // Bilinear lookups of every grid tried miss the tolerance: the lobe lookup instead
-            // (exact to rounding, at the price of more texels visited per read than for a lobe
-            // under half a texel: ~170-290 at one texel's width).
+        if (may_need_lobe_lookup(r.request, r.plan, input_size) &&
+            (r.plan.predicted_error > options.tolerance ||
+             r.plan.lookup_worst > model.output_worst_share * options.tolerance)) {
+            // Bilinear lookups of every grid tried miss the tolerance, or their worst its share
+            // (the 5 % worst texel): the lobe lookup instead (exact to rounding, at the price of
+            // more texels visited per read than for a lobe under half a texel: ~170-290 at one
+            // texel's width).
             MapPlan& p = r.plan;
             const std::string tried = p.size_reason;
             const double missed = p.predicted_error;
@@ -639,11 +644,12 @@ std::vector<MapResult> convolve_map(const HdrImage& env, HdrImage* consumable, c
             p.cutoff_cos = -1;
             p.bright_split = false;
             p.sh_order = 0;
-            p.lookup_error = 0;
+            const double missed_worst = p.lookup_worst;
+            p.lookup_error = p.lookup_worst = 0;
             p.predicted_error = 0;
             p.size_reason = "the input's grid, read through the lobe (lookup \"lobe\"): the lobe is narrower than the "
                             "input's texel spacing and bilinear lookups of the grids tried would err " +
-                            percent(missed) + " (" + tried + ")";
+                            percent(missed) + " RMS, " + percent(missed_worst) + " worst (" + tried + ")";
         }
         r.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         if (!batched[k]) {

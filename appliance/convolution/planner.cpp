@@ -135,7 +135,12 @@ MapPlan plan_map(const MapRequest& request, const Options& options, const Enviro
         plan.size_reason = fixed ? "fixed by the request" : "the input's grid (mirror)";
         return plan;
     }
-    if (!fixed && lobe_narrower_than_input(n, env.input)) {
+    // Also a lobe under one texel whose bilinear plan would sum on twice the input's height beyond
+    // kMaxOutputHeight (4096x2048 inputs and larger: 8192x4096 sums, 400 MB, that still missed the
+    // worst-texel share at 50 %, 2026-12-05): the lobe lookup at once.
+    const bool beyond_grids = !request.irradiance && lobe_width(n) < kPi / env.input.height &&
+                              2 * env.input.height > kMaxOutputHeight;
+    if (!fixed && (lobe_narrower_than_input(n, env.input) || beyond_grids)) {
         // The lobe lookup: the map is the input's texels (the mirror's map at the input's grid,
         // its computation), and the reader sums the lobe over the few texels near each direction
         // (sample_lobe). It skips only terms below exp(-kLobeLookupSpan) of the largest.
@@ -148,10 +153,16 @@ MapPlan plan_map(const MapRequest& request, const Options& options, const Enviro
         plan.lookup_error = 0;
         plan.predicted_error = 0;
         plan.predicted_cost = double(texels(env.input));
-        plan.size_reason = "the input's grid, read through the lobe: it is narrower than half the input's texel "
-                           "spacing, so between texel centres the exact sum is a step that bilinear lookups of no "
-                           "grid follow; the map holds the input's texels and a reader applies the lobe to them "
-                           "(lookup \"lobe\")";
+        plan.size_reason = lobe_narrower_than_input(n, env.input)
+                               ? "the input's grid, read through the lobe: it is narrower than half the input's texel "
+                                 "spacing, so between texel centres the exact sum is a step that bilinear lookups of "
+                                 "no grid follow; the map holds the input's texels and a reader applies the lobe to "
+                                 "them (lookup \"lobe\")"
+                               : "the input's grid, read through the lobe: it is narrower than the input's texel "
+                                 "spacing, and a grid fine enough for bilinear lookups would exceed " +
+                                     std::to_string(kMaxOutputHeight) +
+                                     " rows; the map holds the input's texels and a reader applies the lobe to them "
+                                     "(lookup \"lobe\")";
         return plan;
     }
     // Only the cone sums at a coarser grid than a fixed output and resamples (exact and
