@@ -458,7 +458,19 @@ RunRow run_one(const Config& cfg, const Run& run, const std::vector<HdrImage>& r
                            m["over_tolerance"].get<bool>();
         const fs::path file = dir / m.value("file", label + ".exr");
         try {
-            r.error = compare_maps(load_exr(file).image, reference[std::size_t(it - targets.begin())]);
+            const HdrImage& ref = reference[std::size_t(it - targets.begin())];
+            HdrImage map = load_exr(file).image;
+            if (m.value("lookup", std::string("bilinear")) == "lobe") {
+                // The input's texels read through the lobe (docs/convolution.md, "The lobe lookup"):
+                // its value at the reference's texel centres is that lookup's, not a bilinear one.
+                HdrImage read(ref.width(), ref.height());
+                for (int j = 0; j < read.height(); ++j)
+                    for (int i = 0; i < read.width(); ++i)
+                        read.set(i, j, sample_lobe(map, texel_direction(i, j, read.width(), read.height()), it->n));
+                map = std::move(read);
+                r.method += ", lobe lookup";
+            }
+            r.error = compare_maps(map, ref);
         } catch (const std::exception& e) {
             row.ok = false;
             row.failure = e.what();
