@@ -32,11 +32,15 @@ Rgb merge_bands(std::span<const BandTexel> bands) {
         const double t_eff = den / x.wt;  // the band's typical exposure at this texel
         if (e_max * t_eff < kConfidentExposure) continue;
         shorter_confident = true;
-        for (std::size_t c = b + 1; c < bands.size(); ++c)
+        for (std::size_t c = b + 1; c < bands.size(); ++c) {
+            // A band whose frames clipped here and whose clipped reads were all filled from
+            // their brackets' shorter frames holds a complete sample of the texel: it stays.
+            if (bands[c].filled > 0 && bands[c].clipped == 0) continue;
             if (e_max * bands[c].t_min > 1.0) {
                 cut = std::min(cut, c);
                 break;
             }
+        }
     }
     double num[3] = {0, 0, 0}, den[3] = {0, 0, 0};
     for (std::size_t b = 0; b < cut; ++b)

@@ -61,7 +61,8 @@ struct BandTexel {
     double den[3];  // sum W t^2 per channel
     double wt;      // sum W t (W the mean of the channels' weights)
     double clipped; // reads of this band at this texel left out because they clipped
-    double reads;   // reads of this band at this texel that did not clip
+    double reads;   // reads of this band at this texel that did not clip (filled ones included)
+    double filled;  // ... of which filled from a shorter frame of the clipped frame's bracket
     double t_min;   // shortest exposure of any frame in the band (the whole band, not this texel)
 };
 

@@ -19,6 +19,11 @@ HdrAccumulator::HdrAccumulator(int width, int height, AccumulationSettings setti
     samples_.assign(n, 0);
     weight_sum_.assign(n, 0.0f);
     clipped_short_.assign(n, 0);
+    pending_.assign(8, PendingFrame{});
+    if (settings_.bracket_fill) {
+        pending_mask_.assign(n, 0);
+        pending_w_.assign(8 * n, 0.0f);
+    }
     // The texel centres' sines and cosines (texel_direction's), once for every frame.
     for (int j = 0; j < height_; ++j) {
         const double theta = row_theta(j, height_);
@@ -61,6 +66,7 @@ HdrAccumulator::Band& HdrAccumulator::band_for(double t) {
         b.wt.assign(n, 0.0f);
         b.clipped.assign(n, 0.0f);
         b.reads.assign(n, 0.0f);
+        b.filled.assign(n, 0.0f);
         return b;
     });
 }
@@ -347,6 +353,45 @@ FrameContribution HdrAccumulator::add_frame(const CameraFrame& frame, const Came
     prepare_footprint_trig(taps);
     std::vector<long long> in_view(std::size_t(height_), 0), sampled(std::size_t(height_), 0);
 
+    // Bracket fill: frames whose clipped reads this frame can fill are the earlier frames of its
+    // bracket: longer exposures shortly before it. Any other frame ends their wait.
+    std::uint8_t expired = 0;
+    for (std::size_t slot = 0; slot < pending_.size(); ++slot) {
+        PendingFrame& p = pending_[slot];
+        if (!(p.t > 0)) continue;
+        if (!settings_.bracket_fill || !(t < p.t) || frame.t_ns < p.t_ns || frame.t_ns - p.t_ns > kBracketSpanNs) {
+            expired = std::uint8_t(expired | (1u << slot));
+            p = PendingFrame{};
+        }
+    }
+    if (expired)
+        for (std::uint8_t& m : pending_mask_) m = std::uint8_t(m & ~expired);
+    // The bands of the waiting frames (looked up now: band_for above may have moved them).
+    std::array<Band*, 8> pending_band{};
+    std::array<double, 8> pending_t{};
+    std::uint8_t waiting = 0;
+    for (std::size_t slot = 0; slot < pending_.size(); ++slot) {
+        if (!(pending_[slot].t > 0)) continue;
+        for (Band& b : bands_)
+            if (b.index == pending_[slot].band_index) pending_band[slot] = &b;
+        pending_t[slot] = pending_[slot].t;
+        if (pending_band[slot]) waiting = std::uint8_t(waiting | (1u << slot));
+    }
+    // This frame's own slot, for its clipped reads.
+    int own_slot = -1;
+    for (std::size_t slot = 0; slot < pending_.size() && own_slot < 0; ++slot)
+        if (!(pending_[slot].t > 0)) own_slot = int(slot);
+    if (own_slot < 0) {  // all taken (more than 8 frames in one bracket): the oldest gives way
+        std::size_t oldest = 0;
+        for (std::size_t slot = 1; slot < pending_.size(); ++slot)
+            if (pending_[slot].t_ns < pending_[oldest].t_ns) oldest = slot;
+        own_slot = int(oldest);
+        const std::uint8_t bit = std::uint8_t(1u << oldest);
+        for (std::uint8_t& m : pending_mask_) m = std::uint8_t(m & ~bit);
+        waiting = std::uint8_t(waiting & ~bit);
+    }
+    const std::uint8_t own_bit = std::uint8_t(1u << own_slot);
+
     parallel_for(height_, threads, [&](int j) {
         int i0 = 0, count = 0;
         if (!cone_columns(j, width_, height_, fwd, cos_limit, i0, count)) return;
@@ -367,6 +412,11 @@ FrameContribution HdrAccumulator::add_frame(const CameraFrame& frame, const Came
             const std::size_t texel = std::size_t(j) * std::size_t(width_) + std::size_t(i);
             if (P[6] > 0) {  // an invalid cell: no sample (see the header), but counted (merge_bands)
                 band.clipped[texel] += 1.0f;
+                // Waits for the next, shorter frame of the bracket (bracket fill).
+                if (settings_.bracket_fill) {
+                    pending_mask_[texel] = std::uint8_t(pending_mask_[texel] | own_bit);
+                    pending_w_[8 * texel + std::size_t(own_slot)] = float((P[3] + P[4] + P[5]) / 3);
+                }
                 if (shortest) {
                     if (!clipped_short_[texel]) ++samples_[texel];  // estimated by radiance()
                     clipped_short_[texel] = 1;
@@ -380,6 +430,29 @@ FrameContribution HdrAccumulator::add_frame(const CameraFrame& frame, const Came
                 wmean += P[3 + c];
             }
             wmean /= 3;
+            // Bracket fill: the earlier frames of this bracket that clipped here read now what
+            // this frame reads, as radiance, in their own bands and with their own t: their
+            // reads of the texel are then no censored sample (docs/capture.md, "Bracket fill").
+            if (const std::uint8_t fill = waiting ? std::uint8_t(pending_mask_[texel] & waiting) : std::uint8_t(0)) {
+                for (int slot = 0; slot < 8; ++slot) {
+                    if (!(fill & (1u << slot))) continue;
+                    Band& pb = *pending_band[std::size_t(slot)];
+                    const double tp = pending_t[std::size_t(slot)];
+                    // The clipped read's own weight; where it has none (a clipped area wider
+                    // than the zone's reach), this frame's.
+                    const double wl = pending_w_[8 * texel + std::size_t(slot)];
+                    for (int c = 0; c < 3; ++c) {
+                        const double w = wl > 0 ? wl : P[3 + c];
+                        pb.num[3 * texel + std::size_t(c)] += float(w * tp * tp * (P[c] / t));
+                        pb.den[3 * texel + std::size_t(c)] += float(w * tp * tp);
+                    }
+                    pb.wt[texel] += float((wl > 0 ? wl : wmean) * tp);
+                    pb.reads[texel] += 1.0f;
+                    pb.filled[texel] += 1.0f;
+                    pb.clipped[texel] -= 1.0f;
+                }
+                pending_mask_[texel] = std::uint8_t(pending_mask_[texel] & ~fill);
+            }
             band.wt[texel] += float(wmean * t);
             band.reads[texel] += 1.0f;
             weight_sum_[texel] += float(wmean);
@@ -393,6 +466,7 @@ FrameContribution HdrAccumulator::add_frame(const CameraFrame& frame, const Came
         out.texels_in_view += in_view[std::size_t(j)];
         out.texels_sampled += sampled[std::size_t(j)];
     }
+    if (settings_.bracket_fill) pending_[std::size_t(own_slot)] = PendingFrame{band.index, t, frame.t_ns};
     ++frames_;
     return out;
 }
@@ -409,9 +483,16 @@ Rgb HdrAccumulator::merged(std::size_t k, std::vector<BandTexel>& texel) const {
         x.wt = band.wt[k];
         x.clipped = band.clipped[k];
         x.reads = band.reads[k];
+        x.filled = band.filled[k];
         x.t_min = band.t_min;
     }
     return merge_bands(texel);
+}
+
+std::vector<BandTexel> HdrAccumulator::band_texels(std::size_t texel) const {
+    std::vector<BandTexel> out;
+    merged(texel, out);
+    return out;
 }
 
 HdrImage HdrAccumulator::radiance() const {
