@@ -34,7 +34,7 @@ vec3 equirect_bilinear(highp sampler2D map, vec3 d) {
     return mix(top, bottom, ay);
 }
 
-// The lobe lookup of a map whose lobe is narrower than half its texel spacing (report.json
+// The lobe lookup of a map whose lobe is narrower than its texel spacing (report.json
 // "lookup": "lobe"; sample_lobe in appliance/core/equirect.cpp, the same steps in float): the map
 // holds the environment's own texels, and the conventions' sum E^n(d) is taken over those whose
 // weight is within exp(-20) of the texel d falls in (below float's precision), found by the
@@ -45,7 +45,8 @@ vec3 equirect_lobe(highp sampler2D map, vec3 d, float n) {
     ivec2 size = textureSize(map, 0);
     float w = float(size.x);
     float h = float(size.y);
-    float phi_r = atan(d.x, -d.z);
+    // atan(0, 0) is undefined in GLSL ES: straight up or down, any azimuth will do.
+    float phi_r = dot(d.xz, d.xz) > 0.0 ? atan(d.x, -d.z) : 0.0;
     float theta_r = atan(length(d.xz), d.y);
     float sin_r = sin(theta_r);
     float dphi = TWO_PI / w;

@@ -88,8 +88,9 @@ struct MapPlan {
     // The largest error of a bilinear lookup, relative, estimated the same way (0 when not).
     double lookup_worst = 0;
     // How the map is read between its texels. Bilinear, but for a lobe narrower than half the
-    // input's texel spacing without a fixed size: then the map is the input's own texels and a
-    // reader applies the lobe (sample_lobe, core/equirect.hpp; report.json "lookup": "lobe"),
+    // input's texel spacing without a fixed size (and for one under a whole texel where bilinear
+    // grids would miss the tolerance or exceed kMaxOutputHeight): then the map is the input's own
+    // texels and a reader applies the lobe (sample_lobe, core/equirect.hpp; report.json "lookup": "lobe"),
     // because between texel centres the exact sum is a step no grid resolves for bilinear
     // lookups (docs/convolution.md, "The lobe lookup").
     MapLookup lookup = MapLookup::Bilinear;

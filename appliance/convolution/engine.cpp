@@ -608,6 +608,8 @@ std::vector<MapResult> convolve_map(const HdrImage& env, HdrImage* consumable, c
     std::mutex level_readers_mutex;
     const MapRunner run_map = [&](std::size_t k, int map_threads) {
         MapResult& r = results[k];
+        // The levels this map's plan reads, before the lobe-lookup fallback below may change it.
+        const std::vector<int> mine = levels_read(r.plan);
         const auto start = std::chrono::steady_clock::now();
         if (!batched[k]) r.image = sum_on(r, r.plan.sum_size, map_threads, progress);
         const bool split = r.plan.method == Method::Cone || (r.plan.method == Method::Sh && r.plan.bright_split);
@@ -626,8 +628,10 @@ std::vector<MapResult> convolve_map(const HdrImage& env, HdrImage* consumable, c
         deliver_output(r, options.tolerance, model, map_threads,
                        split ? &shared.bright().texels : nullptr, [&](Size grid) { return sum_on(r, grid, map_threads, no_progress); },
                        split ? sum_texels : TexelSummer{});
+        // The lookups' share decides (a method's own error, e.g. a --sh-order too low, is not
+        // mended by reading the input through the lobe, and is reported as it is).
         if (may_need_lobe_lookup(r.request, r.plan, input_size) &&
-            (r.plan.predicted_error > options.tolerance ||
+            ((r.plan.predicted_error > options.tolerance && r.plan.lookup_error >= 0.5 * r.plan.predicted_error) ||
              r.plan.lookup_worst > model.output_worst_share * options.tolerance)) {
             // Bilinear lookups of every grid tried miss the tolerance, or their worst its share
             // (the 5 % worst texel): the lobe lookup instead (exact to rounding, at the price of
@@ -635,7 +639,7 @@ std::vector<MapResult> convolve_map(const HdrImage& env, HdrImage* consumable, c
             // texel's width).
             MapPlan& p = r.plan;
             const std::string tried = p.size_reason;
-            const double missed = p.predicted_error;
+            const double missed = p.lookup_error;
             r.image = filter_to_footprint(shared.full_image(), input_size, map_threads);  // the input's texels
             p.method = Method::Mirror;
             p.lookup = MapLookup::Lobe;
@@ -647,6 +651,10 @@ std::vector<MapResult> convolve_map(const HdrImage& env, HdrImage* consumable, c
             const double missed_worst = p.lookup_worst;
             p.lookup_error = p.lookup_worst = 0;
             p.predicted_error = 0;
+            p.predicted_cost = double(input_size.width) * input_size.height;
+            p.bright_texels = 0;
+            p.note = "bilinear lookups of the grids tried missed the tolerance: read through the lobe instead";
+            r.refined_texels = r.patched_texels = r.clamped_texels = 0;
             p.size_reason = "the input's grid, read through the lobe (lookup \"lobe\"): the lobe is narrower than the "
                             "input's texel spacing and bilinear lookups of the grids tried would err " +
                             percent(missed) + " RMS, " + percent(missed_worst) + " worst (" + tried + ")";
@@ -660,7 +668,6 @@ std::vector<MapResult> convolve_map(const HdrImage& env, HdrImage* consumable, c
             // from one released meanwhile). Releasing is a free, or one halving when a coarser
             // level is still to be read and not built yet.
             const std::lock_guard lock(level_readers_mutex);
-            const std::vector<int> mine = levels_read(r.plan);
             for (int level : mine) --level_readers[level];
             for (int level : mine) {
                 if (level_readers[level] != 0) continue;
@@ -682,11 +689,11 @@ std::vector<MapResult> convolve_map(const HdrImage& env, HdrImage* consumable, c
             const MapResult& original = results[*same_as[k]];
             MapPlan& p = results[k].plan;
             results[k].image = original.image;
-            p.output_size = original.plan.output_size;
-            p.sum_size = original.plan.sum_size;
-            p.size_reason = original.plan.size_reason;
-            p.lookup_error = original.plan.lookup_error;
-            p.predicted_error = original.plan.predicted_error;
+            // The whole plan as it ran (its size, and a fallback to the lobe lookup with its method
+            // and lookup), but the label it shares with.
+            const std::string shares = p.shares_with;
+            p = original.plan;
+            p.shares_with = shares;
             progress(p.sum_size.height);
         }
     for (const MapResult& r : results)

@@ -15,7 +15,7 @@ namespace glint {
 // 25,000; on a virtual machine each fault is a trip through the hypervisor, and the first pass
 // over a fresh 4096x2048 output cost more in faults than in arithmetic (docs/convolution.md,
 // "Fresh memory"). Buffers under 4 MiB are left alone. Advice only: a kernel without THP, or
-// with it set to `never`, ignores it.
+// with it set to `never`, ignores it. Not under jemalloc (memory.cpp says why).
 void advise_huge_pages(void* p, std::size_t bytes) noexcept;
 
 // An allocator whose value-less construct() default-initialises: for double

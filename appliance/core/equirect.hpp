@@ -39,14 +39,15 @@ std::vector<double> row_solid_angles(int width, int height);
 // azimuth, clamps in polar angle (the first and last rows hold up to the poles).
 Rgb sample_bilinear(const HdrImage& image, const glm::dvec3& d);
 
-// The lobe lookup of a map whose lobe is narrower than half its texel spacing (docs/convolution.md,
-// "The lobe lookup"): the conventions' reflection sum E^n(d) itself, taken over the texels of
+// The lobe lookup of a map whose lobe is narrower than its texel spacing (half of it, or a whole
+// one where bilinear grids fail; docs/convolution.md, "The lobe lookup"): the conventions' reflection sum E^n(d) itself, taken over the texels of
 // `image` that can matter,
 //   sum_k (d.w_k / cmax)^n dOmega_k L_k  /  sum_k (d.w_k / cmax)^n dOmega_k,
 // where `image` holds the environment's own texels L_k. Between texel centres such a map is a
 // step no grid resolves for bilinear lookups; this lookup follows it. Only texels whose weight
 // is within exp(-kLobeLookupSpan) of the texel the direction falls in are visited (a few
-// neighbours for n = 1e6 on 1024x512, whole rows near a pole), found from the haversine of the
+// neighbours for n = 1e6 on 1024x512 off the poles; at a pole a whole row or more, about 1,000
+// texels there, tens of thousands for n = 4.3e5 on 4096x2048), found from the haversine of the
 // angle between the direction and each texel centre, so no candidate is missed across the seam
 // or a pole. `shininess` must be finite and > 0. In double; the renderer's GLSL
 // (shaders/render_lookup.glsl, equirect_lobe) is the same in float.

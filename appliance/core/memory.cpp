@@ -137,6 +137,13 @@ void reexec_with_huge_pages(char** argv) {
 void advise_huge_pages(void* p, std::size_t bytes) noexcept {
     constexpr std::uintptr_t kHuge = std::uintptr_t(2) << 20;
     if (p == nullptr || bytes < 2 * kHuge) return;
+    // Not under jemalloc (the kiosk's allocator): it keeps its address ranges after purging them
+    // and reuses them for small slabs, where the advice would outlive the buffer and bring purged
+    // memory back 2 MiB at a time (the weeks-long resident creep the soak guards against). glibc
+    // maps blocks this large afresh (or, under keep_freed_memory, keeps them in the heap of a
+    // short-lived command), so the advice ends with the block or with the process.
+    static const bool on_jemalloc = jemalloc_mallctl() != nullptr;
+    if (on_jemalloc) return;
     // Only whole 2 MiB pages inside the block: madvise wants a page-aligned start, and a huge
     // page that reached past the block would be shared with whatever malloc put beside it.
     const std::uintptr_t begin = (reinterpret_cast<std::uintptr_t>(p) + kHuge - 1) & ~(kHuge - 1);

@@ -27,15 +27,16 @@ const ReflectionMap* ShadingMaps::reflection_for(const Material& material) const
     return nullptr;
 }
 
-void ShadingMaps::set_reflection(const Material& material, HdrImage image, std::string from) {
+void ShadingMaps::set_reflection(const Material& material, HdrImage image, std::string from, MapLookup lookup) {
     const convolution::MapRequest request = reflection_request(material);
     for (ReflectionMap& r : reflections)
         if (r.request.label == request.label) {
             r.image = std::move(image);
             r.from = std::move(from);
+            r.lookup = lookup;
             return;
         }
-    reflections.push_back({request, std::move(image), std::move(from)});
+    reflections.push_back({request, std::move(image), std::move(from), lookup});
 }
 
 ShadingMaps load_maps(const fs::path& dir, const Material& material) {

@@ -34,7 +34,8 @@ struct ShadingMaps {
     const HdrImage* reflection() const { return reflections.empty() ? nullptr : &reflections.front().image; }
     std::string reflection_from() const { return reflections.empty() ? std::string() : reflections.front().from; }
     // Sets the map of `material`'s lobe (tests and callers that make maps themselves).
-    void set_reflection(const Material& material, HdrImage image, std::string from = "given");
+    void set_reflection(const Material& material, HdrImage image, std::string from = "given",
+                        MapLookup lookup = MapLookup::Bilinear);
 };
 
 // Reads the maps of `material` from `dir`: its report.json (written by `glint convolve`) names

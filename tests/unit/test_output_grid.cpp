@@ -649,6 +649,14 @@ TEST(OutputGrid, ALobeUnderATexelFallsBackToTheLobeLookupWhereBilinearGridsMiss)
             EXPECT_EQ(r[0].image.data(), noise.data());
             EXPECT_LT(e.weighted_relative_rms, 1e-6);
         }
+        // A second map of the same lobe shares the first's work and must share its whole plan,
+        // the fallback's lookup included.
+        const auto twice =
+            convolve(noise, {MapRequest::make_phong(300, "a"), MapRequest::make_phong(300, "b")}, o);
+        EXPECT_EQ(twice[1].plan.shares_with, twice[0].request.label);
+        EXPECT_EQ(twice[1].plan.lookup, twice[0].plan.lookup);
+        EXPECT_EQ(twice[1].plan.method, twice[0].plan.method);
+        EXPECT_EQ(twice[1].image.data(), twice[0].image.data());
     }
 }
 
