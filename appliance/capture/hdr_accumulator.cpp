@@ -412,10 +412,17 @@ FrameContribution HdrAccumulator::add_frame(const CameraFrame& frame, const Came
             const std::size_t texel = std::size_t(j) * std::size_t(width_) + std::size_t(i);
             if (P[6] > 0) {  // an invalid cell: no sample (see the header), but counted (merge_bands)
                 band.clipped[texel] += 1.0f;
-                // Waits for the next, shorter frame of the bracket (bracket fill).
-                if (settings_.bracket_fill) {
+                // Waits for the next, shorter frame of the bracket (bracket fill), if the clipped
+                // read has a weight of its own (a cell of the footprint zone near unclipped ones).
+                // One without (a clip wider than the zone's reach) stays a clipped read for the
+                // merge's rules: filled with the filling frame's weight, 1-3 such copies of a short
+                // read made the longest bands "complete" at a lamp's edge, where their t^2 then
+                // outweighed every short read (studio's irradiance 0.31 -> 0.61 %; without them
+                // 0.29 %, 2026-12-05, docs/capture.md "Bracket fill").
+                const double own_w = (P[3] + P[4] + P[5]) / 3;
+                if (settings_.bracket_fill && own_w > 0) {
                     pending_mask_[texel] = std::uint8_t(pending_mask_[texel] | own_bit);
-                    pending_w_[8 * texel + std::size_t(own_slot)] = float((P[3] + P[4] + P[5]) / 3);
+                    pending_w_[8 * texel + std::size_t(own_slot)] = float(own_w);
                 }
                 if (shortest) {
                     if (!clipped_short_[texel]) ++samples_[texel];  // estimated by radiance()
@@ -438,15 +445,13 @@ FrameContribution HdrAccumulator::add_frame(const CameraFrame& frame, const Came
                     if (!(fill & (1u << slot))) continue;
                     Band& pb = *pending_band[std::size_t(slot)];
                     const double tp = pending_t[std::size_t(slot)];
-                    // The clipped read's own weight; where it has none (a clipped area wider
-                    // than the zone's reach), this frame's.
+                    // The clipped read's own weight (> 0: only such reads wait for a fill).
                     const double wl = pending_w_[8 * texel + std::size_t(slot)];
                     for (int c = 0; c < 3; ++c) {
-                        const double w = wl > 0 ? wl : P[3 + c];
-                        pb.num[3 * texel + std::size_t(c)] += float(w * tp * tp * (P[c] / t));
-                        pb.den[3 * texel + std::size_t(c)] += float(w * tp * tp);
+                        pb.num[3 * texel + std::size_t(c)] += float(wl * tp * tp * (P[c] / t));
+                        pb.den[3 * texel + std::size_t(c)] += float(wl * tp * tp);
                     }
-                    pb.wt[texel] += float((wl > 0 ? wl : wmean) * tp);
+                    pb.wt[texel] += float(wl * tp);
                     pb.reads[texel] += 1.0f;
                     pb.filled[texel] += 1.0f;
                     pb.clipped[texel] -= 1.0f;

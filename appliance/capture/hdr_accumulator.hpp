@@ -45,10 +45,11 @@ inline constexpr std::int64_t kBracketSpanNs = 100'000'000;
 struct AccumulationSettings {
     int downscale = 0;            // box filter factor s; 0: about one map texel per pixel
     double min_weight = 0.02;     // a frame counts as a sample of a texel when its W reaches this
-    // Fill a frame's clipped reads from the shorter frames of its bracket (docs/capture.md,
-    // "Bracket fill"). Off by default: it brings the stress set's small sources within 2 % but
-    // moves studio's irradiance 0.31 -> 0.61 % and sunset's sun +1.6 -> +2.4 % (not understood
-    // yet). The GPU accumulator does not fill.
+    // Fill a frame's clipped reads that have a weight of their own from the shorter frames of
+    // its bracket (docs/capture.md, "Bracket fill"). Off by default: on seed 1 it brings the
+    // stress set's two systematic sources within 2 % and studio, sunset to or below their figures
+    // without it, but courtyard's sources within 2 % are 6 of 8 against 7, and seed 2 and the
+    // rest of the stress set are not measured with it yet. The GPU accumulator does not fill.
     bool bracket_fill = false;
 };
 
