@@ -30,6 +30,9 @@ Command add_capture_command(CLI::App& app) {
     cmd->add_option("--out", a->out, "Environment map to write (OpenEXR, equirect)")->required();
     cmd->add_option("--size", a->size, "Environment map size WxH")->check(size_validator())->capture_default_str();
     cmd->add_flag("--no-drift-correction", a->no_drift, "Use the sensor orientations as they are");
+    cmd->add_flag("--bracket-fill", a->o.bracket_fill,
+                  "Experimental, off by default: fill a frame's clipped reads from the shorter frames of its "
+                  "exposure bracket (CPU accumulation only; docs/capture.md, \"Bracket fill\")");
     cmd->add_option("--drift-gain", a->o.drift_gain,
                     "Low-pass gain of the drift correction: the share of each new measured offset taken into the "
                     "correction carried to the frames (0..1]")
@@ -85,7 +88,11 @@ Command add_capture_command(CLI::App& app) {
                 host::VirtualClock clock;  // offline: frames as fast as they are read
                 const std::unique_ptr<capture::CameraSource> camera =
                     capture::make_camera_source("replay:" + a->session, backends, clock);
-                GpuChoice gpu(a->engine, "capture accumulation");
+                // The experimental bracket fill is the CPU accumulator's only: refused on the GPU
+                // engine before a context is made, and auto takes the CPU.
+                if (a->o.bracket_fill && a->engine == EngineChoice::Gpu)
+                    throw InputError("--bracket-fill: the GPU accumulator does not fill clipped reads; use --engine cpu");
+                GpuChoice gpu(a->o.bracket_fill ? EngineChoice::Cpu : a->engine, "capture accumulation");
                 if (gpu.context()) {
                     try {
                         capture::check_gpu_accumulation(*gpu.context());

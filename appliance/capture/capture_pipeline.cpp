@@ -172,6 +172,8 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
     if (o.min_samples < 1) throw InputError("--min-samples must be at least 1");
     if (o.adjustment_rounds < 1 || o.adjustment_rounds > 20) throw InputError("--adjustment-rounds must be 1 to 20");
     if (!(o.drift_gain > 0 && o.drift_gain <= 1)) throw InputError("--drift-gain must be in (0, 1]");
+    if (o.bracket_fill && gpu)
+        throw InputError("--bracket-fill: the GPU accumulator does not fill clipped reads; use --engine cpu");
     const bool live_stream = o.live_calibration.has_value();
     if (live_stream && !o.live_orientation) throw InputError("capture: a live capture needs the orientation sensor");
     if (live_stream && o.orientations == OrientationInput::Truth) throw InputError("capture: a live capture has no truth");
@@ -247,7 +249,11 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
         auto e = std::make_unique<Engine>();
         e->threads = threads;
         if (gpu) e->gpu = std::make_unique<GpuAccumulator>(*gpu, o.width, o.height);
-        else e->cpu = std::make_unique<HdrAccumulator>(o.width, o.height);
+        else {
+            AccumulationSettings settings;
+            settings.bracket_fill = o.bracket_fill;
+            e->cpu = std::make_unique<HdrAccumulator>(o.width, o.height, settings);
+        }
         return e;
     };
     std::unique_ptr<Engine> live = make_engine();

@@ -40,6 +40,9 @@ struct CaptureOptions {
     int width = 1024, height = 512;
     OrientationInput orientations = OrientationInput::Sensors;
     bool drift_correction = true;  // align each frame to the sphere before accumulating it
+    // Experimental, off by default: fill clipped reads from their brackets' shorter frames
+    // (AccumulationSettings::bracket_fill, docs/capture.md "Bracket fill"); CPU accumulation only.
+    bool bracket_fill = false;
     double drift_gain = 0.1;       // low-pass gain of the drift correction (DriftSettings::gain)
     // The global adjustment after the scan (global_adjustment.hpp); only with drift correction on.
     bool global_adjustment = true;

@@ -222,7 +222,12 @@ expect_bad "capture of a missing session" "no such session" "$work/none" \
     capture --session "$work/nope" --out "$work/env2.exr"
 expect_bad "capture --engine with a bad name" "--engine" "$work/none" \
     capture --session "$work/session" --out "$work/env2.exr" --engine tpu
+expect_bad "capture --bracket-fill on the GPU engine" "--bracket-fill" "$work/none" \
+    capture --session "$work/session" --out "$work/env2.exr" --size 64x32 --bracket-fill --engine gpu
 [[ ! -e $work/env2.exr ]] || fail "a failed capture wrote a map"
+run capture --session "$work/session" --out "$work/env-fill.exr" --size 64x32 --orientations truth --no-drift-correction --bracket-fill
+[[ $rc -eq 0 && -f $work/env-fill.exr ]] || fail "capture --bracket-fill: exit $rc: $(stderr_text)"
+pass "capture --bracket-fill (experimental) runs on the CPU engine and is refused on the GPU one"
 run capture --session "$work/session" --out "$work/env-gpu.exr" --size 64x32 --orientations truth --no-drift-correction --engine gpu
 [[ $rc -eq 0 && -f $work/env-gpu.exr ]] || fail "capture --engine gpu: exit $rc: $(stderr_text)"
 run compare "$work/env-gpu.exr" "$work/env.exr"
