@@ -17,6 +17,12 @@ namespace glint {
 // "Fresh memory"). Buffers under 4 MiB are left alone. Advice only: a kernel without THP, or
 // with it set to `never`, ignores it. Not under jemalloc (memory.cpp says why).
 void advise_huge_pages(void* p, std::size_t bytes) noexcept;
+// The whole 2 MiB pages inside [p, p + bytes) that advise_huge_pages advises: [begin, end),
+// empty (begin == end) for a block under 4 MiB or one holding no whole huge page.
+struct HugePageSpan {
+    std::uintptr_t begin = 0, end = 0;
+};
+HugePageSpan huge_page_span(const void* p, std::size_t bytes) noexcept;
 
 // An allocator whose value-less construct() default-initialises: for double
 // and float, no write at all. resize(n) of a 3 MB buffer then costs nothing,

@@ -134,9 +134,19 @@ void reexec_with_huge_pages(char** argv) {
     // Still here: run as we are (the variable stays set for children, which is harmless).
 }
 
-void advise_huge_pages(void* p, std::size_t bytes) noexcept {
+HugePageSpan huge_page_span(const void* p, std::size_t bytes) noexcept {
     constexpr std::uintptr_t kHuge = std::uintptr_t(2) << 20;
-    if (p == nullptr || bytes < 2 * kHuge) return;
+    if (p == nullptr || bytes < 2 * kHuge) return {};
+    // Only whole 2 MiB pages inside the block: madvise wants a page-aligned start, and a huge
+    // page that reached past the block would be shared with whatever malloc put beside it.
+    const std::uintptr_t begin = (reinterpret_cast<std::uintptr_t>(p) + kHuge - 1) & ~(kHuge - 1);
+    const std::uintptr_t end = (reinterpret_cast<std::uintptr_t>(p) + bytes) & ~(kHuge - 1);
+    return end > begin ? HugePageSpan{begin, end} : HugePageSpan{};
+}
+
+void advise_huge_pages(void* p, std::size_t bytes) noexcept {
+    const HugePageSpan span = huge_page_span(p, bytes);
+    if (span.end == span.begin) return;
     // Not under jemalloc (the kiosk's allocator): it keeps its address ranges after purging them
     // and reuses them for small slabs, where the advice would outlive the buffer and bring purged
     // memory back 2 MiB at a time (the weeks-long resident creep the soak guards against). glibc
@@ -144,11 +154,7 @@ void advise_huge_pages(void* p, std::size_t bytes) noexcept {
     // short-lived command), so the advice ends with the block or with the process.
     static const bool on_jemalloc = jemalloc_mallctl() != nullptr;
     if (on_jemalloc) return;
-    // Only whole 2 MiB pages inside the block: madvise wants a page-aligned start, and a huge
-    // page that reached past the block would be shared with whatever malloc put beside it.
-    const std::uintptr_t begin = (reinterpret_cast<std::uintptr_t>(p) + kHuge - 1) & ~(kHuge - 1);
-    const std::uintptr_t end = (reinterpret_cast<std::uintptr_t>(p) + bytes) & ~(kHuge - 1);
-    if (end > begin) (void)madvise(reinterpret_cast<void*>(begin), end - begin, MADV_HUGEPAGE);
+    (void)madvise(reinterpret_cast<void*>(span.begin), span.end - span.begin, MADV_HUGEPAGE);
 }
 
 }  // namespace glint
