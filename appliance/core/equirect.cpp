@@ -131,6 +131,13 @@ Rgb sample_lobe(const HdrImage& image, const glm::dvec3& d_in, double n) {
     return {float(sum[0] / norm), float(sum[1] / norm), float(sum[2] / norm)};
 }
 
+HdrImage resample_lobe(const HdrImage& image, int width, int height, double n) {
+    HdrImage out(width, height);
+    for (int j = 0; j < height; ++j)
+        for (int i = 0; i < width; ++i) out.set(i, j, sample_lobe(image, texel_direction(i, j, width, height), n));
+    return out;
+}
+
 const char* to_string(MapLookup lookup) { return lookup == MapLookup::Lobe ? "lobe" : "bilinear"; }
 
 HdrImage resample_bilinear(const HdrImage& image, int width, int height) {

@@ -62,6 +62,10 @@ inline Rgb sample_map(const HdrImage& image, const glm::dvec3& d, MapLookup look
     return lookup == MapLookup::Lobe ? sample_lobe(image, d, shininess) : sample_bilinear(image, d);
 }
 
+// A lobe-lookup map (sample_lobe) read at the texel centres of a width x height grid: its values
+// where a reference of that grid holds the exact sums.
+HdrImage resample_lobe(const HdrImage& image, int width, int height, double shininess);
+
 // Resample a map to another size by bilinear lookup at the new texel centres.
 HdrImage resample_bilinear(const HdrImage& image, int width, int height);
 

@@ -463,11 +463,7 @@ RunRow run_one(const Config& cfg, const Run& run, const std::vector<HdrImage>& r
             if (m.value("lookup", std::string("bilinear")) == "lobe") {
                 // The input's texels read through the lobe (docs/convolution.md, "The lobe lookup"):
                 // its value at the reference's texel centres is that lookup's, not a bilinear one.
-                HdrImage read(ref.width(), ref.height());
-                for (int j = 0; j < read.height(); ++j)
-                    for (int i = 0; i < read.width(); ++i)
-                        read.set(i, j, sample_lobe(map, texel_direction(i, j, read.width(), read.height()), it->n));
-                map = std::move(read);
+                map = resample_lobe(map, ref.width(), ref.height(), it->n);
                 r.method += ", lobe lookup";
             }
             r.error = compare_maps(map, ref);

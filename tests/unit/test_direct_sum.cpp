@@ -360,13 +360,10 @@ void check_cone_and_auto() {
                     if (ref.horizon_texels > 0) continue;  // see direct_sum
                     // A map read through the lobe (docs/convolution.md, "The lobe lookup") holds the
                     // input's texels: its value at its own texel centres is that lookup's.
-                    HdrImage read = r.image;
-                    if (r.plan.lookup == MapLookup::Lobe) {
-                        ++narrow;
-                        for (int j = 0; j < read.height(); ++j)
-                            for (int i = 0; i < read.width(); ++i)
-                                read.set(i, j, sample_lobe(r.image, texel_direction(i, j, read.width(), read.height()), n));
-                    }
+                    const bool lobe = r.plan.lookup == MapLookup::Lobe;
+                    narrow += lobe;
+                    const HdrImage read =
+                        lobe ? resample_lobe(r.image, r.image.width(), r.image.height(), n) : r.image;
                     const double rms = weighted_rel_rms(read, ref);
                     const double worst = worst_relative(read, ref, mean_value(ref));
                     worst_rms[which] = std::max(worst_rms[which], rms);
