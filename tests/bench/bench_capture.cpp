@@ -315,7 +315,8 @@ int main(int argc, char** argv) {
               "eight discs of 1e-5 to 1e-2 sr at the poles, on the seam and in the open, all of one peak per map), with "
               "the sensor and camera noise of each seed. A source's energy: red x solid angle over its disc widened by 1.5 "
               "degrees, captured against true; the three maps' sources are found in the true map (regions over 20x its "
-              "mean radiance, at most 0.05 sr, the eight with the most energy).\n\n"
+              "mean radiance, at most 0.05 sr, apart from every other such region by the 1.5 degrees, the eight with the "
+              "most energy).\n\n"
               "| map | seed | frames used | irradiance | n = 160 | orientation error after 60 s (max) | last frame to map | "
               "sources within 2 % | worst source | estimated |\n|---|---|---|---|---|---|---|---|---|---|\n";
         for (const SeedRun& r : runs) {

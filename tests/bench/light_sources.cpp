@@ -182,6 +182,7 @@ std::vector<LightSource> find_sources(const HdrImage& m, double factor, double m
         double energy = 0, omega = 0, peak = 0;
         glm::dvec3 centre{0};
         std::vector<std::size_t> texels;
+        int id = 0;
     };
     std::vector<Region> regions;
     std::vector<std::size_t> stack;
@@ -191,6 +192,7 @@ std::vector<LightSource> find_sources(const HdrImage& m, double factor, double m
             if (label[t0] >= 0 || lum(i0, j0) <= threshold) continue;
             Region r;
             const int id = int(regions.size());
+            r.id = id;
             label[t0] = id;
             stack.assign(1, t0);
             while (!stack.empty()) {
@@ -237,6 +239,17 @@ std::vector<LightSource> find_sources(const HdrImage& m, double factor, double m
         }
         // The texels' centres, plus half a texel's diagonal at the equator.
         s.radius = far + kPi / h;
+        // Only sources apart from the other bright regions: a patch with another region inside
+        // its widened disc (courtyard's small patches of sky beside the large ones) is part of a
+        // bright area, and its measure would weigh that area's error at the cap's rim, not its own.
+        const double rim = std::cos(std::min(kPi, s.radius + kSourceMarginRad));
+        bool apart = true;
+        for (int j = 0; j < h && apart; ++j)
+            for (int i = 0; i < w && apart; ++i) {
+                const int l = label[std::size_t(j) * std::size_t(w) + std::size_t(i)];
+                apart = l < 0 || l == r.id || glm::dot(texel_direction(i, j, w, h), s.dir) < rim;
+            }
+        if (!apart) continue;
         const double el = std::asin(std::clamp(s.dir.y, -1.0, 1.0)) / kDeg;
         s.where = el > 80 ? "pole-N" : el < -80 ? "pole-S" : "open";
         out.push_back(s);

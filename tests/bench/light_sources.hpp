@@ -49,7 +49,9 @@ double source_energy(const HdrImage& map, const LightSource& source, double marg
 // The compact bright sources of any map: 8-connected regions (joined across the seam, and around
 // a pole) of texels whose luminance is over `factor` times the map's mean (solid-angle weighted),
 // no larger than `max_omega` sr; the `max_count` with the most energy, each as the smallest disc
-// about its energy-weighted centre that holds its texels' centres.
+// about its energy-weighted centre that holds its texels' centres. Only regions with no other
+// region's texel within their disc widened by kSourceMarginRad count (sources apart from the
+// rest: the energy of a patch of a larger bright area cannot be told from that area's).
 std::vector<LightSource> find_sources(const HdrImage& map, double factor = 20, double max_omega = 0.05,
                                       int max_count = 8);
 
