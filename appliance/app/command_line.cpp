@@ -23,8 +23,9 @@ namespace {
 constexpr CommandSummary kSummaries[] = {
     {"convolve", "Environment map -> irradiance and Phong reflection maps (EXR) and report.json", false},
     {"compare",
-     "Error of a map against a reference map (weighted relative RMS, worst texel, mean/max absolute percentage); a "
-     "map of another size is resampled bilinearly",
+     "Error of a map against a reference map (weighted relative RMS, worst texel, mean/max absolute percentage), "
+     "the map read at the reference's texel centres as a renderer reads it (bilinear, or through its lobe where "
+     "report.json says so)",
      false},
     {"sensors",
      "Read or replay an orientation source: one line per sample on stdout (appliance monotonic time), the health "

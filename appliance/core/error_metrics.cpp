@@ -8,12 +8,10 @@
 
 namespace glint {
 
-MapError compare_maps(const HdrImage& approx_in, const HdrImage& reference) {
-    const HdrImage resampled = (approx_in.width() == reference.width() &&
-                                approx_in.height() == reference.height())
-                                   ? HdrImage()
-                                   : resample_bilinear(approx_in, reference.width(), reference.height());
-    const HdrImage& approx = resampled.empty() ? approx_in : resampled;
+namespace {
+
+// The metrics of two maps on the same grid.
+MapError compare_same_grid(const HdrImage& approx, const HdrImage& reference) {
     const int w = reference.width();
     const int h = reference.height();
     const std::vector<double> omega = row_solid_angles(w, h);
@@ -47,6 +45,22 @@ MapError compare_maps(const HdrImage& approx_in, const HdrImage& reference) {
     e.weighted_relative_rms = den > 0 ? std::sqrt(num / den) : (num > 0 ? INFINITY : 0.0);
     e.mean_abs_percent = pct_sum / double(reference.data().size());
     return e;
+}
+
+}  // namespace
+
+MapError compare_maps(const HdrImage& approx, const HdrImage& reference) {
+    return compare_maps(approx, reference, MapLookup::Bilinear, 0.0);
+}
+
+MapError compare_maps(const HdrImage& approx, const HdrImage& reference, MapLookup lookup, double shininess) {
+    // A lobe map's texel holds radiance, not the lobe's sum: even on the reference's own grid it
+    // is read through the lobe.
+    if (lookup == MapLookup::Lobe)
+        return compare_same_grid(resample_lobe(approx, reference.width(), reference.height(), shininess), reference);
+    if (approx.width() == reference.width() && approx.height() == reference.height())
+        return compare_same_grid(approx, reference);
+    return compare_same_grid(resample_bilinear(approx, reference.width(), reference.height()), reference);
 }
 
 }  // namespace glint

@@ -1,6 +1,7 @@
 // The error metrics of docs/conventions.md ("Error between two maps").
 #pragma once
 
+#include "appliance/core/equirect.hpp"
 #include "appliance/core/hdr_image.hpp"
 
 namespace glint {
@@ -18,5 +19,9 @@ struct MapError {
 // Error of `approx` against `reference`. If the sizes differ, `approx` is first
 // resampled bilinearly to the reference's texel centres, as a renderer would.
 MapError compare_maps(const HdrImage& approx, const HdrImage& reference);
+// The same for a map read by `lookup`: a lobe-lookup map (report.json "lookup": "lobe", its texels
+// the input's radiance) is read through its lobe of `shininess` at the reference's texel centres
+// (resample_lobe), whatever the two sizes; a bilinear map as above.
+MapError compare_maps(const HdrImage& approx, const HdrImage& reference, MapLookup lookup, double shininess);
 
 }  // namespace glint

@@ -459,14 +459,12 @@ RunRow run_one(const Config& cfg, const Run& run, const std::vector<HdrImage>& r
         const fs::path file = dir / m.value("file", label + ".exr");
         try {
             const HdrImage& ref = reference[std::size_t(it - targets.begin())];
-            HdrImage map = load_exr(file).image;
-            if (m.value("lookup", std::string("bilinear")) == "lobe") {
-                // The input's texels read through the lobe (docs/convolution.md, "The lobe lookup"):
-                // its value at the reference's texel centres is that lookup's, not a bilinear one.
-                map = resample_lobe(map, ref.width(), ref.height(), it->n);
-                r.method += ", lobe lookup";
-            }
-            r.error = compare_maps(map, ref);
+            const HdrImage map = load_exr(file).image;
+            // A lobe map is the input's texels read through the lobe (docs/convolution.md, "The
+            // lobe lookup"): its value at the reference's texel centres is that lookup's.
+            const bool lobe = m.value("lookup", std::string("bilinear")) == "lobe";
+            if (lobe) r.method += ", lobe lookup";
+            r.error = compare_maps(map, ref, lobe ? MapLookup::Lobe : MapLookup::Bilinear, it->n);
         } catch (const std::exception& e) {
             row.ok = false;
             row.failure = e.what();

@@ -117,6 +117,30 @@ rms=$(awk '$1 == "weighted_rel_rms" { print $2 }' "$work/stdout")
 awk -v v="$rms" 'BEGIN { exit !(v + 0 > 0) }' || fail "compare of two different maps: weighted_rel_rms '$rms', want > 0"
 pass "compare of phong_20.exr against irradiance.exr prints weighted_rel_rms $rms > 0"
 
+# A map read through its lobe (n = 1e6 on 1024x512: report.json "lookup": "lobe", its texels the
+# input's radiance) is judged through the lobe: from report.json by default, bilinearly only when
+# asked, where it is off by its whole lobe.
+lobe_out="$work/lobe"
+run convolve "$WORLD" --out "$lobe_out" --shininess 1000000
+[[ $rc -eq 0 ]] || fail "convolve n = 1e6: exit code $rc (stderr: $(stderr_text))"
+python3 -c "import json,sys; m=json.load(open(sys.argv[1]))['maps'][0]; sys.exit(0 if m['lookup']=='lobe' else 1)" \
+    "$lobe_out/report.json" || fail "convolve n = 1e6: report.json lookup is not lobe"
+run convolve "$WORLD" --out "$work/lobe_exact" --shininess 1000000 --method exact --size 37x19
+[[ $rc -eq 0 ]] || fail "exact n = 1e6 at 37x19: exit code $rc (stderr: $(stderr_text))"
+run compare "$lobe_out/phong_1000000.exr" "$work/lobe_exact/phong_1000000.exr"
+[[ $rc -eq 0 ]] || fail "compare of a lobe map: exit code $rc (stderr: $(stderr_text))"
+lobe_rms=$(awk '$1 == "weighted_rel_rms" { print $2 }' "$work/stdout")
+grep -q '^lookup lobe (.*report.json)$' "$work/stdout" || fail "compare of a lobe map did not read it through the lobe: $(tr '\n' ' ' <"$work/stdout")"
+run compare "$lobe_out/phong_1000000.exr" "$work/lobe_exact/phong_1000000.exr" --lookup bilinear
+[[ $rc -eq 0 ]] || fail "compare --lookup bilinear: exit code $rc (stderr: $(stderr_text))"
+bilinear_rms=$(awk '$1 == "weighted_rel_rms" { print $2 }' "$work/stdout")
+python3 -c "import sys; sys.exit(0 if float('$lobe_rms') <= 1e-3 and float('$bilinear_rms') > max(1e-2, 10 * float('$lobe_rms')) else 1)" ||
+    fail "lobe map against exact: through the lobe $lobe_rms (want <= 1e-3), bilinear $bilinear_rms (want over 1e-2 and 10x more)"
+pass "compare reads a lobe map through its lobe from report.json: $lobe_rms against exact (bilinear $bilinear_rms)"
+expect_bad "compare --lookup lobe without --shininess" "--shininess" "$work/bad_lobe" \
+    compare "$lobe_out/phong_1000000.exr" "$work/lobe_exact/phong_1000000.exr" --lookup lobe
+rm -rf "$lobe_out" "$work/lobe_exact"
+
 # A second run into the same directory replaces the maps and leaves nothing behind.
 run convolve "$work/in.exr" --out "$out" --irradiance --shininess 20 --size 32x16 --method exact
 [[ $rc -eq 0 ]] || fail "convolve again into $out: exit code $rc (stderr: $(stderr_text))"
