@@ -118,5 +118,23 @@ TEST(ErrorMetrics, ApproxOfAnotherSizeIsResampledBilinearly) {
     expect_all_zero(compare_maps(coarse, resample_bilinear(coarse, 16, 8)));
 }
 
+TEST(ErrorMetrics, ALobeMapIsReadThroughItsLobeWhateverTheSizes) {
+    // A lobe-lookup map holds radiance: against its own lobe's values at another grid's centres,
+    // and at its own, it is exact only when read through the lobe.
+    // n = 200: a lobe of about one texel of this 64x32 map, so even at the map's own texel
+    // centres the lobe's value is not the texel's.
+    const HdrImage radiance = noise(64, 32, 5);
+    const double n = 200;
+    for (const auto& [w, h] : {std::pair{23, 11}, std::pair{64, 32}}) {
+        const HdrImage sums = resample_lobe(radiance, w, h, n);
+        expect_all_zero(compare_maps(radiance, sums, MapLookup::Lobe, n));
+        EXPECT_GT(compare_maps(radiance, sums, MapLookup::Bilinear, n).weighted_relative_rms, 1e-3) << w << "x" << h;
+    }
+    // Bilinear through the overload is the two-argument comparison.
+    const HdrImage ref = noise(16, 8, 2);
+    EXPECT_EQ(compare_maps(radiance, ref, MapLookup::Bilinear, 0.0).weighted_relative_rms,
+              compare_maps(radiance, ref).weighted_relative_rms);
+}
+
 }  // namespace
 }  // namespace glint
