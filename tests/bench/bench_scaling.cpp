@@ -513,6 +513,12 @@ void lookup_floors(const Config& cfg, RunRow& row, const std::vector<HdrImage>& 
             m.floor_note = "same grid";
             continue;
         }
+        if (m.method.find("lobe lookup") != std::string::npos) {
+            // Read through its lobe the map is the sum itself at any direction: no grid's
+            // interpolation to measure (docs/convolution.md, "The lobe lookup").
+            m.floor_note = "none (lobe lookup)";
+            continue;
+        }
         Target t = m.target;
         t.size = m.output;
         if (exact_cost(t.size, src, t.n) > kFloorBudget) {
