@@ -260,6 +260,7 @@ private:
     capture::ExposureControlSettings exposure_settings() const {
         capture::ExposureControlSettings settings;
         settings.min_exposure_s = calibration_.min_exposure_s;
+        settings.code_exposure = calibration_.response.inverse;  // the top-up frames read codes as exposure
         return settings;
     }
 

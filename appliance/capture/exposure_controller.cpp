@@ -31,11 +31,12 @@ const char* bracket_outcome_name(BracketOutcome o) {
 std::string ExposureControlStatus::text() const {
     char s[160];
     if (state == ExposureControlState::Bracketing) {
+        const char* what = top_up ? ", top-up" : "";
         if (waited_frames == 0)
-            std::snprintf(s, sizeof s, "bracketing %d of %d", step, steps);
+            std::snprintf(s, sizeof s, "bracketing %d of %d%s", step, steps, what);
         else
-            std::snprintf(s, sizeof s, "bracketing %d of %d (waiting %d frames for %.3g s at gain %.3g)", step, steps,
-                          waited_frames, asked_exposure_s, asked_gain);
+            std::snprintf(s, sizeof s, "bracketing %d of %d%s (waiting %d frames for %.3g s at gain %.3g)", step, steps,
+                          what, waited_frames, asked_exposure_s, asked_gain);
         return s;
     }
     switch (last) {
@@ -73,6 +74,11 @@ ExposureController::ExposureController(ExposureControlSettings settings) : setti
     if (!(p.match_tolerance > 0) || !((1 + p.match_tolerance) * (1 + p.match_tolerance) < p.step_factor))
         throw InputError("exposure control: match_tolerance must be positive and (1 + it)^2 below step_factor");
     if (p.max_wait_frames < 1) throw InputError("exposure control: max_wait_frames must be at least 1");
+    if (!(p.top_up_below >= 0) || !(p.top_up_below < p.top_up_target) || !(p.top_up_target < 1))
+        throw InputError("exposure control: need 0 <= top_up_below < top_up_target < 1");
+    for (int z = 1; z < 256; ++z)
+        if (!(p.code_exposure[std::size_t(z)] > p.code_exposure[std::size_t(z - 1)]) || !(p.code_exposure[0] >= 0))
+            throw InputError("exposure control: code_exposure must be non-negative and strictly increasing");
     status_.steps = p.max_steps;
 }
 
@@ -113,6 +119,29 @@ ExposureRequest ExposureController::bracket_request(int step) const {
     return r;
 }
 
+std::optional<ExposureRequest> ExposureController::top_up_request(const CameraFrame& frame) const {
+    const ExposureControlSettings& p = settings_;
+    if (!(p.top_up_below > 0) || frame.rgb.empty()) return std::nullopt;
+    int z_max = 0;
+    for (int v = 0; v < frame.rgb.rows; ++v) {
+        const std::uint8_t* row = frame.rgb.ptr<std::uint8_t>(v);
+        for (int k = 0; k < 3 * frame.rgb.cols; ++k) z_max = std::max(z_max, int(row[k]));
+    }
+    // As a share of the top unclipped code's exposure (the frame clips nowhere: z_max < clip_code).
+    const double top = p.code_exposure[std::size_t(p.clip_code - 1)];
+    const double share = p.code_exposure[std::size_t(z_max)] / top;
+    if (!(share < p.top_up_below) || !(share > 0)) return std::nullopt;
+    // Never within two stops of the frame that clipped one step before.
+    const double factor = std::min(p.top_up_target / share, p.step_factor / 4);
+    if (!(factor > (1 + p.match_tolerance) * (1 + p.match_tolerance))) return std::nullopt;
+    const double want = frame.exposure_s * frame.total_gain() * factor;
+    ExposureRequest r;
+    r.automatic = false;
+    r.exposure_s = std::max(want / p.bracket_gain, p.min_exposure_s);
+    r.analogue_gain = p.bracket_gain;
+    return r;
+}
+
 ExposureRequest ExposureController::automatic() {
     ++counters_.requests;
     ExposureRequest r;
@@ -130,6 +159,7 @@ ExposureRequest ExposureController::finish(BracketOutcome outcome) {
         case BracketOutcome::None: break;
     }
     status_.state = ExposureControlState::Preview;
+    status_.top_up = false;
     status_.last = outcome;
     // Whatever the camera still delivers on the last manual request is not a new view.
     ExposureRequest last;
@@ -153,7 +183,19 @@ std::optional<ExposureRequest> ExposureController::on_frame(const CameraFrame& f
             return std::nullopt;
         }
         ++counters_.bracket_frames;
-        if (!clipped(frame)) return finish(BracketOutcome::Unclipped);
+        // The top-up ends the bracket whatever it shows: the bracket's last step clipped nowhere.
+        if (status_.top_up) return finish(BracketOutcome::Unclipped);
+        if (!clipped(frame)) {
+            const std::optional<ExposureRequest> top_up = top_up_request(frame);
+            if (!top_up) return finish(BracketOutcome::Unclipped);
+            status_.top_up = true;
+            status_.asked_exposure_s = top_up->exposure_s;
+            status_.asked_gain = top_up->analogue_gain;
+            status_.waited_frames = 0;
+            ++counters_.top_ups;
+            ++counters_.requests;
+            return top_up;
+        }
         ++counters_.clipped_frames;
         // Asked at the shortest exposure (the request was clamped to it) and still clipped.
         if (p.min_exposure_s > 0 && status_.asked_exposure_s <= p.min_exposure_s)

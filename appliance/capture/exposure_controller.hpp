@@ -4,7 +4,9 @@
 // - preview: automatic exposure (the camera's own loop) for the viewfinder and the scan;
 // - bracketing: after a frame with a clipped pixel, frames at 1/64, 1/4096, ... of that frame's
 //   exposure x gain (at gain 1), until one clips nowhere, the shortest exposure still clips, or
-//   four were taken; then back to automatic exposure.
+//   four were taken; then, if that last frame's brightest pixel is under an eighth of the range
+//   (what clipped before is read in a few codes, in the noise), one top-up frame exposed to put
+//   it at half the range; then back to automatic exposure.
 //
 // A real camera applies a control a few frames late (libcamera pipelines: 2-3 frames) and may
 // drop frames, so a bracket frame is recognised by its metadata (exposure x gain within a
@@ -14,6 +16,7 @@
 // left to the caller to use like any other; the controller only does not act on them.
 #pragma once
 
+#include <array>
 #include <cstdint>
 #include <optional>
 #include <string>
@@ -58,6 +61,26 @@ struct ExposureControlSettings {
     // Frames to wait for a requested exposure before giving up (timeout): libcamera applies a
     // control 2-3 frames late, and a frame or two may be dropped on the way.
     int max_wait_frames = 8;
+    // Top-up frame: a bracket whose last frame clips nowhere but whose brightest pixel (brightest
+    // channel, as linear exposure) is under top_up_below of the clip code's gets one more frame, at
+    // the exposure that puts that pixel at top_up_target of it. Steps of 64 leave what clipped one
+    // step before at 1/64 to 1 of the range in the next: a small source at the low end is read in
+    // 2-5 codes, where read noise and quantisation scattered its energy by 15-50 % a frame and the
+    // 6-15 such frames of a scan left it 2-6 % off (2026-12-05, docs/capture.md "Top-up frames").
+    // The top-up's exposure lies between the last two frames' (at most step_factor / 4 above the
+    // last: two stops of headroom below the frame that clipped), and it ends the bracket whatever
+    // it shows. top_up_below 0: no top-up frames.
+    double top_up_below = 1.0 / 8;
+    double top_up_target = 0.5;
+    // Linear exposure of each 8-bit code (CameraResponse::inverse of the camera's calibration);
+    // only its ratios are used. The default is a linear response.
+    std::array<double, 256> code_exposure = linear_codes();
+
+    static std::array<double, 256> linear_codes() {
+        std::array<double, 256> a{};
+        for (int z = 0; z < 256; ++z) a[std::size_t(z)] = (z + 0.5) / 256.0;
+        return a;
+    }
 };
 
 enum class ExposureControlState : std::uint8_t { Preview, Bracketing };
@@ -80,6 +103,7 @@ struct ExposureControlStatus {
     ExposureControlState state = ExposureControlState::Preview;
     int step = 0;           // bracketing: the bracket frame waited for, 1..steps
     int steps = 0;          // bracketing: at most this many (ExposureControlSettings::max_steps)
+    bool top_up = false;    // bracketing: the frame waited for is the bracket's top-up
     double asked_exposure_s = 0, asked_gain = 1;  // bracketing: the request waited for
     int waited_frames = 0;  // bracketing: frames delivered since that request that were not it
     BracketOutcome last = BracketOutcome::None;
@@ -92,7 +116,8 @@ struct ExposureControlCounters {
     std::uint64_t frames = 0;          // fed
     std::uint64_t clipped_frames = 0;  // judged clipped (previews that started a bracket, clipped bracket frames)
     std::uint64_t brackets = 0;        // started
-    std::uint64_t bracket_frames = 0;  // delivered frames recognised as the bracket frame asked for
+    std::uint64_t bracket_frames = 0;  // delivered frames recognised as the bracket frame asked for (top-ups too)
+    std::uint64_t top_ups = 0;         // top-up frames asked for
     std::uint64_t waited_frames = 0;   // frames not acted on: not the one waited for, or a bracket's leftovers
     std::uint64_t requests = 0;        // requests returned (manual and automatic)
     // How brackets ended (the four add up to brackets, less one still running). A clipped frame
@@ -123,6 +148,8 @@ private:
     bool clipped(const CameraFrame& frame) const;
     bool matches(const CameraFrame& frame, double exposure_s, double gain) const;
     ExposureRequest bracket_request(int step) const;
+    // The top-up after `frame` (an unclipped bracket frame), or nothing when it is exposed well.
+    std::optional<ExposureRequest> top_up_request(const CameraFrame& frame) const;
     ExposureRequest finish(BracketOutcome outcome);
     ExposureRequest automatic();
 

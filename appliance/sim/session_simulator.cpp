@@ -340,6 +340,7 @@ SimulateSummary write_session(const SimulateOptions& o, const HdrImage& env, con
         if (segment->hdr_bracket) {
             capture::ExposureControlSettings settings;
             settings.min_exposure_s = truth.min_exposure_s;
+            settings.code_exposure = truth.response.inverse;  // the camera's response (top-up frames)
             controller.emplace(settings);
         }
         const int frames = o.bracket > 0 ? o.bracket : segment->frames;

@@ -11,6 +11,7 @@
 #include "appliance/capture/exposure_controller.hpp"
 #include "appliance/core/equirect.hpp"
 #include "appliance/core/errors.hpp"
+#include "appliance/core/errors.hpp"
 #include "appliance/sim/camera_simulator.hpp"
 #include "appliance/sim/session_simulator.hpp"
 #include "firmware_bridge/host/clock.hpp"
@@ -47,7 +48,7 @@ public:
             f.exposure_s = std::max(state_.exposure_s, min_exposure_s_);
             f.analogue_gain = state_.analogue_gain;
         }
-        f.rgb = cv::Mat(8, 8, CV_8UC3, cv::Scalar(100, 100, 100));
+        f.rgb = cv::Mat(8, 8, CV_8UC3, cv::Scalar(background, background, background));
         const double code = 255 * source_ * f.exposure_s * f.analogue_gain;
         if (source_in_view) {
             const auto c = std::uint8_t(std::min(255.0, std::round(code)));
@@ -60,6 +61,7 @@ public:
     bool ignore_requests = false;
     bool ignore_automatic = false;  // stays on the last manual request
     bool source_in_view = true;
+    int background = 100;  // code of every other pixel, whatever the exposure
 
 private:
     int delay_;
@@ -128,6 +130,65 @@ TEST(ExposureController, BracketsAtOneSixtyFourthStepsUntilNothingClipsThenBackT
     EXPECT_EQ(c.unclipped, 1u);
     EXPECT_EQ(c.timeouts, 0u);
     EXPECT_EQ(controller.status().text(), "bracketing 1 of 4");
+}
+
+TEST(ExposureController, ABracketWhoseLastFrameReadsTheSourceInAFewCodesTakesATopUpFrame) {
+    for (int delay : {0, 3}) {
+        SCOPED_TRACE(delay);
+        // The source clips at ~10 ms and at 1/64 of it; at 1/4096 it reads ~12 codes of 255 (under
+        // an eighth): one top-up frame at the exposure that puts it at half the range, then preview.
+        FakeCamera cam(delay, 2e4);
+        cam.background = 2;  // a dark room: the source is the brightest pixel of the short frames
+        ExposureController controller;
+        const std::vector<Step> s = run(controller, cam, 1 + 3 * (delay + 1));
+        const std::vector<int> asked = request_frames(s);
+        ASSERT_EQ(asked.size(), 4u);
+        const Step& last_step = s[std::size_t(asked[2])];  // the 1/4096 frame, unclipped
+        EXPECT_DOUBLE_EQ(last_step.exposure_gain, s[0].exposure_gain / 4096);
+        EXPECT_FALSE(last_step.clipped);
+        ASSERT_TRUE(last_step.request && !last_step.request->automatic);
+        const double code = std::round(255 * 2e4 * last_step.exposure_gain);
+        // Its share of the top unclipped code (254) as exposure, on the default linear response.
+        EXPECT_NEAR(last_step.request->exposure_s, last_step.exposure_gain * 0.5 / ((code + 0.5) / 254.5), 1e-12);
+        // Between the last two steps, two stops below the one that clipped.
+        EXPECT_GT(last_step.request->exposure_s, last_step.exposure_gain * 4);
+        EXPECT_LE(last_step.request->exposure_s, s[0].exposure_gain / 64 / 4 * (1 + 1e-12));
+        // The top-up frame: near half the range, and the bracket ends with it.
+        const Step& top_up = s[std::size_t(asked[3])];
+        EXPECT_DOUBLE_EQ(top_up.exposure_gain, last_step.request->exposure_s);
+        EXPECT_FALSE(top_up.clipped);
+        EXPECT_NEAR(255 * 2e4 * top_up.exposure_gain, 128, 12);
+        ASSERT_TRUE(top_up.request);
+        EXPECT_TRUE(top_up.request->automatic);
+        EXPECT_EQ(top_up.state, ExposureControlState::Preview);
+        EXPECT_EQ(controller.counters().top_ups, 1u);
+        EXPECT_EQ(controller.counters().bracket_frames, 3u);
+        EXPECT_EQ(controller.status().last, BracketOutcome::Unclipped);
+    }
+    // Switched off (top_up_below 0): the bracket ends at the unclipped frame.
+    FakeCamera cam(0, 2e4);
+    cam.background = 2;
+    ExposureControlSettings off;
+    off.top_up_below = 0;
+    ExposureController controller(off);
+    const std::vector<Step> s = run(controller, cam, 3);
+    ASSERT_TRUE(s[2].request);
+    EXPECT_TRUE(s[2].request->automatic);
+    EXPECT_EQ(controller.counters().top_ups, 0u);
+}
+
+TEST(ExposureController, TheTopUpWaitedForIsInTheStatusText) {
+    FakeCamera cam(0, 2e4);
+    cam.background = 2;
+    ExposureController controller;
+    run(controller, cam, 3);
+    EXPECT_EQ(controller.status().text(), "bracketing 2 of 4, top-up");
+    EXPECT_THROW(ExposureController([] {
+                     ExposureControlSettings bad;
+                     bad.top_up_below = 0.6;
+                     return bad;
+                 }()),
+                 InputError);
 }
 
 TEST(ExposureController, ABracketFrameIsFoundByItsExposureWhenControlsApplyThreeFramesLate) {
