@@ -177,6 +177,24 @@ TEST(ExposureController, ABracketWhoseLastFrameReadsTheSourceInAFewCodesTakesATo
     EXPECT_EQ(controller.counters().top_ups, 0u);
 }
 
+TEST(ExposureController, AWideBrightAreaReadLowGetsNoTopUp) {
+    // At 1/4096 the source reads ~12 codes and the whole 8x8 frame 8: every pixel is over half the
+    // brightest one's exposure, a wide area (over top_up_max_pixels), whose many pixels average
+    // their noise already: the bracket ends there. With a dark room the same source gets one.
+    for (const int background : {8, 2}) {
+        SCOPED_TRACE(background);
+        FakeCamera cam(0, 2e4);
+        cam.background = background;
+        ExposureControlSettings settings;
+        settings.top_up_max_pixels = 10;
+        ExposureController controller(settings);
+        const std::vector<Step> s = run(controller, cam, 3);
+        ASSERT_TRUE(s[2].request);
+        EXPECT_EQ(s[2].request->automatic, background == 8);
+        EXPECT_EQ(controller.counters().top_ups, background == 8 ? 0u : 1u);
+    }
+}
+
 TEST(ExposureController, TheTopUpWaitedForIsInTheStatusText) {
     FakeCamera cam(0, 2e4);
     cam.background = 2;
