@@ -5,7 +5,7 @@
 // ("lookup": "lobe" in report.json: its texels are the input's radiance, docs/convolution.md "The
 // lobe lookup"); read bilinearly such a map is off by its whole lobe. So the map's report.json,
 // when one lies beside it and lists the file, says how to read it (--lookup auto), and --lookup
-// names it otherwise.
+// names it otherwise. An exported scene's maps/maps.json serves the same way.
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
@@ -31,33 +31,50 @@ struct LookupChoice {
     std::string from;  // what said so
 };
 
-// The lookup report.json beside `map` gives it, if it lists the file; nothing otherwise.
-std::optional<LookupChoice> lookup_from_report(const fs::path& map) {
-    const fs::path report_path = map.parent_path() / "report.json";
-    std::ifstream in(report_path);
-    if (!in) return std::nullopt;
-    nlohmann::json report;
+// A listing's entry for `map` -> its lookup; `where` names the listing in errors.
+LookupChoice lookup_of_entry(const nlohmann::json& entry, const fs::path& map, const std::string& where) {
+    LookupChoice c;
+    c.from = where;
+    const nlohmann::json how = entry.contains("lookup") ? entry["lookup"] : nlohmann::json("bilinear");
+    if (how == "bilinear") return c;
+    if (how != "lobe")
+        throw InputError(where + ": " + map.filename().string() + " has lookup " + how.dump() +
+                         " (glint compare reads \"bilinear\" and \"lobe\")");
+    if (!entry.contains("shininess") || !entry["shininess"].is_number() || !(entry["shininess"].get<double>() > 0))
+        throw InputError(where + ": " + map.filename().string() +
+                         " has lookup \"lobe\" but no positive shininess (pass --lookup lobe --shininess N)");
+    c.lookup = MapLookup::Lobe;
+    c.shininess = entry["shininess"].get<double>();
+    return c;
+}
+
+nlohmann::json read_listing(const fs::path& path) {
+    std::ifstream in(path);
     try {
-        report = nlohmann::json::parse(in);
+        return nlohmann::json::parse(in);
     } catch (const std::exception& e) {
-        throw InputError(report_path.string() + ": not JSON: " + e.what() + " (or pass --lookup)");
+        throw InputError(path.string() + ": not JSON: " + e.what() + " (or pass --lookup)");
     }
-    if (!report.contains("maps") || !report["maps"].is_array()) return std::nullopt;
-    for (const auto& entry : report["maps"]) {
-        if (!entry.is_object() || entry.value("file", std::string()) != map.filename().string()) continue;
-        LookupChoice c;
-        c.from = report_path.string();
-        const std::string how = entry.value("lookup", std::string("bilinear"));
-        if (how == "bilinear") return c;
-        if (how != "lobe")
-            throw InputError(report_path.string() + ": " + map.filename().string() + " has lookup \"" + how +
-                             "\" (glint compare reads \"bilinear\" and \"lobe\")");
-        if (!entry.contains("shininess") || !entry["shininess"].is_number())
-            throw InputError(report_path.string() + ": " + map.filename().string() +
-                             " has lookup \"lobe\" but no numeric shininess");
-        c.lookup = MapLookup::Lobe;
-        c.shininess = entry["shininess"].get<double>();
-        return c;
+}
+
+// The lookup the listing beside `map` gives it, if one lists the file: glint convolve's
+// report.json ("maps": [{"file", "lookup", "shininess"}, ...]) or an exported scene's
+// maps/maps.json ({"FILE": {"lookup", "shininess"}, ...}). Nothing otherwise.
+std::optional<LookupChoice> lookup_from_listing(const fs::path& map) {
+    const std::string name = map.filename().string();
+    const fs::path report_path = map.parent_path() / "report.json";
+    if (fs::exists(report_path)) {
+        const nlohmann::json report = read_listing(report_path);
+        if (report.is_object() && report.contains("maps") && report["maps"].is_array())
+            for (const auto& entry : report["maps"])
+                if (entry.is_object() && entry.contains("file") && entry["file"] == name)
+                    return lookup_of_entry(entry, map, report_path.string());
+    }
+    const fs::path index_path = map.parent_path() / "maps.json";
+    if (fs::exists(index_path)) {
+        const nlohmann::json index = read_listing(index_path);
+        if (index.is_object() && index.contains(name) && index[name].is_object())
+            return lookup_of_entry(index[name], map, index_path.string());
     }
     return std::nullopt;
 }
@@ -67,33 +84,36 @@ std::optional<LookupChoice> lookup_from_report(const fs::path& map) {
 Command add_compare_command(CLI::App& app) {
     struct Args {
         std::string approx, reference, lookup = "auto";
-        double shininess = -1;
+        double shininess = 0;
     };
     auto args = std::make_shared<Args>();
     CLI::App* cmd = app.add_subcommand("compare", std::string(command_summary("compare").summary));
     cmd->add_option("map", args->approx, "Map to judge (OpenEXR)")->required();
     cmd->add_option("reference", args->reference, "Reference map (OpenEXR)")->required();
     cmd->add_option("--lookup", args->lookup,
-                    "How the map is read between texel centres: auto (report.json beside the map, when it lists the "
-                    "file, else bilinear), bilinear, or lobe (needs --shininess)")
+                    "How the map is read between texel centres: auto (the report.json or maps.json beside the map, "
+                    "when it lists the file, else bilinear), bilinear, or lobe (needs --shininess)")
         ->check(CLI::IsMember({"auto", "bilinear", "lobe"}))
         ->capture_default_str();
-    cmd->add_option("--shininess", args->shininess, "The lobe's Phong exponent for --lookup lobe (> 0)");
-    return {cmd, [args] {
+    CLI::Option* shininess =
+        cmd->add_option("--shininess", args->shininess, "The lobe's Phong exponent for --lookup lobe (> 0)")
+            ->check(CLI::PositiveNumber);
+    return {cmd, [args, shininess] {
+                // The flags first: a conflict is the user's, whatever the files say.
+                if (shininess->count() > 0 && args->lookup != "lobe")
+                    throw InputError("--shininess is for --lookup lobe only");
+                if (args->lookup == "lobe" && shininess->count() == 0)
+                    throw InputError("--lookup lobe needs --shininess N > 0 (the map's Phong exponent)");
                 LookupChoice choice;
                 if (args->lookup == "lobe") {
-                    if (!(args->shininess > 0))
-                        throw InputError("--lookup lobe needs --shininess N > 0 (the map's Phong exponent)");
                     choice = {MapLookup::Lobe, args->shininess, "--lookup"};
                 } else if (args->lookup == "bilinear") {
                     choice.from = "--lookup";
-                } else if (const auto found = lookup_from_report(args->approx)) {
+                } else if (const auto found = lookup_from_listing(args->approx)) {
                     choice = *found;
                 } else {
-                    choice.from = "default: no report.json beside the map lists it";
+                    choice.from = "default: no report.json or maps.json beside the map lists it";
                 }
-                if (args->shininess > 0 && args->lookup != "lobe")
-                    throw InputError("--shininess is for --lookup lobe only");
                 const HdrImage a = load_exr(args->approx).image;
                 const HdrImage b = load_exr(args->reference).image;
                 const MapError e = compare_maps(a, b, choice.lookup, choice.shininess);

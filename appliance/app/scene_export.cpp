@@ -4,6 +4,7 @@
 #include <unistd.h>
 
 #include <cerrno>
+#include <cmath>
 #include <cstring>
 #include <ctime>
 #include <vector>
@@ -74,13 +75,15 @@ ExportResult export_scene(std::uint8_t items, const ExportSources& from, const f
         fs::path name;
         std::string from;
         MapLookup lookup = MapLookup::Bilinear;  // how a reader reads it between texels (maps.json)
+        double shininess = 0;                    // a reflection map's Phong exponent (maps.json); 0: none
     };
     std::vector<MapToWrite> maps;
     if ((items & 2) && from.shading_maps) {
         const render::ShadingMaps& m = *from.shading_maps;
         if (m.irradiance) maps.push_back({&*m.irradiance, "maps/irradiance.exr", m.irradiance_from});
         for (const render::ReflectionMap& r : m.reflections)
-            maps.push_back({&r.image, fs::path("maps") / (r.request.label + ".exr"), r.from, r.lookup});
+            maps.push_back({&r.image, fs::path("maps") / (r.request.label + ".exr"), r.from, r.lookup,
+                            r.request.mirror ? 0.0 : r.request.shininess});
     }
     if (files.empty() && maps.empty())
         throw InputError("export: nothing to export (no map, frames or sessions of the kinds asked for)");
@@ -106,6 +109,9 @@ ExportResult export_scene(std::uint8_t items, const ExportSources& from, const f
                 ++r.files;
                 index[m.name.filename().string()] = {{"width", m.image->width()}, {"height", m.image->height()}, {"from", m.from},
                                                     {"lookup", to_string(m.lookup)}};
+                // The lobe a lobe-lookup map is read through (glint compare reads it from here).
+                if (m.shininess > 0 && std::isfinite(m.shininess))
+                    index[m.name.filename().string()]["shininess"] = m.shininess;
             }
             write_text_atomically(partial / "maps" / "maps.json", index.dump(2) + "\n");
             r.bytes += fs::file_size(partial / "maps" / "maps.json");

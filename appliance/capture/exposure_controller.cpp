@@ -74,7 +74,8 @@ ExposureController::ExposureController(ExposureControlSettings settings) : setti
     if (!(p.match_tolerance > 0) || !((1 + p.match_tolerance) * (1 + p.match_tolerance) < p.step_factor))
         throw InputError("exposure control: match_tolerance must be positive and (1 + it)^2 below step_factor");
     if (p.max_wait_frames < 1) throw InputError("exposure control: max_wait_frames must be at least 1");
-    if (p.top_up_max_pixels < 1) throw InputError("exposure control: top_up_max_pixels must be at least 1");
+    if (!(p.top_up_max_share > 0) || !(p.top_up_max_share <= 1))
+        throw InputError("exposure control: top_up_max_share must be in (0, 1]");
     if (!(p.top_up_below >= 0) || !(p.top_up_below < p.top_up_target) || !(p.top_up_target < 1))
         throw InputError("exposure control: need 0 <= top_up_below < top_up_target < 1");
     for (int z = 1; z < 256; ++z)
@@ -134,8 +135,10 @@ std::optional<ExposureRequest> ExposureController::top_up_request(const CameraFr
     if (!(share < p.top_up_below) || !(share > 0)) return std::nullopt;
     // A compact feature only: few pixels over half the brightest one's exposure.
     const double half = 0.5 * p.code_exposure[std::size_t(z_max)];
+    const long long max_pixels =
+        std::max(1LL, (long long)std::floor(p.top_up_max_share * double(frame.rgb.rows) * double(frame.rgb.cols)));
     long long bright = 0;
-    for (int v = 0; v < frame.rgb.rows && bright <= p.top_up_max_pixels; ++v) {
+    for (int v = 0; v < frame.rgb.rows && bright <= max_pixels; ++v) {
         const std::uint8_t* row = frame.rgb.ptr<std::uint8_t>(v);
         for (int u = 0; u < frame.rgb.cols; ++u) {
             const std::uint8_t* px = row + 3 * u;
@@ -143,11 +146,13 @@ std::optional<ExposureRequest> ExposureController::top_up_request(const CameraFr
             bright += p.code_exposure[std::size_t(z)] >= half ? 1 : 0;
         }
     }
-    if (bright > p.top_up_max_pixels) return std::nullopt;
+    if (bright > max_pixels) return std::nullopt;
     // Never within two stops of the frame that clipped one step before.
     const double factor = std::min(p.top_up_target / share, p.step_factor / 4);
     if (!(factor > (1 + p.match_tolerance) * (1 + p.match_tolerance))) return std::nullopt;
-    const double want = frame.exposure_s * frame.total_gain() * factor;
+    // Exposure x analogue gain, what a request sets and matches() compares: the ISP's digital
+    // gain, which it applies again to the top-up, stays out.
+    const double want = frame.exposure_s * frame.analogue_gain * factor;
     ExposureRequest r;
     r.automatic = false;
     r.exposure_s = std::max(want / p.bracket_gain, p.min_exposure_s);

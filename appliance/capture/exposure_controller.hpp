@@ -4,9 +4,10 @@
 // - preview: automatic exposure (the camera's own loop) for the viewfinder and the scan;
 // - bracketing: after a frame with a clipped pixel, frames at 1/64, 1/4096, ... of that frame's
 //   exposure x gain (at gain 1), until one clips nowhere, the shortest exposure still clips, or
-//   four were taken; then, if that last frame's brightest pixel is under an eighth of the range
-//   (what clipped before is read in a few codes, in the noise), one top-up frame exposed to put
-//   it at half the range; then back to automatic exposure.
+//   four were taken; then, if that last frame's brightest pixel is under an eighth of the top
+//   code's exposure (what clipped before is read in a few codes, in the noise) and belongs to a
+//   compact feature, one top-up frame exposed to put it at half of it; then back to automatic
+//   exposure.
 //
 // A real camera applies a control a few frames late (libcamera pipelines: 2-3 frames) and may
 // drop frames, so a bracket frame is recognised by its metadata (exposure x gain within a
@@ -68,15 +69,16 @@ struct ExposureControlSettings {
     // 2-5 codes, where read noise and quantisation scattered its energy by 15-50 % a frame and the
     // 6-15 such frames of a scan left it 2-6 % off (2026-12-05, docs/capture.md "Top-up frames").
     // The top-up's exposure lies between the last two frames' (at most step_factor / 4 above the
-    // last: two stops of headroom below the frame that clipped), and it ends the bracket whatever
-    // it shows. top_up_below 0: no top-up frames.
+    // last: two stops below the frame that clipped, when the last step was a whole one), and it
+    // ends the bracket whatever it shows. top_up_below 0: no top-up frames.
     double top_up_below = 1.0 / 8;
     double top_up_target = 0.5;
-    // Only for a compact bright feature: at most this many pixels read over half the brightest
-    // one's exposure. A wide bright area (a sky) is read in many pixels whose noise averages out
-    // already, and top-ups there cost courtyard's scan registration (0.09 -> 0.18-0.25 degrees
-    // after 60 s) for nothing; 64 pixels of 320x180 over 70 degrees are about 1e-3 sr.
-    long long top_up_max_pixels = 64;
+    // Only for a compact bright feature: at most this share of the frame's pixels read over half
+    // the brightest one's exposure. A wide bright area (a sky) is read in many pixels whose noise
+    // averages out already, and top-ups there cost courtyard's scan registration (0.09 -> 0.18-0.25
+    // degrees after 60 s) for nothing. 64 pixels of 320x180 (over 70 degrees: about 1e-3 sr); a
+    // share, so that the rule is the same at any stream size over the same field of view.
+    double top_up_max_share = 64.0 / (320.0 * 180.0);
     // Linear exposure of each 8-bit code (CameraResponse::inverse of the camera's calibration);
     // only its ratios are used. The default is a linear response.
     std::array<double, 256> code_exposure = linear_codes();

@@ -11,7 +11,6 @@
 #include "appliance/capture/exposure_controller.hpp"
 #include "appliance/core/equirect.hpp"
 #include "appliance/core/errors.hpp"
-#include "appliance/core/errors.hpp"
 #include "appliance/sim/camera_simulator.hpp"
 #include "appliance/sim/session_simulator.hpp"
 #include "firmware_bridge/host/clock.hpp"
@@ -179,14 +178,14 @@ TEST(ExposureController, ABracketWhoseLastFrameReadsTheSourceInAFewCodesTakesATo
 
 TEST(ExposureController, AWideBrightAreaReadLowGetsNoTopUp) {
     // At 1/4096 the source reads ~12 codes and the whole 8x8 frame 8: every pixel is over half the
-    // brightest one's exposure, a wide area (over top_up_max_pixels), whose many pixels average
+    // brightest one's exposure, a wide area (over top_up_max_share of them), whose many pixels average
     // their noise already: the bracket ends there. With a dark room the same source gets one.
     for (const int background : {8, 2}) {
         SCOPED_TRACE(background);
         FakeCamera cam(0, 2e4);
         cam.background = background;
         ExposureControlSettings settings;
-        settings.top_up_max_pixels = 10;
+        settings.top_up_max_share = 10.0 / 64;  // 10 of the fake camera's 8x8 pixels
         ExposureController controller(settings);
         const std::vector<Step> s = run(controller, cam, 3);
         ASSERT_TRUE(s[2].request);

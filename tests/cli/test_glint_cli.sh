@@ -139,6 +139,20 @@ python3 -c "import sys; sys.exit(0 if float('$lobe_rms') <= 1e-3 and float('$bil
 pass "compare reads a lobe map through its lobe from report.json: $lobe_rms against exact (bilinear $bilinear_rms)"
 expect_bad "compare --lookup lobe without --shininess" "--shininess" "$work/bad_lobe" \
     compare "$lobe_out/phong_1000000.exr" "$work/lobe_exact/phong_1000000.exr" --lookup lobe
+# An exported scene's maps/maps.json says the same (glint run's export, docs/kiosk.md).
+scene="$work/scene_maps"
+mkdir -p "$scene"
+cp "$lobe_out/phong_1000000.exr" "$scene/"
+printf '{"phong_1000000.exr": {"width": 1024, "height": 512, "from": "test", "lookup": "lobe", "shininess": 1000000}}\n' >"$scene/maps.json"
+run compare "$scene/phong_1000000.exr" "$work/lobe_exact/phong_1000000.exr"
+[[ $rc -eq 0 ]] || fail "compare of an exported lobe map: exit code $rc (stderr: $(stderr_text))"
+grep -q '^lookup lobe (.*maps.json)$' "$work/stdout" || fail "compare did not read maps.json's lookup: $(tr '\n' ' ' <"$work/stdout")"
+pass "compare reads an exported scene's maps.json lookup"
+# A listing that lists the file with a lookup but no shininess: exit 2 naming it.
+printf '{"phong_1000000.exr": {"lookup": "lobe"}}\n' >"$scene/maps.json"
+expect_bad "compare with a lobe listed without its shininess" "maps.json" "$work/bad_listing" \
+    compare "$scene/phong_1000000.exr" "$work/lobe_exact/phong_1000000.exr"
+rm -rf "$scene"
 rm -rf "$lobe_out" "$work/lobe_exact"
 
 # A second run into the same directory replaces the maps and leaves nothing behind.
