@@ -264,7 +264,7 @@ int main(int argc, char** argv) {
                             : "")
            << "Sessions: `glint simulate` of each map, the guided scan at 35 deg/s (about 63 s), 320x180 frames over "
               "70 degrees at 3 fps, raw IMU with Mahony fusion on the board plus a heading drift of 1 deg/min, camera "
-              "noise, motion blur and a 20 ms rolling shutter (the simulator's defaults), the simulator's response and vignetting, auto-exposure, and after any frame with a clipped pixel the exposure controller's brackets: frames at 1/64, 1/4096, ... of its exposure, one readout apart, until none clips, at most four, and a top-up frame where the last reads a compact source low (`--hdr-bracket`; no shortest exposure: the sensor limits are off, docs/capture.md). Capture into 1024x512 from the "
+              "noise, motion blur and a 20 ms rolling shutter (the simulator's defaults), the simulator's response and vignetting, auto-exposure, and after any frame with a clipped pixel the exposure controller's brackets: frames at 1/64, 1/4096, ... of its exposure, one readout apart, until none clips, at most four (`--hdr-bracket`; no shortest exposure: the sensor limits are off, docs/capture.md). Capture into 1024x512 from the "
               "recorded sensor stream (CPU engine unless noted), with the saturation-aware sampling and the exposure bands of docs/capture.md. The downstream maps are irradiance (128x64) and "
               "n = 160 (256x128) by `auto`, from the captured map against the same from the true map.\n\n";
         if (!rows.empty())

@@ -131,6 +131,13 @@ TEST(ExposureController, BracketsAtOneSixtyFourthStepsUntilNothingClipsThenBackT
     EXPECT_EQ(controller.status().text(), "bracketing 1 of 4");
 }
 
+// Top-up frames are off by default (exposure_controller.hpp).
+ExposureControlSettings top_ups_on() {
+    ExposureControlSettings s;
+    s.top_up_below = 1.0 / 8;
+    return s;
+}
+
 TEST(ExposureController, ABracketWhoseLastFrameReadsTheSourceInAFewCodesTakesATopUpFrame) {
     for (int delay : {0, 3}) {
         SCOPED_TRACE(delay);
@@ -138,7 +145,7 @@ TEST(ExposureController, ABracketWhoseLastFrameReadsTheSourceInAFewCodesTakesATo
         // an eighth): one top-up frame at the exposure that puts it at half the range, then preview.
         FakeCamera cam(delay, 2e4);
         cam.background = 2;  // a dark room: the source is the brightest pixel of the short frames
-        ExposureController controller;
+        ExposureController controller(top_ups_on());
         const std::vector<Step> s = run(controller, cam, 1 + 3 * (delay + 1));
         const std::vector<int> asked = request_frames(s);
         ASSERT_EQ(asked.size(), 4u);
@@ -164,12 +171,10 @@ TEST(ExposureController, ABracketWhoseLastFrameReadsTheSourceInAFewCodesTakesATo
         EXPECT_EQ(controller.counters().bracket_frames, 3u);
         EXPECT_EQ(controller.status().last, BracketOutcome::Unclipped);
     }
-    // Switched off (top_up_below 0): the bracket ends at the unclipped frame.
+    // Off (top_up_below 0, the default): the bracket ends at the unclipped frame.
     FakeCamera cam(0, 2e4);
     cam.background = 2;
-    ExposureControlSettings off;
-    off.top_up_below = 0;
-    ExposureController controller(off);
+    ExposureController controller;
     const std::vector<Step> s = run(controller, cam, 3);
     ASSERT_TRUE(s[2].request);
     EXPECT_TRUE(s[2].request->automatic);
@@ -184,7 +189,7 @@ TEST(ExposureController, AWideBrightAreaReadLowGetsNoTopUp) {
         SCOPED_TRACE(background);
         FakeCamera cam(0, 2e4);
         cam.background = background;
-        ExposureControlSettings settings;
+        ExposureControlSettings settings = top_ups_on();
         settings.top_up_max_share = 10.0 / 64;  // 10 of the fake camera's 8x8 pixels
         ExposureController controller(settings);
         const std::vector<Step> s = run(controller, cam, 3);
@@ -197,7 +202,7 @@ TEST(ExposureController, AWideBrightAreaReadLowGetsNoTopUp) {
 TEST(ExposureController, TheTopUpWaitedForIsInTheStatusText) {
     FakeCamera cam(0, 2e4);
     cam.background = 2;
-    ExposureController controller;
+    ExposureController controller(top_ups_on());
     run(controller, cam, 3);
     EXPECT_EQ(controller.status().text(), "bracketing 2 of 4, top-up");
     EXPECT_THROW(ExposureController([] {
