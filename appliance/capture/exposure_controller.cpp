@@ -1,6 +1,7 @@
 #include "appliance/capture/exposure_controller.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <cstdio>
 
@@ -124,11 +125,17 @@ ExposureRequest ExposureController::bracket_request(int step) const {
 std::optional<ExposureRequest> ExposureController::top_up_request(const CameraFrame& frame) const {
     const ExposureControlSettings& p = settings_;
     if (!(p.top_up_below > 0) || frame.rgb.empty()) return std::nullopt;
-    int z_max = 0;
+    // One pass: how many pixels have each brightest-channel code.
+    std::array<long long, 256> pixels_at{};
     for (int v = 0; v < frame.rgb.rows; ++v) {
         const std::uint8_t* row = frame.rgb.ptr<std::uint8_t>(v);
-        for (int k = 0; k < 3 * frame.rgb.cols; ++k) z_max = std::max(z_max, int(row[k]));
+        for (int u = 0; u < frame.rgb.cols; ++u) {
+            const std::uint8_t* px = row + 3 * u;
+            ++pixels_at[std::max({px[0], px[1], px[2]})];
+        }
     }
+    int z_max = 255;
+    while (z_max > 0 && pixels_at[std::size_t(z_max)] == 0) --z_max;
     // As a share of the top unclipped code's exposure (the frame clips nowhere: z_max < clip_code).
     const double top = p.code_exposure[std::size_t(p.clip_code - 1)];
     const double share = p.code_exposure[std::size_t(z_max)] / top;
@@ -138,14 +145,7 @@ std::optional<ExposureRequest> ExposureController::top_up_request(const CameraFr
     const long long max_pixels =
         std::max(1LL, (long long)std::floor(p.top_up_max_share * double(frame.rgb.rows) * double(frame.rgb.cols)));
     long long bright = 0;
-    for (int v = 0; v < frame.rgb.rows && bright <= max_pixels; ++v) {
-        const std::uint8_t* row = frame.rgb.ptr<std::uint8_t>(v);
-        for (int u = 0; u < frame.rgb.cols; ++u) {
-            const std::uint8_t* px = row + 3 * u;
-            const int z = std::max({int(px[0]), int(px[1]), int(px[2])});
-            bright += p.code_exposure[std::size_t(z)] >= half ? 1 : 0;
-        }
-    }
+    for (int z = z_max; z >= 0 && p.code_exposure[std::size_t(z)] >= half; --z) bright += pixels_at[std::size_t(z)];
     if (bright > max_pixels) return std::nullopt;
     // Never within two stops of the frame that clipped one step before.
     const double factor = std::min(p.top_up_target / share, p.step_factor / 4);
