@@ -36,10 +36,12 @@ LookupChoice lookup_of_entry(const nlohmann::json& entry, const fs::path& map, c
     LookupChoice c;
     c.from = where;
     const nlohmann::json how = entry.contains("lookup") ? entry["lookup"] : nlohmann::json("bilinear");
-    if (how == "bilinear") return c;
-    if (how != "lobe")
+    const std::optional<MapLookup> known =
+        how.is_string() ? map_lookup_from_string(how.get<std::string>()) : std::nullopt;
+    if (!known)
         throw InputError(where + ": " + map.filename().string() + " has lookup " + how.dump() +
                          " (glint compare reads \"bilinear\" and \"lobe\")");
+    if (*known == MapLookup::Bilinear) return c;
     if (!entry.contains("shininess") || !entry["shininess"].is_number() || !(entry["shininess"].get<double>() > 0))
         throw InputError(where + ": " + map.filename().string() +
                          " has lookup \"lobe\" but no positive shininess (pass --lookup lobe --shininess N)");

@@ -140,6 +140,12 @@ HdrImage resample_lobe(const HdrImage& image, int width, int height, double n) {
 
 const char* to_string(MapLookup lookup) { return lookup == MapLookup::Lobe ? "lobe" : "bilinear"; }
 
+std::optional<MapLookup> map_lookup_from_string(const std::string& name) {
+    if (name == "bilinear") return MapLookup::Bilinear;
+    if (name == "lobe") return MapLookup::Lobe;
+    return std::nullopt;
+}
+
 HdrImage resample_bilinear(const HdrImage& image, int width, int height) {
     if (image.width() == width && image.height() == height) return image;
     HdrImage out(width, height);

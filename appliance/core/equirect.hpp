@@ -6,6 +6,9 @@
 //   dOmega_j = (2*pi / W) * ( cos(pi*j/H) - cos(pi*(j+1)/H) )   exact, sums to 4*pi
 #pragma once
 
+#include <optional>
+#include <string>
+
 #include <glm/glm.hpp>
 #include <numbers>
 #include <vector>
@@ -57,6 +60,8 @@ Rgb sample_lobe(const HdrImage& image, const glm::dvec3& d, double shininess);
 // How a renderer reads a map between its texel centres (report.json's "lookup").
 enum class MapLookup { Bilinear, Lobe };
 const char* to_string(MapLookup lookup);
+// "bilinear" or "lobe" (report.json, maps.json); nothing for any other name.
+std::optional<MapLookup> map_lookup_from_string(const std::string& name);
 // `shininess`: the lobe's, used by the lobe lookup only.
 inline Rgb sample_map(const HdrImage& image, const glm::dvec3& d, MapLookup lookup, double shininess) {
     return lookup == MapLookup::Lobe ? sample_lobe(image, d, shininess) : sample_bilinear(image, d);

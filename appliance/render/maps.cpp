@@ -72,8 +72,8 @@ ShadingMaps load_maps(const fs::path& dir, const std::vector<Material>& material
             if (match && file.empty()) {
                 file = entry.value("file", label + ".exr");
                 const std::string how = entry.value("lookup", "bilinear");
-                if (how == "lobe") lookup = MapLookup::Lobe;
-                else if (how != "bilinear")
+                if (const auto known = map_lookup_from_string(how)) lookup = *known;
+                else
                     throw InputError(report_path.string() + ": map " + label + " has lookup \"" + how +
                                      "\" (this renderer reads \"bilinear\" and \"lobe\")");
             }
