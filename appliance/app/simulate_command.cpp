@@ -68,6 +68,11 @@ Command add_simulate_command(CLI::App& app) {
                     "With --hdr-bracket: frames an exposure request takes to apply (a real camera's 2-3); 0 = "
                     "the next frame. The frames in between are recorded too")
         ->capture_default_str();
+    cmd->add_option("--top-up-below", a->o.top_up_below,
+                    "With --hdr-bracket: when a bracket's last frame reads its brightest pixel under this share of "
+                    "the range, one more frame exposed to put it at half (docs/capture.md \"Exposure control\"; "
+                    "0 = none, the controller's default; 0.125 turns them on)")
+        ->capture_default_str();
     cmd->add_flag("--sensor-limits", a->o.sensor_limits,
                   "Model the sensor's shortest exposure (20 us) and the lens's glare (2 % in 1 degree), and write "
                   "them to the session's calibration; sources still clipped at the shortest exposure are then "
@@ -110,7 +115,7 @@ Command add_simulate_command(CLI::App& app) {
         // scan's would be silently ignored, so it is refused.
         for (const char* flag : {"--trajectory", "--fps", "--fov", "--imu", "--sensor-noise", "--mount", "--clock-drift-ppm",
                                  "--time-offset-ms", "--heading-drift", "--guided-speed", "--hdr-bracket",
-                                 "--control-delay", "--sensor-limits", "--no-motion-blur", "--readout-ms", "--bracket",
+                                 "--control-delay", "--top-up-below", "--sensor-limits", "--no-motion-blur", "--readout-ms", "--bracket",
                                  "--bracket-first", "--charuco"})
             if (c.count(flag) > 0) throw InputError(std::string(flag) + " does not apply with --kiosk");
         sim::SimulateKioskOptions& k = args.k;

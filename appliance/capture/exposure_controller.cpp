@@ -201,8 +201,12 @@ std::optional<ExposureRequest> ExposureController::on_frame(const CameraFrame& f
             return std::nullopt;
         }
         ++counters_.bracket_frames;
-        // The top-up ends the bracket whatever it shows: the bracket's last step clipped nowhere.
-        if (status_.top_up) return finish(BracketOutcome::Unclipped);
+        // The top-up ends the bracket whatever it shows: the bracket's last step clipped nowhere,
+        // and the accumulator drops whatever the top-up clipped (counted apart).
+        if (status_.top_up) {
+            if (clipped(frame)) ++counters_.top_ups_clipped;
+            return finish(BracketOutcome::Unclipped);
+        }
         if (!clipped(frame)) {
             const std::optional<ExposureRequest> top_up = top_up_request(frame);
             if (!top_up) return finish(BracketOutcome::Unclipped);
@@ -246,7 +250,9 @@ std::optional<ExposureRequest> ExposureController::on_frame(const CameraFrame& f
     if (!clipped(frame)) return std::nullopt;
     ++counters_.clipped_frames;
     ++counters_.brackets;
-    parent_exposure_gain_ = frame.exposure_s * frame.total_gain();
+    // Exposure x analogue gain, as requests set and matches() compares: the ISP applies its digital
+    // gain to the bracket frames too, so counting it here would make the first step d/64, not 1/64.
+    parent_exposure_gain_ = frame.exposure_s * frame.analogue_gain;
     status_.steps = p.max_steps;
     status_.waited_frames = 0;
     // Already at the shortest exposure (and the bracket gain): nothing shorter to ask for.

@@ -127,6 +127,7 @@ struct ExposureControlCounters {
     std::uint64_t brackets = 0;        // started
     std::uint64_t bracket_frames = 0;  // delivered frames recognised as the bracket frame asked for (top-ups too)
     std::uint64_t top_ups = 0;         // top-up frames asked for
+    std::uint64_t top_ups_clipped = 0; // top-up frames delivered with a clipped pixel (the bracket still ends unclipped)
     std::uint64_t waited_frames = 0;   // frames not acted on: not the one waited for, or a bracket's leftovers
     std::uint64_t requests = 0;        // requests returned (manual and automatic)
     // How brackets ended (the four add up to brackets, less one still running). A clipped frame
@@ -165,7 +166,7 @@ private:
     ExposureControlSettings settings_;
     ExposureControlStatus status_;
     ExposureControlCounters counters_;
-    double parent_exposure_gain_ = 0;  // exposure x total gain of the frame that started the bracket
+    double parent_exposure_gain_ = 0;  // exposure x analogue gain of the frame that started the bracket
     // After a bracket: the last manual request, whose frames may still come while the camera
     // returns to automatic exposure. They are not a new view to bracket.
     std::optional<ExposureRequest> leftover_;

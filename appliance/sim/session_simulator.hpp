@@ -46,6 +46,9 @@ struct SimulateOptions {
     // With hdr_bracket: frames an exposure request takes to apply, as on a real camera (libcamera:
     // 2-3). 0: from the next frame (the burst). The frames in between are recorded too.
     int control_delay_frames = 0;
+    // With hdr_bracket: the controller's ExposureControlSettings::top_up_below (0 = no top-up
+    // frames, its default; 1/8 turns them on). For measuring them (docs/capture.md "Exposure control").
+    double top_up_below = 0;
     // The modelled sensor's limits (camera_model.hpp kModelled*): a shortest exposure of 20 us,
     // where the brackets stop, and lens glare. Off: no shortest exposure, no glare.
     bool sensor_limits = false;

@@ -8,8 +8,11 @@
 // Writes tests/bench/results/capture.md.
 //
 //   glint_bench_capture [--out FILE] [--seeds 1,2] [--maps NAME,...] [--no-stress] [--quick] [--bracket-fill]
+//                       [--top-ups] [--keep]
 //   --maps: which of courtyard, studio, sunset and the stress maps (dim_1e+02 ...) to run in the
-//   seeds table; --quick: only that table (no variants, calibrations or alignment).
+//   seeds table; --quick: only that table (no variants, calibrations or alignment); --top-ups: the
+//   exposure controller's top-up frames on (top_up_below 1/8); --keep: leave the seeds table's
+//   sessions, captured maps and orientations in $TMPDIR/glint-bench-capture for replays.
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -73,6 +76,8 @@ double log_luminance_rms(const HdrImage& got, const HdrImage& truth_full, const 
 
 // The benchmark's scan: the guided scan at 35 deg/s (63 s, past the 60 s the drift target speaks
 // of), 3 fps, a heading drift of 1 deg/min, brackets wherever a frame clips.
+bool g_top_ups = false;  // --top-ups
+
 SimulateOptions scan_options(const fs::path& env, const fs::path& out, std::uint64_t seed) {
     SimulateOptions so;
     so.env = env;
@@ -81,6 +86,7 @@ SimulateOptions scan_options(const fs::path& env, const fs::path& out, std::uint
     so.guided_speed_deg_s = 35;
     so.heading_drift_deg_per_min = 1.0;
     so.hdr_bracket = true;
+    so.top_up_below = g_top_ups ? 1.0 / 8 : 0.0;
     so.seed = seed;
     so.threads = 2;
     return so;
@@ -224,6 +230,7 @@ int main(int argc, char** argv) {
     std::vector<std::string> only;
     bool stress = true, quick = false;
     bool bracket_fill = false;  // the experimental fill (CaptureOptions::bracket_fill) in every capture
+    bool keep = false;          // leave the seeds table's sessions and maps for replays
     for (int i = 1; i < argc; ++i) {
         const std::string a = argv[i];
         if (a == "--out" && i + 1 < argc) out = argv[++i];
@@ -234,9 +241,11 @@ int main(int argc, char** argv) {
         else if (a == "--no-stress") stress = false;
         else if (a == "--quick") quick = true;
         else if (a == "--bracket-fill") bracket_fill = true;
+        else if (a == "--top-ups") g_top_ups = true;
+        else if (a == "--keep") keep = true;
         else {
             std::fprintf(stderr, "usage: glint_bench_capture [--out FILE] [--seeds 1,2] [--maps NAME,...] [--no-stress] [--quick] "
-                                 "[--bracket-fill]\n");
+                                 "[--bracket-fill] [--top-ups] [--keep]\n");
             return 2;
         }
     }
@@ -262,6 +271,9 @@ int main(int argc, char** argv) {
            << (bracket_fill ? "**With the experimental bracket fill** (`--bracket-fill`, docs/capture.md; not the "
                               "default; the GPU column without it).\n\n"
                             : "")
+           << (g_top_ups ? "**With the exposure controller's top-up frames** (`--top-ups`: top_up_below 1/8, "
+                           "docs/capture.md; not the default).\n\n"
+                         : "")
            << "Sessions: `glint simulate` of each map, the guided scan at 35 deg/s (about 63 s), 320x180 frames over "
               "70 degrees at 3 fps, raw IMU with Mahony fusion on the board plus a heading drift of 1 deg/min, camera "
               "noise, motion blur and a 20 ms rolling shutter (the simulator's defaults), the simulator's response and vignetting, auto-exposure, and after any frame with a clipped pixel the exposure controller's brackets: frames at 1/64, 1/4096, ... of its exposure, one readout apart, until none clips, at most four (`--hdr-bracket`; no shortest exposure: the sensor limits are off, docs/capture.md). Capture into 1024x512 from the "
@@ -457,10 +469,11 @@ int main(int argc, char** argv) {
                 co.session = so.out;
                 co.out = map_path;
                 co.threads = 2;
+                if (keep) co.orientations_out = work / (tag + "-orientations.csv");
                 host::VirtualClock clock;
                 ReplayCamera camera(open_session(so.out), clock);
                 cs = run_capture(co, camera);
-                fs::remove_all(so.out);
+                if (!keep) fs::remove_all(so.out);
             }
             r.frames = cs.frames_used;
             r.after_60s = cs.orientation_error_after_60s_max_deg;
@@ -479,7 +492,7 @@ int main(int argc, char** argv) {
             }
             for (std::size_t k = 0; k < sources.size(); ++k)
                 r.source_error.push_back(bench::source_energy(got, sources[k]) / e_true[k] - 1);
-            if (reuse == made.end()) {
+            if (reuse == made.end() && !keep) {
                 fs::remove(map_path);
                 fs::remove(coverage_path_for(map_path));
             }
@@ -490,6 +503,7 @@ int main(int argc, char** argv) {
 
     write_report("");
     std::printf("bench: wrote %s\n", out.c_str());
-    fs::remove_all(work);
+    if (keep) std::printf("bench: kept the sessions and maps in %s\n", work.c_str());
+    else fs::remove_all(work);
     return 0;
 }

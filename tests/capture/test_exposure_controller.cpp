@@ -47,8 +47,9 @@ public:
             f.exposure_s = std::max(state_.exposure_s, min_exposure_s_);
             f.analogue_gain = state_.analogue_gain;
         }
+        f.digital_gain = digital_gain;
         f.rgb = cv::Mat(8, 8, CV_8UC3, cv::Scalar(background, background, background));
-        const double code = 255 * source_ * f.exposure_s * f.analogue_gain;
+        const double code = 255 * source_ * f.exposure_s * f.analogue_gain * f.digital_gain;
         if (source_in_view) {
             const auto c = std::uint8_t(std::min(255.0, std::round(code)));
             f.rgb.at<cv::Vec3b>(3, 4) = {c, std::uint8_t(c / 2), 10};  // clipped in one channel is enough
@@ -61,6 +62,7 @@ public:
     bool ignore_automatic = false;  // stays on the last manual request
     bool source_in_view = true;
     int background = 100;  // code of every other pixel, whatever the exposure
+    double digital_gain = 1;  // the ISP's, on every frame (automatic or not), as a real pipeline may
 
 private:
     int delay_;
@@ -179,6 +181,58 @@ TEST(ExposureController, ABracketWhoseLastFrameReadsTheSourceInAFewCodesTakesATo
     ASSERT_TRUE(s[2].request);
     EXPECT_TRUE(s[2].request->automatic);
     EXPECT_EQ(controller.counters().top_ups, 0u);
+}
+
+TEST(ExposureController, TheFirstStepIsASixtyFourthOfTheClippedFrameWhateverTheDigitalGain) {
+    // The ISP applies its digital gain to the bracket frames too: the step is of exposure x
+    // analogue gain, and the bracket frame reads the source at 1/64 of what the clipped frame
+    // would have read (before 2026-12-05 the total gain made it 1.5/64 here).
+    FakeCamera cam(0, 1e3);  // at ~10 ms: 2550 codes (clipped); at 1/64: ~40 codes x 1.5
+    cam.digital_gain = 1.5;
+    cam.background = 2;
+    ExposureController controller;
+    const std::vector<Step> s = run(controller, cam, 2);
+    ASSERT_TRUE(s[0].request);
+    EXPECT_DOUBLE_EQ(s[0].request->exposure_s, s[0].exposure_gain / 64);
+    EXPECT_EQ(s[0].request->analogue_gain, 1.0);
+    EXPECT_DOUBLE_EQ(s[1].exposure_gain, s[0].exposure_gain / 64);  // recognised as the bracket frame
+    EXPECT_FALSE(s[1].clipped);
+    EXPECT_EQ(controller.counters().bracket_frames, 1u);
+    EXPECT_EQ(controller.status().last, BracketOutcome::Unclipped);
+}
+
+TEST(ExposureController, ATopUpThatClipsIsCountedAndOneNeverDeliveredTimesOut) {
+    // The top-up asked for, then the scene brightens (the source doubles in the fake's next frames
+    // by a digital gain of 4: the ISP's, so the frame still matches the request) and it clips.
+    {
+        FakeCamera cam(0, 2e4);
+        cam.background = 2;
+        ExposureController controller(top_ups_on());
+        run(controller, cam, 3);
+        ASSERT_TRUE(controller.status().top_up);
+        cam.digital_gain = 4;
+        const std::vector<Step> s = run(controller, cam, 1);
+        EXPECT_TRUE(s[0].clipped);
+        ASSERT_TRUE(s[0].request && s[0].request->automatic);
+        EXPECT_EQ(controller.counters().top_ups, 1u);
+        EXPECT_EQ(controller.counters().top_ups_clipped, 1u);
+        EXPECT_EQ(controller.status().last, BracketOutcome::Unclipped);
+    }
+    // A camera that stops honouring requests after the bracket's last step: the top-up times out.
+    {
+        FakeCamera cam(0, 2e4);
+        cam.background = 2;
+        ExposureController controller(top_ups_on());
+        run(controller, cam, 2);
+        cam.ignore_requests = true;
+        run(controller, cam, 1 + 8);
+        EXPECT_EQ(controller.counters().top_ups, 1u);
+        EXPECT_EQ(controller.counters().top_ups_clipped, 0u);
+        EXPECT_EQ(controller.counters().timeouts, 1u);
+        EXPECT_EQ(controller.status().last, BracketOutcome::TimedOut);
+        EXPECT_NE(controller.status().text().find("timed out: the camera did not deliver"), std::string::npos)
+            << controller.status().text();
+    }
 }
 
 TEST(ExposureController, AWideBrightAreaReadLowGetsNoTopUp) {
