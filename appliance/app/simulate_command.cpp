@@ -63,7 +63,8 @@ Command add_simulate_command(CLI::App& app) {
     cmd->add_flag("--hdr-bracket", a->o.hdr_bracket,
                   "Record what the capture pipeline's exposure controller asks for: after a frame with any pixel "
                   "clipped, frames 2 ms apart at 1/64, 1/4096, ... of its exposure x gain until none clips (at "
-                  "most four, none shorter than the sensor's shortest exposure), then auto-exposure again");
+                  "most four, none shorter than the sensor's shortest exposure), a top-up frame where the last reads a "
+                  "compact source low (--top-up-below), then auto-exposure again");
     cmd->add_option("--control-delay", a->o.control_delay_frames,
                     "With --hdr-bracket: frames an exposure request takes to apply (a real camera's 2-3); 0 = "
                     "the next frame. The frames in between are recorded too")
@@ -71,7 +72,7 @@ Command add_simulate_command(CLI::App& app) {
     cmd->add_option("--top-up-below", a->o.top_up_below,
                     "With --hdr-bracket: when a bracket's last frame reads its brightest pixel under this share of "
                     "the range, one more frame exposed to put it at half (docs/capture.md \"Exposure control\"; "
-                    "0 = none, the controller's default; 0.125 turns them on)")
+                    "the controller's default; 0 = none)")
         ->capture_default_str();
     cmd->add_flag("--sensor-limits", a->o.sensor_limits,
                   "Model the sensor's shortest exposure (20 us) and the lens's glare (2 % in 1 degree), and write "
@@ -163,6 +164,8 @@ Command add_simulate_command(CLI::App& app) {
                 if (a->kiosk && a->charuco > 0) throw InputError("--charuco does not apply with --kiosk");
                 for (const char* flag : {"--frame-format", "--jpeg-quality"})
                     if (!a->kiosk && cmd->count(flag) > 0) throw InputError(std::string(flag) + " needs --kiosk");
+                if (cmd->count("--top-up-below") > 0 && !a->o.hdr_bracket)
+                    throw InputError("--top-up-below needs --hdr-bracket");
                 if (a->charuco > 0) {
                     const int n = sim::simulate_charuco_session(a->o, a->charuco);
                     std::printf("session %s: %d ChArUco views\n", a->out.c_str(), n);

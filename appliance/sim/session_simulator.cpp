@@ -441,7 +441,6 @@ SimulateSummary simulate_session(const SimulateOptions& o, const std::function<v
     if (o.control_delay_frames < 0 || o.control_delay_frames > 30)
         throw InputError("--control-delay must be in [0, 30] frames");
     if (o.control_delay_frames > 0 && !o.hdr_bracket) throw InputError("--control-delay needs --hdr-bracket");
-    if (o.top_up_below != 0 && !o.hdr_bracket) throw InputError("--top-up-below needs --hdr-bracket");
     if (!(o.top_up_below >= 0 && o.top_up_below < 0.5))
         throw InputError("--top-up-below must be 0 (no top-up frames) or a share of the range under 0.5");
     if (!(o.guided_speed_deg_s >= 5 && o.guided_speed_deg_s <= 180)) throw InputError("--guided-speed must be 5..180 deg/s");

@@ -13,6 +13,7 @@
 
 #include "appliance/capture/camera_factory.hpp"
 #include "appliance/capture/camera_model.hpp"
+#include "appliance/capture/exposure_controller.hpp"
 #include "firmware_bridge/firmware/sim/trajectory.hpp"
 
 namespace glint::sim {
@@ -41,14 +42,15 @@ struct SimulateOptions {
     // Record what the capture pipeline's exposure controller (capture/exposure_controller.hpp, its
     // default settings) asks for: after a frame with any clipped pixel, frames 2 ms apart at 1/64,
     // 1/4096, ... of its exposure x gain until none clips (at most four, none shorter than the
-    // sensor's shortest exposure), then back to auto-exposure.
+    // sensor's shortest exposure), a top-up frame where the last reads a compact source low
+    // (top_up_below below), then back to auto-exposure.
     bool hdr_bracket = false;
     // With hdr_bracket: frames an exposure request takes to apply, as on a real camera (libcamera:
     // 2-3). 0: from the next frame (the burst). The frames in between are recorded too.
     int control_delay_frames = 0;
-    // With hdr_bracket: the controller's ExposureControlSettings::top_up_below (0 = no top-up
-    // frames, its default; 1/8 turns them on). For measuring them (docs/capture.md "Exposure control").
-    double top_up_below = 0;
+    // With hdr_bracket: the controller's ExposureControlSettings::top_up_below (its default 1/8;
+    // 0 = no top-up frames). For measuring them (docs/capture.md "Exposure control").
+    double top_up_below = capture::ExposureControlSettings{}.top_up_below;
     // The modelled sensor's limits (camera_model.hpp kModelled*): a shortest exposure of 20 us,
     // where the brackets stop, and lens glare. Off: no shortest exposure, no glare.
     bool sensor_limits = false;

@@ -8,10 +8,10 @@
 // Writes tests/bench/results/capture.md.
 //
 //   glint_bench_capture [--out FILE] [--seeds 1,2] [--maps NAME,...] [--no-stress] [--quick] [--bracket-fill]
-//                       [--top-ups] [--keep]
+//                       [--no-top-ups] [--keep]
 //   --maps: which of courtyard, studio, sunset and the stress maps (dim_1e+02 ...) to run in the
-//   seeds table; --quick: only that table (no variants, calibrations or alignment); --top-ups: the
-//   exposure controller's top-up frames on (top_up_below 1/8); --keep: leave the seeds table's
+//   seeds table; --quick: only that table (no variants, calibrations or alignment); --no-top-ups:
+//   the exposure controller without top-up frames (top_up_below 0; default 1/8); --keep: leave the seeds table's
 //   sessions, captured maps and orientations in $TMPDIR/glint-bench-capture for replays.
 #include <chrono>
 #include <cmath>
@@ -76,7 +76,7 @@ double log_luminance_rms(const HdrImage& got, const HdrImage& truth_full, const 
 
 // The benchmark's scan: the guided scan at 35 deg/s (63 s, past the 60 s the drift target speaks
 // of), 3 fps, a heading drift of 1 deg/min, brackets wherever a frame clips.
-bool g_top_ups = false;  // --top-ups
+bool g_top_ups = true;  // off with --no-top-ups
 
 SimulateOptions scan_options(const fs::path& env, const fs::path& out, std::uint64_t seed) {
     SimulateOptions so;
@@ -86,7 +86,7 @@ SimulateOptions scan_options(const fs::path& env, const fs::path& out, std::uint
     so.guided_speed_deg_s = 35;
     so.heading_drift_deg_per_min = 1.0;
     so.hdr_bracket = true;
-    so.top_up_below = g_top_ups ? 1.0 / 8 : 0.0;
+    if (!g_top_ups) so.top_up_below = 0;
     so.seed = seed;
     so.threads = 2;
     return so;
@@ -241,11 +241,11 @@ int main(int argc, char** argv) {
         else if (a == "--no-stress") stress = false;
         else if (a == "--quick") quick = true;
         else if (a == "--bracket-fill") bracket_fill = true;
-        else if (a == "--top-ups") g_top_ups = true;
+        else if (a == "--no-top-ups") g_top_ups = false;
         else if (a == "--keep") keep = true;
         else {
             std::fprintf(stderr, "usage: glint_bench_capture [--out FILE] [--seeds 1,2] [--maps NAME,...] [--no-stress] [--quick] "
-                                 "[--bracket-fill] [--top-ups] [--keep]\n");
+                                 "[--bracket-fill] [--no-top-ups] [--keep]\n");
             return 2;
         }
     }
@@ -271,9 +271,9 @@ int main(int argc, char** argv) {
            << (bracket_fill ? "**With the experimental bracket fill** (`--bracket-fill`, docs/capture.md; not the "
                               "default; the GPU column without it).\n\n"
                             : "")
-           << (g_top_ups ? "**With the exposure controller's top-up frames** (`--top-ups`: top_up_below 1/8, "
-                           "docs/capture.md; not the default).\n\n"
-                         : "")
+           << (g_top_ups ? ""
+                         : "**Without the exposure controller's top-up frames** (`--no-top-ups`: top_up_below 0, "
+                           "docs/capture.md; not the default).\n\n")
            << "Sessions: `glint simulate` of each map, the guided scan at 35 deg/s (about 63 s), 320x180 frames over "
               "70 degrees at 3 fps, raw IMU with Mahony fusion on the board plus a heading drift of 1 deg/min, camera "
               "noise, motion blur and a 20 ms rolling shutter (the simulator's defaults), the simulator's response and vignetting, auto-exposure, and after any frame with a clipped pixel the exposure controller's brackets: frames at 1/64, 1/4096, ... of its exposure, one readout apart, until none clips, at most four (`--hdr-bracket`; no shortest exposure: the sensor limits are off, docs/capture.md). Capture into 1024x512 from the "

@@ -133,7 +133,7 @@ TEST(ExposureController, BracketsAtOneSixtyFourthStepsUntilNothingClipsThenBackT
     EXPECT_EQ(controller.status().text(), "bracketing 1 of 4");
 }
 
-// Top-up frames are off by default (exposure_controller.hpp).
+// Top-up frames below an eighth of the range (the default since 2026-12-05; exposure_controller.hpp).
 ExposureControlSettings top_ups_on() {
     ExposureControlSettings s;
     s.top_up_below = 1.0 / 8;
@@ -173,10 +173,13 @@ TEST(ExposureController, ABracketWhoseLastFrameReadsTheSourceInAFewCodesTakesATo
         EXPECT_EQ(controller.counters().bracket_frames, 3u);
         EXPECT_EQ(controller.status().last, BracketOutcome::Unclipped);
     }
-    // Off (top_up_below 0, the default): the bracket ends at the unclipped frame.
+    // Off (top_up_below 0): the bracket ends at the unclipped frame.
+    EXPECT_EQ(ExposureControlSettings{}.top_up_below, 1.0 / 8);  // on by default
     FakeCamera cam(0, 2e4);
     cam.background = 2;
-    ExposureController controller;
+    ExposureControlSettings off;
+    off.top_up_below = 0;
+    ExposureController controller(off);
     const std::vector<Step> s = run(controller, cam, 3);
     ASSERT_TRUE(s[2].request);
     EXPECT_TRUE(s[2].request->automatic);

@@ -251,6 +251,10 @@ expect_bad "simulate onto an existing session" "already exists" "$work/none" \
 expect_bad "simulate with a bad trajectory" "nothing.csv" "$work/none" \
     simulate --env "$WORLD" --trajectory "$work/nothing.csv" --out "$work/session2"
 [[ ! -e $work/session2 && ! -e $work/session2.partial ]] || fail "a failed simulate left a session behind"
+expect_bad "simulate with top-ups but no brackets" "--top-up-below needs --hdr-bracket" "$work/none" \
+    simulate --env "$WORLD" --trajectory "$work/turn.csv" --out "$work/session3" --top-up-below 0.1
+expect_bad "simulate with top-ups at half the range" "--top-up-below must be" "$work/none" \
+    simulate --env "$WORLD" --trajectory "$work/turn.csv" --out "$work/session3" --hdr-bracket --top-up-below 0.5
 run capture --session "$work/session" --out "$work/env.exr" --size 64x32 --orientations truth --no-drift-correction
 [[ $rc -eq 0 ]] || fail "capture: exit $rc: $(stderr_text)"
 [[ -f $work/env.exr && -f $work/env.coverage.exr ]] || fail "capture did not write env.exr and env.coverage.exr"
