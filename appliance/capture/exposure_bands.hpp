@@ -33,8 +33,8 @@ namespace glint::capture {
 // top-up frame, at least two stops below the bracket step that clipped, must not share that
 // step's band, or its unclipped reads keep the step's misregistered reads beside a source in the
 // merge (dim_1e+06 seed 2's 1e-5 sr source: -18.7 % with 4, +0.5 % with 2). The bracket steps
-// themselves (6 stops apart) never share a band either way. Cost: more bands in use (7 floats a
-// texel each; 25 MB of GPU targets each at 1024x512).
+// themselves (6 stops apart) never share a band either way. Cost: more bands in use (10 floats a
+// texel each on the CPU, 21 MB at 1024x512; 25 MB of GPU targets each).
 inline constexpr double kBandStops = 2;
 inline constexpr double kConfidentExposure = 0.02;  // 10x the read noise of the simulated sensor
 // A longer band is left out where a shorter band read the texel without clipping and at least

@@ -147,12 +147,17 @@ std::optional<ExposureRequest> ExposureController::top_up_request(const CameraFr
     long long bright = 0;
     for (int z = z_max; z >= 0 && p.code_exposure[std::size_t(z)] >= half; --z) bright += pixels_at[std::size_t(z)];
     if (bright > max_pixels) return std::nullopt;
-    // Never within two stops of the frame that clipped one step before.
-    const double factor = std::min(p.top_up_target / share, p.step_factor / 4);
+    // Never within two stops of the frame that clipped one step before (the parent for step 1),
+    // so that the two never share an exposure band (exposure_bands.hpp): a quarter of the step
+    // above this frame, and a quarter of the clipped frame's requested exposure x gain, which is
+    // lower when this step was raised to the shortest exposure.
+    const double got = frame.exposure_s * frame.analogue_gain;
+    const double clipped_exposure_gain = parent_exposure_gain_ * std::pow(p.step_factor, -(status_.step - 1));
+    const double factor = std::min({p.top_up_target / share, p.step_factor / 4, clipped_exposure_gain / 4 / got});
     if (!(factor > (1 + p.match_tolerance) * (1 + p.match_tolerance))) return std::nullopt;
     // Exposure x analogue gain, what a request sets and matches() compares: the ISP's digital
     // gain, which it applies again to the top-up, stays out.
-    const double want = frame.exposure_s * frame.analogue_gain * factor;
+    const double want = got * factor;
     ExposureRequest r;
     r.automatic = false;
     r.exposure_s = std::max(want / p.bracket_gain, p.min_exposure_s);

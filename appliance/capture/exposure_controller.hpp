@@ -99,10 +99,10 @@ enum class ExposureControlState : std::uint8_t { Preview, Bracketing };
 // How the last bracket ended (None before the first).
 enum class BracketOutcome : std::uint8_t {
     None,
-    Unclipped,             // its last frame clipped nowhere
+    Unclipped,             // its last step clipped nowhere (a top-up after it may have: top_ups_clipped)
     ClippedAtShortest,     // still clipped at the shortest exposure (min_exposure_s)
     ClippedAfterAllSteps,  // still clipped after max_steps frames
-    TimedOut,              // the camera did not deliver the requested exposure within max_wait_frames
+    TimedOut,              // the camera did not deliver the requested exposure (a top-up's too) within max_wait_frames
     NotResumed,            // after it, the camera stayed on the bracket's exposure for max_wait_frames
 };
 

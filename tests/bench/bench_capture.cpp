@@ -74,10 +74,10 @@ double log_luminance_rms(const HdrImage& got, const HdrImage& truth_full, const 
 }
 
 
-// The benchmark's scan: the guided scan at 35 deg/s (63 s, past the 60 s the drift target speaks
-// of), 3 fps, a heading drift of 1 deg/min, brackets wherever a frame clips.
 bool g_top_ups = true;  // off with --no-top-ups
 
+// The benchmark's scan: the guided scan at 35 deg/s (63 s, past the 60 s the drift target speaks
+// of), 3 fps, a heading drift of 1 deg/min, brackets wherever a frame clips.
 SimulateOptions scan_options(const fs::path& env, const fs::path& out, std::uint64_t seed) {
     SimulateOptions so;
     so.env = env;
@@ -276,7 +276,7 @@ int main(int argc, char** argv) {
                            "docs/capture.md; not the default).\n\n")
            << "Sessions: `glint simulate` of each map, the guided scan at 35 deg/s (about 63 s), 320x180 frames over "
               "70 degrees at 3 fps, raw IMU with Mahony fusion on the board plus a heading drift of 1 deg/min, camera "
-              "noise, motion blur and a 20 ms rolling shutter (the simulator's defaults), the simulator's response and vignetting, auto-exposure, and after any frame with a clipped pixel the exposure controller's brackets: frames at 1/64, 1/4096, ... of its exposure, one readout apart, until none clips, at most four (`--hdr-bracket`; no shortest exposure: the sensor limits are off, docs/capture.md). Capture into 1024x512 from the "
+              "noise, motion blur and a 20 ms rolling shutter (the simulator's defaults), the simulator's response and vignetting, auto-exposure, and after any frame with a clipped pixel the exposure controller's brackets: frames at 1/64, 1/4096, ... of its exposure, one readout apart, until none clips, at most four, and a top-up frame where the last reads a compact source low (`--hdr-bracket`; no shortest exposure: the sensor limits are off, docs/capture.md). Capture into 1024x512 from the "
               "recorded sensor stream (CPU engine unless noted), with the saturation-aware sampling and the exposure bands of docs/capture.md. The downstream maps are irradiance (128x64) and "
               "n = 160 (256x128) by `auto`, from the captured map against the same from the true map.\n\n";
         if (!rows.empty())

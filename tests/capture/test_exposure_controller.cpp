@@ -8,6 +8,7 @@
 #include <utility>
 #include <vector>
 
+#include "appliance/capture/exposure_bands.hpp"
 #include "appliance/capture/exposure_controller.hpp"
 #include "appliance/core/equirect.hpp"
 #include "appliance/core/errors.hpp"
@@ -205,8 +206,8 @@ TEST(ExposureController, TheFirstStepIsASixtyFourthOfTheClippedFrameWhateverTheD
 }
 
 TEST(ExposureController, ATopUpThatClipsIsCountedAndOneNeverDeliveredTimesOut) {
-    // The top-up asked for, then the scene brightens (the source doubles in the fake's next frames
-    // by a digital gain of 4: the ISP's, so the frame still matches the request) and it clips.
+    // The top-up asked for, then the source reads 4x brighter (the fake's ISP digital gain, so the
+    // frame still matches the request) and it clips.
     {
         FakeCamera cam(0, 2e4);
         cam.background = 2;
@@ -236,6 +237,28 @@ TEST(ExposureController, ATopUpThatClipsIsCountedAndOneNeverDeliveredTimesOut) {
         EXPECT_NE(controller.status().text().find("timed out: the camera did not deliver"), std::string::npos)
             << controller.status().text();
     }
+}
+
+TEST(ExposureController, ATopUpAfterAStepRaisedToTheShortestExposureStaysTwoStopsBelowTheClippedFrame) {
+    // The source clips at 10 ms; the first step (1/64: 0.16 ms) is raised to the shortest
+    // exposure, 0.5 ms, and reads it at 19 codes. Half the range would be 6.5x that exposure,
+    // 3.3 ms, only 1.6 stops under the clipped frame; the top-up stays at a quarter of the clipped
+    // frame's exposure, in a band below it.
+    FakeCamera cam(0, 150, 5e-4);
+    cam.background = 2;
+    ExposureControlSettings settings = top_ups_on();
+    settings.min_exposure_s = 5e-4;
+    ExposureController controller(settings);
+    const std::vector<Step> s = run(controller, cam, 3);
+    ASSERT_TRUE(s[0].clipped);
+    EXPECT_DOUBLE_EQ(s[1].exposure_gain, 5e-4);
+    EXPECT_FALSE(s[1].clipped);
+    ASSERT_TRUE(s[1].request && !s[1].request->automatic);
+    const double top_up = s[1].request->exposure_s;
+    EXPECT_NEAR(top_up, s[0].exposure_gain / 4, 1e-12);
+    EXPECT_LT(exposure_band(top_up), exposure_band(s[0].exposure_gain));
+    EXPECT_DOUBLE_EQ(s[2].exposure_gain, top_up);
+    EXPECT_EQ(controller.counters().top_ups, 1u);
 }
 
 TEST(ExposureController, AWideBrightAreaReadLowGetsNoTopUp) {
