@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 
+#include "appliance/capture/exposure_bands.hpp"
 #include "appliance/core/errors.hpp"
 
 namespace glint::capture {
@@ -147,13 +148,14 @@ std::optional<ExposureRequest> ExposureController::top_up_request(const CameraFr
     long long bright = 0;
     for (int z = z_max; z >= 0 && p.code_exposure[std::size_t(z)] >= half; --z) bright += pixels_at[std::size_t(z)];
     if (bright > max_pixels) return std::nullopt;
-    // Never within two stops of the frame that clipped one step before (the parent for step 1),
-    // so that the two never share an exposure band (exposure_bands.hpp): a quarter of the step
-    // above this frame, and a quarter of the clipped frame's requested exposure x gain, which is
-    // lower when this step was raised to the shortest exposure.
+    // At least a band's width (exposure_bands.hpp) below the frame that clipped one step before
+    // (the parent for step 1), so that the two never share a band: there the clipped frame's
+    // misregistered reads beside a source would outweigh the top-up's. Measured from the clipped
+    // frame's requested exposure x gain, not from this frame's, which the shortest exposure may
+    // have raised.
     const double got = frame.exposure_s * frame.analogue_gain;
     const double clipped_exposure_gain = parent_exposure_gain_ * std::pow(p.step_factor, -(status_.step - 1));
-    const double factor = std::min({p.top_up_target / share, p.step_factor / 4, clipped_exposure_gain / 4 / got});
+    const double factor = std::min(p.top_up_target / share, clipped_exposure_gain / std::exp2(kBandStops) / got);
     if (!(factor > (1 + p.match_tolerance) * (1 + p.match_tolerance))) return std::nullopt;
     // Exposure x analogue gain, what a request sets and matches() compares: the ISP's digital
     // gain, which it applies again to the top-up, stays out.

@@ -68,8 +68,8 @@ struct ExposureControlSettings {
     // step before at 1/64 to 1 of the range in the next: a small source at the low end is read in
     // 2-5 codes, where read noise and quantisation scattered its energy by 15-50 % a frame and the
     // 6-15 such frames of a scan left it 2-6 % off (2026-12-05, docs/capture.md "Top-up frames").
-    // The top-up's exposure lies between the last two frames' (at most step_factor / 4 above the
-    // last: two stops below the frame that clipped, when the last step was a whole one), and it
+    // The top-up's exposure lies between the last two frames' (at least a band's width,
+    // kBandStops, below the frame that clipped, so that it never shares that frame's band), and it
     // ends the bracket whatever it shows. top_up_below 0: no top-up frames. On by default since
     // 2026-12-05 with two-stop exposure bands (exposure_bands.hpp): with four-stop bands a top-up
     // shared the clipped step's band and dim_1e+06 lost -18.7 % of a source; with two, the stress

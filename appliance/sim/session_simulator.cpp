@@ -441,8 +441,13 @@ SimulateSummary simulate_session(const SimulateOptions& o, const std::function<v
     if (o.control_delay_frames < 0 || o.control_delay_frames > 30)
         throw InputError("--control-delay must be in [0, 30] frames");
     if (o.control_delay_frames > 0 && !o.hdr_bracket) throw InputError("--control-delay needs --hdr-bracket");
-    if (!(o.top_up_below >= 0 && o.top_up_below < 0.5))
-        throw InputError("--top-up-below must be 0 (no top-up frames) or a share of the range under 0.5");
+    // The controller's own bound (top_up_below < top_up_target), checked before anything is written.
+    const double top_up_target = capture::ExposureControlSettings{}.top_up_target;
+    if (!(o.top_up_below >= 0 && o.top_up_below < top_up_target)) {
+        char bound[32];
+        std::snprintf(bound, sizeof bound, "%g", top_up_target);
+        throw InputError(std::string("--top-up-below must be 0 (no top-up frames) or a share of the range under ") + bound);
+    }
     if (!(o.guided_speed_deg_s >= 5 && o.guided_speed_deg_s <= 180)) throw InputError("--guided-speed must be 5..180 deg/s");
     if (o.bracket > 0 && !(o.bracket_first_exposure_s > 0)) throw InputError("--bracket-first must be positive");
     detail::check_common_options(o);

@@ -74,11 +74,10 @@ double log_luminance_rms(const HdrImage& got, const HdrImage& truth_full, const 
 }
 
 
-bool g_top_ups = true;  // off with --no-top-ups
-
 // The benchmark's scan: the guided scan at 35 deg/s (63 s, past the 60 s the drift target speaks
-// of), 3 fps, a heading drift of 1 deg/min, brackets wherever a frame clips.
-SimulateOptions scan_options(const fs::path& env, const fs::path& out, std::uint64_t seed) {
+// of), 3 fps, a heading drift of 1 deg/min, brackets wherever a frame clips (with top-up frames
+// unless `top_ups` is false: --no-top-ups).
+SimulateOptions scan_options(const fs::path& env, const fs::path& out, std::uint64_t seed, bool top_ups) {
     SimulateOptions so;
     so.env = env;
     so.out = out;
@@ -86,7 +85,7 @@ SimulateOptions scan_options(const fs::path& env, const fs::path& out, std::uint
     so.guided_speed_deg_s = 35;
     so.heading_drift_deg_per_min = 1.0;
     so.hdr_bracket = true;
-    if (!g_top_ups) so.top_up_below = 0;
+    if (!top_ups) so.top_up_below = 0;
     so.seed = seed;
     so.threads = 2;
     return so;
@@ -231,6 +230,7 @@ int main(int argc, char** argv) {
     bool stress = true, quick = false;
     bool bracket_fill = false;  // the experimental fill (CaptureOptions::bracket_fill) in every capture
     bool keep = false;          // leave the seeds table's sessions and maps for replays
+    bool top_ups = true;        // the exposure controller's top-up frames (its default)
     for (int i = 1; i < argc; ++i) {
         const std::string a = argv[i];
         if (a == "--out" && i + 1 < argc) out = argv[++i];
@@ -241,7 +241,7 @@ int main(int argc, char** argv) {
         else if (a == "--no-stress") stress = false;
         else if (a == "--quick") quick = true;
         else if (a == "--bracket-fill") bracket_fill = true;
-        else if (a == "--no-top-ups") g_top_ups = false;
+        else if (a == "--no-top-ups") top_ups = false;
         else if (a == "--keep") keep = true;
         else {
             std::fprintf(stderr, "usage: glint_bench_capture [--out FILE] [--seeds 1,2] [--maps NAME,...] [--no-stress] [--quick] "
@@ -271,7 +271,7 @@ int main(int argc, char** argv) {
            << (bracket_fill ? "**With the experimental bracket fill** (`--bracket-fill`, docs/capture.md; not the "
                               "default; the GPU column without it).\n\n"
                             : "")
-           << (g_top_ups ? ""
+           << (top_ups ? ""
                          : "**Without the exposure controller's top-up frames** (`--no-top-ups`: top_up_below 0, "
                            "docs/capture.md; not the default).\n\n")
            << "Sessions: `glint simulate` of each map, the guided scan at 35 deg/s (about 63 s), 320x180 frames over "
@@ -373,7 +373,7 @@ int main(int argc, char** argv) {
     for (const char* name : {"courtyard", "studio", "sunset"}) {
         if (quick) break;
         std::fprintf(stderr, "bench: %s\n", name);
-        const SimulateOptions so = scan_options(kWorlds + "/" + name + ".exr", work / name, seeds.front());
+        const SimulateOptions so = scan_options(kWorlds + "/" + name + ".exr", work / name, seeds.front(), top_ups);
         const SimulateSummary sim = simulate_session(so);
         Row r;
         r.map = name;
@@ -462,7 +462,7 @@ int main(int argc, char** argv) {
                 cs = reuse->second;
                 map_path = work / (name + "-on.exr");
             } else {
-                const SimulateOptions so = scan_options(env, work / tag, seed);
+                const SimulateOptions so = scan_options(env, work / tag, seed, top_ups);
                 simulate_session(so);
                 CaptureOptions co;
                 co.bracket_fill = bracket_fill;
