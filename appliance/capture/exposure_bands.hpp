@@ -1,4 +1,4 @@
-// Exposure bands: Robertson's sums kept apart per band of exposure (2 stops wide), and merged per
+// Exposure bands: Robertson's sums kept apart per band of exposure (4 stops wide), and merged per
 // texel at the end with a consistency rule, so that a misregistered long exposure cannot erase a
 // sun that only the short exposures hold.
 //
@@ -29,13 +29,15 @@
 
 namespace glint::capture {
 
-// Width of a band in stops of exposure x gain. 2 (4 until 2026-12-05): the exposure controller's
-// top-up frame, at least two stops below the bracket step that clipped, must not share that
-// step's band, or its unclipped reads keep the step's misregistered reads beside a source in the
-// merge (dim_1e+06 seed 2's 1e-5 sr source: -18.7 % with 4, +0.5 % with 2). The bracket steps
-// themselves (6 stops apart) never share a band either way. Cost: more bands in use (10 floats a
-// texel each on the CPU, 21 MB at 1024x512; 25 MB of GPU targets each).
-inline constexpr double kBandStops = 2;
+// Width of a band in stops of exposure x gain: 4. The bracket steps (6 stops apart) never share a
+// band. The exposure controller's top-up frame is kept a whole band (4 stops) below the bracket
+// step that clipped, so it never shares that step's band either: sharing it, its unclipped reads
+// kept the step's misregistered reads beside a source in the merge (dim_1e+06 seed 2's 1e-5 sr
+// source: -18.7 % with the top-up 2 stops under the step). Two-stop bands also separate them
+// (the default for a few hours on 2026-12-05), but cost studio's irradiance 0.31 -> 0.40 %;
+// four-stop bands with the top-up a band down gave 0.25 % (docs/capture.md "Exposure bands").
+// Each band in use costs 10 floats a texel on the CPU (21 MB at 1024x512) and 25 MB of GPU targets.
+inline constexpr double kBandStops = 4;
 inline constexpr double kConfidentExposure = 0.02;  // 10x the read noise of the simulated sensor
 // A longer band is left out where a shorter band read the texel without clipping and at least
 // this share of the longer band's reads there clipped (merge_bands).

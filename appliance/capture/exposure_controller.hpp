@@ -70,11 +70,12 @@ struct ExposureControlSettings {
     // 6-15 such frames of a scan left it 2-6 % off (2026-12-05, docs/capture.md "Top-up frames").
     // The top-up's exposure lies between the last two frames' (at least a band's width,
     // kBandStops, below the frame that clipped, so that it never shares that frame's band), and it
-    // ends the bracket whatever it shows. top_up_below 0: no top-up frames. On by default since
-    // 2026-12-05 with two-stop exposure bands (exposure_bands.hpp): with four-stop bands a top-up
-    // shared the clipped step's band and dim_1e+06 lost -18.7 % of a source; with two, the stress
-    // set and the three maps had 163 of 172 sources within 2 % against 157 without top-ups
-    // (docs/capture.md "Exposure control").
+    // ends the bracket whatever it shows. With four-stop bands and steps of 64 that cap always
+    // binds (under 1/8 of the range, half of it is over 4x away): the top-up is 4x the last step.
+    // top_up_below 0: no top-up frames. On by default since 2026-12-05: kept only two stops
+    // below the clipped frame, a top-up shared its band and dim_1e+06 lost 18.7 % of a source; a
+    // band below, the stress set and the three maps had 163 of 172 sources within 2 % against
+    // 157 without top-ups, studio's irradiance 0.25 % against 0.31 (docs/capture.md "Exposure control").
     double top_up_below = 1.0 / 8;
     double top_up_target = 0.5;
     // Only for a compact bright feature: at most this share of the frame's pixels read over half

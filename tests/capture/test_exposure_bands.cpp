@@ -21,24 +21,24 @@ BandTexel frame_sums(double e, double t, double w, double t_min) {
     return b;
 }
 
-TEST(ExposureBands, BandsTwoStopsWide) {
+TEST(ExposureBands, BandsFourStopsWide) {
     EXPECT_EQ(exposure_band(1.0), 0);
-    EXPECT_EQ(exposure_band(3.99), 0);
-    EXPECT_EQ(exposure_band(4.0), 1);
-    EXPECT_EQ(exposure_band(1.0 / 4), -1);
-    EXPECT_EQ(exposure_band(1.0 / 4.1), -2);
+    EXPECT_EQ(exposure_band(15.99), 0);
+    EXPECT_EQ(exposure_band(16.0), 1);
+    EXPECT_EQ(exposure_band(1.0 / 16), -1);
+    EXPECT_EQ(exposure_band(1.0 / 16.1), -2);
 }
 
-TEST(ExposureBands, ATopUpTwoStopsOrMoreBelowAClippedStepNeverSharesItsBand) {
-    // The exposure controller's top-up frame lies at least two stops below the bracket step that
-    // clipped (exposure_controller.hpp). Sharing that step's band, its unclipped reads of a
+TEST(ExposureBands, ATopUpABandOrMoreBelowAClippedStepNeverSharesItsBand) {
+    // The exposure controller's top-up frame lies at least a band's width (kBandStops) below the
+    // bracket step that clipped (exposure_controller.hpp). Sharing that step's band, its unclipped reads of a
     // source's core would keep the band in the merge (under half its reads there clipped), and
     // the step's misregistered reads of the room beside the source, 5x longer and so 25x heavier
     // in Robertson's sum, pulled the core down: dim_1e+06 seed 2's open 1e-5 sr source -18.7 %
-    // with 4-stop bands, +0.5 % with these (docs/capture.md "Exposure bands").
+    // with the top-up 2 stops under the step in 4-stop bands (docs/capture.md "Exposure bands").
     for (double log2_t = -30; log2_t < 0; log2_t += 0.01) {
         const double t = std::exp2(log2_t);
-        EXPECT_LT(exposure_band(t / 4), exposure_band(t)) << t;
+        EXPECT_LT(exposure_band(t / std::exp2(kBandStops)), exposure_band(t)) << t;
     }
 }
 

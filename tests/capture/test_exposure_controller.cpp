@@ -157,16 +157,22 @@ TEST(ExposureController, ABracketWhoseLastFrameReadsTheSourceInAFewCodesTakesATo
         EXPECT_FALSE(last_step.clipped);
         ASSERT_TRUE(last_step.request && !last_step.request->automatic);
         const double code = std::round(255 * 2e4 * last_step.exposure_gain);
-        // Its share of the top unclipped code (254) as exposure, on the default linear response.
-        EXPECT_NEAR(last_step.request->exposure_s, last_step.exposure_gain * 0.5 / ((code + 0.5) / 254.5), 1e-12);
-        // Between the last two steps, two stops below the one that clipped.
-        EXPECT_GT(last_step.request->exposure_s, last_step.exposure_gain * 4);
-        EXPECT_LE(last_step.request->exposure_s, s[0].exposure_gain / 64 / 4 * (1 + 1e-12));
-        // The top-up frame: near half the range, and the bracket ends with it.
+        // Its share of the top unclipped code (254) as exposure, on the default linear response:
+        // the exposure that puts it at half the range, capped at a band's width (kBandStops) below
+        // the step that clipped (s[0] / 64), so that the top-up never shares that step's band.
+        const double half_range = last_step.exposure_gain * 0.5 / ((code + 0.5) / 254.5);
+        const double band_below = s[0].exposure_gain / 64 / std::exp2(kBandStops);
+        EXPECT_NEAR(last_step.request->exposure_s, std::min(half_range, band_below), 1e-12);
+        EXPECT_GT(last_step.request->exposure_s, last_step.exposure_gain * 2);
+        EXPECT_LT(exposure_band(last_step.request->exposure_s), exposure_band(s[0].exposure_gain / 64));
+        // The top-up frame: the source read in several times the codes of the 1/4096 frame (under
+        // half the range), and the bracket ends with it.
         const Step& top_up = s[std::size_t(asked[3])];
         EXPECT_DOUBLE_EQ(top_up.exposure_gain, last_step.request->exposure_s);
         EXPECT_FALSE(top_up.clipped);
-        EXPECT_NEAR(255 * 2e4 * top_up.exposure_gain, 128, 12);
+        EXPECT_NEAR(255 * 2e4 * top_up.exposure_gain, 255 * 2e4 * std::min(half_range, band_below), 1e-9);
+        EXPECT_GE(255 * 2e4 * top_up.exposure_gain, 3 * code);
+        EXPECT_LE(255 * 2e4 * top_up.exposure_gain, 128 + 12);
         ASSERT_TRUE(top_up.request);
         EXPECT_TRUE(top_up.request->automatic);
         EXPECT_EQ(top_up.state, ExposureControlState::Preview);
@@ -206,15 +212,15 @@ TEST(ExposureController, TheFirstStepIsASixtyFourthOfTheClippedFrameWhateverTheD
 }
 
 TEST(ExposureController, ATopUpThatClipsIsCountedAndOneNeverDeliveredTimesOut) {
-    // The top-up asked for, then the source reads 4x brighter (the fake's ISP digital gain, so the
-    // frame still matches the request) and it clips.
+    // The top-up asked for (the source at ~50 codes), then the source reads 8x brighter (the
+    // fake's ISP digital gain, so the frame still matches the request) and it clips.
     {
         FakeCamera cam(0, 2e4);
         cam.background = 2;
         ExposureController controller(top_ups_on());
         run(controller, cam, 3);
         ASSERT_TRUE(controller.status().top_up);
-        cam.digital_gain = 4;
+        cam.digital_gain = 8;
         const std::vector<Step> s = run(controller, cam, 1);
         EXPECT_TRUE(s[0].clipped);
         ASSERT_TRUE(s[0].request && s[0].request->automatic);
@@ -239,11 +245,31 @@ TEST(ExposureController, ATopUpThatClipsIsCountedAndOneNeverDeliveredTimesOut) {
     }
 }
 
-TEST(ExposureController, ATopUpAfterAStepRaisedToTheShortestExposureStaysTwoStopsBelowTheClippedFrame) {
+TEST(ExposureController, ATopUpAfterAStepRaisedToTheShortestExposureStaysABandBelowTheClippedFrame) {
     // The source clips at 10 ms; the first step (1/64: 0.16 ms) is raised to the shortest
-    // exposure, 0.5 ms, and reads it at 19 codes. Half the range would be 6.5x that exposure,
-    // 3.3 ms, only 1.6 stops under the clipped frame; the top-up stays at a quarter of the clipped
-    // frame's exposure, in a band below it.
+    // exposure, 0.2 ms, and reads it at 8 codes. Half the range would be 16x that exposure, 3.1 ms,
+    // only 1.7 stops under the clipped frame; the top-up stays a band's width (kBandStops) below
+    // the clipped frame's exposure, in a band below it.
+    FakeCamera cam(0, 150, 2e-4);
+    cam.background = 2;
+    ExposureControlSettings settings = top_ups_on();
+    settings.min_exposure_s = 2e-4;
+    ExposureController controller(settings);
+    const std::vector<Step> s = run(controller, cam, 3);
+    ASSERT_TRUE(s[0].clipped);
+    EXPECT_DOUBLE_EQ(s[1].exposure_gain, 2e-4);
+    EXPECT_FALSE(s[1].clipped);
+    ASSERT_TRUE(s[1].request && !s[1].request->automatic);
+    const double top_up = s[1].request->exposure_s;
+    EXPECT_NEAR(top_up, s[0].exposure_gain / std::exp2(kBandStops), 1e-12);
+    EXPECT_LT(exposure_band(top_up), exposure_band(s[0].exposure_gain));
+    EXPECT_DOUBLE_EQ(s[2].exposure_gain, top_up);
+    EXPECT_EQ(controller.counters().top_ups, 1u);
+}
+
+TEST(ExposureController, NoTopUpWhereABandBelowTheClippedFrameIsBarelyLongerThanTheShortestExposure) {
+    // As above with a shortest exposure of 0.5 ms: a band below the clipped 10 ms frame is
+    // 0.63 ms, 1.25x the raised step, within the match tolerance of it: a frame for nothing.
     FakeCamera cam(0, 150, 5e-4);
     cam.background = 2;
     ExposureControlSettings settings = top_ups_on();
@@ -253,12 +279,9 @@ TEST(ExposureController, ATopUpAfterAStepRaisedToTheShortestExposureStaysTwoStop
     ASSERT_TRUE(s[0].clipped);
     EXPECT_DOUBLE_EQ(s[1].exposure_gain, 5e-4);
     EXPECT_FALSE(s[1].clipped);
-    ASSERT_TRUE(s[1].request && !s[1].request->automatic);
-    const double top_up = s[1].request->exposure_s;
-    EXPECT_NEAR(top_up, s[0].exposure_gain / 4, 1e-12);
-    EXPECT_LT(exposure_band(top_up), exposure_band(s[0].exposure_gain));
-    EXPECT_DOUBLE_EQ(s[2].exposure_gain, top_up);
-    EXPECT_EQ(controller.counters().top_ups, 1u);
+    ASSERT_TRUE(s[1].request);
+    EXPECT_TRUE(s[1].request->automatic);
+    EXPECT_EQ(controller.counters().top_ups, 0u);
 }
 
 TEST(ExposureController, AWideBrightAreaReadLowGetsNoTopUp) {
