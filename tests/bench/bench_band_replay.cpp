@@ -85,16 +85,18 @@ int margins(int argc, char** argv) {
 int main(int argc, char** argv) {
     if (argc >= 4 && std::string(argv[1]) == "margins") return margins(argc, argv);
     if (argc < 5) {
-        std::fprintf(stderr, "usage: glint_bench_band_replay SESSION SOURCES INDEX ORIENTATIONS.csv [--texels] [--frames] [--nowt]\n");
+        std::fprintf(stderr, "usage: glint_bench_band_replay SESSION SOURCES INDEX ORIENTATIONS.csv [--texels] [--frames] [--nowt] [--out MAP.exr]\n");
         return 2;
     }
     bool texels = false, frames_out = false, no_w = false;
+    std::string map_out;  // --out FILE: the replayed map (for `margins`, every source at once)
     int W = 1024, H = 512;
     for (int a = 5; a < argc; ++a) {
         std::string s = argv[a];
         if (s == "--texels") texels = true;
         if (s == "--frames") frames_out = true;
         if (s == "--nowt") no_w = true;
+        if (s == "--out" && a + 1 < argc) map_out = argv[++a];
     }
     const Session session = open_session(argv[1]);
     const CameraCalibration& cal = session.calibration;
@@ -187,6 +189,7 @@ int main(int argc, char** argv) {
 
     // Stages.
     const HdrImage map = acc.radiance();
+    if (!map_out.empty()) save_exr(map_out, map);
     double e_map = 0, e_all = 0;
     const int nb = acc.bands();
     std::vector<double> e_band(std::size_t(nb), 0), e_true_band(std::size_t(nb), 0);
