@@ -247,41 +247,35 @@ TEST(ExposureController, ATopUpThatClipsIsCountedAndOneNeverDeliveredTimesOut) {
 
 TEST(ExposureController, ATopUpAfterAStepRaisedToTheShortestExposureStaysABandBelowTheClippedFrame) {
     // The source clips at 10 ms; the first step (1/64: 0.16 ms) is raised to the shortest
-    // exposure, 0.2 ms, and reads it at 8 codes. Half the range would be 16x that exposure, 3.1 ms,
+    // exposure. At 0.2 ms it reads the source at 8 codes: half the range would be 16x that, 3.1 ms,
     // only 1.7 stops under the clipped frame; the top-up stays a band's width (kBandStops) below
-    // the clipped frame's exposure, in a band below it.
-    FakeCamera cam(0, 150, 2e-4);
-    cam.background = 2;
-    ExposureControlSettings settings = top_ups_on();
-    settings.min_exposure_s = 2e-4;
-    ExposureController controller(settings);
-    const std::vector<Step> s = run(controller, cam, 3);
-    ASSERT_TRUE(s[0].clipped);
-    EXPECT_DOUBLE_EQ(s[1].exposure_gain, 2e-4);
-    EXPECT_FALSE(s[1].clipped);
-    ASSERT_TRUE(s[1].request && !s[1].request->automatic);
-    const double top_up = s[1].request->exposure_s;
-    EXPECT_NEAR(top_up, s[0].exposure_gain / std::exp2(kBandStops), 1e-12);
-    EXPECT_LT(exposure_band(top_up), exposure_band(s[0].exposure_gain));
-    EXPECT_DOUBLE_EQ(s[2].exposure_gain, top_up);
-    EXPECT_EQ(controller.counters().top_ups, 1u);
-}
-
-TEST(ExposureController, NoTopUpWhereABandBelowTheClippedFrameIsBarelyLongerThanTheShortestExposure) {
-    // As above with a shortest exposure of 0.5 ms: a band below the clipped 10 ms frame is
-    // 0.63 ms, 1.25x the raised step, within the match tolerance of it: a frame for nothing.
-    FakeCamera cam(0, 150, 5e-4);
-    cam.background = 2;
-    ExposureControlSettings settings = top_ups_on();
-    settings.min_exposure_s = 5e-4;
-    ExposureController controller(settings);
-    const std::vector<Step> s = run(controller, cam, 3);
-    ASSERT_TRUE(s[0].clipped);
-    EXPECT_DOUBLE_EQ(s[1].exposure_gain, 5e-4);
-    EXPECT_FALSE(s[1].clipped);
-    ASSERT_TRUE(s[1].request);
-    EXPECT_TRUE(s[1].request->automatic);
-    EXPECT_EQ(controller.counters().top_ups, 0u);
+    // the clipped frame's exposure, in a band below it. At 0.5 ms a band below the clipped frame
+    // (0.63 ms) is 1.25x the raised step, within the match tolerance of it: no top-up, a frame
+    // for nothing.
+    for (const double shortest : {2e-4, 5e-4}) {
+        SCOPED_TRACE(shortest);
+        FakeCamera cam(0, 150, shortest);
+        cam.background = 2;
+        ExposureControlSettings settings = top_ups_on();
+        settings.min_exposure_s = shortest;
+        ExposureController controller(settings);
+        const std::vector<Step> s = run(controller, cam, 3);
+        ASSERT_TRUE(s[0].clipped);
+        EXPECT_DOUBLE_EQ(s[1].exposure_gain, shortest);
+        EXPECT_FALSE(s[1].clipped);
+        ASSERT_TRUE(s[1].request);
+        if (shortest > 4e-4) {
+            EXPECT_TRUE(s[1].request->automatic);
+            EXPECT_EQ(controller.counters().top_ups, 0u);
+            continue;
+        }
+        ASSERT_FALSE(s[1].request->automatic);
+        const double top_up = s[1].request->exposure_s;
+        EXPECT_NEAR(top_up, s[0].exposure_gain / std::exp2(kBandStops), 1e-12);
+        EXPECT_LT(exposure_band(top_up), exposure_band(s[0].exposure_gain));
+        EXPECT_DOUBLE_EQ(s[2].exposure_gain, top_up);
+        EXPECT_EQ(controller.counters().top_ups, 1u);
+    }
 }
 
 TEST(ExposureController, AWideBrightAreaReadLowGetsNoTopUp) {
