@@ -71,7 +71,8 @@ Command add_simulate_command(CLI::App& app) {
         ->capture_default_str();
     cmd->add_option("--top-up-below", a->o.top_up_below,
                     "With --hdr-bracket: when a bracket's last frame reads its brightest pixel under this share of "
-                    "the range, one more frame exposed to put it at half (docs/capture.md \"Exposure control\"; "
+                    "the range, one more frame exposed towards half of it, at least a band below the step that clipped (4x the "
+                    "last step; docs/capture.md \"Exposure control\"; "
                     "the controller's default; 0 = none)")
         ->capture_default_str();
     cmd->add_flag("--sensor-limits", a->o.sensor_limits,

@@ -35,7 +35,8 @@ namespace glint::capture {
 // kept the step's misregistered reads beside a source in the merge (dim_1e+06 seed 2's 1e-5 sr
 // source: -18.7 % with the top-up 2 stops under the step). Two-stop bands also separate them
 // (the default for a few hours on 2026-12-05), but cost studio's irradiance 0.31 -> 0.40 %;
-// four-stop bands with the top-up a band down gave 0.25 % (docs/capture.md "Exposure bands").
+// four-stop bands with the top-up a band down gave 0.25 % (docs/capture.md "Exposure control",
+// "Top-up and bands").
 // Each band in use costs 10 floats a texel on the CPU (21 MB at 1024x512) and 25 MB of GPU targets.
 inline constexpr double kBandStops = 4;
 inline constexpr double kConfidentExposure = 0.02;  // 10x the read noise of the simulated sensor

@@ -6,8 +6,9 @@
 //   exposure x analogue gain (at gain 1), until one clips nowhere, the shortest exposure still clips, or
 //   four were taken; then (unless top_up_below is 0) if that last frame's brightest
 //   pixel is under an eighth of the top code's exposure (what clipped before is read in a few
-//   codes, in the noise) and belongs to a compact feature, one top-up frame exposed to put it at
-//   half of it; then back to automatic exposure.
+//   codes, in the noise) and belongs to a compact feature, one top-up frame exposed towards half
+//   of it but at least a band (kBandStops) below the step that clipped: with steps of 64, 4x the
+//   last step; then back to automatic exposure.
 //
 // A real camera applies a control a few frames late (libcamera pipelines: 2-3 frames) and may
 // drop frames, so a bracket frame is recognised by its metadata (exposure x gain within a
@@ -71,7 +72,10 @@ struct ExposureControlSettings {
     // The top-up's exposure lies between the last two frames' (at least a band's width,
     // kBandStops, below the frame that clipped, so that it never shares that frame's band), and it
     // ends the bracket whatever it shows. With four-stop bands and steps of 64 that cap always
-    // binds (under 1/8 of the range, half of it is over 4x away): the top-up is 4x the last step.
+    // binds (under 1/8 of the range, half of it is over 4x away): the top-up is 4x the last step,
+    // unless the shortest exposure raised the last step (then no top-up under a factor of
+    // (1 + match_tolerance)^2 over it). The band separation holds for frames delivered as asked;
+    // one delivered up to match_tolerance long can land in the clipped step's band.
     // top_up_below 0: no top-up frames. On by default since 2026-12-05: kept only two stops
     // below the clipped frame, a top-up shared its band and dim_1e+06 lost 18.7 % of a source; a
     // band below, the stress set and the three maps had 163 of 172 sources within 2 % against

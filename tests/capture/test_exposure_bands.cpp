@@ -30,12 +30,13 @@ TEST(ExposureBands, BandsFourStopsWide) {
 }
 
 TEST(ExposureBands, ATopUpABandOrMoreBelowAClippedStepNeverSharesItsBand) {
-    // The exposure controller's top-up frame lies at least a band's width (kBandStops) below the
-    // bracket step that clipped (exposure_controller.hpp). Sharing that step's band, its unclipped reads of a
+    // A property of the band formula, whatever kBandStops: an exposure a band's width or more
+    // below another is in a lower band. The exposure controller keeps its top-up frame that far
+    // below the bracket step that clipped (exposure_controller.hpp, tested there). Sharing that step's band, its unclipped reads of a
     // source's core would keep the band in the merge (under half its reads there clipped), and
     // the step's misregistered reads of the room beside the source, 5x longer and so 25x heavier
     // in Robertson's sum, pulled the core down: dim_1e+06 seed 2's open 1e-5 sr source -18.7 %
-    // with the top-up 2 stops under the step in 4-stop bands (docs/capture.md "Exposure bands").
+    // with the top-up 2 stops under the step in 4-stop bands (docs/capture.md "Top-up and bands").
     for (double log2_t = -30; log2_t < 0; log2_t += 0.01) {
         const double t = std::exp2(log2_t);
         EXPECT_LT(exposure_band(t / std::exp2(kBandStops)), exposure_band(t)) << t;

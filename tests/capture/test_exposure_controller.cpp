@@ -145,7 +145,8 @@ TEST(ExposureController, ABracketWhoseLastFrameReadsTheSourceInAFewCodesTakesATo
     for (int delay : {0, 3}) {
         SCOPED_TRACE(delay);
         // The source clips at ~10 ms and at 1/64 of it; at 1/4096 it reads ~12 codes of 255 (under
-        // an eighth): one top-up frame at the exposure that puts it at half the range, then preview.
+        // an eighth): one top-up frame towards half the range but a band below the 1/64 step (4x
+        // the last step, ~50 codes), then preview.
         FakeCamera cam(delay, 2e4);
         cam.background = 2;  // a dark room: the source is the brightest pixel of the short frames
         ExposureController controller(top_ups_on());
@@ -247,12 +248,13 @@ TEST(ExposureController, ATopUpThatClipsIsCountedAndOneNeverDeliveredTimesOut) {
 
 TEST(ExposureController, ATopUpAfterAStepRaisedToTheShortestExposureStaysABandBelowTheClippedFrame) {
     // The source clips at 10 ms; the first step (1/64: 0.16 ms) is raised to the shortest
-    // exposure. At 0.2 ms it reads the source at 8 codes: half the range would be 16x that, 3.1 ms,
+    // exposure. At 0.2 ms it reads the source at 8 codes: half the range would be 15x that, 3.0 ms,
     // only 1.7 stops under the clipped frame; the top-up stays a band's width (kBandStops) below
-    // the clipped frame's exposure, in a band below it. At 0.5 ms a band below the clipped frame
-    // (0.63 ms) is 1.25x the raised step, within the match tolerance of it: no top-up, a frame
-    // for nothing.
-    for (const double shortest : {2e-4, 5e-4}) {
+    // the clipped frame's exposure (0.625 ms), in a band below it; so at 0.35 ms (1.79x). At 0.45
+    // and 0.5 ms that is 1.39x and 1.25x the raised step, under (1 + match_tolerance)^2 = 1.5625x:
+    // no top-up, a frame for nothing.
+    for (const auto& [shortest, top_up_expected] :
+         {std::pair{2e-4, true}, std::pair{3.5e-4, true}, std::pair{4.5e-4, false}, std::pair{5e-4, false}}) {
         SCOPED_TRACE(shortest);
         FakeCamera cam(0, 150, shortest);
         cam.background = 2;
@@ -264,7 +266,7 @@ TEST(ExposureController, ATopUpAfterAStepRaisedToTheShortestExposureStaysABandBe
         EXPECT_DOUBLE_EQ(s[1].exposure_gain, shortest);
         EXPECT_FALSE(s[1].clipped);
         ASSERT_TRUE(s[1].request);
-        if (shortest > 4e-4) {
+        if (!top_up_expected) {
             EXPECT_TRUE(s[1].request->automatic);
             EXPECT_EQ(controller.counters().top_ups, 0u);
             continue;
