@@ -14,6 +14,7 @@
 #include <cmath>
 #include <memory>
 
+#include "appliance/convolution/fourier_pass.hpp"
 #include "appliance/convolution/methods.hpp"
 #include "appliance/core/equirect.hpp"
 #include "appliance/core/errors.hpp"
@@ -31,11 +32,20 @@ public:
     CpuConeSums(const PreparedLevel& level, Size out, double n, const ConeSettings& settings, int threads,
                 const std::vector<LobeSummer::ColumnRuns>* columns)
         : summer_(level, out.width, out.height, n, Accumulation::FloatRuns, settings.max_texel_arc),
-          threads_(threads), columns_(columns) {}
+          threads_(threads), columns_(columns) {
+        // Whole rows only: the patches of a finer grid ask for a few texels of a row.
+        if (settings.fourier_first_pass && !columns && FourierFirstPass::applies(level.width(), out.width))
+            fourier_ = std::make_unique<FourierFirstPass>(summer_, level.width(), out.width, threads);
+    }
 
     LobeSums first_pass(const std::vector<int>& rows, double c0, const RowProgress& progress) override {
         // With column runs (patches of a finer grid), only those texels' windows are stored.
         LobeSums sums = summer_.make_sums(&rows, columns_);
+        if (fourier_) {
+            fourier_->run(rows, c0, sums, progress);
+            return sums;
+        }
+        summer_.lay_out();
         parallel_for(int(rows.size()), threads_, [&](int k) {
             summer_.sum_row(rows[std::size_t(k)], c0, sums, columns_ ? &(*columns_)[std::size_t(k)] : nullptr);
             if (progress) progress(1);
@@ -45,6 +55,7 @@ public:
     LobeSums annulus(const std::vector<int>& rows, const std::vector<LobeSummer::ColumnRuns>& runs,
                      const std::vector<double>& cut, double c_inner) override {
         LobeSums sums = summer_.make_sums(&rows, &runs);
+        summer_.lay_out();
         parallel_for(int(rows.size()), threads_, [&](int k) {
             summer_.sum_row(rows[std::size_t(k)], cut[std::size_t(k)], sums, &runs[std::size_t(k)], c_inner);
         });
@@ -68,6 +79,7 @@ private:
     LobeSummer summer_;
     int threads_;
     const std::vector<LobeSummer::ColumnRuns>* columns_;
+    std::unique_ptr<FourierFirstPass> fourier_;
 };
 
 }  // namespace
@@ -77,7 +89,7 @@ double cone_cut_cos(double energy, double n) {
 }
 
 HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel>& bright,
-                       double n, Size out, const ConeSettings& settings, int threads,
+                       double n, Size out, const ConeSettings& given_settings, int threads,
                        const RowProgress& progress, ConeStats* stats, const std::vector<int>& only_rows,
                        ConeSumsBackend* backend, const std::vector<LobeSummer::ColumnRuns>* only_columns,
                        HdrImage* into) {
@@ -92,6 +104,14 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
     const auto columns_of = [&](std::size_t k) -> const LobeSummer::ColumnRuns& {
         return only_columns ? (*only_columns)[k] : whole_row;
     };
+    // Whole rows of one column class are summed by the Fourier first pass on the CPU, which
+    // costs little more for a wider cone (its rows and columns grow as the square root of
+    // log(1 / cut)), while every texel whose bound fails costs a bound query and an annulus: they
+    // take a cone that drops far less of the lobe. Decided by the sizes, not the backend, so
+    // that the GPU engine sums the same terms.
+    ConeSettings settings = given_settings;
+    if (settings.fourier_first_pass && !only_columns && FourierFirstPass::applies(level.width(), out.width))
+        settings.cutoff_energy = std::min(settings.cutoff_energy, settings.fourier_cutoff_energy);
     std::unique_ptr<CpuConeSums> cpu;
     if (!backend) {
         cpu = std::make_unique<CpuConeSums>(level, out, n, settings, threads, only_columns);

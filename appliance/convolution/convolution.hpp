@@ -65,6 +65,11 @@ struct ConeSettings {
     // Rows near the poles may read merged columns whose azimuthal arc stays
     // within this many radians (0: never; see PolarColumns in lobe_sum.hpp).
     double max_texel_arc = 0;
+    // The first pass by Fourier transforms along the rows where it applies (fourier_pass.hpp):
+    // the same sums, to rounding. Off: the direct sums (for comparisons).
+    bool fourier_first_pass = true;
+    // The lobe energy the Fourier first pass drops (at most cutoff_energy).
+    double fourier_cutoff_energy = 1e-6;
 };
 
 // What was decided for one map, and why it is expected to be within tolerance.

@@ -95,8 +95,18 @@ LobeSummer::Geometry LobeSummer::make_geometry(const PreparedLevel& level, const
             const double d = double(k) - g.cos_offset;
             g.cos_dphi[std::size_t(p) * g.cos_stride + k] = std::cos((d - g.frac[std::size_t(p)]) * kTwoPi / w);
         }
-    g.phases = &level.phases(g.step, per_class_, rows);
+    g.rows = rows;
+    g.laid_out = std::make_shared<std::once_flag>();
     return g;
+}
+
+const UninitVector<float>& LobeSummer::phases_of(const Geometry& g) const {
+    std::call_once(*g.laid_out, [&] { g.phases = &g.level->phases(g.step, per_class_, g.rows); });
+    return *g.phases;
+}
+
+void LobeSummer::lay_out() const {
+    for (const Geometry& g : geometries_) phases_of(g);
 }
 
 namespace {
@@ -557,12 +567,55 @@ void LobeSummer::flush_terms(const std::vector<Term>& terms, const ColumnRuns& q
     }
 }
 
+LobeSummer::RowWindow LobeSummer::window(int out_row, int cls, double c_min) const {
+    RowWindow win;
+    win.cmax = cmax(out_row, cls);
+    win.lowest_cos = std::max(c_min, underflow_cos(win.cmax));
+    // Rows whose best cosine cos(theta_r - theta_k) can reach lowest_cos.
+    const int h = level_.height();
+    const double theta_r = row_theta(out_row, out_h_);
+    const double reach = std::acos(std::clamp(win.lowest_cos, -1.0, 1.0));
+    win.first = std::max(0, int(std::floor((theta_r - reach) / kPi * h - 0.5)) - 1);
+    win.last = std::min(h - 1, int(std::ceil((theta_r + reach) / kPi * h - 0.5)) + 1);
+    return win;
+}
+
+void LobeSummer::columns_above(const Geometry& g, int cls, double bound, double a, double b, int& d_lo,
+                               int& count) const {
+    const int w = g.width;
+    const double f = g.frac[std::size_t(cls)];
+    const double q = a > 1e-300 ? (bound - b) / a : (b >= bound ? -2.0 : 2.0);
+    count = 0;
+    if (q > 1.0) return;
+    if (q <= -1.0) {
+        d_lo = int(std::ceil(f - 0.5 * w));
+        count = w;
+    } else {
+        const double half = std::acos(q) * (w / kTwoPi);
+        d_lo = int(std::ceil(f - half));
+        count = std::max(0, std::min(w, int(std::floor(f + half)) - d_lo + 1));
+    }
+}
+
+LobeSummer::RowTerms LobeSummer::row_terms(int out_row, int cls, const RowWindow& win, int jk, double* w) const {
+    const Geometry& g = geometries_[std::size_t(row_geometry_[std::size_t(jk)])];
+    RowTerms t;
+    t.level = g.level;
+    t.base = g.base[std::size_t(cls)];
+    t.frac = g.frac[std::size_t(cls)];
+    t.step = g.step;
+    t.omega = g.level->solid_angle(jk);
+    const double a = out_sin_t_[std::size_t(out_row)] * level_.sin_theta(jk);
+    const double b = out_cos_t_[std::size_t(out_row)] * level_.cos_theta(jk);
+    columns_above(g, cls, win.lowest_cos, a, b, t.first, t.count);
+    if (t.count > 0) weights(g, cls, t.first, t.count, a, b, 1.0 / win.cmax, w);
+    return t;
+}
+
 void LobeSummer::sum_row(int out_row, double c_min, LobeSums& sums, const ColumnRuns* columns,
                          double c_inner) const {
-    const int h = level_.height();
     const double ctr = out_cos_t_[std::size_t(out_row)];
     const double str = out_sin_t_[std::size_t(out_row)];
-    const double theta_r = row_theta(out_row, out_h_);
     std::vector<double> wbuf(std::size_t(level_.width()) + 2);
     // One list of terms per geometry: their texel runs have different strides.
     std::vector<std::vector<Term>> terms(geometries_.size());
@@ -575,35 +628,17 @@ void LobeSummer::sum_row(int out_row, double c_min, LobeSums& sums, const Column
     double* acc_g = acc_r + per_class_;
     double* acc_b = acc_g + per_class_;
 
+    for (const Geometry& g : geometries_) phases_of(g);
     for (int cls = 0; cls < classes_; ++cls) {
-        const double cm = cmax(out_row, cls);
+        const RowWindow win = window(out_row, cls, c_min);
+        const double cm = win.cmax;
         const double inv_cm = 1.0 / cm;
-        const double lo = std::max(c_min, underflow_cos(cm));
+        const double lo = win.lowest_cos;
         std::fill(acc.begin(), acc.end(), 0.0);
         double den = 0;
         // Runs of this class's column indices q (column = q * classes + cls).
         const ColumnRuns q_runs = columns ? class_runs(cls, *columns) : ColumnRuns{{0, per_class_}};
 
-        // Columns [d_lo, d_lo + count) of input row jk whose cosine with this
-        // class's texels is at least `bound` (count 0: none). The inner cone of an
-        // annulus uses the same arithmetic, so its columns are exactly those of
-        // the pass that summed it.
-        const auto columns_above = [&](const Geometry& g, double bound, double a, double b, int& d_lo,
-                                       int& count) {
-            const int w = g.width;
-            const double f = g.frac[std::size_t(cls)];
-            const double q = a > 1e-300 ? (bound - b) / a : (b >= bound ? -2.0 : 2.0);
-            count = 0;
-            if (q > 1.0) return;
-            if (q <= -1.0) {
-                d_lo = int(std::ceil(f - 0.5 * w));
-                count = w;
-            } else {
-                const double half = std::acos(q) * (w / kTwoPi);
-                d_lo = int(std::ceil(f - half));
-                count = std::max(0, std::min(w, int(std::floor(f + half)) - d_lo + 1));
-            }
-        };
         const auto add_columns = [&](std::size_t gi, int jk, double a, double b, int d_lo, int count) {
             if (count <= 0) return;
             const Geometry& g = geometries_[gi];
@@ -632,20 +667,16 @@ void LobeSummer::sum_row(int out_row, double c_min, LobeSums& sums, const Column
         };
         const double lo_inner = c_inner <= 1.0 ? std::max(c_inner, underflow_cos(cm)) : 2.0;
 
-        // Rows whose best cosine cos(theta_r - theta_k) can reach `lo`.
-        const double reach = std::acos(std::clamp(lo, -1.0, 1.0));
-        const int j0 = std::max(0, int(std::floor((theta_r - reach) / kPi * h - 0.5)) - 1);
-        const int j1 = std::min(h - 1, int(std::ceil((theta_r + reach) / kPi * h - 0.5)) + 1);
-        for (int jk = j0; jk <= j1; ++jk) {
+        for (int jk = win.first; jk <= win.last; ++jk) {
             const double a = str * level_.sin_theta(jk);
             const double b = ctr * level_.cos_theta(jk);
             const std::size_t gi = std::size_t(row_geometry_[std::size_t(jk)]);
             const Geometry& g = geometries_[gi];
             int d_lo = 0, count = 0;
-            columns_above(g, lo, a, b, d_lo, count);
+            columns_above(g, cls, lo, a, b, d_lo, count);
             if (count == 0) continue;
             int in_lo = 0, in_count = 0;
-            if (lo_inner <= 1.0) columns_above(g, lo_inner, a, b, in_lo, in_count);
+            if (lo_inner <= 1.0) columns_above(g, cls, lo_inner, a, b, in_lo, in_count);
             if (in_count == 0) {
                 add_columns(gi, jk, a, b, d_lo, count);
             } else {  // the annulus: the columns left and right of the inner cone

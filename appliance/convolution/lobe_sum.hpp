@@ -115,6 +115,12 @@ public:
     // put all of those reads into the same few L1 sets.
     static std::size_t phase_stride(int per_class) { return 2 * std::size_t(per_class) + 16; }
 
+    // The spectra of the rows for the Fourier first pass (fourier_pass.cpp, which defines
+    // both): made row by row on first use and kept, so that every map read from this level
+    // shares them.
+    struct RowSpectra;
+    RowSpectra& row_spectra() const;
+
 private:
     int width_, height_, threads_;
     std::vector<double> cos_t_, sin_t_, omega_;
@@ -139,6 +145,8 @@ private:
     void ensure_rows(const std::vector<char>& rows) const;
     mutable std::mutex merged_mutex_;
     mutable std::map<int, std::unique_ptr<PreparedLevel>> merged_;
+    mutable std::once_flag spectra_once_;
+    mutable std::shared_ptr<RowSpectra> spectra_;
 };
 
 // Per-texel partial sums for an output grid of out_w x out_h.
@@ -224,6 +232,31 @@ public:
     int classes() const { return classes_; }
     double shininess() const { return n_; }
 
+    // Builds the phase layouts sum_row reads (with the level's threads). sum_row builds them
+    // itself when they are missing, but inside a parallel loop that is one thread's work.
+    void lay_out() const;
+
+    // What sum_row's first pass (c_inner > 1) reads, for a caller that sums the same terms
+    // another way (the Fourier first pass, cone_fft.cpp).
+    // The level rows read for output row out_row, class cls, with cut-off c_min: [first, last]
+    // (none when last < first), and the largest cosine cmax(out_row, cls) the weights divide by.
+    struct RowWindow {
+        int first = 0, last = -1;
+        double cmax = 1, lowest_cos = 0;  // lowest_cos: max(c_min, underflow_cos(cmax))
+    };
+    RowWindow window(int out_row, int cls, double c_min) const;
+    // The terms of level row jk in `window`: the texels of geometry `level` (the level itself
+    // or a version with merged columns) at columns base + q * step + first + d, d in
+    // [0, count), for output column q * classes + cls, weighted w[d] * omega (w written to
+    // w[0..count), count <= level->width()). An output column's centre sits at column
+    // base + frac + q * step of that version.
+    struct RowTerms {
+        const PreparedLevel* level = nullptr;
+        int base = 0, step = 1, first = 0, count = 0;
+        double frac = 0, omega = 0;
+    };
+    RowTerms row_terms(int out_row, int cls, const RowWindow& window, int jk, double* w) const;
+
 private:
     // One weight and the red texel run it multiplies (green and blue follow at
     // fixed strides in the phase layout).
@@ -246,8 +279,11 @@ private:
         std::size_t cos_stride = 0;
         // The rows split by column phase for this output width
         // (PreparedLevel::phases): the texels that one weight multiplies across a
-        // whole class are contiguous.
-        const UninitVector<float>* phases = nullptr;
+        // whole class are contiguous. Laid out on first use (lay_out): the Fourier first pass
+        // (cone_fft.cpp) reads the level's planes and never needs them.
+        std::vector<char> rows;  // the level rows read with this geometry
+        std::shared_ptr<std::once_flag> laid_out;
+        mutable const UninitVector<float>* phases = nullptr;
     };
     // The geometry of `level` (or a merged version of it) for the level rows flagged in `rows`.
     Geometry make_geometry(const PreparedLevel& level, const std::vector<char>& rows) const;
@@ -264,6 +300,11 @@ private:
     // dphi_d is the azimuth offset of column d_lo + d of geometry g in class cls.
     void weights(const Geometry& g, int cls, int d_lo, int count, double a, double b, double inv_cmax,
                  double* w) const;
+    // Columns [d_lo, d_lo + count) of a level row whose cosine a * cos(dphi) + b with class
+    // cls's texels is at least `bound` (count 0: none). The inner cone of an annulus uses the
+    // same arithmetic, so its columns are exactly those of the pass that summed it.
+    void columns_above(const Geometry& g, int cls, double bound, double a, double b, int& d_lo, int& count) const;
+    const UninitVector<float>& phases_of(const Geometry& g) const;
 
     const PreparedLevel& level_;
     int out_w_, out_h_;

@@ -522,7 +522,7 @@ TEST(OutputGrid, PatchedMapsAreWithinTheToleranceOffGrid) {
         env.set((i + 1) % 256, j, {0.5f * v, 0.4f * v, 0.3f * v});
     }
     std::vector<MapRequest> maps;
-    for (double n : {200.0, 800.0, 3000.0}) maps.push_back(MapRequest::make_phong(n, std::to_string(int(n))));
+    for (double n : {200.0, 800.0, 1600.0, 3000.0}) maps.push_back(MapRequest::make_phong(n, std::to_string(int(n))));
     Options o;
     o.threads = 2;
     long long patched = 0;

@@ -1,0 +1,364 @@
+// The cone's first pass by Fourier transforms along the rows (fourier_pass.hpp).
+//
+// For output row r and level row k, the first pass adds, for every output column q,
+//   sum_d w[d] omega_k L_k[base + q step + first + d]
+// which is the level row correlated with the kernel w placed at offsets p = first + d - frac
+// from the output column's centre c_q = base + frac + q step. With F_k the row's spectrum
+// (length W) and H(m) = sum_d w[d] e^{+2 pi i m p_d / W},
+//   out(q) = 1/W sum_m [sum_k omega_k H_k(m) F_k(m)] e^{2 pi i m c_q / W},
+// and since c_q = c_0 + q W / out_w, the bins fold modulo out_w into one inverse transform
+// of length out_w per channel. A kernel symmetric about the centre has a real H: a cosine
+// sum over half its columns, read from a table.
+#include "appliance/convolution/fourier_pass.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <complex>
+#include <cstring>
+#include <mutex>
+#include <string>
+
+#include "appliance/convolution/fft.hpp"
+#include "appliance/core/equirect.hpp"
+#include "appliance/core/errors.hpp"
+#include "appliance/core/parallel.hpp"
+
+namespace glint::convolution {
+
+namespace {
+
+using Complex = std::complex<double>;
+
+// Kernels of at most this many columns, symmetric about the output column's centre, have
+// their spectrum as a cosine sum from a table (half their columns times W/2 multiply-adds);
+// wider ones (rows near a pole, where the cone holds most of the row) from a transform of
+// their own, which costs about as much as 256 columns would.
+constexpr int kDirectMaxColumns = 256;
+
+// Bins summed in registers at a time: kBlocks values of kLanes doubles (GCC/Clang vector
+// extension; two AVX-512 registers per array on the build machine). Three channels' real and
+// imaginary parts are 12 of them, the kernel's cosine sum 2 more.
+constexpr std::size_t kLanes = 8;
+constexpr std::size_t kBlocks = 2;
+constexpr std::size_t kBins = kLanes * kBlocks;
+using DoubleBlock = double __attribute__((vector_size(kLanes * sizeof(double))));
+
+inline DoubleBlock load(const double* p) {
+    DoubleBlock v;
+    std::memcpy(&v, p, sizeof v);
+    return v;
+}
+inline void store(double* p, DoubleBlock v) { std::memcpy(p, &v, sizeof v); }
+
+bool power_of_two(int n) { return n > 0 && (n & (n - 1)) == 0; }
+
+}  // namespace
+
+// Per level (or merged version): the transform, tables, and each row's three spectra as
+// planar real and imaginary parts (bins each), made when a row is first read.
+struct PreparedLevel::RowSpectra {
+    explicit RowSpectra(const PreparedLevel& level)
+        : width(level.width()), bins(width / 2 + 1), plan(std::size_t(width)),
+          made(new std::once_flag[std::size_t(level.height())]) {
+        turns.resize(2 * std::size_t(width));
+        for (std::size_t k = 0; k < turns.size(); ++k) turns[k] = std::polar(1.0, kPi * double(k) / width);
+        // cos(pi m j / W) = Re turns[m j mod 2W], the index stepped without a division.
+        const int table_rows = std::min(kDirectMaxColumns, width) + 1;
+        cos_table.resize(std::size_t(table_rows) * std::size_t(bins));
+        for (int j = 0; j < table_rows; ++j) {
+            std::size_t index = 0;
+            double* row = cos_table.data() + std::size_t(j) * std::size_t(bins);
+            for (int m = 0; m < bins; ++m) {
+                row[m] = turns[index].real();
+                index += std::size_t(j);
+                if (index >= turns.size()) index -= turns.size();
+            }
+        }
+        // Not zeroed: a row's spectra are written when it is first read (a fresh page costs
+        // more than writing it; docs/convolution.md, "Huge pages").
+        values.resize(std::size_t(level.height()) * 6 * std::size_t(bins));
+    }
+
+    // The row's spectra: channel c's real parts at [2 c bins, (2 c + 1) bins), then its
+    // imaginary parts.
+    const double* row(const PreparedLevel& level, int j) {
+        double* out = values.data() + std::size_t(j) * 6 * std::size_t(bins);
+        std::call_once(made[std::size_t(j)], [&] {
+            std::vector<double> x(static_cast<std::size_t>(width));
+            std::vector<Complex> spectrum(static_cast<std::size_t>(bins));
+            for (int c = 0; c < 3; ++c) {
+                const float* p = level.plane(j, c);
+                for (int i = 0; i < width; ++i) x[std::size_t(i)] = double(p[i]);
+                plan.forward(x.data(), spectrum.data());
+                double* re = out + 2 * std::size_t(c) * std::size_t(bins);
+                double* im = re + bins;
+                for (int m = 0; m < bins; ++m) {
+                    re[m] = spectrum[std::size_t(m)].real();
+                    im[m] = spectrum[std::size_t(m)].imag();
+                }
+            }
+        });
+        return out;
+    }
+
+    int width, bins;
+    RealFftPlan plan;
+    std::vector<Complex> turns;     // e^{i pi k / width}, k in [0, 2 width)
+    std::vector<double> cos_table;  // [j * bins + m] = cos(pi m j / width)
+    UninitVector<double> values;    // 6 bins per row
+    std::unique_ptr<std::once_flag[]> made;
+};
+
+PreparedLevel::RowSpectra& PreparedLevel::row_spectra() const {
+    std::call_once(spectra_once_, [&] { spectra_ = std::make_shared<RowSpectra>(*this); });
+    return *spectra_;
+}
+
+struct FourierFirstPass::Impl {
+    Impl(const LobeSummer& s, int lw, int w, int t)
+        : summer(s), level_w(lw), out_w(w), threads(t), out_plan(std::size_t(w)) {}
+
+    const LobeSummer& summer;
+    int level_w, out_w, threads;
+    RealFftPlan out_plan;
+
+    void sum_row(int row, double c0, LobeSums& sums) const;
+};
+
+bool FourierFirstPass::applies(int level_width, int out_width) {
+    return power_of_two(level_width) && power_of_two(out_width) && out_width >= 2 && out_width <= level_width;
+}
+
+FourierFirstPass::FourierFirstPass(const LobeSummer& summer, int level_width, int out_width, int threads)
+    : impl_(std::make_unique<Impl>(summer, level_width, out_width, threads)) {
+    if (!applies(level_width, out_width) || summer.classes() != 1)
+        throw RuntimeError("internal: the Fourier first pass cannot sum " + std::to_string(out_width) +
+                           " columns from " + std::to_string(level_width));
+}
+
+FourierFirstPass::~FourierFirstPass() = default;
+
+void FourierFirstPass::Impl::sum_row(int row, double c0, LobeSums& sums) const {
+    // The level rows this output row reads, grouped by the version of the level they are read
+    // from (the level, or one with merged columns near a pole).
+    struct Item {
+        const double* spectra;
+        int first_pair = 0, pairs = 0;  // direct: column pairs in pair_weight / pair_row
+        int kernel = -1;                // else: its H (planar, 2 bins) in kernels
+    };
+    struct Group {
+        const PreparedLevel* level = nullptr;
+        PreparedLevel::RowSpectra* spectra = nullptr;
+        long long two_centre = 0;  // 2 (base + frac): output column 0's centre, doubled
+        std::vector<Item> items;
+    };
+    std::vector<Group> groups;
+    std::vector<double> pair_weight;
+    std::vector<const double*> pair_row;
+    std::vector<double> kernels, kernel;
+    std::vector<Complex> kernel_spectrum;
+    std::vector<double> w(std::size_t(level_w) + 2);  // up to a whole row of the level
+
+    const LobeSummer::RowWindow win = summer.window(row, 0, c0);
+    double den = 0;
+    for (int jk = win.first; jk <= win.last; ++jk) {
+        const LobeSummer::RowTerms t = summer.row_terms(row, 0, win, jk, w.data());
+        if (t.count <= 0) continue;
+        double wsum = 0;
+        for (int d = 0; d < t.count; ++d) wsum += w[std::size_t(d)];
+        if (wsum == 0) continue;
+        den += t.omega * wsum;
+
+        // One column class: output centres sit on a column or halfway between two.
+        const long long two_frac = std::llround(2.0 * t.frac);
+        if ((two_frac != 0 && two_frac != 1) || 2.0 * t.frac != double(two_frac))
+            throw RuntimeError("internal: the Fourier first pass needs output centres on or halfway between columns");
+        Group* group = nullptr;
+        for (Group& g : groups)
+            if (g.level == t.level) group = &g;
+        if (!group) {
+            groups.push_back({t.level, &t.level->row_spectra(), 2LL * t.base + two_frac, {}});
+            group = &groups.back();
+        }
+        PreparedLevel::RowSpectra& v = *group->spectra;
+        const std::size_t bins = std::size_t(v.bins);
+        Item item{v.row(*t.level, jk)};
+        if (2LL * t.first + t.count - 1 == two_frac && t.count <= kDirectMaxColumns) {
+            // Symmetric about the centre: H(m) = sum over column pairs (p, -p) of their weights
+            // times cos(2 pi m p / W), j = 2 |p| indexing the table (the middle column alone).
+            item.first_pair = int(pair_weight.size());
+            const int half = (t.count + 1) / 2;
+            for (int d = 0; d < half; ++d) {
+                const int mirror = t.count - 1 - d;
+                pair_weight.push_back(t.omega *
+                                      (mirror == d ? w[std::size_t(d)] : w[std::size_t(d)] + w[std::size_t(mirror)]));
+                const long long j = std::llabs(2LL * (t.first + d) - two_frac);
+                pair_row.push_back(v.cos_table.data() + std::size_t(j) * bins);
+            }
+            item.pairs = half;
+        } else {
+            // The kernel's own transform: S(m) = sum_e K[e] e^{-2 pi i m e / W} with K at the
+            // columns first + d (mod W); H(m) = e^{-2 pi i m frac / W} conj(S(m)), and
+            // e^{-2 pi i m frac / W} = conj(turns[m * 2 frac]).
+            kernel.assign(std::size_t(v.width), 0.0);
+            for (int d = 0; d < t.count; ++d) {
+                int e = (t.first + d) % v.width;
+                if (e < 0) e += v.width;
+                kernel[std::size_t(e)] += w[std::size_t(d)];
+            }
+            kernel_spectrum.resize(bins);
+            v.plan.forward(kernel.data(), kernel_spectrum.data());
+            item.kernel = int(kernels.size() / (2 * bins));
+            kernels.resize(kernels.size() + 2 * bins);
+            double* h = kernels.data() + std::size_t(item.kernel) * 2 * bins;
+            for (std::size_t m = 0; m < bins; ++m) {
+                const Complex hm = t.omega * std::conj(v.turns[m * std::size_t(two_frac)] * kernel_spectrum[m]);
+                h[m] = hm.real();
+                h[bins + m] = hm.imag();
+            }
+        }
+        group->items.push_back(item);
+    }
+
+    // Per group, A(m) = sum over its rows of omega H(m) F(m), bins in blocks held in registers
+    // while every row is added; then the bins folded modulo out_w (the centre's phase applied)
+    // into one spectrum per channel, and one inverse transform each.
+    const int out_bins = out_w / 2 + 1;
+    std::vector<Complex> folded(3 * std::size_t(out_bins));
+    std::vector<double> a;
+    for (const Group& g : groups) {
+        const PreparedLevel::RowSpectra& v = *g.spectra;
+        const std::size_t bins = std::size_t(v.bins);
+        a.resize(6 * bins);  // channel c: real parts at 2 c bins, imaginary parts after
+        std::size_t m0 = 0;
+        for (; m0 + kBins <= bins; m0 += kBins) {
+            DoubleBlock acc[3][2][kBlocks] = {};
+            for (const Item& item : g.items) {
+                DoubleBlock hr[kBlocks] = {}, hi[kBlocks] = {};
+                bool complex_h = false;
+                if (item.kernel < 0) {
+                    // Two chains of multiply-adds per block: one would wait on the previous
+                    // multiply-add's result (~4 cycles) at every pair.
+                    DoubleBlock hr2[kBlocks] = {};
+                    const int end = item.first_pair + item.pairs;
+                    int p = item.first_pair;
+                    for (; p + 1 < end; p += 2) {
+                        const double wp = pair_weight[std::size_t(p)], wp2 = pair_weight[std::size_t(p) + 1];
+                        const double* c = pair_row[std::size_t(p)] + m0;
+                        const double* c2 = pair_row[std::size_t(p) + 1] + m0;
+                        for (std::size_t b = 0; b < kBlocks; ++b) {
+                            hr[b] += wp * load(c + b * kLanes);
+                            hr2[b] += wp2 * load(c2 + b * kLanes);
+                        }
+                    }
+                    if (p < end) {
+                        const double* c = pair_row[std::size_t(p)] + m0;
+                        for (std::size_t b = 0; b < kBlocks; ++b) hr[b] += pair_weight[std::size_t(p)] * load(c + b * kLanes);
+                    }
+                    for (std::size_t b = 0; b < kBlocks; ++b) hr[b] += hr2[b];
+                } else {
+                    const double* h = kernels.data() + std::size_t(item.kernel) * 2 * bins + m0;
+                    for (std::size_t b = 0; b < kBlocks; ++b) {
+                        hr[b] = load(h + b * kLanes);
+                        hi[b] = load(h + bins + b * kLanes);
+                    }
+                    complex_h = true;
+                }
+                for (int c = 0; c < 3; ++c) {
+                    const double* fr = item.spectra + 2 * std::size_t(c) * bins + m0;
+                    const double* fi = fr + bins;
+                    for (std::size_t b = 0; b < kBlocks; ++b) {
+                        const DoubleBlock re = load(fr + b * kLanes), im = load(fi + b * kLanes);
+                        acc[c][0][b] += hr[b] * re;
+                        acc[c][1][b] += hr[b] * im;
+                        if (complex_h) {
+                            acc[c][0][b] -= hi[b] * im;
+                            acc[c][1][b] += hi[b] * re;
+                        }
+                    }
+                }
+            }
+            for (int c = 0; c < 3; ++c)
+                for (std::size_t b = 0; b < kBlocks; ++b) {
+                    store(a.data() + 2 * std::size_t(c) * bins + m0 + b * kLanes, acc[c][0][b]);
+                    store(a.data() + (2 * std::size_t(c) + 1) * bins + m0 + b * kLanes, acc[c][1][b]);
+                }
+        }
+        for (std::size_t m = m0; m < bins; ++m) {  // the last bins (W/2 + 1 is odd)
+            double acc[3][2] = {};
+            for (const Item& item : g.items) {
+                double hr = 0, hi = 0;
+                if (item.kernel < 0) {
+                    for (int p = item.first_pair; p < item.first_pair + item.pairs; ++p)
+                        hr += pair_weight[std::size_t(p)] * pair_row[std::size_t(p)][m];
+                } else {
+                    hr = kernels[std::size_t(item.kernel) * 2 * bins + m];
+                    hi = kernels[std::size_t(item.kernel) * 2 * bins + bins + m];
+                }
+                for (int c = 0; c < 3; ++c) {
+                    const double re = item.spectra[2 * std::size_t(c) * bins + m];
+                    const double im = item.spectra[(2 * std::size_t(c) + 1) * bins + m];
+                    acc[c][0] += hr * re - hi * im;
+                    acc[c][1] += hr * im + hi * re;
+                }
+            }
+            for (int c = 0; c < 3; ++c) {
+                a[2 * std::size_t(c) * bins + m] = acc[c][0];
+                a[(2 * std::size_t(c) + 1) * bins + m] = acc[c][1];
+            }
+        }
+
+        // Y(m) = A(m) e^{i pi m (2 c_0) / W} / W for m <= W/2, and Y(W - m) = conj(Y(m))
+        // above (the sums are real); bin m adds to folded bin m mod out_w.
+        const std::size_t period = v.turns.size();
+        const std::size_t centre_step = std::size_t(((g.two_centre % (long long)period) + (long long)period) %
+                                                    (long long)period);
+        const double scale = 1.0 / v.width;
+        std::size_t index = 0;  // m * centre_step mod period
+        for (std::size_t m = 0; m < bins; ++m) {
+            const Complex phase = v.turns[index] * scale;
+            index += centre_step;
+            if (index >= period) index -= period;
+            // m and W - m fold to m mod out_w and (W - m) mod out_w = out_w - m mod out_w.
+            const std::size_t low = m % std::size_t(out_w);
+            const std::size_t high = (std::size_t(v.width) - m) % std::size_t(out_w);
+            for (int c = 0; c < 3; ++c) {
+                const Complex y = Complex(a[2 * std::size_t(c) * bins + m], a[(2 * std::size_t(c) + 1) * bins + m]) * phase;
+                Complex* z = folded.data() + std::size_t(c) * std::size_t(out_bins);
+                if (low < std::size_t(out_bins)) z[low] += y;
+                // W - m is another bin unless m is 0 or W/2; it holds conj(y).
+                if (m != 0 && m != bins - 1 && high < std::size_t(out_bins)) z[high] += std::conj(y);
+            }
+        }
+    }
+    // The transforms round to ~1e-16 of the row's largest sums (times a few log2 W), where the
+    // direct sums of non-negative terms round to each texel's own: a texel whose true sum is 0
+    // (a black region the lobe sees alone) comes back as +-1e-16 of its row's. Values within
+    // kNoise of the row's largest are taken as 0: the error metric's floor (the map's mean)
+    // is far above that, and the cone's bound then treats the texel as the direct sums would.
+    constexpr double kNoise = 1e-12;
+    std::vector<double> values(3 * static_cast<std::size_t>(out_w));
+    double largest = 0;
+    for (int c = 0; c < 3; ++c) {
+        double* x = values.data() + std::size_t(c) * std::size_t(out_w);
+        out_plan.inverse(folded.data() + std::size_t(c) * std::size_t(out_bins), x);
+        for (int q = 0; q < out_w; ++q) largest = std::max(largest, std::abs(x[q]));
+    }
+    for (int c = 0; c < 3; ++c)
+        for (int q = 0; q < out_w; ++q) {
+            const double x = values[std::size_t(c) * std::size_t(out_w) + std::size_t(q)];
+            sums.num[sums.texel(row, q) * 3 + std::size_t(c)] = std::abs(x) <= kNoise * largest ? 0.0 : x;
+        }
+    sums.den[std::size_t(row)] = den;
+    sums.cmax[std::size_t(row)] = win.cmax;
+}
+
+void FourierFirstPass::run(const std::vector<int>& rows, double c0, LobeSums& sums,
+                           const RowProgress& progress) const {
+    parallel_for(int(rows.size()), impl_->threads, [&](int k) {
+        impl_->sum_row(rows[std::size_t(k)], c0, sums);
+        if (progress) progress(1);
+    });
+}
+
+}  // namespace glint::convolution

@@ -1,0 +1,49 @@
+// The cone's first pass by Fourier transforms along the rows (docs/convolution.md, "The
+// Fourier first pass"): the same terms as LobeSummer::sum_row's first pass, summed as
+// products of row spectra instead of one multiply-add per term and output texel.
+//
+// Why it is exact: a Phong weight depends on the output row, the level row and the azimuth
+// offset only, so the terms one level row gives an output row are a circular correlation of
+// that row with a short kernel (the weights of the cone's columns). One forward transform per
+// level row and channel (shared by every output row), one product per (output row, level
+// row) and spectrum bin, and one inverse transform per output row and channel give every
+// output column at once. The kernel's spectrum is a cosine sum over its few columns (or its
+// own transform when it is wide); nothing is cut or approximated beyond what the first pass
+// itself keeps, and the sums are in double (rounding ~1e-15 of a row's energy).
+//
+// Cost per output row: (level rows in the cone) x (W/2 bins) x (kernel columns / 2 + 6)
+// against (level rows) x (output columns) x (kernel columns) x 3 for the direct sums, so a
+// narrow lobe whose cone spans tens of columns gains most.
+#pragma once
+
+#include <memory>
+#include <vector>
+
+#include "appliance/convolution/lobe_sum.hpp"
+#include "appliance/convolution/methods.hpp"
+
+namespace glint::convolution {
+
+class FourierFirstPass {
+public:
+    // Whether the pass can sum an output of this width from a level of this width: power-of-two
+    // widths, the output's no wider than the level's (one column class: LobeSummer::classes()
+    // is 1).
+    static bool applies(int level_width, int out_width);
+
+    // level_width: the width of the level the summer reads (its widest version).
+    FourierFirstPass(const LobeSummer& summer, int level_width, int out_width, int threads);
+    ~FourierFirstPass();
+    FourierFirstPass(const FourierFirstPass&) = delete;
+    FourierFirstPass& operator=(const FourierFirstPass&) = delete;
+
+    // Writes whole rows `rows` of sums (made by summer.make_sums(&rows)) with cut-off c0, as
+    // summer.sum_row(row, c0, sums) would (to rounding).
+    void run(const std::vector<int>& rows, double c0, LobeSums& sums, const RowProgress& progress) const;
+
+private:
+    struct Impl;
+    std::unique_ptr<Impl> impl_;
+};
+
+}  // namespace glint::convolution

@@ -1,0 +1,96 @@
+// The cone's Fourier first pass (fourier_pass.hpp) against LobeSummer::sum_row with double
+// accumulation: the same terms, so the same sums to rounding, on rough maps (texels spread
+// over four decades), with and without merged polar columns, output widths 1, 1/2 and 1/4 of
+// the level's, narrow and wide lobes (the wide ones put whole rows near the poles into the
+// cone, the kernel-transform branch).
+#include "appliance/convolution/fourier_pass.hpp"
+
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <atomic>
+#include <cmath>
+#include <random>
+#include <vector>
+
+#include "appliance/convolution/lobe_sum.hpp"
+#include "appliance/core/errors.hpp"
+
+namespace glint::convolution {
+namespace {
+
+HdrImage rough_map(int width, int height, unsigned seed) {
+    std::mt19937 rng(seed);
+    std::uniform_real_distribution<float> decade(-2.0f, 2.0f);
+    HdrImage image(width, height);
+    for (int j = 0; j < height; ++j)
+        for (int i = 0; i < width; ++i)
+            image.set(i, j, {std::pow(10.0f, decade(rng)), std::pow(10.0f, decade(rng)), std::pow(10.0f, decade(rng))});
+    return image;
+}
+
+struct Case {
+    int width, height, out_width;
+    double shininess, cut_energy, merged_arc;
+};
+
+class FourierPass : public ::testing::TestWithParam<Case> {};
+
+TEST_P(FourierPass, SumsWhatSumRowSums) {
+    const Case c = GetParam();
+    const HdrImage image = rough_map(c.width, c.height, unsigned(c.width * 7 + c.out_width));
+    const PreparedLevel level(image, 2);
+    const int out_h = c.out_width / 2;
+    const LobeSummer summer(level, c.out_width, out_h, c.shininess, Accumulation::Double, c.merged_arc);
+    ASSERT_TRUE(FourierFirstPass::applies(c.width, c.out_width));
+    ASSERT_EQ(summer.classes(), 1);
+    const double c0 = cone_cut_cos(c.cut_energy, c.shininess);
+
+    std::vector<int> rows;
+    for (int r = 0; r < out_h; ++r) rows.push_back(r);
+    LobeSums direct = summer.make_sums(&rows);
+    for (int r : rows) summer.sum_row(r, c0, direct);
+    LobeSums fourier = summer.make_sums(&rows);
+    std::atomic<int> progress{0};
+    FourierFirstPass(summer, c.width, c.out_width, 2).run(rows, c0, fourier, [&](long long k) { progress += int(k); });
+    EXPECT_EQ(progress.load(), out_h);
+
+    double worst = 0;
+    for (int r : rows) {
+        EXPECT_NEAR(fourier.den[std::size_t(r)], direct.den[std::size_t(r)], 1e-12 * direct.den[std::size_t(r)]) << r;
+        EXPECT_EQ(fourier.cmax[std::size_t(r)], direct.cmax[std::size_t(r)]) << r;
+        // Rounding of a transform is relative to the row's largest sums, not to each texel's.
+        double row_max = 0;
+        for (int q = 0; q < c.out_width; ++q)
+            for (int ch = 0; ch < 3; ++ch) row_max = std::max(row_max, direct.num[direct.texel(r, q) * 3 + std::size_t(ch)]);
+        for (int q = 0; q < c.out_width; ++q)
+            for (int ch = 0; ch < 3; ++ch) {
+                const double a = fourier.num[fourier.texel(r, q) * 3 + std::size_t(ch)];
+                const double b = direct.num[direct.texel(r, q) * 3 + std::size_t(ch)];
+                worst = std::max(worst, std::abs(a - b) / row_max);
+            }
+    }
+    EXPECT_LT(worst, 1e-11);
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Shapes, FourierPass,
+    ::testing::Values(Case{128, 64, 128, 300, 1e-3, 0}, Case{128, 64, 64, 300, 1e-3, 0},
+                      Case{256, 128, 64, 2000, 1e-4, 0}, Case{256, 128, 128, 20000, 1e-3, 0},
+                      Case{128, 64, 64, 20, 1e-3, 0},  // wide: whole rows near the poles
+                      Case{256, 128, 128, 2000, 1e-3, 0.05},  // merged polar columns
+                      Case{64, 32, 32, 5, 1e-2, 0}));
+
+TEST(FourierPass, AppliesToPowerOfTwoWidthsNoWiderThanTheLevel) {
+    EXPECT_FALSE(FourierFirstPass::applies(96, 64));    // not a power of two
+    EXPECT_FALSE(FourierFirstPass::applies(128, 96));
+    EXPECT_FALSE(FourierFirstPass::applies(128, 256));  // finer than the level: several column classes
+    EXPECT_TRUE(FourierFirstPass::applies(128, 32));
+    EXPECT_TRUE(FourierFirstPass::applies(128, 128));
+    const HdrImage image = rough_map(128, 64, 2);
+    const PreparedLevel level(image);
+    EXPECT_THROW(FourierFirstPass(LobeSummer(level, 256, 128, 100), 128, 256, 1), RuntimeError);
+}
+
+}  // namespace
+}  // namespace glint::convolution
