@@ -10,11 +10,13 @@
 #include <mutex>
 #include <limits>
 #include <optional>
+#include <set>
 #include <tuple>
 #include <memory>
 #include <sstream>
 
 #include "appliance/convolution/convolution.hpp"
+#include "appliance/convolution/fourier_pass.hpp"
 #include "appliance/convolution/methods.hpp"
 #include "appliance/convolution/mipmap.hpp"
 #include "appliance/convolution/output_grid.hpp"
@@ -126,10 +128,19 @@ public:
     }
     // SH of pyramid level k of the remainder (bright texels removed), at least
     // `order` bands; one projection serves every map of the call.
-    const ShCoefficients& remainder_sh(int k, int order, int threads) {
+    // share_spectra: a cone map sums level k with the Fourier first pass, whose row spectra
+    // (kept with the level) are then the projection's azimuthal sums as well.
+    const ShCoefficients& remainder_sh(int k, int order, int threads, bool share_spectra = false) {
         if (!remainder_sh_ || remainder_sh_level_ != k || remainder_sh_->order < order) {
-            remainder_sh_ = std::make_unique<ShCoefficients>(sh_project(
-                cone_pyramid().level(k), order, threads, ShQuadrature::TexelSolidAngle, ShSummation::Plain));
+            if (share_spectra) {
+                const PreparedLevel& level = cone_level(k);
+                remainder_sh_ = std::make_unique<ShCoefficients>(sh_project_spectra(
+                    level.width(), level.height(), order, threads, [&](int row) { return level.row_spectrum(row); },
+                    ShQuadrature::TexelSolidAngle, ShSummation::Plain));
+            } else {
+                remainder_sh_ = std::make_unique<ShCoefficients>(sh_project(
+                    cone_pyramid().level(k), order, threads, ShQuadrature::TexelSolidAngle, ShSummation::Plain));
+            }
             remainder_sh_level_ = k;
         }
         return *remainder_sh_;
@@ -430,6 +441,14 @@ using MapRunner = std::function<void(std::size_t k, int threads)>;
 // a concurrent map would run on one thread only.
 void prepare_shared(SharedInputs& shared, const std::vector<MapResult>& results,
                     const std::vector<std::size_t>& to_run, int threads) {
+    // Levels of the remainder some cone map sums with the Fourier first pass (cone.cpp).
+    std::set<int> spectra_levels;
+    for (std::size_t k : to_run) {
+        const MapPlan& p = results[k].plan;
+        if (p.method == Method::Cone && p.cone.fourier_first_pass &&
+            FourierFirstPass::applies(p.input_size.width, p.input_size.height, p.sum_size.width))
+            spectra_levels.insert(p.input_level);
+    }
     int max_sh_order = 0;
     for (std::size_t k : to_run) {
         const MapPlan& p = results[k].plan;
@@ -447,7 +466,8 @@ void prepare_shared(SharedInputs& shared, const std::vector<MapResult>& results,
             case Method::Sh:
                 if (p.bright_split) {
                     shared.bright();
-                    shared.remainder_sh(p.input_level, p.projection_order, threads);
+                    shared.remainder_sh(p.input_level, p.projection_order, threads,
+                                        spectra_levels.count(p.input_level) > 0);
                     shared.remainder_ones(p.input_level, p.projection_order);
                     shared.legendre(p.projection_order);
                     shared.remainder_mean(p.input_level);

@@ -114,6 +114,8 @@ PreparedLevel::RowSpectra& PreparedLevel::row_spectra() const {
     return *spectra_;
 }
 
+const double* PreparedLevel::row_spectrum(int j) const { return row_spectra().row(*this, j); }
+
 struct FourierFirstPass::Impl {
     Impl(const LobeSummer& s, int lw, int w, int t)
         : summer(s), level_w(lw), out_w(w), threads(t), out_plan(std::size_t(w)) {}
@@ -125,13 +127,14 @@ struct FourierFirstPass::Impl {
     void sum_row(int row, double c0, LobeSums& sums) const;
 };
 
-bool FourierFirstPass::applies(int level_width, int out_width) {
-    return power_of_two(level_width) && power_of_two(out_width) && out_width >= 2 && out_width <= level_width;
+bool FourierFirstPass::applies(int level_width, int level_height, int out_width) {
+    return power_of_two(level_width) && power_of_two(out_width) && out_width >= 2 && out_width <= level_width &&
+           (long long)level_width * level_height <= kMaxLevelTexels;
 }
 
 FourierFirstPass::FourierFirstPass(const LobeSummer& summer, int level_width, int out_width, int threads)
     : impl_(std::make_unique<Impl>(summer, level_width, out_width, threads)) {
-    if (!applies(level_width, out_width) || summer.classes() != 1)
+    if (!power_of_two(level_width) || !power_of_two(out_width) || out_width < 2 || summer.classes() != 1)
         throw RuntimeError("internal: the Fourier first pass cannot sum " + std::to_string(out_width) +
                            " columns from " + std::to_string(level_width));
 }

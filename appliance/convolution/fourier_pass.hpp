@@ -26,10 +26,12 @@ namespace glint::convolution {
 
 class FourierFirstPass {
 public:
-    // Whether the pass can sum an output of this width from a level of this width: power-of-two
+    // Whether the pass sums an output of this width from a level of this size: power-of-two
     // widths, the output's no wider than the level's (one column class: LobeSummer::classes()
-    // is 1).
-    static bool applies(int level_width, int out_width);
+    // is 1), and a level of at most kMaxLevelTexels (its spectra take twice the memory of its
+    // float planes: 50 MB at 2048x1024, 800 MB at 8192x4096).
+    static constexpr long long kMaxLevelTexels = 2048LL * 1024LL;
+    static bool applies(int level_width, int level_height, int out_width);
 
     // level_width: the width of the level the summer reads (its widest version).
     FourierFirstPass(const LobeSummer& summer, int level_width, int out_width, int threads);

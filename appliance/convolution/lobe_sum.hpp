@@ -120,6 +120,9 @@ public:
     // shares them.
     struct RowSpectra;
     RowSpectra& row_spectra() const;
+    // Row j's spectra (made now if not yet): per channel W/2 + 1 real parts, then the imaginary
+    // parts, of X[k] = sum_i L_i e^(-2 pi i i k / W).
+    const double* row_spectrum(int j) const;
 
 private:
     int width_, height_, threads_;

@@ -282,9 +282,11 @@ inline void accumulate(double& sum, double& comp, double v) {
         sum += v;
 }
 
+// spectra (optional, FFT path only): the rows' spectra given, read_row never called.
 template <bool Compensated, typename RowSource>
 ShCoefficients project_impl(int width, int height, int order, int threads, ShQuadrature q,
-                            ShAzimuthal azimuthal, const RowSource& read_row) {
+                            ShAzimuthal azimuthal, const RowSource& read_row,
+                            const RowSpectrumSource* spectra = nullptr) {
     check_order(order);
     check_size(width, height, "input");
     threads = resolve_threads(threads);
@@ -303,14 +305,29 @@ ShCoefficients project_impl(int width, int height, int order, int threads, ShQua
     // directly otherwise.
     const std::size_t uwidth = std::size_t(width);
     const auto fourier_sums = [&](int j, std::vector<double>& row, double* f) {
-        read_row(j, row.data());
+        if (!spectra) read_row(j, row.data());
         double* fr = f;  // F_r F_g F_b G_r G_g G_b
         double* fg = f + uorder;
         double* fb = f + 2 * uorder;
         double* gr = f + 3 * uorder;
         double* gg = f + 4 * uorder;
         double* gb = f + 5 * uorder;
-        if (use_fft) {
+        if (use_fft && spectra) {
+            const double* x = (*spectra)(j);
+            const std::size_t bins = fft->plan.spectrum_size();
+            for (std::size_t ch = 0; ch < 3; ++ch) {
+                const double* re = x + 2 * ch * bins;
+                const double* im = re + bins;
+                double* fc = f + ch * uorder;
+                double* gc = f + (ch + 3) * uorder;
+                for (std::size_t m = 0; m < uorder; ++m) {
+                    const double a = re[fft->bin[m]], b = fft->conj_sign[m] * im[fft->bin[m]];
+                    const double c = fft->phase_cos[m], s = fft->phase_sin[m];
+                    fc[m] = c * a + s * b;  // as below
+                    gc[m] = s * a - c * b;
+                }
+            }
+        } else if (use_fft) {
             thread_local std::vector<std::complex<double>> spectrum;  // written whole by forward()
             spectrum.resize(fft->plan.spectrum_size());
             for (std::size_t ch = 0; ch < 3; ++ch) {
@@ -376,7 +393,7 @@ ShCoefficients project_impl(int width, int height, int order, int threads, ShQua
         // Per thread, not per row: fresh vectors cost an allocation and a zero fill each row (every
         // value read is written first: read_row fills `row`, fourier_sums all of `f`).
         thread_local std::vector<double> row, f;
-        row.resize(uwidth * 3);
+        if (!spectra) row.resize(uwidth * 3);
         f.resize(6 * uorder);
         fourier_sums(j, row, f.data());
         for (std::size_t g = 0; g < groups; ++g) {
@@ -812,6 +829,15 @@ ShCoefficients sh_project(const HdrImage& env, int order, int threads, ShQuadrat
     if (summation == ShSummation::Plain)
         return project_impl<false>(env.width(), env.height(), order, threads, q, ShAzimuthal::Automatic, read_row);
     return project_impl<true>(env.width(), env.height(), order, threads, q, ShAzimuthal::Automatic, read_row);
+}
+
+ShCoefficients sh_project_spectra(int width, int height, int order, int threads, const RowSpectrumSource& spectrum_of_row,
+                                  ShQuadrature q, ShSummation summation) {
+    check_size(width, height, "input");
+    const auto no_rows = [](int, double*) { throw RuntimeError("internal: sh_project_spectra reads no rows"); };
+    if (summation == ShSummation::Plain)
+        return project_impl<false>(width, height, order, threads, q, ShAzimuthal::Fft, no_rows, &spectrum_of_row);
+    return project_impl<true>(width, height, order, threads, q, ShAzimuthal::Fft, no_rows, &spectrum_of_row);
 }
 
 ShCoefficients sh_project(std::span<const double> rgb, int width, int height, int order, int threads,

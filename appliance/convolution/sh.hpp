@@ -104,6 +104,16 @@ ShCoefficients sh_project(const HdrImage& env, int order, int threads,
 ShCoefficients sh_project(std::span<const double> rgb, int width, int height, int order, int threads,
                           ShQuadrature q = ShQuadrature::TexelSolidAngle);
 
+// The same from the rows' spectra instead of their texels (the cone's Fourier first pass keeps
+// them per level, fourier_pass.hpp): spectrum_of_row(j) gives row j's
+//   X_c[k] = sum_i L_c,i e^(-2 pi i i k / W),  k in [0, W/2],
+// per channel c its W/2 + 1 real parts, then its imaginary parts (6 (W/2 + 1) values). The width
+// must be a power of two (InputError otherwise); the sums are those of the FFT path of sh_project.
+using RowSpectrumSource = std::function<const double*(int row)>;
+ShCoefficients sh_project_spectra(int width, int height, int order, int threads, const RowSpectrumSource& spectrum_of_row,
+                                  ShQuadrature q = ShQuadrature::TexelSolidAngle,
+                                  ShSummation summation = ShSummation::Compensated);
+
 // Per band l: Lambda_l rho_l of thesis eq. 2.33 for the normalised Phong lobe (n+1)/(2 pi) max(0, cos)^n,
 // i.e. (n+1) int_0^1 x^n P_l(x) dx, for l in [0, order). Throws InputError for n < 0, non-finite n or
 // order outside [1, kMaxKernelBands].

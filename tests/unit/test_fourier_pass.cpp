@@ -14,6 +14,7 @@
 #include <vector>
 
 #include "appliance/convolution/lobe_sum.hpp"
+#include "appliance/convolution/sh.hpp"
 #include "appliance/core/errors.hpp"
 
 namespace glint::convolution {
@@ -42,7 +43,7 @@ TEST_P(FourierPass, SumsWhatSumRowSums) {
     const PreparedLevel level(image, 2);
     const int out_h = c.out_width / 2;
     const LobeSummer summer(level, c.out_width, out_h, c.shininess, Accumulation::Double, c.merged_arc);
-    ASSERT_TRUE(FourierFirstPass::applies(c.width, c.out_width));
+    ASSERT_TRUE(FourierFirstPass::applies(c.width, c.height, c.out_width));
     ASSERT_EQ(summer.classes(), 1);
     const double c0 = cone_cut_cos(c.cut_energy, c.shininess);
 
@@ -82,14 +83,35 @@ INSTANTIATE_TEST_SUITE_P(
                       Case{64, 32, 32, 5, 1e-2, 0}));
 
 TEST(FourierPass, AppliesToPowerOfTwoWidthsNoWiderThanTheLevel) {
-    EXPECT_FALSE(FourierFirstPass::applies(96, 64));    // not a power of two
-    EXPECT_FALSE(FourierFirstPass::applies(128, 96));
-    EXPECT_FALSE(FourierFirstPass::applies(128, 256));  // finer than the level: several column classes
-    EXPECT_TRUE(FourierFirstPass::applies(128, 32));
-    EXPECT_TRUE(FourierFirstPass::applies(128, 128));
+    EXPECT_FALSE(FourierFirstPass::applies(96, 48, 64));    // not a power of two
+    EXPECT_FALSE(FourierFirstPass::applies(128, 64, 96));
+    EXPECT_FALSE(FourierFirstPass::applies(128, 64, 256));  // finer than the level: several column classes
+    EXPECT_TRUE(FourierFirstPass::applies(128, 64, 32));
+    EXPECT_TRUE(FourierFirstPass::applies(128, 64, 128));
+    EXPECT_TRUE(FourierFirstPass::applies(2048, 1024, 512));
+    EXPECT_FALSE(FourierFirstPass::applies(4096, 2048, 512));  // its spectra would take 200 MB
     const HdrImage image = rough_map(128, 64, 2);
     const PreparedLevel level(image);
     EXPECT_THROW(FourierFirstPass(LobeSummer(level, 256, 128, 100), 128, 256, 1), RuntimeError);
+}
+
+// The SH projection of auto's split reads the same spectra when a cone map has made them: its
+// coefficients are those of the projection from the texels, to rounding.
+TEST(FourierPass, ShProjectionFromTheLevelsSpectraMatchesTheTexels) {
+    const HdrImage image = rough_map(128, 64, 5);
+    const PreparedLevel level(image, 2);
+    for (ShSummation summation : {ShSummation::Plain, ShSummation::Compensated}) {
+        const ShCoefficients direct = sh_project(image, 40, 2, ShQuadrature::TexelSolidAngle, summation);
+        const ShCoefficients shared = sh_project_spectra(
+            128, 64, 40, 2, [&](int row) { return level.row_spectrum(row); }, ShQuadrature::TexelSolidAngle,
+            summation);
+        ASSERT_EQ(shared.rgb.size(), direct.rgb.size());
+        double largest = 0, worst = 0;
+        for (double v : direct.rgb) largest = std::max(largest, std::abs(v));
+        for (std::size_t k = 0; k < direct.rgb.size(); ++k) worst = std::max(worst, std::abs(shared.rgb[k] - direct.rgb[k]));
+        EXPECT_LT(worst, 1e-12 * largest);
+    }
+    EXPECT_THROW(sh_project_spectra(96, 48, 10, 1, [&](int) { return level.row_spectrum(0); }), InputError);
 }
 
 }  // namespace
