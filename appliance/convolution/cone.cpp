@@ -34,7 +34,7 @@ public:
         : summer_(level, out.width, out.height, n, Accumulation::FloatRuns, settings.max_texel_arc),
           threads_(threads), columns_(columns) {
         // Whole rows only: the patches of a finer grid ask for a few texels of a row.
-        if (settings.fourier_first_pass && !columns && FourierFirstPass::applies(level.width(), level.height(), out.width))
+        if (settings.fourier_first_pass && !columns && FourierFirstPass::pays_off(level.width(), level.height(), out.width))
             fourier_ = std::make_unique<FourierFirstPass>(summer_, level.width(), out.width, threads);
     }
 
@@ -110,7 +110,7 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
     // take a cone that drops far less of the lobe. Decided by the sizes, not the backend, so
     // that the GPU engine sums the same terms.
     ConeSettings settings = given_settings;
-    if (settings.fourier_first_pass && !only_columns && FourierFirstPass::applies(level.width(), level.height(), out.width))
+    if (settings.fourier_first_pass && !only_columns && FourierFirstPass::pays_off(level.width(), level.height(), out.width))
         settings.cutoff_energy = std::min(settings.cutoff_energy, settings.fourier_cutoff_energy);
     std::unique_ptr<CpuConeSums> cpu;
     if (!backend) {

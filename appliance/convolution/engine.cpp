@@ -446,7 +446,7 @@ void prepare_shared(SharedInputs& shared, const std::vector<MapResult>& results,
     for (std::size_t k : to_run) {
         const MapPlan& p = results[k].plan;
         if (p.method == Method::Cone && p.cone.fourier_first_pass &&
-            FourierFirstPass::applies(p.input_size.width, p.input_size.height, p.sum_size.width))
+            FourierFirstPass::pays_off(p.input_size.width, p.input_size.height, p.sum_size.width))
             spectra_levels.insert(p.input_level);
     }
     int max_sh_order = 0;

@@ -132,6 +132,10 @@ bool FourierFirstPass::applies(int level_width, int level_height, int out_width)
            (long long)level_width * level_height <= kMaxLevelTexels;
 }
 
+bool FourierFirstPass::pays_off(int level_width, int level_height, int out_width) {
+    return applies(level_width, level_height, out_width) && 2 * out_width >= level_width;
+}
+
 FourierFirstPass::FourierFirstPass(const LobeSummer& summer, int level_width, int out_width, int threads)
     : impl_(std::make_unique<Impl>(summer, level_width, out_width, threads)) {
     if (!power_of_two(level_width) || !power_of_two(out_width) || out_width < 2 || summer.classes() != 1)

@@ -32,6 +32,12 @@ public:
     // float planes: 50 MB at 2048x1024, 800 MB at 8192x4096).
     static constexpr long long kMaxLevelTexels = 2048LL * 1024LL;
     static bool applies(int level_width, int level_height, int out_width);
+    // Whether the cone uses it: it applies and the output has at least half the level's columns.
+    // Its spectra cost three transforms per level row whatever the output, and its sums about
+    // W/2 x (kernel columns / 2 + 6) per (output row, level row) against out_w x kernel columns
+    // x 3 for the direct sums: measured on 1024x512 maps (docs/convolution.md), n = 5120 and
+    // 20480 at 512x256 took 2x less time with it and at 128x64 2x more.
+    static bool pays_off(int level_width, int level_height, int out_width);
 
     // level_width: the width of the level the summer reads (its widest version).
     FourierFirstPass(const LobeSummer& summer, int level_width, int out_width, int threads);

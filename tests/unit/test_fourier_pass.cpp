@@ -90,6 +90,11 @@ TEST(FourierPass, AppliesToPowerOfTwoWidthsNoWiderThanTheLevel) {
     EXPECT_TRUE(FourierFirstPass::applies(128, 64, 128));
     EXPECT_TRUE(FourierFirstPass::applies(2048, 1024, 512));
     EXPECT_FALSE(FourierFirstPass::applies(4096, 2048, 512));  // its spectra would take 200 MB
+    // The cone uses it from half the level's columns up.
+    EXPECT_TRUE(FourierFirstPass::pays_off(1024, 512, 512));
+    EXPECT_TRUE(FourierFirstPass::pays_off(128, 64, 128));
+    EXPECT_FALSE(FourierFirstPass::pays_off(1024, 512, 256));
+    EXPECT_FALSE(FourierFirstPass::pays_off(96, 48, 48));
     const HdrImage image = rough_map(128, 64, 2);
     const PreparedLevel level(image);
     EXPECT_THROW(FourierFirstPass(LobeSummer(level, 256, 128, 100), 128, 256, 1), RuntimeError);
