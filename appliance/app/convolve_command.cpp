@@ -175,6 +175,8 @@ int run_convolve(const ConvolveArgs& args) {
             {"wall_seconds", r.seconds},
             {"shares_with", p.shares_with.empty() ? nlohmann::json() : nlohmann::json(p.shares_with)},
             {"refined_texels", r.refined_texels},
+            {"cone_cutoff_energy", r.cone_first_pass.empty() ? nlohmann::json() : nlohmann::json(r.cone_cutoff_energy)},
+            {"cone_first_pass", r.cone_first_pass.empty() ? nlohmann::json() : nlohmann::json(r.cone_first_pass)},
             {"patched_texels", r.patched_texels},
             {"clamped_values", r.clamped_texels},
         });

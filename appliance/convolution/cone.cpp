@@ -29,14 +29,15 @@ namespace {
 class CpuConeSums final : public ConeSumsBackend {
 public:
     // columns: per row of first_pass's rows, the texels summed (null: all).
+    // fourier: sum the first pass by Fourier transforms (whole rows; FourierFirstPass::pays_off).
     CpuConeSums(const PreparedLevel& level, Size out, double n, const ConeSettings& settings, int threads,
-                const std::vector<LobeSummer::ColumnRuns>* columns)
+                const std::vector<LobeSummer::ColumnRuns>* columns, bool fourier)
         : summer_(level, out.width, out.height, n, Accumulation::FloatRuns, settings.max_texel_arc),
           threads_(threads), columns_(columns) {
-        // Whole rows only: the patches of a finer grid ask for a few texels of a row.
-        if (settings.fourier_first_pass && !columns && FourierFirstPass::pays_off(level.width(), level.height(), out.width))
-            fourier_ = std::make_unique<FourierFirstPass>(summer_, level.width(), out.width, threads);
+        if (fourier) fourier_ = std::make_unique<FourierFirstPass>(summer_, out.width, threads);
     }
+
+    bool fourier() const { return fourier_ != nullptr; }
 
     LobeSums first_pass(const std::vector<int>& rows, double c0, const RowProgress& progress) override {
         // With column runs (patches of a finer grid), only those texels' windows are stored.
@@ -109,12 +110,14 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
     // log(1 / cut)), while every texel whose bound fails costs a bound query and an annulus: they
     // take a cone that drops far less of the lobe. Decided by the sizes, not the backend, so
     // that the GPU engine sums the same terms.
+    // Whole rows only: the patches of a finer grid ask for a few texels of a row.
+    const bool fourier =
+        given_settings.fourier_first_pass && !only_columns && FourierFirstPass::pays_off(level.width(), level.height(), out.width);
     ConeSettings settings = given_settings;
-    if (settings.fourier_first_pass && !only_columns && FourierFirstPass::pays_off(level.width(), level.height(), out.width))
-        settings.cutoff_energy = std::min(settings.cutoff_energy, settings.fourier_cutoff_energy);
+    if (fourier) settings.cutoff_energy = std::min(settings.cutoff_energy, settings.fourier_cutoff_energy);
     std::unique_ptr<CpuConeSums> cpu;
     if (!backend) {
-        cpu = std::make_unique<CpuConeSums>(level, out, n, settings, threads, only_columns);
+        cpu = std::make_unique<CpuConeSums>(level, out, n, settings, threads, only_columns, fourier);
         backend = cpu.get();
     }
     const auto cut_cos = [n](double energy) { return cone_cut_cos(energy, n); };
@@ -290,6 +293,8 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
         wide_den = denominators(wide, wide_cut);
     }
     for (char f : widened) local.refined_texels += f;
+    local.cutoff_energy = settings.cutoff_energy;
+    local.fourier_first_pass = cpu && cpu->fourier();
     if (stats) *stats = local;
 
     if (into && (into->width() != out.width || into->height() != out.height))

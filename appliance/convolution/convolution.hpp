@@ -127,6 +127,11 @@ struct MapResult {
     long long refined_texels = 0;    // cone: texels recomputed with a wider cone
     long long patched_texels = 0;    // output texels summed exactly where 4-point resampling would miss
     long long clamped_texels = 0;    // sh: negative channel values clamped to 0
+    // The cone of the map's sum grid as it ran (0 / "" when no cone ran on it): the lobe energy its
+    // first cone dropped (the plan's cut-off, or less where the Fourier first pass sums whole
+    // rows: docs/convolution.md) and its first pass, "fourier" or "direct".
+    double cone_cutoff_energy = 0;
+    std::string cone_first_pass;
 };
 
 // Computes every requested map. Throws InputError on an unusable request

@@ -533,7 +533,7 @@ std::vector<MapResult> convolve_map(const HdrImage& env, HdrImage* consumable, c
     if (consumable && !reads_whole) shared.allow_consuming(consumable);
     if (!reads_level0) shared.release_level0_after_pyramid();
     std::vector<MapResult> results;
-    for (std::size_t k = 0; k < maps.size(); ++k) results.push_back({maps[k], plans[k], {}, 0, 0, 0});
+    for (std::size_t k = 0; k < maps.size(); ++k) results.push_back({maps[k], plans[k], {}, 0, 0, 0, 0, 0, ""});
 
     long long total_rows = 0;
     for (const MapResult& r : results) total_rows += r.plan.sum_size.height;
@@ -590,6 +590,8 @@ std::vector<MapResult> convolve_map(const HdrImage& env, HdrImage* consumable, c
                 HdrImage image = cone_convolve(level, shared.bright().texels, n, grid, r.plan.cone, map_threads, rows,
                                                &stats, {}, backend.get());
                 r.refined_texels += stats.refined_texels;
+                r.cone_cutoff_energy = stats.cutoff_energy;
+                r.cone_first_pass = stats.fourier_first_pass ? "fourier" : "direct";
                 return image;
             }
             case Method::Mipmap: {

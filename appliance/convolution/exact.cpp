@@ -9,6 +9,7 @@ HdrImage exact_convolve(const PreparedLevel& input, double shininess, Size out, 
                         const RowProgress& progress) {
     const LobeSummer summer(input, out.width, out.height, shininess);
     LobeSums sums = summer.make_sums();
+    summer.lay_out();  // with all threads, not inside the first row
     parallel_for(out.height, threads, [&](int row) {
         summer.sum_row(row, 0.0, sums);
         if (progress) progress(1);

@@ -14,6 +14,7 @@
 #include <algorithm>
 #include <cmath>
 #include <complex>
+#include <cstdlib>
 #include <cstring>
 #include <mutex>
 #include <string>
@@ -83,9 +84,13 @@ struct PreparedLevel::RowSpectra {
     // imaginary parts.
     const double* row(const PreparedLevel& level, int j) {
         double* out = values.data() + std::size_t(j) * 6 * std::size_t(bins);
+        // The buffers are the thread's, made before call_once: nothing inside it allocates (an
+        // exception thrown out of call_once is not unwound reliably on every target).
+        thread_local std::vector<double> x;
+        thread_local std::vector<Complex> spectrum;
+        x.resize(std::size_t(width));
+        spectrum.resize(std::size_t(bins));
         std::call_once(made[std::size_t(j)], [&] {
-            std::vector<double> x(static_cast<std::size_t>(width));
-            std::vector<Complex> spectrum(static_cast<std::size_t>(bins));
             for (int c = 0; c < 3; ++c) {
                 const float* p = level.plane(j, c);
                 for (int i = 0; i < width; ++i) x[std::size_t(i)] = double(p[i]);
@@ -110,7 +115,8 @@ struct PreparedLevel::RowSpectra {
 };
 
 PreparedLevel::RowSpectra& PreparedLevel::row_spectra() const {
-    std::call_once(spectra_once_, [&] { spectra_ = std::make_shared<RowSpectra>(*this); });
+    const std::lock_guard lock(spectra_mutex_);
+    if (!spectra_) spectra_ = std::make_shared<RowSpectra>(*this);
     return *spectra_;
 }
 
@@ -136,11 +142,12 @@ bool FourierFirstPass::pays_off(int level_width, int level_height, int out_width
     return applies(level_width, level_height, out_width) && 2 * out_width >= level_width;
 }
 
-FourierFirstPass::FourierFirstPass(const LobeSummer& summer, int level_width, int out_width, int threads)
-    : impl_(std::make_unique<Impl>(summer, level_width, out_width, threads)) {
+FourierFirstPass::FourierFirstPass(const LobeSummer& summer, int out_width, int threads) {
+    const int level_width = summer.level().width();
     if (!power_of_two(level_width) || !power_of_two(out_width) || out_width < 2 || summer.classes() != 1)
         throw RuntimeError("internal: the Fourier first pass cannot sum " + std::to_string(out_width) +
                            " columns from " + std::to_string(level_width));
+    impl_ = std::make_unique<Impl>(summer, level_width, out_width, threads);
 }
 
 FourierFirstPass::~FourierFirstPass() = default;
@@ -343,19 +350,18 @@ void FourierFirstPass::Impl::sum_row(int row, double c0, LobeSums& sums) const {
     // (a black region the lobe sees alone) comes back as +-1e-16 of its row's. Values within
     // kNoise of the row's largest are taken as 0: the error metric's floor (the map's mean)
     // is far above that, and the cone's bound then treats the texel as the direct sums would.
+    // Per channel: each has its own transforms.
     constexpr double kNoise = 1e-12;
-    std::vector<double> values(3 * static_cast<std::size_t>(out_w));
-    double largest = 0;
+    std::vector<double> values(static_cast<std::size_t>(out_w));
     for (int c = 0; c < 3; ++c) {
-        double* x = values.data() + std::size_t(c) * std::size_t(out_w);
-        out_plan.inverse(folded.data() + std::size_t(c) * std::size_t(out_bins), x);
-        for (int q = 0; q < out_w; ++q) largest = std::max(largest, std::abs(x[q]));
-    }
-    for (int c = 0; c < 3; ++c)
+        out_plan.inverse(folded.data() + std::size_t(c) * std::size_t(out_bins), values.data());
+        double largest = 0;
+        for (int q = 0; q < out_w; ++q) largest = std::max(largest, std::abs(values[std::size_t(q)]));
         for (int q = 0; q < out_w; ++q) {
-            const double x = values[std::size_t(c) * std::size_t(out_w) + std::size_t(q)];
+            const double x = values[std::size_t(q)];
             sums.num[sums.texel(row, q) * 3 + std::size_t(c)] = std::abs(x) <= kNoise * largest ? 0.0 : x;
         }
+    }
     sums.den[std::size_t(row)] = den;
     sums.cmax[std::size_t(row)] = win.cmax;
 }

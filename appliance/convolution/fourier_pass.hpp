@@ -39,8 +39,9 @@ public:
     // 20480 at 512x256 took 2x less time with it and at 128x64 2x more.
     static bool pays_off(int level_width, int level_height, int out_width);
 
-    // level_width: the width of the level the summer reads (its widest version).
-    FourierFirstPass(const LobeSummer& summer, int level_width, int out_width, int threads);
+    // Throws RuntimeError unless the summer's level and out_width are powers of two with one
+    // column class.
+    FourierFirstPass(const LobeSummer& summer, int out_width, int threads);
     ~FourierFirstPass();
     FourierFirstPass(const FourierFirstPass&) = delete;
     FourierFirstPass& operator=(const FourierFirstPass&) = delete;

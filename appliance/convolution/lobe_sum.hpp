@@ -148,7 +148,7 @@ private:
     void ensure_rows(const std::vector<char>& rows) const;
     mutable std::mutex merged_mutex_;
     mutable std::map<int, std::unique_ptr<PreparedLevel>> merged_;
-    mutable std::once_flag spectra_once_;
+    mutable std::mutex spectra_mutex_;
     mutable std::shared_ptr<RowSpectra> spectra_;
 };
 
@@ -208,6 +208,10 @@ public:
     // for `exact`.
     LobeSummer(const PreparedLevel& level, int out_w, int out_h, double shininess,
                Accumulation accumulation = Accumulation::Double, double max_merged_arc = 0);
+    // Not copied: a geometry's lazily made phase layout (phases_of) is published through the
+    // summer's own Geometry.
+    LobeSummer(const LobeSummer&) = delete;
+    LobeSummer& operator=(const LobeSummer&) = delete;
 
     // Fills sums for one output row with the cosine cut-off c_min (0 = every
     // non-zero term). With `columns` (half-open [first, last) column runs), only
@@ -234,13 +238,14 @@ public:
 
     int classes() const { return classes_; }
     double shininess() const { return n_; }
+    const PreparedLevel& level() const { return level_; }
 
     // Builds the phase layouts sum_row reads (with the level's threads). sum_row builds them
     // itself when they are missing, but inside a parallel loop that is one thread's work.
     void lay_out() const;
 
     // What sum_row's first pass (c_inner > 1) reads, for a caller that sums the same terms
-    // another way (the Fourier first pass, cone_fft.cpp).
+    // another way (the Fourier first pass, fourier_pass.cpp).
     // The level rows read for output row out_row, class cls, with cut-off c_min: [first, last]
     // (none when last < first), and the largest cosine cmax(out_row, cls) the weights divide by.
     struct RowWindow {
@@ -283,7 +288,7 @@ private:
         // The rows split by column phase for this output width
         // (PreparedLevel::phases): the texels that one weight multiplies across a
         // whole class are contiguous. Laid out on first use (lay_out): the Fourier first pass
-        // (cone_fft.cpp) reads the level's planes and never needs them.
+        // (fourier_pass.cpp) reads the level's planes and never needs them.
         std::vector<char> rows;  // the level rows read with this geometry
         std::shared_ptr<std::once_flag> laid_out;
         mutable const UninitVector<float>* phases = nullptr;

@@ -121,6 +121,8 @@ private:
 
 struct ConeStats {
     long long refined_texels = 0;  // texels summed again with a wider cone
+    double cutoff_energy = 0;      // the first cone's dropped lobe energy, as run (see cone.cpp)
+    bool fourier_first_pass = false;  // the first pass was the Fourier one (CPU), else direct sums
 };
 
 // The cosine of the cone outside which the lobe of shininess n holds `energy`
