@@ -3,9 +3,11 @@
 
 #include <bit>
 #include <cmath>
+#include <cstring>
 #include <numbers>
 #include <string>
 #include <utility>
+#include <vector>
 
 #include "appliance/core/errors.hpp"
 
@@ -117,6 +119,60 @@ void FftPlan::transform(std::complex<double>* data, bool inverse) const {
     }
 }
 
+namespace {
+
+// FftPlan::kBatch doubles as one value the compiler keeps in registers (GCC/Clang vector extension).
+using Lanes = double __attribute__((vector_size(FftPlan::kBatch * sizeof(double))));
+
+inline Lanes load_lanes(const double* p) {
+    Lanes v;
+    std::memcpy(&v, p, sizeof v);
+    return v;
+}
+inline void store_lanes(double* p, Lanes v) { std::memcpy(p, &v, sizeof v); }
+
+}  // namespace
+
+void FftPlan::forward_batch(double* re, double* im) const {
+    constexpr std::size_t B = kBatch;
+    for (std::size_t i = 0; i < n_; ++i) {
+        const std::size_t r = reversed_[i];
+        if (i < r)
+            for (std::size_t b = 0; b < B; ++b) {
+                std::swap(re[i * B + b], re[r * B + b]);
+                std::swap(im[i * B + b], im[r * B + b]);
+            }
+    }
+    forward_batch_reversed(re, im);
+}
+
+void FftPlan::forward_batch_reversed(double* re, double* im) const {
+    constexpr std::size_t B = kBatch;
+    const std::size_t n = n_;
+    // The radix-2 stages of transform(), each twiddle applied to all lanes; the first two stages are
+    // radix-2 here too (twiddles 1 and -i, exact, so the sums are transform()'s).
+    for (std::size_t h = 1; h < n; h *= 2) {
+        const double* wr = twiddle_re_.data() + h;
+        const double* wi = twiddle_im_.data() + h;
+        for (std::size_t start = 0; start < n; start += 2 * h)
+            for (std::size_t k = 0; k < h; ++k) {
+                double* ar_p = re + (start + k) * B;
+                double* ai_p = im + (start + k) * B;
+                double* br_p = re + (start + h + k) * B;
+                double* bi_p = im + (start + h + k) * B;
+                const double c = wr[k], s = wi[k];
+                const Lanes br = load_lanes(br_p), bi = load_lanes(bi_p);
+                const Lanes tr = br * c - bi * s;
+                const Lanes ti = br * s + bi * c;
+                const Lanes ar = load_lanes(ar_p), ai = load_lanes(ai_p);
+                store_lanes(br_p, ar - tr);
+                store_lanes(bi_p, ai - ti);
+                store_lanes(ar_p, ar + tr);
+                store_lanes(ai_p, ai + ti);
+            }
+    }
+}
+
 RealFftPlan::RealFftPlan(std::size_t n) : n_(checked_length(n)), half_(n_ > 1 ? n_ / 2 : 1) {
     const std::size_t count = n_ / 4 + 1;
     w_re_.assign(count, 0.0);
@@ -148,6 +204,60 @@ void RealFftPlan::forward(const double* x, std::complex<double>* spectrum) const
         const double tr = wr * orr - wi * oi, ti = wr * oi + wi * orr;
         spectrum[k] = {er + tr, ei + ti};
         spectrum[q] = {er - tr, ti - ei};
+    }
+}
+
+void RealFftPlan::forward_batch(const float* const* x, double* const* re, double* const* im,
+                                std::size_t count) const {
+    constexpr std::size_t B = FftPlan::kBatch;
+    if (count > B) throw InputError("RealFftPlan::forward_batch: at most " + std::to_string(B) + " signals");
+    if (n_ == 1) {
+        for (std::size_t b = 0; b < count; ++b) {
+            re[b][0] = double(x[b][0]);
+            im[b][0] = 0.0;
+        }
+        return;
+    }
+    const std::size_t h = n_ / 2;
+    // Lane-interleaved work arrays, per thread (reused: written whole before they are read).
+    thread_local std::vector<double> zr, zi;
+    zr.resize(h * B);
+    zi.resize(h * B);
+    // Stored straight into bit-reversed order (the transform's first step).
+    for (std::size_t j = 0; j < h; ++j) {
+        const std::size_t r = half_.reversed(j) * B;
+        for (std::size_t b = 0; b < B; ++b) {
+            zr[r + b] = b < count ? double(x[b][2 * j]) : 0.0;
+            zi[r + b] = b < count ? double(x[b][2 * j + 1]) : 0.0;
+        }
+    }
+    half_.forward_batch_reversed(zr.data(), zi.data());
+    // forward()'s unpacking, lane by lane; each pair (k, h-k) read before it is written.
+    const auto put = [&](std::size_t k, Lanes xr, Lanes xi) {
+        double lr[B], li[B];
+        store_lanes(lr, xr);
+        store_lanes(li, xi);
+        for (std::size_t b = 0; b < count; ++b) {
+            re[b][k] = lr[b];
+            im[b][k] = li[b];
+        }
+    };
+    {
+        const Lanes z0r = load_lanes(zr.data()), z0i = load_lanes(zi.data());
+        const Lanes zero = {};
+        put(0, z0r + z0i, zero);
+        put(h, z0r - z0i, zero);
+    }
+    for (std::size_t k = 1; 2 * k <= h; ++k) {
+        const std::size_t q = h - k;
+        const Lanes pr = load_lanes(zr.data() + k * B), pi = load_lanes(zi.data() + k * B);
+        const Lanes qr = load_lanes(zr.data() + q * B), qi = -load_lanes(zi.data() + q * B);
+        const Lanes er = 0.5 * (pr + qr), ei = 0.5 * (pi + qi);
+        const Lanes orr = 0.5 * (pi - qi), oi = -0.5 * (pr - qr);
+        const double wr = w_re_[k], wi = w_im_[k];
+        const Lanes tr = wr * orr - wi * oi, ti = wr * oi + wi * orr;
+        put(k, er + tr, ei + ti);
+        put(q, er - tr, ti - ei);
     }
 }
 

@@ -26,6 +26,15 @@ public:
     void forward(std::complex<double>* data) const;
     // data[j] <- sum_k data[k] e^(+2 pi i j k / n), in place.
     void inverse(std::complex<double>* data) const;
+    // forward() of kBatch sequences at once, one per vector lane: value j of lane b is re[j * kBatch + b]
+    // + i im[j * kBatch + b] (n * kBatch doubles each), transformed in place. The same butterflies as
+    // forward(), so each lane's result is forward()'s to the last bit.
+    static constexpr std::size_t kBatch = 8;
+    void forward_batch(double* re, double* im) const;
+    // The same for sequences already stored in bit-reversed order (value j at position reversed(j)).
+    void forward_batch_reversed(double* re, double* im) const;
+    // The bit-reversed position of index i < size().
+    std::size_t reversed(std::size_t i) const { return reversed_[i]; }
 
 private:
     std::size_t n_;
@@ -48,6 +57,10 @@ public:
 
     // spectrum[k] = sum_j x[j] e^(-2 pi i j k / n) for k in [0, n/2].
     void forward(const double* x, std::complex<double>* spectrum) const;
+    // forward() of up to FftPlan::kBatch float signals at once (vector lanes, several times faster than
+    // one by one): signal b < count read from x[b] (n values), its spectrum written as real parts to
+    // re[b][0..n/2] and imaginary parts to im[b][0..n/2].
+    void forward_batch(const float* const* x, double* const* re, double* const* im, std::size_t count) const;
     // x[j] = sum_{k<n} X[k] e^(+2 pi i j k / n) with X[k] = spectrum[k] for k <= n/2 and conj(spectrum[n-k])
     // above; the imaginary parts of spectrum[0] and spectrum[n/2] are ignored. spectrum is overwritten
     // (it is the work space).

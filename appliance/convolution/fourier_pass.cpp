@@ -12,6 +12,7 @@
 #include "appliance/convolution/fourier_pass.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <complex>
 #include <cstdlib>
@@ -60,7 +61,9 @@ bool power_of_two(int n) { return n > 0 && (n & (n - 1)) == 0; }
 struct PreparedLevel::RowSpectra {
     explicit RowSpectra(const PreparedLevel& level)
         : width(level.width()), bins(width / 2 + 1), plan(std::size_t(width)),
-          made(new std::once_flag[std::size_t(level.height())]) {
+          groups((level.height() + int(kRowsPerGroup) - 1) / int(kRowsPerGroup)),
+          group_lock(new std::mutex[std::size_t(groups)]), made(new std::atomic<bool>[std::size_t(groups)]) {
+        for (int g = 0; g < groups; ++g) made[std::size_t(g)].store(false, std::memory_order_relaxed);
         turns.resize(2 * std::size_t(width));
         for (std::size_t k = 0; k < turns.size(); ++k) turns[k] = std::polar(1.0, kPi * double(k) / width);
         // cos(pi m j / W) = Re turns[m j mod 2W], the index stepped without a division.
@@ -81,37 +84,45 @@ struct PreparedLevel::RowSpectra {
     }
 
     // The row's spectra: channel c's real parts at [2 c bins, (2 c + 1) bins), then its
-    // imaginary parts.
+    // imaginary parts. Rows are transformed kRowsPerGroup at a time (RealFftPlan::forward_batch,
+    // one row per vector lane), each group once, by the first thread that reads one of its rows.
     const double* row(const PreparedLevel& level, int j) {
-        double* out = values.data() + std::size_t(j) * 6 * std::size_t(bins);
-        // The buffers are the thread's, made before call_once: nothing inside it allocates (an
-        // exception thrown out of call_once is not unwound reliably on every target).
-        thread_local std::vector<double> x;
-        thread_local std::vector<Complex> spectrum;
-        x.resize(std::size_t(width));
-        spectrum.resize(std::size_t(bins));
-        std::call_once(made[std::size_t(j)], [&] {
-            for (int c = 0; c < 3; ++c) {
-                const float* p = level.plane(j, c);
-                for (int i = 0; i < width; ++i) x[std::size_t(i)] = double(p[i]);
-                plan.forward(x.data(), spectrum.data());
-                double* re = out + 2 * std::size_t(c) * std::size_t(bins);
-                double* im = re + bins;
-                for (int m = 0; m < bins; ++m) {
-                    re[m] = spectrum[std::size_t(m)].real();
-                    im[m] = spectrum[std::size_t(m)].imag();
+        const std::size_t g = std::size_t(j) / kRowsPerGroup;
+        if (!made[g].load(std::memory_order_acquire)) {
+            const std::lock_guard lock(group_lock[g]);
+            if (!made[g].load(std::memory_order_relaxed)) {
+                const int first = int(g * kRowsPerGroup);
+                const std::size_t count = std::min<std::size_t>(kRowsPerGroup, std::size_t(level.height() - first));
+                // A version with merged columns makes only the rows its readers asked for: the
+                // group's other rows are made here, so that no lane reads an unmade row (whose
+                // spectrum would be kept as made when a later reader asks for that row).
+                level.make_rows(first, int(count));
+                for (int c = 0; c < 3; ++c) {
+                    const float* x[kRowsPerGroup];
+                    double* re[kRowsPerGroup];
+                    double* im[kRowsPerGroup];
+                    for (std::size_t b = 0; b < count; ++b) {
+                        x[b] = level.plane(first + int(b), c);
+                        re[b] = values.data() + ((std::size_t(first) + b) * 6 + 2 * std::size_t(c)) * std::size_t(bins);
+                        im[b] = re[b] + bins;
+                    }
+                    plan.forward_batch(x, re, im, count);
                 }
+                made[g].store(true, std::memory_order_release);
             }
-        });
-        return out;
+        }
+        return values.data() + std::size_t(j) * 6 * std::size_t(bins);
     }
 
+    static constexpr std::size_t kRowsPerGroup = FftPlan::kBatch;
     int width, bins;
     RealFftPlan plan;
+    int groups;                                    // of kRowsPerGroup rows
+    std::unique_ptr<std::mutex[]> group_lock;      // per group: held while it is transformed
+    std::unique_ptr<std::atomic<bool>[]> made;     // per group: its spectra are written
     std::vector<Complex> turns;     // e^{i pi k / width}, k in [0, 2 width)
     std::vector<double> cos_table;  // [j * bins + m] = cos(pi m j / width)
     UninitVector<double> values;    // 6 bins per row
-    std::unique_ptr<std::once_flag[]> made;
 };
 
 PreparedLevel::RowSpectra& PreparedLevel::row_spectra() const {

@@ -185,6 +185,13 @@ PreparedLevel::PreparedLevel(const PreparedLevel& parent, int m)
     planes_.resize(std::size_t(height_) * 3 * std::size_t(width_));  // rows written by ensure_rows
 }
 
+void PreparedLevel::make_rows(int first, int count) const {
+    if (!parent_) return;
+    std::vector<char> rows(std::size_t(height_), 0);
+    for (int j = std::max(0, first); j < std::min(height_, first + count); ++j) rows[std::size_t(j)] = 1;
+    ensure_rows(rows);
+}
+
 void PreparedLevel::ensure_rows(const std::vector<char>& rows) const {
     if (!parent_) return;  // a level made from an image has every row
     parent_->ensure_rows(rows);

@@ -123,6 +123,9 @@ public:
     // Row j's spectra (made now if not yet): per channel W/2 + 1 real parts, then the imaginary
     // parts, of X[k] = sum_i L_i e^(-2 pi i i k / W).
     const double* row_spectrum(int j) const;
+    // Makes rows [first, first + count) of a version with merged columns (which makes only the
+    // rows its readers flag) if they are not made yet; nothing for a level made from an image.
+    void make_rows(int first, int count) const;
 
 private:
     int width_, height_, threads_;

@@ -91,6 +91,30 @@ TEST_P(FourierPass, SumsWhatSumRowSums) {
     }
 }
 
+// Two summers that merge different rows near the poles share the level's merged version (which
+// makes only the rows its readers flag) and its spectra: the second summer's rows, made after the
+// first summer's pass transformed their group, are transformed from their made values.
+TEST(FourierPass, MergedRowsMadeLaterAreTransformedWhenMade) {
+    const HdrImage image = rough_map(256, 128, 12);
+    const PreparedLevel level(image, 2);
+    const int out_w = 128, out_h = 64;
+    std::vector<int> rows;
+    for (int r = 0; r < out_h; ++r) rows.push_back(r);
+    // Rows with sin(theta) <= 0.41 merged (m = 2), then (made only now) every row.
+    const LobeSummer few(level, out_w, out_h, 2000, Accumulation::Double, 0.02);
+    LobeSums first = few.make_sums(&rows);
+    FourierFirstPass(few, out_w, 2).run(rows, cone_cut_cos(1e-3, 2000), first, nullptr);
+    const LobeSummer more(level, out_w, out_h, 300, Accumulation::Double, 0.06);
+    const double c0 = cone_cut_cos(1e-3, 300);
+    LobeSums direct = more.make_sums(&rows), fourier = more.make_sums(&rows);
+    for (int r : rows) more.sum_row(r, c0, direct);
+    FourierFirstPass(more, out_w, 2).run(rows, c0, fourier, nullptr);
+    double worst = 0, largest = 0;
+    for (double v : direct.num) largest = std::max(largest, std::abs(v));
+    for (std::size_t k = 0; k < direct.num.size(); ++k) worst = std::max(worst, std::abs(fourier.num[k] - direct.num[k]));
+    EXPECT_LT(worst, 1e-11 * largest);
+}
+
 // The cone with and without the Fourier first pass: the same map to within the cut-off's error,
 // and with it (a cone dropping far less of the lobe) fewer texels summed again.
 TEST(FourierPass, ConeWithAndWithoutItAgree) {
