@@ -112,7 +112,7 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
     // that the GPU engine sums the same terms.
     // Whole rows only: the patches of a finer grid ask for a few texels of a row.
     const bool fourier =
-        given_settings.fourier_first_pass && !only_columns && FourierFirstPass::pays_off(level.width(), level.height(), out.width);
+        !only_columns && FourierFirstPass::used_by_cone(given_settings, level.width(), level.height(), out.width);
     ConeSettings settings = given_settings;
     if (fourier) settings.cutoff_energy = std::min(settings.cutoff_energy, settings.fourier_cutoff_energy);
     std::unique_ptr<CpuConeSums> cpu;

@@ -445,8 +445,8 @@ void prepare_shared(SharedInputs& shared, const std::vector<MapResult>& results,
     std::set<int> spectra_levels;
     for (std::size_t k : to_run) {
         const MapPlan& p = results[k].plan;
-        if (p.method == Method::Cone && p.cone.fourier_first_pass &&
-            FourierFirstPass::pays_off(p.input_size.width, p.input_size.height, p.sum_size.width))
+        if (p.method == Method::Cone &&
+            FourierFirstPass::used_by_cone(p.cone, p.input_size.width, p.input_size.height, p.sum_size.width))
             spectra_levels.insert(p.input_level);
     }
     int max_sh_order = 0;

@@ -133,19 +133,6 @@ inline void store_lanes(double* p, Lanes v) { std::memcpy(p, &v, sizeof v); }
 
 }  // namespace
 
-void FftPlan::forward_batch(double* re, double* im) const {
-    constexpr std::size_t B = kBatch;
-    for (std::size_t i = 0; i < n_; ++i) {
-        const std::size_t r = reversed_[i];
-        if (i < r)
-            for (std::size_t b = 0; b < B; ++b) {
-                std::swap(re[i * B + b], re[r * B + b]);
-                std::swap(im[i * B + b], im[r * B + b]);
-            }
-    }
-    forward_batch_reversed(re, im);
-}
-
 void FftPlan::forward_batch_reversed(double* re, double* im) const {
     constexpr std::size_t B = kBatch;
     const std::size_t n = n_;

@@ -26,12 +26,11 @@ public:
     void forward(std::complex<double>* data) const;
     // data[j] <- sum_k data[k] e^(+2 pi i j k / n), in place.
     void inverse(std::complex<double>* data) const;
-    // forward() of kBatch sequences at once, one per vector lane: value j of lane b is re[j * kBatch + b]
-    // + i im[j * kBatch + b] (n * kBatch doubles each), transformed in place. The same butterflies as
-    // forward(), so each lane's result is forward()'s to the last bit.
+    // forward() of kBatch sequences at once, one per vector lane, stored in bit-reversed order: value j
+    // of lane b is re[reversed(j) * kBatch + b] + i im[reversed(j) * kBatch + b] (n * kBatch doubles
+    // each), transformed in place into natural order. The same sums as forward() (its fused first two
+    // stages multiply by exactly 1 and -i here), so each lane's result is forward()'s to rounding.
     static constexpr std::size_t kBatch = 8;
-    void forward_batch(double* re, double* im) const;
-    // The same for sequences already stored in bit-reversed order (value j at position reversed(j)).
     void forward_batch_reversed(double* re, double* im) const;
     // The bit-reversed position of index i < size().
     std::size_t reversed(std::size_t i) const { return reversed_[i]; }

@@ -52,7 +52,7 @@ inline DoubleBlock load(const double* p) {
 }
 inline void store(double* p, DoubleBlock v) { std::memcpy(p, &v, sizeof v); }
 
-bool power_of_two(int n) { return n > 0 && (n & (n - 1)) == 0; }
+bool power_of_two(int n) { return n > 0 && is_fft_length(std::size_t(n)); }
 
 }  // namespace
 
@@ -134,11 +134,10 @@ PreparedLevel::RowSpectra& PreparedLevel::row_spectra() const {
 const double* PreparedLevel::row_spectrum(int j) const { return row_spectra().row(*this, j); }
 
 struct FourierFirstPass::Impl {
-    Impl(const LobeSummer& s, int lw, int w, int t)
-        : summer(s), level_w(lw), out_w(w), threads(t), out_plan(std::size_t(w)) {}
+    Impl(const LobeSummer& s, int w, int t) : summer(s), out_w(w), threads(t), out_plan(std::size_t(w)) {}
 
     const LobeSummer& summer;
-    int level_w, out_w, threads;
+    int out_w, threads;
     RealFftPlan out_plan;
 
     void sum_row(int row, double c0, LobeSums& sums) const;
@@ -158,7 +157,7 @@ FourierFirstPass::FourierFirstPass(const LobeSummer& summer, int out_width, int 
     if (!power_of_two(level_width) || !power_of_two(out_width) || out_width < 2 || summer.classes() != 1)
         throw RuntimeError("internal: the Fourier first pass cannot sum " + std::to_string(out_width) +
                            " columns from " + std::to_string(level_width));
-    impl_ = std::make_unique<Impl>(summer, level_width, out_width, threads);
+    impl_ = std::make_unique<Impl>(summer, out_width, threads);
 }
 
 FourierFirstPass::~FourierFirstPass() = default;
@@ -182,7 +181,7 @@ void FourierFirstPass::Impl::sum_row(int row, double c0, LobeSums& sums) const {
     std::vector<const double*> pair_row;
     std::vector<double> kernels, kernel;
     std::vector<Complex> kernel_spectrum;
-    std::vector<double> w(std::size_t(level_w) + 2);  // up to a whole row of the level
+    std::vector<double> w(std::size_t(summer.level().width()) + 2);  // up to a whole row of the level
 
     const LobeSummer::RowWindow win = summer.window(row, 0, c0);
     double den = 0;

@@ -38,6 +38,11 @@ public:
     // x 3 for the direct sums: measured on 1024x512 maps (docs/convolution.md), n = 5120 and
     // 20480 at 512x256 took 2x less time with it and at 128x64 2x more.
     static bool pays_off(int level_width, int level_height, int out_width);
+    // The one rule for whole rows of an output (cone.cpp; engine.cpp's shared spectra): the
+    // settings allow the pass and it pays off.
+    static bool used_by_cone(const ConeSettings& settings, int level_width, int level_height, int out_width) {
+        return settings.fourier_first_pass && pays_off(level_width, level_height, out_width);
+    }
 
     // Throws RuntimeError unless the summer's level and out_width are powers of two with one
     // column class.

@@ -304,6 +304,21 @@ ShCoefficients project_impl(int width, int height, int order, int threads, ShQua
     // (s_0 = 1, s_m = sqrt2). The sums cost O(W log W) by FFT for a power-of-two width and O(W order)
     // directly otherwise.
     const std::size_t uwidth = std::size_t(width);
+    // Channel ch's F_m - i G_m from the row's spectrum X (real part of bin k at re[k * stride],
+    // imaginary part at im[k * stride]): X at m's bin, conjugated above W/2, turned by the phase of
+    // column 0, (c - i s)(a + i b) = F - i G.
+    const auto from_spectrum = [&](std::size_t ch, const double* re, const double* im, std::size_t stride,
+                                   double* f) {
+        double* fc = f + ch * uorder;
+        double* gc = f + (ch + 3) * uorder;
+        for (std::size_t m = 0; m < uorder; ++m) {
+            const std::size_t k = fft->bin[m] * stride;
+            const double a = re[k], b = fft->conj_sign[m] * im[k];
+            const double c = fft->phase_cos[m], s = fft->phase_sin[m];
+            fc[m] = c * a + s * b;
+            gc[m] = s * a - c * b;
+        }
+    };
     const auto fourier_sums = [&](int j, std::vector<double>& row, double* f) {
         if (!spectra) read_row(j, row.data());
         double* fr = f;  // F_r F_g F_b G_r G_g G_b
@@ -312,35 +327,18 @@ ShCoefficients project_impl(int width, int height, int order, int threads, ShQua
         double* gr = f + 3 * uorder;
         double* gg = f + 4 * uorder;
         double* gb = f + 5 * uorder;
-        if (use_fft && spectra) {
+        if (use_fft && spectra) {  // planar: per channel its real parts, then its imaginary parts
             const double* x = (*spectra)(j);
             const std::size_t bins = fft->plan.spectrum_size();
-            for (std::size_t ch = 0; ch < 3; ++ch) {
-                const double* re = x + 2 * ch * bins;
-                const double* im = re + bins;
-                double* fc = f + ch * uorder;
-                double* gc = f + (ch + 3) * uorder;
-                for (std::size_t m = 0; m < uorder; ++m) {
-                    const double a = re[fft->bin[m]], b = fft->conj_sign[m] * im[fft->bin[m]];
-                    const double c = fft->phase_cos[m], s = fft->phase_sin[m];
-                    fc[m] = c * a + s * b;  // as below
-                    gc[m] = s * a - c * b;
-                }
-            }
+            for (std::size_t ch = 0; ch < 3; ++ch) from_spectrum(ch, x + 2 * ch * bins, x + (2 * ch + 1) * bins, 1, f);
         } else if (use_fft) {
             thread_local std::vector<std::complex<double>> spectrum;  // written whole by forward()
             spectrum.resize(fft->plan.spectrum_size());
+            // [complex.numbers]: an array of complex<double> reads as interleaved (re, im) doubles.
+            const double* x = reinterpret_cast<const double*>(spectrum.data());
             for (std::size_t ch = 0; ch < 3; ++ch) {
                 fft->plan.forward(row.data() + ch * uwidth, spectrum.data());
-                double* fc = f + ch * uorder;
-                double* gc = f + (ch + 3) * uorder;
-                for (std::size_t m = 0; m < uorder; ++m) {
-                    const std::complex<double> x = spectrum[fft->bin[m]];
-                    const double a = x.real(), b = fft->conj_sign[m] * x.imag();
-                    const double c = fft->phase_cos[m], s = fft->phase_sin[m];
-                    fc[m] = c * a + s * b;  // (c - i s)(a + i b) = F - i G
-                    gc[m] = s * a - c * b;
-                }
+                from_spectrum(ch, x, x + 1, 2, f);
             }
         } else {
             std::fill(f, f + 6 * uorder, 0.0);
