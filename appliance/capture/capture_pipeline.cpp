@@ -241,7 +241,7 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
             if (cpu) cpu->add_frame(f, c, q, threads, w);
             else gpu->add_frame(f, c, q, w);
         }
-        HdrImage radiance() const { return cpu ? cpu->radiance() : gpu->radiance(); }
+        HdrImage radiance() const { return cpu ? cpu->radiance(threads) : gpu->radiance(threads); }
         std::vector<std::uint32_t> samples() const { return cpu ? cpu->samples() : gpu->samples(); }
         std::vector<float> weights() const { return cpu ? cpu->weights() : gpu->weights(); }
     };

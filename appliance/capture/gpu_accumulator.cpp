@@ -5,6 +5,7 @@
 
 #include "appliance/capture/exposure_bands.hpp"
 #include "appliance/core/errors.hpp"
+#include "appliance/core/parallel.hpp"
 
 namespace glint::capture {
 
@@ -109,7 +110,7 @@ std::size_t readback_index(int i, int j, int w, int h) {
 }
 }  // namespace
 
-HdrImage GpuAccumulator::radiance() const {
+HdrImage GpuAccumulator::radiance(int threads) const {
     std::vector<std::vector<float>> num, den, aux;
     for (const Band& b : bands_) {
         num.push_back(b.targets->read(0));
@@ -117,8 +118,8 @@ HdrImage GpuAccumulator::radiance() const {
         aux.push_back(b.targets->read(2));
     }
     HdrImage img(width_, height_);
-    std::vector<BandTexel> texel(bands_.size());
-    for (int j = 0; j < height_; ++j)
+    parallel_for(height_, threads, [&](int j) {
+        std::vector<BandTexel> texel(bands_.size());
         for (int i = 0; i < width_; ++i) {
             const std::size_t k = readback_index(i, j, width_, height_);
             for (std::size_t b = 0; b < bands_.size(); ++b) {
@@ -133,6 +134,7 @@ HdrImage GpuAccumulator::radiance() const {
             }
             img.set(i, j, merge_bands(texel));
         }
+    });
     return img;
 }
 

@@ -32,7 +32,7 @@ public:
     void add_frame(const CameraFrame& frame, const CameraCalibration& calibration, const glm::dquat& world_from_camera,
                    const glm::dvec3& angular_velocity = {});
 
-    HdrImage radiance() const;                      // reads the targets back
+    HdrImage radiance(int threads = 1) const;       // reads the targets back, merges rows on `threads`
     std::vector<std::uint32_t> samples() const;     // frames that sampled each texel
     std::vector<float> weights() const;
     int frames() const { return frames_; }

@@ -500,11 +500,12 @@ std::vector<BandTexel> HdrAccumulator::band_texels(std::size_t texel) const {
     return out;
 }
 
-HdrImage HdrAccumulator::radiance() const {
+HdrImage HdrAccumulator::radiance(int threads) const {
     HdrImage image(width_, height_);
-    std::vector<BandTexel> texel;
-    for (int j = 0; j < height_; ++j)
+    parallel_for(height_, threads, [&](int j) {
+        std::vector<BandTexel> texel;
         for (int i = 0; i < width_; ++i) image.set(i, j, merged(std::size_t(j) * std::size_t(width_) + std::size_t(i), texel));
+    });
     estimate_clipped_sources(image);
     return image;
 }

@@ -91,8 +91,9 @@ public:
                                 const glm::dquat& world_from_camera, int threads = 1,
                                 const glm::dvec3& angular_velocity = {});
 
-    // E per texel and channel; 0 where no frame gave a usable weight.
-    HdrImage radiance() const;
+    // E per texel and channel; 0 where no frame gave a usable weight. Rows are merged on
+    // `threads` threads (the merge is most of the time from a scan's last frame to its map).
+    HdrImage radiance(int threads = 1) const;
     // The same, only for the texels within `margin_rad` of a camera's view (the rest of `image`
     // is left as it was): what a frame's drift correction reads, without merging the whole map.
     void update_radiance_in_view(HdrImage& image, const glm::dquat& world_from_camera, const Intrinsics& k,

@@ -559,6 +559,30 @@ TEST(BrightSources, ASourceClippedAtTheShortestExposureIsEstimatedFromItsHalo) {
     EXPECT_NEAR(scene.red_energy(got) / scene.true_energy, 1.0, 0.2);
 }
 
+TEST(BrightSources, TheMapMergedOnSeveralThreadsIsTheMapMergedOnOne) {
+    // radiance(threads) merges rows in parallel (the time from a scan's last frame to its map):
+    // bit for bit the one-thread merge, with several bands and a source estimated from its halo.
+    BrightSourceScene scene(1e-4, 1e4);
+    HdrAccumulator acc(1024, 512);
+    scene.capture(acc, {2e-3, 3e-5, 1e-6});
+    const HdrImage one = acc.radiance(1);
+    const std::vector<EstimatedSource> sources_one = acc.estimated_sources();
+    for (int threads : {2, 3, 8}) {
+        const HdrImage many = acc.radiance(threads);
+        ASSERT_EQ(many.width(), one.width());
+        int different = 0;
+        for (int j = 0; j < one.height(); ++j)
+            for (int i = 0; i < one.width(); ++i) {
+                const Rgb a = one.at(i, j), b = many.at(i, j);
+                different += a.r != b.r || a.g != b.g || a.b != b.b;
+            }
+        EXPECT_EQ(different, 0) << threads << " threads";
+        ASSERT_EQ(acc.estimated_sources().size(), sources_one.size()) << threads << " threads";
+        EXPECT_EQ(acc.estimated_sources()[0].energy.r, sources_one[0].energy.r) << threads << " threads";
+    }
+    EXPECT_EQ(sources_one.size(), 1u);
+}
+
 TEST(BrightSources, TheSimulatorCannotExposeShorterThanTheSensorsShortestExposure) {
     BrightSourceScene scene(1e-4, 1e4);
     CameraSimulator sim(scene.env, scene.cal);

@@ -47,6 +47,16 @@ TEST_F(GpuAccumulation, AgreesWithTheCpuReference) {
             gpu.add_frame(f, cal, q);
         }
     const HdrImage a = cpu.radiance(), b = gpu.radiance();
+    {  // the GPU map merged on two threads is the one-thread merge, bit for bit
+        const HdrImage b2 = gpu.radiance(2);
+        int different = 0;
+        for (int j = 0; j < h; ++j)
+            for (int i = 0; i < w; ++i) {
+                const Rgb x = b.at(i, j), y = b2.at(i, j);
+                different += x.r != y.r || x.g != y.g || x.b != y.b;
+            }
+        EXPECT_EQ(different, 0);
+    }
     const std::vector<std::uint32_t> sa = cpu.samples(), sb = gpu.samples();
     long long same = 0, compared = 0, count_differs = 0, above = 0;
     double worst = 0, sum_d2 = 0, sum_x2 = 0;
