@@ -8,14 +8,17 @@
 // Inputs: the 1024x512 blender-data maps as they are; 256x128 and 512x256 by
 // solid-angle-weighted box averaging (4x4, 2x2); 2048x1024 ... 8192x4096 by
 // nearest-neighbour upsampling (each texel repeated 2x2, 4x4, 8x8). An exact sum
-// over an 8K input takes hours, but an NN-upsampled map is the same piecewise
-// constant radiance as its source, so its integrals are the source's: the exact
-// maps of the 1024x512 map are the reference for it and every upsampled input.
-// What remains is the quadrature (one midpoint per 1024x512 texel against one
-// per upsampled texel); it is measured here on courtyard at 2048x1024. For the
-// detail map (courtyard) each map's "lookup floor" is measured too: exact on the
-// map's own output grid against the same reference, i.e. what bilinear lookups
-// on that grid cost by themselves, apart from the sums.
+// of every map over an 8K input takes hours, but an NN-upsampled map is the same
+// piecewise-constant radiance as its source, so every NN-upsampled version has the
+// same integrals and differs only in the quadrature (one midpoint per texel), which
+// converges as the texel size squared. Each map's reference for an upsampled input
+// is exact from the finest version up to the input itself that fits a budget of
+// multiply-adds (reference_source): the narrow lobes' from the input or one level
+// below, the wide lobes' (where the quadrature does not matter) from coarser ones.
+// The difference between the 1024x512 and 2048x1024 quadratures is measured on
+// courtyard. For the detail map (courtyard) each map's "lookup floor" is measured
+// too: exact on the map's own output grid against the same reference, i.e. what
+// bilinear lookups on that grid cost by themselves, apart from the sums.
 //
 // glint runs with --allow-over-tolerance, so a map predicted over tolerance is
 // written and marked in report.json instead of failing the whole run.
@@ -301,9 +304,45 @@ ExactSet exact_set(const Config& cfg, const std::string& map, Size source, const
     return out;
 }
 
-// The reference of an input: exact from the 1024x512 map for it and every
-// upsampled input, from the box-averaged input itself below.
-Size reference_source(Size input) { return input.width < kSourceSize.width ? input : kSourceSize; }
+// Multiply-adds of exact for `out` output texels of lobe n over `in` input texels:
+// only the cap where the relative weight stays above the smallest normal double
+// (cos >= exp(-708.39 / n)) is summed, the hemisphere for n <= 1.
+double exact_cost(Size out, Size in, double n) {
+    const double cap = n <= 1 ? 0.5 : 0.5 * (1 - std::exp(-708.39 / n));
+    return texels(out) * texels(in) * cap;
+}
+
+// Over this many multiply-adds (~30 s on 2 cores) a reference is taken from a coarser
+// NN-upsampled input.
+constexpr double kReferenceBudget = 1.5e11;
+
+// The input the reference of target `t` is summed from, for a run on `input`: the box-averaged
+// input itself below 1024x512; from 1024x512 up, the finest NN-upsampled input up to the run's
+// own whose exact sum fits kReferenceBudget. All of them are the same piecewise-constant radiance,
+// so they differ only in the quadrature, which converges as the texel size squared: from the
+// 1024x512 map alone the narrow lobes' references were off by up to 2.4 % weighted RMS (sunset,
+// n = 20480, against the 2048x1024 quadrature), more than the maps they judged.
+Size reference_source(Size input, const Target& t) {
+    if (input.width <= kSourceSize.width) return input;
+    Size s = input;
+    while (s.width > kSourceSize.width && exact_cost(t.size, s, t.n) > kReferenceBudget) s = {s.width / 2, s.height / 2};
+    return s;
+}
+
+// The whole set's references for a run on `input`, each from its reference_source (cached).
+std::vector<HdrImage> reference_set(const Config& cfg, const std::string& map, Size input,
+                                    const std::vector<Target>& targets) {
+    std::vector<HdrImage> out(targets.size());
+    std::map<int, std::vector<std::size_t>> by_source;  // source width -> targets
+    for (std::size_t k = 0; k < targets.size(); ++k) by_source[reference_source(input, targets[k]).width].push_back(k);
+    for (const auto& [width, index] : by_source) {
+        std::vector<Target> ts;
+        for (std::size_t k : index) ts.push_back(targets[k]);
+        ExactSet set = exact_set(cfg, map, {width, width / 2}, nullptr, ts);
+        for (std::size_t i = 0; i < index.size(); ++i) out[index[i]] = std::move(set.images[i]);
+    }
+    return out;
+}
 
 // ---------------------------------------------------------------- running glint
 
@@ -490,20 +529,11 @@ RunRow run_one(const Config& cfg, const Run& run, const std::vector<HdrImage>& r
     return row;
 }
 
-// Multiply-adds of exact for `out` output texels of lobe n over `in` input texels:
-// only the cap where the relative weight stays above the smallest normal double
-// (cos >= exp(-708.39 / n)) is summed, the hemisphere for n <= 1.
-double exact_cost(Size out, Size in, double n) {
-    const double cap = n <= 1 ? 0.5 : 0.5 * (1 - std::exp(-708.39 / n));
-    return texels(out) * texels(in) * cap;
-}
-
 // Over this many multiply-adds (~10-20 s on 2 cores) the lookup floor is not computed.
 constexpr double kFloorBudget = 6e10;
 
 // The lookup floor of every map of `row` whose output grid is not the reference's.
 void lookup_floors(const Config& cfg, RunRow& row, const std::vector<HdrImage>& reference) {
-    const Size src = reference_source(row.run.input);
     std::vector<Target> ts;
     std::vector<std::size_t> index;
     for (std::size_t k = 0; k < row.maps.size(); ++k) {
@@ -519,19 +549,17 @@ void lookup_floors(const Config& cfg, RunRow& row, const std::vector<HdrImage>& 
             m.floor_note = "none (lobe lookup)";
             continue;
         }
+        // From the reference's own source: the floor then holds no quadrature difference.
+        const Size src = reference_source(row.run.input, m.target);
         Target t = m.target;
         t.size = m.output;
         if (exact_cost(t.size, src, t.n) > kFloorBudget) {
             m.floor_note = "not computed (exact too slow)";
             continue;
         }
-        ts.push_back(t);
-        index.push_back(k);
+        const ExactSet e = exact_set(cfg, row.run.map, src, nullptr, {t});
+        m.lookup_floor = compare_maps(e.images[0], reference[k]);
     }
-    if (ts.empty()) return;
-    const ExactSet e = exact_set(cfg, row.run.map, src, nullptr, ts);
-    for (std::size_t i = 0; i < ts.size(); ++i)
-        row.maps[index[i]].lookup_floor = compare_maps(e.images[i], reference[index[i]]);
 }
 
 // ---------------------------------------------------------------- quadrature check
@@ -739,15 +767,13 @@ int main(int argc, char** argv) {
         for (const Run& r : cfg.runs) ensure_input(cfg, r.map, r.input);
         const std::string loadavg_start = loadavg();
         // Exact references, per (map, reference source size), computed before any run.
+        // Keyed by (map, run input width): each target's reference comes from its own source.
         std::map<std::pair<std::string, int>, std::vector<HdrImage>> references;
-        std::map<std::pair<std::string, int>, double> reference_seconds;
         for (const Run& r : cfg.runs) {
-            const Size src = reference_source(r.input);
-            const auto key = std::make_pair(r.map, src.width);
+            const auto key = std::make_pair(r.map, r.input.width);
             if (references.count(key)) continue;
-            ExactSet set = exact_set(cfg, r.map, src, nullptr, targets);
-            references[key] = std::move(set.images);
-            reference_seconds[key] = set.seconds_computed;
+            for (const Target& t : targets) ensure_input(cfg, r.map, reference_source(r.input, t));
+            references[key] = reference_set(cfg, r.map, r.input, targets);
         }
 
         std::vector<RunRow> rows;
@@ -755,7 +781,7 @@ int main(int argc, char** argv) {
             const Run& r = cfg.runs[k];
             std::fprintf(stderr, "bench_scaling: [%zu/%zu] %s %s: glint convolve ...\n", k + 1, cfg.runs.size(),
                          r.map.c_str(), size_str(r.input).c_str());
-            const auto& ref = references.at({r.map, reference_source(r.input).width});
+            const auto& ref = references.at({r.map, r.input.width});
             rows.push_back(run_one(cfg, r, ref, targets));
             const RunRow& row = rows.back();
             if (row.ok)
@@ -777,7 +803,7 @@ int main(int argc, char** argv) {
             if (r.run.map == detail_map && r.ok) {
                 std::fprintf(stderr, "bench_scaling: lookup floors of %s %s\n", r.run.map.c_str(),
                              size_str(r.run.input).c_str());
-                lookup_floors(cfg, r, references.at({r.run.map, reference_source(r.run.input).width}));
+                lookup_floors(cfg, r, references.at({r.run.map, r.run.input.width}));
             }
 
         std::vector<QuadRow> quad;
@@ -835,11 +861,14 @@ int main(int argc, char** argv) {
               "upsampling (each texel repeated 2x2, 4x4, 8x8).\n\n"
            << "Errors are against `exact` at the reference sizes (128x64 for irradiance and n <= 40, 256x128 for "
               "n <= 320, 512x256 above), the candidate resampled bilinearly to the reference's texel centres "
-              "(`compare_maps`, docs/conventions.md). The reference of the 1024x512 input and of every "
-              "upsampled input is exact from the 1024x512 map: an NN-upsampled map is the same piecewise "
-              "constant radiance, so it has the same integrals (an exact sum over an 8K input would take hours); "
-              "the quadrature difference this leaves is measured below. The reference of the 256x128 and 512x256 "
-              "inputs is exact from that input itself.\n\n";
+              "(`compare_maps`, docs/conventions.md). The reference of the 256x128, 512x256 and 1024x512 inputs "
+              "is exact from that input itself. An NN-upsampled input is the same piecewise-constant radiance as "
+              "its 1024x512 source, so any NN-upsampled version has the same integrals and differs only in the "
+              "quadrature (which converges as the texel size squared): each target's reference for an upsampled "
+              "input is exact from the finest NN-upsampled version up to the input itself whose exact sum stays "
+              "under " << fmt("%.1e", kReferenceBudget) << " multiply-adds (about 30 s on 2 cores; an exact sum "
+              "over an 8K input for every map would take hours). The sources used are listed under *Exact "
+              "references*; the quadrature difference between two of them is measured below.\n\n";
 
         md << "## Per map and input size\n\n"
            << "Worst weighted relative RMS and worst texel over the 12 maps, with the map that was worst.\n\n";
@@ -933,10 +962,10 @@ int main(int argc, char** argv) {
             }
             md << "\nLargest: weighted RMS " << fmt("%.2e", worst_rms) << ", worst texel "
                << fmt("%.3f %%", 100 * worst_texel)
-               << ". The 1024x512 sum is the coarser quadrature of the two, so the reference of the "
-                  "upsampled inputs is off from their own exact maps by about this much (by 4/3 of it if the "
-                  "difference falls as h^2): where a map's error in the tables above is of this size (the "
-                  "narrow lobes), it measures the reference as much as `glint convolve`.\n\n";
+               << ". This is how far a reference from the 1024x512 map alone would be from the 2048x1024 "
+                  "input's own exact maps (by 4/3 of it from the limit, if the difference falls as h^2), which "
+                  "is why the narrow lobes' references of the upsampled inputs are summed from finer versions "
+                  "(*Exact references*).\n\n";
         }
 
         md << "## " << detail_map << ": the planner's choice per map\n\n"
@@ -965,9 +994,23 @@ int main(int argc, char** argv) {
         }
         md << '\n';
 
-        md << "## Exact references\n\n";
-        for (const auto& [key, seconds] : reference_seconds)
-            md << "- " << key.first << " from " << size_str({key.second, key.second / 2}) << ": " << (seconds > 0 ? fmt("computed in %.1f s", seconds) : std::string("cached")) << '\n';
+        md << "## Exact references\n\n"
+           << "The input each target's reference is summed from, per run input (the same for every map).\n\n"
+           << "| run input |";
+        for (const Target& t : targets) md << ' ' << t.label << " |";
+        md << "\n|---|";
+        for (std::size_t k = 0; k < targets.size(); ++k) md << "---|";
+        md << '\n';
+        std::vector<int> widths_run;
+        for (const Run& r : cfg.runs)
+            if (std::find(widths_run.begin(), widths_run.end(), r.input.width) == widths_run.end())
+                widths_run.push_back(r.input.width);
+        std::sort(widths_run.begin(), widths_run.end());
+        for (int w : widths_run) {
+            md << "| " << size_str({w, w / 2}) << " |";
+            for (const Target& t : targets) md << ' ' << size_str(reference_source({w, w / 2}, t)) << " |";
+            md << '\n';
+        }
         struct rusage self {};
         getrusage(RUSAGE_SELF, &self);
         md << "\nPeak RSS of the benchmark program itself (inputs, references, comparisons): "

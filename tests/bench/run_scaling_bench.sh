@@ -4,7 +4,8 @@
 # images/convolution_scaling.png. Inputs and exact references are cached in
 # build-native/bench-cache/scaling; the exact maps of the 1024x512 inputs are reused from
 # build-native/bench-cache when run_convolution_bench.sh made them.
-# Takes ~3 minutes on 2 cores (18 runs; the first run also makes the inputs and exact maps).
+# Takes ~3 minutes on 2 cores (18 runs) once the inputs and exact references are cached; the first
+# run also makes them (the references of the upsampled inputs from finer versions: ~30 minutes).
 # Arguments are passed on (--help lists them; e.g. --preset issue, --run courtyard:256x128,1024x512).
 set -euo pipefail
 cd "$(dirname "$0")/../.."
