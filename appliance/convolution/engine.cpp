@@ -81,13 +81,15 @@ public:
     }
     const BrightSplit& bright() {
         if (!bright_) {
+            // Before the input may be moved from (env_ can be the image consumable_ points at).
+            const int cap = bright_texel_cap(model_, env_.width(), env_.height());
             if (consumable_) {
                 consumed_ = true;
                 bright_ = std::make_unique<BrightSplit>(
-                    split_bright(std::move(*consumable_), model_.bright_contrast, model_.max_bright_texels, threads_));
+                    split_bright(std::move(*consumable_), model_.bright_contrast, cap, threads_));
             } else {
                 bright_ = std::make_unique<BrightSplit>(
-                    split_bright(env_, model_.bright_contrast, model_.max_bright_texels, threads_));
+                    split_bright(env_, model_.bright_contrast, cap, threads_));
             }
         }
         return *bright_;

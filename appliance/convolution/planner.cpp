@@ -37,6 +37,11 @@ struct EnvironmentShape {
 
 double lobe_width(double n) { return n <= 1.0 ? 1.0 : 1.0 / std::sqrt(n); }
 
+int bright_texel_cap(const PlannerModel& model, int width, int height) {
+    const double per_reference = double(width) * double(height) / (1024.0 * 512.0);
+    return int(std::min(2.0e9, std::ceil(double(model.max_bright_texels) * std::max(1.0, per_reference))));
+}
+
 Size sum_grid_size(double n, Size input, const PlannerModel& model) {
     const int cap = input.height;
     if (std::isinf(n)) return {2 * cap, cap};

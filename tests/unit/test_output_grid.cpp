@@ -671,6 +671,27 @@ TEST(OutputGrid, ShininessAboveTheLimitIsRefusedNamingTheMirror) {
 }
 
 
+// The bright split takes the same solid angle of bright sources out at every input size: a lamp
+// of 1600 texels at 2048x1024 (400 at 1024x512) is split whole, not cut at the 1024 brightest
+// (the rest stayed in the remainder, whose coarser levels moved it: a 10 % texel on studio).
+TEST(OutputGrid, TheBrightSplitsCapGrowsWithTheInputsTexels) {
+    const PlannerModel model;
+    EXPECT_EQ(bright_texel_cap(model, 512, 256), model.max_bright_texels);
+    EXPECT_EQ(bright_texel_cap(model, 1024, 512), model.max_bright_texels);
+    EXPECT_EQ(bright_texel_cap(model, 2048, 1024), 4 * model.max_bright_texels);
+    EXPECT_EQ(bright_texel_cap(model, 8192, 4096), 64 * model.max_bright_texels);
+    HdrImage env = sampled(2048, 1024, smooth_field);
+    for (int j = 300; j < 340; ++j)
+        for (int i = 700; i < 740; ++i) env.set(i, j, {2e4f, 1.6e4f, 1.2e4f});
+    Options o;
+    o.threads = 2;
+    MapRequest q = MapRequest::make_phong(640, "640");
+    q.size = Size{256, 128};
+    const std::vector<MapResult> r = convolve(env, {q}, o);
+    ASSERT_EQ(r.size(), 1u);
+    EXPECT_EQ(r[0].plan.bright_texels, 1600) << to_string(r[0].plan.method);
+}
+
 // Wide lobes from SH with the bright split: the bright texels projected into SH with the remainder
 // (BrightTerms::Auto folds them for n = 10 on a small grid) give the same map as their
 // lobes scattered over the grid, and both match the exact sums. Two lamps of 1e3 and 5e3 (164
