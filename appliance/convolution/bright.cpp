@@ -98,17 +98,22 @@ BrightSplit split_bright(HdrImage image, double contrast, int max_count, int thr
 BrightScatter::BrightScatter(const std::vector<BrightTexel>& bright, double n, Size out, double floor_value,
                              double tolerance, double cmax_floor)
     : bright_(bright), n_(n), out_(out) {
-    // A bright term below `tolerance` of the smallest output (and so of every
-    // output) may be dropped: as a weight ratio, then as a cosine. cmax_floor
-    // allows for cmax < 1 on coarse grids (the weight is (r.w / cmax)^n).
+    // A bright term may be dropped where it is below its texel's share of `tolerance` times the
+    // smallest output (and so of every output), the shares being the texels' peaks over the
+    // peaks' sum: the dropped terms together then stay below tolerance x floor_value at every
+    // output texel, however many bright texels there are (a cut per texel at `tolerance` alone let
+    // a compact lamp of K texels drop K times that just outside their cut cones). As a weight
+    // ratio that is one threshold for every texel, then a cosine. cmax_floor allows for cmax < 1
+    // on coarse grids (the weight is (r.w / cmax)^n).
     const double lobe_den = kTwoPi / (n + 1.0);  // sum of weights, continuous, cmax ~ 1
+    double peaks = 0;
+    for (const BrightTexel& t : bright) peaks += std::max({t.r, t.g, t.b});
+    const double ratio = peaks > 0 ? tolerance * floor_value * lobe_den / peaks : 2.0;
     min_cos_.resize(bright.size());
     sin_theta_.resize(bright.size());
     first_row_.resize(bright.size());
     last_row_.resize(bright.size());
     for (std::size_t k = 0; k < bright.size(); ++k) {
-        const double peak = std::max({bright[k].r, bright[k].g, bright[k].b});
-        const double ratio = tolerance * floor_value * lobe_den / peak;
         min_cos_[k] = n == 0 ? 0.0 : (ratio >= 1.0 ? 2.0 : cmax_floor * std::pow(ratio, 1.0 / n));
         sin_theta_[k] = std::sin(bright[k].theta);
         cos_phi_b_.push_back(std::cos(bright[k].phi));

@@ -95,7 +95,7 @@ ConeSettings cone_settings(double tolerance, double n, const PlannerModel& model
     s.max_texel_arc = merged_arc_budget(n, tolerance, model);
     s.cutoff_energy = model.first_cut_energy * tolerance;
     s.texel_tolerance = model.texel_cut_share * tolerance;
-    s.bright_tolerance = 1e-3 * tolerance;
+    s.bright_tolerance = model.bright_drop_share * tolerance;
     return s;
 }
 

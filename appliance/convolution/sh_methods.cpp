@@ -238,7 +238,9 @@ BrightFold bright_fold(const std::vector<BrightTexel>& bright, std::size_t rows,
     // texels on 53 rows, sh_split_convolve alone, one thread): folded n = 10 ... 160 at orders
     // 28 ... 82 took 0.55-2.1 ms against 2.8-5.6 ms scattered; at n = 320 (order 119, cost ratio
     // 2.5) 3.6 ms against 2.8, at n = 640 (169, ratio 3.2) 9.0 against 5.7.
-    const double cap_share = 0.5 * (1.0 - std::pow(bright_tolerance, 1.0 / std::max(n, 1.0)));
+    // The scatter's weight threshold for texels of equal peaks: bright_tolerance / K.
+    const double cap_share =
+        0.5 * (1.0 - std::pow(bright_tolerance / double(bright.size()), 1.0 / std::max(n, 1.0)));
     const double scatter_cost = double(bright.size()) * double(out.width) * double(out.height) * cap_share;
     const double added_bands = double(fold.order) * fold.order - double(order) * order;
     const double L = fold.order;

@@ -215,6 +215,43 @@ BrightTexel bright_texel(double theta, double phi, Rgb colour, double value) {
     return t;
 }
 
+// However many bright texels there are, the terms the scatter drops at an output texel stay below
+// its tolerance times the floor together: a compact lamp of 4096 equal texels (a lamp at
+// 2048x1024), seen from outside every texel's cut, drops 4096 terms at once. Against the plain
+// sum of every term, normalised as the cut is (by the continuous lobe's sum of weights).
+TEST(OutputGrid, TheBrightTermsDroppedAtATexelStayWithinTheToleranceTogether) {
+    const int in_w = 2048, in_h = 1024;
+    std::vector<BrightTexel> bright;
+    for (int j = 300; j < 364; ++j)
+        for (int i = 900; i < 964; ++i)
+            bright.push_back(bright_texel(row_theta(j, in_h), column_phi(i, in_w), {1.0f, 0.8f, 0.6f},
+                                          5e2 * row_solid_angle(j, in_w, in_h)));
+    const std::vector<double> cmax{1.0};
+    const Size out{64, 32};
+    const double floor_value = 1.0, tolerance = 1e-3;
+    for (const double n : {20.0, 200.0}) {
+        const BrightScatter scatter(bright, n, out, floor_value, tolerance);
+        const double lobe_den = kTwoPi / (n + 1.0);
+        double worst = 0, largest = 0;
+        for (int row = 0; row < out.height; ++row) {
+            std::vector<double> got(std::size_t(3 * out.width), 0.0);
+            scatter.add_row(row, cmax.data(), 1, got.data());
+            for (int i = 0; i < out.width; ++i) {
+                const glm::dvec3 r = texel_direction(i, row, out.width, out.height);
+                double plain = 0;  // red, the largest channel
+                for (const BrightTexel& b : bright) {
+                    const double c = r.x * b.x + r.y * b.y + r.z * b.z;
+                    if (c > 0) plain += std::pow(std::min(1.0, c), n) * b.r;
+                }
+                largest = std::max(largest, plain / lobe_den);
+                worst = std::max(worst, std::abs(plain - got[3 * std::size_t(i)]) / lobe_den);
+            }
+        }
+        EXPECT_GT(largest, 10 * floor_value) << "n " << n;  // the lamp is bright where it is seen
+        EXPECT_LE(worst, tolerance * floor_value) << "n " << n;
+    }
+}
+
 // Bright texels of one polar angle at one phase between output columns share their staged
 // weights (BrightScatter's groups): the sums must be those of each texel on its own, across
 // the seam, at the pole, with one or several column classes, whole rows or asked columns only.
@@ -238,8 +275,16 @@ TEST(OutputGrid, GroupedBrightTexelsSumAsEachOnItsOwn) {
     // exactly and rounding picks either side, grouped or not.)
     for (const double n : {1.0, 20.0, 500.0, 20480.0, 1e6}) {
         const BrightScatter all(bright, n, out, 1.0, 1e-6);
+        // Each texel alone with its share of the budget (its peak over the peaks' sum): the
+        // same cut as in the whole set.
         std::vector<std::vector<BrightTexel>> singles;
-        for (const BrightTexel& t : bright) singles.push_back({t});
+        std::vector<double> share;
+        double peaks = 0;
+        for (const BrightTexel& t : bright) peaks += std::max({t.r, t.g, t.b});
+        for (const BrightTexel& t : bright) {
+            singles.push_back({t});
+            share.push_back(std::max({t.r, t.g, t.b}) / peaks);
+        }
         for (const std::vector<double>* cmax : {&one_class, &four_classes}) {
             const int classes = int(cmax->size());
             for (const LobeSummer::ColumnRuns* runs : {static_cast<const LobeSummer::ColumnRuns*>(nullptr), &columns}) {
@@ -247,8 +292,9 @@ TEST(OutputGrid, GroupedBrightTexelsSumAsEachOnItsOwn) {
                 for (int row = 0; row < out.height; ++row) {
                     std::vector<double> grouped(std::size_t(3 * out.width), 0.0), alone(grouped.size(), 0.0);
                     all.add_row(row, cmax->data(), classes, grouped.data(), runs);
-                    for (const auto& single : singles) {
-                        const BrightScatter one(single, n, out, 1.0, 1e-6);
+                    for (std::size_t k = 0; k < singles.size(); ++k) {
+                        const auto& single = singles[k];
+                        const BrightScatter one(single, n, out, 1.0, 1e-6 * share[k]);
                         one.add_row(row, cmax->data(), classes, alone.data(), runs);
                     }
                     for (std::size_t i = 0; i < grouped.size(); ++i) {
