@@ -105,10 +105,15 @@ BrightScatter::BrightScatter(const std::vector<BrightTexel>& bright, double n, S
     // a compact lamp of K texels drop K times that just outside their cut cones). As a weight
     // ratio that is one threshold for every texel, then a cosine. cmax_floor allows for cmax < 1
     // on coarse grids (the weight is (r.w / cmax)^n).
+    // The budget is `tolerance` from kFullBudgetTexels texels up and shrinks with fewer: a lone
+    // sun's term is cut where it falls to tolerance / kFullBudgetTexels, as when every texel had
+    // that cut of its own, not at the whole budget.
+    constexpr double kFullBudgetTexels = 1000;
     const double lobe_den = kTwoPi / (n + 1.0);  // sum of weights, continuous, cmax ~ 1
     double peaks = 0;
     for (const BrightTexel& t : bright) peaks += std::max({t.r, t.g, t.b});
-    const double ratio = peaks > 0 ? tolerance * floor_value * lobe_den / peaks : 2.0;
+    const double budget = tolerance * std::min(1.0, double(bright.size()) / kFullBudgetTexels);
+    const double ratio = peaks > 0 ? budget * floor_value * lobe_den / peaks : 2.0;
     min_cos_.resize(bright.size());
     sin_theta_.resize(bright.size());
     first_row_.resize(bright.size());

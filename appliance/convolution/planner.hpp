@@ -48,9 +48,9 @@ struct PlannerModel {
     double bright_contrast = 64.0;  // texels brighter than this x mean are summed exactly
     int max_bright_texels = 1024;   // per 1024x512 input texels (bright_texel_cap)
     // The bright texels' terms dropped at an output texel, together, at most this share of tau
-    // times the smallest output (BrightScatter). Until 2026-12-05 each term could drop 1e-3 tau,
-    // which added up to about tau for studio's 1024 lamp texels, and to 16-64 tau once the cap
-    // grew with the input.
+    // times the smallest output (BrightScatter; a thousandth of it per texel below 1000 texels).
+    // Until 2026-12-05 each term could drop 1e-3 tau, which added up to about tau for studio's
+    // 1024 lamp texels, and to 16-64 tau once the cap grew with the input.
     double bright_drop_share = 0.25;
     // SH with the bright split: the order is the smallest whose truncation tail
     // (sh_methods.cpp) is below sh_tail_share * tau, so the per-texel check passes

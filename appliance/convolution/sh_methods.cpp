@@ -233,8 +233,9 @@ BrightFold bright_fold(const std::vector<BrightTexel>& bright, std::size_t rows,
     // Cost: per row of bright texels fold^2 Legendre values and multiply-adds, per bright texel
     // 2 x fold angle sums, and per output row the Legendre sums of the bands added (3 channels),
     // against, per bright texel, a power and a few multiply-adds for each output texel inside its
-    // cut-off cone (cos >= tolerance^(1/n); the scatter's cut also scales with the smallest
-    // output, which only narrows it). Compared one to one, as measured on studio (1024 bright
+    // cut-off cone (cos >= (tolerance / K)^(1/n) for K texels of equal peaks; the scatter's cut
+    // also scales with the smallest output, which only narrows it). Compared one to one, as
+    // measured on studio with the cut of each texel at the tolerance itself (1024 bright
     // texels on 53 rows, sh_split_convolve alone, one thread): folded n = 10 ... 160 at orders
     // 28 ... 82 took 0.55-2.1 ms against 2.8-5.6 ms scattered; at n = 320 (order 119, cost ratio
     // 2.5) 3.6 ms against 2.8, at n = 640 (169, ratio 3.2) 9.0 against 5.7.

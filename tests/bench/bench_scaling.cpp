@@ -13,8 +13,8 @@
 // same integrals and differs only in the quadrature (one midpoint per texel), which
 // converges as the texel size squared. Each map's reference for an upsampled input
 // is exact from the finest version up to the input itself that fits a budget of
-// multiply-adds (reference_source): the narrow lobes' from the input or one level
-// below, the wide lobes' (where the quadrature does not matter) from coarser ones.
+// multiply-adds (reference_source): at 8192x4096, the 128x64 maps and n = 20480 from
+// the input itself, the others from 4096x2048 or 2048x1024.
 // The difference between the 1024x512 and 2048x1024 quadratures is measured on
 // courtyard. For the detail map (courtyard) each map's "lookup floor" is measured
 // too: exact on the map's own output grid against the same reference, i.e. what
@@ -534,8 +534,6 @@ constexpr double kFloorBudget = 6e10;
 
 // The lookup floor of every map of `row` whose output grid is not the reference's.
 void lookup_floors(const Config& cfg, RunRow& row, const std::vector<HdrImage>& reference) {
-    std::vector<Target> ts;
-    std::vector<std::size_t> index;
     for (std::size_t k = 0; k < row.maps.size(); ++k) {
         MapRow& m = row.maps[k];
         if (!m.have || m.output.width == 0) continue;
@@ -948,7 +946,8 @@ int main(int argc, char** argv) {
             md << "Exact from the 2048x1024 NN-upsampled " << cfg.quadrature_map << " against exact from its "
                << "1024x512 source, at the same output size. Both are sums over the same piecewise-constant "
                   "radiance; they differ only in the quadrature (one lobe sample per 1024x512 texel against four). "
-                  "Errors of the upsampled inputs below this level are not resolved by the reference.\n\n"
+                  "A reference summed from the 1024x512 map alone would not resolve errors of the upsampled "
+                  "inputs below this level.\n\n"
                << "| target | size | weighted RMS | worst texel | exact s (1024x512) | exact s (2048x1024) |\n"
                << "|---|---|---|---|---|---|\n";
             for (const QuadRow& q : quad) {
