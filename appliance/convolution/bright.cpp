@@ -98,16 +98,15 @@ BrightSplit split_bright(HdrImage image, double contrast, int max_count, int thr
 BrightScatter::BrightScatter(const std::vector<BrightTexel>& bright, double n, Size out, double floor_value,
                              double tolerance, double cmax_floor)
     : bright_(bright), n_(n), out_(out) {
-    // A bright term may be dropped where it is below its texel's share of `tolerance` times the
+    // A bright term may be dropped where it is below its texel's share of the budget times the
     // smallest output (and so of every output), the shares being the texels' peaks over the
-    // peaks' sum: the dropped terms together then stay below tolerance x floor_value at every
-    // output texel, however many bright texels there are (a cut per texel at `tolerance` alone let
-    // a compact lamp of K texels drop K times that just outside their cut cones). As a weight
-    // ratio that is one threshold for every texel, then a cosine. cmax_floor allows for cmax < 1
-    // on coarse grids (the weight is (r.w / cmax)^n).
-    // The budget is `tolerance` from kFullBudgetTexels texels up and shrinks with fewer: a lone
-    // sun's term is cut where it falls to tolerance / kFullBudgetTexels, as when every texel had
-    // that cut of its own, not at the whole budget.
+    // peaks' sum: the dropped terms together then stay below budget x floor_value at every output
+    // texel, however many bright texels there are (a cut per texel alone let a compact lamp of K
+    // texels drop K times it just outside their cut cones). As a weight ratio that is one
+    // threshold for every texel, then a cosine. The budget is `tolerance` from kFullBudgetTexels
+    // texels up and shrinks with fewer, so that a lone sun is cut at tolerance /
+    // kFullBudgetTexels, not at the whole budget. cmax_floor allows for cmax < 1 on coarse grids
+    // (the weight is (r.w / cmax)^n).
     constexpr double kFullBudgetTexels = 1000;
     const double lobe_den = kTwoPi / (n + 1.0);  // sum of weights, continuous, cmax ~ 1
     double peaks = 0;

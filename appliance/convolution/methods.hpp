@@ -47,9 +47,10 @@ BrightSplit split_bright(HdrImage input, double contrast, int max_count, int thr
 // of an out-sized grid where they are not negligible: the terms dropped at a texel together
 // stay below `tolerance` times floor_value (the smallest output), each texel's below its peak's
 // share of the bright texels' summed peaks of that; with fewer than 1000 bright texels the
-// budget is that many thousandths of `tolerance` (each texel's cut as if it had 1/1000 alone). `cmax_floor` is a lower bound of cmax over
-// the grid (the weights are taken relative to it): 1 where the sums are normalised to the
-// largest weight 1 (add_bright_lobes), so the cut is no wider than the tolerance needs.
+// budget is that many thousandths of `tolerance` (each texel's cut as if it had 1/1000 alone).
+// `cmax_floor` is a lower bound of cmax over the grid (the weights are taken relative to it): 1
+// where the sums are normalised to the largest weight 1 (add_bright_lobes), so the cut is no
+// wider than the tolerance needs.
 class BrightScatter {
 public:
     BrightScatter(const std::vector<BrightTexel>& bright, double shininess, Size out, double floor_value,

@@ -61,10 +61,10 @@ TexelSelection fine_texels_near(const std::vector<char>& marked, Size coarse, Si
 // The bright texels' part of a map of shininess n at the texel centres of an out-sized grid,
 // (n+1)/(2 pi) sum_b max(0, r.w_b)^n L_b dOmega_b, normalised by the continuous lobe, taken
 // from the map (Subtract) or added to it with negative sums clamped to 0 (AddClamped), one
-// row at a time. The terms dropped at a texel stay below 1e-3 floor_value together (1e-6
-// a bright texel up to 1000 of them; floor_value is the map's solid-angle mean where the engine
-// resamples). A map summed with its bright texels
-// split out (cone, sh with the bright split) is resampled without them and gets them back here.
+// row at a time. The terms dropped at a texel stay below 1e-3 floor_value together (1e-6 a
+// bright texel up to 1000 of them; floor_value is the map's solid-angle mean where the engine
+// resamples). A map summed with its bright texels split out (cone, sh with the bright split) is
+// resampled without them and gets them back here.
 // Holds a reference to `bright`, which must outlive it.
 enum class LobeOp { Subtract, AddClamped };
 class BrightLobes {

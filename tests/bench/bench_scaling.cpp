@@ -329,19 +329,30 @@ Size reference_source(Size input, const Target& t) {
     return s;
 }
 
-// The whole set's references for a run on `input`, each from its reference_source (cached).
-std::vector<HdrImage> reference_set(const Config& cfg, const std::string& map, Size input,
-                                    const std::vector<Target>& targets) {
+// Exact maps of `targets` from `map`, target k summed from the input of size sources[k]: one
+// exact_set call per source (the input made if needed and loaded once), cached.
+std::vector<HdrImage> exact_by_source(const Config& cfg, const std::string& map, const std::vector<Size>& sources,
+                                      const std::vector<Target>& targets) {
     std::vector<HdrImage> out(targets.size());
     std::map<int, std::vector<std::size_t>> by_source;  // source width -> targets
-    for (std::size_t k = 0; k < targets.size(); ++k) by_source[reference_source(input, targets[k]).width].push_back(k);
+    for (std::size_t k = 0; k < targets.size(); ++k) by_source[sources[k].width].push_back(k);
     for (const auto& [width, index] : by_source) {
         std::vector<Target> ts;
         for (std::size_t k : index) ts.push_back(targets[k]);
-        ExactSet set = exact_set(cfg, map, {width, width / 2}, nullptr, ts);
+        const Size source{width, width / 2};
+        ensure_input(cfg, map, source);
+        ExactSet set = exact_set(cfg, map, source, nullptr, ts);
         for (std::size_t i = 0; i < index.size(); ++i) out[index[i]] = std::move(set.images[i]);
     }
     return out;
+}
+
+// The whole set's references for a run on `input`, each from its reference_source.
+std::vector<HdrImage> reference_set(const Config& cfg, const std::string& map, Size input,
+                                    const std::vector<Target>& targets) {
+    std::vector<Size> sources;
+    for (const Target& t : targets) sources.push_back(reference_source(input, t));
+    return exact_by_source(cfg, map, sources, targets);
 }
 
 // ---------------------------------------------------------------- running glint
@@ -534,6 +545,9 @@ constexpr double kFloorBudget = 6e10;
 
 // The lookup floor of every map of `row` whose output grid is not the reference's.
 void lookup_floors(const Config& cfg, RunRow& row, const std::vector<HdrImage>& reference) {
+    std::vector<Target> ts;
+    std::vector<Size> sources;
+    std::vector<std::size_t> index;
     for (std::size_t k = 0; k < row.maps.size(); ++k) {
         MapRow& m = row.maps[k];
         if (!m.have || m.output.width == 0) continue;
@@ -555,9 +569,13 @@ void lookup_floors(const Config& cfg, RunRow& row, const std::vector<HdrImage>& 
             m.floor_note = "not computed (exact too slow)";
             continue;
         }
-        const ExactSet e = exact_set(cfg, row.run.map, src, nullptr, {t});
-        m.lookup_floor = compare_maps(e.images[0], reference[k]);
+        ts.push_back(t);
+        sources.push_back(src);
+        index.push_back(k);
     }
+    const std::vector<HdrImage> floors = exact_by_source(cfg, row.run.map, sources, ts);
+    for (std::size_t i = 0; i < ts.size(); ++i)
+        row.maps[index[i]].lookup_floor = compare_maps(floors[i], reference[index[i]]);
 }
 
 // ---------------------------------------------------------------- quadrature check
@@ -770,7 +788,6 @@ int main(int argc, char** argv) {
         for (const Run& r : cfg.runs) {
             const auto key = std::make_pair(r.map, r.input.width);
             if (references.count(key)) continue;
-            for (const Target& t : targets) ensure_input(cfg, r.map, reference_source(r.input, t));
             references[key] = reference_set(cfg, r.map, r.input, targets);
         }
 
