@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <fstream>
+#include <limits>
 #include <nlohmann/json.hpp>
 #include <sstream>
 
@@ -114,7 +115,10 @@ CameraCalibration calibration_from_json(const std::string& text, const std::stri
         bad(source, "sensor_from_camera", "must be a quaternion [w, x, y, z]");
     const glm::dquat raw(q[0].get<double>(), q[1].get<double>(), q[2].get<double>(), q[3].get<double>());
     if (!(std::abs(glm::length(raw) - 1) < 1e-3)) bad(source, "sensor_from_camera", "not a unit quaternion");
-    c.sensor_from_camera = unit_rotation(raw);
+    // A quaternion already unit to rounding is kept as read: renormalising it can move its last
+    // digits, and a file this program wrote must read back to the same numbers.
+    const bool unit_to_rounding = std::abs(glm::length(raw) - 1) <= 8 * std::numeric_limits<double>::epsilon();
+    c.sensor_from_camera = unit_to_rounding ? (raw.w < 0 ? -raw : raw) : unit_rotation(raw);
     c.time_offset_s = number(j, "time_offset_s", source, "");
     c.sensitivity = number(j, "sensitivity", source, "");
     if (!(c.sensitivity > 0)) bad(source, "sensitivity", "must be positive");

@@ -482,6 +482,27 @@ TEST(CalibrationIo, SensorLimitsAreOptionalAndRoundTrip) {
     }
 }
 
+TEST(CalibrationIo, AMountingWrittenOnceReadsBackToTheSameText) {
+    // A mounting quaternion a little off unit length (as a hand-edited file has it) is made unit
+    // on reading; the file written from it must then read back to the same digits. Renormalising
+    // a quaternion already unit can move its last bit, which tests/fuzz's calibration target
+    // found with this quaternion.
+    CameraCalibration c;
+    c.intrinsics = Intrinsics::from_fov(320, 180, 1.2);
+    c.sensor_from_camera = glm::dquat(0.9997541363709028, -0.01311637025514939, 0.017393650673189088,
+                                      -0.004133830772909245) * 1.0004;
+    const std::string once = calibration_to_json(calibration_from_json(calibration_to_json(c), "a.json"));
+    const std::string twice = calibration_to_json(calibration_from_json(once, "b.json"));
+    EXPECT_EQ(once, twice);
+    // A run of such quaternions, each off unit length by up to 1e-4 either way.
+    for (int i = 0; i < 200; ++i) {
+        const double s = 1 + 1e-4 * std::sin(1.7 * i);
+        c.sensor_from_camera = camera_look(0.37 * i, 0.11 * i - 5, 0.05 * i) * s;
+        const std::string a = calibration_to_json(calibration_from_json(calibration_to_json(c), "a.json"));
+        ASSERT_EQ(a, calibration_to_json(calibration_from_json(a, "b.json"))) << "quaternion " << i;
+    }
+}
+
 TEST(CalibrationIo, RoundTripsAndRejectsBadValues) {
     CameraCalibration c;
     c.intrinsics = Intrinsics::from_fov(640, 480, 1.2);
