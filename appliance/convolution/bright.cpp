@@ -2,6 +2,8 @@
 // input texels are taken out of the map and their terms are added exactly, at
 // full resolution, to every output texel whose weight for them matters.
 #include <algorithm>
+#include <bit>
+#include <cstdint>
 #include <cmath>
 #include <map>
 #include <utility>
@@ -95,9 +97,209 @@ BrightSplit split_bright(HdrImage image, double contrast, int max_count, int thr
     return split;
 }
 
-BrightScatter::BrightScatter(const std::vector<BrightTexel>& bright, double n, Size out, double floor_value,
+namespace {
+
+// Bright-cell merging (merge_bright_cells). Cells are those of equirect grids kCellRows x
+// 2 kCellRows, halved kCellLevels times: level L has kCellRows << L rows. A texel's cell at
+// every level is a prefix of its Morton key at the finest level, so after one sort every cell
+// is a contiguous range.
+constexpr int kCoarsestCellRows = 8;
+constexpr int kCellLevels = 14;  // finest: 65536 rows, finer than any input's texels
+constexpr std::size_t kMinTexelsToMerge = 256;
+constexpr double kWidestMergedCell = 0.5;  // radians from a cell's centre to its farthest member
+
+std::uint64_t cell_key(double theta, double phi) {
+    const std::uint64_t rows = std::uint64_t(kCoarsestCellRows) << (kCellLevels - 1);
+    const std::uint64_t r = std::min(rows - 1, std::uint64_t(std::max(0.0, theta / kPi * double(rows))));
+    const std::uint64_t c = std::min(2 * rows - 1, std::uint64_t(std::max(0.0, (phi + kPi) / kTwoPi * double(2 * rows))));
+    // The column's top bit (the grid is twice as wide as tall) first, then row and column bits
+    // interleaved from the top, so that a cell of level L is the key's top 1 + 3 + 3 + 2 L bits.
+    const int bits = std::countr_zero(rows);  // row bits
+    std::uint64_t key = c >> bits;
+    for (int b = bits - 1; b >= 0; --b) key = (key << 2) | (((r >> b) & 1u) << 1) | ((c >> b) & 1u);
+    return key;
+}
+
+// The key bits below a level's cell.
+int cell_shift(int level) { return 2 * (kCellLevels - 1 - level); }
+
+}  // namespace
+
+std::vector<BrightTexel> merge_bright_cells(const std::vector<BrightTexel>& bright, double n, double relative,
+                                            double absolute) {
+    if (bright.size() < kMinTexelsToMerge || !(n >= 2) || !std::isfinite(n) || !(relative > 0) ||
+        !(absolute >= 0))
+        return bright;
+    double peaks = 0;
+    for (const BrightTexel& t : bright) peaks += std::max({t.r, t.g, t.b});
+    if (!(peaks > 0)) return bright;
+    const double eta = absolute / peaks;  // the absolute allowance per unit of a cell's energy
+    // Tables over the angle alpha from a merged term's direction, in steps h fine enough for the
+    // lobe: cos^(n-2), cos^(n-1), cos^n (0 from pi/2 on) and sin (1 from pi/2 on).
+    const double h = std::min(0.01, 0.03 / std::sqrt(n));
+    const int steps = int(std::ceil((kPi / 2 + kWidestMergedCell) / h)) + 3;
+    std::vector<double> p2(std::size_t(steps) + 1), p1(p2.size()), pn(p2.size()), sn(p2.size());
+    for (std::size_t j = 0; j < p2.size(); ++j) {
+        const double a = double(j) * h;
+        const double c = a < kPi / 2 ? std::cos(a) : 0.0;
+        p2[j] = c > 0 ? std::pow(c, n - 2) : 0.0;
+        p1[j] = p2[j] * c;
+        pn[j] = p1[j] * c;
+        sn[j] = a < kPi / 2 ? std::sin(a) : 1.0;
+    }
+
+    std::vector<std::pair<std::uint64_t, std::size_t>> order(bright.size());
+    for (std::size_t k = 0; k < bright.size(); ++k) order[k] = {cell_key(bright[k].theta, bright[k].phi), k};
+    std::sort(order.begin(), order.end());
+
+    std::vector<BrightTexel> merged;
+    merged.reserve(bright.size());
+    // Whether the members order[a, b) may stand as one term; if so, that term in `out`. With
+    // channel -1 the term holds all three channels, in the direction of the members' mean
+    // weighted by their channels' sum (a cell whose colour changes errs to first order); with a
+    // channel, that channel alone, in its own mean direction (no first-order error).
+    const auto try_merge = [&](std::size_t a, std::size_t b, int channel, BrightTexel& out) {
+        const auto weight_of = [&](const BrightTexel& t) {
+            return channel < 0 ? t.r + t.g + t.b : channel == 0 ? t.r : channel == 1 ? t.g : t.b;
+        };
+        glm::dvec3 sum(0.0);
+        double weight = 0;
+        for (std::size_t m = a; m < b; ++m) {
+            const BrightTexel& t = bright[order[m].second];
+            if (!(t.r >= 0 && t.g >= 0 && t.b >= 0)) return false;
+            sum += weight_of(t) * glm::dvec3(t.x, t.y, t.z);
+            weight += weight_of(t);
+        }
+        if (channel >= 0 && weight == 0) {  // every member dark in this channel: no term
+            out = BrightTexel{};
+            return true;
+        }
+        if (!(weight > 0)) return false;
+        const glm::dvec3 centre = sum / weight;
+        const double mu = glm::length(centre);
+        if (!(mu > 0.5)) return false;
+        const glm::dvec3 axis = centre / mu;
+        // A tangent basis at the axis, for the members' spread across it.
+        const glm::dvec3 e1 = glm::normalize(std::abs(axis.y) < 0.9 ? glm::cross(axis, glm::dvec3(0, 1, 0))
+                                                                   : glm::cross(axis, glm::dvec3(1, 0, 0)));
+        const glm::dvec3 e2 = glm::cross(axis, e1);
+        // Per channel: the energy E, the first moment's offset from E * centre (radial and
+        // tangential), the energy-weighted squares of |cos beta - mu| and its products with
+        // sin beta, and the tangential parts' second moments (whose largest eigenvalue bounds
+        // the energy-weighted square of e.t for any unit tangent e).
+        double energy[3] = {0, 0, 0}, saa[3] = {0, 0, 0}, sab[3] = {0, 0, 0}, suu[3] = {0, 0, 0},
+               sww[3] = {0, 0, 0}, suw[3] = {0, 0, 0};
+        glm::dvec3 moment[3] = {glm::dvec3(0.0), glm::dvec3(0.0), glm::dvec3(0.0)};
+        double radius = 0;
+        for (std::size_t m = a; m < b; ++m) {
+            const BrightTexel& t = bright[order[m].second];
+            const glm::dvec3 d(t.x, t.y, t.z);
+            const double cb = glm::dot(axis, d);
+            const glm::dvec3 tangent = d - cb * axis;
+            const double sb = glm::length(tangent);
+            const double u = glm::dot(tangent, e1), w = glm::dot(tangent, e2);
+            radius = std::max(radius, std::atan2(sb, cb));
+            const double da = std::abs(cb - mu);
+            const double l[3] = {t.r, t.g, t.b};
+            for (int ch = 0; ch < 3; ++ch) {
+                if (channel >= 0 && ch != channel) continue;
+                energy[ch] += l[ch];
+                moment[ch] += l[ch] * d;
+                saa[ch] += l[ch] * da * da;
+                sab[ch] += l[ch] * da * sb;
+                suu[ch] += l[ch] * u * u;
+                sww[ch] += l[ch] * w * w;
+                suw[ch] += l[ch] * u * w;
+            }
+        }
+        if (!(radius <= kWidestMergedCell)) return false;
+        // The worst channel's coefficients, per unit of its energy.
+        double vr = 0, vt = 0, caa = 0, cab = 0, cbb = 0;
+        for (int ch = 0; ch < 3; ++ch) {
+            if (!(energy[ch] > 0)) continue;  // all members 0 in this channel: no error
+            const glm::dvec3 v = (moment[ch] - energy[ch] * centre) / energy[ch];
+            const double radial = glm::dot(v, axis);
+            vr = std::max(vr, std::abs(radial));
+            vt = std::max(vt, glm::length(v - radial * axis));
+            const double aa = saa[ch] / energy[ch];
+            const double half_sum = 0.5 * (suu[ch] + sww[ch]) / energy[ch];
+            const double half_diff = 0.5 * (suu[ch] - sww[ch]) / energy[ch];
+            const double bb = half_sum + std::hypot(half_diff, suw[ch] / energy[ch]);
+            caa = std::max(caa, aa);
+            cab = std::max(cab, std::min(sab[ch] / energy[ch], std::sqrt(aa * bb)));  // Cauchy-Schwarz
+            cbb = std::max(cbb, bb);
+        }
+        const double mun = std::pow(mu, n);
+        out = BrightTexel{};
+        out.x = axis.x;
+        out.y = axis.y;
+        out.z = axis.z;
+        out.theta = std::acos(std::clamp(axis.y, -1.0, 1.0));
+        out.phi = std::atan2(axis.x, -axis.z);
+        out.r = energy[0] * mun;
+        out.g = energy[1] * mun;
+        out.b = energy[2] * mun;
+        const int shift = int(std::ceil(radius / h));
+        for (int j = 0; j + 1 < steps; ++j) {
+            // Over alpha in [j h, (j + 1) h]: the largest cosine any member or the centre can
+            // have, the largest sine, and the smallest merged term.
+            const int i = std::max(0, j - shift);
+            if (double(i) * h >= kPi / 2) return true;  // every member behind: both sides 0
+            const double s = sn[std::size_t(j) + 1];
+            const double first = p1[std::size_t(i)] * (vr + s * vt);
+            const double second = 0.5 * (n - 1) * p2[std::size_t(i)] * (caa + 2 * s * cab + s * s * cbb);
+            if (n * (first + second) > relative * mun * pn[std::size_t(j) + 1] + eta) return false;
+            // From here on the bound only falls: done once its largest value is within eta.
+            if (n * (p1[std::size_t(i)] * (vr + vt) + 0.5 * (n - 1) * p2[std::size_t(i)] * (caa + 2 * cab + cbb)) <= eta)
+                return true;
+        }
+        return false;  // not reached: the tables run past every member's horizon
+    };
+    // Cells from the coarsest level down: a cell that passes is one term, one that does not is
+    // split into its cells of the next level; a lone texel (or one at the finest level) as is.
+    struct Span {
+        std::size_t a, b;
+        int level;
+    };
+    std::vector<Span> todo{{0, order.size(), -1}};
+    while (!todo.empty()) {
+        const Span s = todo.back();
+        todo.pop_back();
+        for (std::size_t a = s.a; a < s.b;) {
+            const int level = s.level + 1;
+            const std::uint64_t cell = order[a].first >> cell_shift(level);
+            std::size_t b = a + 1;
+            while (b < s.b && (order[b].first >> cell_shift(level)) == cell) ++b;
+            BrightTexel t, per_channel[3];
+            if (b - a == 1) {
+                merged.push_back(bright[order[a].second]);
+            } else if (try_merge(a, b, -1, t)) {
+                merged.push_back(t);
+            } else if (b - a > 3 && try_merge(a, b, 0, per_channel[0]) && try_merge(a, b, 1, per_channel[1]) &&
+                       try_merge(a, b, 2, per_channel[2])) {
+                for (const BrightTexel& c : per_channel)
+                    if (std::max({c.r, c.g, c.b}) > 0) merged.push_back(c);
+            } else if (level + 1 < kCellLevels) {
+                todo.push_back({a, b, level});
+            } else {
+                for (std::size_t m = a; m < b; ++m) merged.push_back(bright[order[m].second]);
+            }
+            a = b;
+        }
+    }
+    return merged;
+}
+
+BrightScatter::BrightScatter(const std::vector<BrightTexel>& input, double n, Size out, double floor_value,
                              double tolerance, double cmax_floor)
-    : bright_(bright), n_(n), out_(out) {
+    // Merged cells may err by half the tolerance of their own terms plus half the tolerance of
+    // floor_value (in weight units: lobe_den, and cmax_floor^n for weights taken relative to cmax).
+    : bright_(merge_bright_cells(input, n, 0.5 * tolerance,
+                                 0.5 * tolerance * std::max(0.0, floor_value) * kTwoPi / (n + 1.0) *
+                                     std::pow(cmax_floor, n))),
+      n_(n),
+      out_(out) {
+    const std::vector<BrightTexel>& bright = bright_;
     // A bright term may be dropped where it is below its texel's share of the budget times the
     // smallest output (and so of every output), the shares being the texels' peaks over the
     // peaks' sum: the dropped terms together then stay below budget x floor_value at every output

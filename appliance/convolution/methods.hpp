@@ -43,6 +43,25 @@ struct BrightSplit {
 // The remainder is `input` itself (moved in, or copied by the caller) with those texels zeroed.
 BrightSplit split_bright(HdrImage input, double contrast, int max_count, int threads = 1);
 
+// Bright texels of a lobe of shininess n >= 2, with cells of the sphere (a quadtree of equirect
+// cells, coarsest first) replaced by one term where that is within the error allowed: the
+// cell's energy per channel times mu^n, in the direction of its energy-weighted mean direction
+// m (mu = |m|), which is the cell's exact sum wherever every member's cosine is positive, to
+// second order. Where r.m = mu cos(alpha), the members' terms minus the cell's are
+//   g'(r.m) r.v + 1/2 sum_k L_k g''(xi_k) (r.(d_k - m))^2,  g(c) = max(c, 0)^n,
+// (v: each channel's first moment minus its energy times m, zero for a cell of one colour), and
+// |r.(d_k - m)| <= |cos beta_k - mu| + sin(alpha) |e.t_k| (beta_k: member k's angle from m, t_k
+// its part across m, e the unit tangent towards r), whose energy-weighted squares are bounded by
+// the largest eigenvalue of the t_k's second moments. A cell is merged when that bound,
+// evaluated over alpha in steps with the largest cosine and sine of each step, stays within
+// `relative` times the merged term plus `absolute` times the cell's share (its largest
+// channel's energy over the sum of all texels' largest channels), in units of L dOmega times
+// weight, at every alpha. The members' terms then differ from the merged ones by at most
+// relative x (the merged terms) + absolute at any direction. Fewer than 256 texels, n < 2, or
+// members with a negative channel: returned as they are.
+std::vector<BrightTexel> merge_bright_cells(const std::vector<BrightTexel>& bright, double shininess,
+                                            double relative, double absolute);
+
 // The bright texels' terms (r.w_b / cmax)^n L_b dOmega_b for the output texels
 // of an out-sized grid where they are not negligible: the terms dropped at a texel together
 // stay below `tolerance` times floor_value (the smallest output), each texel's below its peak's
@@ -50,7 +69,9 @@ BrightSplit split_bright(HdrImage input, double contrast, int max_count, int thr
 // budget is that many thousandths of `tolerance` (each texel's cut as if it had 1/1000 alone).
 // `cmax_floor` is a lower bound of cmax over the grid (the weights are taken relative to it): 1
 // where the sums are normalised to the largest weight 1 (add_bright_lobes), so the cut is no
-// wider than the tolerance needs.
+// wider than the tolerance needs. Cells of many bright texels are merged first
+// (merge_bright_cells) within half the tolerance of their own terms plus half the tolerance of
+// floor_value: wide lobes over thousands of bright texels (a lamp at 8K) need far fewer terms.
 class BrightScatter {
 public:
     BrightScatter(const std::vector<BrightTexel>& bright, double shininess, Size out, double floor_value,
@@ -72,7 +93,7 @@ public:
     bool may_reach_row(int row) const;
 
 private:
-    const std::vector<BrightTexel>& bright_;
+    std::vector<BrightTexel> bright_;  // the input's, with cells merged (merge_bright_cells)
     double n_;
     Size out_;
     std::vector<double> min_cos_, cos_phi_, sin_phi_;
