@@ -261,12 +261,14 @@ TEST(OutputGrid, TheBrightTermsDroppedAtATexelStayWithinTheToleranceTogether) {
 // their members by at most `relative` times the merged terms plus `absolute`, at any direction:
 // checked against the plain sums at random directions and along the lamps, for a 64x64 lamp of
 // texels at 8192x4096's spacing whose colour changes from texel to texel, a strip over the
-// seam and a cap round the north pole, from a lobe of n = 2 to n = 2000.
+// seam and a cap round the north pole, from a lobe of n = 2 to n = 2000. The colours change
+// by up to 50x between texels: with the bound's first-order (colour) term left out, n = 20 errs
+// 1.25x its allowance here; with it, at most 0.39x.
 TEST(OutputGrid, MergedBrightCellsStayWithinTheirBound) {
     const int in_w = 8192, in_h = 4096;
     std::vector<BrightTexel> bright;
     std::mt19937 rng(7);
-    std::uniform_real_distribution<double> tint(0.5, 1.0), level(0.2, 1.0);
+    std::uniform_real_distribution<double> tint(0.02, 1.0), level(0.2, 1.0);
     const auto add = [&](int i, int j, double value) {
         bright.push_back(bright_texel(row_theta(j, in_h), column_phi(i, in_w),
                                       {float(tint(rng)), float(tint(rng)), float(tint(rng))},
