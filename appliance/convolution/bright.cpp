@@ -190,7 +190,7 @@ std::vector<BrightTexel> merge_bright_cells(const std::vector<BrightTexel>& brig
         double energy[3] = {0, 0, 0}, saa[3] = {0, 0, 0}, sab[3] = {0, 0, 0}, suu[3] = {0, 0, 0},
                sww[3] = {0, 0, 0}, suw[3] = {0, 0, 0};
         glm::dvec3 moment[3] = {glm::dvec3(0.0), glm::dvec3(0.0), glm::dvec3(0.0)};
-        double radius = 0;
+        double widest_sin = 0, narrowest_cos = 1;  // over the members, for the radius
         for (std::size_t m = a; m < b; ++m) {
             const BrightTexel& t = bright[order[m].second];
             const glm::dvec3 d(t.x, t.y, t.z);
@@ -198,7 +198,8 @@ std::vector<BrightTexel> merge_bright_cells(const std::vector<BrightTexel>& brig
             const glm::dvec3 tangent = d - cb * axis;
             const double sb = glm::length(tangent);
             const double u = glm::dot(tangent, e1), w = glm::dot(tangent, e2);
-            radius = std::max(radius, std::atan2(sb, cb));
+            widest_sin = std::max(widest_sin, sb);
+            narrowest_cos = std::min(narrowest_cos, cb);
             const double da = std::abs(cb - mu);
             const double l[3] = {t.r, t.g, t.b};
             for (int ch = 0; ch < 3; ++ch) {
@@ -212,6 +213,8 @@ std::vector<BrightTexel> merge_bright_cells(const std::vector<BrightTexel>& brig
                 suw[ch] += l[ch] * u * w;
             }
         }
+        // At least every member's angle from the axis (one atan2 for the cell, not per member).
+        const double radius = narrowest_cos > 0 ? std::atan2(widest_sin, narrowest_cos) : kPi;
         if (!(radius <= kWidestMergedCell)) return false;
         // The worst channel's coefficients, per unit of its energy.
         double vr = 0, vt = 0, caa = 0, cab = 0, cbb = 0;
@@ -255,13 +258,18 @@ std::vector<BrightTexel> merge_bright_cells(const std::vector<BrightTexel>& brig
         }
         return false;  // not reached: the tables run past every member's horizon
     };
-    // Cells from the coarsest level down: a cell that passes is one term, one that does not is
+    // Cells from the coarsest level tried down: a cell that passes is one term, one that does not is
     // split into its cells of the next level; a lone texel (or one at the finest level) as is.
     struct Span {
         std::size_t a, b;
         int level;
     };
-    std::vector<Span> todo{{0, order.size(), -1}};
+    // Cells wider than 4 lobe widths are not tried: a cell whose members spread across it is far
+    // outside the bound, and a tight group inside one is found in the finer cells anyway.
+    int first_level = 0;
+    while (first_level + 1 < kCellLevels && kPi / double(kCoarsestCellRows << first_level) > 4.0 / std::sqrt(n))
+        ++first_level;
+    std::vector<Span> todo{{0, order.size(), first_level - 1}};
     while (!todo.empty()) {
         const Span s = todo.back();
         todo.pop_back();
