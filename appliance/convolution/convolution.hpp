@@ -61,7 +61,7 @@ struct Options {
 struct ConeSettings {
     double cutoff_energy = 1e-2;  // lobe energy dropped outside the first cone
     double texel_tolerance = 1e-2;  // bound on the cut-off error of each output texel
-    double bright_tolerance = 1e-2; // the bright texels' dropped terms together, over the smallest output
+    double bright_tolerance = 1e-2; // the bright texels' dropped terms together, over the smallest output (BrightScatter)
     // Rows near the poles may read merged columns whose azimuthal arc stays
     // within this many radians (0: never; see PolarColumns in lobe_sum.hpp).
     double max_texel_arc = 0;

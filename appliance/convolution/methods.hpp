@@ -54,9 +54,9 @@ BrightSplit split_bright(HdrImage input, double contrast, int max_count, int thr
 // its part across m, e the unit tangent towards r), whose energy-weighted squares are bounded by
 // the largest eigenvalue of the t_k's second moments. A cell is merged when that bound,
 // evaluated over alpha in steps with the largest cosine and sine of each step, stays within
-// `relative` times the merged term plus `absolute` times the cell's share (its largest
-// channel's energy over the sum of all texels' largest channels), in units of L dOmega times
-// weight, at every alpha. The members' terms then differ from the merged ones by at most
+// `relative` times the merged term plus `absolute` times the cell's share (each channel's
+// energy over the sum of all texels' largest channels), in units of L dOmega times weight, at
+// every alpha (for the weights max(0, r.w)^n: a clamp min(1, r.w / cmax) is not covered). The members' terms then differ from the merged ones by at most
 // relative x (the merged terms) + absolute at any direction. Fewer than 256 texels, n < 2, or
 // members with a negative channel: returned as they are.
 std::vector<BrightTexel> merge_bright_cells(const std::vector<BrightTexel>& bright, double shininess,
@@ -69,9 +69,11 @@ std::vector<BrightTexel> merge_bright_cells(const std::vector<BrightTexel>& brig
 // budget is that many thousandths of `tolerance` (each texel's cut as if it had 1/1000 alone).
 // `cmax_floor` is a lower bound of cmax over the grid (the weights are taken relative to it): 1
 // where the sums are normalised to the largest weight 1 (add_bright_lobes), so the cut is no
-// wider than the tolerance needs. Cells of many bright texels are merged first
-// (merge_bright_cells) within half the tolerance of their own terms plus half the tolerance of
-// floor_value: wide lobes over thousands of bright texels (a lamp at 8K) need far fewer terms.
+// wider than the tolerance needs. With cmax_floor 1 (the lobe's own weights), cells of many
+// bright texels are merged first (merge_bright_cells) within half the tolerance of their own
+// terms plus half the tolerance of floor_value: wide lobes over thousands of bright texels (a
+// lamp at 8K) need far fewer terms. Below 1 (the cone's weights, clamped at cmax) nothing is
+// merged: the bound does not cover the clamp.
 class BrightScatter {
 public:
     BrightScatter(const std::vector<BrightTexel>& bright, double shininess, Size out, double floor_value,

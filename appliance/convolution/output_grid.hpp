@@ -63,9 +63,9 @@ TexelSelection fine_texels_near(const std::vector<char>& marked, Size coarse, Si
 // from the map (Subtract) or added to it with negative sums clamped to 0 (AddClamped), one
 // row at a time. The terms dropped at a texel stay below 1e-3 floor_value together (1e-6 a
 // bright texel up to 1000 of them; floor_value is the map's solid-angle mean where the engine
-// resamples). A map summed with its bright texels split out (cone, sh with the bright split) is
-// resampled without them and gets them back here.
-// Holds a reference to `bright`, which must outlive it.
+// resamples), and cells of 256 or more bright texels may be merged within 5e-4 of the bright
+// terms plus 5e-4 floor_value (BrightScatter). A map summed with its bright texels split out
+// (cone, sh with the bright split) is resampled without them and gets them back here.
 enum class LobeOp { Subtract, AddClamped };
 class BrightLobes {
 public:

@@ -50,7 +50,9 @@ struct PlannerModel {
     // The bright texels' terms dropped at an output texel, together, at most this share of tau
     // times the smallest output (BrightScatter; a thousandth of it per texel below 1000 texels).
     // Until 2026-12-05 each term could drop 1e-3 tau, which added up to about tau for studio's
-    // 1024 lamp texels, and to 16-64 tau once the cap grew with the input.
+    // 1024 lamp texels, and to 16-64 tau once the cap grew with the input. Where the scatter's
+    // weights are the lobe's own (SH, resampling), cells of bright texels merged into one term
+    // may add half this share of the bright terms and of the smallest output (merge_bright_cells).
     double bright_drop_share = 0.25;
     // SH with the bright split: the order is the smallest whose truncation tail
     // (sh_methods.cpp) is below sh_tail_share * tau, so the per-texel check passes

@@ -300,8 +300,10 @@ ShSplitResult sh_split_convolve(const ShCoefficients& remainder, const std::vect
     }
     double floor_value = INFINITY;
     for (double f : row_floor) floor_value = std::min(floor_value, f);
-    // SH sums are normalised to the continuous lobe, i.e. cmax = 1.
-    const BrightScatter scatter(bright, n, out, std::isfinite(floor_value) ? floor_value : 0.0, bright_tolerance);
+    // SH sums are normalised to the continuous lobe, i.e. cmax = 1 (the weights are the lobe's
+    // own: the cut needs no allowance for cmax, and cells of bright texels may be merged).
+    const BrightScatter scatter(bright, n, out, std::isfinite(floor_value) ? floor_value : 0.0, bright_tolerance,
+                                1.0);
     const double one = 1.0;
 
     const double lobe_den = kTwoPi / (n + 1.0);
