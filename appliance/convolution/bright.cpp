@@ -264,6 +264,8 @@ std::vector<BrightTexel> merge_bright_cells(const std::vector<BrightTexel>& brig
     };
     // Cells from the coarsest level tried down: a cell that passes is one term, one that does not is
     // split into its cells of the next level; a lone texel (or one at the finest level) as is.
+    // A failed cell still to be split: its members order[a, b), and its level (its cells are
+    // of level + 1).
     struct Span {
         std::size_t a, b;
         int level;
@@ -273,10 +275,10 @@ std::vector<BrightTexel> merge_bright_cells(const std::vector<BrightTexel>& brig
     int first_level = 0;
     while (first_level + 1 < kCellLevels && kPi / double(kCoarsestCellRows << first_level) > 4.0 / std::sqrt(n))
         ++first_level;
-    std::vector<Span> todo{{0, order.size(), first_level - 1}};
-    while (!todo.empty()) {
-        const Span s = todo.back();
-        todo.pop_back();
+    std::vector<Span> unsplit{{0, order.size(), first_level - 1}};
+    while (!unsplit.empty()) {
+        const Span s = unsplit.back();
+        unsplit.pop_back();
         for (std::size_t a = s.a; a < s.b;) {
             const int level = s.level + 1;
             const std::uint64_t cell = order[a].first >> cell_shift(level);
@@ -292,7 +294,7 @@ std::vector<BrightTexel> merge_bright_cells(const std::vector<BrightTexel>& brig
                 for (const BrightTexel& c : per_channel)
                     if (std::max({c.r, c.g, c.b}) > 0) merged.push_back(c);
             } else if (level + 1 < kCellLevels) {
-                todo.push_back({a, b, level});
+                unsplit.push_back({a, b, level});
             } else {
                 for (std::size_t m = a; m < b; ++m) merged.push_back(bright[order[m].second]);
             }
