@@ -129,8 +129,11 @@ private:
         double cos_theta = 1, sin_theta = 0, phi = 0, radius = 0;
         double u[3] = {0, 0, 0}, v[3] = {0, 0, 0}, w[3] = {0, 0, 0};
         int first_row = 0, last_row = -1;
-        // Per member: its direction's parts, L dOmega (3 each) and its cut (cosine >= cut[m]).
-        std::vector<double> mu, mv, mw, ml, cut;
+        // Per member: its direction's parts, L dOmega per channel (ml[channel][m]) and its cut
+        // (cosine >= cut[m]); padded to whole vectors of kMemberLanes by members of no weight
+        // (direction 0, radiance 0, cut 2), so add_linear_row sums them in vector lanes.
+        static constexpr std::size_t kMemberLanes = 8;
+        std::vector<double> mu, mv, mw, ml[3], cut;
         double reach_cos = 2;  // the cosine of the cone around the centre holding every member's cut
     };
     std::vector<Cluster> clusters_;
