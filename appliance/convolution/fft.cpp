@@ -131,6 +131,26 @@ inline Lanes load_lanes(const double* p) {
 }
 inline void store_lanes(double* p, Lanes v) { std::memcpy(p, &v, sizeof v); }
 
+static_assert(FftPlan::kBatch == 8, "transpose8 moves 8 x 8 blocks");
+
+// Rows v[0..7] of an 8 x 8 block become its columns: v[t][b] <- v[b][t]. Three stages of
+// shuffles that swap ever larger sub-blocks, instead of 64 scalar loads and stores.
+inline void transpose8(Lanes v[8]) {
+    Lanes s[8], u[8];
+    for (int i = 0; i < 8; i += 2) {
+        s[i] = __builtin_shufflevector(v[i], v[i + 1], 0, 8, 2, 10, 4, 12, 6, 14);
+        s[i + 1] = __builtin_shufflevector(v[i], v[i + 1], 1, 9, 3, 11, 5, 13, 7, 15);
+    }
+    for (int i : {0, 1, 4, 5}) {
+        u[i] = __builtin_shufflevector(s[i], s[i + 2], 0, 1, 8, 9, 4, 5, 12, 13);
+        u[i + 2] = __builtin_shufflevector(s[i], s[i + 2], 2, 3, 10, 11, 6, 7, 14, 15);
+    }
+    for (int i = 0; i < 4; ++i) {
+        v[i] = __builtin_shufflevector(u[i], u[i + 4], 0, 1, 2, 3, 8, 9, 10, 11);
+        v[i + 4] = __builtin_shufflevector(u[i], u[i + 4], 4, 5, 6, 7, 12, 13, 14, 15);
+    }
+}
+
 }  // namespace
 
 void FftPlan::forward_batch_reversed(double* re, double* im) const {
@@ -210,8 +230,33 @@ void RealFftPlan::forward_batch(const float* const* x, double* const* re, double
     thread_local std::vector<double> zr, zi;
     zr.resize(h * B);
     zi.resize(h * B);
-    // Stored straight into bit-reversed order (the transform's first step).
-    for (std::size_t j = 0; j < h; ++j) {
+    // Stored straight into bit-reversed order (the transform's first step). Eight values of each
+    // signal at a time: even and odd samples split, then the 8 x 8 block turned so that each
+    // vector holds one sample of every signal (signals past count are zeros).
+    using Floats = float __attribute__((vector_size(2 * B * sizeof(float))));
+    std::size_t j0 = 0;
+    for (; j0 + B <= h; j0 += B) {
+        Lanes even[B], odd[B];
+        for (std::size_t b = 0; b < B; ++b) {
+            if (b >= count) {
+                even[b] = Lanes{};
+                odd[b] = Lanes{};
+                continue;
+            }
+            Floats f;
+            std::memcpy(&f, x[b] + 2 * j0, sizeof f);
+            even[b] = __builtin_convertvector(__builtin_shufflevector(f, f, 0, 2, 4, 6, 8, 10, 12, 14), Lanes);
+            odd[b] = __builtin_convertvector(__builtin_shufflevector(f, f, 1, 3, 5, 7, 9, 11, 13, 15), Lanes);
+        }
+        transpose8(even);
+        transpose8(odd);
+        for (std::size_t t = 0; t < B; ++t) {
+            const std::size_t r = half_.reversed(j0 + t) * B;
+            store_lanes(zr.data() + r, even[t]);
+            store_lanes(zi.data() + r, odd[t]);
+        }
+    }
+    for (std::size_t j = j0; j < h; ++j) {  // lengths below 2 B
         const std::size_t r = half_.reversed(j) * B;
         for (std::size_t b = 0; b < B; ++b) {
             zr[r + b] = b < count ? double(x[b][2 * j]) : 0.0;
@@ -219,15 +264,14 @@ void RealFftPlan::forward_batch(const float* const* x, double* const* re, double
         }
     }
     half_.forward_batch_reversed(zr.data(), zi.data());
-    // forward()'s unpacking, lane by lane; each pair (k, h-k) read before it is written.
-    const auto put = [&](std::size_t k, Lanes xr, Lanes xi) {
-        double lr[B], li[B];
-        store_lanes(lr, xr);
-        store_lanes(li, xi);
-        for (std::size_t b = 0; b < count; ++b) {
-            re[b][k] = lr[b];
-            im[b][k] = li[b];
-        }
+    // forward()'s unpacking, lane by lane, into lane-interleaved spectra (each pair (k, h-k) read
+    // before it is written); then turned 8 x 8 into each signal's own arrays.
+    thread_local std::vector<double> xr, xi;
+    xr.resize((h + 1) * B);
+    xi.resize((h + 1) * B);
+    const auto put = [&](std::size_t k, Lanes vr, Lanes vi) {
+        store_lanes(xr.data() + k * B, vr);
+        store_lanes(xi.data() + k * B, vi);
     };
     {
         const Lanes z0r = load_lanes(zr.data()), z0i = load_lanes(zi.data());
@@ -246,6 +290,25 @@ void RealFftPlan::forward_batch(const float* const* x, double* const* re, double
         put(k, er + tr, ei + ti);
         put(q, er - tr, ti - ei);
     }
+    std::size_t k0 = 0;
+    for (; k0 + B <= h + 1; k0 += B) {
+        Lanes vr[B], vi[B];
+        for (std::size_t t = 0; t < B; ++t) {
+            vr[t] = load_lanes(xr.data() + (k0 + t) * B);
+            vi[t] = load_lanes(xi.data() + (k0 + t) * B);
+        }
+        transpose8(vr);
+        transpose8(vi);
+        for (std::size_t b = 0; b < count; ++b) {
+            store_lanes(re[b] + k0, vr[b]);
+            store_lanes(im[b] + k0, vi[b]);
+        }
+    }
+    for (std::size_t k = k0; k <= h; ++k)
+        for (std::size_t b = 0; b < count; ++b) {
+            re[b][k] = xr[k * B + b];
+            im[b][k] = xi[k * B + b];
+        }
 }
 
 void RealFftPlan::inverse(std::complex<double>* spectrum, double* x) const {
