@@ -54,6 +54,21 @@ inline void store(double* p, DoubleBlock v) { std::memcpy(p, &v, sizeof v); }
 
 bool power_of_two(int n) { return n > 0 && is_fft_length(std::size_t(n)); }
 
+// max |x[i]|, kLanes at a time (a plain std::max loop stays scalar without -ffast-math).
+double largest_magnitude(const double* x, std::size_t count) {
+    DoubleBlock block = {};
+    std::size_t i = 0;
+    for (; i + kLanes <= count; i += kLanes) {
+        const DoubleBlock v = load(x + i);
+        const DoubleBlock a = v < 0.0 ? -v : v;
+        block = a > block ? a : block;
+    }
+    double largest = 0;
+    for (std::size_t lane = 0; lane < kLanes; ++lane) largest = std::max(largest, block[lane]);
+    for (; i < count; ++i) largest = std::max(largest, std::abs(x[i]));
+    return largest;
+}
+
 }  // namespace
 
 // Per level (or merged version): the transform, tables, and each row's three spectra as
@@ -343,9 +358,11 @@ void FourierFirstPass::Impl::sum_row(int row, double c0, LobeSums& sums) const {
             const Complex phase = v.turns[index] * scale;
             index += centre_step;
             if (index >= period) index -= period;
-            // m and W - m fold to m mod out_w and (W - m) mod out_w = out_w - m mod out_w.
-            const std::size_t low = m % std::size_t(out_w);
-            const std::size_t high = (std::size_t(v.width) - m) % std::size_t(out_w);
+            // m and W - m fold to m mod out_w and (W - m) mod out_w = out_w - m mod out_w (a
+            // power of two: a mask, not a division per bin).
+            const std::size_t fold = std::size_t(out_w) - 1;
+            const std::size_t low = m & fold;
+            const std::size_t high = (std::size_t(v.width) - m) & fold;
             for (int c = 0; c < 3; ++c) {
                 const Complex y = Complex(a[2 * std::size_t(c) * bins + m], a[(2 * std::size_t(c) + 1) * bins + m]) * phase;
                 Complex* z = folded.data() + std::size_t(c) * std::size_t(out_bins);
@@ -363,13 +380,16 @@ void FourierFirstPass::Impl::sum_row(int row, double c0, LobeSums& sums) const {
     // Per channel: each has its own transforms.
     constexpr double kNoise = 1e-12;
     std::vector<double> values(static_cast<std::size_t>(out_w));
+    // Whole rows (run()'s contract): the row's texels are consecutive from its column 0.
+    if (sums.first_column(row) != 0 || sums.end_column(row) != out_w)
+        throw RuntimeError("internal: the Fourier first pass writes whole rows of sums");
+    double* out = sums.num.data() + sums.texel(row, 0) * 3;
     for (int c = 0; c < 3; ++c) {
         out_plan.inverse(folded.data() + std::size_t(c) * std::size_t(out_bins), values.data());
-        double largest = 0;
-        for (int q = 0; q < out_w; ++q) largest = std::max(largest, std::abs(values[std::size_t(q)]));
+        const double largest = largest_magnitude(values.data(), values.size());
         for (int q = 0; q < out_w; ++q) {
             const double x = values[std::size_t(q)];
-            sums.num[sums.texel(row, q) * 3 + std::size_t(c)] = std::abs(x) <= kNoise * largest ? 0.0 : x;
+            out[3 * std::size_t(q) + std::size_t(c)] = std::abs(x) <= kNoise * largest ? 0.0 : x;
         }
     }
     sums.den[std::size_t(row)] = den;
