@@ -198,6 +198,9 @@ void FourierFirstPass::Impl::sum_row(int row, double c0, LobeSums& sums) const {
     std::vector<Complex> kernel_spectrum;
     std::vector<double> w(std::size_t(summer.level().width()) + 2);  // up to a whole row of the level
 
+    // Whole stored rows (run()'s contract): the row's texels are consecutive from its column 0.
+    if (!sums.stored(row) || sums.first_column(row) != 0 || sums.end_column(row) != out_w)
+        throw RuntimeError("internal: the Fourier first pass writes whole stored rows of sums");
     const LobeSummer::RowWindow win = summer.window(row, 0, c0);
     double den = 0;
     for (int jk = win.first; jk <= win.last; ++jk) {
@@ -380,9 +383,6 @@ void FourierFirstPass::Impl::sum_row(int row, double c0, LobeSums& sums) const {
     // Per channel: each has its own transforms.
     constexpr double kNoise = 1e-12;
     std::vector<double> values(static_cast<std::size_t>(out_w));
-    // Whole rows (run()'s contract): the row's texels are consecutive from its column 0.
-    if (sums.first_column(row) != 0 || sums.end_column(row) != out_w)
-        throw RuntimeError("internal: the Fourier first pass writes whole rows of sums");
     double* out = sums.num.data() + sums.texel(row, 0) * 3;
     for (int c = 0; c < 3; ++c) {
         out_plan.inverse(folded.data() + std::size_t(c) * std::size_t(out_bins), values.data());

@@ -352,11 +352,17 @@ HdrImage resample_cubic(const HdrImage& map, Size out, int threads, long long* c
     // Per output column: its four input columns (wrapped) and weights.
     std::vector<Tap> columns;
     std::vector<std::array<int, 4>> column_index;
+    std::vector<char> reads_last_texel;  // per output column: a tap is the row's last texel
     for (int i = 0; i < out.width; ++i) {
         columns.push_back(cubic_tap(i, out.width, w));
         std::array<int, 4> idx;
-        for (int k = 0; k < 4; ++k) idx[std::size_t(k)] = 3 * wrap(columns.back().first + k, w);
+        bool last = false;
+        for (int k = 0; k < 4; ++k) {
+            idx[std::size_t(k)] = 3 * wrap(columns.back().first + k, w);
+            last = last || idx[std::size_t(k)] == 3 * (w - 1);
+        }
         column_index.push_back(idx);
+        reads_last_texel.push_back(last ? 1 : 0);
     }
     // Pass 1 (an input row to the output's columns) feeds pass 2 (down the columns, across the
     // poles) band by band: each band of output rows resamples across only the input rows it
@@ -370,7 +376,6 @@ HdrImage resample_cubic(const HdrImage& map, Size out, int threads, long long* c
     // image, takes the scalar sums. The same double arithmetic in each lane as in those.
     using Floats4 = float __attribute__((vector_size(4 * sizeof(float))));
     using Doubles4 = double __attribute__((vector_size(4 * sizeof(double))));
-    const int last_texel = 3 * (w - 1);
     const auto across_row = [&](int j, float* dst) {
         const float* src = map.row(j);
         const auto texel = [&](int at) {
@@ -381,7 +386,7 @@ HdrImage resample_cubic(const HdrImage& map, Size out, int threads, long long* c
         for (int i = 0; i < out.width; ++i) {
             const std::array<double, 4>& wt = columns[std::size_t(i)].weight;
             const std::array<int, 4>& idx = column_index[std::size_t(i)];
-            if (idx[0] != last_texel && idx[1] != last_texel && idx[2] != last_texel && idx[3] != last_texel) {
+            if (!reads_last_texel[std::size_t(i)]) {
                 const Doubles4 v = wt[0] * texel(idx[0]) + wt[1] * texel(idx[1]) + wt[2] * texel(idx[2]) +
                                    wt[3] * texel(idx[3]);
                 const Floats4 narrowed = __builtin_convertvector(v, Floats4);
