@@ -1,6 +1,6 @@
 #version 300 es
 // The bright texels' terms of one map, for every output texel:
-// sum_b min(1, cos_b / cmax)^n L_b dOmega_b over the bright texels whose
+// sum_b (cos_b / cmax)^n L_b dOmega_b (up to e^80 each) over the bright texels whose
 // cosine reaches their own cut-off (the CPU sets it from the tolerance).
 precision highp float;
 precision highp int;
@@ -27,7 +27,8 @@ void main() {
         vec3 diff = r - dir.xyz;
         float x = 0.5 * dot(diff, diff);  // 1 - cos, without cancellation
         if (1.0 - x < dir.w || x >= 1.0) continue;
-        float w = exp(min(0.0, u_n * (log1m(x) - log_cmax)));
+        // Unclamped (a bright texel may lie nearer than cmax's texel), up to e^80 (float).
+        float w = exp(min(80.0, u_n * (log1m(x) - log_cmax)));
         sum += w * texelFetch(u_bright, ivec2(1, b), 0).rgb;
     }
     o_bright = vec4(sum, 0.0);

@@ -308,15 +308,15 @@ std::vector<BrightTexel> merge_bright_cells(const std::vector<BrightTexel>& brig
 BrightScatter::BrightScatter(const std::vector<BrightTexel>& input, double n, Size out, double floor_value,
                              double tolerance, double cmax_floor)
     // Merged cells may err by half the tolerance of their own terms plus half the tolerance of
-    // floor_value (in weight units: times lobe_den). Only where the weights are the lobe's own,
-    // max(0, r.w)^n (cmax = 1: SH and add_bright_lobes): the cone's weights are clamped,
-    // min(1, r.w / cmax)^n, and near that clamp a cell's members differ from its merged term to
-    // first order in the cell's spread, which merge_bright_cells' bound does not cover (a 16x16
-    // cell of 8K texels at n = 40-160 erred 1.4-1.5x its allowance there, found in review).
-    : bright_(cmax_floor >= 1.0 ? merge_bright_cells(input, n, 0.5 * tolerance,
-                                                     0.5 * tolerance * std::max(0.0, floor_value) * kTwoPi / (n + 1.0))
-                                : input),
+    // floor_value (in weight units: times lobe_den). The weights are the lobe's own over the
+    // sums' scale, (r.w / cmax)^n, unclamped: the bound holds for them as for max(0, r.w)^n, and
+    // the error's scale cmax^-n cancels against the normalisation's. (With the old clamp,
+    // min(1, r.w / cmax)^n, it did not: a 16x16 cell of 8K texels at n = 40-160 erred 1.4-1.5x
+    // its allowance near the clamp, and the cone merged nothing.)
+    : bright_(merge_bright_cells(input, n, 0.5 * tolerance,
+                                 0.5 * tolerance * std::max(0.0, floor_value) * kTwoPi / (n + 1.0))),
       n_(n),
+      ratio_cap_(n > 0 ? std::exp(80.0 / n) : 1.0),
       out_(out) {
     const std::vector<BrightTexel>& bright = bright_;
     // A bright term may be dropped where it is below its texel's share of the budget times the
@@ -583,7 +583,7 @@ void BrightScatter::add_row(int row, const double* cmax_row, int classes, double
 void BrightScatter::add_linear_row(int row, double ct, double st, const double* cmax_row, int classes,
                                    double* nb_row, const LobeSummer::ColumnRuns* columns, int first_column) const {
     const int ow = out_.width;
-    const double cm_lo = *std::min_element(cmax_row, cmax_row + classes);
+    const double cap = ratio_cap_;
     // A run of physical columns [lo, hi) cut to the asked ones (all, without `columns`).
     const auto for_asked = [&](int lo, int hi, const auto& f) {
         if (!columns) {
@@ -599,39 +599,26 @@ void BrightScatter::add_linear_row(int row, double ct, double st, const double* 
     thread_local std::vector<std::pair<int, int>> pieces;
     for (const Cluster& c : clusters_) {
         if (row < c.first_row || row > c.last_row) continue;
-        // The columns where every member is in front (angle to the centre <= pi/2 - radius) and
-        // below cmax (angle >= acos(cm_lo) + radius): there each weight is cosine / cmax, and the
-        // members' sum is the dot product of the texel's direction with their radiance-weighted
-        // directions. As column ranges around the centre's column cc: h_lo <= |i - cc| <= h_hi,
-        // one column of margin at each end (the boundaries come from acos).
+        // The columns where every member is in front (angle to the centre <= pi/2 - radius):
+        // there each weight is cosine / cmax (unclamped, and far below ratio_cap_ for n = 1), and
+        // the members' sum is the dot product of the texel's direction with their
+        // radiance-weighted directions. As column ranges around the centre's column cc:
+        // |i - cc| <= h_hi, one column of margin at each end (the boundaries come from acos).
         linear.clear();
         const double ac = st * c.sin_theta, bc = ct * c.cos_theta;
-        const double beta = std::acos(std::min(1.0, cm_lo)) + c.radius;
-        if (beta < kPi / 2 - c.radius) {
-            const double s_out = std::sin(c.radius), c_in = std::cos(beta);
-            double q_out, q_in;  // linear where q_out <= cos(dphi) <= q_in
-            if (ac > 1e-300) {
+        if (c.radius < kPi / 2) {
+            const double s_out = std::sin(c.radius);
+            double q_out;  // linear where q_out <= cos(dphi)
+            if (ac > 1e-300)
                 q_out = (s_out - bc) / ac;
-                q_in = (c_in - bc) / ac;
-            } else {
+            else
                 q_out = bc >= s_out ? -2.0 : 2.0;
-                q_in = bc <= c_in ? 2.0 : -2.0;
-            }
-            if (q_out <= 1.0 && q_in >= -1.0 && q_out <= q_in) {
+            if (q_out <= 1.0) {
                 const double cc = (c.phi + kPi) / kTwoPi * ow - 0.5;
                 const double h_hi = std::min(std::acos(std::max(-1.0, q_out)) / kTwoPi * ow, ow / 2.0 - 1.0);
-                const double h_lo = q_in >= 1.0 ? 0.0 : std::acos(q_in) / kTwoPi * ow;
-                std::pair<long long, long long> ranges[2];  // inclusive, unwrapped
-                int count = 0;
-                if (h_lo == 0.0) {
-                    ranges[count++] = {std::llround(std::ceil(cc - h_hi)) + 1, std::llround(std::floor(cc + h_hi)) - 1};
-                } else {
-                    ranges[count++] = {std::llround(std::ceil(cc - h_hi)) + 1, std::llround(std::floor(cc - h_lo)) - 1};
-                    ranges[count++] = {std::llround(std::ceil(cc + h_lo)) + 1, std::llround(std::floor(cc + h_hi)) - 1};
-                }
-                for (int r = 0; r < count; ++r) {
-                    const auto [lo, hi] = ranges[r];
-                    if (hi < lo) continue;
+                // Inclusive, unwrapped.
+                const long long lo = std::llround(std::ceil(cc - h_hi)) + 1, hi = std::llround(std::floor(cc + h_hi)) - 1;
+                if (hi >= lo) {
                     const int start = column_modulo(lo, ow);
                     const int end = start + int(hi - lo + 1);
                     linear.emplace_back(start, std::min(end, ow));
@@ -650,8 +637,8 @@ void BrightScatter::add_linear_row(int row, double ct, double st, const double* 
                     for (int ch = 0; ch < 3; ++ch) o[ch] += u * c.u[ch] + v * c.v[ch] + w * c.w[ch];
                 }
             });
-        // Elsewhere in the cluster's reach (the band around its horizon, and near its texels where
-        // cmax clamps), each member's own term, with its own cut, texel by texel.
+        // Elsewhere in the cluster's reach (the band around its horizon), each member's own term,
+        // with its own cut, texel by texel.
         const double cq = ac > 1e-300 ? (c.reach_cos - bc) / ac : (bc >= c.reach_cos ? -2.0 : 2.0);
         if (cq > 1.0) continue;
         int first = 0, count = ow;
@@ -687,7 +674,7 @@ void BrightScatter::add_linear_row(int row, double ct, double st, const double* 
                             const Lanes cosine = x * load(c.mu.data() + m) + y * load(c.mv.data() + m) +
                                                  ct * load(c.mw.data() + m);
                             const Lanes q = cosine / cm;
-                            const Lanes w = cosine >= load(c.cut.data() + m) ? (q < 1.0 ? q : 1.0) : Lanes{};
+                            const Lanes w = cosine >= load(c.cut.data() + m) ? (q < cap ? q : cap) : Lanes{};
                             for (int ch = 0; ch < 3; ++ch) sum[ch] += w * load(c.ml[ch].data() + m);
                         }
                         double* o = nb_row + 3 * std::size_t(i - first_column);
@@ -703,21 +690,22 @@ void BrightScatter::stage_weights(std::size_t k, int i0, int end, double a, doub
                                   int classes, double* w) const {
     const double cpb = cos_phi_b_[k], spb = sin_phi_b_[k];
     const int len = end - i0;
-    // Weights relative to each texel's cmax, as in the lobe sums. One class (add_bright_lobes, and
-    // grids whose columns are all alike) has one cmax for the row: no per-column index, so the
-    // loop vectorises.
+    // Weights relative to each texel's cmax, as in the lobe sums, unclamped (up to ratio_cap_,
+    // whose power is e^80). One class (add_bright_lobes, and grids whose columns are all alike)
+    // has one cmax for the row: no per-column index, so the loop vectorises.
     const double* cp = cos_phi_.data() + i0;
     const double* sp = sin_phi_.data() + i0;
+    const double cap = ratio_cap_;
     if (classes == 1) {
         const double cm = cmax_row[0];
         for (int t = 0; t < len; ++t) {
             const double cosine = a * (cp[t] * cpb + sp[t] * spb) + bq;
-            w[t] = cosine > 0 ? std::min(1.0, cosine / cm) : 0.0;
+            w[t] = cosine > 0 ? std::min(cap, cosine / cm) : 0.0;
         }
     } else {
         for (int t = 0; t < len; ++t) {
             const double cosine = a * (cp[t] * cpb + sp[t] * spb) + bq;
-            w[t] = cosine > 0 ? std::min(1.0, cosine / cmax_row[(i0 + t) % classes]) : 0.0;
+            w[t] = cosine > 0 ? std::min(cap, cosine / cmax_row[(i0 + t) % classes]) : 0.0;
         }
     }
 }

@@ -56,7 +56,8 @@ BrightSplit split_bright(HdrImage input, double contrast, int max_count, int thr
 // evaluated over alpha in steps with the largest cosine and sine of each step, stays within
 // `relative` times the merged term plus `absolute` times the cell's share (each channel's
 // energy over the sum of all texels' largest channels), in units of L dOmega times weight, at
-// every alpha (for the weights max(0, r.w)^n: a clamp min(1, r.w / cmax) is not covered). The members' terms then differ from the merged ones by at most
+// every alpha (for the weights max(0, r.w)^n, or those over any positive scale such as
+// cmax^n; a clamp min(1, r.w / cmax) would not be covered). The members' terms then differ from the merged ones by at most
 // relative x (the merged terms) + absolute at any direction. Fewer than 256 texels, n < 2, or
 // members with a negative channel: returned as they are.
 std::vector<BrightTexel> merge_bright_cells(const std::vector<BrightTexel>& bright, double shininess,
@@ -69,11 +70,15 @@ std::vector<BrightTexel> merge_bright_cells(const std::vector<BrightTexel>& brig
 // budget is that many thousandths of `tolerance` (each texel's cut as if it had 1/1000 alone).
 // `cmax_floor` is a lower bound of cmax over the grid (the weights are taken relative to it): 1
 // where the sums are normalised to the largest weight 1 (add_bright_lobes), so the cut is no
-// wider than the tolerance needs. With cmax_floor 1 (the lobe's own weights), cells of many
-// bright texels are merged first (merge_bright_cells) within half the tolerance of their own
-// terms plus half the tolerance of floor_value: wide lobes over thousands of bright texels (a
-// lamp at 8K) need far fewer terms. Below 1 (the cone's weights, clamped at cmax) nothing is
-// merged: the bound does not cover the clamp.
+// wider than the tolerance needs. The weight is not clamped at 1: a bright texel nearer the
+// output direction than any texel of a coarse level has r.w_b > cmax, and its term is then the
+// lobe's own value over the sums' common scale cmax^n, as the remainder's are (a clamp at 1
+// biased such terms low by about n (1 - cmax); only a ratio whose power would pass e^80 is
+// clamped, so that no weight overflows, in float on the GPU either). Cells of many bright
+// texels are merged first (merge_bright_cells) within half the tolerance of their own terms
+// plus half the tolerance of floor_value: the bound holds for the lobe's weights over any
+// positive scale, and the sums divide that scale out with the rest. Wide lobes over thousands
+// of bright texels (a lamp at 8K) need far fewer terms.
 class BrightScatter {
 public:
     BrightScatter(const std::vector<BrightTexel>& bright, double shininess, Size out, double floor_value,
@@ -97,6 +102,7 @@ public:
 private:
     std::vector<BrightTexel> bright_;  // the input's, with cells merged (merge_bright_cells)
     double n_;
+    double ratio_cap_;  // the largest r.w / cmax raised to n: e^(80 / n) (1 for n = 0)
     Size out_;
     std::vector<double> min_cos_, cos_phi_, sin_phi_;
     // Per bright texel: sin(theta_b), and the output rows its cut-off cone can reach (with a

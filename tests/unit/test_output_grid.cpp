@@ -216,6 +216,24 @@ BrightTexel bright_texel(double theta, double phi, Rgb colour, double value) {
     return t;
 }
 
+// A bright texel nearer an output texel's direction than cmax (a texel of a coarse level's
+// window) gets its lobe's own weight over the sums' scale, (r.w / cmax)^n, above 1: not clamped
+// at 1, which biased such terms low by about n (1 - cmax). Only a power past e^80 is capped.
+TEST(OutputGrid, BrightWeightsAboveCmaxAreNotClamped) {
+    const Size out{64, 32};
+    const int row = 10, column = 20;
+    const BrightTexel lamp = bright_texel(row_theta(row, out.height), column_phi(column, out.width), {1, 1, 1}, 1.0);
+    for (const double n : {1.0, 10.0, 1000.0, 1e5}) {
+        const BrightScatter scatter({lamp}, n, out, 1e-3, 1e-3, 0.99);
+        for (const double cmax : {1.0, 0.999, 0.99}) {
+            std::vector<double> sums(std::size_t(3 * out.width), 0.0);
+            scatter.add_row(row, &cmax, 1, sums.data());
+            const double want = std::pow(1.0 / cmax, std::min(n, 80.0 / std::log(1.0 / cmax)));
+            EXPECT_NEAR(sums[std::size_t(3 * column)], want, 1e-10 * want) << "n " << n << ", cmax " << cmax;
+        }
+    }
+}
+
 // However many bright texels there are, the terms the scatter drops at an output texel stay below
 // its tolerance times the floor together: a compact lamp of 4096 equal texels (a lamp at
 // 2048x1024), seen from outside every texel's cut, drops 4096 terms at once. Against the plain
@@ -240,13 +258,13 @@ TEST(OutputGrid, TheBrightTermsDroppedAtATexelStayWithinTheToleranceTogether) {
         }
         return sum;
     };
-    // cmax_floor 0.999 (the cone's): every texel its own term; 1 (SH, resampling): cells of the
-    // lamp may be merged first, within half the tolerance of the merged terms and of the floor.
+    // cmax_floor 0.999 (the cone's) and 1 (SH, resampling): cells of the lamp may be merged
+    // first, within half the tolerance of the merged terms and of the floor.
     for (const double cmax_floor : {0.999, 1.0})
     for (const double n : {20.0, 200.0}) {
         const BrightScatter scatter(bright, n, out, floor_value, tolerance, cmax_floor);
-        if (cmax_floor < 1) {
-            EXPECT_EQ(scatter.texels().size(), bright.size()) << "n " << n;
+        if (n == 20.0) {
+            EXPECT_LT(scatter.texels().size(), bright.size()) << "cells merged";
         }
         const double lobe_den = kTwoPi / (n + 1.0);
         double worst = 0, largest = 0, worst_total = 0;
@@ -425,8 +443,8 @@ TEST(OutputGrid, GroupedBrightTexelsSumAsEachOnItsOwn) {
 
 // For n = 1 a cluster of bright texels wholly in front of a texel adds one dot product instead
 // of its members' terms (BrightScatter's clusters): against the plain sum of every term, with
-// clusters at the seam, around the pole and in the open, cmax below 1 (the clamp min(1, c/cmax)
-// near the texels), one and four column classes and asked columns.
+// clusters at the seam, around the pole and in the open, cmax below 1 (weights c/cmax above 1
+// near the texels, unclamped), one and four column classes and asked columns.
 TEST(OutputGrid, BrightClustersForIrradianceMatchThePlainSum) {
     const int in_w = 512, in_h = 256;
     std::vector<BrightTexel> bright;
@@ -459,7 +477,7 @@ TEST(OutputGrid, BrightClustersForIrradianceMatchThePlainSum) {
                         double want[3] = {0, 0, 0};
                         for (const BrightTexel& b : bright) {
                             const double c = glm::dot(d, glm::dvec3(b.x, b.y, b.z));
-                            const double w = c > 0 ? std::min(1.0, c / cm) : 0.0;
+                            const double w = c > 0 ? c / cm : 0.0;  // unclamped, as the cone's
                             want[0] += w * b.r, want[1] += w * b.g, want[2] += w * b.b;
                         }
                         for (int ch = 0; ch < 3; ++ch) {
