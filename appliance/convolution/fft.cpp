@@ -311,6 +311,65 @@ void RealFftPlan::forward_batch(const float* const* x, double* const* re, double
         }
 }
 
+void RealFftPlan::inverse_batch(const std::complex<double>* const* spectra, double* const* x,
+                                std::size_t count) const {
+    constexpr std::size_t B = FftPlan::kBatch;
+    if (count > B) throw InputError("RealFftPlan::inverse_batch: at most " + std::to_string(B) + " spectra");
+    if (n_ == 1) {
+        for (std::size_t b = 0; b < count; ++b) x[b][0] = spectra[b][0].real();
+        return;
+    }
+    const std::size_t h = n_ / 2;
+    // Value k of every spectrum (lanes past count 0).
+    const auto lanes_at = [&](std::size_t k, Lanes& re, Lanes& im) {
+        double lr[B] = {}, li[B] = {};
+        for (std::size_t b = 0; b < count; ++b) {
+            lr[b] = spectra[b][k].real();
+            li[b] = spectra[b][k].imag();
+        }
+        re = load_lanes(lr);
+        im = load_lanes(li);
+    };
+    // inverse()'s packing into Z of length h, lane by lane; stored conjugated and in bit-reversed
+    // order, since the inverse transform is the conjugate of the forward one of the conjugate.
+    thread_local std::vector<double> zr, zi;
+    zr.resize(h * B);
+    zi.resize(h * B);
+    const auto put = [&](std::size_t k, Lanes vr, Lanes vi) {
+        const std::size_t r = half_.reversed(k) * B;
+        store_lanes(zr.data() + r, vr);
+        store_lanes(zi.data() + r, -vi);
+    };
+    {
+        Lanes a0r, a0i, ahr, ahi;
+        lanes_at(0, a0r, a0i);
+        lanes_at(h, ahr, ahi);
+        put(0, a0r + ahr, a0r - ahr);
+    }
+    for (std::size_t k = 1; 2 * k <= h; ++k) {
+        const std::size_t q = h - k;
+        Lanes ar, ai, br, bi;
+        lanes_at(k, ar, ai);
+        lanes_at(q, br, bi);
+        bi = -bi;
+        const Lanes sr = ar + br, si = ai + bi, dr = ar - br, di = ai - bi;
+        const double wr = w_re_[k], wi = w_im_[k];
+        const Lanes u = dr * wr + di * wi, v = di * wr - dr * wi;  // D conj(w^k) = u + i v
+        put(k, sr - v, si + u);
+        put(q, sr + v, u - si);  // for k = q (k = h/2) this one stands, as in inverse()
+    }
+    half_.forward_batch_reversed(zr.data(), zi.data());
+    for (std::size_t j = 0; j < h; ++j) {
+        double lr[B], li[B];
+        store_lanes(lr, load_lanes(zr.data() + j * B));
+        store_lanes(li, -load_lanes(zi.data() + j * B));
+        for (std::size_t b = 0; b < count; ++b) {
+            x[b][2 * j] = lr[b];
+            x[b][2 * j + 1] = li[b];
+        }
+    }
+}
+
 void RealFftPlan::inverse(std::complex<double>* spectrum, double* x) const {
     if (n_ == 1) {
         x[0] = spectrum[0].real();

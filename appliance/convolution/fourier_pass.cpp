@@ -382,13 +382,19 @@ void FourierFirstPass::Impl::sum_row(int row, double c0, LobeSums& sums) const {
     // is far above that, and the cone's bound then treats the texel as the direct sums would.
     // Per channel: each has its own transforms.
     constexpr double kNoise = 1e-12;
-    std::vector<double> values(static_cast<std::size_t>(out_w));
+    std::vector<double> values(3 * static_cast<std::size_t>(out_w));  // channel c at c out_w
+    const Complex* spectra[3];
+    double* channel[3];
+    for (int c = 0; c < 3; ++c) {
+        spectra[c] = folded.data() + std::size_t(c) * std::size_t(out_bins);
+        channel[c] = values.data() + std::size_t(c) * std::size_t(out_w);
+    }
+    out_plan.inverse_batch(spectra, channel, 3);  // the three channels in vector lanes
     double* out = sums.num.data() + sums.texel(row, 0) * 3;
     for (int c = 0; c < 3; ++c) {
-        out_plan.inverse(folded.data() + std::size_t(c) * std::size_t(out_bins), values.data());
-        const double largest = largest_magnitude(values.data(), values.size());
+        const double largest = largest_magnitude(channel[c], std::size_t(out_w));
         for (int q = 0; q < out_w; ++q) {
-            const double x = values[std::size_t(q)];
+            const double x = channel[c][q];
             out[3 * std::size_t(q) + std::size_t(c)] = std::abs(x) <= kNoise * largest ? 0.0 : x;
         }
     }

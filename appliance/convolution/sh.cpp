@@ -584,11 +584,12 @@ void evaluate_impl(const ShCoefficients& c, int order, const std::vector<double>
             // cosine, so each Y_m is folded onto k = m mod W and then, halved and conjugated, onto
             // min(k, W - k): the spectrum of length W/2 + 1 whose real inverse is the row. The folding
             // makes orders above W/2 exact too.
-            std::vector<double>& channel = buf.channel;
-            std::vector<std::complex<double>>& spectrum = buf.spectrum;
-            // std::complex<double> is laid out as two doubles, real part first ([complex.numbers]).
-            double* sp = reinterpret_cast<double*>(spectrum.data());
+            // Three spectra (one per channel, bins at ch * bins), then one batched inverse.
+            const std::size_t bins = fft->plan.spectrum_size();
             for (std::size_t ch = 0; ch < 3; ++ch) {
+                const auto spectrum = buf.spectrum.begin() + std::ptrdiff_t(ch * bins);
+                // std::complex<double> is laid out as two doubles, real part first ([complex.numbers]).
+                double* sp = reinterpret_cast<double*>(buf.spectrum.data() + ch * bins);
                 const double* h = hk + ch * uorder;
                 const double* g = hk + (ch + 3) * uorder;  // g[0] = 0: there is no c_l,-0
                 const double* cm = fft->phase_cos.data();
@@ -602,10 +603,10 @@ void evaluate_impl(const ShCoefficients& c, int order, const std::vector<double>
                         sp[2 * m] = 0.5 * (h[m] * cm[m] + g[m] * sm[m]);
                         sp[2 * m + 1] = 0.5 * (h[m] * sm[m] - g[m] * cm[m]);
                     }
-                    std::fill(spectrum.begin() + std::ptrdiff_t(uorder), spectrum.end(),
+                    std::fill(spectrum + std::ptrdiff_t(uorder), spectrum + std::ptrdiff_t(bins),
                               std::complex<double>(0.0, 0.0));
                 } else {
-                    std::fill(spectrum.begin(), spectrum.end(), std::complex<double>(0.0, 0.0));
+                    std::fill(spectrum, spectrum + std::ptrdiff_t(bins), std::complex<double>(0.0, 0.0));
                     for (std::size_t m = 0; m < uorder; ++m) {
                         const double yr = h[m] * cm[m] + g[m] * sm[m], yi = h[m] * sm[m] - g[m] * cm[m];
                         const std::size_t k = fft->bin[m];
@@ -613,9 +614,16 @@ void evaluate_impl(const ShCoefficients& c, int order, const std::vector<double>
                         sp[2 * k + 1] += fft->fold_im[m] * yi;
                     }
                 }
-                fft->plan.inverse(spectrum.data(), channel.data());
-                for (std::size_t i = 0; i < uwidth; ++i) row[3 * i + ch] = channel[i];
             }
+            const std::complex<double>* spectra[3];
+            double* channels[3];
+            for (std::size_t ch = 0; ch < 3; ++ch) {
+                spectra[ch] = buf.spectrum.data() + ch * bins;
+                channels[ch] = buf.channel.data() + ch * uwidth;
+            }
+            fft->plan.inverse_batch(spectra, channels, 3);
+            for (std::size_t ch = 0; ch < 3; ++ch)
+                for (std::size_t i = 0; i < uwidth; ++i) row[3 * i + ch] = channels[ch][i];
             sink(j, row.data());
             return;
         }
@@ -696,8 +704,8 @@ void evaluate_impl(const ShCoefficients& c, int order, const std::vector<double>
         RowBuffers buf;
         buf.row.resize(uwidth * 3);
         if (use_fft) {
-            buf.channel.resize(uwidth);
-            buf.spectrum.resize(fft->plan.spectrum_size());
+            buf.channel.resize(3 * uwidth);
+            buf.spectrum.resize(3 * fft->plan.spectrum_size());
         } else {
             buf.ab.resize(6 * uhalf);
         }
