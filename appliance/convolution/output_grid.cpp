@@ -100,22 +100,6 @@ Tap cubic_tap(int out_index, int out_count, int in_count) {
     return {int(base) - 1, lagrange4(x - base)};
 }
 
-}  // namespace
-
-double solid_angle_mean(const HdrImage& map) {
-    const std::vector<double> solid = row_solid_angles(map.width(), map.height());
-    double sum = 0;
-    for (int j = 0; j < map.height(); ++j) {
-        double row = 0;
-        const float* p = map.row(j);
-        for (int i = 0; i < 3 * map.width(); ++i) row += std::abs(p[i]);
-        sum += row * solid[std::size_t(j)];
-    }
-    return sum / (3.0 * 4.0 * kPi);
-}
-
-namespace {
-
 // The second and fourth differences of channel c of texel i (rows: j-2 .. j+2, continued
 // across the poles; cols: 3 * the columns i-2 .. i+2, wrapped) that the estimates read.
 struct Differences {
@@ -141,12 +125,54 @@ std::vector<std::array<int, 5>> neighbour_columns(int width) {
     return cols;
 }
 
+// The differences of every value k = 3 i + c of a row (rows: j-2 .. j+2, continued across the
+// poles), planar: a[k], b[k], d4[k] as in `differences`. The texels at least two columns from
+// the seam read their neighbours at fixed offsets, a loop GCC vectorises; the four next to the
+// seam gather wrapped columns.
+struct RowDifferences {
+    std::vector<double> a, b, d4;
+    void compute(const std::array<const float*, 5>& rows, const std::vector<std::array<int, 5>>& cols, int width) {
+        const std::size_t n = 3 * std::size_t(width);
+        a.resize(n);
+        b.resize(n);
+        d4.resize(n);
+        const float* __restrict r0 = rows[0];
+        const float* __restrict r1 = rows[1];
+        const float* __restrict c = rows[2];
+        const float* __restrict r3 = rows[3];
+        const float* __restrict r4 = rows[4];
+        double* __restrict pa = a.data();
+        double* __restrict pb = b.data();
+        double* __restrict pd = d4.data();
+        const int inner_first = 2, inner_last = std::max(2, width - 2);  // texels [first, last)
+        for (std::size_t k = 3 * std::size_t(inner_first); k < 3 * std::size_t(inner_last); ++k) {
+            const double v = c[k];
+            const double th1 = r1[k], th3 = r3[k];
+            const double ph1 = c[k - 3], ph3 = c[k + 3];
+            pa[k] = ph1 - 2 * v + ph3;
+            pb[k] = th1 - 2 * v + th3;
+            pd[k] = std::abs(r0[k] - 4 * th1 + 6 * v - 4 * th3 + r4[k]) +
+                    std::abs(c[k - 6] - 4 * ph1 + 6 * v - 4 * ph3 + c[k + 6]);
+        }
+        for (int i = 0; i < width; ++i) {
+            if (i >= inner_first && i < inner_last) continue;
+            for (int ch = 0; ch < 3; ++ch) {
+                const Differences d = differences(rows, cols[std::size_t(i)], i, ch);
+                const std::size_t k = 3 * std::size_t(i) + std::size_t(ch);
+                pa[k] = d.a;
+                pb[k] = d.b;
+                pd[k] = d.d4;
+            }
+        }
+    }
+};
+
 // Calls visit(j, rows) for every row j of `map` with rows j-2 .. j+2 continued across the poles.
 template <typename Visit>
 void for_each_row_window(const HdrImage& map, int threads, const Visit& visit) {
     parallel_for(map.height(), threads, [&](int j) {
         std::array<const float*, 5> rows;
-        std::array<std::vector<float>, 5> turned;
+        thread_local std::array<std::vector<float>, 5> turned;
         for (int d = 0; d < 5; ++d) rows[std::size_t(d)] = continued_row(map, j + d - 2, turned[std::size_t(d)]);
         visit(j, rows);
     });
@@ -154,7 +180,54 @@ void for_each_row_window(const HdrImage& map, int threads, const Visit& visit) {
 
 constexpr double kCubicCoefficient = 3.0 / 128.0;  // largest 4-point error per unit of d4
 
+// Eight doubles in the lanes of one vector: the row sums below keep eight partial sums (and
+// maxima) and add them at the row's end. A plain loop stays scalar (a sum's order, and a max's
+// comparison, are fixed without -ffast-math); the order changes only the last bits.
+using Lanes = double __attribute__((vector_size(8 * sizeof(double))));
+constexpr std::size_t kLanes = 8;
+Lanes load_lanes(const double* p) {
+    Lanes v;
+    std::memcpy(&v, p, sizeof v);
+    return v;
+}
+Lanes load_lanes(const float* p) {
+    using Floats = float __attribute__((vector_size(8 * sizeof(float))));
+    Floats f;
+    std::memcpy(&f, p, sizeof f);
+    return __builtin_convertvector(f, Lanes);
+}
+Lanes lane_abs(Lanes v) { return v < 0.0 ? -v : v; }
+Lanes lane_max(Lanes a, Lanes b) { return a < b ? b : a; }
+double lane_sum(Lanes v) {
+    double s = 0;
+    for (std::size_t l = 0; l < kLanes; ++l) s += v[l];
+    return s;
+}
+double lane_largest(Lanes v) {
+    double m = v[0];
+    for (std::size_t l = 1; l < kLanes; ++l) m = std::max(m, v[l]);
+    return m;
+}
+// x / floor where floor > 0, else 0 (a texel of a map that is 0 everywhere).
+Lanes ratio(Lanes x, Lanes floor) { return floor > 0.0 ? x / (floor > 0.0 ? floor : 1.0) : Lanes{}; }
+
 }  // namespace
+
+double solid_angle_mean(const HdrImage& map) {
+    const std::vector<double> solid = row_solid_angles(map.width(), map.height());
+    const std::size_t n = 3 * std::size_t(map.width());
+    double sum = 0;
+    for (int j = 0; j < map.height(); ++j) {
+        const float* p = map.row(j);
+        Lanes lanes = {};
+        std::size_t i = 0;
+        for (; i + kLanes <= n; i += kLanes) lanes += lane_abs(load_lanes(p + i));
+        double row = lane_sum(lanes);
+        for (; i < n; ++i) row += std::abs(p[i]);
+        sum += row * solid[std::size_t(j)];
+    }
+    return sum / (3.0 * 4.0 * kPi);
+}
 
 LookupError estimate_lookup_error(const HdrImage& map, int threads) {
     const int w = map.width(), h = map.height();
@@ -165,26 +238,33 @@ LookupError estimate_lookup_error(const HdrImage& map, int threads) {
     };
     std::vector<RowSums> rows_sums(static_cast<std::size_t>(h));
     const std::vector<std::array<int, 5>> cols = neighbour_columns(w);
+    const std::size_t n = 3 * std::size_t(w);
     for_each_row_window(map, threads, [&](int j, const std::array<const float*, 5>& rows) {
-        RowSums s;
-        for (int i = 0; i < w; ++i) {
-            for (int c = 0; c < 3; ++c) {
-                const double v = rows[2][3 * i + c];
-                const Differences d = differences(rows, cols[std::size_t(i)], i, c);
-                const double bilinear = (std::abs(d.a) + std::abs(d.b)) / 8.0, cubic = d.d4 * kCubicCoefficient;
-                const double floor = std::max(std::abs(v), mean);
-                s.value2 += v * v;
-                // Mean square over the texel's cell of the bilinear error of a quadratic with these
-                // second differences, e = a t(1-t)/2 + b s(1-s)/2 for t, s uniform in [0, 1].
-                s.bilinear2 += (d.a * d.a + d.b * d.b) / 120.0 + d.a * d.b / 72.0;
-                s.cubic2 += cubic * cubic;
-                if (floor > 0) {
-                    s.bilinear_worst = std::max(s.bilinear_worst, bilinear / floor);
-                    s.cubic_worst = std::max(s.cubic_worst, cubic / floor);
-                }
-            }
+        thread_local RowDifferences d;
+        d.compute(rows, cols, w);
+        // Per value: its mean square bilinear error over the texel's cell, for a quadratic with
+        // these second differences, e = a t(1-t)/2 + b s(1-s)/2 for t, s uniform in [0, 1];
+        // the largest bilinear and 4-point errors, relative to max(|value|, mean).
+        Lanes value2 = {}, bilinear2 = {}, cubic2 = {}, bilinear_worst = {}, cubic_worst = {};
+        const auto add = [&](Lanes v, Lanes a, Lanes b, Lanes d4) {
+            const Lanes bilinear = (lane_abs(a) + lane_abs(b)) / 8.0, cubic = d4 * kCubicCoefficient;
+            const Lanes floor = lane_max(lane_abs(v), Lanes{} + mean);
+            value2 += v * v;
+            bilinear2 += (a * a + b * b) / 120.0 + a * b / 72.0;
+            cubic2 += cubic * cubic;
+            bilinear_worst = lane_max(bilinear_worst, ratio(bilinear, floor));
+            cubic_worst = lane_max(cubic_worst, ratio(cubic, floor));
+        };
+        std::size_t k = 0;
+        for (; k + kLanes <= n; k += kLanes)
+            add(load_lanes(rows[2] + k), load_lanes(d.a.data() + k), load_lanes(d.b.data() + k),
+                load_lanes(d.d4.data() + k));
+        for (; k < n; ++k) {  // the rest one lane at a time, the other lanes 0
+            const auto one = [](double x) { return Lanes{x}; };
+            add(one(rows[2][k]), one(d.a[k]), one(d.b[k]), one(d.d4[k]));
         }
-        rows_sums[std::size_t(j)] = s;
+        rows_sums[std::size_t(j)] = {lane_sum(value2), lane_sum(bilinear2), lane_sum(cubic2),
+                                     lane_largest(bilinear_worst), lane_largest(cubic_worst)};
     });
     double value2 = 0, bilinear2 = 0, cubic2 = 0;
     LookupError e;
@@ -215,12 +295,15 @@ ResamplePatches plan_resample_patches(const HdrImage& map, double rms_budget, do
     std::vector<float> relative(texels);
     std::vector<double> square(texels), row_value2(static_cast<std::size_t>(h));
     for_each_row_window(map, threads, [&](int j, const std::array<const float*, 5>& rows) {
+        thread_local RowDifferences d;
+        d.compute(rows, cols, w);
         double value2 = 0;
         for (int i = 0; i < w; ++i) {
             double rel = 0, sq = 0;
             for (int c = 0; c < 3; ++c) {
-                const double v = rows[2][3 * i + c];
-                const double cubic = differences(rows, cols[std::size_t(i)], i, c).d4 * kCubicCoefficient;
+                const std::size_t k = 3 * std::size_t(i) + std::size_t(c);
+                const double v = rows[2][k];
+                const double cubic = d.d4[k] * kCubicCoefficient;
                 const double floor = std::max(std::abs(v), mean);
                 if (floor > 0) rel = std::max(rel, cubic / floor);
                 sq += cubic * cubic;
@@ -309,24 +392,31 @@ TexelSelection fine_texels_near(const std::vector<char>& marked, Size coarse, Si
     };
     std::vector<int> column_base(static_cast<std::size_t>(fine.width));
     for (int i = 0; i < fine.width; ++i) column_base[std::size_t(i)] = wrap(base(i, fine.width, coarse.width), coarse.width);
-    std::vector<LobeSummer::ColumnRuns> row_runs(static_cast<std::size_t>(fine.height));
-    parallel_for(fine.height, threads, [&](int jf) {
-        // The two coarse rows around this output row (continued across the poles), OR-ed
+    // The runs depend only on the coarse row at or above the output row (a few output rows
+    // share it when `fine` is finer), so they are found once per coarse row.
+    const int first_base = base(0, fine.height, coarse.height);
+    const int last_base = base(fine.height - 1, fine.height, coarse.height);
+    std::vector<LobeSummer::ColumnRuns> base_runs(static_cast<std::size_t>(last_base - first_base + 1));
+    parallel_for(last_base - first_base + 1, threads, [&](int q) {
+        // The two coarse rows around these output rows (continued across the poles), OR-ed
         // column by column; a cell is marked if either of its columns is.
-        const int b = base(jf, fine.height, coarse.height);
-        std::vector<char> either(static_cast<std::size_t>(coarse.width), 0);
+        const int b = first_base + q;
+        thread_local std::vector<char> either;
+        either.assign(static_cast<std::size_t>(coarse.width), 0);
         bool any = false;
         for (const RowTap r : {row_across_pole(b, coarse.height, coarse.width),
                                row_across_pole(b + 1, coarse.height, coarse.width)}) {
             const char* m = marked.data() + std::size_t(r.row) * std::size_t(coarse.width);
+            const int shift = wrap(r.shift, coarse.width);
             for (int c = 0; c < coarse.width; ++c) {
-                const char v = m[wrap(c + r.shift, coarse.width)];
+                const int from = c + shift;
+                const char v = m[from >= coarse.width ? from - coarse.width : from];
                 either[std::size_t(c)] |= v;
                 any = any || v;
             }
         }
         if (!any) return;
-        LobeSummer::ColumnRuns& runs = row_runs[std::size_t(jf)];
+        LobeSummer::ColumnRuns& runs = base_runs[std::size_t(q)];
         for (int i = 0; i < fine.width; ++i) {
             const int c = column_base[std::size_t(i)];
             if (!(either[std::size_t(c)] || either[std::size_t(c + 1 == coarse.width ? 0 : c + 1)])) continue;
@@ -338,11 +428,12 @@ TexelSelection fine_texels_near(const std::vector<char>& marked, Size coarse, Si
     });
     TexelSelection selection;
     for (int jf = 0; jf < fine.height; ++jf) {
-        LobeSummer::ColumnRuns& runs = row_runs[std::size_t(jf)];
+        const LobeSummer::ColumnRuns& runs =
+            base_runs[std::size_t(base(jf, fine.height, coarse.height) - first_base)];
         if (runs.empty()) continue;
         for (const auto& [first, last] : runs) selection.texels += last - first;
         selection.rows.push_back(jf);
-        selection.runs.push_back(std::move(runs));
+        selection.runs.push_back(runs);
     }
     return selection;
 }

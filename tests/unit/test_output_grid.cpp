@@ -157,6 +157,81 @@ TEST(OutputGrid, BilinearEstimateFollowsMeasuredLookups) {
     }
 }
 
+// The estimates written out plainly, texel by texel and channel by channel: rows continued
+// across the poles (mirrored, half a turn round) and columns wrapped at the seam.
+LookupError plain_lookup_error(const HdrImage& m) {
+    const int w = m.width(), h = m.height();
+    const auto wrap = [](int i, int n) { return ((i % n) + n) % n; };
+    const auto at = [&](int i, int j, int c) {
+        if (j < 0 || j >= h) {
+            j = j < 0 ? std::min(-1 - j, h - 1) : std::max(2 * h - 1 - j, 0);
+            i += w / 2;
+        }
+        return double(m.row(j)[3 * wrap(i, w) + c]);
+    };
+    const std::vector<double> solid = row_solid_angles(w, h);
+    double mean = 0;
+    for (int j = 0; j < h; ++j)
+        for (int k = 0; k < 3 * w; ++k) mean += std::abs(m.row(j)[k]) * solid[std::size_t(j)];
+    mean /= 3.0 * 4.0 * kPi;
+    double value2 = 0, bilinear2 = 0, cubic2 = 0;
+    LookupError e;
+    for (int j = 0; j < h; ++j)
+        for (int i = 0; i < w; ++i)
+            for (int c = 0; c < 3; ++c) {
+                const double v = at(i, j, c);
+                const double a = at(i - 1, j, c) - 2 * v + at(i + 1, j, c);
+                const double b = at(i, j - 1, c) - 2 * v + at(i, j + 1, c);
+                const double d4 =
+                    std::abs(at(i, j - 2, c) - 4 * at(i, j - 1, c) + 6 * v - 4 * at(i, j + 1, c) + at(i, j + 2, c)) +
+                    std::abs(at(i - 2, j, c) - 4 * at(i - 1, j, c) + 6 * v - 4 * at(i + 1, j, c) + at(i + 2, j, c));
+                const double floor = std::max(std::abs(v), mean);
+                const double sa = solid[std::size_t(j)];
+                value2 += sa * v * v;
+                bilinear2 += sa * ((a * a + b * b) / 120.0 + a * b / 72.0);
+                cubic2 += sa * std::pow(d4 * 3.0 / 128.0, 2);
+                if (floor > 0) {
+                    e.bilinear_worst = std::max(e.bilinear_worst, (std::abs(a) + std::abs(b)) / 8.0 / floor);
+                    e.cubic_worst = std::max(e.cubic_worst, d4 * 3.0 / 128.0 / floor);
+                }
+            }
+    if (value2 > 0) {
+        e.bilinear_rms = std::sqrt(bilinear2 / value2);
+        e.cubic_rms = std::sqrt(cubic2 / value2);
+    }
+    return e;
+}
+
+TEST(OutputGrid, LookupEstimatesMatchTheirPlainFormulas) {
+    // estimate_lookup_error sums in vector lanes and reads the texels away from the seam at fixed
+    // offsets: against the formulas texel by texel, on spiky data, at widths below and around
+    // the lanes' eight values, odd sizes, and a map that is 0 everywhere.
+    std::mt19937 rng(5);
+    std::uniform_real_distribution<double> u(0.0, 1.0);
+    for (const Size s : {Size{1, 1}, Size{2, 1}, Size{3, 2}, Size{4, 2}, Size{5, 3}, Size{6, 3}, Size{9, 5},
+                         Size{16, 8}, Size{37, 19}, Size{64, 32}, Size{128, 64}}) {
+        HdrImage m(s.width, s.height);
+        for (float& v : m.data()) v = float(u(rng) < 0.05 ? 1e4 * u(rng) : u(rng) - 0.1);
+        const LookupError want = plain_lookup_error(m);
+        for (int threads : {1, 2}) {
+            const LookupError got = estimate_lookup_error(m, threads);
+            const auto near = [](double a, double b) { return std::abs(a - b) <= 1e-12 + 1e-9 * std::abs(b); };
+            EXPECT_TRUE(near(got.bilinear_rms, want.bilinear_rms)) << s.width << "x" << s.height << " " << got.bilinear_rms << " " << want.bilinear_rms;
+            EXPECT_TRUE(near(got.cubic_rms, want.cubic_rms)) << s.width << "x" << s.height;
+            EXPECT_TRUE(near(got.bilinear_worst, want.bilinear_worst)) << s.width << "x" << s.height;
+            EXPECT_TRUE(near(got.cubic_worst, want.cubic_worst)) << s.width << "x" << s.height;
+        }
+        if (s.width >= 4) {
+            EXPECT_GT(want.cubic_worst, 0.0) << "spikes should have differences";
+        }
+    }
+    const HdrImage zero(12, 6);
+    const LookupError e = estimate_lookup_error(zero, 2);
+    EXPECT_EQ(e.bilinear_rms, 0.0);
+    EXPECT_EQ(e.bilinear_worst, 0.0);
+    EXPECT_EQ(e.cubic_worst, 0.0);
+}
+
 TEST(OutputGrid, AConstantMapHasNoLookupError) {
     const HdrImage m = sampled(32, 16, [](const glm::dvec3&) { return 2.0; });
     const LookupError e = estimate_lookup_error(m, 1);
@@ -648,6 +723,47 @@ TEST(OutputGrid, FineTexelsNearAMarkedTexelFollowTheSeamAndThePole) {
     for (const auto& runs : s.runs)
         for (const auto& [first, last] : runs) counted += last - first;
     EXPECT_EQ(counted, s.texels);
+}
+
+TEST(OutputGrid, FineTexelsNearMatchTheCellsTexelByTexel) {
+    // Random marks on coarse grids, fine grids 1-4.5x finer (and one coarser): a fine texel is
+    // selected exactly when a corner of the coarse cell holding its centre is marked, the
+    // corners continued across the seam and the poles.
+    std::mt19937 rng(9);
+    std::uniform_real_distribution<double> u(0.0, 1.0);
+    for (const auto& [coarse, fine] : std::vector<std::pair<Size, Size>>{
+             {{16, 8}, {64, 32}}, {{16, 8}, {16, 8}}, {{10, 5}, {45, 23}}, {{32, 16}, {24, 12}}, {{7, 4}, {28, 16}}}) {
+        for (double density : {0.02, 0.3}) {
+            std::vector<char> marked(std::size_t(coarse.width * coarse.height));
+            for (char& m : marked) m = u(rng) < density ? 1 : 0;
+            const TexelSelection s = fine_texels_near(marked, coarse, fine, 2);
+            std::vector<char> got(std::size_t(fine.width * fine.height), 0);
+            for (std::size_t k = 0; k < s.rows.size(); ++k)
+                for (const auto& [first, last] : s.runs[k])
+                    for (int i = first; i < last; ++i) got[std::size_t(s.rows[k] * fine.width + i)] = 1;
+            const auto is_marked = [&](int i, int j) {
+                if (j < 0 || j >= coarse.height) {
+                    j = j < 0 ? std::min(-1 - j, coarse.height - 1) : std::max(2 * coarse.height - 1 - j, 0);
+                    i += coarse.width / 2;
+                }
+                i = ((i % coarse.width) + coarse.width) % coarse.width;
+                return marked[std::size_t(j * coarse.width + i)] != 0;
+            };
+            long long count = 0;
+            for (int j = 0; j < fine.height; ++j)
+                for (int i = 0; i < fine.width; ++i) {
+                    const int bi = int(std::floor((i + 0.5) * coarse.width / fine.width - 0.5));
+                    const int bj = int(std::floor((j + 0.5) * coarse.height / fine.height - 0.5));
+                    const bool want = is_marked(bi, bj) || is_marked(bi + 1, bj) || is_marked(bi, bj + 1) ||
+                                      is_marked(bi + 1, bj + 1);
+                    count += want ? 1 : 0;
+                    ASSERT_EQ(got[std::size_t(j * fine.width + i)] != 0, want)
+                        << coarse.width << "x" << coarse.height << " -> " << fine.width << "x" << fine.height
+                        << " texel " << i << "," << j;
+                }
+            EXPECT_EQ(s.texels, count);
+        }
+    }
 }
 
 TEST(OutputGrid, ConeOnSelectedTexelsMatchesTheWholeGridThere) {
