@@ -51,7 +51,8 @@ TEST(OutputGrid, ResamplingToTheSameGridIsTheIdentity) {
 }
 
 // resample_cubic as two whole passes, written out plainly: every input row to the output's
-// columns, then down the columns with rows past a pole mirrored and turned half a turn.
+// columns, then down the columns with rows past a pole mirrored and turned half a turn; in
+// float, as resample_cubic sums.
 HdrImage two_pass_resample(const HdrImage& map, Size out, long long& clamped) {
     const int w = map.width(), h = map.height();
     const auto taps = [](int o, int out_count, int in_count, int& first) {
@@ -68,8 +69,8 @@ HdrImage two_pass_resample(const HdrImage& map, Size out, long long& clamped) {
             int first = 0;
             const auto wt = taps(i, out.width, w, first);
             for (int c = 0; c < 3; ++c) {
-                double v = 0;
-                for (int k = 0; k < 4; ++k) v += wt[std::size_t(k)] * map.row(j)[3 * wrap(first + k, w) + c];
+                float v = 0;
+                for (int k = 0; k < 4; ++k) v += float(wt[std::size_t(k)]) * map.row(j)[3 * wrap(first + k, w) + c];
                 across[std::size_t(j)][std::size_t(3 * i + c)] = float(v);
             }
         }
@@ -80,20 +81,20 @@ HdrImage two_pass_resample(const HdrImage& map, Size out, long long& clamped) {
         const auto wt = taps(j, out.height, h, first);
         for (int i = 0; i < out.width; ++i)
             for (int c = 0; c < 3; ++c) {
-                double v = 0;
+                float v = 0;
                 for (int k = 0; k < 4; ++k) {
                     int row = first + k, col = i;
                     if (row < 0 || row >= h) {
                         row = row < 0 ? std::min(-1 - row, h - 1) : std::max(2 * h - 1 - row, 0);
                         col = wrap(i + out.width / 2, out.width);
                     }
-                    v += wt[std::size_t(k)] * across[std::size_t(row)][std::size_t(3 * col + c)];
+                    v += float(wt[std::size_t(k)]) * float(across[std::size_t(row)][std::size_t(3 * col + c)]);
                 }
                 if (v < 0) {
                     v = 0;
                     ++clamped;
                 }
-                r.row(j)[3 * i + c] = float(v);
+                r.row(j)[3 * i + c] = v;
             }
     }
     return r;
