@@ -18,6 +18,7 @@
 #include "appliance/core/error_metrics.hpp"
 #include "appliance/core/errors.hpp"
 #include "appliance/core/exr_io.hpp"
+#include "appliance/core/fine_tiles_io.hpp"
 
 namespace glint::app {
 
@@ -29,12 +30,14 @@ struct LookupChoice {
     MapLookup lookup = MapLookup::Bilinear;
     double shininess = 0;
     std::string from;  // what said so
+    nlohmann::json fine_tiles;  // the entry's "fine_tiles" (null: none)
 };
 
 // A listing's entry for `map` -> its lookup; `where` names the listing in errors.
 LookupChoice lookup_of_entry(const nlohmann::json& entry, const fs::path& map, const std::string& where) {
     LookupChoice c;
     c.from = where;
+    if (entry.contains("fine_tiles")) c.fine_tiles = entry["fine_tiles"];
     const nlohmann::json how = entry.contains("lookup") ? entry["lookup"] : nlohmann::json("bilinear");
     const std::optional<MapLookup> known =
         how.is_string() ? map_lookup_from_string(how.get<std::string>()) : std::nullopt;
@@ -108,7 +111,7 @@ Command add_compare_command(CLI::App& app) {
                     throw InputError("--lookup lobe needs --shininess N > 0 (the map's Phong exponent)");
                 LookupChoice choice;
                 if (args->lookup == "lobe") {
-                    choice = {MapLookup::Lobe, args->shininess, "--lookup"};
+                    choice = {MapLookup::Lobe, args->shininess, "--lookup", nlohmann::json()};
                 } else if (args->lookup == "bilinear") {
                     choice.from = "--lookup";
                 } else if (const auto found = lookup_from_listing(args->approx)) {
@@ -116,7 +119,15 @@ Command add_compare_command(CLI::App& app) {
                 } else {
                     choice.from = "default: no report.json or maps.json beside the map lists it";
                 }
-                const HdrImage a = load_exr(args->approx).image;
+                HdrImage a = load_exr(args->approx).image;
+                // A map with fine tiles (glint convolve --fine-tiles) is read through them: as
+                // its whole finer grid, whose texels are the tiles' or the map's own lookups.
+                const FineTiles fine = load_fine_tiles(choice.fine_tiles, fs::path(args->approx).parent_path(), a,
+                                                       choice.from + ": " + fs::path(args->approx).filename().string());
+                if (!fine.empty()) {
+                    a = expand(a, fine);
+                    choice.from += ", with its fine tiles";
+                }
                 const HdrImage b = load_exr(args->reference).image;
                 const MapError e = compare_maps(a, b, choice.lookup, choice.shininess);
                 std::printf("weighted_rel_rms %.6e\nworst_texel %.6e\nmean_abs_percent %.6f\nmax_abs_percent %.6f\n",

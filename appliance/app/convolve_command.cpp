@@ -21,6 +21,7 @@
 #include "appliance/core/atomic_file.hpp"
 #include "appliance/core/errors.hpp"
 #include "appliance/core/exr_io.hpp"
+#include "appliance/core/fine_tiles_io.hpp"
 #include "appliance/core/progress.hpp"
 #include "appliance/core/strict_number.hpp"
 
@@ -43,11 +44,19 @@ struct ConvolveArgs {
     int threads = 0;
     EngineChoice engine = EngineChoice::Auto;
     double tile_cap_ms = 50.0;
+    bool fine_tiles = false;
 };
 
 nlohmann::json number_or_null(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); }
 
 nlohmann::json size_json(convolution::Size s) { return {s.width, s.height}; }
+
+// report.json's "fine_tiles" of a map (null without): the blocks' file, the refinement, the
+// tile's side in the map's texels, and the tiles in the blocks' order (fine_tiles_io.hpp reads it).
+nlohmann::json fine_tiles_json(const convolution::MapResult& r) {
+    if (r.fine.empty()) return nlohmann::json();
+    return fine_tiles_to_json(r.fine, r.request.label + kFineTilesSuffix);
+}
 
 // A plan that predicts more than the tolerance (mipmap predicts nothing: it is a baseline).
 bool over_tolerance(const convolution::MapPlan& p, double tolerance) {
@@ -70,6 +79,7 @@ int run_convolve(const ConvolveArgs& args) {
     if (!args.size.empty()) options.size = parse_size(args.size, "--size");
     options.threads = args.threads;
     options.sh_order = args.sh_order;
+    options.fine_tiles = args.fine_tiles;
 
     std::vector<convolution::MapRequest> maps;
     if (args.irradiance) maps.push_back(convolution::MapRequest::make_irradiance());
@@ -179,6 +189,7 @@ int run_convolve(const ConvolveArgs& args) {
             {"cone_first_pass", r.cone_first_pass.empty() ? nlohmann::json() : nlohmann::json(r.cone_first_pass)},
             {"patched_texels", r.patched_texels},
             {"clamped_values", r.clamped_texels},
+            {"fine_tiles", fine_tiles_json(r)},
         });
     }
 
@@ -203,12 +214,18 @@ int run_convolve(const ConvolveArgs& args) {
     // staging directory and leaves DIR as it was).
     StagingDirectory staging(out_dir);
     std::vector<std::string> names;
-    for (const auto& r : results) names.push_back(r.request.label + ".exr");
+    for (const auto& r : results) {
+        names.push_back(r.request.label + ".exr");
+        if (!r.fine.empty()) names.push_back(r.request.label + kFineTilesSuffix);
+    }
     names.push_back("report.json");
     staging.write([&] {
         // Uncompressed: the maps' float noise does not compress (docs/convolution.md).
-        for (const auto& r : results)
+        for (const auto& r : results) {
             save_exr(staging.file(r.request.label + ".exr"), r.image, ExrCompression::None);
+            if (!r.fine.empty())
+                save_exr(staging.file(r.request.label + kFineTilesSuffix), r.fine.blocks, ExrCompression::None);
+        }
         write_text_atomically(staging.file("report.json"), report.dump(2) + "\n");
     });
     staging.commit(names);
@@ -221,6 +238,11 @@ int run_convolve(const ConvolveArgs& args) {
                     std::isfinite(p.predicted_error) ? p.predicted_error : -1.0, r.seconds,
                     p.shares_with.empty() ? "" : (" (same map as " + p.shares_with + ")").c_str());
     }
+    for (const auto& r : results)
+        if (!r.fine.empty())
+            std::printf("%-16s fine tiles: %d of %dx%d texels, %dx finer (%s)\n", r.request.label.c_str(),
+                        r.fine.count(), r.fine.tile, r.fine.tile, r.fine.factor,
+                        (r.request.label + kFineTilesSuffix).c_str());
     std::printf("wrote %zu maps and report.json to %s in %.3f s\n", results.size(), out_dir.c_str(),
                 total_seconds);
     return 0;
@@ -258,6 +280,10 @@ Command add_convolve_command(CLI::App& app) {
     cmd->add_option("--tile-cap-ms", args->tile_cap_ms, "GPU engine: longest single draw, ms (> 0)")
         ->check(CLI::PositiveNumber)
         ->capture_default_str();
+    cmd->add_flag("--fine-tiles", args->fine_tiles,
+                  "A map that needs a finer grid than it is summed on gets it only in tiles where lookups of "
+                  "the sum grid would miss (<map>.tiles.exr, report.json \"fine_tiles\"); readers that know no "
+                  "tiles (glint render, glint compare) expand them");
     return {cmd, [args] { return run_convolve(*args); }};
 }
 

@@ -547,6 +547,31 @@ void BrightScatter::add_row(int row, const double* cmax_row, int classes, double
         cone_columns(bright_[k].phi, q, ow, first, count);
         return true;
     };
+    // With `columns`: a reach [first, first + count) (unwrapped) cut to the hull of its asked
+    // columns, so that only those weights are staged (a few tiles of a fine grid under a wide
+    // lobe); false when it asks for none.
+    const auto clip_to_columns = [&](int& first, int& count) {
+        const int f = column_modulo(first, ow);
+        int lo = count, hi = -1;  // offsets within the reach
+        for (const auto& [a, b] : *columns) {
+            const int s0 = std::max(a, f), e0 = std::min({b, f + count, ow});
+            if (s0 < e0) {
+                lo = std::min(lo, s0 - f);
+                hi = std::max(hi, e0 - f);
+            }
+            if (f + count > ow) {  // the part past the seam, physical columns [0, f + count - ow)
+                const int s1 = std::max(a, 0), e1 = std::min(b, f + count - ow);
+                if (s1 < e1) {
+                    lo = std::min(lo, s1 + ow - f);
+                    hi = std::max(hi, e1 + ow - f);
+                }
+            }
+        }
+        if (hi <= lo) return false;
+        first += lo;
+        count = hi - lo;
+        return true;
+    };
     if (!clusters_.empty()) {
         add_linear_row(row, ct, st, cmax_row, classes, nb_row, columns, first_column);
         return;
@@ -560,7 +585,8 @@ void BrightScatter::add_row(int row, const double* cmax_row, int classes, double
         for (std::size_t m = 0; m < g.members.size(); ++m) {
             const std::size_t k = g.members[m];
             int first = 0, count = 0;
-            if (member_reach(k, sa, bq, first, count)) reach.push_back({k, first, count, g.shift[m]});
+            if (member_reach(k, sa, bq, first, count) && (!columns || clip_to_columns(first, count)))
+                reach.push_back({k, first, count, g.shift[m]});
         }
         if (reach.empty()) continue;
         // Columns of one class share cmax: members share weights only with a shift of whole

@@ -93,7 +93,7 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
                        double n, Size out, const ConeSettings& given_settings, int threads,
                        const RowProgress& progress, ConeStats* stats, const std::vector<int>& only_rows,
                        ConeSumsBackend* backend, const std::vector<LobeSummer::ColumnRuns>* only_columns,
-                       HdrImage* into) {
+                       const TexelSink* into) {
     // The output rows computed: all, or only_rows (the others stay 0), and in each the
     // columns of only_columns (or all).
     std::vector<int> rows = only_rows;
@@ -297,19 +297,21 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
     local.fourier_first_pass = cpu && cpu->fourier();
     if (stats) *stats = local;
 
-    if (into && (into->width() != out.width || into->height() != out.height))
-        throw RuntimeError("internal: cone_convolve's destination is not " + std::to_string(out.width) + "x" +
-                           std::to_string(out.height));
+    // Into a map of the output's size, or texel by texel into `into` (a finer grid's few texels:
+    // no map of its size is made).
     HdrImage result = into ? HdrImage() : HdrImage(out.width, out.height);
-    HdrImage& destination = into ? *into : result;
     parallel_for(int(rows.size()), threads, [&](int k) {
         const int row = rows[std::size_t(k)];
-        float* o = destination.row(row);
+        float* o = into ? nullptr : result.row(row);
         double v[3];
         for (const auto& [first, last] : columns_of(std::size_t(k)))
             for (int col = first; col < last; ++col) {
                 values(row, col, nb, v);
-                for (int c = 0; c < 3; ++c) o[3 * col + c] = float(std::max(0.0, v[c]));
+                const float rgb[3] = {float(std::max(0.0, v[0])), float(std::max(0.0, v[1])), float(std::max(0.0, v[2]))};
+                if (into)
+                    (*into)(row, col, rgb);
+                else
+                    std::copy_n(rgb, 3, o + 3 * col);
             }
     });
     return result;

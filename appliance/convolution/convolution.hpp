@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "appliance/core/equirect.hpp"
+#include "appliance/core/fine_tiles.hpp"
 #include "appliance/core/hdr_image.hpp"
 
 namespace glint::convolution {
@@ -54,6 +55,11 @@ struct Options {
     // Runs `exact`, the cone's sums and `mipmap` elsewhere (the GPU engine);
     // null: on the CPU. Planning and everything else stay the same.
     MethodExecutor* executor = nullptr;
+    // A map that needs a finer grid than it was summed on (without a fixed size) is delivered as
+    // its sum grid plus fine tiles where bilinear lookups of that grid would miss the tolerance
+    // (MapResult::fine; docs/convolution.md, "Fine tiles"), when those tiles hold at most half
+    // of the finer grid's texels. Off: the whole finer grid.
+    bool fine_tiles = false;
 };
 
 // How the cone method runs for one map (methods.hpp, cone_convolve); the planner
@@ -123,6 +129,10 @@ struct MapResult {
     MapRequest request;
     MapPlan plan;
     HdrImage image;
+    // With Options::fine_tiles: the finer grid's texels where lookups of `image` (the sum grid,
+    // plan.output_size) would miss the tolerance; read with sample_bilinear(image, fine, d)
+    // (core/fine_tiles.hpp). Empty otherwise.
+    FineTiles fine;
     double seconds = 0;              // wall time for this map
     long long refined_texels = 0;    // cone: texels recomputed with a wider cone
     long long patched_texels = 0;    // output texels summed exactly where 4-point resampling would miss

@@ -310,10 +310,13 @@ bool may_need_lobe_lookup(const MapRequest& q, const MapPlan& p, Size input) {
 // summed exactly, or null), which are then added back exactly on it; where resampling would
 // miss its share of tau, `sum_on` sums the plan again on the finer grid, or, where that
 // happens near few texels, `sum_texels` (if given) sums just the finer grid's texels there.
-using TexelSummer = std::function<void(Size, const TexelSelection&, HdrImage& into)>;
+// With `fine_tiles`, a finer grid is delivered as tiles of it where lookups of the sum grid
+// would miss (docs/convolution.md, "Fine tiles"), when that saves at least half its texels.
+using TexelSummer = std::function<void(Size, const TexelSelection&, const TexelSink& into)>;
+constexpr int kFineTile = 8;  // sum-grid texels per tile side
 void deliver_output(MapResult& r, double tau, const PlannerModel& model, int threads,
                     const std::vector<BrightTexel>* bright, const std::function<HdrImage(Size)>& sum_on,
-                    const TexelSummer& sum_texels) {
+                    const TexelSummer& sum_texels, bool fine_tiles) {
     MapPlan& p = r.plan;
     if (p.method == Method::Mirror) return;
     const bool resampled_fixed = p.size_fixed && (p.sum_size.width != p.output_size.width ||
@@ -335,7 +338,9 @@ void deliver_output(MapResult& r, double tau, const PlannerModel& model, int thr
             // its bright lobes where its own estimate passed was tried (2026-12-02): a sun's lobe
             // resampled raised sunset's predicted errors (n = 1280: 0.39 % -> 0.61 %).
             if (split) add_bright_lobes(*bright, n, floor_value, LobeOp::Subtract, r.image, threads);
-            const LookupError e = !split && known ? *known : estimate_lookup_error(r.image, threads);
+            TexelLookupErrors texels;  // per texel, for the patches below (measured with e)
+            const bool measure = split || !known;
+            const LookupError e = measure ? estimate_lookup_error(r.image, threads, &texels) : *known;
             known = nullptr;  // the map changes if it is summed again
             // The fourth differences predict 4-point interpolation only where the sum grid
             // resolves the lobe (its spacing within one lobe width; a Gaussian sampled coarser
@@ -365,12 +370,15 @@ void deliver_output(MapResult& r, double tau, const PlannerModel& model, int thr
                 // Resampling misses its share near few texels (a small bright light, an edge):
                 // the finer grid's texels there are summed exactly, if that is fewer texels than
                 // summing the next grid would be.
-                const ResamplePatches patches = plan_resample_patches(
-                    r.image, model.resample_share * tau, model.resample_worst_share * tau, threads);
+                const ResamplePatches patches =
+                    plan_resample_patches(r.image, model.resample_share * tau, model.resample_worst_share * tau,
+                                          threads, measure ? &texels : nullptr);
                 const TexelSelection selection = fine_texels_near(patches.texels, p.sum_size, finer, threads);
                 if (2 * selection.texels <= static_cast<long long>(next.width) * next.height) {
                     resample();
-                    sum_texels(finer, selection, r.image);
+                    sum_texels(finer, selection, [&](int row, int col, const float* rgb) {
+                        std::copy_n(rgb, 3, r.image.row(row) + 3 * col);
+                    });
                     r.patched_texels = selection.texels;
                     p.predicted_error += patches.remaining_rms;
                     p.size_reason = why + steps + resampled + " (predicted " + percent(patches.remaining_rms) +
@@ -399,7 +407,8 @@ void deliver_output(MapResult& r, double tau, const PlannerModel& model, int thr
         refine(p.output_size, "fixed by the request", nullptr);
         return;
     }
-    const LookupError e = estimate_lookup_error(r.image, threads);
+    TexelLookupErrors with_bright;  // per texel, for the fine tiles
+    const LookupError e = estimate_lookup_error(r.image, threads, fine_tiles ? &with_bright : nullptr);
     const auto within = [&](int factor) {
         const double f2 = double(factor) * factor;
         return e.bilinear_rms / f2 <= model.output_share * tau &&
@@ -411,6 +420,77 @@ void deliver_output(MapResult& r, double tau, const PlannerModel& model, int thr
         factor *= 2;
     const std::string estimate = "bilinear lookups between texels of " + to_string(p.sum_size) + " err " +
                                  percent(e.bilinear_rms) + " RMS, " + percent(e.bilinear_worst) + " worst";
+    // The finer grid only in tiles where lookups of the sum grid would miss their share: the
+    // sum grid is delivered as it is (bright texels in) and the tiles' texels are made as
+    // refine() makes the whole grid's, 4-point resampling without the bright texels, those added
+    // back exactly, and exact sums where resampling would miss. Only on that route; a map that
+    // refine() would sum again on a finer grid gets the whole grid.
+    const auto deliver_tiles = [&](int f) {
+        const Size finer{p.sum_size.width * f, p.sum_size.height * f};
+        // Outside the tiles the sum grid's lookups keep what the lookups' share leaves beside
+        // the resampling's inside them (the whole finer grid used little of it).
+        const double outside_share = std::max(0.5 * model.output_share, model.output_share - model.resample_share);
+        // The worst budget halved: the sum grid's second differences under-predict next to a
+        // lobe it barely resolves (courtyard's n = 20480 on 1024x512 measured 6 % against a 4 %
+        // budget), and a lookup there is what a highlight shows.
+        const FineTilePlan tp = plan_fine_tiles(r.image, f, kFineTile, outside_share * tau,
+                                                0.5 * model.output_worst_share * tau, threads, &with_bright);
+        const long long side = kFineTile * f + 1;
+        if (tp.kept.empty() || 2 * tp.tiles * side * side > static_cast<long long>(finer.width) * finer.height)
+            return false;
+        if (kPi / p.sum_size.height > lobe_width(n) * 1.0001) return false;  // resampling needs the lobe resolved
+        const bool split = bright && !bright->empty();
+        HdrImage base = r.image;  // delivered as it is
+        const double floor_value = solid_angle_mean(r.image);
+        if (split) add_bright_lobes(*bright, n, floor_value, LobeOp::Subtract, r.image, threads);
+        TexelLookupErrors without_texels;
+        const LookupError without = split ? estimate_lookup_error(r.image, threads, &without_texels) : e;
+        const bool cubic_ok = without.cubic_rms <= model.resample_share * tau &&
+                              without.cubic_worst <= model.resample_worst_share * tau;
+        ResamplePatches patches;
+        TexelSelection patch;
+        if (!cubic_ok) {
+            if (sum_texels) {
+                patches = plan_resample_patches(r.image, model.resample_share * tau, model.resample_worst_share * tau,
+                                                threads, split ? &without_texels : &with_bright);
+                patch = intersect(fine_texels_near(patches.texels, p.sum_size, finer, threads),
+                                  fine_tile_texels(tp, p.sum_size));
+            }
+            if (!sum_texels || patches.remaining_worst > model.resample_worst_share * tau) {
+                r.image = std::move(base);
+                return false;
+            }
+        }
+        std::optional<BrightLobes> lobes;
+        if (split) lobes.emplace(*bright, n, finer, floor_value, LobeOp::AddClamped);
+        r.fine = make_fine_tiles(r.image, tp, threads, &r.clamped_texels, lobes ? &*lobes : nullptr);
+        if (patch.texels > 0) {
+            sum_texels(finer, patch, [&](int row, int col, const float* rgb) {
+                set_fine_texel(r.fine, p.sum_size, col, row, rgb);
+            });
+            r.patched_texels = patch.texels;
+        }
+        r.image = std::move(base);
+        // Lookups outside the tiles read the sum grid (its unmarked texels' estimate); inside,
+        // the finer grid's (the sum grid's estimate over f^2, as for the whole finer grid):
+        // disjoint regions, so their squares add.
+        const double inside = e.bilinear_rms / (double(f) * f), inside_worst = e.bilinear_worst / (double(f) * f);
+        const double resampled = cubic_ok ? without.cubic_rms : patches.remaining_rms;
+        p.lookup_error = std::sqrt(tp.remaining_rms * tp.remaining_rms + inside * inside);
+        p.lookup_worst = std::max(tp.remaining_worst, inside_worst);
+        p.predicted_error += p.lookup_error + resampled;
+        p.output_size = p.sum_size;
+        p.size_reason = estimate + "; the sum grid, with tiles of " + std::to_string(kFineTile) + "x" +
+                        std::to_string(kFineTile) + " texels " + std::to_string(f) + "x finer (" + to_string(finer) +
+                        ") at " + std::to_string(r.fine.count()) + " of " + std::to_string(tp.kept.size()) +
+                        " tiles, near the " + std::to_string(tp.marked) + " texels where lookups err more (" +
+                        percent(tp.remaining_rms) + " RMS, " + percent(tp.remaining_worst) +
+                        " worst elsewhere); their texels resampled 4-point (predicted " + percent(resampled) + ")" +
+                        (split ? ", bright texels added exactly" : "") +
+                        (patch.texels > 0 ? ", and " + std::to_string(patch.texels) + " of them summed exactly" : "");
+        return true;
+    };
+    if (factor > 1 && fine_tiles && deliver_tiles(factor)) return;
     p.lookup_error = e.bilinear_rms / (double(factor) * factor);
     p.lookup_worst = e.bilinear_worst / (double(factor) * factor);
     p.predicted_error += p.lookup_error;
@@ -535,7 +615,7 @@ std::vector<MapResult> convolve_map(const HdrImage& env, HdrImage* consumable, c
     if (consumable && !reads_whole) shared.allow_consuming(consumable);
     if (!reads_level0) shared.release_level0_after_pyramid();
     std::vector<MapResult> results;
-    for (std::size_t k = 0; k < maps.size(); ++k) results.push_back({maps[k], plans[k], {}, 0, 0, 0, 0, 0, ""});
+    for (std::size_t k = 0; k < maps.size(); ++k) results.push_back({maps[k], plans[k], {}, {}, 0, 0, 0, 0, 0, ""});
 
     long long total_rows = 0;
     for (const MapResult& r : results) total_rows += r.plan.sum_size.height;
@@ -639,7 +719,7 @@ std::vector<MapResult> convolve_map(const HdrImage& env, HdrImage* consumable, c
         const bool split = r.plan.method == Method::Cone || (r.plan.method == Method::Sh && r.plan.bright_split);
         // Texels of a finer grid, summed by the plan's cone (an SH plan's is the one for the rows
         // its bound fails).
-        const TexelSummer sum_texels = [&](Size grid, const TexelSelection& selection, HdrImage& into) {
+        const TexelSummer sum_texels = [&](Size grid, const TexelSelection& selection, const TexelSink& into) {
             const PreparedLevel& level =
                 shared.cone_level(r.plan.method == Method::Cone ? r.plan.input_level : r.plan.fallback_level);
             std::unique_ptr<ConeSumsBackend> backend;
@@ -651,7 +731,7 @@ std::vector<MapResult> convolve_map(const HdrImage& env, HdrImage* consumable, c
         };
         deliver_output(r, options.tolerance, model, map_threads,
                        split ? &shared.bright().texels : nullptr, [&](Size grid) { return sum_on(r, grid, map_threads, no_progress); },
-                       split ? sum_texels : TexelSummer{});
+                       split ? sum_texels : TexelSummer{}, options.fine_tiles);
         // The lookups' share decides (a method's own error, e.g. a --sh-order too low, is not
         // mended by reading the input through the lobe, and is reported as it is).
         if (may_need_lobe_lookup(r.request, r.plan, input_size) &&
@@ -665,6 +745,7 @@ std::vector<MapResult> convolve_map(const HdrImage& env, HdrImage* consumable, c
             const std::string tried = p.size_reason;
             const double missed = p.lookup_error;
             r.image = filter_to_footprint(shared.full_image(), input_size, map_threads);  // the input's texels
+            r.fine = FineTiles{};
             p.method = Method::Mirror;
             p.lookup = MapLookup::Lobe;
             p.input_level = 0;
@@ -713,6 +794,7 @@ std::vector<MapResult> convolve_map(const HdrImage& env, HdrImage* consumable, c
             const MapResult& original = results[*same_as[k]];
             MapPlan& p = results[k].plan;
             results[k].image = original.image;
+            results[k].fine = original.fine;
             // The whole plan as it ran (its size, and a fallback to the lobe lookup with its method
             // and lookup), but the label it shares with.
             const std::string shares = p.shares_with;

@@ -215,11 +215,14 @@ public:
                                             Size out) = 0;
 };
 
+// Where cone_convolve delivers texels instead of a map of its own: (row, column, 3 values).
+using TexelSink = std::function<void(int row, int col, const float* rgb)>;
 HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel>& bright,
                        double shininess, Size out, const ConeSettings& settings, int threads,
                        const RowProgress& progress, ConeStats* stats, const std::vector<int>& only_rows = {},
                        ConeSumsBackend* backend = nullptr,
-                       const std::vector<LobeSummer::ColumnRuns>* only_columns = nullptr, HdrImage* into = nullptr);
+                       const std::vector<LobeSummer::ColumnRuns>* only_columns = nullptr,
+                       const TexelSink* into = nullptr);
 
 struct ShCoefficients;
 class ShLegendre;

@@ -214,7 +214,7 @@ Rgb exact_at(const HdrImage& input, double shininess, const glm::dvec3& r) {
 }
 
 OffGridError measure_offgrid_error(const HdrImage& input, const HdrImage& map, double shininess, int samples,
-                                   std::uint64_t seed, int threads, MapLookup lookup) {
+                                   std::uint64_t seed, int threads, MapLookup lookup, const FineTiles* fine) {
     check_image(input, "input");
     check_image(map, "convolved");
     check_shininess(shininess);
@@ -282,7 +282,8 @@ OffGridError measure_offgrid_error(const HdrImage& input, const HdrImage& map, d
             const double phi = kTwoPi * (i + rng.uniform()) / mw - kPi;
             r = direction_from_angles(std::acos(std::clamp(ct, -1.0, 1.0)), phi);
         }
-        const Rgb a = sample_map(map, r, lookup, shininess);
+        const Rgb a = fine && !fine->empty() && lookup == MapLookup::Bilinear ? sample_bilinear(map, *fine, r)
+                                                                              : sample_map(map, r, lookup, shininess);
         Sample& out = s[std::size_t(index)];
         out.dir = r;
         out.a = {a.r, a.g, a.b};

@@ -20,6 +20,7 @@
 #include <glm/glm.hpp>
 
 #include "appliance/core/equirect.hpp"
+#include "appliance/core/fine_tiles.hpp"
 #include "appliance/core/hdr_image.hpp"
 
 namespace glint::convolution {
@@ -82,7 +83,9 @@ struct OffGridError {
 // Throws InputError on an empty image, samples < 1, or a bad shininess.
 // `lookup`: how the renderer reads `map` (MapPlan::lookup, report.json's "lookup": the lobe
 // lookup for a lobe narrower than half the input's texels, whose map holds the input's texels).
+// `fine`: the map's fine tiles (MapResult::fine), read through them (core/fine_tiles.hpp).
 OffGridError measure_offgrid_error(const HdrImage& input, const HdrImage& map, double shininess, int samples,
-                                   std::uint64_t seed, int threads, MapLookup lookup = MapLookup::Bilinear);
+                                   std::uint64_t seed, int threads, MapLookup lookup = MapLookup::Bilinear,
+                                   const FineTiles* fine = nullptr);
 
 }  // namespace glint::convolution

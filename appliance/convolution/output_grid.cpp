@@ -5,10 +5,13 @@
 #include <array>
 #include <atomic>
 #include <cmath>
+#include <cstdint>
 #include <cstring>
+#include <string>
 #include <vector>
 
 #include "appliance/core/equirect.hpp"
+#include "appliance/core/errors.hpp"
 #include "appliance/core/parallel.hpp"
 
 namespace glint::convolution {
@@ -230,7 +233,7 @@ double solid_angle_mean(const HdrImage& map) {
     return sum / (3.0 * 4.0 * kPi);
 }
 
-LookupError estimate_lookup_error(const HdrImage& map, int threads) {
+LookupError estimate_lookup_error(const HdrImage& map, int threads, TexelLookupErrors* per_texel) {
     const int w = map.width(), h = map.height();
     const std::vector<double> solid = row_solid_angles(w, h);
     const double mean = solid_angle_mean(map);
@@ -240,6 +243,12 @@ LookupError estimate_lookup_error(const HdrImage& map, int threads) {
     std::vector<RowSums> rows_sums(static_cast<std::size_t>(h));
     const std::vector<std::array<int, 5>> cols = neighbour_columns(w);
     const std::size_t n = 3 * std::size_t(w);
+    if (per_texel) {
+        for (TexelErrors* e : {&per_texel->bilinear, &per_texel->cubic}) {
+            e->relative.resize(map.texel_count());
+            e->square.resize(map.texel_count());
+        }
+    }
     for_each_row_window(map, threads, [&](int j, const std::array<const float*, 5>& rows) {
         thread_local RowDifferences d;
         d.compute(rows, cols, w);
@@ -266,6 +275,30 @@ LookupError estimate_lookup_error(const HdrImage& map, int threads) {
         }
         rows_sums[std::size_t(j)] = {lane_sum(value2), lane_sum(bilinear2), lane_sum(cubic2),
                                      lane_largest(bilinear_worst), lane_largest(cubic_worst)};
+        if (!per_texel) return;
+        // Per texel, the same estimates over its three channels: the largest relative error and
+        // the weighted sum of squares, of both kinds.
+        const double sa = solid[std::size_t(j)];
+        for (int i = 0; i < w; ++i) {
+            double rel_b = 0, rel_c = 0, sq_b = 0, sq_c = 0;
+            for (int c = 0; c < 3; ++c) {
+                const std::size_t q = 3 * std::size_t(i) + std::size_t(c);
+                const double v = rows[2][q], da = d.a[q], db = d.b[q];
+                const double bilinear = (std::abs(da) + std::abs(db)) / 8.0, cubic = d.d4[q] * kCubicCoefficient;
+                sq_b += (da * da + db * db) / 120.0 + da * db / 72.0;
+                sq_c += cubic * cubic;
+                const double floor = std::max(std::abs(v), mean);
+                if (floor > 0) {
+                    rel_b = std::max(rel_b, bilinear / floor);
+                    rel_c = std::max(rel_c, cubic / floor);
+                }
+            }
+            const std::size_t t = std::size_t(j) * std::size_t(w) + std::size_t(i);
+            per_texel->bilinear.relative[t] = float(rel_b);
+            per_texel->bilinear.square[t] = sq_b * sa;
+            per_texel->cubic.relative[t] = float(rel_c);
+            per_texel->cubic.square[t] = sq_c * sa;
+        }
     });
     double value2 = 0, bilinear2 = 0, cubic2 = 0;
     LookupError e;
@@ -282,66 +315,51 @@ LookupError estimate_lookup_error(const HdrImage& map, int threads) {
         e.bilinear_rms = std::sqrt(bilinear2 / value2);
         e.cubic_rms = std::sqrt(cubic2 / value2);
     }
+    if (per_texel) per_texel->bilinear.value2 = per_texel->cubic.value2 = value2;
     return e;
 }
 
-ResamplePatches plan_resample_patches(const HdrImage& map, double rms_budget, double worst_budget, int threads) {
-    const int w = map.width(), h = map.height();
-    const std::vector<double> solid = row_solid_angles(w, h);
-    const double mean = solid_angle_mean(map);
-    const std::vector<std::array<int, 5>> cols = neighbour_columns(w);
-    const std::size_t texels = std::size_t(w) * std::size_t(h);
-    // Per texel: the largest relative 4-point error over its channels, and its weighted share
-    // of the squared error; per row: the weighted sum of squared values.
-    std::vector<float> relative(texels);
-    std::vector<double> square(texels), row_value2(static_cast<std::size_t>(h));
-    for_each_row_window(map, threads, [&](int j, const std::array<const float*, 5>& rows) {
-        thread_local RowDifferences d;
-        d.compute(rows, cols, w);
-        double value2 = 0;
-        for (int i = 0; i < w; ++i) {
-            double rel = 0, sq = 0;
-            for (int c = 0; c < 3; ++c) {
-                const std::size_t k = 3 * std::size_t(i) + std::size_t(c);
-                const double v = rows[2][k];
-                const double cubic = d.d4[k] * kCubicCoefficient;
-                const double floor = std::max(std::abs(v), mean);
-                if (floor > 0) rel = std::max(rel, cubic / floor);
-                sq += cubic * cubic;
-                value2 += v * v;
-            }
-            const std::size_t t = std::size_t(j) * std::size_t(w) + std::size_t(i);
-            relative[t] = float(rel);
-            square[t] = sq * solid[std::size_t(j)];
-        }
-        row_value2[std::size_t(j)] = value2 * solid[std::size_t(j)];
-    });
-    double value2 = 0;
-    for (double v : row_value2) value2 += v;
-    ResamplePatches result;
-    std::vector<char> marked(texels, 0);
+namespace {
+
+// The texels whose relative error exceeds worst_budget, then those with the largest shares of
+// the squared error until the rest is within rms_budget (relative RMS); what the unmarked
+// texels leave.
+struct Marking {
+    std::vector<char> marked;
+    long long count = 0;
+    double remaining_rms = 0, remaining_worst = 0;
+};
+Marking mark_largest_errors(const TexelErrors& e, double rms_budget, double worst_budget) {
+    const std::size_t texels = e.relative.size();
+    Marking result;
+    result.marked.assign(texels, 0);
+    std::vector<char>& marked = result.marked;
     double rest = 0;  // weighted squared error of the unmarked texels
     for (std::size_t t = 0; t < texels; ++t) {
-        if (relative[t] > worst_budget) {
+        if (e.relative[t] > worst_budget) {
             marked[t] = 1;
             ++result.count;
         } else {
-            rest += square[t];
+            rest += e.square[t];
         }
     }
     // Then the largest contributions to the RMS until the rest is within its budget: the
     // contributions binned by their power of two, whole bins marked from the top, and the
     // bin where the budget is crossed sorted (a sort of every texel took a tenth of a map's
     // delivery at 4096x2048).
-    const double allowed = rms_budget * rms_budget * value2;
+    const double allowed = rms_budget * rms_budget * e.value2;
     if (rest > allowed) {
-        constexpr int kLowest = -1100, kBins = 2200;  // 2^-1100 .. 2^1100 covers every double
-        const auto bin = [&](double sq) {
-            return sq > 0 ? std::clamp(std::ilogb(sq) - kLowest, 0, kBins - 1) : 0;
+        // A value's bin is its binary exponent field (0 for 0 and subnormals): what ilogb gives,
+        // biased, without a call per texel.
+        constexpr int kBins = 2048;
+        const auto bin = [](double sq) {
+            std::uint64_t bits;
+            std::memcpy(&bits, &sq, sizeof bits);
+            return sq > 0 ? int((bits >> 52) & 0x7ff) : 0;
         };
         std::vector<double> bin_sum(kBins, 0.0);
         for (std::size_t t = 0; t < texels; ++t)
-            if (!marked[t]) bin_sum[std::size_t(bin(square[t]))] += square[t];
+            if (!marked[t]) bin_sum[std::size_t(bin(e.square[t]))] += e.square[t];
         // The lowest bins whose sum stays within the budget are kept; `cross` is the first
         // bin that would exceed it.
         double kept = 0;
@@ -350,32 +368,51 @@ ResamplePatches plan_resample_patches(const HdrImage& map, double rms_budget, do
         std::vector<std::size_t> crossing;
         for (std::size_t t = 0; t < texels; ++t) {
             if (marked[t]) continue;
-            const int b = bin(square[t]);
+            const int b = bin(e.square[t]);
             if (b > cross) {
                 marked[t] = 1;
                 ++result.count;
-                rest -= square[t];
+                rest -= e.square[t];
             } else if (b == cross) {
                 crossing.push_back(t);
             }
         }
-        std::sort(crossing.begin(), crossing.end(), [&](std::size_t a, std::size_t b) { return square[a] > square[b]; });
+        std::sort(crossing.begin(), crossing.end(),
+                  [&](std::size_t a, std::size_t b) { return e.square[a] > e.square[b]; });
         for (std::size_t t : crossing) {
             if (rest <= allowed) break;
             marked[t] = 1;
             ++result.count;
-            rest -= square[t];
+            rest -= e.square[t];
         }
     }
     for (std::size_t t = 0; t < texels; ++t)
-        if (!marked[t]) result.remaining_worst = std::max(result.remaining_worst, double(relative[t]));
-    result.remaining_rms = value2 > 0 ? std::sqrt(std::max(0.0, rest) / value2) : 0.0;
+        if (!marked[t]) result.remaining_worst = std::max(result.remaining_worst, double(e.relative[t]));
+    result.remaining_rms = e.value2 > 0 ? std::sqrt(std::max(0.0, rest) / e.value2) : 0.0;
+    return result;
+}
+
+}  // namespace
+
+ResamplePatches plan_resample_patches(const HdrImage& map, double rms_budget, double worst_budget, int threads,
+                                      const TexelLookupErrors* known) {
+    const int w = map.width(), h = map.height();
+    TexelLookupErrors measured;
+    if (!known) {
+        estimate_lookup_error(map, threads, &measured);
+        known = &measured;
+    }
+    const Marking m = mark_largest_errors(known->cubic, rms_budget, worst_budget);
+    ResamplePatches result;
+    result.count = m.count;
+    result.remaining_rms = m.remaining_rms;
+    result.remaining_worst = m.remaining_worst;
     // A texel's error estimate covers the cells around it: its neighbours are marked too
     // (across the seam and the poles).
-    result.texels.assign(texels, 0);
+    result.texels.assign(m.marked.size(), 0);
     for (int j = 0; j < h; ++j)
         for (int i = 0; i < w; ++i) {
-            if (!marked[std::size_t(j) * std::size_t(w) + std::size_t(i)]) continue;
+            if (!m.marked[std::size_t(j) * std::size_t(w) + std::size_t(i)]) continue;
             for (int dj = -1; dj <= 1; ++dj) {
                 const RowTap r = row_across_pole(j + dj, h, w);
                 for (int di = -1; di <= 1; ++di)
@@ -383,6 +420,237 @@ ResamplePatches plan_resample_patches(const HdrImage& map, double rms_budget, do
             }
         }
     return result;
+}
+
+FineTilePlan plan_fine_tiles(const HdrImage& base, int factor, int tile, double rms_budget, double worst_budget,
+                             int threads, const TexelLookupErrors* known) {
+    const int w = base.width(), h = base.height();
+    FineTilePlan plan;
+    plan.factor = factor;
+    plan.tile = tile;
+    if (!FineTiles::fits(w, h, tile) || factor < 2) return plan;
+    plan.tiles_x = w / tile;
+    plan.tiles_y = h / tile;
+    plan.kept.assign(std::size_t(plan.tiles_x) * std::size_t(plan.tiles_y), 0);
+    TexelLookupErrors measured;
+    if (!known) {
+        estimate_lookup_error(base, threads, &measured);
+        known = &measured;
+    }
+    const Marking m = mark_largest_errors(known->bilinear, rms_budget, worst_budget);
+    plan.marked = m.count;
+    plan.remaining_rms = m.remaining_rms;
+    plan.remaining_worst = m.remaining_worst;
+    // Base texel i's centre is fine coordinate (i + 0.5) factor - 0.5 (in fine texel centres);
+    // the cells between its neighbours' centres span fine cells [lo, hi], one more each side
+    // for rounding. Columns wrap (tiles modulo tiles_x); rows clamp, as lookups do.
+    const int t = tile * factor, fh = h * factor;
+    const auto floor_div = [](int a, int b) { return a >= 0 ? a / b : -((-a + b - 1) / b); };
+    for (int j = 0; j < h; ++j)
+        for (int i = 0; i < w; ++i) {
+            if (!m.marked[std::size_t(j) * std::size_t(w) + std::size_t(i)]) continue;
+            const int x_lo = int(std::floor((i - 0.5) * factor - 0.5)) - 1;
+            const int x_hi = int(std::floor((i + 1.5) * factor - 0.5)) + 1;
+            const int y_lo = std::clamp(int(std::floor((j - 0.5) * factor - 0.5)) - 1, 0, fh - 1);
+            const int y_hi = std::clamp(int(std::floor((j + 1.5) * factor - 0.5)) + 1, 0, fh - 1);
+            for (int ty = y_lo / t; ty <= y_hi / t; ++ty)
+                for (int tx = floor_div(x_lo, t); tx <= floor_div(x_hi, t); ++tx) {
+                    char& k = plan.kept[std::size_t(ty) * std::size_t(plan.tiles_x) + std::size_t(wrap(tx, plan.tiles_x))];
+                    if (!k) ++plan.tiles;
+                    k = 1;
+                }
+        }
+    return plan;
+}
+
+FineTiles make_fine_tiles(const HdrImage& map, const FineTilePlan& plan, int threads, long long* clamped,
+                          const BrightLobes* lobes) {
+    FineTiles f;
+    f.factor = plan.factor;
+    f.tile = plan.tile;
+    f.tiles_x = plan.tiles_x;
+    f.tiles_y = plan.tiles_y;
+    f.slot.assign(plan.kept.size(), -1);
+    std::vector<int> order;  // tile indices of the blocks, in slot order
+    for (std::size_t k = 0; k < plan.kept.size(); ++k)
+        if (plan.kept[k]) {
+            f.slot[k] = int(order.size());
+            order.push_back(int(k));
+        }
+    if (order.empty()) return FineTiles{};
+    const int w = map.width(), h = map.height();
+    const int fw = w * f.factor, fh = h * f.factor, t = f.tile * f.factor, side = f.side();
+    f.blocks = HdrImage(side, side * int(order.size()), HdrImage::Unwritten{});
+    // Per block: the fine columns' taps (wrapped) and rows' taps (continued across the poles,
+    // a row past one read half a turn round), both passes in float as resample_cubic sums.
+    std::atomic<long long> negative{0};
+    parallel_for(int(order.size()), threads, [&](int k) {
+        const int tx = order[std::size_t(k)] % f.tiles_x, ty = order[std::size_t(k)] / f.tiles_x;
+        thread_local std::vector<std::array<int, 4>> col_index;
+        thread_local std::vector<std::array<float, 4>> col_weight;
+        col_index.resize(std::size_t(side));
+        col_weight.resize(std::size_t(side));
+        for (int u = 0; u < side; ++u) {
+            const int i = (tx * t + u) % fw;
+            const Tap c = cubic_tap(i, fw, w);
+            for (int q = 0; q < 4; ++q) {
+                col_index[std::size_t(u)][std::size_t(q)] = wrap(c.first + q, w);
+                col_weight[std::size_t(u)][std::size_t(q)] = float(c.weight[std::size_t(q)]);
+            }
+        }
+        // The base rows the block's fine rows read, each resampled across once.
+        const int j_first = ty * t, j_last = std::min(ty * t + t, fh - 1);
+        const int r_first = cubic_tap(j_first, fh, h).first, r_last = cubic_tap(j_last, fh, h).first + 3;
+        thread_local std::vector<float> across;
+        across.resize(std::size_t(r_last - r_first + 1) * 3 * std::size_t(side));
+        for (int r = r_first; r <= r_last; ++r) {
+            const RowTap rt = row_across_pole(r, h, w);
+            const float* src = map.row(rt.row);
+            float* dst = across.data() + std::size_t(r - r_first) * 3 * std::size_t(side);
+            for (int u = 0; u < side; ++u) {
+                const std::array<int, 4>& ci = col_index[std::size_t(u)];
+                const std::array<float, 4>& cw = col_weight[std::size_t(u)];
+                for (int c = 0; c < 3; ++c) {
+                    float v = 0;
+                    for (int q = 0; q < 4; ++q)
+                        v += cw[std::size_t(q)] * src[3 * wrap(ci[std::size_t(q)] + rt.shift, w) + c];
+                    dst[3 * u + c] = v;
+                }
+            }
+        }
+        long long below = 0;
+        for (int v = 0; v < side; ++v) {
+            const int j = std::min(ty * t + v, fh - 1);
+            const Tap rt = cubic_tap(j, fh, h);
+            float* out = f.blocks.row(k * side + v);
+            for (int u = 0; u < side; ++u)
+                for (int c = 0; c < 3; ++c) {
+                    float s = 0;
+                    for (int q = 0; q < 4; ++q)
+                        s += float(rt.weight[std::size_t(q)]) *
+                             across[std::size_t(rt.first + q - r_first) * 3 * std::size_t(side) + 3 * std::size_t(u) + std::size_t(c)];
+                    if (s < 0) ++below;
+                    out[3 * u + c] = s < 0 ? 0.0f : s;
+                }
+        }
+        negative += below;
+    });
+    if (clamped) *clamped += negative.load();
+    if (lobes) {
+        // Per fine row: the blocks' columns on it as runs within one window, the lobes added
+        // there once, then copied back into each block's row.
+        const TexelSelection all = fine_tile_texels(plan, {w, h});
+        parallel_for(int(all.rows.size()), threads, [&](int q) {
+            const int j = all.rows[std::size_t(q)];
+            const LobeSummer::ColumnRuns& runs = all.runs[std::size_t(q)];
+            const int first = runs.front().first, count = runs.back().second - first;
+            thread_local std::vector<float> row;
+            row.assign(3 * std::size_t(count), 0.0f);
+            // The resampled values in, from a block that holds each.
+            for (const auto& [a, b] : runs)
+                for (int i = a; i < b; ++i)
+                    std::copy_n(fine_texel(f, {w, h}, i, j), 3, row.data() + 3 * std::size_t(i - first));
+            lobes->apply_runs(j, runs, first, count, row.data());
+            for (const auto& [a, b] : runs)
+                for (int i = a; i < b; ++i) set_fine_texel(f, {w, h}, i, j, row.data() + 3 * std::size_t(i - first));
+        });
+    }
+    return f;
+}
+
+TexelSelection fine_tile_texels(const FineTilePlan& plan, Size base) {
+    TexelSelection s;
+    if (plan.kept.empty()) return s;
+    const int t = plan.tile * plan.factor, fw = base.width * plan.factor, fh = base.height * plan.factor;
+    for (int j = 0; j < fh; ++j) {
+        // Tile rows holding fine row j: its own, and the one above when j is its first row.
+        std::vector<char> column(static_cast<std::size_t>(fw), 0);
+        bool any = false;
+        for (int ty : {j / t, j % t == 0 ? j / t - 1 : -1}) {
+            if (ty < 0 || ty >= plan.tiles_y) continue;
+            for (int tx = 0; tx < plan.tiles_x; ++tx) {
+                if (!plan.kept[std::size_t(ty) * std::size_t(plan.tiles_x) + std::size_t(tx)]) continue;
+                any = true;
+                for (int u = 0; u <= t; ++u) column[std::size_t((tx * t + u) % fw)] = 1;
+            }
+        }
+        if (!any) continue;
+        LobeSummer::ColumnRuns runs;
+        for (int i = 0; i < fw; ++i) {
+            if (!column[std::size_t(i)]) continue;
+            if (!runs.empty() && runs.back().second == i)
+                runs.back().second = i + 1;
+            else
+                runs.emplace_back(i, i + 1);
+        }
+        for (const auto& [a, b] : runs) s.texels += b - a;
+        s.rows.push_back(j);
+        s.runs.push_back(std::move(runs));
+    }
+    return s;
+}
+
+TexelSelection intersect(const TexelSelection& a, const TexelSelection& b) {
+    TexelSelection s;
+    std::size_t q = 0;
+    for (std::size_t p = 0; p < a.rows.size(); ++p) {
+        while (q < b.rows.size() && b.rows[q] < a.rows[p]) ++q;
+        if (q == b.rows.size()) break;
+        if (b.rows[q] != a.rows[p]) continue;
+        LobeSummer::ColumnRuns runs;
+        const LobeSummer::ColumnRuns &ra = a.runs[p], &rb = b.runs[q];
+        std::size_t x = 0, y = 0;
+        while (x < ra.size() && y < rb.size()) {
+            const int lo = std::max(ra[x].first, rb[y].first), hi = std::min(ra[x].second, rb[y].second);
+            if (lo < hi) runs.emplace_back(lo, hi);
+            if (ra[x].second < rb[y].second)
+                ++x;
+            else
+                ++y;
+        }
+        if (runs.empty()) continue;
+        for (const auto& [lo, hi] : runs) s.texels += hi - lo;
+        s.rows.push_back(a.rows[p]);
+        s.runs.push_back(std::move(runs));
+    }
+    return s;
+}
+
+namespace {
+
+// Calls visit(slot, u, v) for every block that holds fine texel (i, j): its own tile's (u = i mod
+// t), the left neighbour's (u = t) when i is a tile's first column (column 0: the last tile,
+// round the seam); rows likewise, and a block of the last tile row holds row fh - 1 again at v = t.
+template <typename Visit>
+void blocks_holding(const FineTiles& f, Size base, int i, int j, const Visit& visit) {
+    const int t = f.tile * f.factor, fh = base.height * f.factor;
+    const int xs[2][2] = {{i / t, i % t}, {wrap(i / t - 1, f.tiles_x), t}};
+    const int ys[3][2] = {{j / t, j % t}, {j / t - 1, t}, {j / t, t}};
+    for (int cx = 0; cx < 2; ++cx) {
+        if (cx == 1 && i % t != 0) continue;
+        for (int cy = 0; cy < 3; ++cy) {
+            if (cy == 1 && (j % t != 0 || j == 0)) continue;
+            if (cy == 2 && j != fh - 1) continue;
+            const int slot = f.slot[std::size_t(ys[cy][0]) * std::size_t(f.tiles_x) + std::size_t(xs[cx][0])];
+            if (slot >= 0) visit(slot, xs[cx][1], ys[cy][1]);
+        }
+    }
+}
+
+}  // namespace
+
+const float* fine_texel(const FineTiles& f, Size base, int i, int j) {
+    const float* found = nullptr;
+    blocks_holding(f, base, i, j, [&](int slot, int u, int v) {
+        if (!found) found = f.blocks.row(slot * f.side() + v) + 3 * u;
+    });
+    if (!found) throw RuntimeError("internal: no fine tile holds texel " + std::to_string(i) + ", " + std::to_string(j));
+    return found;
+}
+
+void set_fine_texel(FineTiles& f, Size base, int i, int j, const float* rgb) {
+    blocks_holding(f, base, i, j,
+                   [&](int slot, int u, int v) { std::copy_n(rgb, 3, f.blocks.row(slot * f.side() + v) + 3 * u); });
 }
 
 TexelSelection fine_texels_near(const std::vector<char>& marked, Size coarse, Size fine, int threads) {
@@ -552,6 +820,20 @@ void BrightLobes::apply_row(int row, float* dst) const {
         const float v = float(double(dst[i]) + norm_ * sums[std::size_t(i)]);
         dst[i] = op_ == LobeOp::AddClamped ? std::max(0.0f, v) : v;
     }
+}
+
+void BrightLobes::apply_runs(int row, const LobeSummer::ColumnRuns& runs, int first_column, int count,
+                             float* dst) const {
+    if (!reached_[std::size_t(row)] || runs.empty()) return;
+    thread_local std::vector<double> sums;
+    sums.assign(3 * std::size_t(count), 0.0);
+    const double one = 1.0;
+    scatter_.add_row(row, &one, 1, sums.data(), &runs, first_column);
+    for (const auto& [a, b] : runs)
+        for (int k = 3 * (a - first_column); k < 3 * (b - first_column); ++k) {
+            const float v = float(double(dst[k]) + norm_ * sums[std::size_t(k)]);
+            dst[k] = op_ == LobeOp::AddClamped ? std::max(0.0f, v) : v;
+        }
 }
 
 void add_bright_lobes(const std::vector<BrightTexel>& bright, double n, double floor_value, LobeOp op,

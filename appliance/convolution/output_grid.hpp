@@ -12,6 +12,7 @@
 #include "appliance/convolution/convolution.hpp"
 #include "appliance/convolution/lobe_sum.hpp"
 #include "appliance/convolution/methods.hpp"
+#include "appliance/core/fine_tiles.hpp"
 #include "appliance/core/hdr_image.hpp"
 
 namespace glint::convolution {
@@ -35,7 +36,17 @@ double solid_angle_mean(const HdrImage& map);
 // largest value, (|a| + |b|)/8. Cubic: 3/128 (|d4_phi| + |d4_theta|), the largest error of
 // 4-point interpolation, for both. Differences in theta continue across the poles (the
 // row's mirror, half a turn round), in phi around the seam.
-LookupError estimate_lookup_error(const HdrImage& map, int threads);
+// With per_texel, also each texel's estimates over its channels (TexelLookupErrors), from the
+// same differences, for plan_resample_patches and plan_fine_tiles.
+struct TexelErrors {
+    std::vector<float> relative;   // per texel: the largest relative error over its channels
+    std::vector<double> square;    // per texel: its weighted share of the squared error
+    double value2 = 0;             // the map's weighted sum of squared values
+};
+struct TexelLookupErrors {
+    TexelErrors bilinear, cubic;
+};
+LookupError estimate_lookup_error(const HdrImage& map, int threads, TexelLookupErrors* per_texel = nullptr);
 
 // Where 4-point resampling of `map` to a finer grid would miss its budget: the texels whose
 // predicted relative error (as in estimate_lookup_error) exceeds worst_budget, then those
@@ -47,7 +58,9 @@ struct ResamplePatches {
     double remaining_rms = 0;  // predicted RMS and worst of 4-point resampling elsewhere
     double remaining_worst = 0;
 };
-ResamplePatches plan_resample_patches(const HdrImage& map, double rms_budget, double worst_budget, int threads);
+// `known`: the map's per-texel estimates, if the caller has them.
+ResamplePatches plan_resample_patches(const HdrImage& map, double rms_budget, double worst_budget, int threads,
+                                      const TexelLookupErrors* known = nullptr);
 
 // The texels of an equirect grid `fine` whose centres lie in a cell of `coarse` (between
 // its four nearest texel centres, across the seam and the poles) with a marked corner.
@@ -57,6 +70,40 @@ struct TexelSelection {
     long long texels = 0;
 };
 TexelSelection fine_texels_near(const std::vector<char>& marked, Size coarse, Size fine, int threads);
+
+// Fine tiles (core/fine_tiles.hpp; docs/convolution.md, "Fine tiles"): which tiles of `base`
+// (a map as summed, bright texels in) need a grid `factor` times finer for bilinear lookups.
+// The base texels whose lookups would err more than worst_budget, then those with the largest
+// shares of the RMS until the rest is within rms_budget (as plan_resample_patches, with the
+// bilinear estimates), each with the fine cells between its neighbours' centres; the tiles of
+// `tile` base texels holding those cells are kept.
+class BrightLobes;
+struct FineTilePlan {
+    int factor = 1, tile = 0, tiles_x = 0, tiles_y = 0;
+    std::vector<char> kept;    // per tile, row-major
+    long long tiles = 0;       // kept
+    long long marked = 0;      // base texels marked
+    double remaining_rms = 0;  // bilinear lookups of the base outside the kept tiles
+    double remaining_worst = 0;
+};
+FineTilePlan plan_fine_tiles(const HdrImage& base, int factor, int tile, double rms_budget, double worst_budget,
+                             int threads, const TexelLookupErrors* known = nullptr);
+
+// The kept tiles' fine texels: `map` resampled 4-point (as resample_cubic, at those texels
+// only), negative values clamped to 0 and counted in *clamped, then `lobes` (built for the fine
+// grid) applied, as resample_cubic does for the whole grid.
+FineTiles make_fine_tiles(const HdrImage& map, const FineTilePlan& plan, int threads, long long* clamped,
+                          const BrightLobes* lobes);
+
+// The fine texels of the kept tiles (each texel once, a block's shared edge included), as a
+// selection of the fine grid; and the same selection limited to the texels also in `other`.
+TexelSelection fine_tile_texels(const FineTilePlan& plan, Size base);
+TexelSelection intersect(const TexelSelection& a, const TexelSelection& b);
+
+// Writes value rgb of fine texel (i, j) into every block that holds it; reads it from one
+// (throws RuntimeError when no kept tile holds it).
+void set_fine_texel(FineTiles& tiles, Size base, int i, int j, const float* rgb);
+const float* fine_texel(const FineTiles& tiles, Size base, int i, int j);
 
 // The bright texels' part of a map of shininess n at the texel centres of an out-sized grid,
 // (n+1)/(2 pi) sum_b max(0, r.w_b)^n L_b dOmega_b, normalised by the continuous lobe, taken
@@ -73,6 +120,9 @@ public:
     // Row `row` of an out-sized map (3 floats per texel), in place; rows no bright texel
     // reaches are left as they are. Thread-safe across rows.
     void apply_row(int row, float* dst) const;
+    // The same for texels of row `row` in the half-open column runs `runs` (ascending, within
+    // [first_column, first_column + count)): dst holds `count` texels from first_column on.
+    void apply_runs(int row, const LobeSummer::ColumnRuns& runs, int first_column, int count, float* dst) const;
 
 private:
     BrightScatter scatter_;

@@ -6,6 +6,7 @@
 
 #include "appliance/core/errors.hpp"
 #include "appliance/core/exr_io.hpp"
+#include "appliance/core/fine_tiles_io.hpp"
 
 namespace glint::render {
 namespace {
@@ -61,6 +62,7 @@ ShadingMaps load_maps(const fs::path& dir, const std::vector<Material>& material
         std::string file;
         std::string listed;
         MapLookup lookup = MapLookup::Bilinear;
+        nlohmann::json fine_tiles;
         for (const auto& entry : report["maps"]) {
             const std::string label = entry.value("map", "");
             listed += (listed.empty() ? "" : ", ") + label;
@@ -71,6 +73,7 @@ ShadingMaps load_maps(const fs::path& dir, const std::vector<Material>& material
                          entry["shininess"].is_number() && entry["shininess"].get<double>() == want.shininess;
             if (match && file.empty()) {
                 file = entry.value("file", label + ".exr");
+                if (entry.contains("fine_tiles")) fine_tiles = entry["fine_tiles"];
                 const std::string how = entry.value("lookup", "bilinear");
                 if (const auto known = map_lookup_from_string(how)) lookup = *known;
                 else
@@ -83,6 +86,11 @@ ShadingMaps load_maps(const fs::path& dir, const std::vector<Material>& material
                              (listed.empty() ? "none" : listed) + ")");
         const fs::path path = dir / file;
         HdrImage image = load_exr(path).image;
+        // Fine tiles (glint convolve --fine-tiles): the map is uploaded as its whole finer grid
+        // (the tiles' texels there, its own bilinear lookups elsewhere); a lookup of the tiles in
+        // the shader is not built (docs/render.md).
+        const FineTiles fine = load_fine_tiles(fine_tiles, dir, image, report_path.string() + ": " + file);
+        if (!fine.empty()) image = expand(image, fine);
         if (want.irradiance) {
             out.irradiance = std::move(image);
             out.irradiance_from = path.string();
@@ -105,6 +113,10 @@ ShadingMaps convolve_maps(const HdrImage& environment, const std::vector<Materia
     std::vector<convolution::MapResult> results = convolution::convolve(environment, requests, options);
     ShadingMaps out;
     for (auto& r : results) {
+        if (!r.fine.empty()) {  // the whole finer grid, as load_maps does
+            r.image = expand(r.image, r.fine, options.threads);
+            r.fine = FineTiles{};
+        }
         if (r.request.irradiance) {
             out.irradiance_from = describe_plan(r);
             out.irradiance = std::move(r.image);

@@ -54,6 +54,7 @@
 #include "appliance/core/error_metrics.hpp"
 #include "appliance/core/errors.hpp"
 #include "appliance/core/exr_io.hpp"
+#include "appliance/core/fine_tiles_io.hpp"
 #include "bench_util.hpp"
 
 namespace fs = std::filesystem;
@@ -113,13 +114,15 @@ struct Config {
     int threads = 2;
     bool keep_outputs = false;
     bool quadrature = true;
+    bool fine_tiles = false;  // glint convolve --fine-tiles; results named *_fine_tiles
+    std::string suffix() const { return fine_tiles ? "_fine_tiles" : ""; }
     std::vector<Run> runs;
 };
 
 const char* kHelp =
     "glint_bench_scaling [--run MAP:SIZES]... [--preset full|issue] [--worlds DIR] [--cache DIR]\n"
     "                    [--exact-cache DIR] [--out DIR] [--images DIR] [--glint PATH] [--threads N]\n"
-    "                    [--quadrature-map NAME] [--no-quadrature] [--keep-outputs]\n"
+    "                    [--quadrature-map NAME] [--no-quadrature] [--keep-outputs] [--fine-tiles]\n"
     "\n"
     "How `glint convolve` scales with the input size. For each (map, input size) the whole set\n"
     "(--irradiance --shininess 1,10,20,40,80,160,320,640,1280,5120,20480 --allow-over-tolerance,\n"
@@ -143,7 +146,9 @@ const char* kHelp =
     "  --threads N       --threads of glint convolve and of the exact references [2]\n"
     "  --quadrature-map NAME  map of the NN-upsampling quadrature check [courtyard]\n"
     "  --no-quadrature   skip that check\n"
-    "  --keep-outputs    keep each run's output directory (<cache>/runs/<map>_<WxH>)\n";
+    "  --keep-outputs    keep each run's output directory (<cache>/runs/<map>_<WxH>)\n"
+    "  --fine-tiles      glint convolve --fine-tiles (maps read through their tiles); writes\n"
+    "                    scaling_fine_tiles.{md,csv} and convolution_scaling_fine_tiles.png\n";
 
 // ---------------------------------------------------------------- inputs
 
@@ -459,6 +464,7 @@ RunRow run_one(const Config& cfg, const Run& run, const std::vector<HdrImage>& r
     std::vector<std::string> args{cfg.glint,     "convolve",      input.string(), "--irradiance",
                                   "--shininess", shininess_list(), "--out",       dir.string(),
                                   "--threads",   std::to_string(cfg.threads), "--allow-over-tolerance"};
+    if (cfg.fine_tiles) args.push_back("--fine-tiles");
     const ProcessOutcome p = run_process(args, log);
     row.process_s = p.wall_seconds;
     row.peak_mib = p.peak_mib;
@@ -509,7 +515,16 @@ RunRow run_one(const Config& cfg, const Run& run, const std::vector<HdrImage>& r
         const fs::path file = dir / m.value("file", label + ".exr");
         try {
             const HdrImage& ref = reference[std::size_t(it - targets.begin())];
-            const HdrImage map = load_exr(file).image;
+            HdrImage map = load_exr(file).image;
+            // With fine tiles, the map's whole finer grid (the tiles' texels there, its own
+            // lookups elsewhere), as glint compare and glint render read it.
+            const FineTiles fine = load_fine_tiles(m.contains("fine_tiles") ? m["fine_tiles"] : nlohmann::json(), dir,
+                                                   map, (dir / "report.json").string() + ": " + label);
+            if (!fine.empty()) {
+                map = expand(map, fine);
+                r.method += ", fine tiles";
+                r.output = {map.width(), map.height()};
+            }
             // A lobe map is the input's texels read through the lobe (docs/convolution.md, "The
             // lobe lookup"): its value at the reference's texel centres is that lookup's.
             const bool lobe = m.value("lookup", std::string("bilinear")) == "lobe";
@@ -707,6 +722,7 @@ int main(int argc, char** argv) {
         else if (a == "--quadrature-map") cfg.quadrature_map = value("--quadrature-map");
         else if (a == "--no-quadrature") cfg.quadrature = false;
         else if (a == "--keep-outputs") cfg.keep_outputs = true;
+        else if (a == "--fine-tiles") cfg.fine_tiles = true;
         else if (a == "--preset") {
             preset = value("--preset");
             if (preset != "full" && preset != "issue") usage_error("--preset takes full or issue, not " + preset);
@@ -831,7 +847,7 @@ int main(int argc, char** argv) {
         const double total_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 
         // ---- csv ----
-        std::ofstream csv(cfg.out / "scaling.csv");
+        std::ofstream csv(cfg.out / ("scaling" + cfg.suffix() + ".csv"));
         csv << "map,input_width,input_height,input_texels,load_s,load_mb_per_s,convolve_s,process_s,peak_mib,"
                "target,n,output_width,output_height,sum_width,sum_height,method,input_level,predicted_error,"
                "over_tolerance,map_seconds,weighted_rel_rms,worst_texel,lookup_floor_rms,lookup_floor_worst\n";
@@ -858,7 +874,7 @@ int main(int argc, char** argv) {
         char date[64];
         const std::time_t now = std::time(nullptr);
         std::strftime(date, sizeof date, "%Y-%m-%d %H:%M UTC", std::gmtime(&now));
-        std::ofstream md(cfg.out / "scaling.md");
+        std::ofstream md(cfg.out / ("scaling" + cfg.suffix() + ".md"));
         md << "# Convolution: scaling with the input size\n\n"
            << "Generated by `tests/bench/run_scaling_bench.sh` (`" << command << "`) on " << date << ", "
            << machine_description() << ", `glint convolve --threads " << cfg.threads << "`; the whole benchmark took "
@@ -947,7 +963,7 @@ int main(int argc, char** argv) {
                << " | " << na("%.3g", fb.a) << " | " << fb.points << " | " << na("%.3f", fa.b) << " | "
                << na("%.3g", fa.a) << " | " << fa.points << " |\n";
         }
-        md << "\nPlot: `" << (cfg.images / "convolution_scaling.png").string()
+        md << "\nPlot: `" << (cfg.images / ("convolution_scaling" + cfg.suffix() + ".png")).string()
            << "` (log-log, convolve and process wall time against input texels, one line per map).\n\n";
 
         md << "## Quadrature difference of the NN-upsampling reference\n\n";
@@ -1033,7 +1049,7 @@ int main(int argc, char** argv) {
            << fmt("%.0f MiB", double(self.ru_maxrss) / 1024.0) << ".\n";
 
         // ---- plot ----
-        const fs::path dat = cfg.cache / "scaling_plot.dat";
+        const fs::path dat = cfg.cache / ("scaling_plot" + cfg.suffix() + ".dat");
         {
             std::ofstream d(dat);
             for (const std::string& map : maps_run) {
@@ -1047,7 +1063,7 @@ int main(int argc, char** argv) {
         // The script without its terminal line: pngcairo draws the process-wall
         // lines dashed; plain png where cairo is missing.
         std::ostringstream g;
-        g << "set output '" << (cfg.images / "convolution_scaling.png").string() << "'\n"
+        g << "set output '" << (cfg.images / ("convolution_scaling" + cfg.suffix() + ".png")).string() << "'\n"
           << "set logscale xy\nset format x '10^{%L}'\nset format y '10^{%L}'\n"
           << "set xlabel 'input texels (256x128 ... 8192x4096)'\n"
           << "set ylabel 'wall time, whole set (irradiance + 11 reflection maps) [s], " << cfg.threads
@@ -1065,7 +1081,7 @@ int main(int argc, char** argv) {
               << " process wall'";
         }
         g << '\n';
-        const fs::path gp = cfg.cache / "scaling_plot.gp";
+        const fs::path gp = cfg.cache / ("scaling_plot" + cfg.suffix() + ".gp");
         bool plotted = false;
         for (const char* terminal : {"pngcairo", "png"}) {
             std::ofstream(gp) << "set terminal " << terminal << " size 1000,650 font ',11'\n" << g.str();
@@ -1075,8 +1091,8 @@ int main(int argc, char** argv) {
             }
         }
         if (!plotted) std::fprintf(stderr, "bench_scaling: gnuplot failed; the plot was not written\n");
-        std::fprintf(stderr, "bench_scaling: wrote %s, %s in %.0f s\n", (cfg.out / "scaling.md").c_str(),
-                     (cfg.out / "scaling.csv").c_str(), total_s);
+        std::fprintf(stderr, "bench_scaling: wrote %s, %s in %.0f s\n", (cfg.out / ("scaling" + cfg.suffix() + ".md")).c_str(),
+                     (cfg.out / ("scaling" + cfg.suffix() + ".csv")).c_str(), total_s);
         for (const RunRow& r : rows)
             if (!r.ok) return 1;
         return 0;

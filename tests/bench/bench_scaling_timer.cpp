@@ -28,7 +28,7 @@ using namespace glint::convolution;
 
 int main(int argc, char** argv) {
     std::string path;
-    bool reference = false;
+    bool reference = false, fine_tiles = false;
     std::optional<double> only;
     std::optional<Size> size;
     int repeats = 5, threads = 2;
@@ -43,15 +43,17 @@ int main(int argc, char** argv) {
         };
         if (a == "--help" || a == "-h") {
             std::printf("usage: glint_bench_scaling_timer MAP.exr [--reference-sizes | --size WxH] [--only N] "
-                        "[--repeats K >= 1] [--threads T]\n"
+                        "[--repeats K >= 1] [--threads T] [--fine-tiles]\n"
                         "Times the whole set (irradiance and n = 1 ... 20480) through convolve() in this process, K\n"
                         "times: each repeat's wall and CPU time, their medians, and the per-map times of the median\n"
                         "run. --reference-sizes: each map at its reference size; --size: every map at WxH; without\n"
                         "either, the planner's sizes. --only N: the single map of shininess N (0 = irradiance).\n"
+                        "--fine-tiles: maps that need a finer grid get it only in tiles (Options::fine_tiles).\n"
                         "Run with GLIBC_TUNABLES=glibc.malloc.hugetlb=1 for the heap glint convolve uses.\n");
             return 0;
         }
         if (a == "--reference-sizes") reference = true;
+        else if (a == "--fine-tiles") fine_tiles = true;
         else if (a == "--only") only = std::atof(value().c_str());
         else if (a == "--size") {
             const std::string v = value();
@@ -94,6 +96,7 @@ int main(int argc, char** argv) {
     Options options;
     options.threads = threads;
     options.size = size;
+    options.fine_tiles = fine_tiles;
     // Process CPU time too: on a machine shared with other jobs the wall time follows their load,
     // the CPU time much less (it still includes the kernel's page faults).
     const auto cpu_now = [] {
@@ -109,7 +112,10 @@ int main(int argc, char** argv) {
         std::vector<MapResult> results = convolve(env, maps, options);
         walls.push_back(std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count());
         cpus.push_back(cpu_now() - cpu_start);
-        for (MapResult& r : results) r.image = HdrImage();  // keep the timings only
+        for (MapResult& r : results) {  // keep the timings only
+            r.image = HdrImage();
+            r.fine = FineTiles{};
+        }
         runs.push_back(std::move(results));
     }
     std::vector<double> sorted = walls;
@@ -126,9 +132,9 @@ int main(int argc, char** argv) {
     for (double c : cpus) std::printf(" %.4f", c);
     std::printf("\n");
     for (const MapResult& r : runs[at])
-        std::printf("  %-12s %-5s %5dx%-5d sum %5dx%-5d %.4f s patched %lld  predicted %.2g\n",
+        std::printf("  %-12s %-5s %5dx%-5d sum %5dx%-5d %.4f s patched %lld  predicted %.2g%s\n",
                     r.request.label.c_str(), to_string(r.plan.method).c_str(), r.plan.output_size.width,
                     r.plan.output_size.height, r.plan.sum_size.width, r.plan.sum_size.height, r.seconds,
-                    r.patched_texels, r.plan.predicted_error);
+                    r.patched_texels, r.plan.predicted_error, r.plan.size_reason.find("tiles of") != std::string::npos ? "  (fine tiles)" : "");
     return 0;
 }

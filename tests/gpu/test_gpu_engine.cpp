@@ -245,3 +245,40 @@ TEST_F(GpuEngineTest, CancelledJobReleasesItsGlObjectsAndARestartWorks) {
 
 }  // namespace
 }  // namespace glint::convolution::gpu
+
+namespace glint::convolution::gpu {
+namespace {
+
+TEST_F(GpuEngineTest, FineTilesMatchTheCpusOnTheSamePlans) {
+    // Options::fine_tiles (docs/convolution.md, "Fine tiles") with the sums on the GPU: the same
+    // tiles as the CPU engine's, and their texels and the sum grid within the parity.
+    HdrImage env = smooth_map(128, 64, 9);
+    env.set(40, 20, {3e4f, 2e4f, 1e4f});
+    std::vector<MapRequest> maps;
+    for (double n : {300.0, 2000.0}) maps.push_back(MapRequest::make_phong(n, std::to_string(int(n))));
+    Options o;
+    o.threads = 2;
+    o.fine_tiles = true;
+    const std::vector<MapResult> cpu = convolve(env, maps, o);
+    UnlimitedGate gate(50.0);
+    GpuEngine engine(context(), gate);
+    o.executor = &engine;
+    const std::vector<MapResult> gpu = convolve(env, maps, o);
+    int tiled = 0;
+    for (std::size_t k = 0; k < cpu.size(); ++k) {
+        const std::string what = cpu[k].request.label;
+        ASSERT_EQ(cpu[k].fine.slot, gpu[k].fine.slot) << what;
+        if (cpu[k].fine.empty()) continue;
+        ++tiled;
+        const MapError base = compare_maps(gpu[k].image, cpu[k].image);
+        const MapError blocks = compare_maps(gpu[k].fine.blocks, cpu[k].fine.blocks);
+        std::printf("[  parity  ] fine tiles %-10s %d tiles: sum grid %.2e, tiles %.2e\n", what.c_str(),
+                    cpu[k].fine.count(), base.weighted_relative_rms, blocks.weighted_relative_rms);
+        EXPECT_LE(base.weighted_relative_rms, kParity) << what;
+        EXPECT_LE(blocks.weighted_relative_rms, kParity) << what;
+    }
+    EXPECT_GE(tiled, 1);
+}
+
+}  // namespace
+}  // namespace glint::convolution::gpu

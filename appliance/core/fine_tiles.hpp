@@ -1,0 +1,52 @@
+// A map delivered as a base grid plus blocks of a finer grid only where bilinear lookups of the
+// base would miss the tolerance (docs/convolution.md, "Fine tiles"): the few bright texels'
+// sharp lobes get the finer texels they need, the rest of the sphere keeps the base's.
+//
+// Geometry. The fine grid is `factor` times the base's in both directions. The base is cut into
+// tiles of `tile` x `tile` texels; a kept tile holds the fine texels of the fine cells whose
+// top-left corner lies in it, i.e. the fine columns [tx T, tx T + T] and rows [ty T, ty T + T]
+// (T = tile * factor; the last column wraps round the seam to column 0, a row past the last is
+// the last, as the bilinear lookup clamps). A lookup whose fine cell lies in a kept tile reads
+// those four fine texels (exactly what a bilinear lookup of the whole fine grid would read); any
+// other reads the base bilinearly.
+#pragma once
+
+#include <vector>
+
+#include <glm/vec3.hpp>
+
+#include "appliance/core/hdr_image.hpp"
+
+namespace glint {
+
+struct FineTiles {
+    int factor = 1;              // fine grid = factor x the base's, in both directions
+    int tile = 0;                // base texels per tile side (0: no tiles)
+    int tiles_x = 0, tiles_y = 0;  // base width / tile, base height / tile
+    std::vector<int> slot;       // per tile, row-major: its block in `blocks`, or -1
+    // Block k holds rows [k side, (k + 1) side) of a side-wide image (side = tile factor + 1):
+    // fine texel (tx T + u, ty T + v) at (u, k side + v).
+    HdrImage blocks;
+
+    bool empty() const { return tile == 0 || blocks.empty(); }
+    int side() const { return tile * factor + 1; }
+    int count() const { return blocks.empty() ? 0 : blocks.height() / side(); }
+    // Whether tiles of `tile` base texels fit a base of this size.
+    static bool fits(int base_width, int base_height, int tile) {
+        return tile > 0 && base_width % tile == 0 && base_height % tile == 0;
+    }
+};
+
+// Bilinear lookup of a map with fine tiles at direction d (unit): the fine grid's where d's fine
+// cell lies in a kept tile, the base's elsewhere. With no tiles, sample_bilinear of the base.
+Rgb sample_bilinear(const HdrImage& base, const FineTiles& fine, const glm::dvec3& d);
+
+// The whole fine grid: at each fine texel centre, the lookup above (the tiles' own texels in
+// kept tiles, the base's bilinear lookups elsewhere). For readers that take one image (the
+// renderer uploads it as a texture; glint compare reads it against a reference).
+HdrImage expand(const HdrImage& base, const FineTiles& fine, int threads = 0);
+
+// Throws InputError naming `what` when the tiles do not fit the base (sizes, slots, blocks).
+void check_fine_tiles(const HdrImage& base, const FineTiles& fine, const std::string& what);
+
+}  // namespace glint
