@@ -44,7 +44,7 @@ struct ConvolveArgs {
     int threads = 0;
     EngineChoice engine = EngineChoice::Auto;
     double tile_cap_ms = 50.0;
-    bool fine_tiles = false;
+    bool whole_grids = false;  // --no-fine-tiles
 };
 
 nlohmann::json number_or_null(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(); }
@@ -79,7 +79,7 @@ int run_convolve(const ConvolveArgs& args) {
     if (!args.size.empty()) options.size = parse_size(args.size, "--size");
     options.threads = args.threads;
     options.sh_order = args.sh_order;
-    options.fine_tiles = args.fine_tiles;
+    options.fine_tiles = !args.whole_grids;
 
     std::vector<convolution::MapRequest> maps;
     if (args.irradiance) maps.push_back(convolution::MapRequest::make_irradiance());
@@ -280,10 +280,10 @@ Command add_convolve_command(CLI::App& app) {
     cmd->add_option("--tile-cap-ms", args->tile_cap_ms, "GPU engine: longest single draw, ms (> 0)")
         ->check(CLI::PositiveNumber)
         ->capture_default_str();
-    cmd->add_flag("--fine-tiles", args->fine_tiles,
-                  "A map that needs a finer grid than it is summed on gets it only in tiles where lookups of "
-                  "the sum grid would miss (<map>.tiles.exr, report.json \"fine_tiles\"); readers that know no "
-                  "tiles (glint render, glint compare) expand them");
+    cmd->add_flag("--no-fine-tiles", args->whole_grids,
+                  "Deliver a map that needs a finer grid than it is summed on as that whole grid (<map>.exr); "
+                  "by default it keeps its sum grid and gets the finer grid only in tiles where lookups would "
+                  "miss (<map>.tiles.exr, report.json \"fine_tiles\")");
     return {cmd, [args] { return run_convolve(*args); }};
 }
 

@@ -114,15 +114,15 @@ struct Config {
     int threads = 2;
     bool keep_outputs = false;
     bool quadrature = true;
-    bool fine_tiles = false;  // glint convolve --fine-tiles; results named *_fine_tiles
-    std::string suffix() const { return fine_tiles ? "_fine_tiles" : ""; }
+    bool whole_grids = false;  // glint convolve --no-fine-tiles; results named *_whole_grids
+    std::string suffix() const { return whole_grids ? "_whole_grids" : ""; }
     std::vector<Run> runs;
 };
 
 const char* kHelp =
     "glint_bench_scaling [--run MAP:SIZES]... [--preset full|issue] [--worlds DIR] [--cache DIR]\n"
     "                    [--exact-cache DIR] [--out DIR] [--images DIR] [--glint PATH] [--threads N]\n"
-    "                    [--quadrature-map NAME] [--no-quadrature] [--keep-outputs] [--fine-tiles]\n"
+    "                    [--quadrature-map NAME] [--no-quadrature] [--keep-outputs] [--whole-grids]\n"
     "\n"
     "How `glint convolve` scales with the input size. For each (map, input size) the whole set\n"
     "(--irradiance --shininess 1,10,20,40,80,160,320,640,1280,5120,20480 --allow-over-tolerance,\n"
@@ -147,8 +147,8 @@ const char* kHelp =
     "  --quadrature-map NAME  map of the NN-upsampling quadrature check [courtyard]\n"
     "  --no-quadrature   skip that check\n"
     "  --keep-outputs    keep each run's output directory (<cache>/runs/<map>_<WxH>)\n"
-    "  --fine-tiles      glint convolve --fine-tiles (maps read through their tiles); writes\n"
-    "                    scaling_fine_tiles.{md,csv} and convolution_scaling_fine_tiles.png\n";
+    "  --whole-grids     glint convolve --no-fine-tiles (every finer grid whole, not in tiles);\n"
+    "                    writes scaling_whole_grids.{md,csv} and convolution_scaling_whole_grids.png\n";
 
 // ---------------------------------------------------------------- inputs
 
@@ -464,7 +464,7 @@ RunRow run_one(const Config& cfg, const Run& run, const std::vector<HdrImage>& r
     std::vector<std::string> args{cfg.glint,     "convolve",      input.string(), "--irradiance",
                                   "--shininess", shininess_list(), "--out",       dir.string(),
                                   "--threads",   std::to_string(cfg.threads), "--allow-over-tolerance"};
-    if (cfg.fine_tiles) args.push_back("--fine-tiles");
+    if (cfg.whole_grids) args.push_back("--no-fine-tiles");
     const ProcessOutcome p = run_process(args, log);
     row.process_s = p.wall_seconds;
     row.peak_mib = p.peak_mib;
@@ -722,7 +722,7 @@ int main(int argc, char** argv) {
         else if (a == "--quadrature-map") cfg.quadrature_map = value("--quadrature-map");
         else if (a == "--no-quadrature") cfg.quadrature = false;
         else if (a == "--keep-outputs") cfg.keep_outputs = true;
-        else if (a == "--fine-tiles") cfg.fine_tiles = true;
+        else if (a == "--whole-grids") cfg.whole_grids = true;
         else if (a == "--preset") {
             preset = value("--preset");
             if (preset != "full" && preset != "issue") usage_error("--preset takes full or issue, not " + preset);

@@ -28,7 +28,7 @@ using namespace glint::convolution;
 
 int main(int argc, char** argv) {
     std::string path;
-    bool reference = false, fine_tiles = false;
+    bool reference = false, fine_tiles = true;
     std::optional<double> only;
     std::optional<Size> size;
     int repeats = 5, threads = 2;
@@ -43,17 +43,18 @@ int main(int argc, char** argv) {
         };
         if (a == "--help" || a == "-h") {
             std::printf("usage: glint_bench_scaling_timer MAP.exr [--reference-sizes | --size WxH] [--only N] "
-                        "[--repeats K >= 1] [--threads T] [--fine-tiles]\n"
+                        "[--repeats K >= 1] [--threads T] [--whole-grids]\n"
                         "Times the whole set (irradiance and n = 1 ... 20480) through convolve() in this process, K\n"
                         "times: each repeat's wall and CPU time, their medians, and the per-map times of the median\n"
                         "run. --reference-sizes: each map at its reference size; --size: every map at WxH; without\n"
                         "either, the planner's sizes. --only N: the single map of shininess N (0 = irradiance).\n"
-                        "--fine-tiles: maps that need a finer grid get it only in tiles (Options::fine_tiles).\n"
+                        "Maps that need a finer grid get it only in tiles (Options::fine_tiles, glint convolve's\n"
+                        "default); --whole-grids: the whole finer grid (glint convolve --no-fine-tiles).\n"
                         "Run with GLIBC_TUNABLES=glibc.malloc.hugetlb=1 for the heap glint convolve uses.\n");
             return 0;
         }
         if (a == "--reference-sizes") reference = true;
-        else if (a == "--fine-tiles") fine_tiles = true;
+        else if (a == "--whole-grids") fine_tiles = false;
         else if (a == "--only") only = std::atof(value().c_str());
         else if (a == "--size") {
             const std::string v = value();

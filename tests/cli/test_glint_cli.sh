@@ -394,13 +394,13 @@ EOF2
 pass "--mirror writes the input itself at its size; phong_1e7 too, read through its lobe (lookup \"lobe\"); load time and size reasons in report.json"
 rm -rf "$work/mirror" "$work/over"
 
-# --fine-tiles: a map that needs a finer grid gets it only in tiles (<map>.tiles.exr, described
-# in report.json); glint compare reads the map through them, and the whole finer grid made
-# without tiles compares within the tolerance.
-run convolve "$WORLD" --out "$work/tiles" --shininess 5120 --fine-tiles
-[[ $rc -eq 0 ]] || fail "--fine-tiles: exit code $rc (stderr: $(stderr_text))"
-[[ -s $work/tiles/phong_5120.tiles.exr ]] || fail "--fine-tiles wrote no phong_5120.tiles.exr: $(ls -A "$work/tiles")"
-python3 - "$work/tiles/report.json" <<'EOF2' || fail "--fine-tiles: report.json does not describe the tiles"
+# Fine tiles (the default): a map that needs a finer grid gets it only in tiles (<map>.tiles.exr,
+# described in report.json); glint compare reads the map through them, and the whole finer grid
+# made with --no-fine-tiles compares within the tolerance.
+run convolve "$WORLD" --out "$work/tiles" --shininess 5120
+[[ $rc -eq 0 ]] || fail "fine tiles: exit code $rc (stderr: $(stderr_text))"
+[[ -s $work/tiles/phong_5120.tiles.exr ]] || fail "convolve wrote no phong_5120.tiles.exr: $(ls -A "$work/tiles")"
+python3 - "$work/tiles/report.json" <<'EOF2' || fail "fine tiles: report.json does not describe the tiles"
 import json, sys
 m = json.load(open(sys.argv[1]))["maps"][0]
 t = m["fine_tiles"]
@@ -409,15 +409,18 @@ w, h = m["output_size"]
 assert 0 < len(t["tiles"]) < (w // 8) * (h // 8) // 4, (len(t["tiles"]), m["output_size"])
 assert "tiles of 8x8" in m["size_reason"] and not m["over_tolerance"], m["size_reason"]
 EOF2
-run convolve "$WORLD" --out "$work/whole" --shininess 5120
-[[ $rc -eq 0 ]] || fail "without --fine-tiles: exit code $rc (stderr: $(stderr_text))"
+run convolve "$WORLD" --out "$work/whole" --shininess 5120 --no-fine-tiles
+[[ $rc -eq 0 ]] || fail "--no-fine-tiles: exit code $rc (stderr: $(stderr_text))"
+[[ ! -e $work/whole/phong_5120.tiles.exr ]] || fail "--no-fine-tiles wrote phong_5120.tiles.exr"
+python3 -c "import json,sys; m=json.load(open(sys.argv[1]))['maps'][0]; sys.exit(0 if m['fine_tiles'] is None and m['output_size']==[4096,2048] else 1)" \
+    "$work/whole/report.json" || fail "--no-fine-tiles: report.json has fine tiles or not the whole 4096x2048 grid"
 run compare "$work/tiles/phong_5120.exr" "$work/whole/phong_5120.exr"
 [[ $rc -eq 0 ]] || fail "compare of a tiled map: exit code $rc (stderr: $(stderr_text))"
 grep -q "with its fine tiles" "$work/stdout" || fail "compare did not read the fine tiles: $(tr '\n' ' ' <"$work/stdout")"
 rms=$(awk '$1 == "weighted_rel_rms" { print $2 }' "$work/stdout")
 awk -v v="$rms" 'BEGIN { exit !(v + 0 > 0 && v + 0 < 0.005) }' ||
     fail "tiled phong_5120 against the whole finer grid: weighted_rel_rms '$rms', want (0, 0.005)"
-pass "--fine-tiles writes phong_5120.tiles.exr and report.json's fine_tiles; compare reads through them ($rms against the whole grid)"
+pass "convolve writes phong_5120.tiles.exr and report.json's fine_tiles; compare reads through them ($rms against --no-fine-tiles's whole grid)"
 rm "$work/tiles/phong_5120.tiles.exr"
 run compare "$work/tiles/phong_5120.exr" "$work/whole/phong_5120.exr"
 [[ $rc -eq 2 ]] || fail "compare with its tiles file missing: exit code $rc, want 2"
