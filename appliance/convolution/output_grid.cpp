@@ -256,22 +256,35 @@ LookupError estimate_lookup_error(const HdrImage& map, int threads, TexelLookupE
         // these second differences, e = a t(1-t)/2 + b s(1-s)/2 for t, s uniform in [0, 1];
         // the largest bilinear and 4-point errors, relative to max(|value|, mean).
         Lanes value2 = {}, bilinear2 = {}, cubic2 = {}, bilinear_worst = {}, cubic_worst = {};
-        const auto add = [&](Lanes v, Lanes a, Lanes b, Lanes d4) {
+        // With per_texel: each value's relative errors and squares, kept for the texels below.
+        thread_local std::vector<double> rel_b, rel_c, sq_b, sq_c;
+        if (per_texel) {
+            for (std::vector<double>* v : {&rel_b, &rel_c, &sq_b, &sq_c}) v->resize(n + kLanes);
+        }
+        const auto add = [&](std::size_t at, Lanes v, Lanes a, Lanes b, Lanes d4) {
             const Lanes bilinear = (lane_abs(a) + lane_abs(b)) / 8.0, cubic = d4 * kCubicCoefficient;
             const Lanes floor = lane_max(lane_abs(v), Lanes{} + mean);
+            const Lanes square_b = (a * a + b * b) / 120.0 + a * b / 72.0, square_c = cubic * cubic;
+            const Lanes ratio_b = ratio(bilinear, floor), ratio_c = ratio(cubic, floor);
             value2 += v * v;
-            bilinear2 += (a * a + b * b) / 120.0 + a * b / 72.0;
-            cubic2 += cubic * cubic;
-            bilinear_worst = lane_max(bilinear_worst, ratio(bilinear, floor));
-            cubic_worst = lane_max(cubic_worst, ratio(cubic, floor));
+            bilinear2 += square_b;
+            cubic2 += square_c;
+            bilinear_worst = lane_max(bilinear_worst, ratio_b);
+            cubic_worst = lane_max(cubic_worst, ratio_c);
+            if (per_texel) {
+                std::memcpy(rel_b.data() + at, &ratio_b, sizeof ratio_b);
+                std::memcpy(rel_c.data() + at, &ratio_c, sizeof ratio_c);
+                std::memcpy(sq_b.data() + at, &square_b, sizeof square_b);
+                std::memcpy(sq_c.data() + at, &square_c, sizeof square_c);
+            }
         };
         std::size_t k = 0;
         for (; k + kLanes <= n; k += kLanes)
-            add(load_lanes(rows[2] + k), load_lanes(d.a.data() + k), load_lanes(d.b.data() + k),
+            add(k, load_lanes(rows[2] + k), load_lanes(d.a.data() + k), load_lanes(d.b.data() + k),
                 load_lanes(d.d4.data() + k));
         for (; k < n; ++k) {  // the rest one lane at a time, the other lanes 0
             const auto one = [](double x) { return Lanes{x}; };
-            add(one(rows[2][k]), one(d.a[k]), one(d.b[k]), one(d.d4[k]));
+            add(k, one(rows[2][k]), one(d.a[k]), one(d.b[k]), one(d.d4[k]));
         }
         rows_sums[std::size_t(j)] = {lane_sum(value2), lane_sum(bilinear2), lane_sum(cubic2),
                                      lane_largest(bilinear_worst), lane_largest(cubic_worst)};
@@ -280,24 +293,14 @@ LookupError estimate_lookup_error(const HdrImage& map, int threads, TexelLookupE
         // the weighted sum of squares, of both kinds.
         const double sa = solid[std::size_t(j)];
         for (int i = 0; i < w; ++i) {
-            double rel_b = 0, rel_c = 0, sq_b = 0, sq_c = 0;
-            for (int c = 0; c < 3; ++c) {
-                const std::size_t q = 3 * std::size_t(i) + std::size_t(c);
-                const double v = rows[2][q], da = d.a[q], db = d.b[q];
-                const double bilinear = (std::abs(da) + std::abs(db)) / 8.0, cubic = d.d4[q] * kCubicCoefficient;
-                sq_b += (da * da + db * db) / 120.0 + da * db / 72.0;
-                sq_c += cubic * cubic;
-                const double floor = std::max(std::abs(v), mean);
-                if (floor > 0) {
-                    rel_b = std::max(rel_b, bilinear / floor);
-                    rel_c = std::max(rel_c, cubic / floor);
-                }
-            }
+            const std::size_t q = 3 * std::size_t(i);
+            const double rb = std::max({rel_b[q], rel_b[q + 1], rel_b[q + 2]});
+            const double rc = std::max({rel_c[q], rel_c[q + 1], rel_c[q + 2]});
             const std::size_t t = std::size_t(j) * std::size_t(w) + std::size_t(i);
-            per_texel->bilinear.relative[t] = float(rel_b);
-            per_texel->bilinear.square[t] = sq_b * sa;
-            per_texel->cubic.relative[t] = float(rel_c);
-            per_texel->cubic.square[t] = sq_c * sa;
+            per_texel->bilinear.relative[t] = float(rb);
+            per_texel->bilinear.square[t] = (sq_b[q] + sq_b[q + 1] + sq_b[q + 2]) * sa;
+            per_texel->cubic.relative[t] = float(rc);
+            per_texel->cubic.square[t] = (sq_c[q] + sq_c[q + 1] + sq_c[q + 2]) * sa;
         }
     });
     double value2 = 0, bilinear2 = 0, cubic2 = 0;
