@@ -110,20 +110,25 @@ Command add_compare_command(CLI::App& app) {
                 if (args->lookup == "lobe" && shininess->count() == 0)
                     throw InputError("--lookup lobe needs --shininess N > 0 (the map's Phong exponent)");
                 LookupChoice choice;
+                // The listing beside the map, if one lists it: its lookup for --lookup auto, and
+                // its fine tiles whatever --lookup says (they are part of the map).
+                const std::optional<LookupChoice> listed = lookup_from_listing(args->approx);
                 if (args->lookup == "lobe") {
                     choice = {MapLookup::Lobe, args->shininess, "--lookup", nlohmann::json()};
                 } else if (args->lookup == "bilinear") {
                     choice.from = "--lookup";
-                } else if (const auto found = lookup_from_listing(args->approx)) {
-                    choice = *found;
+                } else if (listed) {
+                    choice = *listed;
                 } else {
                     choice.from = "default: no report.json or maps.json beside the map lists it";
                 }
                 HdrImage a = load_exr(args->approx).image;
                 // A map with fine tiles (glint convolve --fine-tiles) is read through them: as
                 // its whole finer grid, whose texels are the tiles' or the map's own lookups.
-                const FineTiles fine = load_fine_tiles(choice.fine_tiles, fs::path(args->approx).parent_path(), a,
-                                                       choice.from + ": " + fs::path(args->approx).filename().string());
+                const FineTiles fine =
+                    listed ? load_fine_tiles(listed->fine_tiles, fs::path(args->approx).parent_path(), a,
+                                             listed->from + ": " + fs::path(args->approx).filename().string())
+                           : FineTiles{};
                 if (!fine.empty()) {
                     a = expand(a, fine);
                     choice.from += ", with its fine tiles";

@@ -229,6 +229,12 @@ int run_convolve(const ConvolveArgs& args) {
         write_text_atomically(staging.file("report.json"), report.dump(2) + "\n");
     });
     staging.commit(names);
+    // A tiles file of an earlier run, beside a map now delivered whole, is not read (report.json
+    // says so) but would mislead: removed.
+    for (const auto& r : results) {
+        std::error_code ignored;
+        if (r.fine.empty()) fs::remove(out_dir / (r.request.label + kFineTilesSuffix), ignored);
+    }
 
     for (const auto& r : results) {
         const auto& p = r.plan;

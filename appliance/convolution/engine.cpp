@@ -436,11 +436,16 @@ void deliver_output(MapResult& r, double tau, const PlannerModel& model, int thr
         const FineTilePlan tp = plan_fine_tiles(r.image, f, kFineTile, outside_share * tau,
                                                 0.5 * model.output_worst_share * tau, threads, &with_bright);
         const long long side = kFineTile * f + 1;
-        if (tp.kept.empty() || 2 * tp.tiles * side * side > static_cast<long long>(finer.width) * finer.height)
+        if (tp.tiles == 0 || 2 * tp.tiles * side * side > static_cast<long long>(finer.width) * finer.height)
             return false;
         if (kPi / p.sum_size.height > lobe_width(n) * 1.0001) return false;  // resampling needs the lobe resolved
         const bool split = bright && !bright->empty();
-        HdrImage base = r.image;  // delivered as it is
+        HdrImage base;  // the map as summed, delivered as it is (with the split, r.image is changed below)
+        if (split) base = r.image;
+        const auto give_up = [&] {
+            if (split) r.image = std::move(base);
+            return false;
+        };
         const double floor_value = solid_angle_mean(r.image);
         if (split) add_bright_lobes(*bright, n, floor_value, LobeOp::Subtract, r.image, threads);
         TexelLookupErrors without_texels;
@@ -450,16 +455,16 @@ void deliver_output(MapResult& r, double tau, const PlannerModel& model, int thr
         ResamplePatches patches;
         TexelSelection patch;
         if (!cubic_ok) {
-            if (sum_texels) {
-                patches = plan_resample_patches(r.image, model.resample_share * tau, model.resample_worst_share * tau,
-                                                threads, split ? &without_texels : &with_bright);
-                patch = intersect(fine_texels_near(patches.texels, p.sum_size, finer, threads),
-                                  fine_tile_texels(tp, p.sum_size));
-            }
-            if (!sum_texels || patches.remaining_worst > model.resample_worst_share * tau) {
-                r.image = std::move(base);
-                return false;
-            }
+            // Exact sums where resampling would miss, as refine() decides them: only if that is
+            // at most half the texels of summing the next grid whole (else the whole grid).
+            if (!sum_texels) return give_up();
+            patches = plan_resample_patches(r.image, model.resample_share * tau, model.resample_worst_share * tau,
+                                            threads, split ? &without_texels : &with_bright);
+            const TexelSelection near = fine_texels_near(patches.texels, p.sum_size, finer, threads);
+            const Size next = 2 * p.sum_size.height >= finer.height ? finer
+                                                                    : Size{2 * p.sum_size.width, 2 * p.sum_size.height};
+            if (2 * near.texels > static_cast<long long>(next.width) * next.height) return give_up();
+            patch = intersect(near, fine_tile_texels(tp, p.sum_size));
         }
         std::optional<BrightLobes> lobes;
         if (split) lobes.emplace(*bright, n, finer, floor_value, LobeOp::AddClamped);
@@ -470,7 +475,7 @@ void deliver_output(MapResult& r, double tau, const PlannerModel& model, int thr
             });
             r.patched_texels = patch.texels;
         }
-        r.image = std::move(base);
+        if (split) r.image = std::move(base);
         // Lookups outside the tiles read the sum grid (its unmarked texels' estimate); inside,
         // the finer grid's (the sum grid's estimate over f^2, as for the whole finer grid):
         // disjoint regions, so their squares add.
@@ -485,7 +490,8 @@ void deliver_output(MapResult& r, double tau, const PlannerModel& model, int thr
                         ") at " + std::to_string(r.fine.count()) + " of " + std::to_string(tp.kept.size()) +
                         " tiles, near the " + std::to_string(tp.marked) + " texels where lookups err more (" +
                         percent(tp.remaining_rms) + " RMS, " + percent(tp.remaining_worst) +
-                        " worst elsewhere); their texels resampled 4-point (predicted " + percent(resampled) + ")" +
+                        " worst elsewhere)" + (within(f) ? "" : " (the finest grid allowed)") +
+                        "; their texels resampled 4-point (predicted " + percent(resampled) + ")" +
                         (split ? ", bright texels added exactly" : "") +
                         (patch.texels > 0 ? ", and " + std::to_string(patch.texels) + " of them summed exactly" : "");
         return true;

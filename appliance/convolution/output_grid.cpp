@@ -532,7 +532,7 @@ FineTiles make_fine_tiles(const HdrImage& map, const FineTilePlan& plan, int thr
                     for (int q = 0; q < 4; ++q)
                         s += float(rt.weight[std::size_t(q)]) *
                              across[std::size_t(rt.first + q - r_first) * 3 * std::size_t(side) + 3 * std::size_t(u) + std::size_t(c)];
-                    if (s < 0) ++below;
+                    if (s < 0 && u < t && v < t) ++below;  // each fine texel counted once, in its own tile
                     out[3 * u + c] = s < 0 ? 0.0f : s;
                 }
         }
@@ -565,9 +565,10 @@ TexelSelection fine_tile_texels(const FineTilePlan& plan, Size base) {
     TexelSelection s;
     if (plan.kept.empty()) return s;
     const int t = plan.tile * plan.factor, fw = base.width * plan.factor, fh = base.height * plan.factor;
+    std::vector<char> column(static_cast<std::size_t>(fw));
     for (int j = 0; j < fh; ++j) {
         // Tile rows holding fine row j: its own, and the one above when j is its first row.
-        std::vector<char> column(static_cast<std::size_t>(fw), 0);
+        std::fill(column.begin(), column.end(), 0);
         bool any = false;
         for (int ty : {j / t, j % t == 0 ? j / t - 1 : -1}) {
             if (ty < 0 || ty >= plan.tiles_y) continue;

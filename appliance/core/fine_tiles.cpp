@@ -81,10 +81,27 @@ Rgb sample_bilinear(const HdrImage& base, const FineTiles& fine, const glm::dvec
 HdrImage expand(const HdrImage& base, const FineTiles& fine, int threads) {
     if (fine.empty()) return base;
     const int fw = base.width() * fine.factor, fh = base.height() * fine.factor;
+    const int t = fine.tile * fine.factor;
     HdrImage out(fw, fh, HdrImage::Unwritten{});
-    parallel_for(fh, threads, [&](int j) {
+    parallel_for(fh, threads > 0 ? threads : hardware_threads(), [&](int j) {
         float* o = out.row(j);
         for (int i = 0; i < fw; ++i) {
+            // A texel some kept block holds is that block's (also on a block's last column or
+            // row, whose cell belongs to the next tile); any other is the lookup there, the
+            // sum grid's.
+            const float* held = nullptr;
+            for (const auto& [tx, u] : {std::pair{i / t, i % t}, std::pair{(i / t + fine.tiles_x - 1) % fine.tiles_x, t}}) {
+                if (held || (u == t && i % t != 0)) continue;
+                for (const auto& [ty, v] : {std::pair{j / t, j % t}, std::pair{j / t - 1, t}}) {
+                    if (held || ty < 0 || (v == t && j % t != 0)) continue;
+                    const int k = fine.slot[std::size_t(ty) * std::size_t(fine.tiles_x) + std::size_t(tx)];
+                    if (k >= 0) held = fine.blocks.row(k * fine.side() + v) + 3 * u;
+                }
+            }
+            if (held) {
+                std::copy_n(held, 3, o + 3 * i);
+                continue;
+            }
             const Rgb v = lookup(base, fine, i + 0.5, j + 0.5);
             o[3 * i] = v.r;
             o[3 * i + 1] = v.g;
@@ -97,7 +114,11 @@ HdrImage expand(const HdrImage& base, const FineTiles& fine, int threads) {
 void check_fine_tiles(const HdrImage& base, const FineTiles& f, const std::string& what) {
     if (f.tile == 0 && f.blocks.empty()) return;
     const auto fail = [&](const std::string& why) { throw InputError(what + ": fine tiles " + why); };
-    if (f.factor < 2 || f.factor > 64) fail("refine by " + std::to_string(f.factor) + ", not 2 to 64");
+    if (f.factor < 2 || f.factor > FineTiles::kMaxFactor)
+        fail("refine by " + std::to_string(f.factor) + ", not 2 to " + std::to_string(FineTiles::kMaxFactor));
+    if (static_cast<long long>(base.height()) * f.factor > FineTiles::kMaxFineHeight)
+        fail("make a finer grid of " + std::to_string(static_cast<long long>(base.height()) * f.factor) +
+             " rows, more than " + std::to_string(FineTiles::kMaxFineHeight));
     if (!FineTiles::fits(base.width(), base.height(), f.tile))
         fail("of " + std::to_string(f.tile) + " texels do not divide the base's " + std::to_string(base.width()) +
              "x" + std::to_string(base.height()));

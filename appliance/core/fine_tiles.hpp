@@ -20,6 +20,11 @@
 namespace glint {
 
 struct FineTiles {
+    // Bounds a reader holds a listing to (glint convolve makes factors of 2 and 4 and finer
+    // grids of at most 2048 rows): a whole finer grid of 8192 rows is 1.6 GB of floats.
+    static constexpr int kMaxFactor = 16;
+    static constexpr long long kMaxFineHeight = 8192;
+
     int factor = 1;              // fine grid = factor x the base's, in both directions
     int tile = 0;                // base texels per tile side (0: no tiles)
     int tiles_x = 0, tiles_y = 0;  // base width / tile, base height / tile
@@ -41,9 +46,13 @@ struct FineTiles {
 // cell lies in a kept tile, the base's elsewhere. With no tiles, sample_bilinear of the base.
 Rgb sample_bilinear(const HdrImage& base, const FineTiles& fine, const glm::dvec3& d);
 
-// The whole fine grid: at each fine texel centre, the lookup above (the tiles' own texels in
-// kept tiles, the base's bilinear lookups elsewhere). For readers that take one image (the
-// renderer uploads it as a texture; glint compare reads it against a reference).
+// The whole fine grid: the kept blocks' texels where a block holds one (its last column and row
+// too), elsewhere the lookup above at the texel's centre (the base's bilinear lookup). For
+// readers that take one image (the renderer uploads it as a texture; glint compare reads it
+// against a reference). Bilinear reads of it equal the lookup above inside the kept tiles;
+// outside, they interpolate the base's lookups again (an error a little above the base's own
+// lookups': in a one-dimensional quadratic, 4 % more RMS for a factor of 4, 26 % for 2, the
+// same worst). threads 0: all cores.
 HdrImage expand(const HdrImage& base, const FineTiles& fine, int threads = 0);
 
 // Throws InputError naming `what` when the tiles do not fit the base (sizes, slots, blocks).

@@ -31,7 +31,9 @@ FineTiles load_fine_tiles(const nlohmann::json& entry, const std::filesystem::pa
         fail("\"file\" must name a file beside report.json, not '" + file + "'");
     FineTiles f;
     const long long factor = entry["factor"].get<long long>(), tile = entry["tile"].get<long long>();
-    if (factor < 2 || factor > 64) fail("\"factor\" " + std::to_string(factor) + " is not 2 to 64");
+    if (factor < 2 || factor > FineTiles::kMaxFactor || base.height() * factor > FineTiles::kMaxFineHeight)
+        fail("\"factor\" " + std::to_string(factor) + " is not 2 to " + std::to_string(FineTiles::kMaxFactor) +
+             " with a finer grid of at most " + std::to_string(FineTiles::kMaxFineHeight) + " rows");
     if (tile < 1 || tile > 4096 || !FineTiles::fits(base.width(), base.height(), int(tile)))
         fail("\"tile\" " + std::to_string(tile) + " does not divide the map's " + std::to_string(base.width()) + "x" +
              std::to_string(base.height()));
@@ -54,7 +56,7 @@ FineTiles load_fine_tiles(const nlohmann::json& entry, const std::filesystem::pa
     }
     if (k == 0) fail("has no tiles");
     f.blocks = load_exr((dir / file).string()).image;
-    if (f.blocks.width() != f.side() || f.blocks.height() != k * f.side())
+    if (f.blocks.width() != f.side() || static_cast<long long>(f.blocks.height()) != static_cast<long long>(k) * f.side())
         throw InputError((dir / file).string() + ": " + std::to_string(f.blocks.width()) + "x" +
                          std::to_string(f.blocks.height()) + ", not " + std::to_string(k) + " blocks of " +
                          std::to_string(f.side()) + "x" + std::to_string(f.side()) + " (" + what + ")");

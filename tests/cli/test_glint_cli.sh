@@ -426,6 +426,12 @@ run compare "$work/tiles/phong_5120.exr" "$work/whole/phong_5120.exr"
 [[ $rc -eq 2 ]] || fail "compare with its tiles file missing: exit code $rc, want 2"
 grep -q "phong_5120.tiles.exr" "$work/stderr" || fail "compare with its tiles file missing does not name it: $(stderr_text)"
 pass "compare of a tiled map whose tiles file is missing exits 2 naming the file"
+run convolve "$WORLD" --out "$work/whole" --shininess 5120
+[[ $rc -eq 0 && -s $work/whole/phong_5120.tiles.exr ]] || fail "convolve into a directory of whole grids: rc $rc, no tiles file"
+run convolve "$WORLD" --out "$work/whole" --shininess 5120 --no-fine-tiles
+[[ $rc -eq 0 ]] || fail "--no-fine-tiles over a tiled map: exit code $rc (stderr: $(stderr_text))"
+[[ ! -e $work/whole/phong_5120.tiles.exr ]] || fail "--no-fine-tiles left the earlier run's phong_5120.tiles.exr"
+pass "a map delivered whole over a tiled one leaves no tiles file behind"
 rm -rf "$work/tiles" "$work/whole"
 
 # The good output directory is still exactly what the good runs wrote.

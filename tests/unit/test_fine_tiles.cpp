@@ -82,14 +82,24 @@ TEST(FineTiles, LookupsInTilesAreTheFineGridsAndElsewhereTheBases) {
     }
     EXPECT_GT(in_tiles, 500);
     EXPECT_GT(outside, 500);
-    // The expansion holds the lookups at the fine texel centres.
+    // The expansion holds the fine grid's texels wherever a kept block holds them (a block's
+    // last column and row included: the next tile's first), and the lookups at the centres
+    // elsewhere.
     const HdrImage e = expand(base, f, 2);
     ASSERT_EQ(e.width(), 128);
-    for (int j = 0; j < 64; j += 3)
-        for (int i = 0; i < 128; i += 5) {
-            const Rgb want = sample_bilinear(base, f, texel_direction(i, j, 128, 64));
-            EXPECT_NEAR(e.at(i, j).g, want.g, 1e-4) << i << "," << j;
+    const auto is_kept = [&](int tx, int ty) { return ty >= 0 && kept[std::size_t(ty * 8 + (tx + 8) % 8)] != 0; };
+    int held = 0;
+    for (int j = 0; j < 64; ++j)
+        for (int i = 0; i < 128; ++i) {
+            const int tx = i / 16, ty = j / 16;
+            const bool left = i % 16 == 0, up = j % 16 == 0;
+            const bool in_block = is_kept(tx, ty) || (left && is_kept(tx - 1, ty)) || (up && is_kept(tx, ty - 1)) ||
+                                  (left && up && is_kept(tx - 1, ty - 1));
+            held += in_block ? 1 : 0;
+            const Rgb want = in_block ? fine.at(i, j) : sample_bilinear(base, f, texel_direction(i, j, 128, 64));
+            ASSERT_NEAR(e.at(i, j).g, want.g, 1e-4) << i << "," << j;
         }
+    EXPECT_GT(held, 6 * 16 * 16);
 }
 
 TEST(FineTiles, FilesRoundTripAndBadListingsAreRefusedNamingTheKey) {
@@ -120,6 +130,9 @@ TEST(FineTiles, FilesRoundTripAndBadListingsAreRefusedNamingTheKey) {
     bad = entry;
     bad["tiles"][1] = bad["tiles"][0];
     refused(bad, "twice");
+    bad = entry;
+    bad["factor"] = 64;  // a 2048x1024 finer grid of a 32x16 map would be fine, but not past 16
+    refused(bad, "\"factor\" 64");
     bad = entry;
     bad["tile"] = 5;
     refused(bad, "does not divide");
