@@ -553,20 +553,18 @@ void BrightScatter::add_row(int row, const double* cmax_row, int classes, double
     const auto clip_to_columns = [&](int& first, int& count) {
         const int f = column_modulo(first, ow);
         int lo = count, hi = -1;  // offsets within the reach
-        for (const auto& [a, b] : *columns) {
-            const int s0 = std::max(a, f), e0 = std::min({b, f + count, ow});
-            if (s0 < e0) {
-                lo = std::min(lo, s0 - f);
-                hi = std::max(hi, e0 - f);
+        // The runs meeting physical columns [a, b) (ascending: found by bisection, as a row of a
+        // fine grid may hold dozens of tiles' runs), their overlap as offsets from `base`.
+        const auto meet = [&](int a, int b, int base) {
+            auto it = std::upper_bound(columns->begin(), columns->end(), a,
+                                       [](int x, const std::pair<int, int>& run) { return x < run.second; });
+            for (; it != columns->end() && it->first < b; ++it) {
+                lo = std::min(lo, std::max(it->first, a) - base);
+                hi = std::max(hi, std::min(it->second, b) - base);
             }
-            if (f + count > ow) {  // the part past the seam, physical columns [0, f + count - ow)
-                const int s1 = std::max(a, 0), e1 = std::min(b, f + count - ow);
-                if (s1 < e1) {
-                    lo = std::min(lo, s1 + ow - f);
-                    hi = std::max(hi, e1 + ow - f);
-                }
-            }
-        }
+        };
+        meet(f, std::min(f + count, ow), f);
+        if (f + count > ow) meet(0, f + count - ow, f - ow);  // the part past the seam
         if (hi <= lo) return false;
         first += lo;
         count = hi - lo;

@@ -313,7 +313,7 @@ bool may_need_lobe_lookup(const MapRequest& q, const MapPlan& p, Size input) {
 // With `fine_tiles`, a finer grid is delivered as tiles of it where lookups of the sum grid
 // would miss (docs/convolution.md, "Fine tiles"), when that saves at least half its texels.
 using TexelSummer = std::function<void(Size, const TexelSelection&, const TexelSink& into)>;
-constexpr int kFineTile = 8;  // sum-grid texels per tile side
+constexpr int kFineTile = 4;  // sum-grid texels per tile side (4 against 8: studio's set ~10 % faster, 2026-12-06)
 void deliver_output(MapResult& r, double tau, const PlannerModel& model, int threads,
                     const std::vector<BrightTexel>* bright, const std::function<HdrImage(Size)>& sum_on,
                     const TexelSummer& sum_texels, bool fine_tiles) {

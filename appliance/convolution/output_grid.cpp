@@ -830,7 +830,9 @@ void BrightLobes::apply_runs(int row, const LobeSummer::ColumnRuns& runs, int fi
                              float* dst) const {
     if (!reached_[std::size_t(row)] || runs.empty()) return;
     thread_local std::vector<double> sums;
-    sums.assign(3 * std::size_t(count), 0.0);
+    sums.resize(3 * std::size_t(count));
+    for (const auto& [a, b] : runs)  // add_row writes the runs' texels only
+        std::fill(sums.begin() + 3 * (a - first_column), sums.begin() + 3 * (b - first_column), 0.0);
     const double one = 1.0;
     scatter_.add_row(row, &one, 1, sums.data(), &runs, first_column);
     for (const auto& [a, b] : runs)

@@ -1,6 +1,6 @@
 // Fine tiles in files (fine_tiles.hpp): glint convolve writes a map's blocks as <map>.tiles.exr
 // and describes them in report.json's "fine_tiles" of the map:
-//   {"file": "phong_5120.tiles.exr", "factor": 4, "tile": 8, "tiles": [[tx, ty], ...]}
+//   {"file": "phong_5120.tiles.exr", "factor": 4, "tile": 4, "tiles": [[tx, ty], ...]}
 // with the tiles in the blocks' order (tile (tx, ty) of the map's (width / tile) x
 // (height / tile), block k = rows [k side, (k + 1) side) of the file, side = tile factor + 1).
 #pragma once

@@ -404,10 +404,10 @@ python3 - "$work/tiles/report.json" <<'EOF2' || fail "fine tiles: report.json do
 import json, sys
 m = json.load(open(sys.argv[1]))["maps"][0]
 t = m["fine_tiles"]
-assert t["file"] == "phong_5120.tiles.exr" and t["factor"] in (2, 4) and t["tile"] == 8, t
+assert t["file"] == "phong_5120.tiles.exr" and t["factor"] in (2, 4) and t["tile"] == 4, t
 w, h = m["output_size"]
 assert 0 < len(t["tiles"]) < (w // 8) * (h // 8) // 4, (len(t["tiles"]), m["output_size"])
-assert "tiles of 8x8" in m["size_reason"] and not m["over_tolerance"], m["size_reason"]
+assert "tiles of 4x4" in m["size_reason"] and not m["over_tolerance"], m["size_reason"]
 EOF2
 run convolve "$WORLD" --out "$work/whole" --shininess 5120 --no-fine-tiles
 [[ $rc -eq 0 ]] || fail "--no-fine-tiles: exit code $rc (stderr: $(stderr_text))"
