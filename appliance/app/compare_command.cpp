@@ -123,7 +123,7 @@ Command add_compare_command(CLI::App& app) {
                     choice.from = "default: no report.json or maps.json beside the map lists it";
                 }
                 HdrImage a = load_exr(args->approx).image;
-                // A map with fine tiles (glint convolve --fine-tiles) is read through them: as
+                // A map with fine tiles (glint convolve's default) is read through them: as
                 // its whole finer grid, whose texels are the tiles' or the map's own lookups.
                 const FineTiles fine =
                     listed ? load_fine_tiles(listed->fine_tiles, fs::path(args->approx).parent_path(), a,

@@ -246,7 +246,7 @@ int run_convolve(const ConvolveArgs& args) {
     }
     for (const auto& r : results)
         if (!r.fine.empty())
-            std::printf("%-16s fine tiles: %d of %dx%d texels, %dx finer (%s)\n", r.request.label.c_str(),
+            std::printf("%-16s fine tiles: %d tiles of %dx%d texels, %dx finer (%s)\n", r.request.label.c_str(),
                         r.fine.count(), r.fine.tile, r.fine.tile, r.fine.factor,
                         (r.request.label + kFineTilesSuffix).c_str());
     std::printf("wrote %zu maps and report.json to %s in %.3f s\n", results.size(), out_dir.c_str(),
