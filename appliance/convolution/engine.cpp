@@ -315,6 +315,12 @@ bool resolves_for_resampling(Size sum, Size input, double n, const PlannerModel&
     return kPi / input.height <= width || kPi / sum.height <= model.sum_grid_spacing * width * 1.0001;
 }
 
+// The grid a plan is summed on next when resampling from `sum` to `finer` would miss: twice
+// as fine, or `finer` itself once that is reached.
+Size next_sum_grid(Size sum, Size finer) {
+    return 2 * sum.height >= finer.height ? finer : Size{2 * sum.width, 2 * sum.height};
+}
+
 // After a map is summed on its plan's sum grid: the size it is delivered at, the error of
 // bilinear lookups into it and why (docs/convolution.md, "Output size"). A finer grid is
 // made by 4-point resampling of the map without its bright texels (`bright`: those the plan
@@ -374,9 +380,7 @@ void deliver_output(MapResult& r, double tau, const PlannerModel& model, int thr
                 p.size_reason = why + steps + resampled + " (predicted " + percent(e.cubic_rms) + ")" + added;
                 break;
             }
-            const Size next = 2 * p.sum_size.height >= finer.height
-                                  ? finer
-                                  : Size{2 * p.sum_size.width, 2 * p.sum_size.height};
+            const Size next = next_sum_grid(p.sum_size, finer);
             if (resolved && sum_texels) {
                 // Resampling misses its share near few texels (a small bright light, an edge):
                 // the finer grid's texels there are summed exactly, if that is fewer texels than
@@ -472,8 +476,7 @@ void deliver_output(MapResult& r, double tau, const PlannerModel& model, int thr
             patches = plan_resample_patches(r.image, model.resample_share * tau, model.resample_worst_share * tau,
                                             threads, split ? &without_texels : &with_bright);
             const TexelSelection near = fine_texels_near(patches.texels, p.sum_size, finer, threads);
-            const Size next = 2 * p.sum_size.height >= finer.height ? finer
-                                                                    : Size{2 * p.sum_size.width, 2 * p.sum_size.height};
+            const Size next = next_sum_grid(p.sum_size, finer);
             if (2 * near.texels > static_cast<long long>(next.width) * next.height) return give_up();
             patch = intersect(near, fine_tile_texels(tp, p.sum_size));
         }

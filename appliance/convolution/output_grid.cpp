@@ -620,32 +620,9 @@ TexelSelection intersect(const TexelSelection& a, const TexelSelection& b) {
     return s;
 }
 
-namespace {
-
-// Calls visit(slot, u, v) for every block that holds fine texel (i, j): its own tile's (u = i mod
-// t), the left neighbour's (u = t) when i is a tile's first column (column 0: the last tile,
-// round the seam); rows likewise, and a block of the last tile row holds row fh - 1 again at v = t.
-template <typename Visit>
-void blocks_holding(const FineTiles& f, Size base, int i, int j, const Visit& visit) {
-    const int t = f.tile * f.factor, fh = base.height * f.factor;
-    const int xs[2][2] = {{i / t, i % t}, {wrap(i / t - 1, f.tiles_x), t}};
-    const int ys[3][2] = {{j / t, j % t}, {j / t - 1, t}, {j / t, t}};
-    for (int cx = 0; cx < 2; ++cx) {
-        if (cx == 1 && i % t != 0) continue;
-        for (int cy = 0; cy < 3; ++cy) {
-            if (cy == 1 && (j % t != 0 || j == 0)) continue;
-            if (cy == 2 && j != fh - 1) continue;
-            const int slot = f.slot[std::size_t(ys[cy][0]) * std::size_t(f.tiles_x) + std::size_t(xs[cx][0])];
-            if (slot >= 0) visit(slot, xs[cx][1], ys[cy][1]);
-        }
-    }
-}
-
-}  // namespace
-
 const float* fine_texel(const FineTiles& f, Size base, int i, int j) {
     const float* found = nullptr;
-    blocks_holding(f, base, i, j, [&](int slot, int u, int v) {
+    for_each_block_holding(f, base.height, i, j, [&](int slot, int u, int v) {
         if (!found) found = f.blocks.row(slot * f.side() + v) + 3 * u;
     });
     if (!found) throw RuntimeError("internal: no fine tile holds texel " + std::to_string(i) + ", " + std::to_string(j));
@@ -653,8 +630,9 @@ const float* fine_texel(const FineTiles& f, Size base, int i, int j) {
 }
 
 void set_fine_texel(FineTiles& f, Size base, int i, int j, const float* rgb) {
-    blocks_holding(f, base, i, j,
-                   [&](int slot, int u, int v) { std::copy_n(rgb, 3, f.blocks.row(slot * f.side() + v) + 3 * u); });
+    for_each_block_holding(f, base.height, i, j, [&](int slot, int u, int v) {
+        std::copy_n(rgb, 3, f.blocks.row(slot * f.side() + v) + 3 * u);
+    });
 }
 
 TexelSelection fine_texels_near(const std::vector<char>& marked, Size coarse, Size fine, int threads) {

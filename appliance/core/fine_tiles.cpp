@@ -81,7 +81,6 @@ Rgb sample_bilinear(const HdrImage& base, const FineTiles& fine, const glm::dvec
 HdrImage expand(const HdrImage& base, const FineTiles& fine, int threads) {
     if (fine.empty()) return base;
     const int fw = base.width() * fine.factor, fh = base.height() * fine.factor;
-    const int t = fine.tile * fine.factor;
     HdrImage out(fw, fh, HdrImage::Unwritten{});
     parallel_for(fh, threads > 0 ? threads : hardware_threads(), [&](int j) {
         float* o = out.row(j);
@@ -90,14 +89,9 @@ HdrImage expand(const HdrImage& base, const FineTiles& fine, int threads) {
             // row, whose cell belongs to the next tile); any other is the lookup there, the
             // sum grid's.
             const float* held = nullptr;
-            for (const auto& [tx, u] : {std::pair{i / t, i % t}, std::pair{(i / t + fine.tiles_x - 1) % fine.tiles_x, t}}) {
-                if (held || (u == t && i % t != 0)) continue;
-                for (const auto& [ty, v] : {std::pair{j / t, j % t}, std::pair{j / t - 1, t}}) {
-                    if (held || ty < 0 || (v == t && j % t != 0)) continue;
-                    const int k = fine.slot[std::size_t(ty) * std::size_t(fine.tiles_x) + std::size_t(tx)];
-                    if (k >= 0) held = fine.blocks.row(k * fine.side() + v) + 3 * u;
-                }
-            }
+            for_each_block_holding(fine, base.height(), i, j, [&](int k, int u, int v) {
+                if (!held) held = fine.blocks.row(k * fine.side() + v) + 3 * u;
+            });
             if (held) {
                 std::copy_n(held, 3, o + 3 * i);
                 continue;

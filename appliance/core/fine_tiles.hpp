@@ -42,6 +42,26 @@ struct FineTiles {
     }
 };
 
+// Calls visit(block, u, v) for every kept block holding fine texel (i, j) of a base `base_height`
+// rows high, the fine texel's own tile first: its own tile's (u = i mod T), the left
+// neighbour's (u = T) when i is a tile's first column (column 0: the last tile, round the
+// seam); rows likewise, and a block of the last tile row holds row fh - 1 again at v = T.
+template <typename Visit>
+void for_each_block_holding(const FineTiles& f, int base_height, int i, int j, const Visit& visit) {
+    const int t = f.tile * f.factor, fh = base_height * f.factor;
+    const int xs[2][2] = {{i / t, i % t}, {(i / t + f.tiles_x - 1) % f.tiles_x, t}};
+    const int ys[3][2] = {{j / t, j % t}, {j / t - 1, t}, {j / t, t}};
+    for (int cx = 0; cx < 2; ++cx) {
+        if (cx == 1 && i % t != 0) continue;
+        for (int cy = 0; cy < 3; ++cy) {
+            if (cy == 1 && (j % t != 0 || j == 0)) continue;
+            if (cy == 2 && j != fh - 1) continue;
+            const int k = f.slot[std::size_t(ys[cy][0]) * std::size_t(f.tiles_x) + std::size_t(xs[cx][0])];
+            if (k >= 0) visit(k, xs[cx][1], ys[cy][1]);
+        }
+    }
+}
+
 // Bilinear lookup of a map with fine tiles at direction d (unit): the fine grid's where d's fine
 // cell lies in a kept tile, the base's elsewhere. With no tiles, sample_bilinear of the base.
 Rgb sample_bilinear(const HdrImage& base, const FineTiles& fine, const glm::dvec3& d);
