@@ -13,8 +13,9 @@ vec2 equirect_texel(vec3 d, ivec2 size) {
     return vec2((phi + PI) / TWO_PI * float(size.x), theta / PI * float(size.y));
 }
 
-vec3 equirect_bilinear(highp sampler2D map, vec3 d) {
-    ivec2 size = textureSize(map, 0);
+// The lookup of a map held in the first size.y rows of `map` (a tiled map's texture holds more
+// below: equirect_tiled).
+vec3 equirect_bilinear_rows(highp sampler2D map, vec3 d, ivec2 size) {
     vec2 t = equirect_texel(d, size);
     float x = t.x - 0.5;
     float y = clamp(t.y - 0.5, 0.0, float(size.y - 1));
@@ -31,6 +32,48 @@ vec3 equirect_bilinear(highp sampler2D map, vec3 d) {
     int y1 = min(y0 + 1, size.y - 1);
     vec3 top = mix(texelFetch(map, ivec2(x0, y0), 0).rgb, texelFetch(map, ivec2(x1, y0), 0).rgb, ax);
     vec3 bottom = mix(texelFetch(map, ivec2(x0, y1), 0).rgb, texelFetch(map, ivec2(x1, y1), 0).rgb, ax);
+    return mix(top, bottom, ay);
+}
+
+vec3 equirect_bilinear(highp sampler2D map, vec3 d) { return equirect_bilinear_rows(map, d, textureSize(map, 0)); }
+
+// The lookup of a map with fine tiles (core/fine_tiles.hpp, sample_bilinear(base, fine, d); the
+// texture's layout in appliance/render/tiled_map.hpp): the bilinear cell of the grid `factor`
+// times finer; when its top-left texel's tile is kept, the cell's four texels from that tile's
+// block, else the base's own bilinear lookup. geometry: (factor, tile, base rows, blocks per band),
+// rows: (slot table's first row, blocks' first row).
+vec3 equirect_tiled(highp sampler2D map, vec3 d, ivec4 geometry, ivec2 rows) {
+    int width = textureSize(map, 0).x;
+    ivec2 base = ivec2(width, geometry.z);
+    int factor = geometry.x;
+    ivec2 fine = base * factor;
+    vec2 t = equirect_texel(d, fine);
+    float x = t.x - 0.5;
+    float y = clamp(t.y - 0.5, 0.0, float(fine.y - 1));
+    float fx = floor(x);
+    float fy = floor(y);
+    float ax = x - fx;
+    float ay = y - fy;
+    int x0 = int(fx);
+    if (x0 < 0) x0 += fine.x;
+    if (x0 >= fine.x) x0 -= fine.x;
+    int y0 = int(fy);
+    int span = geometry.y * factor;  // fine texels per tile side
+    int tx = x0 / span;
+    int ty = y0 / span;
+    int slot_index = ty * (width / geometry.y) + tx;
+    int block = int(texelFetch(map, ivec2(slot_index % width, rows.x + slot_index / width), 0).r);
+    if (block < 0) return equirect_bilinear_rows(map, d, base);
+    // The block's own columns and rows: its last column is the next tile's first (round the
+    // seam too) and its last row the next tile's first or, in the last tile row, the last row
+    // again (the clamp at the pole).
+    int side = span + 1;
+    ivec2 origin = ivec2((block % geometry.w) * side, rows.y + (block / geometry.w) * side);
+    int u = x0 - tx * span;
+    int v = y0 - ty * span;
+    int v1 = y0 + 1 < fine.y ? v + 1 : v;
+    vec3 top = mix(texelFetch(map, origin + ivec2(u, v), 0).rgb, texelFetch(map, origin + ivec2(u + 1, v), 0).rgb, ax);
+    vec3 bottom = mix(texelFetch(map, origin + ivec2(u, v1), 0).rgb, texelFetch(map, origin + ivec2(u + 1, v1), 0).rgb, ax);
     return mix(top, bottom, ay);
 }
 

@@ -11,6 +11,9 @@ uniform highp sampler2D u_reflection;
 uniform bool u_diffuse;   // kd > 0: the irradiance map is bound
 uniform bool u_specular;  // ks > 0: the reflection map is bound
 uniform float u_reflection_lobe;  // > 0: the map is read through this lobe (report.json "lookup": "lobe")
+// x > 0: the map has fine tiles packed below it (equirect_tiled's geometry and rows)
+uniform ivec4 u_reflection_tiles;
+uniform ivec2 u_reflection_tile_rows;
 uniform vec3 u_eye;
 uniform vec3 u_kd;
 uniform vec3 u_ks;
@@ -31,7 +34,8 @@ void main() {
     if (u_diffuse) radiance += u_kd * equirect_bilinear(u_irradiance, n) * v_ao;
     if (u_specular)
         radiance += u_ks * (u_reflection_lobe > 0.0 ? equirect_lobe(u_reflection, r, u_reflection_lobe)
-                                                    : equirect_bilinear(u_reflection, r));
+                            : u_reflection_tiles.x > 0 ? equirect_tiled(u_reflection, r, u_reflection_tiles, u_reflection_tile_rows)
+                                                       : equirect_bilinear(u_reflection, r));
     radiance = min(radiance, vec3(u_radiance_cap));
     o_radiance = vec4(radiance, 1.0);
     o_normal = vec4(n, 1.0);

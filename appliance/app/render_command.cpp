@@ -231,6 +231,7 @@ int run_render(const RenderArgs& args) {
         convolution::Options options;
         options.tolerance = 0.01;
         options.threads = args.threads;
+        options.fine_tiles = true;  // as glint convolve: the shader reads the tiles
         maps = render::convolve_maps(env.image, part_materials, options);
     }
     const double maps_s = std::chrono::duration<double>(Clock::now() - t_maps).count();

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstring>
 #include <ctime>
+#include <list>
 #include <vector>
 
 #include <nlohmann/json.hpp>
@@ -78,12 +79,16 @@ ExportResult export_scene(std::uint8_t items, const ExportSources& from, const f
         double shininess = 0;                    // a reflection map's Phong exponent (maps.json); 0: none
     };
     std::vector<MapToWrite> maps;
+    std::list<HdrImage> whole_grids;  // maps with fine tiles are exported as their whole finer grid
     if ((items & 2) && from.shading_maps) {
         const render::ShadingMaps& m = *from.shading_maps;
         if (m.irradiance) maps.push_back({&*m.irradiance, "maps/irradiance.exr", m.irradiance_from});
-        for (const render::ReflectionMap& r : m.reflections)
-            maps.push_back({&r.image, fs::path("maps") / (r.request.label + ".exr"), r.from, r.lookup,
+        for (const render::ReflectionMap& r : m.reflections) {
+            const HdrImage* image = &r.image;
+            if (!r.fine.empty()) image = &whole_grids.emplace_back(r.whole_grid());
+            maps.push_back({image, fs::path("maps") / (r.request.label + ".exr"), r.from, r.lookup,
                             r.request.mirror ? 0.0 : r.request.shininess});
+        }
     }
     if (files.empty() && maps.empty())
         throw InputError("export: nothing to export (no map, frames or sessions of the kinds asked for)");

@@ -85,6 +85,7 @@ void LiveMaps::run(const gl::GlContext& main) {
                     o.tolerance = 0.01;
                     o.threads = 1;  // the render thread keeps the other core
                     o.executor = &*engine;
+                    o.fine_tiles = true;  // a sharp lobe's finer grid only where lookups need it
                     maps = convolve_maps(*job.environment, job.materials, o);
                     if (maps->irradiance) maps->irradiance_from = "live (GPU): " + maps->irradiance_from;
                     for (ReflectionMap& r : maps->reflections) r.from = "live (GPU): " + r.from;

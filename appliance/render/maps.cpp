@@ -2,11 +2,13 @@
 
 #include <cmath>
 #include <fstream>
+#include <string>
 #include <nlohmann/json.hpp>
 
 #include "appliance/core/errors.hpp"
 #include "appliance/core/exr_io.hpp"
 #include "appliance/core/fine_tiles_io.hpp"
+#include "appliance/render/tiled_map.hpp"
 
 namespace glint::render {
 namespace {
@@ -35,9 +37,28 @@ void ShadingMaps::set_reflection(const Material& material, HdrImage image, std::
             r.image = std::move(image);
             r.from = std::move(from);
             r.lookup = lookup;
+            r.fine = FineTiles{};
+            r.texture = HdrImage{};
             return;
         }
-    reflections.push_back({request, std::move(image), std::move(from), lookup});
+    reflections.push_back({request, std::move(image), std::move(from), lookup, {}, {}});
+}
+
+void attach_fine_tiles(ReflectionMap& map, FineTiles fine, int threads) {
+    map.fine = FineTiles{};
+    map.texture = HdrImage{};
+    if (fine.empty()) return;
+    const std::string tiles = std::to_string(fine.count()) + " of " + std::to_string(fine.slot.size()) + " tiles " +
+                              std::to_string(fine.factor) + "x finer";
+    if (const auto layout = tiled_map_layout(map.image.width(), map.image.height(), fine)) {
+        map.texture = pack_tiled_map(map.image, fine, *layout);
+        map.fine = std::move(fine);
+        map.from += " (" + tiles + ", read through them)";
+    } else {
+        map.image = expand(map.image, fine, threads);
+        map.from += " (" + tiles + ", expanded to " + std::to_string(map.image.width()) + "x" +
+                    std::to_string(map.image.height()) + ")";
+    }
 }
 
 ShadingMaps load_maps(const fs::path& dir, const Material& material) {
@@ -86,16 +107,16 @@ ShadingMaps load_maps(const fs::path& dir, const std::vector<Material>& material
                              (listed.empty() ? "none" : listed) + ")");
         const fs::path path = dir / file;
         HdrImage image = load_exr(path).image;
-        // Fine tiles (glint convolve --fine-tiles): the map is uploaded as its whole finer grid
-        // (the tiles' texels there, its own bilinear lookups elsewhere); a lookup of the tiles in
-        // the shader is not built (docs/render.md).
-        const FineTiles fine = load_fine_tiles(fine_tiles, dir, image, report_path.string() + ": " + file);
-        if (!fine.empty()) image = expand(image, fine);
+        // Fine tiles (glint convolve's default for a map that needs a finer grid): a reflection
+        // map keeps them, read through them by the shader (tiled_map.hpp); an irradiance map (its
+        // lobe is too wide to need them) would be taken as its whole finer grid.
+        FineTiles fine = load_fine_tiles(fine_tiles, dir, image, report_path.string() + ": " + file);
         if (want.irradiance) {
-            out.irradiance = std::move(image);
+            out.irradiance = fine.empty() ? std::move(image) : expand(image, fine);
             out.irradiance_from = path.string();
         } else {
-            out.reflections.push_back({want, std::move(image), path.string(), lookup});
+            out.reflections.push_back({want, std::move(image), path.string(), lookup, {}, {}});
+            attach_fine_tiles(out.reflections.back(), std::move(fine));
         }
     }
     return out;
@@ -113,15 +134,12 @@ ShadingMaps convolve_maps(const HdrImage& environment, const std::vector<Materia
     std::vector<convolution::MapResult> results = convolution::convolve(environment, requests, options);
     ShadingMaps out;
     for (auto& r : results) {
-        if (!r.fine.empty()) {  // the whole finer grid, as load_maps does
-            r.image = expand(r.image, r.fine, options.threads);
-            r.fine = FineTiles{};
-        }
-        if (r.request.irradiance) {
+        if (r.request.irradiance) {  // tiles kept as load_maps keeps them
             out.irradiance_from = describe_plan(r);
-            out.irradiance = std::move(r.image);
+            out.irradiance = r.fine.empty() ? std::move(r.image) : expand(r.image, r.fine, options.threads);
         } else {
-            out.reflections.push_back({r.request, std::move(r.image), describe_plan(r), r.plan.lookup});
+            out.reflections.push_back({r.request, std::move(r.image), describe_plan(r), r.plan.lookup, {}, {}});
+            attach_fine_tiles(out.reflections.back(), std::move(r.fine), options.threads);
         }
     }
     return out;

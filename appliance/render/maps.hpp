@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "appliance/convolution/convolution.hpp"
+#include "appliance/core/fine_tiles.hpp"
 #include "appliance/core/hdr_image.hpp"
 #include "appliance/render/material.hpp"
 
@@ -21,7 +22,18 @@ struct ReflectionMap {
     // How it is read between texels: bilinear, or through the lobe for a lobe narrower than half
     // the input's texels (the map then holds the input's texels; report.json "lookup").
     MapLookup lookup = MapLookup::Bilinear;
+    // Fine tiles of `image` (glint convolve's default for a map that needs a finer grid): the
+    // lookup is then sample_bilinear(image, fine, d), and `texture` the image and its tiles packed
+    // for the shader (tiled_map.hpp). Empty otherwise; `texture` empty: the renderer uploads image.
+    FineTiles fine;
+    HdrImage texture;
+    // What a reader that takes one image gets: `image`, or with tiles the whole finer grid.
+    HdrImage whole_grid(int threads = 0) const { return fine.empty() ? image : expand(image, fine, threads); }
 };
+
+// Gives `map` the tiles `fine` of its image: packed for the shader, or, for a map too narrow for
+// a block (tiled_map_layout), its image replaced by the whole finer grid.
+void attach_fine_tiles(ReflectionMap& map, FineTiles fine, int threads = 0);
 
 struct ShadingMaps {
     std::optional<HdrImage> irradiance;    // E_d, looked up with N (when any kd > 0)

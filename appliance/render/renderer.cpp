@@ -16,6 +16,7 @@
 #include "appliance/core/exr_io.hpp"
 #include "appliance/gl/gl_context.hpp"
 #include "appliance/gl/gl_targets.hpp"
+#include "appliance/render/tiled_map.hpp"
 
 namespace glint::render {
 namespace {
@@ -445,6 +446,15 @@ void Renderer::draw(bool with_hdr, bool multisampled, bool with_reflect, bool ao
         glUniform1i(scene_program_.uniform("u_specular"), m.specular() ? 1 : 0);
         const bool lobe = d.reflection >= 0 && maps_->reflections[std::size_t(d.reflection)].lookup == MapLookup::Lobe;
         glUniform1f(scene_program_.uniform("u_reflection_lobe"), lobe ? float(m.n) : 0.0f);
+        // A map with fine tiles: read through them (tiled_map.hpp, render_lookup.glsl equirect_tiled).
+        TiledMapLayout tiles;
+        if (d.reflection >= 0) {
+            const ReflectionMap& r = maps_->reflections[std::size_t(d.reflection)];
+            if (!r.fine.empty() && !r.texture.empty())
+                tiles = tiled_map_layout(r.image.width(), r.image.height(), r.fine).value_or(TiledMapLayout{});
+        }
+        glUniform4i(scene_program_.uniform("u_reflection_tiles"), tiles.factor, tiles.tile, tiles.base_rows, tiles.per_row);
+        glUniform2i(scene_program_.uniform("u_reflection_tile_rows"), tiles.slot_row, tiles.atlas_row);
         glActiveTexture(GL_TEXTURE1);
         glBindTexture(GL_TEXTURE_2D, d.reflection >= 0 ? reflection_textures_[std::size_t(d.reflection)].id() : 0);
         glDrawElements(GL_TRIANGLES, GLsizei(d.index_count), GL_UNSIGNED_INT,
@@ -599,13 +609,15 @@ void Renderer::upload_maps(bool later) {
     reflection_textures_.clear();
     reflection_textures_.resize(maps.reflections.size());
     for (std::size_t k = 0; k < maps.reflections.size(); ++k) {
-        if (!later || drawn(int(k))) reflection_textures_[k] = upload_map(maps.reflections[k].image, "reflection");
+        if (!later || drawn(int(k))) reflection_textures_[k] = upload_map(map_image(int(k)), "reflection");
         else pending_maps_.push_back(int(k));
     }
 }
 
 const HdrImage& Renderer::map_image(int k) const {
-    return k < 0 ? *maps_->irradiance : maps_->reflections[std::size_t(k)].image;
+    if (k < 0) return *maps_->irradiance;
+    const ReflectionMap& r = maps_->reflections[std::size_t(k)];
+    return r.texture.empty() ? r.image : r.texture;  // with fine tiles, packed below the image
 }
 
 void Renderer::finish_upload(int k, gl::GlTexture texture) {

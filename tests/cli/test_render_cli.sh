@@ -136,14 +136,16 @@ run render --env "$WORLD" --maps "$work/maps" --material matte --size 32x32 --ou
 grep -qF "irradiance: $work/maps/irradiance.exr" "$work/stdout" || fail "render --maps did not use irradiance.exr"
 pass "render --maps uses the irradiance map glint convolve wrote"
 expect_bad "--maps without the phong_160 map" "phong_160" render --env "$WORLD" --maps "$work/maps" --material glossy:160
-# Maps with fine tiles (glint convolve's default) are read through them: uploaded as the whole
-# finer grid.
+# Maps with fine tiles (glint convolve's default) are read through them: the shader looks the
+# tiles up (render/tiled_map.hpp), the stdout line says so.
 run convolve "$WORLD" --out "$work/tiled" --irradiance --shininess 1280
 [[ $rc -eq 0 ]] || fail "convolve --irradiance --shininess 1280: exit code $rc (stderr: $(stderr_text))"
 [[ -s $work/tiled/phong_1280.tiles.exr ]] || fail "convolve wrote no phong_1280.tiles.exr: $(ls -A "$work/tiled")"
 run render --env "$WORLD" --maps "$work/tiled" --material glossy:1280 --size 32x32 --out "$work/t.png" --background black
 [[ $rc -eq 0 ]] || fail "render --maps with fine tiles: exit code $rc (stderr: $(stderr_text))"
 grep -qF "$work/tiled/phong_1280.exr" "$work/stdout" || fail "render --maps did not use the tiled phong_1280.exr: $(tr '\n' ' ' <"$work/stdout")"
+grep -qE "phong_1280.exr \([0-9]+ of [0-9]+ tiles [0-9]+x finer, read through them\)" "$work/stdout" ||
+    fail "render --maps did not read phong_1280's tiles in the shader: $(tr '\n' ' ' <"$work/stdout")"
 rm "$work/tiled/phong_1280.tiles.exr"
 expect_bad "--maps with a tiles file missing" "phong_1280.tiles.exr" render --env "$WORLD" --maps "$work/tiled" --material glossy:1280
 pass "render --maps reads a map with fine tiles, and names its tiles file when it is missing"
