@@ -36,6 +36,7 @@ std::string to_string(Method m) {
         case Method::Sh: return "sh";
         case Method::Mipmap: return "mipmap";
         case Method::Mirror: return "mirror";
+        case Method::Lobe: return "lobe";
     }
     return "unknown";
 }
@@ -335,7 +336,7 @@ void deliver_output(MapResult& r, double tau, const PlannerModel& model, int thr
                     const std::vector<BrightTexel>* bright, const std::function<HdrImage(Size)>& sum_on,
                     const TexelSummer& sum_texels, bool fine_tiles) {
     MapPlan& p = r.plan;
-    if (p.method == Method::Mirror) return;
+    if (p.method == Method::Mirror || p.method == Method::Lobe) return;
     const bool resampled_fixed = p.size_fixed && (p.sum_size.width != p.output_size.width ||
                                                   p.sum_size.height != p.output_size.height);
     if (p.size_fixed && !resampled_fixed) return;  // the reference's own grid: nothing between texels counts
@@ -580,6 +581,7 @@ void prepare_shared(SharedInputs& shared, const std::vector<MapResult>& results,
                 }
                 break;
             case Method::Mirror:
+            case Method::Lobe:
             case Method::Auto:
                 break;
         }
@@ -626,6 +628,7 @@ std::vector<MapResult> convolve_map(const HdrImage& env, HdrImage* consumable, c
     for (std::size_t k = 0; k < plans.size(); ++k) {
         const MapPlan& p = plans[k];
         if (p.method == Method::Exact || p.method == Method::Mipmap || p.method == Method::Mirror ||
+            p.method == Method::Lobe ||
             (p.method == Method::Sh && !p.bright_split) || may_need_lobe_lookup(maps[k], p, input_size))
             reads_whole = true;
         if ((p.method == Method::Cone && p.input_level == 0) ||
@@ -703,6 +706,11 @@ std::vector<MapResult> convolve_map(const HdrImage& env, HdrImage* consumable, c
             }
             case Method::Mirror: {
                 HdrImage image = filter_to_footprint(shared.full_image(), grid, map_threads);
+                rows(grid.height);
+                return image;
+            }
+            case Method::Lobe: {
+                HdrImage image = resample_lobe(shared.full_image(), grid.width, grid.height, n, map_threads);
                 rows(grid.height);
                 return image;
             }

@@ -6,6 +6,8 @@
 #include <limits>
 #include <vector>
 
+#include "appliance/core/parallel.hpp"
+
 namespace glint {
 
 glm::dvec3 direction_from_angles(double theta, double phi) {
@@ -131,10 +133,11 @@ Rgb sample_lobe(const HdrImage& image, const glm::dvec3& d_in, double n) {
     return {float(sum[0] / norm), float(sum[1] / norm), float(sum[2] / norm)};
 }
 
-HdrImage resample_lobe(const HdrImage& image, int width, int height, double n) {
+HdrImage resample_lobe(const HdrImage& image, int width, int height, double n, int threads) {
     HdrImage out(width, height);
-    for (int j = 0; j < height; ++j)
+    parallel_for(height, threads > 0 ? threads : hardware_threads(), [&](int j) {
         for (int i = 0; i < width; ++i) out.set(i, j, sample_lobe(image, texel_direction(i, j, width, height), n));
+    });
     return out;
 }
 

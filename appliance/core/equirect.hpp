@@ -68,8 +68,8 @@ inline Rgb sample_map(const HdrImage& image, const glm::dvec3& d, MapLookup look
 }
 
 // A lobe-lookup map (sample_lobe) read at the texel centres of a width x height grid: its values
-// where a reference of that grid holds the exact sums.
-HdrImage resample_lobe(const HdrImage& image, int width, int height, double shininess);
+// where a reference of that grid holds the exact sums (engine Method::Lobe). threads 0: all cores.
+HdrImage resample_lobe(const HdrImage& image, int width, int height, double shininess, int threads = 1);
 
 // Resample a map to another size by bilinear lookup at the new texel centres.
 HdrImage resample_bilinear(const HdrImage& image, int width, int height);
