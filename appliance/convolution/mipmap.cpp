@@ -7,6 +7,7 @@
 #include <string>
 #include <utility>
 
+#include "appliance/convolution/output_grid.hpp"
 #include "appliance/core/equirect.hpp"
 #include "appliance/core/parallel.hpp"
 #include "appliance/core/errors.hpp"
@@ -67,14 +68,17 @@ void Pyramid::build_through(int k) const {
         if (released_[next - 1])
             throw std::logic_error("pyramid level " + std::to_string(built_) + " is built from level " +
                                    std::to_string(built_ - 1) + ", which was released");
-        levels_[next] = halve(levels_[next - 1], threads_);
+        const HdrImage& finer = levels_[next - 1];
+        levels_[next] = finer.width() % 2 == 0 && finer.height() % 2 == 0
+                            ? halve(finer, threads_)
+                            : filter_to_footprint(finer, {(finer.width() + 1) / 2, (finer.height() + 1) / 2}, threads_);
     }
 }
 
 std::vector<Size> Pyramid::level_sizes(Size level0) {
     std::vector<Size> sizes{level0};
-    while (sizes.back().width % 2 == 0 && sizes.back().height % 2 == 0)
-        sizes.push_back({sizes.back().width / 2, sizes.back().height / 2});
+    while (sizes.back().height >= 2)
+        sizes.push_back({(sizes.back().width + 1) / 2, (sizes.back().height + 1) / 2});
     return sizes;
 }
 

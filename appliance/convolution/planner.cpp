@@ -58,10 +58,15 @@ Size sum_grid_size(double n, Size input, const PlannerModel& model) {
     // half of them, which stays on the input's grid) is summed on twice the input's height:
     // 4-point resampling is not predicted where the grid does not resolve the lobe, and the
     // coarse grid's lookup estimate would under-predict.
+    // An odd input width: a grid 2 h wide shares no factor with it, so every output column is a
+    // phase class of its own and the sums lose their unit-stride runs (lobe_sum.hpp): 6.6 s
+    // for n = 5120 from 1023x511 against ~0.2 s from 1024x512 (2026-12-06). Such a map is summed
+    // on twice the input's grid (2 W x 2 H, two classes), whose texels are a hair off square.
+    const Size twice = input.width % 2 != 0 ? Size{2 * input.width, 2 * cap} : Size{4 * cap, 2 * cap};
     if (needed > cap && needed >= model.min_output_height * 2 && kPi / cap > lobe_width(n) &&
         !lobe_narrower_than_input(n, input))
-        return {4 * cap, 2 * cap};
-    if (needed >= cap) return {2 * cap, cap};
+        return twice;
+    if (needed >= cap) return input.width % 2 != 0 ? twice : Size{2 * cap, cap};
     // The ladder: the input's height halved k times, so the level's columns fall in few
     // phase classes of the output's (one where the widths divide), and the sums stay
     // unit-stride runs (lobe_sum.hpp). A 3/4 step too measured slower than the full step
@@ -72,6 +77,7 @@ Size sum_grid_size(double n, Size input, const PlannerModel& model) {
         if (h % 2) break;
     }
     if (best > needed * 2) best = needed + (needed & 1);  // an odd input height: no ladder below it
+    if (best == cap && input.width % 2 != 0) return twice;  // the input's own height, an odd width
     return {2 * best, best};
 }
 

@@ -42,12 +42,15 @@ std::array<double, 3> energy(const HdrImage& img) {
     return sum;
 }
 
-TEST(Pyramid, LevelSizesStopAtOddSizes) {
+// Odd sides round up (each coarse texel the solid-angle mean of the parts of the finer texels
+// under it), down to a height of 1: until 2026-12-06 the chain stopped at the first odd side,
+// and a 999x500 input had no coarser level at all.
+TEST(Pyramid, LevelSizesHalveRoundingUpToAHeightOfOne) {
     const std::vector<std::pair<std::pair<int, int>, std::vector<std::pair<int, int>>>> cases = {
-        {{300, 200}, {{300, 200}, {150, 100}, {75, 50}}},
+        {{300, 200}, {{300, 200}, {150, 100}, {75, 50}, {38, 25}, {19, 13}, {10, 7}, {5, 4}, {3, 2}, {2, 1}}},
         {{8, 4}, {{8, 4}, {4, 2}, {2, 1}}},
-        {{12, 6}, {{12, 6}, {6, 3}}},
-        {{7, 3}, {{7, 3}}},
+        {{12, 6}, {{12, 6}, {6, 3}, {3, 2}, {2, 1}}},
+        {{7, 3}, {{7, 3}, {4, 2}, {2, 1}}},
         {{2, 1}, {{2, 1}}},
         {{4, 4}, {{4, 4}, {2, 2}, {1, 1}}},
     };
@@ -110,7 +113,7 @@ TEST(Pyramid, ChildrenAreWeightedByTheirSolidAngles) {
     img.set(0, 2, {0, 5, 0});
     img.set(1, 2, {0, 7, 0});
     const Pyramid p(img);
-    ASSERT_EQ(p.levels(), 2);
+    ASSERT_EQ(p.levels(), 3);  // 2x4, 1x2, 1x1
     const double s = std::sqrt(2.0) / 2.0;
     EXPECT_NEAR(p.level(1).at(0, 0).r, ((1 - s) * 2 + s * 6) / 2, 1e-6);
     EXPECT_NEAR(p.level(1).at(0, 0).g, 0.0, 1e-7);
@@ -203,15 +206,8 @@ TEST(MipmapConvolve, FractionalLevelsBlendTheTwoNeighbours) {
         }
 }
 
-TEST(MipmapConvolve, LevelsBeyondTheChainUseTheCoarsestLevel) {
-    // 300x200: the irradiance level log2(200) - 2 = 5.6 does not exist; the chain ends at 75x50.
-    const Pyramid p(noise(300, 200, 9));
-    ASSERT_EQ(p.levels(), 3);
-    const HdrImage out = mipmap_convolve(p, true, 1.0, 16, 8);
-    for (int j = 0; j < 8; ++j)
-        for (int i = 0; i < 16; ++i)
-            ASSERT_EQ(out.at(i, j).g, sample_bilinear(p.level(2), texel_direction(i, j, 16, 8)).g);
-}
+// (MipmapConvolve.LevelsBeyondTheChainUseTheCoarsestLevel went with the odd halving of
+// 2026-12-06: every chain now reaches a height of 1, past every level the thesis' formula asks.)
 
 TEST(MipmapConvolve, MirrorLikeShininessReadsTheInput) {
     const HdrImage input = noise(64, 32, 3);
