@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <memory>
 
+#include "appliance/app/cli_util.hpp"
 #include "appliance/app/commands.hpp"
 #include "appliance/core/errors.hpp"
 #include "appliance/core/progress.hpp"
@@ -86,7 +87,7 @@ Command add_bake_ao_command(CLI::App& app) {
                     "Hits farther than this times the model's bounding radius do not occlude (2, the diameter: no limit)")
         ->capture_default_str();
     cmd->add_option("--threads", args->threads, "Worker threads; 0 = all cores")
-        ->check(CLI::NonNegativeNumber)
+        ->check(non_negative_number())
         ->capture_default_str();
     return {cmd, [args] { return run_bake_ao(*args); }};
 }

@@ -61,13 +61,13 @@ Command add_capture_command(CLI::App& app) {
     cmd->add_option("--max-blur-px", a->o.max_blur_px,
                     "Leave out a frame whose predicted motion blur (angular speed from the sensor stream x exposure "
                     "time x focal length) is more than this many pixels; 0 = no limit")
-        ->check(CLI::NonNegativeNumber)
+        ->check(non_negative_number())
         ->capture_default_str();
     cmd->add_flag("--no-rolling-shutter-correction", a->no_rolling_shutter,
                   "Turn every row of a frame with the frame's one orientation, although the calibration has a "
                   "rolling-shutter readout time (for measuring what the correction does)");
     cmd->add_option("--threads", a->o.threads, "Threads; 0 = all cores")
-        ->check(CLI::NonNegativeNumber)
+        ->check(non_negative_number())
         ->capture_default_str();
     return {cmd, [a, cmd] {
                 const convolution::Size s = parse_size(a->size, "--size");

@@ -2,6 +2,9 @@
 // Sizes and lists on the command line (cli_util.hpp).
 #include "appliance/app/cli_util.hpp"
 
+#include <cmath>
+#include <stdexcept>
+
 #include "appliance/core/errors.hpp"
 #include "appliance/core/strict_number.hpp"
 
@@ -41,6 +44,28 @@ CLI::Validator size_validator() {
         },
         "WxH");
 }
+
+namespace {
+CLI::Validator bounded_below(bool strict) {
+    return CLI::Validator(
+        [strict](std::string& text) -> std::string {
+            double v = 0;
+            std::size_t used = 0;
+            try {
+                v = std::stod(text, &used);
+            } catch (const std::exception&) {
+                used = 0;
+            }
+            if (used != text.size() || !std::isfinite(v)) return "must be a number, not '" + text + "'";
+            if (strict ? !(v > 0) : !(v >= 0)) return std::string("must be ") + (strict ? "> 0" : ">= 0") + ", not " + text;
+            return {};
+        },
+        strict ? "POSITIVE" : "NONNEGATIVE");
+}
+}  // namespace
+
+CLI::Validator non_negative_number() { return bounded_below(false); }
+CLI::Validator positive_number() { return bounded_below(true); }
 
 std::vector<std::string> split_list(const std::string& text, const std::string& flag) {
     std::vector<std::string> items;

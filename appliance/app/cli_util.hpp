@@ -17,6 +17,11 @@ convolution::Size parse_size(const std::string& text, const std::string& flag);
 // The same rule as a CLI11 validator, so a bad size is rejected while parsing.
 CLI::Validator size_validator();
 
+// Numbers >= 0 and > 0, as CLI11's NonNegativeNumber and PositiveNumber but with a short
+// message ("must be >= 0, not -1"; CLI11's range message prints the largest double in full).
+CLI::Validator non_negative_number();
+CLI::Validator positive_number();
+
 // Comma-separated list, empty items rejected.
 std::vector<std::string> split_list(const std::string& text, const std::string& flag);
 

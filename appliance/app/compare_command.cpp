@@ -14,6 +14,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "appliance/app/cli_util.hpp"
 #include "appliance/app/commands.hpp"
 #include "appliance/core/error_metrics.hpp"
 #include "appliance/core/errors.hpp"
@@ -102,7 +103,7 @@ Command add_compare_command(CLI::App& app) {
         ->capture_default_str();
     CLI::Option* shininess =
         cmd->add_option("--shininess", args->shininess, "The lobe's Phong exponent for --lookup lobe (> 0)")
-            ->check(CLI::PositiveNumber);
+            ->check(positive_number());
     return {cmd, [args, shininess] {
                 // The flags first: a conflict is the user's, whatever the files say.
                 if (shininess->count() > 0 && args->lookup != "lobe")

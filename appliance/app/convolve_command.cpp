@@ -7,6 +7,7 @@
 #include <mutex>
 #include <cstdio>
 #include <filesystem>
+#include <fstream>
 #include <memory>
 #include <nlohmann/json.hpp>
 #include <set>
@@ -53,6 +54,47 @@ nlohmann::json size_json(convolution::Size s) { return {s.width, s.height}; }
 
 // report.json's "fine_tiles" of a map (null without): the blocks' file, the refinement, the
 // tile's side in the map's texels, and the tiles in the blocks' order (fine_tiles_io.hpp reads it).
+// The map and tiles files report.json in `dir` lists (plain names inside `dir` only), or none.
+std::vector<std::string> files_of_earlier_report(const fs::path& dir) {
+    std::vector<std::string> files;
+    std::ifstream in(dir / "report.json");
+    if (!in) return files;
+    try {
+        const nlohmann::json report = nlohmann::json::parse(in);
+        for (const auto& entry : report.at("maps")) {
+            if (entry.contains("file") && entry["file"].is_string()) files.push_back(entry["file"].get<std::string>());
+            if (entry.contains("fine_tiles") && entry["fine_tiles"].is_object() &&
+                entry["fine_tiles"].contains("file") && entry["fine_tiles"]["file"].is_string())
+                files.push_back(entry["fine_tiles"]["file"].get<std::string>());
+        }
+    } catch (const std::exception&) {
+        return {};  // not ours, or damaged: nothing is removed on its word
+    }
+    std::erase_if(files, [](const std::string& f) {
+        return f.empty() || fs::path(f).filename().string() != f || f == "." || f == "..";
+    });
+    return files;
+}
+
+// Removes `dir` on destruction if it did not exist at construction and is empty then.
+class EmptyDirectoryRemover {
+public:
+    explicit EmptyDirectoryRemover(fs::path dir) : dir_(std::move(dir)) {
+        std::error_code e;
+        made_ = !fs::exists(dir_, e);
+    }
+    ~EmptyDirectoryRemover() {
+        std::error_code e;
+        if (made_ && fs::is_directory(dir_, e) && fs::is_empty(dir_, e)) fs::remove(dir_, e);
+    }
+    EmptyDirectoryRemover(const EmptyDirectoryRemover&) = delete;
+    EmptyDirectoryRemover& operator=(const EmptyDirectoryRemover&) = delete;
+
+private:
+    fs::path dir_;
+    bool made_ = false;
+};
+
 nlohmann::json fine_tiles_json(const convolution::MapResult& r) {
     if (r.fine.empty()) return nlohmann::json();
     return fine_tiles_to_json(r.fine, r.request.label + kFineTilesSuffix);
@@ -96,6 +138,8 @@ int run_convolve(const ConvolveArgs& args) {
     if (args.mirror) maps.push_back(convolution::MapRequest::make_mirror());
 
     const fs::path out_dir(args.out_dir);
+    // A run that writes nothing (refused, or failed) leaves no directory it made behind.
+    const EmptyDirectoryRemover made_out_dir(out_dir);
     ensure_writable_directory(out_dir);
     const auto load_start = std::chrono::steady_clock::now();
     LoadedExr loaded = load_exr(args.input);
@@ -228,12 +272,15 @@ int run_convolve(const ConvolveArgs& args) {
         }
         write_text_atomically(staging.file("report.json"), report.dump(2) + "\n");
     });
+    const std::vector<std::string> earlier = files_of_earlier_report(out_dir);
     staging.commit(names);
-    // A tiles file of an earlier run, beside a map now delivered whole, is not read (report.json
-    // says so) but would mislead: removed.
-    for (const auto& r : results) {
+    // Files an earlier run wrote here (its report.json listed them) that this run did not write
+    // again, e.g. a tiles file beside a map now delivered whole, or a map not asked for this
+    // time: report.json no longer names them, and left beside the new maps they would mislead.
+    const std::set<std::string> written(names.begin(), names.end());
+    for (const std::string& name : earlier) {
         std::error_code ignored;
-        if (r.fine.empty()) fs::remove(out_dir / (r.request.label + kFineTilesSuffix), ignored);
+        if (!written.count(name)) fs::remove(out_dir / name, ignored);
     }
 
     for (const auto& r : results) {
@@ -280,11 +327,11 @@ Command add_convolve_command(CLI::App& app) {
     cmd->add_option("--sh-order", args->sh_order, "SH bands for --method sh, 1..1024; 0 = chosen from n and tolerance")
         ->capture_default_str();
     cmd->add_option("--threads", args->threads, "Worker threads; 0 = all cores")
-        ->check(CLI::NonNegativeNumber)
+        ->check(non_negative_number())
         ->capture_default_str();
     add_engine_option(*cmd, args->engine, "the same plans with the sums as GLES3 shaders");
     cmd->add_option("--tile-cap-ms", args->tile_cap_ms, "GPU engine: longest single draw, ms (> 0)")
-        ->check(CLI::PositiveNumber)
+        ->check(positive_number())
         ->capture_default_str();
     cmd->add_flag("--no-fine-tiles", args->whole_grids,
                   "Deliver a map that needs a finer grid than it is summed on as that whole grid (<map>.exr); "

@@ -417,14 +417,14 @@ Command add_render_command(CLI::App& app) {
     cmd->add_option("--out", args->out, "Write the displayed frame as PNG");
     cmd->add_option("--aov", args->aov, "Write radiance.exr (RGBA), normal.exr, reflect.exr into this directory");
     cmd->add_flag("--no-ao", args->no_ao, "Turn ambient occlusion off (ao = 1); otherwise MODEL.ao from glint bake-ao is used when it matches the model, and the teapot is baked at start");
-    cmd->add_option("--frames", args->frames, "Frames to render and time")->check(CLI::PositiveNumber)->capture_default_str();
+    cmd->add_option("--frames", args->frames, "Frames to render and time")->check(positive_number())->capture_default_str();
     cmd->add_option("--stats", args->stats, "Write frame-time statistics (median, p99, max ms) as JSON");
     cmd->add_option("--display", args->display, "headless, window, kms or auto")
         ->check(CLI::IsMember({"headless", "window", "kms", "auto"}))
         ->capture_default_str();
     cmd->add_option("--key", args->key, "Reinhard key value (middle grey), in (0, 1)")->capture_default_str();
     cmd->add_option("--threads", args->threads, "Worker threads of the convolution; 0 = all cores")
-        ->check(CLI::NonNegativeNumber)
+        ->check(non_negative_number())
         ->capture_default_str();
     cmd->add_option("--shadows", args->shadows,
                     "The object's shadow on the table, darkening the background: on, off, or auto (on over env or "

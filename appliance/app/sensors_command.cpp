@@ -10,6 +10,7 @@
 #include <mutex>
 #include <thread>
 
+#include "appliance/app/cli_util.hpp"
 #include "appliance/app/commands.hpp"
 #include "appliance/app/interrupt.hpp"
 #include "appliance/core/errors.hpp"
@@ -71,7 +72,7 @@ Command add_sensors_command(CLI::App& app) {
                   "t in seconds and yaw/pitch/roll in degrees (yaw about +Y from -Z towards -X, pitch up, roll "
                   "right side down)");
     cmd->add_option("--seconds", a->seconds, "Stop after S seconds (replay: of recorded time); 0 = until Ctrl-C")
-        ->check(CLI::NonNegativeNumber);
+        ->check(non_negative_number());
     cmd->add_option("--latency-ms", a->latency_ms, "Latency offset of the sensor path, ms (sample times move back)")
         ->check(CLI::Range(0.0, 1000.0));
     cmd->add_flag("--realtime", a->realtime, "Replay at recorded speed (default: as fast as possible)");

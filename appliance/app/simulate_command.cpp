@@ -87,7 +87,7 @@ Command add_simulate_command(CLI::App& app) {
                     "calibration as readout_s; 0 = a global shutter; default: a Pi camera v2 in its 1080p mode)")
         ->capture_default_str();
     cmd->add_option("--threads", a->o.threads, "Render threads; 0 = all cores")
-        ->check(CLI::NonNegativeNumber)
+        ->check(non_negative_number())
         ->capture_default_str();
     cmd->add_option("--bracket", a->o.bracket,
                     "Instead of a scan: N frames of one still view with the exposure doubling each frame (a "

@@ -4,6 +4,7 @@
 #include <algorithm>
 #include <cmath>
 #include <limits>
+#include <iomanip>
 #include <sstream>
 #include <string>
 
@@ -390,9 +391,10 @@ void choose_sh_split(const std::vector<MapRequest>& maps, std::vector<MapPlan>& 
     }
 }
 
+// As many digits as tell v apart ("1e+07" and "1.0000001e+07", not both "1e+07").
 std::string number(double v) {
     std::ostringstream s;
-    s << v;
+    s << std::setprecision(12) << v;
     return s.str();
 }
 

@@ -359,8 +359,8 @@ run convolve "$work/in.exr" --out "$work/over" --shininess 100,5 --method sh --s
 [[ $rc -eq 1 ]] || fail "over tolerance: exit code $rc, want 1 (stderr: $(stderr_text))"
 grep -q "phong_100: predicted error .* exceeds --tolerance" "$work/stderr" ||
     fail "over tolerance: stderr does not name phong_100 and its predicted error: $(stderr_text)"
-[[ ! -e $work/over || -z $(ls -A "$work/over") ]] || fail "over tolerance: files were written: $(ls -A "$work/over")"
-pass "a map over --tolerance: exit 1, named with its predicted error, nothing written"
+[[ ! -e $work/over ]] || fail "over tolerance: the output directory it made was left behind: $(ls -A "$work/over")"
+pass "a map over --tolerance: exit 1, named with its predicted error, nothing written, no directory left"
 run convolve "$work/in.exr" --out "$work/over" --shininess 100 --method sh --sh-order 2 --size 32x16 \
     --allow-over-tolerance
 [[ $rc -eq 0 ]] || fail "--allow-over-tolerance: exit code $rc, want 0 (stderr: $(stderr_text))"
@@ -370,6 +370,14 @@ m = json.load(open(sys.argv[1]))["maps"][0]
 assert m["over_tolerance"] is True and m["predicted_error"] > 0.01, m
 EOF2
 pass "--allow-over-tolerance writes the map and marks it over_tolerance in report.json"
+# A later run into the same directory removes the maps the earlier report.json listed that it did
+# not write again; files of the user's own stay.
+echo mine >"$work/over/notes.txt"
+run convolve "$work/in.exr" --out "$work/over" --irradiance --size 32x16
+[[ $rc -eq 0 ]] || fail "convolve into a used directory: exit code $rc (stderr: $(stderr_text))"
+[[ ! -e $work/over/phong_100.exr ]] || fail "the earlier run's phong_100.exr was left beside the new maps"
+[[ -s $work/over/irradiance.exr && -s $work/over/notes.txt ]] || fail "a used directory: $(ls -A "$work/over")"
+pass "a later run removes the earlier run's maps it did not write again, and keeps other files"
 expect_bad "--shininess 2e7" "mirror" "$work/bad16" \
     convolve "$work/in.exr" --out "$work/bad16" --shininess 2e7 --size 32x16
 
