@@ -246,6 +246,14 @@ int run_convolve(const ConvolveArgs& args) {
         std::fprintf(stderr, "glint: %s: %s: predicted error %.3g exceeds --tolerance %.3g (%s)\n",
                      args.allow_over_tolerance ? "warning" : "error", r->request.label.c_str(),
                      r->plan.predicted_error, options.tolerance, over_tolerance_cause(*r, options).c_str());
+    // The thesis' MIP-mapping baseline has no error model (predicted_error null): its maps are
+    // not checked against the tolerance, and may be far off (275 % RMS on a small sun, 2026-12-06).
+    for (const auto& r : results)
+        if (!std::isfinite(r.plan.predicted_error))
+            std::fprintf(stderr,
+                         "glint: warning: %s: --method %s has no error model: not checked against --tolerance "
+                         "(report.json predicted_error null; a baseline for comparison, not for use)\n",
+                         r.request.label.c_str(), convolution::to_string(r.plan.method).c_str());
     if (!over.empty() && !args.allow_over_tolerance) {
         std::fprintf(stderr,
                      "glint: wrote nothing to %s: %zu map(s) over the tolerance (give a larger --tolerance, "
