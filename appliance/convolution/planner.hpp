@@ -17,8 +17,9 @@ struct PlannerModel {
     // relative error scales as h^2 n (second derivative over value; 1/24 for a
     // smooth map). Edges inside a coarse texel make it larger, and for n <= 5
     // the kink of the clamped cosine at the horizon dominates, so n is taken
-    // as at least level_min_shininess. Measured on the test maps
-    // (docs/convolution.md): worst texel ~0.3 h^2 n, weighted RMS ~0.03 h^2 n.
+    // as at least level_min_shininess; below n = 1 the error is first order in h
+    // (level_growth). Measured on the test maps (docs/convolution.md): worst texel
+    // ~0.3 h^2 n, weighted RMS ~0.03 h^2 n.
     double level_worst_coefficient = 0.3;
     double level_rms_coefficient = 0.03;
     double level_min_shininess = 5.0;
@@ -119,5 +120,9 @@ double predicted_seconds(const MapPlan& plan, const PlannerModel& model);
 // a lobe of shininess n: the arc up to which rows near the poles may read
 // merged columns.
 double merged_arc_budget(double shininess, double tolerance, const PlannerModel& model);
+// How a level's error grows with its texel spacing h for shininess n: h^2 max(n,
+// level_min_shininess), and level_min_shininess h^(1 + n) below n = 1 (the horizon's step or
+// infinite slope; planner.cpp). Times level_rms_coefficient or level_worst_coefficient.
+double level_growth(double h, double shininess, const PlannerModel& model);
 
 }  // namespace glint::convolution
