@@ -15,8 +15,9 @@
 namespace glint::convolution {
 
 // Mirror is not a --method: a MapRequest::make_mirror() map is planned as one by every method.
-// Lobe is not one either: auto's plan for a lobe narrower than the input's texels at a fixed
-// size, E at each output texel's centre summed over the input texels near it (sample_lobe).
+// Lobe is not one either: auto's plan at a fixed size for a lobe so narrow that the cone's
+// cut-off would hold few input texel centres (under 1.5 spacings), E at each output texel's
+// centre summed over the input texels near it (sample_lobe).
 enum class Method { Auto, Exact, Cone, Sh, Mipmap, Mirror, Lobe };
 
 std::string to_string(Method m);

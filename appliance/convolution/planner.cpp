@@ -211,8 +211,9 @@ MapPlan plan_map(const MapRequest& request, const Options& options, const Enviro
         // Texels visited per output texel: a disc of radius sqrt(2 span / n) plus a texel.
         const double reach = std::sqrt(2.0 * kLobeLookupSpan / n) / (kPi / env.input.height) + 1.0;
         plan.predicted_cost = double(texels(plan.output_size)) * kPi * reach * reach;
-        plan.size_reason = "fixed by the request; the lobe is narrower than the input's texel spacing, so each texel "
-                           "is the lobe's sum over the input texels near its centre (sample_lobe)";
+        plan.size_reason = "fixed by the request; the lobe is so narrow against the input's texels that a cone's "
+                           "cut-off would hold few of them, so each texel is the lobe's sum over the input texels "
+                           "near its centre (sample_lobe)";
         return plan;
     }
     // Only the cone sums at a coarser grid than a fixed output and resamples (exact and
