@@ -49,14 +49,10 @@ namespace {
 CLI::Validator bounded_below(bool strict) {
     return CLI::Validator(
         [strict](std::string& text) -> std::string {
-            double v = 0;
-            std::size_t used = 0;
-            try {
-                v = std::stod(text, &used);
-            } catch (const std::exception&) {
-                used = 0;
-            }
-            if (used != text.size() || !std::isfinite(v)) return "must be a number, not '" + text + "'";
+            char* end = nullptr;
+            const double v = text.empty() ? 0.0 : std::strtod(text.c_str(), &end);  // 1e-320: denormal, fine
+            if (text.empty() || end != text.c_str() + text.size() || !std::isfinite(v))
+                return "must be a number, not '" + text + "'";
             if (strict ? !(v > 0) : !(v >= 0)) return std::string("must be ") + (strict ? "> 0" : ">= 0") + ", not " + text;
             return {};
         },

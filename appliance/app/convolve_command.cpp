@@ -54,45 +54,55 @@ nlohmann::json size_json(convolution::Size s) { return {s.width, s.height}; }
 
 // report.json's "fine_tiles" of a map (null without): the blocks' file, the refinement, the
 // tile's side in the map's texels, and the tiles in the blocks' order (fine_tiles_io.hpp reads it).
-// The map and tiles files report.json in `dir` lists (plain names inside `dir` only), or none.
-std::vector<std::string> files_of_earlier_report(const fs::path& dir) {
+// The map and tiles files report.json in `dir` lists, or none: only names glint convolve gives
+// (the entry's map name + ".exr" or + kFineTilesSuffix, plain names inside `dir`), never `input`
+// (a run may read a map an earlier run wrote there).
+std::vector<std::string> files_of_earlier_report(const fs::path& dir, const fs::path& input) {
     std::vector<std::string> files;
     std::ifstream in(dir / "report.json");
     if (!in) return files;
     try {
         const nlohmann::json report = nlohmann::json::parse(in);
         for (const auto& entry : report.at("maps")) {
-            if (entry.contains("file") && entry["file"].is_string()) files.push_back(entry["file"].get<std::string>());
+            if (!entry.contains("map") || !entry["map"].is_string()) continue;
+            const std::string map = entry["map"].get<std::string>();
+            if (entry.contains("file") && entry["file"] == map + ".exr") files.push_back(map + ".exr");
             if (entry.contains("fine_tiles") && entry["fine_tiles"].is_object() &&
-                entry["fine_tiles"].contains("file") && entry["fine_tiles"]["file"].is_string())
-                files.push_back(entry["fine_tiles"]["file"].get<std::string>());
+                entry["fine_tiles"].value("file", "") == map + kFineTilesSuffix)
+                files.push_back(map + kFineTilesSuffix);
         }
     } catch (const std::exception&) {
         return {};  // not ours, or damaged: nothing is removed on its word
     }
-    std::erase_if(files, [](const std::string& f) {
-        return f.empty() || fs::path(f).filename().string() != f || f == "." || f == "..";
+    std::erase_if(files, [&](const std::string& f) {
+        std::error_code e;
+        return f.empty() || fs::path(f).filename().string() != f || f == "." || f == ".." ||
+               fs::equivalent(dir / f, input, e);
     });
     return files;
 }
 
-// Removes `dir` on destruction if it did not exist at construction and is empty then.
+// On destruction, removes the directories of `dir`'s path that did not exist at construction
+// (`dir` and the parents made with it), innermost first, while they are empty.
 class EmptyDirectoryRemover {
 public:
-    explicit EmptyDirectoryRemover(fs::path dir) : dir_(std::move(dir)) {
+    explicit EmptyDirectoryRemover(const fs::path& dir) {
         std::error_code e;
-        made_ = !fs::exists(dir_, e);
+        for (fs::path p = fs::absolute(dir, e); !p.empty() && !fs::exists(p, e); p = p.parent_path()) {
+            made_.push_back(p);
+            if (p == p.parent_path()) break;
+        }
     }
     ~EmptyDirectoryRemover() {
         std::error_code e;
-        if (made_ && fs::is_directory(dir_, e) && fs::is_empty(dir_, e)) fs::remove(dir_, e);
+        for (const fs::path& p : made_)
+            if (!fs::is_directory(p, e) || !fs::is_empty(p, e) || !fs::remove(p, e)) break;
     }
     EmptyDirectoryRemover(const EmptyDirectoryRemover&) = delete;
     EmptyDirectoryRemover& operator=(const EmptyDirectoryRemover&) = delete;
 
 private:
-    fs::path dir_;
-    bool made_ = false;
+    std::vector<fs::path> made_;  // innermost first
 };
 
 nlohmann::json fine_tiles_json(const convolution::MapResult& r) {
@@ -280,7 +290,7 @@ int run_convolve(const ConvolveArgs& args) {
         }
         write_text_atomically(staging.file("report.json"), report.dump(2) + "\n");
     });
-    const std::vector<std::string> earlier = files_of_earlier_report(out_dir);
+    const std::vector<std::string> earlier = files_of_earlier_report(out_dir, args.input);
     staging.commit(names);
     // Files an earlier run wrote here (its report.json listed them) that this run did not write
     // again, e.g. a tiles file beside a map now delivered whole, or a map not asked for this

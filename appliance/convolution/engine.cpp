@@ -449,9 +449,12 @@ void deliver_output(MapResult& r, double tau, const PlannerModel& model, int thr
         // The worst budget halved: the sum grid's second differences under-predict next to a
         // lobe it barely resolves (courtyard's n = 20480 on 1024x512 measured 6 % against a 4 %
         // budget), and a lookup there is what a highlight shows.
-        const FineTilePlan tp = plan_fine_tiles(r.image, f, kFineTile, outside_share * tau,
+        // Tiles of kFineTile texels, or of 2 where the grid's sides are only even (2 W x 2 H for
+        // an odd input width W, planner sum_grid_size).
+        const int tile = FineTiles::fits(p.sum_size.width, p.sum_size.height, kFineTile) ? kFineTile : 2;
+        const FineTilePlan tp = plan_fine_tiles(r.image, f, tile, outside_share * tau,
                                                 0.5 * model.output_worst_share * tau, threads, &with_bright);
-        const long long side = kFineTile * f + 1;
+        const long long side = tile * f + 1;
         if (tp.tiles == 0 || 2 * tp.tiles * side * side > static_cast<long long>(finer.width) * finer.height)
             return false;
         if (!resolves_for_resampling(p.sum_size, p.input_size, n, model)) return false;
@@ -500,8 +503,8 @@ void deliver_output(MapResult& r, double tau, const PlannerModel& model, int thr
         p.lookup_worst = std::max(tp.remaining_worst, inside_worst);
         p.predicted_error += p.lookup_error + resampled;
         p.output_size = p.sum_size;
-        p.size_reason = estimate + "; the sum grid, with tiles of " + std::to_string(kFineTile) + "x" +
-                        std::to_string(kFineTile) + " texels " + std::to_string(f) + "x finer (" + to_string(finer) +
+        p.size_reason = estimate + "; the sum grid, with tiles of " + std::to_string(tile) + "x" +
+                        std::to_string(tile) + " texels " + std::to_string(f) + "x finer (" + to_string(finer) +
                         ") at " + std::to_string(r.fine.count()) + " of " + std::to_string(tp.kept.size()) +
                         " tiles, near the " + std::to_string(tp.marked) + " texels where lookups err more (" +
                         percent(tp.remaining_rms) + " RMS, " + percent(tp.remaining_worst) +

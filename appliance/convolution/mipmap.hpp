@@ -58,8 +58,9 @@ double mipmap_level(int input_height, bool irradiance, double shininess);
 
 // The levels a map reads and the weight of the coarser one: mipmap_level()
 // clamped to the levels the pyramid has (textureLod clamps to the chain it has;
-// ours can end early on odd sizes, so its coarsest level stands in for any
-// level beyond it); blend 0: the fine level alone. The CPU's mipmap_convolve
+// its coarsest level stands in for any level beyond it; the formula takes level k
+// as H / 2^k rows, which odd sizes round up by less than a row); blend 0: the fine
+// level alone. The CPU's mipmap_convolve
 // and the GPU engine's mipmap pass read the same.
 struct MipmapLookup {
     int fine = 0, coarse = 0;

@@ -63,11 +63,15 @@ Size sum_grid_size(double n, Size input, const PlannerModel& model) {
     // phase class of its own and the sums lose their unit-stride runs (lobe_sum.hpp): 6.6 s
     // for n = 5120 from 1023x511 against ~0.2 s from 1024x512 (2026-12-06). Such a map is summed
     // on twice the input's grid (2 W x 2 H, two classes), whose texels are a hair off square.
-    const Size twice = input.width % 2 != 0 ? Size{2 * input.width, 2 * cap} : Size{4 * cap, 2 * cap};
+    // Only for a 2:1 input (W = 2 H +- 1; another aspect keeps 2 h x h, which shares a factor
+    // with W or not as it happens) and within kMaxOutputHeight rows.
+    const bool odd_twice =
+        input.width % 2 != 0 && std::abs(input.width - 2 * input.height) <= 1 && 2 * cap <= kMaxOutputHeight;
+    const Size twice = odd_twice ? Size{2 * input.width, 2 * cap} : Size{4 * cap, 2 * cap};
     if (needed > cap && needed >= model.min_output_height * 2 && kPi / cap > lobe_width(n) &&
         !lobe_narrower_than_input(n, input))
         return twice;
-    if (needed >= cap) return input.width % 2 != 0 ? twice : Size{2 * cap, cap};
+    if (needed >= cap) return odd_twice ? twice : Size{2 * cap, cap};
     // The ladder: the input's height halved k times, so the level's columns fall in few
     // phase classes of the output's (one where the widths divide), and the sums stay
     // unit-stride runs (lobe_sum.hpp). A 3/4 step too measured slower than the full step
@@ -78,7 +82,7 @@ Size sum_grid_size(double n, Size input, const PlannerModel& model) {
         if (h % 2) break;
     }
     if (best > needed * 2) best = needed + (needed & 1);  // an odd input height: no ladder below it
-    if (best == cap && input.width % 2 != 0) return twice;  // the input's own height, an odd width
+    if (best == cap && odd_twice) return twice;  // the input's own height, an odd width
     return {2 * best, best};
 }
 
@@ -197,20 +201,25 @@ MapPlan plan_map(const MapRequest& request, const Options& options, const Enviro
     // centres, and a single bright texel on black came out black (100 % off, predicted 0.1 %;
     // a sweep of generated maps, 2026-12-06); coarse inputs read at finer sizes (8x4 at 65x33,
     // n = 160) erred 29 % worst.
-    // It applies where the cone's cut-off angle does not reach past the ring of input texel
-    // centres nearest any direction (1.5 spacings): beyond that the cone holds every texel whose
-    // weight counts and costs far less (n = 1e6 from 4096x2048 at 2048x1024: 0.5 s against 32 s
-    // for the lobe's sums, whose reach is e^-36 of the largest weight).
+    // It applies where the cone's cut-off angle is under one input texel spacing (the misses
+    // began at 0.9: n = 4e4 and 3e4 on 256x128, 2.6 % and 0.79 % worst): past that the cone holds
+    // the texels whose weights count and costs far less (n = 1e6 from 4096x2048 at 2048x1024:
+    // 0.5 s against 32 s; n = 2e5 from 1024x512 at 1024x512: 0.19 s against 2.6 s, within 7e-7;
+    // the lobe's sums reach e^-36 of the largest weight, whole rows at the poles).
     if (fixed && !request.irradiance && options.method == Method::Auto &&
-        std::acos(std::clamp(cut_cos, -1.0, 1.0)) < 1.5 * kPi / env.input.height) {
+        std::acos(std::clamp(cut_cos, -1.0, 1.0)) < kPi / env.input.height) {
         plan.method = Method::Lobe;
         plan.input_level = 0;
         plan.input_size = env.input;
         plan.cutoff_cos = -1;
         plan.predicted_error = 0;
-        // Texels visited per output texel: a disc of radius sqrt(2 span / n) plus a texel.
+        // Texels visited per output texel: a disc of radius sqrt(2 span / n) plus a texel; the
+        // output rows within that reach of a pole read whole input rows.
         const double reach = std::sqrt(2.0 * kLobeLookupSpan / n) / (kPi / env.input.height) + 1.0;
-        plan.predicted_cost = double(texels(plan.output_size)) * kPi * reach * reach;
+        const double polar_rows =
+            std::min(double(plan.output_size.height), 2.0 * std::ceil(reach * plan.output_size.height / env.input.height));
+        plan.predicted_cost = double(texels(plan.output_size)) * kPi * reach * reach +
+                              polar_rows * plan.output_size.width * reach * env.input.width;
         plan.size_reason = "fixed by the request; the lobe is so narrow against the input's texels that a cone's "
                            "cut-off would hold few of them, so each texel is the lobe's sum over the input texels "
                            "near its centre (sample_lobe)";

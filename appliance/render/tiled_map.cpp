@@ -21,6 +21,11 @@ std::optional<TiledMapLayout> tiled_map_layout(int width, int height, const Fine
     l.per_row = width / side;
     const int bands = (fine.count() + l.per_row - 1) / l.per_row;
     l.height = l.atlas_row + bands * side;
+    // Never taller than the whole finer grid (a GPU whose texture limit holds that must hold
+    // this; with many tiles kept the bands of blocks can outgrow it), or than 2048 rows, what
+    // every OpenGL ES 3.0 GPU holds.
+    constexpr long long kRowsEveryGpuHolds = 2048;
+    if ((long long)l.height > std::max((long long)height * fine.factor, kRowsEveryGpuHolds)) return std::nullopt;
     return l;
 }
 

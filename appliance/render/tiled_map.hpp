@@ -32,7 +32,10 @@ struct TiledMapLayout {
 };
 
 // The layout for `fine` over a base of width x height texels, or nothing when a block is wider
-// than the base (a tiny map: expand() it instead). `fine` must not be empty.
+// than the base (a tiny map) or the packed image would have more rows than the whole finer grid
+// and than 2048 (so many tiles that a GPU holding the whole grid might not hold this): expand()
+// it instead.
+// `fine` must not be empty.
 std::optional<TiledMapLayout> tiled_map_layout(int width, int height, const FineTiles& fine);
 
 // The packed image (layout above; `layout` from tiled_map_layout of the same base and tiles).

@@ -378,6 +378,14 @@ run convolve "$work/in.exr" --out "$work/over" --irradiance --size 32x16
 [[ ! -e $work/over/phong_100.exr ]] || fail "the earlier run's phong_100.exr was left beside the new maps"
 [[ -s $work/over/irradiance.exr && -s $work/over/notes.txt ]] || fail "a used directory: $(ls -A "$work/over")"
 pass "a later run removes the earlier run's maps it did not write again, and keeps other files"
+# ... but never its own input, though the earlier report.json listed it.
+run convolve "$work/over/irradiance.exr" --out "$work/over" --shininess 20 --size 32x16
+[[ $rc -eq 0 && -s $work/over/irradiance.exr ]] || fail "a run reading a map of the directory it writes: rc $rc, $(ls -A "$work/over")"
+pass "a run whose input an earlier run wrote into its output directory keeps that input"
+# A refused run removes every directory of --out it made, not only the last.
+run convolve "$work/in.exr" --out "$work/nest/a/b" --shininess 100 --method sh --sh-order 2 --size 32x16
+[[ $rc -eq 1 && ! -e $work/nest ]] || fail "a refused run into nest/a/b: rc $rc, left $(find "$work/nest" 2>/dev/null | tr '\n' ' ')"
+pass "a refused run leaves none of the directories it made"
 expect_bad "--shininess 2e7" "mirror" "$work/bad16" \
     convolve "$work/in.exr" --out "$work/bad16" --shininess 2e7 --size 32x16
 

@@ -89,6 +89,25 @@ TEST(RenderTiledMap, PacksTheBaseSlotsAndBlocks) {
     // A block wider than the base: no layout (the caller expands the map instead).
     const TiledWorld narrow = make_tiled_world(16, 8, 4, 4, 8);
     EXPECT_FALSE(render::tiled_map_layout(16, 8, narrow.fine));
+    // So many blocks that the packed image would be taller than the whole 4096x2048 finer grid
+    // of a 1024x512 map at 4x (and than 2048 rows): none either.
+    FineTiles many;
+    many.factor = 4;
+    many.tile = 4;
+    many.tiles_x = 256;
+    many.tiles_y = 128;
+    many.slot.assign(256 * 128, -1);
+    const int count = 90 * (1024 / 17);  // 90 bands of 17 rows: 512 + 32 + 1530 rows > 2048
+    for (int k = 0; k < count; ++k) many.slot[std::size_t(k)] = k;
+    many.blocks = HdrImage(17, 17 * count);
+    const auto tall = render::tiled_map_layout(1024, 512, many);
+    EXPECT_FALSE(tall) << "a packed image of " << (tall ? tall->height : 0) << " rows";
+    many.slot.assign(256 * 128, -1);
+    for (int k = 0; k < 80 * 60; ++k) many.slot[std::size_t(k)] = k;
+    many.blocks = HdrImage(17, 17 * 80 * 60);
+    const auto fits = render::tiled_map_layout(1024, 512, many);
+    ASSERT_TRUE(fits);
+    EXPECT_EQ(fits->height, 512 + 32 + 80 * 17);
 }
 
 // The shader's lookup through the tiles is core's: a sphere's reflection directions cover the
