@@ -13,26 +13,37 @@ vec2 equirect_texel(vec3 d, ivec2 size) {
     return vec2((phi + PI) / TWO_PI * float(size.x), theta / PI * float(size.y));
 }
 
-// The lookup of a map held in the first size.y rows of `map` (a tiled map's texture holds more
-// below: equirect_tiled).
-vec3 equirect_bilinear_rows(highp sampler2D map, vec3 d, ivec2 size) {
-    vec2 t = equirect_texel(d, size);
+// The bilinear cell of continuous texel coordinates t on a grid of `size` texels, as core's
+// bilinear_cell (fine_tiles.cpp) and sample_bilinear take it: columns (x0, x1) wrapped in
+// azimuth, rows (y0, y1) clamped in polar angle, and the weights of x1 and y1.
+struct Cell {
+    int x0, x1, y0, y1;
+    vec2 a;
+};
+Cell bilinear_cell(vec2 t, ivec2 size) {
     float x = t.x - 0.5;
     float y = clamp(t.y - 0.5, 0.0, float(size.y - 1));
     float fx = floor(x);
     float fy = floor(y);
-    float ax = x - fx;
-    float ay = y - fy;
+    Cell c;
+    c.a = vec2(x - fx, y - fy);
     // x is in [-0.5, W - 0.5], so fx in [-1, W - 1] (GLSL ES leaves % of negatives undefined).
-    int x0 = int(fx);
-    if (x0 < 0) x0 += size.x;
-    if (x0 >= size.x) x0 -= size.x;
-    int x1 = x0 + 1 == size.x ? 0 : x0 + 1;
-    int y0 = int(fy);
-    int y1 = min(y0 + 1, size.y - 1);
-    vec3 top = mix(texelFetch(map, ivec2(x0, y0), 0).rgb, texelFetch(map, ivec2(x1, y0), 0).rgb, ax);
-    vec3 bottom = mix(texelFetch(map, ivec2(x0, y1), 0).rgb, texelFetch(map, ivec2(x1, y1), 0).rgb, ax);
-    return mix(top, bottom, ay);
+    c.x0 = int(fx);
+    if (c.x0 < 0) c.x0 += size.x;
+    if (c.x0 >= size.x) c.x0 -= size.x;
+    c.x1 = c.x0 + 1 == size.x ? 0 : c.x0 + 1;
+    c.y0 = int(fy);
+    c.y1 = min(c.y0 + 1, size.y - 1);
+    return c;
+}
+
+// The lookup of a map held in the first size.y rows of `map` (a tiled map's texture holds more
+// below: equirect_tiled).
+vec3 equirect_bilinear_rows(highp sampler2D map, vec3 d, ivec2 size) {
+    Cell c = bilinear_cell(equirect_texel(d, size), size);
+    vec3 top = mix(texelFetch(map, ivec2(c.x0, c.y0), 0).rgb, texelFetch(map, ivec2(c.x1, c.y0), 0).rgb, c.a.x);
+    vec3 bottom = mix(texelFetch(map, ivec2(c.x0, c.y1), 0).rgb, texelFetch(map, ivec2(c.x1, c.y1), 0).rgb, c.a.x);
+    return mix(top, bottom, c.a.y);
 }
 
 vec3 equirect_bilinear(highp sampler2D map, vec3 d) { return equirect_bilinear_rows(map, d, textureSize(map, 0)); }
@@ -47,20 +58,10 @@ vec3 equirect_tiled(highp sampler2D map, vec3 d, ivec4 geometry, ivec2 rows) {
     ivec2 base = ivec2(width, geometry.z);
     int factor = geometry.x;
     ivec2 fine = base * factor;
-    vec2 t = equirect_texel(d, fine);
-    float x = t.x - 0.5;
-    float y = clamp(t.y - 0.5, 0.0, float(fine.y - 1));
-    float fx = floor(x);
-    float fy = floor(y);
-    float ax = x - fx;
-    float ay = y - fy;
-    int x0 = int(fx);
-    if (x0 < 0) x0 += fine.x;
-    if (x0 >= fine.x) x0 -= fine.x;
-    int y0 = int(fy);
+    Cell c = bilinear_cell(equirect_texel(d, fine), fine);
     int span = geometry.y * factor;  // fine texels per tile side
-    int tx = x0 / span;
-    int ty = y0 / span;
+    int tx = c.x0 / span;
+    int ty = c.y0 / span;
     int slot_index = ty * (width / geometry.y) + tx;
     int block = int(texelFetch(map, ivec2(slot_index % width, rows.x + slot_index / width), 0).r);
     if (block < 0) return equirect_bilinear_rows(map, d, base);
@@ -69,12 +70,12 @@ vec3 equirect_tiled(highp sampler2D map, vec3 d, ivec4 geometry, ivec2 rows) {
     // again (the clamp at the pole).
     int side = span + 1;
     ivec2 origin = ivec2((block % geometry.w) * side, rows.y + (block / geometry.w) * side);
-    int u = x0 - tx * span;
-    int v = y0 - ty * span;
-    int v1 = y0 + 1 < fine.y ? v + 1 : v;
-    vec3 top = mix(texelFetch(map, origin + ivec2(u, v), 0).rgb, texelFetch(map, origin + ivec2(u + 1, v), 0).rgb, ax);
-    vec3 bottom = mix(texelFetch(map, origin + ivec2(u, v1), 0).rgb, texelFetch(map, origin + ivec2(u + 1, v1), 0).rgb, ax);
-    return mix(top, bottom, ay);
+    int u = c.x0 - tx * span;
+    int v = c.y0 - ty * span;
+    int v1 = c.y1 == c.y0 ? v : v + 1;
+    vec3 top = mix(texelFetch(map, origin + ivec2(u, v), 0).rgb, texelFetch(map, origin + ivec2(u + 1, v), 0).rgb, c.a.x);
+    vec3 bottom = mix(texelFetch(map, origin + ivec2(u, v1), 0).rgb, texelFetch(map, origin + ivec2(u + 1, v1), 0).rgb, c.a.x);
+    return mix(top, bottom, c.a.y);
 }
 
 // The lobe lookup of a map whose lobe is narrower than its texel spacing (report.json
