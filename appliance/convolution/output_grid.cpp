@@ -233,6 +233,63 @@ double solid_angle_mean(const HdrImage& map) {
     return sum / (3.0 * 4.0 * kPi);
 }
 
+LookupError horizon_step_error(const HdrImage& input, const HdrImage& map, double n) {
+    LookupError e;
+    if (!(n < 1.0) || map.empty() || input.empty()) return e;
+    const int w = map.width(), h = map.height();
+    const double spacing = kPi / h;
+    std::vector<double> cells(3 * std::size_t(w) * std::size_t(h), 0.0);
+    const std::vector<double> omega = row_solid_angles(input.width(), input.height());
+    for (int j = 0; j < input.height(); ++j) {
+        const int cj = std::min(h - 1, int((long long)j * h / input.height()));
+        const float* p = input.row(j);
+        double* row = cells.data() + 3 * std::size_t(cj) * std::size_t(w);
+        for (int i = 0; i < input.width(); ++i) {
+            const int ci = std::min(w - 1, int((long long)i * w / input.width()));
+            for (int c = 0; c < 3; ++c) row[3 * std::size_t(ci) + std::size_t(c)] += double(p[3 * i + c]) * omega[std::size_t(j)];
+        }
+    }
+    const double m = std::max(n, 0.0);
+    const double step = std::pow(spacing, m) * (1.0 + m) / (2.0 * kPi);
+    // Mean square of linear interpolation against the rise (x/h)^n over the cell it begins in,
+    // 1/(2n + 1) - 2/(n + 2) + 1/3, halved for where in the cell it begins: 1/6 for the step
+    // (n = 0), 1/18 at n = 0.25, 1/60 at 0.5, 1/2600 at 0.9. Its largest value n^(n/(1-n)) -
+    // n^(1/(1-n)): 1 for the step, 0.47, 0.25, 0.04.
+    const double mean_square = 0.5 * (1.0 / (2.0 * m + 1.0) - 2.0 / (m + 2.0) + 1.0 / 3.0);
+    const double peak = m > 0 ? std::pow(m, m / (1.0 - m)) - std::pow(m, 1.0 / (1.0 - m)) : 1.0;
+    // A cell's step is what it holds beyond its eight neighbours' mean: the steps of a source
+    // wider than a cell, or of a smooth sky, lie a cell apart and make a ramp that lookups
+    // follow (counted whole, courtyard's phong_0 was predicted 1.8 % against 0.34 % measured).
+    double error_squares = 0, largest = 0;
+    for (int j = 0; j < h; ++j)
+        for (int i = 0; i < w; ++i)
+            for (int c = 0; c < 3; ++c) {
+                double around = 0;
+                for (int dj = -1; dj <= 1; ++dj)
+                    for (int di = -1; di <= 1; ++di) {
+                        if (di == 0 && dj == 0) continue;
+                        const int jj = std::clamp(j + dj, 0, h - 1), ii = (i + di + w) % w;
+                        around += cells[3 * (std::size_t(jj) * std::size_t(w) + std::size_t(ii)) + std::size_t(c)];
+                    }
+                const double own = cells[3 * (std::size_t(j) * std::size_t(w) + std::size_t(i)) + std::size_t(c)];
+                const double jump = std::abs(own - around / 8.0) * step;
+                error_squares += 2.0 * kPi * spacing * jump * jump * mean_square;
+                largest = std::max(largest, jump * peak);
+            }
+    const std::vector<double> solid = row_solid_angles(w, h);
+    double squares = 0;
+    for (int j = 0; j < h; ++j) {
+        const float* p = map.row(j);
+        double row = 0;
+        for (int k = 0; k < 3 * w; ++k) row += double(p[k]) * double(p[k]);
+        squares += row * solid[std::size_t(j)];
+    }
+    const double mean = solid_angle_mean(map);
+    e.bilinear_rms = squares > 0 ? std::sqrt(error_squares / squares) : 0.0;
+    e.bilinear_worst = mean > 0 ? 0.5 * largest / mean : 0.0;
+    return e;
+}
+
 LookupError estimate_lookup_error(const HdrImage& map, int threads, TexelLookupErrors* per_texel) {
     const int w = map.width(), h = map.height();
     const std::vector<double> solid = row_solid_angles(w, h);

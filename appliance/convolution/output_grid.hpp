@@ -48,6 +48,17 @@ struct TexelLookupErrors {
 };
 LookupError estimate_lookup_error(const HdrImage& map, int threads, TexelLookupErrors* per_texel = nullptr);
 
+// Below n = 1 the kernel max(0, cos)^n has a step (n = 0) or an x^n rise at the horizon, so E^n
+// jumps (or turns sharply) across the great circle 90 degrees from every compact source, and
+// bilinear lookups of `map` err along it in a band a texel wide, which the second differences
+// above under-read about 4x. Each source's step: its energy sum L dOmega gathered in cells of the
+// map's spacing h (sources closer than a texel step together), times h^n (n + 1) / 2 pi; a step
+// J at a random place in a cell errs J^2 / 6 in mean square over a band of 2 pi h, a rise
+// J (x/h)^n less (output_grid.cpp). bilinear_rms: that against the map's own sum dOmega E^2;
+// bilinear_worst: the largest error against the map's mean. Zero for n >= 1. `input`: the
+// environment map the map was convolved from.
+LookupError horizon_step_error(const HdrImage& input, const HdrImage& map, double n);
+
 // Where 4-point resampling of `map` to a finer grid would miss its budget: the texels whose
 // predicted relative error (as in estimate_lookup_error) exceeds worst_budget, then those
 // with the largest shares of the weighted RMS until the rest is within rms_budget. The

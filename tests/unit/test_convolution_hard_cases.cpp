@@ -775,6 +775,36 @@ TEST_F(HardCases, LobesBelowOneReadLevelsTheirHorizonAllows) {
     }
 }
 
+// Between texels, below n = 1: E^0 of a single bright texel on black steps across the great
+// circle 90 degrees from it, which bilinear lookups of no grid follow. The prediction counts the
+// step (horizon_step_error) and is not below what lookups measure at the centres of an
+// incommensurate grid; over the tolerance the run refuses the map (before 2026-12-06 it wrote
+// phong_0 of such a map 5.6-6.4 % off with 0.7 % predicted). A smooth map is summed on a finer
+// grid until its steps fit, and stays within the tolerance.
+TEST_F(HardCases, HorizonStepsBelowOneArePredictedBetweenTexels) {
+    HdrImage spike(128, 64);
+    spike.set(64, 32, {1e6f, 1e6f, 1e6f});
+    const HdrImage smooth = smooth_random_map(128, 64, 5);
+    for (const HdrImage* env : std::vector<const HdrImage*>{&spike, &smooth}) {
+        for (const double n : {0.0, 0.5}) {
+            const auto maps = phong_requests({n});
+            const auto got = run(*env, maps, Method::Auto, std::nullopt);
+            const auto exact = run(*env, maps, Method::Exact, Size{47, 23});
+            const MapError e = compare_maps(got[0].image, exact[0].image);
+            const std::string what = std::string(env == &spike ? "spike" : "smooth") + " " +
+                                     describe(Method::Auto, got[0]) + ": " + got[0].plan.size_reason;
+            std::printf("[  report  ] horizon steps: %s n %g at %dx%d predicted %.4f, off-grid rel_rms %.4f worst %.3f\n",
+                        env == &spike ? "spike" : "smooth", n, got[0].plan.output_size.width,
+                        got[0].plan.output_size.height, got[0].plan.predicted_error, e.weighted_relative_rms,
+                        e.worst_texel);
+            EXPECT_GE(got[0].plan.predicted_error, e.weighted_relative_rms) << what;
+            if (env == &smooth) {
+                EXPECT_LE(e.weighted_relative_rms, kTau) << what;
+            }
+        }
+    }
+}
+
 TEST_F(HardCases, PlannerSplitPlanCarriesItsConeForFailingRows) {
     // A lit upper half over a near-black lower half: auto moves the maps to SH with the bright
     // split, whose truncation bound fails in the dark rows; the plan names the cone that
