@@ -194,7 +194,7 @@ MapPlan plan_map(const MapRequest& request, const Options& options, const Enviro
                                      "(lookup \"lobe\")";
         return plan;
     }
-    // A lobe narrower than the input's texel spacing at a fixed size (auto): E at each output
+    // A lobe far narrower than the input's texels at a fixed size (auto): E at each output
     // texel's centre from the input texels near it (sample_lobe, every term within
     // exp(-kLobeLookupSpan) of the largest), the conventions' sum itself. The cone's cutoff is
     // an angle: with the lobe under a fifth of a texel it held no texel centre near some output
