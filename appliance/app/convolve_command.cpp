@@ -52,8 +52,6 @@ nlohmann::json number_or_null(double v) { return std::isfinite(v) ? nlohmann::js
 
 nlohmann::json size_json(convolution::Size s) { return {s.width, s.height}; }
 
-// report.json's "fine_tiles" of a map (null without): the blocks' file, the refinement, the
-// tile's side in the map's texels, and the tiles in the blocks' order (fine_tiles_io.hpp reads it).
 // The map and tiles files report.json in `dir` lists, or none: only names glint convolve gives
 // (the entry's map name + ".exr" or + kFineTilesSuffix, plain names inside `dir`), never `input`
 // (a run may read a map an earlier run wrote there).
@@ -105,6 +103,8 @@ private:
     std::vector<fs::path> made_;  // innermost first
 };
 
+// report.json's "fine_tiles" of a map (null without): the blocks' file, the refinement, the
+// tile's side in the map's texels, and the tiles in the blocks' order (fine_tiles_io.hpp reads it).
 nlohmann::json fine_tiles_json(const convolution::MapResult& r) {
     if (r.fine.empty()) return nlohmann::json();
     return fine_tiles_to_json(r.fine, r.request.label + kFineTilesSuffix);

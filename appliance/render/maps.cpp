@@ -39,19 +39,22 @@ void ShadingMaps::set_reflection(const Material& material, HdrImage image, std::
             r.lookup = lookup;
             r.fine = FineTiles{};
             r.texture = HdrImage{};
+            r.tiles = TiledMapLayout{};
             return;
         }
-    reflections.push_back({request, std::move(image), std::move(from), lookup, {}, {}});
+    reflections.push_back({request, std::move(image), std::move(from), lookup, {}, {}, {}});
 }
 
 void attach_fine_tiles(ReflectionMap& map, FineTiles fine, int threads) {
     map.fine = FineTiles{};
     map.texture = HdrImage{};
+    map.tiles = TiledMapLayout{};
     if (fine.empty()) return;
     const std::string tiles = std::to_string(fine.count()) + " of " + std::to_string(fine.slot.size()) + " tiles " +
                               std::to_string(fine.factor) + "x finer";
     if (const auto layout = tiled_map_layout(map.image.width(), map.image.height(), fine)) {
         map.texture = pack_tiled_map(map.image, fine, *layout);
+        map.tiles = *layout;
         map.fine = std::move(fine);
         map.from += " (" + tiles + ", read through them)";
     } else {
@@ -115,7 +118,7 @@ ShadingMaps load_maps(const fs::path& dir, const std::vector<Material>& material
             out.irradiance = fine.empty() ? std::move(image) : expand(image, fine);
             out.irradiance_from = path.string();
         } else {
-            out.reflections.push_back({want, std::move(image), path.string(), lookup, {}, {}});
+            out.reflections.push_back({want, std::move(image), path.string(), lookup, {}, {}, {}});
             attach_fine_tiles(out.reflections.back(), std::move(fine));
         }
     }
@@ -138,7 +141,7 @@ ShadingMaps convolve_maps(const HdrImage& environment, const std::vector<Materia
             out.irradiance_from = describe_plan(r);
             out.irradiance = r.fine.empty() ? std::move(r.image) : expand(r.image, r.fine, options.threads);
         } else {
-            out.reflections.push_back({r.request, std::move(r.image), describe_plan(r), r.plan.lookup, {}, {}});
+            out.reflections.push_back({r.request, std::move(r.image), describe_plan(r), r.plan.lookup, {}, {}, {}});
             attach_fine_tiles(out.reflections.back(), std::move(r.fine), options.threads);
         }
     }

@@ -11,6 +11,7 @@
 #include "appliance/core/fine_tiles.hpp"
 #include "appliance/core/hdr_image.hpp"
 #include "appliance/render/material.hpp"
+#include "appliance/render/tiled_map.hpp"
 
 namespace glint::render {
 
@@ -23,10 +24,12 @@ struct ReflectionMap {
     // the input's texels (the map then holds the input's texels; report.json "lookup").
     MapLookup lookup = MapLookup::Bilinear;
     // Fine tiles of `image` (glint convolve's default for a map that needs a finer grid): the
-    // lookup is then sample_bilinear(image, fine, d), and `texture` the image and its tiles packed
-    // for the shader (tiled_map.hpp). Empty otherwise; `texture` empty: the renderer uploads image.
+    // lookup is then sample_bilinear(image, fine, d), `texture` the image and its tiles packed for
+    // the shader and `tiles` its layout there (tiled_map.hpp; the shader's uniforms). Empty
+    // otherwise (tiles.factor 0); `texture` empty: the renderer uploads image.
     FineTiles fine;
     HdrImage texture;
+    TiledMapLayout tiles;
     // What a reader that takes one image gets: `image`, or with tiles the whole finer grid.
     HdrImage whole_grid(int threads = 0) const { return fine.empty() ? image : expand(image, fine, threads); }
 };

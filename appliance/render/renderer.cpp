@@ -16,7 +16,6 @@
 #include "appliance/core/exr_io.hpp"
 #include "appliance/gl/gl_context.hpp"
 #include "appliance/gl/gl_targets.hpp"
-#include "appliance/render/tiled_map.hpp"
 
 namespace glint::render {
 namespace {
@@ -446,13 +445,10 @@ void Renderer::draw(bool with_hdr, bool multisampled, bool with_reflect, bool ao
         glUniform1i(scene_program_.uniform("u_specular"), m.specular() ? 1 : 0);
         const bool lobe = d.reflection >= 0 && maps_->reflections[std::size_t(d.reflection)].lookup == MapLookup::Lobe;
         glUniform1f(scene_program_.uniform("u_reflection_lobe"), lobe ? float(m.n) : 0.0f);
-        // A map with fine tiles: read through them (tiled_map.hpp, render_lookup.glsl equirect_tiled).
-        TiledMapLayout tiles;
-        if (d.reflection >= 0) {
-            const ReflectionMap& r = maps_->reflections[std::size_t(d.reflection)];
-            if (!r.fine.empty() && !r.texture.empty())
-                tiles = tiled_map_layout(r.image.width(), r.image.height(), r.fine).value_or(TiledMapLayout{});
-        }
+        // A map with fine tiles: read through them (tiled_map.hpp, render_lookup.glsl equirect_tiled;
+        // factor 0 without).
+        const TiledMapLayout tiles =
+            d.reflection >= 0 ? maps_->reflections[std::size_t(d.reflection)].tiles : TiledMapLayout{};
         glUniform4i(scene_program_.uniform("u_reflection_tiles"), tiles.factor, tiles.tile, tiles.base_rows, tiles.per_row);
         glUniform2i(scene_program_.uniform("u_reflection_tile_rows"), tiles.slot_row, tiles.atlas_row);
         glActiveTexture(GL_TEXTURE1);

@@ -912,9 +912,6 @@ TEST(OutputGrid, LobesNarrowerThanHalfATexelAreTheInputReadThroughTheLobe) {
     EXPECT_EQ(convolve(env, {MapRequest::make_phong(1e6, "fixed")}, fixed)[0].plan.lookup, MapLookup::Bilinear);
 }
 
-// A lobe between half a texel and one (n = 300 on 64x32: 103 < n < 415) over texel-to-texel
-// contrast: where bilinear lookups of every grid the planner may deliver miss the tolerance, the
-// map falls back to the lobe lookup and is exact off-grid; where they meet it, it stays bilinear.
 TEST(OutputGrid, ALobeUnderATexelIsNotResampledFromAGridThatBarelyResolvesIt) {
     // A lobe 0.57 of the input's texel wide (n = 1280 on 128x64, as n = 20480 on 512x256) over
     // plateaus of 10:1 from texel to texel: twice the input's height (256x128) samples it at 0.875
@@ -951,6 +948,9 @@ TEST(OutputGrid, ALobeUnderATexelIsNotResampledFromAGridThatBarelyResolvesIt) {
     }
 }
 
+// A lobe between half a texel and one (n = 300 on 64x32: 103 < n < 415) over texel-to-texel
+// contrast: where bilinear lookups of every grid the planner may deliver miss the tolerance, the
+// map falls back to the lobe lookup and is exact off-grid; where they meet it, it stays bilinear.
 TEST(OutputGrid, ALobeUnderATexelFallsBackToTheLobeLookupWhereBilinearGridsMiss) {
     std::mt19937 rng(4);
     std::uniform_real_distribution<float> u(0.0f, 1.0f);
