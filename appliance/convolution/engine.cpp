@@ -433,9 +433,8 @@ void deliver_output(MapResult& r, double tau, const PlannerModel& model, int thr
     TexelLookupErrors with_bright;  // per texel, for the fine tiles
     const LookupError e = estimate_lookup_error(r.image, threads, fine_tiles ? &with_bright : nullptr);
     const auto within = [&](int factor) {
-        const double f2 = double(factor) * factor;
-        return e.bilinear_rms / f2 <= model.output_share * tau &&
-               e.bilinear_worst / f2 <= model.output_worst_share * tau;
+        const LookupError::Bilinear b = e.finer(factor);
+        return b.rms <= model.output_share * tau && b.worst <= model.output_worst_share * tau;
     };
     int factor = 1;
     while (!within(factor) && factor * 2 <= model.max_refinement &&
@@ -502,9 +501,10 @@ void deliver_output(MapResult& r, double tau, const PlannerModel& model, int thr
         }
         if (split) r.image = std::move(base);
         // Lookups outside the tiles read the sum grid (its unmarked texels' estimate); inside,
-        // the finer grid's (the sum grid's estimate over f^2, as for the whole finer grid):
+        // the finer grid's (the sum grid's estimate scaled, as for the whole finer grid):
         // disjoint regions, so their squares add.
-        const double inside = e.bilinear_rms / (double(f) * f), inside_worst = e.bilinear_worst / (double(f) * f);
+        const LookupError::Bilinear in_tiles = e.finer(f);
+        const double inside = in_tiles.rms, inside_worst = in_tiles.worst;
         const double resampled = cubic_ok ? without.cubic_rms : patches.remaining_rms;
         p.lookup_error = std::sqrt(tp.remaining_rms * tp.remaining_rms + inside * inside);
         p.lookup_worst = std::max(tp.remaining_worst, inside_worst);
@@ -522,8 +522,8 @@ void deliver_output(MapResult& r, double tau, const PlannerModel& model, int thr
         return true;
     };
     if (factor > 1 && fine_tiles && deliver_tiles(factor)) return;
-    p.lookup_error = e.bilinear_rms / (double(factor) * factor);
-    p.lookup_worst = e.bilinear_worst / (double(factor) * factor);
+    p.lookup_error = e.finer(factor).rms;
+    p.lookup_worst = e.finer(factor).worst;
     p.predicted_error += p.lookup_error;
     if (factor == 1) {
         p.size_reason = "the lobe's sum grid: " + estimate + (within(1) ? "" : " (no finer grid allowed)");

@@ -212,6 +212,13 @@ double lane_largest(Lanes v) {
     for (std::size_t l = 1; l < kLanes; ++l) m = std::max(m, v[l]);
     return m;
 }
+// The share of a first (or last) row's solid angle between the pole and its centres' circle,
+// (1 - cos(pi / 2h)) / (1 - cos(pi / h)): 1/4 for a tall map, 1/2 for a map one texel tall.
+double pole_cap_share(int height) {
+    const double half = kPi / (2.0 * height);
+    return (1.0 - std::cos(half)) / (1.0 - std::cos(2.0 * half));
+}
+
 // x / floor where floor > 0, else 0 (a texel of a map that is 0 everywhere).
 Lanes ratio(Lanes x, Lanes floor) { return floor > 0.0 ? x / (floor > 0.0 ? floor : 1.0) : Lanes{}; }
 
@@ -290,12 +297,18 @@ LookupError horizon_step_error(const HdrImage& input, const HdrImage& map, doubl
     return e;
 }
 
+LookupError::Bilinear LookupError::finer(int factor) const {
+    const double f = factor, f2 = f * f;
+    return {bilinear_rms / f2, std::max(between_worst / f2, pole_worst / f)};
+}
+
 LookupError estimate_lookup_error(const HdrImage& map, int threads, TexelLookupErrors* per_texel) {
     const int w = map.width(), h = map.height();
     const std::vector<double> solid = row_solid_angles(w, h);
     const double mean = solid_angle_mean(map);
     struct RowSums {
         double value2 = 0, bilinear2 = 0, cubic2 = 0, bilinear_worst = 0, cubic_worst = 0;
+        double pole_worst = 0, between_worst = 0;
     };
     std::vector<RowSums> rows_sums(static_cast<std::size_t>(h));
     const std::vector<std::array<int, 5>> cols = neighbour_columns(w);
@@ -343,8 +356,36 @@ LookupError estimate_lookup_error(const HdrImage& map, int threads, TexelLookupE
             const auto one = [](double x) { return Lanes{x}; };
             add(k, one(rows[2][k]), one(d.a[k]), one(d.b[k]), one(d.d4[k]));
         }
-        rows_sums[std::size_t(j)] = {lane_sum(value2), lane_sum(bilinear2), lane_sum(cubic2),
-                                     lane_largest(bilinear_worst), lane_largest(cubic_worst)};
+        RowSums& sums = rows_sums[std::size_t(j)];
+        sums = {lane_sum(value2), lane_sum(bilinear2), lane_sum(cubic2), lane_largest(bilinear_worst),
+                lane_largest(cubic_worst)};
+        sums.between_worst = sums.bilinear_worst;
+        // The poles' clamp (the first and last rows; both for a map one texel tall), scalar:
+        // two rows of the map.
+        for (const int pole : {0, h - 1}) {
+            if (j != pole) continue;
+            const double cap = pole_cap_share(h);
+            const float* row = rows[2];
+            const int half = w / 2;
+            for (int i = 0; i < w; ++i)
+                for (int c = 0; c < 3; ++c) {
+                    const std::size_t at = 3 * std::size_t(i) + std::size_t(c);
+                    const double v = row[at];
+                    const double across = row[3 * wrap(i + half, w) + c];
+                    const double opposite = w % 2 == 0 ? across : 0.5 * (across + double(row[3 * wrap(i + half + 1, w) + c]));
+                    const double clamp = 0.5 * std::abs(v - opposite);
+                    const double floor = std::max(std::abs(v), mean);
+                    const double square = clamp * clamp / 6.0 * cap;
+                    const double relative = floor > 0 ? clamp / floor : 0.0;
+                    sums.bilinear2 += square;
+                    sums.bilinear_worst = std::max(sums.bilinear_worst, relative);
+                    sums.pole_worst = std::max(sums.pole_worst, relative);
+                    if (per_texel) {
+                        sq_b[at] += square;
+                        rel_b[at] = std::max(rel_b[at], relative);
+                    }
+                }
+        }
         if (!per_texel) return;
         // Per texel, the same estimates over its three channels: the largest relative error and
         // the weighted sum of squares, of both kinds.
@@ -370,6 +411,8 @@ LookupError estimate_lookup_error(const HdrImage& map, int threads, TexelLookupE
         cubic2 += a * s.cubic2;
         e.bilinear_worst = std::max(e.bilinear_worst, s.bilinear_worst);
         e.cubic_worst = std::max(e.cubic_worst, s.cubic_worst);
+        e.pole_worst = std::max(e.pole_worst, s.pole_worst);
+        e.between_worst = std::max(e.between_worst, s.between_worst);
     }
     if (value2 > 0) {
         e.bilinear_rms = std::sqrt(bilinear2 / value2);

@@ -21,9 +21,22 @@ namespace glint::convolution {
 // texel against max(|value|, solid-angle mean)), predicted for lookups into a map.
 struct LookupError {
     double bilinear_rms = 0;    // bilinear lookup anywhere between the map's texel centres
-    double bilinear_worst = 0;
+    double bilinear_worst = 0;  // (both with the poles' clamp below)
     double cubic_rms = 0;       // 4-point interpolation of the map to a finer grid
     double cubic_worst = 0;
+    // The worst texel's two parts: the clamp at the poles (between a pole and its first row's
+    // centres a lookup holds that row, docs/conventions.md, so it errs by the map's slope
+    // across the pole times the distance, first order in the spacing where the rest is second
+    // order) and the rest, between texels.
+    double pole_worst = 0;
+    double between_worst = 0;
+    // The bilinear figures of the same map on a grid `factor` times finer: all but the clamp's
+    // worst fall as 1 / factor^2; that one as 1 / factor. (The clamp's mean square falls as
+    // 1 / factor^4 too: its error as 1 / factor over a cap 1 / factor^2 the size.)
+    struct Bilinear {
+        double rms = 0, worst = 0;
+    };
+    Bilinear finer(int factor) const;
 };
 
 // Solid-angle mean of a map over its texels and three channels (the floor of the worst-texel
@@ -35,7 +48,11 @@ double solid_angle_mean(const HdrImage& map);
 // of a quadratic with those differences, (a^2 + b^2)/120 + ab/72; the bilinear worst its
 // largest value, (|a| + |b|)/8. Cubic: 3/128 (|d4_phi| + |d4_theta|), the largest error of
 // 4-point interpolation, for both. Differences in theta continue across the poles (the
-// row's mirror, half a turn round), in phi around the seam.
+// row's mirror, half a turn round), in phi around the seam. The first and last rows' values
+// add the poles' clamp: c = |v - v'| / 2, v' the value half a turn round (the mean of the two
+// columns there for an odd width), is the error of a lookup at the pole, falling linearly to 0
+// at the row's centre; c^2 / 6 in mean square over the cap, the cap's share of the row's solid
+// angle (1/4 for a tall map).
 // With per_texel, also each texel's estimates over its channels (TexelLookupErrors), from the
 // same differences, for plan_resample_patches and plan_fine_tiles.
 struct TexelErrors {

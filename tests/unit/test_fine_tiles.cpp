@@ -171,7 +171,7 @@ TEST(FineTiles, TiledMapsAreWithinTheirPredictionOffGridAndMatchTheWholeFinerGri
     // map is the sum grid.
     const HdrImage env = field_with_lights(256, 128);
     std::vector<convolution::MapRequest> maps;
-    for (double n : {300.0, 2000.0, 8000.0}) maps.push_back(convolution::MapRequest::make_phong(n, std::to_string(int(n))));
+    for (double n : {300.0, 1000.0, 2000.0, 8000.0}) maps.push_back(convolution::MapRequest::make_phong(n, std::to_string(int(n))));
     convolution::Options whole;
     whole.threads = 2;
     convolution::Options tiled = whole;
