@@ -337,11 +337,14 @@ Size next_sum_grid(Size sum, Size finer) {
 // happens near few texels, `sum_texels` (if given) sums just the finer grid's texels there.
 // With `fine_tiles`, a finer grid is delivered as tiles of it where lookups of the sum grid
 // would miss (docs/convolution.md, "Fine tiles"), when that saves at least half its texels.
+// With `lobe_lookup_possible` (may_need_lobe_lookup), a whole finer grid whose lookups are
+// predicted to miss their worst share between texels is not made: the caller reads the map
+// through the lobe instead, as it would after making it.
 using TexelSummer = std::function<void(Size, const TexelSelection&, const TexelSink& into)>;
 constexpr int kFineTile = 4;  // sum-grid texels per tile side (4 against 8: studio's set ~10 % faster, 2026-12-06)
 void deliver_output(MapResult& r, double tau, const PlannerModel& model, int threads,
                     const std::vector<BrightTexel>* bright, const std::function<HdrImage(Size)>& sum_on,
-                    const TexelSummer& sum_texels, bool fine_tiles) {
+                    const TexelSummer& sum_texels, bool fine_tiles, bool lobe_lookup_possible) {
     MapPlan& p = r.plan;
     if (p.method == Method::Mirror || p.method == Method::Lobe) return;
     const bool resampled_fixed = p.size_fixed && (p.sum_size.width != p.output_size.width ||
@@ -447,6 +450,7 @@ void deliver_output(MapResult& r, double tau, const PlannerModel& model, int thr
     // refine() makes the whole grid's, 4-point resampling without the bright texels, those added
     // back exactly, and exact sums where resampling would miss. Only on that route; a map that
     // refine() would sum again on a finer grid gets the whole grid.
+    TileLookupWorst tiles_worst;  // deliver_tiles: the worst lookups measured in its tiles
     const auto deliver_tiles = [&](int f) {
         const Size finer{p.sum_size.width * f, p.sum_size.height * f};
         // Outside the tiles the sum grid's lookups keep what the lookups' share leaves beside
@@ -501,10 +505,12 @@ void deliver_output(MapResult& r, double tau, const PlannerModel& model, int thr
         }
         if (split) r.image = std::move(base);
         // Lookups outside the tiles read the sum grid (its unmarked texels' estimate); inside,
-        // the finer grid's (the sum grid's estimate scaled, as for the whole finer grid):
-        // disjoint regions, so their squares add.
-        const LookupError::Bilinear in_tiles = e.finer(f);
-        const double inside = in_tiles.rms, inside_worst = in_tiles.worst;
+        // the finer grid's (the sum grid's RMS estimate scaled, as for the whole finer grid):
+        // disjoint regions, so their squares add. The worst inside is measured on the tiles'
+        // texels (tile_lookup_worst).
+        const double inside = e.finer(f).rms;
+        tiles_worst = tile_lookup_worst(r.image, r.fine, floor_value);
+        const double inside_worst = tiles_worst.worst();
         const double resampled = cubic_ok ? without.cubic_rms : patches.remaining_rms;
         p.lookup_error = std::sqrt(tp.remaining_rms * tp.remaining_rms + inside * inside);
         p.lookup_worst = std::max(tp.remaining_worst, inside_worst);
@@ -521,7 +527,34 @@ void deliver_output(MapResult& r, double tau, const PlannerModel& model, int thr
                         (patch.texels > 0 ? ", and " + std::to_string(patch.texels) + " of them summed exactly" : "");
         return true;
     };
-    if (factor > 1 && fine_tiles && deliver_tiles(factor)) return;
+    if (factor > 1 && fine_tiles) {
+        const MapPlan before = p;
+        const long long clamped_before = r.clamped_texels;
+        if (deliver_tiles(factor)) {
+            // Tiles twice as fine while the lookups measured between their texels miss the worst
+            // share, up to max_tile_refinement (a few tiles 8x finer cost less than a whole grid
+            // 4x). Not for the poles' clamp: at 4x its cap is a sixteenth of a texel of the sum
+            // grid across, and halving it costs every pole tile four times the texels.
+            int f = factor;
+            while (tiles_worst.between > model.output_worst_share * tau && 2 * f <= model.max_tile_refinement &&
+                   p.sum_size.height * 2 * f <= kMaxOutputHeight) {
+                const MapPlan coarser = p;
+                FineTiles coarser_tiles = std::move(r.fine);
+                const long long clamped = r.clamped_texels, patched = r.patched_texels;
+                p = before;
+                r.clamped_texels = clamped_before;
+                f *= 2;
+                if (!deliver_tiles(f)) {
+                    p = coarser;
+                    r.fine = std::move(coarser_tiles);
+                    r.clamped_texels = clamped;
+                    r.patched_texels = patched;
+                    break;
+                }
+            }
+            return;
+        }
+    }
     p.lookup_error = e.finer(factor).rms;
     p.lookup_worst = e.finer(factor).worst;
     p.predicted_error += p.lookup_error;
@@ -529,10 +562,21 @@ void deliver_output(MapResult& r, double tau, const PlannerModel& model, int thr
         p.size_reason = "the lobe's sum grid: " + estimate + (within(1) ? "" : " (no finer grid allowed)");
         return;
     }
+    if (lobe_lookup_possible && e.between_worst / (double(factor) * factor) > model.output_worst_share * tau) {
+        // The finer grid's worst is at least this (below), so the caller will read the map
+        // through the lobe: summing it (n = 1e5 from 1024x512 on 4096x2048: 2.6 s) is skipped.
+        p.size_reason = estimate + ", " + std::to_string(factor) + "x finer: " + percent(p.lookup_worst) +
+                        " worst (the finest grid allowed, not made)";
+        return;
+    }
     refine({p.sum_size.width * factor, p.sum_size.height * factor},
            estimate + ", " + std::to_string(factor) + "x finer: " + percent(p.lookup_error) +
                (within(factor) ? "" : " (the finest grid allowed)"),
            &e);
+    // The clamp measured on the finer map itself: scaled, it is the secant of a slope that
+    // the finer grid's first row is much closer to.
+    p.lookup_worst = std::max(e.between_worst / (double(factor) * factor),
+                              pole_clamp_worst(r.image, solid_angle_mean(r.image)));
     if (p.sum_size.height == p.output_size.height) {
         // Summed again on the finer grid: its own differences measure its lookups (the coarse
         // grid's, scaled, under-predict where it did not resolve the lobe).
@@ -770,7 +814,8 @@ std::vector<MapResult> convolve_map(const HdrImage& env, HdrImage* consumable, c
         const double own_error = r.plan.predicted_error;  // the method's, before lookups count
         deliver_output(r, options.tolerance, model, map_threads,
                        split ? &shared.bright().texels : nullptr, [&](Size grid) { return sum_on(r, grid, map_threads, no_progress); },
-                       split ? sum_texels : TexelSummer{}, options.fine_tiles);
+                       split ? sum_texels : TexelSummer{}, options.fine_tiles,
+                       may_need_lobe_lookup(r.request, r.plan, input_size));
         if (reads_horizon_steps(r.request, r.plan)) {
             // Below n = 1, what lookups miss along each source's horizon (horizon_step_error; a
             // 1e5 sun on 256x128 gave phong_0 2.9 % RMS and 81 % worst off-grid where the second

@@ -219,6 +219,16 @@ double pole_cap_share(int height) {
     return (1.0 - std::cos(half)) / (1.0 - std::cos(2.0 * half));
 }
 
+// The poles' clamp at value c of texel i of a first or last row of `width` texels: half the
+// step to the value half a turn round (the mean of the two columns there for an odd width),
+// the error of a lookup at the pole, which holds the row.
+double clamp_at_pole(const float* row, int width, int i, int c) {
+    const int half = width / 2;
+    const double across = row[3 * wrap(i + half, width) + c];
+    const double opposite = width % 2 == 0 ? across : 0.5 * (across + double(row[3 * wrap(i + half + 1, width) + c]));
+    return 0.5 * std::abs(double(row[3 * i + c]) - opposite);
+}
+
 // x / floor where floor > 0, else 0 (a texel of a map that is 0 everywhere).
 Lanes ratio(Lanes x, Lanes floor) { return floor > 0.0 ? x / (floor > 0.0 ? floor : 1.0) : Lanes{}; }
 
@@ -365,16 +375,11 @@ LookupError estimate_lookup_error(const HdrImage& map, int threads, TexelLookupE
         for (const int pole : {0, h - 1}) {
             if (j != pole) continue;
             const double cap = pole_cap_share(h);
-            const float* row = rows[2];
-            const int half = w / 2;
             for (int i = 0; i < w; ++i)
                 for (int c = 0; c < 3; ++c) {
                     const std::size_t at = 3 * std::size_t(i) + std::size_t(c);
-                    const double v = row[at];
-                    const double across = row[3 * wrap(i + half, w) + c];
-                    const double opposite = w % 2 == 0 ? across : 0.5 * (across + double(row[3 * wrap(i + half + 1, w) + c]));
-                    const double clamp = 0.5 * std::abs(v - opposite);
-                    const double floor = std::max(std::abs(v), mean);
+                    const double clamp = clamp_at_pole(rows[2], w, i, c);
+                    const double floor = std::max(std::abs(double(rows[2][at])), mean);
                     const double square = clamp * clamp / 6.0 * cap;
                     const double relative = floor > 0 ? clamp / floor : 0.0;
                     sums.bilinear2 += square;
@@ -564,6 +569,57 @@ FineTilePlan plan_fine_tiles(const HdrImage& base, int factor, int tile, double 
                 }
         }
     return plan;
+}
+
+double pole_clamp_worst(const HdrImage& map, double floor_value) {
+    double worst = 0;
+    for (const int j : {0, map.height() - 1})
+        for (int i = 0; i < map.width(); ++i)
+            for (int c = 0; c < 3; ++c) {
+                const double floor = std::max(std::abs(double(map.row(j)[3 * i + c])), floor_value);
+                if (floor > 0) worst = std::max(worst, clamp_at_pole(map.row(j), map.width(), i, c) / floor);
+            }
+    return worst;
+}
+
+TileLookupWorst tile_lookup_worst(const HdrImage& base, const FineTiles& tiles, double floor_value) {
+    TileLookupWorst worst;
+    if (tiles.empty()) return worst;
+    const int side = tiles.side(), t = tiles.tile * tiles.factor;
+    const int fw = base.width() * tiles.factor, fh = base.height() * tiles.factor;
+    const auto add = [&](double& into, double error, double value) {
+        const double floor = std::max(std::abs(value), floor_value);
+        if (floor > 0) into = std::max(into, error / floor);
+    };
+    // The poles' clamp in the first and last fine rows: against what a lookup reads half a
+    // turn round (a fine texel where a tile holds it, the base's lookup elsewhere).
+    for (int ty : {0, tiles.tiles_y - 1})
+        for (int tx = 0; tx < tiles.tiles_x; ++tx) {
+            const int k = tiles.slot[std::size_t(ty) * std::size_t(tiles.tiles_x) + std::size_t(tx)];
+            if (k < 0) continue;
+            const int v = ty == 0 ? 0 : side - 1, j = ty == 0 ? 0 : fh - 1;
+            const float* row = tiles.blocks.row(k * side + v);
+            for (int u = 0; u < side; ++u) {
+                const int i = (tx * t + u) % fw;
+                const Rgb across = sample_bilinear(base, tiles, texel_direction((i + fw / 2) % fw, j, fw, fh));
+                const double opposite[3] = {across.r, across.g, across.b};
+                for (int c = 0; c < 3; ++c)
+                    add(worst.pole, 0.5 * std::abs(double(row[3 * u + c]) - opposite[c]), row[3 * u + c]);
+            }
+        }
+    for (int k = 0; k < tiles.count(); ++k)
+        for (int v = 1; v + 1 < side; ++v) {
+            const float* above = tiles.blocks.row(k * side + v - 1);
+            const float* row = tiles.blocks.row(k * side + v);
+            const float* below = tiles.blocks.row(k * side + v + 1);
+            for (int q = 3; q < 3 * (side - 1); ++q) {
+                const double value = row[q];
+                const double a = double(row[q - 3]) - 2 * value + row[q + 3];
+                const double b = double(above[q]) - 2 * value + below[q];
+                add(worst.between, (std::abs(a) + std::abs(b)) / 8.0, value);
+            }
+        }
+    return worst;
 }
 
 FineTiles make_fine_tiles(const HdrImage& map, const FineTilePlan& plan, int threads, long long* clamped,

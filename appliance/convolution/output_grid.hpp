@@ -123,6 +123,24 @@ FineTilePlan plan_fine_tiles(const HdrImage& base, int factor, int tile, double 
 FineTiles make_fine_tiles(const HdrImage& map, const FineTilePlan& plan, int threads, long long* clamped,
                           const BrightLobes* lobes);
 
+// The worst of the poles' clamp over a map's first and last rows (as in estimate_lookup_error),
+// relative to max(|value|, floor_value).
+double pole_clamp_worst(const HdrImage& map, double floor_value);
+
+// The worst bilinear lookup inside the kept tiles of `base`, relative to max(|value|,
+// floor_value), measured on the finer grid: the fine texels' own second differences (each
+// block's interior texels, as estimate_lookup_error's worst; the lines between tiles, which no
+// block can difference, are left out) and, in tiles on a pole's row,
+// the clamp against the lookup half a turn round. The sum grid's estimate scaled to the finer
+// grid over-predicts next to a lobe it barely resolved, and its clamp is the secant of a slope
+// a finer row is much closer to.
+struct TileLookupWorst {
+    double between = 0;  // between the fine texels
+    double pole = 0;     // in the poles' caps
+    double worst() const { return std::max(between, pole); }
+};
+TileLookupWorst tile_lookup_worst(const HdrImage& base, const FineTiles& tiles, double floor_value);
+
 // The fine texels of the kept tiles (each texel once, a block's shared edge included), as a
 // selection of the fine grid; and the same selection limited to the texels also in `other`.
 TexelSelection fine_tile_texels(const FineTilePlan& plan, Size base);

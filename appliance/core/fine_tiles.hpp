@@ -20,7 +20,7 @@
 namespace glint {
 
 struct FineTiles {
-    // Bounds a reader holds a listing to (glint convolve makes factors of 2 and 4 and finer
+    // Bounds a reader holds a listing to (glint convolve makes factors of 2 to 8 and finer
     // grids of at most 2048 rows): a whole finer grid of 8192 rows is 1.6 GB of floats.
     static constexpr int kMaxFactor = 16;
     static constexpr long long kMaxFineHeight = 8192;

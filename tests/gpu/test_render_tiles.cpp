@@ -33,7 +33,7 @@ struct TiledWorld {
     HdrImage base;
     FineTiles fine;
 };
-TiledWorld make_tiled_world(int width, int height, int factor, int tile, unsigned seed) {
+TiledWorld make_tiled_world(int width, int height, int factor, int tile, unsigned seed, double keep_share = 0.4) {
     std::mt19937 rng(seed);
     std::uniform_real_distribution<float> value(0.5f, 4.0f);
     TiledWorld w{HdrImage(width, height), {}};
@@ -44,7 +44,7 @@ TiledWorld make_tiled_world(int width, int height, int factor, int tile, unsigne
     f.tiles_x = width / tile;
     f.tiles_y = height / tile;
     f.slot.assign(std::size_t(f.tiles_x) * std::size_t(f.tiles_y), -1);
-    std::bernoulli_distribution keep(0.4);
+    std::bernoulli_distribution keep(keep_share);
     int count = 0;
     for (int ty = 0; ty < f.tiles_y; ++ty)
         for (int tx = 0; tx < f.tiles_x; ++tx) {
@@ -113,13 +113,14 @@ TEST(RenderTiledMap, PacksTheBaseSlotsAndBlocks) {
 // The shader's lookup through the tiles is core's: a sphere's reflection directions cover the
 // whole sphere (seam and poles too). The shader's float coordinates (atan on llvmpipe, ~1e-4 of a
 // fine texel) times the random texels' steps between neighbours (up to 16x) allow 1e-3; measured
-// 4.9e-4 (factor 2) and 9.1e-4 (factor 4). A float coordinate may also put a direction at a kept
+// 4.9e-4 (factor 2) and 9.1e-4 (factor 4), factor 8 since tiles may be that fine. A float coordinate may also put a direction at a kept
 // tile's edge into the other cell than double does, where the texels jump: at most 0.2 % of
 // pixels may be off by more (none were). Reading the wrong row of a block, or the neighbour's
 // tile, puts 4-40 % of the pixels off.
 TEST_F(RenderTiles, ShaderReadsTheTilesAsCoreDoes) {
-    for (const int factor : {2, 4}) {
-        const TiledWorld w = make_tiled_world(128, 64, factor, 4, 11u + unsigned(factor));
+    for (const int factor : {2, 4, 8}) {
+        // At 8x, fewer tiles: 40 % of them would pack taller than the 2048 rows every GPU holds.
+        const TiledWorld w = make_tiled_world(128, 64, factor, 4, 11u + unsigned(factor), factor == 8 ? 0.25 : 0.4);
         const render::Material m = render::parse_material("glossy:160");
         render::ShadingMaps maps;
         maps.set_reflection(m, w.base, "test");
@@ -131,6 +132,9 @@ TEST_F(RenderTiles, ShaderReadsTheTilesAsCoreDoes) {
         r.set_background_black();
         r.draw_scene();
         const render::Aovs a = r.read_aovs();
+        // A fine texel at 8x is half as wide as at 4x, so the same float coordinate error is
+        // twice as much of it (measured 1.96e-3).
+        const double allowed = factor <= 4 ? 2e-3 : 4e-3;
         long long pixels = 0, off = 0, in_tiles = 0, far_off = 0;
         double worst_kept = 0;
         for (std::size_t k = 0; k < std::size_t(a.width) * std::size_t(a.height); ++k) {
@@ -145,14 +149,14 @@ TEST_F(RenderTiles, ShaderReadsTheTilesAsCoreDoes) {
                 e = std::max(e, std::abs(a.radiance[4 * k + std::size_t(c)] - want_v[c]) / want_v[c]);
             if (std::abs(want.r - base_only.r) > 1e-3f) ++in_tiles;
             if (e > 0.05) ++far_off;
-            if (e > 2e-3) ++off;
+            if (e > allowed) ++off;
             else worst_kept = std::max(worst_kept, e);
         }
-        std::printf("[          ] factor %d: %lld pixels, %lld read the tiles, %lld off by more than 2e-3, %lld by more than "
+        std::printf("[          ] factor %d: %lld pixels, %lld read the tiles, %lld off by more than %.0e, %lld by more than "
                     "5 %% (worst of the rest %.2e)\n",
-                    factor, pixels, in_tiles, off, far_off, worst_kept);
+                    factor, pixels, in_tiles, off, allowed, far_off, worst_kept);
         EXPECT_GT(pixels, 50000);
-        EXPECT_GT(in_tiles, pixels / 5);   // the tiles are read, not only the base
+        EXPECT_GT(in_tiles, pixels / 8);   // the tiles are read, not only the base
         EXPECT_LT(off, pixels / 500);      // at most 0.2 % of pixels at a cell's edge
     }
 }

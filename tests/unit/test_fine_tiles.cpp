@@ -178,7 +178,7 @@ TEST(FineTiles, TiledMapsAreWithinTheirPredictionOffGridAndMatchTheWholeFinerGri
     tiled.fine_tiles = true;
     const auto full = convolution::convolve(env, maps, whole);
     const auto tiles = convolution::convolve(env, maps, tiled);
-    int with_tiles = 0;
+    int with_tiles = 0, matched = 0, finer_than_whole = 0;
     for (std::size_t k = 0; k < maps.size(); ++k) {
         const convolution::MapResult& r = tiles[k];
         const convolution::OffGridError e = convolution::measure_offgrid_error(
@@ -195,8 +195,16 @@ TEST(FineTiles, TiledMapsAreWithinTheirPredictionOffGridAndMatchTheWholeFinerGri
         if (r.fine.empty()) continue;
         ++with_tiles;
         EXPECT_NE(r.plan.size_reason.find("tiles of"), std::string::npos) << r.plan.size_reason;
-        EXPECT_EQ(r.image.width() * r.fine.factor, full[k].image.width()) << r.request.label;
         EXPECT_LT(r.fine.count() * 4, r.fine.tiles_x * r.fine.tiles_y) << "a few tiles, not the whole map";
+        EXPECT_LE(e.worst_texel, 0.05) << r.request.label;
+        if (r.image.width() * r.fine.factor != full[k].image.width()) {
+            // Tiles finer than a whole grid goes (the lookups measured in tiles as fine as the
+            // whole grid missed their worst share): nothing to match texel by texel.
+            EXPECT_EQ(r.image.width() * r.fine.factor, 2 * full[k].image.width()) << r.request.label;
+            ++finer_than_whole;
+            continue;
+        }
+        ++matched;
         // In the tiles: the whole finer grid's texels.
         const int fw = full[k].image.width(), fh = full[k].image.height();
         const int t = r.fine.tile * r.fine.factor;
@@ -211,6 +219,10 @@ TEST(FineTiles, TiledMapsAreWithinTheirPredictionOffGridAndMatchTheWholeFinerGri
         EXPECT_LT(worst, 1e-4) << r.request.label;
     }
     EXPECT_GE(with_tiles, 2);
+    EXPECT_GE(matched, 1);
+    // n = 1000 round the light by the pole: 4x tiles measured 4.6 % worst between their texels
+    // (the share is 4 %), so it goes to 8x (0.6 % worst off-grid; 3.0 % at 4x).
+    EXPECT_GE(finer_than_whole, 1);
 }
 
 }  // namespace
