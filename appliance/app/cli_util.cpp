@@ -3,6 +3,7 @@
 #include "appliance/app/cli_util.hpp"
 
 #include <cmath>
+#include <cstdio>
 #include <stdexcept>
 
 #include "appliance/core/errors.hpp"
@@ -77,6 +78,19 @@ std::vector<std::string> split_list(const std::string& text, const std::string& 
         start = comma + 1;
     }
     return items;
+}
+
+void warn_about_environment(const std::string& path, const LoadedExr& loaded) {
+    const SanitiseCounts& s = loaded.sanitised;
+    if (s.total() > 0)
+        std::fprintf(stderr, "glint: warning: %s: sanitised %zu channel values (NaN %zu, +Inf %zu, -Inf %zu, negative %zu)\n",
+                     path.c_str(), s.total(), s.nan, s.pos_inf, s.neg_inf, s.negative);
+    const int w = loaded.image.width(), h = loaded.image.height();
+    if (std::abs(w - 2 * h) > 1)
+        std::fprintf(stderr,
+                     "glint: warning: %s: %dx%d is not 2:1; it is read as an equirectangular map all the same "
+                     "(docs/conventions.md)\n",
+                     path.c_str(), w, h);
 }
 
 }  // namespace glint::app

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "appliance/convolution/convolution.hpp"
+#include "appliance/core/exr_io.hpp"
 
 namespace glint::app {
 
@@ -24,6 +25,11 @@ CLI::Validator positive_number();
 
 // Comma-separated list, empty items rejected.
 std::vector<std::string> split_list(const std::string& text, const std::string& flag);
+
+// Warnings about an environment map as loaded from `path`, on stderr: the values the loader
+// sanitised, and a size that is not 2:1 (an equirect map is; a square one is more likely a
+// light probe or a cube face, which is read as equirect all the same).
+void warn_about_environment(const std::string& path, const LoadedExr& loaded);
 
 // A file the appliance ships (`relative`, e.g. "data/ui/strings.toml"): under $GLINT_DATA_DIR when
 // set, else beside the installed executable (<prefix>/share/glint/), else, for an executable in

@@ -160,12 +160,7 @@ int run_convolve(const ConvolveArgs& args) {
     std::error_code size_error;
     const double file_mb = double(fs::file_size(args.input, size_error)) / 1e6;
     convolution::validate_plan_inputs(input_size, maps, options);
-    if (loaded.sanitised.total() > 0)
-        std::fprintf(stderr,
-                     "glint: warning: %s: sanitised %zu channel values (NaN %zu, +Inf %zu, -Inf %zu, "
-                     "negative %zu)\n",
-                     args.input.c_str(), loaded.sanitised.total(), loaded.sanitised.nan,
-                     loaded.sanitised.pos_inf, loaded.sanitised.neg_inf, loaded.sanitised.negative);
+    warn_about_environment(args.input, loaded);
 
     // The engine reports rows done and the total; draw from that.
     options.progress = progress_callback("convolving");

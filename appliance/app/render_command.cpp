@@ -220,10 +220,7 @@ int run_render(const RenderArgs& args) {
     render::ShadingMaps maps;
     if (!args.maps.empty()) maps = render::load_maps(args.maps, part_materials);  // before the environment: a missing map is bad input, found first
     LoadedExr env = load_exr(args.env);
-    if (env.sanitised.total() > 0)
-        std::fprintf(stderr, "glint: warning: %s: %zu channel values sanitised (NaN %zu, +Inf %zu, -Inf %zu, negative %zu)\n",
-                     args.env.c_str(), env.sanitised.total(), env.sanitised.nan, env.sanitised.pos_inf,
-                     env.sanitised.neg_inf, env.sanitised.negative);
+    warn_about_environment(args.env, env);
 
     if (args.live_maps) {
         maps = render::coarse_maps(env.image, part_materials, args.threads);  // the final ones come during the frames

@@ -82,6 +82,13 @@ listing=$(ls -A "$out" | sort | tr '\n' ' ')
 expect_no_leftovers "convolve" "$out"
 pass "convolve --irradiance --shininess 20 --size 32x16 writes irradiance.exr, phong_20.exr, report.json and nothing else"
 
+grep -q "not 2:1" "$work/stderr" && fail "convolve warned that a 2:1 input is not 2:1: $(stderr_text)"
+python3 "$(dirname "$0")/make_constant_exr.py" "$work/square.exr" 32 32 1.5
+run convolve "$work/square.exr" --out "$work/square_out" --irradiance --size 16x8
+[[ $rc -eq 0 ]] || fail "convolve of a square map: exit code $rc, want 0 (stderr: $(stderr_text))"
+grep -qF "square.exr: 32x32 is not 2:1" "$work/stderr" || fail "convolve of a 32x32 map did not warn: $(stderr_text)"
+pass "convolve warns that a 32x32 input is not 2:1 (and does not for a 2:1 one)"
+
 python3 - "$out/report.json" <<'EOF' || fail "report.json does not hold what it should (see above)"
 import json, math, sys
 report = json.load(open(sys.argv[1]))
