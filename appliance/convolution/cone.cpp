@@ -32,7 +32,8 @@ public:
     // fourier: sum the first pass by Fourier transforms (whole rows; FourierFirstPass::pays_off).
     CpuConeSums(const PreparedLevel& level, Size out, double n, const ConeSettings& settings, int threads,
                 const std::vector<LobeSummer::ColumnRuns>* columns, bool fourier)
-        : summer_(level, out.width, out.height, n, Accumulation::FloatRuns, settings.max_texel_arc),
+        : summer_(level, out.width, out.height, n, Accumulation::FloatRuns, settings.max_texel_arc,
+                  settings.max_arc_roughness),
           threads_(threads), columns_(columns) {
         if (fourier) fourier_ = std::make_unique<FourierFirstPass>(summer_, out.width, threads);
     }

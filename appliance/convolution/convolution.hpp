@@ -4,6 +4,7 @@
 #pragma once
 
 #include <functional>
+#include <limits>
 #include <optional>
 #include <string>
 #include <vector>
@@ -74,6 +75,9 @@ struct ConeSettings {
     // Rows near the poles may read merged columns whose azimuthal arc stays
     // within this many radians (0: never; see PolarColumns in lobe_sum.hpp).
     double max_texel_arc = 0;
+    // ... and where a row's values are rough, merged arc x roughness within this
+    // (polar_merge_factors in lobe_sum.hpp; infinity: no such limit).
+    double max_arc_roughness = std::numeric_limits<double>::infinity();
     // The first pass by Fourier transforms along the rows where it applies (fourier_pass.hpp):
     // the same sums, to rounding. Off: the direct sums (for comparisons).
     bool fourier_first_pass = true;

@@ -15,6 +15,7 @@
 #include <atomic>
 #include <cmath>
 #include <complex>
+#include <cstddef>
 #include <cstdlib>
 #include <cstring>
 #include <mutex>
@@ -183,7 +184,11 @@ void FourierFirstPass::Impl::sum_row(int row, double c0, LobeSums& sums) const {
     struct Item {
         const double* spectra;
         int first_pair = 0, pairs = 0;  // direct: column pairs in pair_weight / pair_row
-        int kernel = -1;                // else: its H (planar, 2 bins) in kernels
+        // Else: where its H (planar, 2 bins of its group's version) starts in kernels. An
+        // offset, not an index: the versions' bins differ, and an index times this group's
+        // bins pointed a row next to a pole at another version's H (merged columns near a
+        // pole read through their own transform before the level's rows: 20 % off).
+        std::ptrdiff_t kernel = -1;
     };
     struct Group {
         const PreparedLevel* level = nullptr;
@@ -250,9 +255,9 @@ void FourierFirstPass::Impl::sum_row(int row, double c0, LobeSums& sums) const {
             }
             kernel_spectrum.resize(bins);
             v.plan.forward(kernel.data(), kernel_spectrum.data());
-            item.kernel = int(kernels.size() / (2 * bins));
+            item.kernel = std::ptrdiff_t(kernels.size());
             kernels.resize(kernels.size() + 2 * bins);
-            double* h = kernels.data() + std::size_t(item.kernel) * 2 * bins;
+            double* h = kernels.data() + item.kernel;
             for (std::size_t m = 0; m < bins; ++m) {
                 const Complex hm = t.omega * std::conj(v.turns[m * std::size_t(two_frac)] * kernel_spectrum[m]);
                 h[m] = hm.real();
@@ -299,7 +304,7 @@ void FourierFirstPass::Impl::sum_row(int row, double c0, LobeSums& sums) const {
                     }
                     for (std::size_t b = 0; b < kBlocks; ++b) hr[b] += hr2[b];
                 } else {
-                    const double* h = kernels.data() + std::size_t(item.kernel) * 2 * bins + m0;
+                    const double* h = kernels.data() + item.kernel + m0;
                     for (std::size_t b = 0; b < kBlocks; ++b) {
                         hr[b] = load(h + b * kLanes);
                         hi[b] = load(h + bins + b * kLanes);
@@ -334,8 +339,8 @@ void FourierFirstPass::Impl::sum_row(int row, double c0, LobeSums& sums) const {
                     for (int p = item.first_pair; p < item.first_pair + item.pairs; ++p)
                         hr += pair_weight[std::size_t(p)] * pair_row[std::size_t(p)][m];
                 } else {
-                    hr = kernels[std::size_t(item.kernel) * 2 * bins + m];
-                    hi = kernels[std::size_t(item.kernel) * 2 * bins + bins + m];
+                    hr = kernels[std::size_t(item.kernel) + m];
+                    hi = kernels[std::size_t(item.kernel) + bins + m];
                 }
                 for (int c = 0; c < 3; ++c) {
                     const double re = item.spectra[2 * std::size_t(c) * bins + m];

@@ -140,20 +140,50 @@ double widest_merged_arc(int level_width, int level_height, int out_width, doubl
     return widest;
 }
 
+std::vector<int> polar_merge_factors(const PreparedLevel& level, int out_width, double max_arc,
+                                     double max_arc_roughness) {
+    const int w = level.width(), h = level.height();
+    std::vector<int> factor(static_cast<std::size_t>(h), 1);
+    const double mean = level.power() / (4.0 * kPi);  // of max(R, G, B): at least each channel's
+    for (int j = 0; j < h; ++j) {
+        const int most = polar_merge_factor(j, w, h, out_width, max_arc);
+        if (most == 1) continue;
+        const double arc = column_arc(j, w, h);
+        int best = 1;
+        for (int m = 2; m <= most; m *= 2) {
+            double rough = 0;
+            for (int c = 0; c < 3; ++c) {
+                const float* row = level.plane(j, c);
+                for (int g = 0; g < w; g += m) {
+                    double sum = 0;
+                    for (int k = g; k < g + m; ++k) sum += row[k];
+                    const double group_mean = sum / m;
+                    double spread = 0;
+                    for (int k = g; k < g + m; ++k) spread += std::abs(row[k] - group_mean);
+                    const double base = sum + m * mean;
+                    if (base > 0) rough = std::max(rough, spread / base);
+                }
+            }
+            if (m * arc * rough > max_arc_roughness) break;
+            best = m;
+        }
+        factor[std::size_t(j)] = best;
+    }
+    return factor;
+}
+
 LobeSummer::LobeSummer(const PreparedLevel& level, int out_w, int out_h, double shininess,
-                       Accumulation accumulation, double max_merged_arc)
+                       Accumulation accumulation, double max_merged_arc, double max_arc_roughness)
     : level_(level), out_w_(out_w), out_h_(out_h), n_(shininess), accumulation_(accumulation),
       classes_(out_w / std::gcd(level.width(), out_w)),
       per_class_(std::gcd(level.width(), out_w)) {
-    const int w = level.width();
     const int h = level.height();
     // Each level row is read with one geometry, the level or a version of it with merged columns:
     // each version is laid out (and made) for its own rows only.
     std::map<int, std::vector<char>> rows_of;  // merge factor -> the level rows it is read for
     rows_of[1].assign(std::size_t(h), 0);
-    std::vector<int> factor(static_cast<std::size_t>(h));
+    const std::vector<int> factor = polar_merge_factors(level, out_w, max_merged_arc, max_arc_roughness);
     for (int j = 0; j < h; ++j) {
-        factor[std::size_t(j)] = polar_merge_factor(j, w, h, out_w, max_merged_arc);
         std::vector<char>& rows = rows_of[factor[std::size_t(j)]];
         if (rows.empty()) rows.assign(std::size_t(h), 0);
         rows[std::size_t(j)] = 1;

@@ -607,16 +607,24 @@ TileLookupWorst tile_lookup_worst(const HdrImage& base, const FineTiles& tiles, 
                     add(worst.pole, 0.5 * std::abs(double(row[3 * u + c]) - opposite[c]), row[3 * u + c]);
             }
         }
-    for (int k = 0; k < tiles.count(); ++k)
-        for (int v = 1; v + 1 < side; ++v) {
-            const float* above = tiles.blocks.row(k * side + v - 1);
-            const float* row = tiles.blocks.row(k * side + v);
-            const float* below = tiles.blocks.row(k * side + v + 1);
-            for (int q = 3; q < 3 * (side - 1); ++q) {
-                const double value = row[q];
-                const double a = double(row[q - 3]) - 2 * value + row[q + 3];
-                const double b = double(above[q]) - 2 * value + below[q];
-                add(worst.between, (std::abs(a) + std::abs(b)) / 8.0, value);
+    // Each block's interior texels. In the last tile row the block's rows T - 1 and T are both
+    // the last fine row (a row past it is it again), so rows up to T - 2 only: differenced
+    // against itself, the last row would give a first difference, the clamp's slope.
+    for (int ty = 0; ty < tiles.tiles_y; ++ty)
+        for (int tx = 0; tx < tiles.tiles_x; ++tx) {
+            const int k = tiles.slot[std::size_t(ty) * std::size_t(tiles.tiles_x) + std::size_t(tx)];
+            if (k < 0) continue;
+            const int last = ty == tiles.tiles_y - 1 ? side - 3 : side - 2;
+            for (int v = 1; v <= last; ++v) {
+                const float* above = tiles.blocks.row(k * side + v - 1);
+                const float* row = tiles.blocks.row(k * side + v);
+                const float* below = tiles.blocks.row(k * side + v + 1);
+                for (int q = 3; q < 3 * (side - 1); ++q) {
+                    const double value = row[q];
+                    const double a = double(row[q - 3]) - 2 * value + row[q + 3];
+                    const double b = double(above[q]) - 2 * value + below[q];
+                    add(worst.between, (std::abs(a) + std::abs(b)) / 8.0, value);
+                }
             }
         }
     return worst;

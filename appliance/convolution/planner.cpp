@@ -117,6 +117,9 @@ namespace {
 ConeSettings cone_settings(double tolerance, double n, const PlannerModel& model) {
     ConeSettings s;
     s.max_texel_arc = merged_arc_budget(n, tolerance, model);
+    // The rough rows' first-order error, 0.61 sqrt(n) x arc x roughness, doubled for the
+    // lobe's peak against its mean over the merged groups, within the level's worst share.
+    s.max_arc_roughness = model.level_worst_share * tolerance / (1.2 * std::sqrt(std::max(n, model.level_min_shininess)));
     s.cutoff_energy = model.first_cut_energy * tolerance;
     s.texel_tolerance = model.texel_cut_share * tolerance;
     s.bright_tolerance = model.bright_drop_share * tolerance;

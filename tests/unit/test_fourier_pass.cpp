@@ -157,7 +157,11 @@ INSTANTIATE_TEST_SUITE_P(
                       Case{64, 32, 32, 5, 1e-2, 0},
                       // Kernels wider than the cosine table (256 columns) near the poles, output
                       // centres halfway between columns: the kernel-transform branch with its phase.
-                      Case{512, 256, 256, 20, 1e-3, 0}));
+                      Case{512, 256, 256, 20, 1e-3, 0},
+                      // Only the pole rows merged: a row near a pole reads the merged version's
+                      // whole-row kernel, then the level's; the second's H was looked up at an
+                      // index scaled by the wrong version's bins (20 % off before 2026-12-06).
+                      Case{512, 256, 256, 20, 1e-3, 5e-4}));
 
 TEST(FourierPass, AppliesToPowerOfTwoWidthsNoWiderThanTheLevel) {
     EXPECT_FALSE(FourierFirstPass::applies(96, 48, 64));    // not a power of two

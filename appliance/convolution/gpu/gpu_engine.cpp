@@ -70,12 +70,10 @@ public:
         : engine_(engine), out_(out), n_(n), width_(level.width()), height_(level.height()),
           classes_(out.width / std::gcd(level.width(), out.width)) {
         // The level and the merged versions its rows read, side by side in one atlas.
-        std::vector<int> merge(static_cast<std::size_t>(height_));
-        std::set<int> factors{1};
-        for (int j = 0; j < height_; ++j) {
-            merge[std::size_t(j)] = polar_merge_factor(j, width_, height_, out.width, settings.max_texel_arc);
-            factors.insert(merge[std::size_t(j)]);
-        }
+        const std::vector<int> merge =
+            polar_merge_factors(level, out.width, settings.max_texel_arc, settings.max_arc_roughness);
+        std::set<int> factors(merge.begin(), merge.end());
+        factors.insert(1);  // the level itself, as before
         int atlas_width = 0;
         std::vector<std::pair<int, const PreparedLevel*>> versions;
         for (int m : factors) {
@@ -99,7 +97,8 @@ public:
         row_merge_ = make_int_row_texture(merge);
         merge_ = merge;
         // The largest cosine of every output row and class, as the CPU's sums take it.
-        const LobeSummer summer(level, out.width, out.height, n, Accumulation::FloatRuns, settings.max_texel_arc);
+        const LobeSummer summer(level, out.width, out.height, n, Accumulation::FloatRuns, settings.max_texel_arc,
+                                settings.max_arc_roughness);
         cmax_.resize(std::size_t(classes_) * std::size_t(out.height));
         std::vector<float> log_cmax(cmax_.size());
         for (int row = 0; row < out.height; ++row)
