@@ -113,6 +113,21 @@ TEST_F(GpuEngineTest, FullSizeInputSumsEveryRow) {
     expect_parity(env, requests(false, {5120}, {64, 32}), Method::Cone, "cone courtyard 1024x512");
 }
 
+// Rows near the poles merge columns only where their values are smooth (polar_merge_factors):
+// a smooth northern half merges, log-normal noise in the southern one does not, and both
+// engines read each row with the same factor.
+TEST_F(GpuEngineTest, RoughAndSmoothPolarRowsMatchTheCpu) {
+    HdrImage env = smooth_map(256, 128, 5);
+    std::mt19937 rng(11);
+    std::normal_distribution<double> gauss(0.0, 1.0);
+    for (int j = 64; j < 128; ++j)
+        for (int i = 0; i < 256; ++i) {
+            const float v = float(std::exp(2.0 * gauss(rng)));
+            env.set(i, j, {v, 0.8f * v, 0.6f * v});
+        }
+    expect_parity(env, requests(false, {1280, 5120}, {128, 64}), Method::Cone, "smooth north, rough south");
+}
+
 TEST_F(GpuEngineTest, BrightTexelAtThePoleTheSeamAndInsideMatchesTheCpu) {
     const struct {
         const char* name;
