@@ -465,8 +465,15 @@ void deliver_output(MapResult& r, double tau, const PlannerModel& model, int thr
         const FineTilePlan tp = plan_fine_tiles(r.image, f, tile, outside_share * tau,
                                                 0.5 * model.output_worst_share * tau, threads, &with_bright);
         const long long side = tile * f + 1;
-        if (tp.tiles == 0 || 2 * tp.tiles * side * side > static_cast<long long>(finer.width) * finer.height)
-            return false;
+        // At most half the texels of the whole grid `f` times finer. Finer than a whole grid
+        // may go (max_refinement), at most a third of that grid's: such tiles then take less
+        // memory than it, and on a map wider than a few blocks they pack within f times the sum
+        // grid's rows, so a renderer does not expand them to their whole grid
+        // (render/tiled_map.hpp; 8x of 512x256 would be a 4096x2048 texture).
+        const long long limit = std::min(f, model.max_refinement);
+        const long long whole = static_cast<long long>(p.sum_size.width) * p.sum_size.height * limit * limit;
+        const long long share = f > model.max_refinement ? 3 : 2;
+        if (tp.tiles == 0 || share * tp.tiles * side * side > whole) return false;
         if (!resolves_for_resampling(p.sum_size, p.input_size, n, model)) return false;
         const bool split = bright && !bright->empty();
         HdrImage base;  // the map as summed, delivered as it is (with the split, r.image is changed below)
