@@ -535,36 +535,41 @@ void deliver_output(MapResult& r, double tau, const PlannerModel& model, int thr
         return true;
     };
     if (factor > 1 && fine_tiles) {
-        const MapPlan before = p;
-        const long long clamped_before = r.clamped_texels, patched_before = r.patched_texels,
-                        refined_before = r.refined_texels;
+        // What deliver_tiles changes, kept to go back to.
+        struct Delivered {
+            MapPlan plan;
+            FineTiles fine;
+            long long clamped, patched, refined;
+        };
+        const auto take = [&] {
+            return Delivered{p, std::move(r.fine), r.clamped_texels, r.patched_texels, r.refined_texels};
+        };
+        const auto put_back = [&](Delivered d) {
+            p = std::move(d.plan);
+            r.fine = std::move(d.fine);
+            r.clamped_texels = d.clamped;
+            r.patched_texels = d.patched;
+            r.refined_texels = d.refined;
+        };
+        const Delivered before = take();
         if (deliver_tiles(factor)) {
             // Tiles twice as fine while the lookups measured between their texels miss the worst
             // share, up to max_tile_refinement (a few tiles 8x finer cost less than a whole grid
             // 4x). Not for the poles' clamp: at 4x its cap's radius is an eighth of the sum
             // grid's spacing, and halving it costs every pole tile four times the texels.
-            int f = factor;
-            while (tiles_worst.between > model.output_worst_share * tau && 2 * f <= model.max_tile_refinement &&
-                   p.sum_size.height * 2 * f <= kMaxOutputHeight) {
-                const MapPlan coarser = p;
-                FineTiles coarser_tiles = std::move(r.fine);
-                const long long clamped = r.clamped_texels, patched = r.patched_texels, refined = r.refined_texels;
-                p = before;
-                r.clamped_texels = clamped_before;
-                r.patched_texels = patched_before;
-                r.refined_texels = refined_before;
-                f *= 2;
+            for (int f = 2 * factor; tiles_worst.between > model.output_worst_share * tau &&
+                                     f <= model.max_tile_refinement && p.sum_size.height * f <= kMaxOutputHeight;
+                 f *= 2) {
+                Delivered coarser = take();
+                put_back(before);
                 if (!deliver_tiles(f)) {
-                    p = coarser;
-                    r.fine = std::move(coarser_tiles);
-                    r.clamped_texels = clamped;
-                    r.patched_texels = patched;
-                    r.refined_texels = refined;
+                    put_back(std::move(coarser));
                     break;
                 }
             }
             return;
         }
+        put_back(before);
     }
     p.lookup_error = e.finer(factor).rms;
     p.lookup_worst = e.finer(factor).worst;

@@ -140,34 +140,37 @@ double widest_merged_arc(int level_width, int level_height, int out_width, doubl
     return widest;
 }
 
+namespace {
+
+// Row j's roughness for groups of m columns (polar_merge_factors): over the groups and
+// channels, the largest sum |L - group mean| / (sum L + m mean).
+double row_roughness(const PreparedLevel& level, int j, int m, double mean) {
+    double rough = 0;
+    for (int c = 0; c < 3; ++c) {
+        const float* row = level.plane(j, c);
+        for (int g = 0; g < level.width(); g += m) {
+            double sum = 0, spread = 0;
+            for (int k = g; k < g + m; ++k) sum += row[k];
+            for (int k = g; k < g + m; ++k) spread += std::abs(row[k] - sum / m);
+            const double base = sum + m * mean;
+            if (base > 0) rough = std::max(rough, spread / base);
+        }
+    }
+    return rough;
+}
+
+}  // namespace
+
 std::vector<int> polar_merge_factors(const PreparedLevel& level, int out_width, double max_arc,
                                      double max_arc_roughness) {
     const int w = level.width(), h = level.height();
     std::vector<int> factor(static_cast<std::size_t>(h), 1);
     const double mean = level.power() / (4.0 * kPi);  // of max(R, G, B): at least each channel's
     for (int j = 0; j < h; ++j) {
-        const int most = polar_merge_factor(j, w, h, out_width, max_arc);
-        if (most == 1) continue;
         const double arc = column_arc(j, w, h);
-        int best = 1;
-        for (int m = 2; m <= most; m *= 2) {
-            double rough = 0;
-            for (int c = 0; c < 3; ++c) {
-                const float* row = level.plane(j, c);
-                for (int g = 0; g < w; g += m) {
-                    double sum = 0;
-                    for (int k = g; k < g + m; ++k) sum += row[k];
-                    const double group_mean = sum / m;
-                    double spread = 0;
-                    for (int k = g; k < g + m; ++k) spread += std::abs(row[k] - group_mean);
-                    const double base = sum + m * mean;
-                    if (base > 0) rough = std::max(rough, spread / base);
-                }
-            }
-            if (m * arc * rough > max_arc_roughness) break;
-            best = m;
-        }
-        factor[std::size_t(j)] = best;
+        const int most = polar_merge_factor(j, w, h, out_width, max_arc);
+        int& m = factor[std::size_t(j)];
+        while (2 * m <= most && 2 * m * arc * row_roughness(level, j, 2 * m, mean) <= max_arc_roughness) m *= 2;
     }
     return factor;
 }
@@ -182,7 +185,8 @@ LobeSummer::LobeSummer(const PreparedLevel& level, int out_w, int out_h, double 
     // each version is laid out (and made) for its own rows only.
     std::map<int, std::vector<char>> rows_of;  // merge factor -> the level rows it is read for
     rows_of[1].assign(std::size_t(h), 0);
-    const std::vector<int> factor = polar_merge_factors(level, out_w, max_merged_arc, max_arc_roughness);
+    merge_factors_ = polar_merge_factors(level, out_w, max_merged_arc, max_arc_roughness);
+    const std::vector<int>& factor = merge_factors_;
     for (int j = 0; j < h; ++j) {
         std::vector<char>& rows = rows_of[factor[std::size_t(j)]];
         if (rows.empty()) rows.assign(std::size_t(h), 0);

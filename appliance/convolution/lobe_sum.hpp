@@ -253,6 +253,8 @@ public:
 
     int classes() const { return classes_; }
     double shininess() const { return n_; }
+    // Per level row, the merge factor it is read with (polar_merge_factors; 1: the level).
+    const std::vector<int>& merge_factors() const { return merge_factors_; }
     const PreparedLevel& level() const { return level_; }
 
     // Builds the phase layouts sum_row reads (with the level's threads). sum_row builds them
@@ -336,6 +338,7 @@ private:
     int classes_, per_class_;
     std::vector<double> out_cos_t_, out_sin_t_;
     std::vector<Geometry> geometries_;  // [0]: the level; then merged versions
+    std::vector<int> merge_factors_;    // per level row: its merge factor
     std::vector<int> row_geometry_;     // per level row: the geometry it is read with
 };
 

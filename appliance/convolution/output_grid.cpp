@@ -229,6 +229,13 @@ double clamp_at_pole(const float* row, int width, int i, int c) {
     return 0.5 * std::abs(double(row[3 * i + c]) - opposite);
 }
 
+// error / max(|value|, floor_value), the worst-texel metric's ratio; 0 where that floor is 0 (a
+// map that is 0 everywhere).
+double relative_error(double error, double value, double floor_value) {
+    const double floor = std::max(std::abs(value), floor_value);
+    return floor > 0 ? error / floor : 0.0;
+}
+
 // x / floor where floor > 0, else 0 (a texel of a map that is 0 everywhere).
 Lanes ratio(Lanes x, Lanes floor) { return floor > 0.0 ? x / (floor > 0.0 ? floor : 1.0) : Lanes{}; }
 
@@ -379,9 +386,8 @@ LookupError estimate_lookup_error(const HdrImage& map, int threads, TexelLookupE
                 for (int c = 0; c < 3; ++c) {
                     const std::size_t at = 3 * std::size_t(i) + std::size_t(c);
                     const double clamp = clamp_at_pole(rows[2], w, i, c);
-                    const double floor = std::max(std::abs(double(rows[2][at])), mean);
                     const double square = clamp * clamp / 6.0 * cap;
-                    const double relative = floor > 0 ? clamp / floor : 0.0;
+                    const double relative = relative_error(clamp, rows[2][at], mean);
                     sums.bilinear2 += square;
                     sums.bilinear_worst = std::max(sums.bilinear_worst, relative);
                     sums.pole_worst = std::max(sums.pole_worst, relative);
@@ -575,10 +581,9 @@ double pole_clamp_worst(const HdrImage& map, double floor_value) {
     double worst = 0;
     for (const int j : {0, map.height() - 1})
         for (int i = 0; i < map.width(); ++i)
-            for (int c = 0; c < 3; ++c) {
-                const double floor = std::max(std::abs(double(map.row(j)[3 * i + c])), floor_value);
-                if (floor > 0) worst = std::max(worst, clamp_at_pole(map.row(j), map.width(), i, c) / floor);
-            }
+            for (int c = 0; c < 3; ++c)
+                worst = std::max(worst, relative_error(clamp_at_pole(map.row(j), map.width(), i, c),
+                                                       map.row(j)[3 * i + c], floor_value));
     return worst;
 }
 
@@ -588,8 +593,7 @@ TileLookupWorst tile_lookup_worst(const HdrImage& base, const FineTiles& tiles, 
     const int side = tiles.side(), t = tiles.tile * tiles.factor;
     const int fw = base.width() * tiles.factor, fh = base.height() * tiles.factor;
     const auto add = [&](double& into, double error, double value) {
-        const double floor = std::max(std::abs(value), floor_value);
-        if (floor > 0) into = std::max(into, error / floor);
+        into = std::max(into, relative_error(error, value, floor_value));
     };
     // The poles' clamp in the first and last fine rows: against what a lookup reads half a
     // turn round (a fine texel where a tile holds it, the base's lookup elsewhere).

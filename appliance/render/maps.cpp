@@ -37,18 +37,14 @@ void ShadingMaps::set_reflection(const Material& material, HdrImage image, std::
             r.image = std::move(image);
             r.from = std::move(from);
             r.lookup = lookup;
-            r.fine = FineTiles{};
-            r.texture = HdrImage{};
-            r.tiles = TiledMapLayout{};
+            r.clear_tiles();
             return;
         }
     reflections.push_back({request, std::move(image), std::move(from), lookup, {}, {}, {}});
 }
 
 void attach_fine_tiles(ReflectionMap& map, FineTiles fine, int threads) {
-    map.fine = FineTiles{};
-    map.texture = HdrImage{};
-    map.tiles = TiledMapLayout{};
+    map.clear_tiles();
     if (fine.empty()) return;
     const std::string tiles = std::to_string(fine.count()) + " of " + std::to_string(fine.slot.size()) + " tiles " +
                               std::to_string(fine.factor) + "x finer";

@@ -30,6 +30,12 @@ struct ReflectionMap {
     FineTiles fine;
     HdrImage texture;
     TiledMapLayout tiles;
+    // No tiles: `image` alone is the map.
+    void clear_tiles() {
+        fine = FineTiles{};
+        texture = HdrImage{};
+        tiles = TiledMapLayout{};
+    }
     // What a reader that takes one image gets: `image`, or with tiles the whole finer grid.
     HdrImage whole_grid(int threads = 0) const { return fine.empty() ? image : expand(image, fine, threads); }
 };

@@ -69,9 +69,12 @@ public:
     GpuConeSums(GpuEngine& engine, const PreparedLevel& level, Size out, double n, const ConeSettings& settings)
         : engine_(engine), out_(out), n_(n), width_(level.width()), height_(level.height()),
           classes_(out.width / std::gcd(level.width(), out.width)) {
+        // The CPU's summer for this cone: the rows' merge factors and the largest cosines below
+        // are its own, so both engines read each row alike.
+        const LobeSummer summer(level, out.width, out.height, n, Accumulation::FloatRuns, settings.max_texel_arc,
+                                settings.max_arc_roughness);
         // The level and the merged versions its rows read, side by side in one atlas.
-        const std::vector<int> merge =
-            polar_merge_factors(level, out.width, settings.max_texel_arc, settings.max_arc_roughness);
+        const std::vector<int>& merge = summer.merge_factors();
         std::set<int> factors(merge.begin(), merge.end());
         factors.insert(1);  // the level itself, as before
         int atlas_width = 0;
@@ -97,8 +100,6 @@ public:
         row_merge_ = make_int_row_texture(merge);
         merge_ = merge;
         // The largest cosine of every output row and class, as the CPU's sums take it.
-        const LobeSummer summer(level, out.width, out.height, n, Accumulation::FloatRuns, settings.max_texel_arc,
-                                settings.max_arc_roughness);
         cmax_.resize(std::size_t(classes_) * std::size_t(out.height));
         std::vector<float> log_cmax(cmax_.size());
         for (int row = 0; row < out.height; ++row)
