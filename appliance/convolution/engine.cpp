@@ -342,6 +342,9 @@ Size next_sum_grid(Size sum, Size finer) {
 // through the lobe instead, as it would after making it.
 using TexelSummer = std::function<void(Size, const TexelSelection&, const TexelSink& into)>;
 constexpr int kFineTile = 4;  // sum-grid texels per tile side (4 against 8: studio's set ~10 % faster, 2026-12-06)
+// Input texels round which a lobe under one texel is measured on its finest grid before any grid
+// is summed (spot_lookup_worst): each costs a few hundred lobe lookups.
+constexpr int kLobeLookupSpots = 32;
 void deliver_output(MapResult& r, double tau, const PlannerModel& model, int threads,
                     const std::vector<BrightTexel>* bright, const std::function<HdrImage(Size)>& sum_on,
                     const TexelSummer& sum_texels, bool fine_tiles, bool lobe_lookup_possible) {
@@ -813,7 +816,24 @@ std::vector<MapResult> convolve_map(const HdrImage& env, HdrImage* consumable, c
         // The levels this map's plan reads, before the lobe-lookup fallback below may change it.
         const std::vector<int> mine = levels_read(r.plan);
         const auto start = std::chrono::steady_clock::now();
-        if (!batched[k]) r.image = sum_on(r, r.plan.sum_size, map_threads, progress);
+        // A lobe under one input texel whose exact map, on the finest grid this plan may deliver,
+        // already misses the worst-texel share round the input's roughest texels: the lobe lookup
+        // at once, no grid summed (n = 5e4-1e5 from 1024x512 summed 2048x1024 only to fall back,
+        // 0.4-0.7 s). A spot that finds nothing decides nothing: the map is summed as planned.
+        double spot_worst = 0;
+        Size finest = r.plan.sum_size;
+        if (!batched[k] && may_need_lobe_lookup(r.request, r.plan, input_size)) {
+            const int most = std::max(model.max_refinement, model.max_tile_refinement);
+            int f = 1;
+            while (2 * f <= most && r.plan.sum_size.height * 2 * f <= kMaxOutputHeight) f *= 2;
+            finest = {r.plan.sum_size.width * f, r.plan.sum_size.height * f};
+            spot_worst = spot_lookup_worst(shared.full_image(), r.request.shininess, finest, kLobeLookupSpots, map_threads);
+        }
+        const bool lobe_at_once = spot_worst > model.output_worst_share * options.tolerance;
+        if (lobe_at_once)
+            progress(r.plan.sum_size.height);
+        else if (!batched[k])
+            r.image = sum_on(r, r.plan.sum_size, map_threads, progress);
         const bool split = r.plan.method == Method::Cone || (r.plan.method == Method::Sh && r.plan.bright_split);
         // Texels of a finer grid, summed by the plan's cone (an SH plan's is the one for the rows
         // its bound fails).
@@ -828,10 +848,12 @@ std::vector<MapResult> convolve_map(const HdrImage& env, HdrImage* consumable, c
             r.refined_texels += stats.refined_texels;
         };
         const double own_error = r.plan.predicted_error;  // the method's, before lookups count
-        deliver_output(r, options.tolerance, model, map_threads,
-                       split ? &shared.bright().texels : nullptr, [&](Size grid) { return sum_on(r, grid, map_threads, no_progress); },
-                       split ? sum_texels : TexelSummer{}, options.fine_tiles,
-                       may_need_lobe_lookup(r.request, r.plan, input_size));
+        if (!lobe_at_once)
+            deliver_output(r, options.tolerance, model, map_threads,
+                           split ? &shared.bright().texels : nullptr,
+                           [&](Size grid) { return sum_on(r, grid, map_threads, no_progress); },
+                           split ? sum_texels : TexelSummer{}, options.fine_tiles,
+                           may_need_lobe_lookup(r.request, r.plan, input_size));
         if (reads_horizon_steps(r.request, r.plan)) {
             // Below n = 1, what lookups miss along each source's horizon (horizon_step_error; a
             // 1e5 sun on 256x128 gave phong_0 2.9 % RMS and 81 % worst off-grid where the second
@@ -867,9 +889,10 @@ std::vector<MapResult> convolve_map(const HdrImage& env, HdrImage* consumable, c
         }
         // The lookups' share decides (a method's own error, e.g. a --sh-order too low, is not
         // mended by reading the input through the lobe, and is reported as it is).
-        if (may_need_lobe_lookup(r.request, r.plan, input_size) &&
-            ((r.plan.predicted_error > options.tolerance && r.plan.lookup_error >= 0.5 * r.plan.predicted_error) ||
-             r.plan.lookup_worst > model.output_worst_share * options.tolerance)) {
+        if (lobe_at_once ||
+            (may_need_lobe_lookup(r.request, r.plan, input_size) &&
+             ((r.plan.predicted_error > options.tolerance && r.plan.lookup_error >= 0.5 * r.plan.predicted_error) ||
+              r.plan.lookup_worst > model.output_worst_share * options.tolerance))) {
             // Bilinear lookups of every grid tried miss the tolerance, or their worst its share
             // (the 5 % worst texel): the lobe lookup instead (exact to rounding, at the price of
             // more texels visited per read than for a lobe under half a texel: ~170-290 at one
@@ -893,9 +916,14 @@ std::vector<MapResult> convolve_map(const HdrImage& env, HdrImage* consumable, c
             p.bright_texels = 0;
             p.note = "bilinear lookups of the grids tried missed the tolerance: read through the lobe instead";
             r.refined_texels = r.patched_texels = r.clamped_texels = 0;
-            p.size_reason = "the input's grid, read through the lobe (lookup \"lobe\"): the lobe is narrower than the "
-                            "input's texel spacing and bilinear lookups of the grids tried would err " +
-                            percent(missed) + " RMS, " + percent(missed_worst) + " worst (" + tried + ")";
+            const std::string lead = "the input's grid, read through the lobe (lookup \"lobe\"): the lobe is narrower "
+                                     "than the input's texel spacing and bilinear lookups ";
+            p.size_reason = lobe_at_once ? lead + "of the finest grid allowed, " + to_string(finest) + ", would err " +
+                                               percent(spot_worst) + " worst round the input's " +
+                                               std::to_string(kLobeLookupSpots) +
+                                               " roughest texels (the exact sums there; no grid summed)"
+                                         : lead + "of the grids tried would err " + percent(missed) + " RMS, " +
+                                               percent(missed_worst) + " worst (" + tried + ")";
         }
         r.seconds += std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
         if (!batched[k]) {

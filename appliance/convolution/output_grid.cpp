@@ -587,6 +587,54 @@ double pole_clamp_worst(const HdrImage& map, double floor_value) {
     return worst;
 }
 
+double spot_lookup_worst(const HdrImage& input, double n, Size grid, int spots, int threads) {
+    const int w = input.width(), h = input.height();
+    if (input.empty() || grid.width < 3 || grid.height < 3 || spots <= 0) return 0;
+    TexelLookupErrors own;
+    estimate_lookup_error(input, threads, &own);
+    const std::vector<float>& rough = own.bilinear.relative;
+    std::vector<std::size_t> order(rough.size());
+    for (std::size_t t = 0; t < order.size(); ++t) order[t] = t;
+    const std::size_t count = std::min(order.size(), std::size_t(spots));
+    std::partial_sort(order.begin(), order.begin() + std::ptrdiff_t(count), order.end(),
+                      [&](std::size_t a, std::size_t b) { return rough[a] > rough[b]; });
+    const double floor_value = solid_angle_mean(input);
+    std::vector<double> worst(count, 0.0);
+    parallel_for(int(count), threads, [&](int s) {
+        const int i = int(order[std::size_t(s)] % std::size_t(w)), j = int(order[std::size_t(s)] / std::size_t(w));
+        // The spot's texel and one on each side, on the grid, and a grid texel more round them.
+        const int r0 = std::max(0, int(std::floor(double(j - 1) * grid.height / h)) - 1);
+        const int r1 = std::min(grid.height - 1, int(std::ceil(double(j + 2) * grid.height / h)) + 1);
+        const int c0 = int(std::floor(double(i - 1) * grid.width / w)) - 1;
+        const int c1 = int(std::ceil(double(i + 2) * grid.width / w)) + 1;
+        const int rows = r1 - r0 + 1, cols = std::min(c1 - c0 + 1, grid.width + 2);
+        std::vector<double> v(3 * std::size_t(rows) * std::size_t(cols));
+        for (int y = 0; y < rows; ++y)
+            for (int x = 0; x < cols; ++x) {
+                const int col = ((c0 + x) % grid.width + grid.width) % grid.width;
+                const Rgb e = sample_lobe(input, texel_direction(col, r0 + y, grid.width, grid.height), n);
+                double* into = v.data() + 3 * (std::size_t(y) * std::size_t(cols) + std::size_t(x));
+                into[0] = e.r;
+                into[1] = e.g;
+                into[2] = e.b;
+            }
+        const auto at = [&](int y, int x, int c) {
+            return v[3 * (std::size_t(y) * std::size_t(cols) + std::size_t(x)) + std::size_t(c)];
+        };
+        double largest = 0;
+        for (int y = 1; y + 1 < rows; ++y)
+            for (int x = 1; x + 1 < cols; ++x)
+                for (int c = 0; c < 3; ++c) {
+                    const double value = at(y, x, c);
+                    const double a = at(y, x - 1, c) - 2.0 * value + at(y, x + 1, c);
+                    const double b = at(y - 1, x, c) - 2.0 * value + at(y + 1, x, c);
+                    largest = std::max(largest, relative_error((std::abs(a) + std::abs(b)) / 8.0, value, floor_value));
+                }
+        worst[std::size_t(s)] = largest;
+    });
+    return worst.empty() ? 0.0 : *std::max_element(worst.begin(), worst.end());
+}
+
 TileLookupWorst tile_lookup_worst(const HdrImage& base, const FineTiles& tiles, double floor_value) {
     TileLookupWorst worst;
     if (tiles.empty()) return worst;

@@ -141,6 +141,16 @@ struct TileLookupWorst {
 };
 TileLookupWorst tile_lookup_worst(const HdrImage& base, const FineTiles& tiles, double floor_value);
 
+// The worst bilinear lookup between texels of the exact map E^n (sample_lobe over `input`) on
+// `grid`, measured only round the `spots` texels of `input` whose own lookups err most (relative,
+// estimate_lookup_error): each spot's texel and its neighbours' span on `grid`, evaluated there
+// with a texel more on every side for the second differences, as estimate_lookup_error's worst
+// relative to max(|value|, the input's solid-angle mean). Rows next to a pole are left out (the
+// clamp; nothing to difference across). For a lobe narrower than the input's texels the map
+// follows the input's contrast, so a few spots find what the grid would miss; a spot missed only
+// under-reports. The engine uses it to choose the lobe lookup before summing any grid.
+double spot_lookup_worst(const HdrImage& input, double n, Size grid, int spots, int threads);
+
 // The fine texels of the kept tiles (each texel once, a block's shared edge included), as a
 // selection of the fine grid; and the same selection limited to the texels also in `other`.
 TexelSelection fine_tile_texels(const FineTilePlan& plan, Size base);

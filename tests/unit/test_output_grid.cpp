@@ -1084,6 +1084,61 @@ TEST(OutputGrid, ALobeUnderATexelFallsBackToTheLobeLookupWhereBilinearGridsMiss)
     }
 }
 
+// Before any grid is summed for a lobe between half a texel and one, its exact map is measured on
+// the finest grid the plan may deliver round the input's roughest texels (spot_lookup_worst):
+// where that already misses the worst-texel share, the map goes to the lobe lookup at once (on
+// 1024x512 maps n = 5e4-1e5 summed a 2048x1024 grid only to fall back: 0.4-0.7 s against
+// 0.03-0.07 s). The spots see what the whole grid would: never more, and most of it.
+TEST(OutputGrid, ALobeUnderATexelWhoseFinestGridMissesAtItsRoughestTexelsIsNotSummed) {
+    const auto plateaus = [](int w, int h, float contrast, unsigned seed) {
+        std::mt19937 rng(seed);
+        std::uniform_real_distribution<float> u(0.0f, 1.0f);
+        HdrImage map(w, h);
+        for (int j = 0; j < h; ++j)
+            for (int i = 0; i < w; ++i) {
+                const float v = u(rng) < 0.3f ? contrast : 1.0f;
+                map.set(i, j, {v, 0.7f * v, 0.5f * v});
+            }
+        return map;
+    };
+    // The spots against the whole grid's own measure (64x32, lobes 0.8 and 0.5 of a texel wide;
+    // half a texel is n = 415 there).
+    const HdrImage small = plateaus(64, 32, 100.0f, 21);
+    for (const double n : {250.0, 400.0})
+        for (const Size grid : {Size{128, 64}, Size{512, 256}}) {
+            const double spots = spot_lookup_worst(small, n, grid, 32, 2);
+            const LookupError whole = estimate_lookup_error(resample_lobe(small, grid.width, grid.height, n, 2), 2);
+            std::printf("[  report  ] plateaus 64x32 n %g on %dx%d: spots %.4f, whole grid %.4f\n", n, grid.width,
+                        grid.height, spots, whole.between_worst);
+            EXPECT_LE(spots, whole.between_worst * (1 + 1e-6));
+            EXPECT_GE(spots, 0.5 * whole.between_worst);
+        }
+    // Small lamps on a smooth sky at 1024x512 (the finest grid allowed, 2048 rows, is 4x the
+    // input's) and n = 1e5, 0.51 of a texel wide: the lobe lookup, the input's texels, with no
+    // grid summed. (On random plateaus the roughest texels are too many alike for 32 spots to
+    // find the worst, and the map is summed as before.)
+    HdrImage big = sampled(1024, 512, smooth_field);
+    std::mt19937 rng(22);
+    for (int lamp = 0; lamp < 20; ++lamp) {  // single texels 50x the sky round them
+        const int i = int(rng() % 1024), j = 32 + int(rng() % 448);
+        const Rgb v = big.at(i, j);
+        big.set(i, j, {50 * v.r, 50 * v.g, 50 * v.b});
+    }
+    Options o;
+    o.threads = 2;
+    const double n = 1e5;
+    const auto r = convolve(big, {MapRequest::make_phong(n, "sharp")}, o);
+    ASSERT_EQ(r[0].plan.lookup, MapLookup::Lobe) << r[0].plan.size_reason;
+    EXPECT_NE(r[0].plan.size_reason.find("no grid summed"), std::string::npos) << r[0].plan.size_reason;
+    EXPECT_EQ(r[0].image.data(), big.data());
+    const OffGridError e = measure_offgrid_error(big, r[0].image, n, 256, 5, 2, r[0].plan.lookup);
+    EXPECT_LT(e.worst_texel, 1e-5);
+    // A smooth map finds nothing at its spots and is summed as planned: bilinear lookups.
+    const HdrImage smooth = sampled(64, 32, smooth_field);
+    const auto s = convolve(smooth, {MapRequest::make_phong(400, "smooth")}, o);
+    EXPECT_EQ(s[0].plan.lookup, MapLookup::Bilinear) << s[0].plan.size_reason;
+}
+
 TEST(OutputGrid, ShininessAboveTheLimitIsRefusedNamingTheMirror) {
     const HdrImage env = sampled(16, 8, smooth_field);
     try {
