@@ -1,6 +1,7 @@
 // `glint capture`: a recorded or simulated session -> HDR environment map and coverage map
 // (appliance/capture; docs/capture.md).
 #include <cstdio>
+#include <filesystem>
 #include <memory>
 
 #include "appliance/app/commands.hpp"
@@ -9,6 +10,7 @@
 #include "appliance/capture/camera_factory.hpp"
 #include "appliance/capture/capture_pipeline.hpp"
 #include "appliance/capture/gpu_accumulator.hpp"
+#include "appliance/core/atomic_file.hpp"
 #include "appliance/core/errors.hpp"
 #include "appliance/core/progress.hpp"
 #include "appliance/sim/session_simulator.hpp"
@@ -75,6 +77,12 @@ Command add_capture_command(CLI::App& app) {
                 a->o.height = s.height;
                 a->o.session = a->session;
                 a->o.out = a->out;
+                // Checked before the work, not found at its end (a directory, a trailing slash, a
+                // parent that cannot be written).
+                const std::filesystem::path out(a->out);
+                if (out.filename().empty() || std::filesystem::is_directory(out))
+                    throw InputError("--out " + a->out + ": must name the environment map's file, not a directory");
+                ensure_writable_directory(out.has_parent_path() ? out.parent_path() : std::filesystem::path("."));
                 a->o.orientations = a->orientations == "truth" ? capture::OrientationInput::Truth
                                                                : capture::OrientationInput::Sensors;
                 a->o.drift_correction = !a->no_drift;

@@ -347,13 +347,22 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
     std::optional<std::int64_t> first_t_ns;
     std::vector<double> blur_px;
     // Every pixel's ray, for straightening rolling-shutter frames (deskewed()).
+    // Made at the first frame, once its size is known to be the calibration's (a calibration far
+    // larger than the frames asked for gigabytes of rays before any frame was read).
     std::vector<glm::dvec3> pixel_rays;
-    if (o.rolling_shutter && cal.readout_s > 0)
-        for (int v = 0; v < cal.intrinsics.height; ++v)
-            for (int u = 0; u < cal.intrinsics.width; ++u) pixel_rays.push_back(pixel_ray(cal.intrinsics, u, v));
     const double focal_px = std::max(cal.intrinsics.fx, cal.intrinsics.fy);
     for_each_frame(camera, [&](std::size_t place, const CameraFrame& f) {
-        if (!first_t_ns) first_t_ns = f.t_ns;
+        if (f.rgb.type() != CV_8UC3 || f.rgb.cols != cal.intrinsics.width || f.rgb.rows != cal.intrinsics.height)
+            throw InputError("frame " + std::to_string(f.sequence) + " is " + std::to_string(f.rgb.cols) + "x" +
+                             std::to_string(f.rgb.rows) + ", the calibration is for " +
+                             std::to_string(cal.intrinsics.width) + "x" + std::to_string(cal.intrinsics.height) +
+                             " 8-bit RGB");
+        if (!first_t_ns) {
+            first_t_ns = f.t_ns;
+            if (o.rolling_shutter && cal.readout_s > 0)
+                for (int v = 0; v < cal.intrinsics.height; ++v)
+                    for (int u = 0; u < cal.intrinsics.width; ++u) pixel_rays.push_back(pixel_ray(cal.intrinsics, u, v));
+        }
         std::optional<glm::dquat> q = orientation_of(f);
         glm::dvec3 w(0);
         if (q) {
@@ -618,7 +627,13 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
     // Coverage first: a reader that finds env.exr finds its coverage map too.
     save_exr(summary.coverage_path, coverage_image(samples, map_acc.weights(), o.width, o.height, o.min_samples),
              o.compression);
-    save_exr(o.out, env, o.compression);
+    try {
+        save_exr(o.out, env, o.compression);
+    } catch (...) {
+        std::error_code ec;  // no coverage map without its map
+        fs::remove(summary.coverage_path, ec);
+        throw;
+    }
     summary.last_frame_to_saved_seconds = since(t_last_frame) - truth_seconds;
     if (std::getenv("GLINT_CAPTURE_PROFILE"))
         std::fprintf(stderr,

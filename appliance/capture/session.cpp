@@ -140,6 +140,15 @@ Session open_session(const fs::path& dir) {
             throw InputError(where + ": frame file must be a relative path inside the session");
         if (!s.frames.empty() && r.t_ns <= s.frames.back().t_ns)
             throw InputError(where + ": frame times must increase");
+        // A replay waits out the gap between frames (on a virtual clock too, in steps): a time
+        // off by years kept `glint capture` busy for minutes.
+        // (Unsigned: the times increase, so the difference is right even where a signed one
+        // would overflow.)
+        constexpr std::uint64_t kMaxGapNs = 3'600'000'000'000;
+        const std::uint64_t gap = s.frames.empty() ? 0 : std::uint64_t(r.t_ns) - std::uint64_t(s.frames.back().t_ns);
+        if (gap > kMaxGapNs)
+            throw InputError(where + ": the frame comes " + std::to_string(gap / 1'000'000'000) +
+                             " s after the one before it; a session has no gap over an hour");
         s.frames.push_back(std::move(r));
     }
     if (s.frames.empty()) throw InputError(frames.string() + ": the session has no frames");
@@ -151,6 +160,12 @@ CameraFrame load_frame(const Session& session, const FrameRecord& r) {
     const fs::path p = session.dir / r.file;
     cv::Mat bgr = cv::imread(p.string(), cv::IMREAD_COLOR);
     if (bgr.empty()) throw InputError(p.string() + ": missing or not a readable image");
+    // Every reader indexes a frame by the calibration's size (a smaller frame read past its end).
+    const Intrinsics& k = session.calibration.intrinsics;
+    if (bgr.cols != k.width || bgr.rows != k.height)
+        throw InputError(p.string() + ": the image is " + std::to_string(bgr.cols) + "x" + std::to_string(bgr.rows) +
+                         ", the session's calibration (" + (session.dir / "calibration.json").string() + ") is for " +
+                         std::to_string(k.width) + "x" + std::to_string(k.height));
     CameraFrame f;
     cv::cvtColor(bgr, f.rgb, cv::COLOR_BGR2RGB);
     f.t_ns = r.t_ns;

@@ -416,6 +416,9 @@ capture::CameraCalibration detail::true_camera(const SimulateOptions& o) { retur
 SimulateSummary detail::write_planned_session(const SimulateOptions& o, const HdrImage& env, const SessionPlan& plan,
                                               const std::function<void(long long, long long)>& progress) {
     if (!plan.camera || plan.camera->end_us() == 0) throw InputError("the trajectory must last longer than 0 s");
+    if (double(plan.camera->end_us()) * 1e-6 > kMaxSessionS)
+        throw InputError("the trajectory lasts " + std::to_string(std::llround(double(plan.camera->end_us()) * 1e-6)) +
+                         " s; a simulated session lasts at most " + std::to_string(int(kMaxSessionS)) + " s");
     for (std::size_t i = 0; i < plan.segments.size(); ++i) {
         const SessionSegment& s = plan.segments[i];
         if (!(s.fps > 0 && s.fps <= 120)) throw InputError("a segment's frame rate must be in (0, 120] fps");
@@ -463,6 +466,9 @@ SimulateSummary simulate_session(const SimulateOptions& o, const std::function<v
         }
     }();
     if (camera.end_us() == 0) throw InputError(o.trajectory + ": the trajectory must last longer than 0 s");
+    if (double(camera.end_us()) * 1e-6 > detail::kMaxSessionS)
+        throw InputError(o.trajectory + ": the trajectory lasts " + std::to_string(std::llround(double(camera.end_us()) * 1e-6)) +
+                         " s; a simulated session lasts at most " + std::to_string(int(detail::kMaxSessionS)) + " s");
 
     // One segment: the whole trajectory at o.fps.
     detail::SessionPlan plan;

@@ -59,6 +59,10 @@ std::int64_t appliance_time_ns(const SimulateOptions& o, std::uint64_t camera_us
 // The true camera of `o` (size, field of view, lens, mounting, sensor limits).
 capture::CameraCalibration true_camera(const SimulateOptions& o);
 
+// The longest session written: the sensor board's path is kept at 200 Hz for the whole of it (a
+// trajectory of 1e9 s asked for 10 GB before the first frame).
+inline constexpr double kMaxSessionS = 3600;
+
 // Writes the session of `plan` to o.out (into OUT.partial, renamed at the end). `o` gives the
 // camera, the sensor board, the clocks, the frame format and the threads; o.fps, o.trajectory
 // and o.hdr_bracket are the segments'. Throws InputError for bad options or inputs.

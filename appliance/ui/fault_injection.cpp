@@ -1,5 +1,7 @@
 #include "appliance/ui/fault_injection.hpp"
 
+#include <opencv2/imgproc.hpp>
+
 #include <chrono>
 #include <thread>
 
@@ -43,6 +45,7 @@ FaultPlan parse_fault_plan(const std::string& spec, const std::string& flag) {
         if (f[0] == "sensor-gap") plan.sensor_gaps.push_back(window());
         else if (f[0] == "camera-stall") plan.camera_stalls.push_back(window());
         else if (f[0] == "camera-shuffle") plan.camera_shuffles.push_back(window());
+        else if (f[0] == "camera-mode") plan.camera_modes.push_back(window());
         else if (f[0] == "loop-stall") {
             if (f.size() != 3) throw InputError(where + ": expected loop-stall:AT:SECONDS");
             const double at = number(1), seconds = number(2);
@@ -60,7 +63,7 @@ FaultPlan parse_fault_plan(const std::string& spec, const std::string& flag) {
             plan.gl_lost_at_s = number(1);
         } else {
             throw InputError(where + ": unknown fault '" + f[0] +
-                             "' (sensor-gap, camera-stall, camera-shuffle, loop-stall, gl-lost, input-flood)");
+                             "' (sensor-gap, camera-stall, camera-shuffle, camera-mode, loop-stall, gl-lost, input-flood)");
         }
     }
     return plan;
@@ -68,7 +71,9 @@ FaultPlan parse_fault_plan(const std::string& spec, const std::string& flag) {
 
 FaultInjectingSource::FaultInjectingSource(KioskSource& inner, FaultPlan plan, std::function<void(const std::string&)> log)
     : inner_(inner), plan_(std::move(plan)), log_(std::move(log)),
-      announced_(plan_.sensor_gaps.size() + plan_.camera_stalls.size() + plan_.camera_shuffles.size(), false) {}
+      announced_(plan_.sensor_gaps.size() + plan_.camera_stalls.size() + plan_.camera_shuffles.size() +
+                     plan_.camera_modes.size(),
+                 false) {}
 
 bool FaultInjectingSource::in_sensor_gap(std::int64_t t_ns) const {
     const double t = seconds(t_ns);
@@ -107,6 +112,7 @@ KioskPoll FaultInjectingSource::poll(std::int64_t now_ns) {
     announce(plan_.sensor_gaps, "sensor gap");
     announce(plan_.camera_stalls, "camera stall");
     announce(plan_.camera_shuffles, "frames out of order");
+    announce(plan_.camera_modes, "frames at half the camera's size");
     for (const FaultPlan::Flood& flood : plan_.input_floods)
         if (!flood.window.contains(t) && t >= flood.window.to_s && flood_events_ > 0 && log_) {
             log_("fault injected: an input flood of " + std::to_string(flood_events_) + " events ended");
@@ -139,6 +145,14 @@ KioskPoll FaultInjectingSource::poll(std::int64_t now_ns) {
     std::erase_if(p.orientations, [&](const capture::SensorOrientation& s) { return in_sensor_gap(s.t_ns); });
     for (const FaultWindow& w : plan_.camera_stalls)
         if (w.contains(t)) p.frames.clear();
+    for (const FaultWindow& w : plan_.camera_modes)
+        if (w.contains(t))
+            for (capture::CameraFrame& f : p.frames) {
+                cv::Mat half;
+                cv::resize(f.rgb, half, cv::Size(std::max(1, f.rgb.cols / 2), std::max(1, f.rgb.rows / 2)), 0, 0,
+                           cv::INTER_AREA);
+                f.rgb = half;
+            }
     bool shuffling = false;
     for (const FaultWindow& w : plan_.camera_shuffles) shuffling = shuffling || w.contains(t);
     if (shuffling || held_) {

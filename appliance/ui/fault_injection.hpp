@@ -11,6 +11,8 @@
 //   camera-stall:FROM:TO    no camera frames in [FROM, TO) (a camera that stops delivering; its
 //                           restart does not end the window: the kiosk must keep trying)
 //   camera-shuffle:FROM:TO  frames in [FROM, TO) delivered in swapped pairs (out of order)
+//   camera-mode:FROM:TO     frames in [FROM, TO) at half the width and height (a camera that
+//                           switched its sensor mode: not the calibration's size)
 //   loop-stall:AT:SECONDS   the frame loop blocks once for SECONDS at AT (the watchdog's test)
 //   gl-lost:AT              the GL context reports itself lost at AT (a GPU reset)
 //   input-flood:FROM:TO:RATE  RATE input events a second in [FROM, TO): half of them presses and
@@ -36,7 +38,7 @@ struct FaultWindow {
 };
 
 struct FaultPlan {
-    std::vector<FaultWindow> sensor_gaps, camera_stalls, camera_shuffles;
+    std::vector<FaultWindow> sensor_gaps, camera_stalls, camera_shuffles, camera_modes;
     struct Flood {
         FaultWindow window;
         double events_per_s = 0;
@@ -45,15 +47,16 @@ struct FaultPlan {
     std::optional<FaultWindow> loop_stall;  // from_s = when, to_s - from_s = how long
     std::optional<double> gl_lost_at_s;
     bool empty() const {
-        return sensor_gaps.empty() && camera_stalls.empty() && camera_shuffles.empty() && input_floods.empty() && !loop_stall &&
-               !gl_lost_at_s;
+        return sensor_gaps.empty() && camera_stalls.empty() && camera_shuffles.empty() && camera_modes.empty() &&
+               input_floods.empty() && !loop_stall && !gl_lost_at_s;
     }
 };
 
 // The commands' help for --inject-fault.
 inline constexpr std::string_view kInjectFaultHelp =
     "Faults for tests (docs/kiosk.md, \"Devices that misbehave\"), comma-separated, times in kiosk seconds: "
-    "sensor-gap:FROM:TO, camera-stall:FROM:TO, camera-shuffle:FROM:TO, loop-stall:AT:SECONDS, gl-lost:AT, "
+    "sensor-gap:FROM:TO, camera-stall:FROM:TO, camera-shuffle:FROM:TO, camera-mode:FROM:TO, loop-stall:AT:SECONDS, "
+    "gl-lost:AT, "
     "input-flood:FROM:TO:EVENTS_PER_S";
 
 // Throws InputError naming `flag` and the item at fault.

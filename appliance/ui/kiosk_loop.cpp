@@ -515,6 +515,17 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
 
         // The flow. The scan's status is read once a frame: the flow and the screen use the same.
         CaptureLiveStatus live;
+        if (flow.state() == KioskState::Capture && capture_job && capture_job->done()) {
+            // The job ends before the scan only when it failed (a frame it cannot read, a
+            // calibration that does not fit the camera): the visitor hears so now, not after
+            // scanning on for nothing (a replay went on 45 s and then showed a map of 7 % of the room).
+            try {
+                capture_job->take();
+                on_transition(flow.failure(t_s, "message.capture_failed", "the capture ended before the scan"));
+            } catch (const std::exception& e) {
+                on_transition(flow.failure(t_s, "message.capture_failed", e.what()));
+            }
+        }
         if (flow.state() == KioskState::Capture && capture_job) {
             live = capture_job->live();
             std::string why;

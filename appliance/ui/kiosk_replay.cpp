@@ -19,6 +19,7 @@
 #include "appliance/core/errors.hpp"
 #include "appliance/core/exr_io.hpp"
 #include "appliance/core/memory.hpp"
+#include "appliance/core/scene_state.hpp"
 #include "appliance/gl/display.hpp"
 #include "appliance/gl/gl_objects.hpp"
 #include "appliance/render/maps.hpp"
@@ -190,6 +191,9 @@ json replay_pass(const ReplayOptions& o, KioskOptions k, const std::function<voi
     // A replay into the directory of an earlier one: its frames go, so that OUT/frames holds this
     // run's only (the files are the replay's own: NNNNN_STATE_....png).
     std::error_code ec;
+    // And its summary, frame log and captured map: a replay that fails must not leave an earlier
+    // one's summary.json beside its own frames, for a script to read as this run's success.
+    for (const char* name : {"summary.json", "frames.csv", kSceneEnv, kSceneCoverage}) fs::remove(o.out / name, ec);
     if (fs::is_directory(o.out / "frames", ec))
         for (const fs::directory_entry& e : fs::directory_iterator(o.out / "frames", ec))
             if (e.path().extension() == ".png" && e.path().filename().string().find('_') == 5) fs::remove(e.path(), ec);

@@ -1,4 +1,5 @@
 #include <gtest/gtest.h>
+#include <opencv2/imgcodecs.hpp>
 
 #include <filesystem>
 #include <fstream>
@@ -269,6 +270,57 @@ TEST_F(SessionTest, MalformedFilesNameTheFileAndTheLine) {
             EXPECT_NE(std::string(e.what()).find("not a relative path inside the session"), std::string::npos) << e.what();
         }
     }
+}
+
+// Damage found by a sweep of bad inputs (2026-12-06): each refused before the work, naming the
+// file at fault, instead of a crash, gigabytes of memory or minutes of waiting.
+TEST_F(SessionTest, DamagedSessionsAreRefusedBeforeTheWorkNamingTheFile) {
+    SimulateOptions o = small_session();
+    o.trajectory = (dir_ / "short.csv").string();
+    std::ofstream(dir_ / "short.csv") << "0,1,0,0,0\n2,0.9239,0,0.3827,0\n";  // seconds
+    simulate_session(o);
+    const fs::path session = dir_ / "session";
+    Session s = open_session(session);
+    ASSERT_GE(s.frames.size(), 2u);
+    // A frame smaller than the calibration (the rolling-shutter deskew read past its end: a
+    // heap corruption) or a calibration larger than the frames (rays for every pixel of it).
+    const fs::path frame = session / s.frames[1].file;
+    cv::imwrite(frame.string(), cv::Mat(27, 48, CV_8UC3, cv::Scalar(40, 40, 40)));
+    for (const CaptureOptions& c : {capture_options(session, dir_ / "captured.exr", 64, 32, OrientationInput::Sensors),
+                                    capture_options(session, dir_ / "captured.exr", 64, 32, OrientationInput::Truth)}) {
+        try {
+            capture_session(c);
+            ADD_FAILURE() << "no error for a 48x27 frame";
+        } catch (const InputError& e) {
+            EXPECT_NE(std::string(e.what()).find(frame.string() + ": the image is 48x27"), std::string::npos) << e.what();
+            EXPECT_NE(std::string(e.what()).find("is for 96x54"), std::string::npos) << e.what();
+        }
+        EXPECT_FALSE(fs::exists(dir_ / "captured.exr"));
+    }
+    EXPECT_THROW(load_frame(s, s.frames[1]), InputError);
+    // A frame time years after the one before it (a replay waited out the gap in 1 s steps).
+    {
+        std::ofstream f(session / "frames.csv", std::ios::app);
+        f << "999,9223372036854775807,0.01,1,1," << s.frames[0].file << "\n";
+    }
+    try {
+        open_session(session);
+        FAIL() << "no error for a gap of centuries";
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("frames.csv:"), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find("no gap over an hour"), std::string::npos) << e.what();
+    }
+    // A trajectory of 1e9 s (its sensor path at 200 Hz asked for 10 GB).
+    std::ofstream(dir_ / "long.csv") << "0,1,0,0,0\n1000000000,1,0,0,0\n";
+    o.trajectory = (dir_ / "long.csv").string();
+    o.out = dir_ / "long";
+    try {
+        simulate_session(o);
+        FAIL() << "no error for a trajectory of 1e9 s";
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("long.csv: the trajectory lasts 1000000000 s"), std::string::npos) << e.what();
+    }
+    EXPECT_FALSE(fs::exists(dir_ / "long"));
 }
 
 TEST_F(SessionTest, ResponseCalibrationFromABracketFindsTheTrueCurve) {

@@ -133,4 +133,17 @@ run capture --session "$work/scan" --out "$work/env2.exr" --size 128x64 --no-glo
 ! grep -q "^global adjustment" "$work/stdout" || fail "--no-global-adjustment still adjusted"
 pass "capture: --orientations-out ($frames poses), --drift-log, --adjustment-rounds 2, --no-global-adjustment"
 
+# --out is checked before the work: a directory (or a trailing slash) is refused at once, a
+# missing parent directory is made.
+mkdir -p "$work/adir.exr"
+for out in "$work/adir.exr" "$work/adir.exr/"; do
+    run capture --session "$work/scan" --out "$out" --size 64x32
+    [[ $rc -eq 2 ]] || fail "capture --out $out: exit $rc, expected 2"
+    grep -q "must name the environment map's file, not a directory" "$work/stderr" || fail "capture --out $out: $(cat "$work/stderr")"
+done
+run capture --session "$work/scan" --out "$work/made/here/env.exr" --size 64x32 --no-global-adjustment
+[[ $rc -eq 0 && -f "$work/made/here/env.exr" && -f "$work/made/here/env.coverage.exr" ]] ||
+    fail "capture into a new directory: exit $rc: $(cat "$work/stderr")"
+pass "capture: --out a directory refused before the work, a new directory made"
+
 echo "all $checks checks passed"

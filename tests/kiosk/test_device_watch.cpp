@@ -74,7 +74,11 @@ TEST(DeviceWatch, RatesCountTheLastSecond) {
 }
 
 TEST(FaultPlan, ParsesEveryKindAndNamesWhatIsWrong) {
-    const FaultPlan p = parse_fault_plan("sensor-gap:4:6,camera-stall:10:14.5,camera-shuffle:3:4,loop-stall:3:2,gl-lost:7");
+    const FaultPlan p =
+        parse_fault_plan("sensor-gap:4:6,camera-stall:10:14.5,camera-shuffle:3:4,camera-mode:8:9,loop-stall:3:2,gl-lost:7");
+    ASSERT_EQ(p.camera_modes.size(), 1u);
+    EXPECT_TRUE(p.camera_modes[0].contains(8.5));
+    EXPECT_FALSE(parse_fault_plan("camera-mode:8:9").empty());
     ASSERT_EQ(p.sensor_gaps.size(), 1u);
     EXPECT_DOUBLE_EQ(p.sensor_gaps[0].from_s, 4);
     EXPECT_TRUE(p.sensor_gaps[0].contains(5.9));
@@ -87,7 +91,7 @@ TEST(FaultPlan, ParsesEveryKindAndNamesWhatIsWrong) {
     EXPECT_DOUBLE_EQ(*p.gl_lost_at_s, 7);
     EXPECT_TRUE(parse_fault_plan("").empty());
     for (const char* bad : {"sensor-gap:6:4", "sensor-gap:4", "camera-stall:a:5", "melt:1", "loop-stall:1:0",
-                            "gl-lost:-1"}) {
+                            "gl-lost:-1", "camera-mode:9:8"}) {
         try {
             parse_fault_plan(bad, "--inject-fault");
             ADD_FAILURE() << bad << " was accepted";

@@ -110,8 +110,13 @@ Trajectory Trajectory::parse(const std::string& text, const std::string& source)
         s.time_us = static_cast<std::uint64_t>(values[0]);
         if (samples.empty() && s.time_us != 0) fail(source, line_no, "the first sample must be at time 0");
         if (!samples.empty() && s.time_us <= samples.back().time_us) {
-            fail(source, line_no, "time_us " + fields[0] + " does not increase (previous " +
-                                      std::to_string(samples.back().time_us) + ")");
+            // In the file's own unit (a seconds file was told of microseconds before).
+            const std::string previous = format == Format::Seconds
+                                             ? std::to_string(double(samples.back().time_us) * 1e-6) + " s"
+                                             : std::to_string(samples.back().time_us) + " us";
+            fail(source, line_no,
+                 std::string(format == Format::Seconds ? "t_seconds " : "time_us ") + fields[0] +
+                     " does not increase (previous " + previous + ")");
         }
         if (format != Format::YprDeg) {
             s.world_from_sensor = {values[1], values[2], values[3], values[4]};
