@@ -124,6 +124,7 @@ Command add_simulate_command(CLI::App& app) {
         k.env = args.env;
         k.out = args.out;
         k.overwrite = args.o.overwrite;
+        k.on_environment = [&](const LoadedExr& loaded) { warn_about_environment(args.env, loaded); };
         k.seed = args.o.seed;
         k.threads = args.o.threads;
         k.camera_noise = args.o.camera_noise;
@@ -174,6 +175,7 @@ Command add_simulate_command(CLI::App& app) {
                 }
                 if (a->env.empty()) throw InputError("--env is required (except with --charuco)");
                 if (a->kiosk) return run_kiosk(*cmd, *a);
+                a->o.on_environment = [&](const LoadedExr& loaded) { warn_about_environment(a->env, loaded); };
                 std::unique_ptr<ProgressBar> bar;
                 const sim::SimulateSummary r = sim::simulate_session(a->o, [&](long long d, long long t) {
                     if (!bar) bar = std::make_unique<ProgressBar>("simulate frames", t);

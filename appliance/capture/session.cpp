@@ -42,11 +42,17 @@ std::vector<std::pair<int, std::vector<std::string>>> read_csv(const fs::path& p
     std::ifstream in(p);
     if (!in) throw InputError(p.string() + ": cannot open the " + what);
     std::string line;
-    if (!std::getline(in, line) || line != header)
-        throw InputError(p.string() + ":1: the header must be '" + header + "'");
+    // Lines ended CRLF (a file saved on Windows) read as LF: the header's '\r' made "the header
+    // must be '...'" show the very header the file has.
+    const auto next_line = [&] {
+        if (!std::getline(in, line)) return false;
+        if (!line.empty() && line.back() == '\r') line.pop_back();
+        return true;
+    };
+    if (!next_line() || line != header) throw InputError(p.string() + ":1: the header must be '" + header + "'");
     std::vector<std::pair<int, std::vector<std::string>>> rows;
     int number = 1;
-    while (std::getline(in, line)) {
+    while (next_line()) {
         ++number;
         if (line.empty()) continue;
         std::vector<std::string> f = split_csv(line);

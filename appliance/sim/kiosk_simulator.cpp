@@ -315,7 +315,9 @@ KioskSummary simulate_kiosk_session(const SimulateKioskOptions& ko,
     o.hdr_bracket = true;
     o.fps = ko.scan_fps;
     detail::check_common_options(o);
-    const HdrImage env = load_exr(o.env).image;
+    LoadedExr loaded = load_exr(o.env);
+    if (ko.on_environment) ko.on_environment(loaded);
+    const HdrImage env = std::move(loaded.image);
 
     const tracking::Board board;  // tracking's default board
     KioskSummary summary;

@@ -32,6 +32,7 @@ struct SimulateKioskOptions {
     std::filesystem::path env;  // equirect HDR map (EXR)
     std::filesystem::path out;  // session directory (must not exist unless overwrite)
     bool overwrite = false;
+    std::function<void(const LoadedExr&)> on_environment;  // as SimulateOptions::on_environment
     std::uint64_t seed = 1;
     int threads = 0;  // render threads, 0 = all cores
     // One frame size for the whole session, chosen by measuring the tracker on the AR frames

@@ -454,8 +454,6 @@ SimulateSummary simulate_session(const SimulateOptions& o, const std::function<v
     if (!(o.guided_speed_deg_s >= 5 && o.guided_speed_deg_s <= 180)) throw InputError("--guided-speed must be 5..180 deg/s");
     if (o.bracket > 0 && !(o.bracket_first_exposure_s > 0)) throw InputError("--bracket-first must be positive");
     detail::check_common_options(o);
-    const HdrImage env = load_exr(o.env).image;
-
     const firmware::sim::Trajectory camera = [&] {
         if (o.trajectory == "guided") return firmware::sim::Trajectory(guided_camera_trajectory(o.guided_speed_deg_s));
         if (o.trajectory == "alignment") return firmware::sim::Trajectory(alignment_camera_trajectory());
@@ -469,6 +467,11 @@ SimulateSummary simulate_session(const SimulateOptions& o, const std::function<v
     if (double(camera.end_us()) * 1e-6 > detail::kMaxSessionS)
         throw InputError(o.trajectory + ": the trajectory lasts " + std::to_string(std::llround(double(camera.end_us()) * 1e-6)) +
                          " s; a simulated session lasts at most " + std::to_string(int(detail::kMaxSessionS)) + " s");
+
+    // The map after the trajectory: a bad file is told before a long load.
+    LoadedExr loaded = load_exr(o.env);
+    if (o.on_environment) o.on_environment(loaded);
+    const HdrImage env = std::move(loaded.image);
 
     // One segment: the whole trajectory at o.fps.
     detail::SessionPlan plan;

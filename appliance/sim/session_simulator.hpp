@@ -14,6 +14,7 @@
 #include "appliance/capture/camera_factory.hpp"
 #include "appliance/capture/camera_model.hpp"
 #include "appliance/capture/exposure_controller.hpp"
+#include "appliance/core/exr_io.hpp"
 #include "firmware_bridge/firmware/sim/trajectory.hpp"
 
 namespace glint::sim {
@@ -23,6 +24,9 @@ struct SimulateOptions {
     std::string trajectory = "guided";  // "guided", "alignment" or a file: t_seconds,w,x,y,z (world_from_camera)
     std::filesystem::path out;       // session directory (must not exist unless overwrite)
     bool overwrite = false;
+    // Told of the map as loaded, before anything is rendered (the command warns of sanitised
+    // values and a map that is not 2:1).
+    std::function<void(const LoadedExr&)> on_environment;
     double fps = 4;                  // frames per second of camera time
     int width = 320, height = 180;   // frame size, pixels
     double horizontal_fov_deg = 70;

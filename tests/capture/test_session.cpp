@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <fstream>
 #include <regex>
+#include <sstream>
 #include <unistd.h>
 
 #include "appliance/capture/calibration.hpp"
@@ -282,6 +283,14 @@ TEST_F(SessionTest, DamagedSessionsAreRefusedBeforeTheWorkNamingTheFile) {
     const fs::path session = dir_ / "session";
     Session s = open_session(session);
     ASSERT_GE(s.frames.size(), 2u);
+    {  // A frame list saved with CRLF line ends reads as it is.
+        std::ifstream in(session / "frames.csv");
+        std::stringstream crlf;
+        for (std::string line; std::getline(in, line);) crlf << line << "\r\n";
+        in.close();
+        std::ofstream(session / "frames.csv", std::ios::trunc) << crlf.str();
+        EXPECT_EQ(open_session(session).frames.size(), s.frames.size());
+    }
     // A frame smaller than the calibration (the rolling-shutter deskew read past its end: a
     // heap corruption) or a calibration larger than the frames (rays for every pixel of it).
     const fs::path frame = session / s.frames[1].file;

@@ -253,6 +253,11 @@ run simulate --env "$WORLD" --trajectory "$work/turn.csv" --out "$work/session" 
 [[ -f $work/session/session.json && -f $work/session/sensors.glrec && ! -e $work/session.partial ]] ||
     fail "simulate did not write a whole session"
 pass "simulate writes a session ($(awk 'END { print NR - 1 }' "$work/session/frames.csv") frames)"
+# simulate warns of a map that is not 2:1, as convolve and render do (square.exr from above).
+run simulate --env "$work/square.exr" --trajectory "$work/turn.csv" --out "$work/square_session" --fps 2 --size 64x36
+[[ $rc -eq 0 ]] || fail "simulate of a square map: exit $rc: $(stderr_text)"
+grep -qF "square.exr: 32x32 is not 2:1" "$work/stderr" || fail "simulate of a 32x32 map did not warn: $(stderr_text)"
+pass "simulate warns that a 32x32 map is not 2:1"
 expect_bad "simulate onto an existing session" "already exists" "$work/none" \
     simulate --env "$WORLD" --trajectory "$work/turn.csv" --out "$work/session"
 expect_bad "simulate with a bad trajectory" "nothing.csv" "$work/none" \

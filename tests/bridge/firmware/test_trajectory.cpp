@@ -65,7 +65,10 @@ TEST(Trajectory, ErrorsNameFileAndLine) {
     EXPECT_EQ(error_of("format quaternion\n0,1,0,0,0\n10,2,0,0,0\n"),
               "motion.csv:3: quaternion norm 2.000000 is not 1 (+-0.01)");
     EXPECT_EQ(error_of("format ypr_deg\n0,0,0,0\n10,0,0,0\n10,1,0,0\n"),
-              "motion.csv:4: time_us 10 does not increase (previous 10)");
+              "motion.csv:4: time_us 10 does not increase (previous 10 us)");
+    // In the file's own unit (it said "time_us 0.5 ... (previous 900000)" of a seconds file).
+    EXPECT_EQ(error_of("0,1,0,0,0\n0.9,1,0,0,0\n0.5,1,0,0,0\n"),
+              "motion.csv:3: t_seconds 0.5 does not increase (previous 0.900000 s)");
     EXPECT_EQ(error_of("format ypr_deg\n5,0,0,0\n"), "motion.csv:2: the first sample must be at time 0");
     EXPECT_EQ(error_of("format ypr_deg\n-1,0,0,0\n"),
               "motion.csv:2: time_us '-1' is not a whole number of microseconds >= 0");
