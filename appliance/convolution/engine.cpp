@@ -537,7 +537,17 @@ void deliver_output(MapResult& r, double tau, const PlannerModel& model, int thr
                         (patch.texels > 0 ? ", and " + std::to_string(patch.texels) + " of them summed exactly" : "");
         return true;
     };
-    if (factor > 1 && fine_tiles) {
+    // Where kMaxOutputHeight stops the whole grid short of the tolerance itself (the map would
+    // be refused), tiles may go on to kMaxTiledHeight rows: 3000x1500's n = 1e5 sums on the
+    // input's grid, and 2x finer is 3000 rows (2.8 % RMS predicted, refused, before).
+    const auto over_tolerance = [&](int f) { return p.predicted_error + e.finer(f).rms > tau; };
+    int tile_factor = factor;
+    if (fine_tiles)
+        while (over_tolerance(tile_factor) && tile_factor * 2 <= model.max_refinement &&
+               p.sum_size.height * tile_factor * 2 > kMaxOutputHeight &&
+               p.sum_size.height * tile_factor * 2 <= kMaxTiledHeight)
+            tile_factor *= 2;
+    if (tile_factor > 1 && fine_tiles) {
         // What deliver_tiles changes, kept to go back to.
         struct Delivered {
             MapPlan plan;
@@ -555,14 +565,22 @@ void deliver_output(MapResult& r, double tau, const PlannerModel& model, int thr
             r.refined_texels = d.refined;
         };
         const Delivered before = take();
-        if (deliver_tiles(factor)) {
+        if (deliver_tiles(tile_factor)) {
             // Tiles twice as fine while the lookups measured between their texels miss the worst
             // share, up to max_tile_refinement (a few tiles 8x finer cost less than a whole grid
             // 4x). Not for the poles' clamp: at 4x its cap's radius is an eighth of the sum
             // grid's spacing, and halving it costs every pole tile four times the texels.
-            for (int f = 2 * factor; tiles_worst.between > model.output_worst_share * tau &&
-                                     f <= model.max_tile_refinement && p.sum_size.height * f <= kMaxOutputHeight;
-                 f *= 2) {
+            // And while the map misses the tolerance through its lookups, up to kMaxTiledHeight
+            // rows (where the whole grid's kMaxOutputHeight stopped the tiles short of it).
+            const auto finer_tiles = [&](int f) {
+                if (f > model.max_tile_refinement) return false;
+                const bool worst = tiles_worst.between > model.output_worst_share * tau &&
+                                   p.sum_size.height * f <= kMaxOutputHeight;
+                const bool over = p.predicted_error > tau && p.lookup_error >= 0.5 * p.predicted_error &&
+                                  p.sum_size.height * f <= kMaxTiledHeight;
+                return worst || over;
+            };
+            for (int f = 2 * tile_factor; finer_tiles(f); f *= 2) {
                 Delivered coarser = take();
                 put_back(before);
                 if (!deliver_tiles(f)) {

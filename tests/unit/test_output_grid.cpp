@@ -727,6 +727,49 @@ TEST(OutputGrid, OddAndNonSquareInputsGetGridsThatKeepTheirPrediction) {
     }
 }
 
+// Inputs whose height halves to an odd number far above what a lobe needs (3000x1500: 1500 ->
+// 750 -> 375) sum on a grid that divides the input, so that the pyramid's columns fall in few
+// phase classes of the output's: a grid of just the rows needed (212x106 for n = 640) shares no
+// factor with the levels, and its sums took 3.3 s against 0.5 s at 250x125.
+TEST(OutputGrid, GridsBelowAnOddLadderStepDivideTheInput) {
+    const PlannerModel model;
+    for (const Size in : {Size{3000, 1500}, Size{2000, 1000}, Size{6000, 3000}, Size{8000, 4000}})
+        for (const double n : {80.0, 160.0, 320.0, 640.0, 1280.0}) {
+            const Size grid = sum_grid_size(n, in, model);
+            const std::string what = to_string(in) + " n " + std::to_string(int(n)) + ": " + to_string(grid);
+            EXPECT_EQ(grid.width, 2 * grid.height) << what;
+            EXPECT_LE(kPi / grid.height, model.sum_grid_spacing * lobe_width(n) * 1.0001) << what;
+            EXPECT_EQ(in.height % grid.height, 0) << what;
+            EXPECT_EQ(in.width % grid.width, 0) << what;
+        }
+}
+
+// An input whose ladder stops at an odd height sums a sharp lobe on a coarser grid than a
+// power-of-two input does (3000x1500's n = 20480 on 1500x750, 4096x2048's on 2048x1024), and its
+// tiles 2x finer were all that 2048 rows allowed: sunset at 3000x1500 and 6000x3000 was refused
+// at 1.32 % predicted. Tiles may go to kMaxTiledHeight rows while the lookups keep a map over
+// the tolerance; the map is then within it, off-grid too.
+TEST(OutputGrid, TilesGoFinerThanAWholeGridMayWhereTheLadderStopsShort) {
+    HdrImage env = sampled(3000, 1500, smooth_field);
+    for (int j = 0; j < 3; ++j)  // a sun of 3x3 texels, 0.36 degrees
+        for (int i = 0; i < 3; ++i) env.set(1000 + i, 500 + j, {6000.f, 4500.f, 3000.f});
+    Options o;
+    o.threads = 2;
+    o.fine_tiles = true;  // glint convolve's default
+    const auto r = convolve(env, {MapRequest::make_phong(20480, "20480")}, o);
+    const MapPlan& p = r[0].plan;
+    std::printf("[  report  ] 3000x1500 n 20480: predicted %.4f, sum %dx%d, tiles %dx (%s)\n", p.predicted_error,
+                p.sum_size.width, p.sum_size.height, r[0].fine.empty() ? 1 : r[0].fine.factor, p.size_reason.c_str());
+    EXPECT_EQ(p.sum_size.height, 750);
+    ASSERT_FALSE(r[0].fine.empty()) << p.size_reason;
+    EXPECT_GT(p.sum_size.height * r[0].fine.factor, kMaxOutputHeight);
+    EXPECT_LE(p.predicted_error, o.tolerance) << p.size_reason;
+    const OffGridError e = measure_offgrid_error(env, r[0].image, 20480, 256, 9, 2, p.lookup, &r[0].fine);
+    std::printf("[  report  ] off-grid %.4f +- %.4f, worst %.3f\n", e.weighted_relative_rms, e.rms_standard_error,
+                e.worst_texel);
+    EXPECT_LE(e.weighted_relative_rms, o.tolerance + 3 * e.rms_standard_error);
+}
+
 TEST(OutputGrid, AHandedOverMapGivesTheSameMaps) {
     // convolve(HdrImage&&) splits the map in place and frees the remainder's level 0 when no
     // plan reads them; the maps must be bit-identical to those of the copying call, with and
