@@ -93,8 +93,9 @@ int bright_texel_cap(const PlannerModel& model, int width, int height);
 inline constexpr int kMaxOutputHeight = 2048;
 // The finest grid fine tiles may reach where a map would otherwise miss the tolerance: a few
 // tiles of it take far less memory than a whole grid (3000x1500's n = 20480 sums on 1500x750,
-// whose tiles 2x finer, all that 2048 rows allowed, left it at 1.32 % predicted: refused).
-inline constexpr int kMaxTiledHeight = 4096;
+// whose tiles 2x finer, all that 2048 rows allowed, left it at 1.32 % predicted: refused;
+// 5376x2688's n = 1e5 needs 5376 rows).
+inline constexpr int kMaxTiledHeight = 8192;
 // The sharpest finite lobe planned (tested); a sharper one is asked for as the mirror map.
 inline constexpr double kMaxShininess = 1e7;
 Size sum_grid_size(double shininess, Size input, const PlannerModel& model);
