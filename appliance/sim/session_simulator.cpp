@@ -392,6 +392,22 @@ SimulateSummary write_session(const SimulateOptions& o, const HdrImage& env, con
 
 }  // namespace
 
+namespace {
+// `out` may be written: it does not exist, or --force is given and it is a session (session.json
+// in it) or an empty directory. --force removed whatever was there (a directory of the user's
+// files, a file) when the session was written.
+void check_replaceable(const fs::path& out, bool overwrite) {
+    std::error_code ec;
+    if (!fs::exists(out, ec)) return;
+    if (!overwrite) throw InputError(out.string() + ": already exists (give --force to replace it)");
+    const bool session = fs::is_directory(out, ec) && fs::is_regular_file(out / "session.json", ec);
+    const bool empty = fs::is_directory(out, ec) && fs::is_empty(out, ec);
+    if (!session && !empty)
+        throw InputError(out.string() + ": not a session (no session.json in it); --force replaces a session "
+                         "directory only, never other files");
+}
+}  // namespace
+
 void detail::check_common_options(const SimulateOptions& o) {
     if (o.width < 16 || o.height < 16 || o.width > 8192 || o.height > 8192)
         throw InputError("--size must be between 16x16 and 8192x8192");
@@ -403,8 +419,7 @@ void detail::check_common_options(const SimulateOptions& o) {
         throw InputError("--sensor-noise must be none, default or high");
     if (o.frame_format != "png" && o.frame_format != "jpg") throw InputError("frame format must be png or jpg");
     if (o.jpeg_quality < 1 || o.jpeg_quality > 100) throw InputError("JPEG quality must be in 1..100");
-    if (fs::exists(o.out) && !o.overwrite)
-        throw InputError(o.out.string() + ": already exists (give --force to replace it)");
+    check_replaceable(o.out, o.overwrite);
 }
 
 std::int64_t detail::appliance_time_ns(const SimulateOptions& o, std::uint64_t camera_us) {
@@ -487,8 +502,7 @@ SimulateSummary simulate_session(const SimulateOptions& o, const std::function<v
 int simulate_charuco_session(const SimulateOptions& o, int views) {
     if (views < 4 || views > 200) throw InputError("--charuco must be 4..200 views");
     if (o.width < 64 || o.height < 64) throw InputError("--size must be at least 64x64 for a ChArUco board");
-    if (fs::exists(o.out) && !o.overwrite)
-        throw InputError(o.out.string() + ": already exists (give --force to replace it)");
+    check_replaceable(o.out, o.overwrite);
     CameraCalibration truth;
     truth.intrinsics = Intrinsics::from_fov(o.width, o.height, o.horizontal_fov_deg * kDeg);
     truth.intrinsics.k1 = -0.08;

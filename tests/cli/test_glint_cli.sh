@@ -260,6 +260,14 @@ grep -qF "square.exr: 32x32 is not 2:1" "$work/stderr" || fail "simulate of a 32
 pass "simulate warns that a 32x32 map is not 2:1"
 expect_bad "simulate onto an existing session" "already exists" "$work/none" \
     simulate --env "$WORLD" --trajectory "$work/turn.csv" --out "$work/session"
+# --force replaces a session, never a directory of other files (it removed them all).
+mkdir -p "$work/notes" && echo "keep me" > "$work/notes/notes.txt"
+expect_bad "simulate --force onto a directory that is not a session" "not a session" "$work/none" \
+    simulate --env "$WORLD" --trajectory "$work/turn.csv" --out "$work/notes" --force
+[[ $(cat "$work/notes/notes.txt") == "keep me" ]] || fail "simulate --force touched a directory that is not a session"
+run simulate --env "$WORLD" --trajectory "$work/turn.csv" --out "$work/session" --fps 2 --size 64x36 --force
+[[ $rc -eq 0 ]] || fail "simulate --force onto a session: exit $rc: $(stderr_text)"
+pass "simulate --force replaces a session, and refuses a directory of other files"
 expect_bad "simulate with a bad trajectory" "nothing.csv" "$work/none" \
     simulate --env "$WORLD" --trajectory "$work/nothing.csv" --out "$work/session2"
 [[ ! -e $work/session2 && ! -e $work/session2.partial ]] || fail "a failed simulate left a session behind"
