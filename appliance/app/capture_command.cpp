@@ -158,6 +158,11 @@ Command add_capture_command(CLI::App& app) {
                                 r.blur_max_px);
                 if (r.frames_without_orientation > 0)
                     std::printf("frames without an orientation (skipped): %d\n", r.frames_without_orientation);
+                if (r.frames_after_sensor_end > 0)
+                    std::fprintf(stderr,
+                                 "glint: warning: %s/sensors.glrec: the orientations end %.2f s before the last frame; "
+                                 "%d frames after them have none (a recording cut short?)\n",
+                                 a->session.c_str(), r.sensor_end_before_last_frame_s, r.frames_after_sensor_end);
                 if (r.orientation_error_median_deg)
                     std::printf("camera orientation against the session's truth: median %.3f, max %.3f degrees\n",
                                 *r.orientation_error_median_deg, *r.orientation_error_max_deg);

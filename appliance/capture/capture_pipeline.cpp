@@ -88,6 +88,7 @@ std::map<std::uint64_t, glm::dquat> truth_orientations(const Session& s) {
 // same decode path and clock mapping as the live serial driver.
 struct SensorTrack {
     std::unique_ptr<host::OrientationHistory> history;
+    std::int64_t last_ns = 0;  // the last sample's time (appliance clock)
 };
 
 // Every orientation sample of the session's sensor recording, in order.
@@ -107,6 +108,7 @@ SensorTrack replay_sensors(const Session& s) {
     // Keep everything; a gap over 100 ms (a lost stretch) is not interpolated across.
     t.history = std::make_unique<host::OrientationHistory>(samples.size() + 1, 100'000'000, 0);
     for (const host::OrientationSample& x : samples) t.history->push(x);
+    t.last_ns = samples.back().t_ns;
     return t;
 }
 
@@ -268,6 +270,16 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
     };
     std::vector<UsedFrame> used;
     CaptureSummary summary;
+    if (!live_stream && o.orientations == OrientationInput::Sensors) {
+        // Frames after the recording's last orientation: a recording cut short (a power loss)
+        // leaves them without an orientation, which alone would read as frames it could not place.
+        const std::int64_t offset_ns = std::llround(session.calibration.time_offset_s * 1e9);
+        for (const FrameRecord& r : session.frames)
+            if (r.t_ns + offset_ns > sensors.last_ns) ++summary.frames_after_sensor_end;
+        if (summary.frames_after_sensor_end > 0)
+            summary.sensor_end_before_last_frame_s =
+                double(session.frames.back().t_ns + offset_ns - sensors.last_ns) * 1e-9;
+    }
     // Progress: the live pass, then (global adjustment) the views, the pairs and the final map.
     const bool adjust = o.drift_correction && o.global_adjustment;
     const bool online = adjust && o.online_adjustment;

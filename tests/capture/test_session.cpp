@@ -332,6 +332,31 @@ TEST_F(SessionTest, DamagedSessionsAreRefusedBeforeTheWorkNamingTheFile) {
     EXPECT_FALSE(fs::exists(dir_ / "long"));
 }
 
+// A sensor recording cut short (a power loss while recording): the capture still uses the frames
+// it can place, and says how many come after the recording's end and by how long.
+TEST_F(SessionTest, ARecordingCutShortIsReported) {
+    SimulateOptions o = small_session();
+    o.fps = 2;
+    o.trajectory = (dir_ / "turn.csv").string();
+    std::ofstream(dir_ / "turn.csv") << "0,1,0,0,0\n6,0.7071,0,0.7071,0\n";  // seconds
+    simulate_session(o);
+    const fs::path session = dir_ / "session";
+    CaptureOptions c = capture_options(session, dir_ / "captured.exr", 64, 32, OrientationInput::Sensors);
+    c.global_adjustment = false;
+    const CaptureSummary whole = capture_session(c);
+    EXPECT_EQ(whole.frames_after_sensor_end, 0);
+    const fs::path recording = open_session(session).sensors;
+    fs::resize_file(recording, fs::file_size(recording) / 2);
+    const CaptureSummary cut = capture_session(c);
+    std::printf("[  report  ] cut recording: %d frames after its end, %.2f s before the last frame, %d without an "
+                "orientation\n", cut.frames_after_sensor_end, cut.sensor_end_before_last_frame_s,
+                cut.frames_without_orientation);
+    EXPECT_GE(cut.frames_after_sensor_end, 3);
+    EXPECT_LE(cut.frames_after_sensor_end, cut.frames_without_orientation);
+    EXPECT_GT(cut.sensor_end_before_last_frame_s, 1.0);
+    EXPECT_GT(cut.frames_used, 0);
+}
+
 TEST_F(SessionTest, ResponseCalibrationFromABracketFindsTheTrueCurve) {
     SimulateOptions o = small_session();
     o.env = std::string(GLINT_BLENDER_WORLDS) + "/courtyard.exr";
