@@ -35,6 +35,35 @@ double number(const json& j, const char* key, const std::string& source, const s
     return d;
 }
 
+// Values the camera model cannot use inside the image, which would pass every range check and
+// make nonsense of the map (a sweep of bad inputs, 2026-12-06: vignetting a1 = -5 gave a map
+// 18x off, k1 = 50 half the coverage): a vignetting falloff that reaches 0 or grows 20-fold (every
+// radiance is divided by it), and a distortion that its undistortion cannot invert at the
+// image's corners and edges.
+void check_usable_in_the_image(const CameraCalibration& c, const std::string& source) {
+    const Intrinsics& k = c.intrinsics;
+    const double w = k.width, h = k.height;
+    for (const double fu : {0.0, 0.5, 1.0})
+        for (const double fv : {0.0, 0.5, 1.0}) {
+            const double u = fu * w, v = fv * h;
+            const double falloff = c.vignetting.at(k, u, v);
+            if (!(falloff >= 0.05 && falloff <= 20))
+                bad(source, "vignetting", "the falloff is " + std::to_string(falloff) + " at pixel (" +
+                                              std::to_string(int(u)) + ", " + std::to_string(int(v)) +
+                                              "); it must stay within 0.05 to 20 over the image");
+            const double xd = (u - k.cx) / k.fx, yd = (v - k.cy) / k.fy;
+            double x = 0, y = 0, xr = 0, yr = 0;
+            undistort(k, xd, yd, x, y);
+            distort(k, x, y, xr, yr);
+            const double off_px = std::hypot((xr - xd) * k.fx, (yr - yd) * k.fy);
+            if (!(off_px < 0.5))
+                bad(source, "intrinsics.k1/k2/k3/p1/p2",
+                    "the distortion cannot be undone at pixel (" + std::to_string(int(u)) + ", " +
+                        std::to_string(int(v)) + ") (" + (std::isfinite(off_px) ? std::to_string(off_px) : "no") +
+                        " pixels back from the round trip); too strong for a camera lens");
+        }
+}
+
 }  // namespace
 
 std::string calibration_to_json(const CameraCalibration& c) {
@@ -97,6 +126,7 @@ CameraCalibration calibration_from_json(const std::string& text, const std::stri
     const json& v = member(j, "vignetting", source, "");
     c.vignetting = {number(v, "a1", source, "vignetting"), number(v, "a2", source, "vignetting"),
                     number(v, "a3", source, "vignetting")};
+    check_usable_in_the_image(c, source);
     const json& r = member(j, "response", source, "");
     const json& inv = member(r, "inverse", source, "response");
     if (!inv.is_array() || inv.size() != 256) bad(source, "response.inverse", "must hold 256 numbers");

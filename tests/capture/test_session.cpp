@@ -566,6 +566,26 @@ TEST(CalibrationIo, SensorLimitsAreOptionalAndRoundTrip) {
     } catch (const InputError& e) {
         EXPECT_NE(std::string(e.what()).find("c.json: key 'version': version 10000000000"), std::string::npos) << e.what();
     }
+    // In range, but of no use inside the image (a sweep of bad inputs: a map 18x off, half the
+    // coverage): a falloff that reaches 0, a distortion that cannot be undone at the corners.
+    CameraCalibration dark = c;
+    dark.vignetting = {-5, 0, 0};
+    CameraCalibration warped = c;
+    warped.intrinsics.k1 = 50;
+    for (const auto& [calibration, key] : {std::pair{dark, "key 'vignetting'"}, std::pair{warped, "key 'intrinsics.k1"}}) {
+        try {
+            calibration_from_json(calibration_to_json(calibration), "c.json");
+            ADD_FAILURE() << "accepted " << key;
+        } catch (const InputError& e) {
+            EXPECT_NE(std::string(e.what()).find(std::string("c.json: ") + key), std::string::npos) << e.what();
+        }
+    }
+    // A real lens's barrel distortion and corner falloff read as written.
+    CameraCalibration lens = c;
+    lens.intrinsics.k1 = -0.3;
+    lens.intrinsics.k2 = 0.1;
+    lens.vignetting = {-0.5, 0.1, 0};
+    EXPECT_NO_THROW(calibration_from_json(calibration_to_json(lens), "c.json"));
 }
 
 TEST(CalibrationIo, AMountingWrittenOnceReadsBackToTheSameText) {
