@@ -169,8 +169,10 @@ std::vector<SensorOrientation> load_sensor_orientations(const Session& session) 
 
 CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const gl::GlContext* gpu,
                            const std::function<void(long long, long long)>& progress) {
-    if (o.width < 8 || o.height < 4 || o.width > 16384 || o.height > 8192)
-        throw InputError("--size must be between 8x4 and 16384x8192");
+    // A map of 2048x1024 takes 0.7 GB while it is made, growing with its texels: 8192x4096 about
+    // 11 GB, the old limit of 16384x8192 about 37 GB (a sweep of bad inputs, 2026-12-06).
+    if (o.width < 8 || o.height < 4 || o.width > 8192 || o.height > 4096)
+        throw InputError("--size must be between 8x4 and 8192x4096");
     if (o.min_samples < 1) throw InputError("--min-samples must be at least 1");
     if (o.adjustment_rounds < 1 || o.adjustment_rounds > 20) throw InputError("--adjustment-rounds must be 1 to 20");
     if (!(o.drift_gain > 0 && o.drift_gain <= 1)) throw InputError("--drift-gain must be in (0, 1]");

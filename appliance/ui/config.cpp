@@ -387,8 +387,8 @@ const std::vector<Key>& keys() {
         t.push_back(key("frame", &C::frame, "hard_cap_ms", &FrameSection::hard_cap_ms, kLive, real_range(0, 10000, true)));
         t.push_back(key("frame", &C::frame, "watchdog_s", &FrameSection::watchdog_s, kLive, real_range(0, 3600, true)));
         // [capture]: read when a scan starts.
-        t.push_back(key("capture", &C::capture, "map_width", &CaptureSection::map_width, kLive, int_range(16, 16384)));
-        t.push_back(key("capture", &C::capture, "map_height", &CaptureSection::map_height, kLive, int_range(8, 8192)));
+        t.push_back(key("capture", &C::capture, "map_width", &CaptureSection::map_width, kLive, int_range(16, 8192)));
+        t.push_back(key("capture", &C::capture, "map_height", &CaptureSection::map_height, kLive, int_range(8, 4096)));
         t.push_back(key("capture", &C::capture, "target_coverage", &CaptureSection::target_coverage, kLive,
                         real_range(0, 1, true)));
         t.push_back(key("capture", &C::capture, "max_scan_s", &CaptureSection::max_scan_s, kLive, real_range(0, 3600, true)));
