@@ -104,6 +104,7 @@ Command add_calibrate_command(CLI::App& app) {
                 capture::CameraCalibration cal = capture::calibration_to_update(a->calibration, s);
                 for (const auto& [step, run] : steps)
                     if (step->parsed()) run(s, cal, a->calibration);
+                capture::check_calibration_usable(cal, a->calibration);
                 capture::save_calibration(a->calibration, cal);
                 return 0;
             }};

@@ -198,6 +198,7 @@ struct OverlayState {
             context.wizard->start(a.calibration, utc_stamp());
         } else if (const std::optional<capture::CameraCalibration> result = context.wizard->result()) {
             try {
+                capture::check_calibration_usable(*result, context.calibration_file.string());
                 capture::save_calibration(context.calibration_file, *result);
                 context.wizard->set_current(*result);
                 wizard_note = "saved to " + context.calibration_file.string() +

@@ -22,6 +22,11 @@ ResponseResult calibrate_response(const Session& s) {
     double shortest = 1e30, longest = 0;
     for (const FrameRecord& r : s.frames) {
         const CameraFrame f = load_frame(s, r);
+        // One size for the bracket (OpenCV asserts, naming no file, on a frame of another).
+        if (!images.empty() && (f.rgb.cols != images.front().cols || f.rgb.rows != images.front().rows))
+            throw InputError((s.dir / r.file).string() + ": the image is " + std::to_string(f.rgb.cols) + "x" +
+                             std::to_string(f.rgb.rows) + ", the bracket's first frame " +
+                             std::to_string(images.front().cols) + "x" + std::to_string(images.front().rows));
         cv::Mat bgr;
         cv::cvtColor(f.rgb, bgr, cv::COLOR_RGB2BGR);
         images.push_back(bgr);
@@ -343,6 +348,7 @@ AlignmentResult calibrate_alignment(const Session& s, const std::vector<SensorOr
     bool have_previous = false;
     for (const FrameRecord& r : s.frames) {
         CameraFrame f = load_frame(s, r);
+        check_frame_size(s, r, f);  // the rotation is read through the calibration's intrinsics
         if (have_previous) {
             if (auto q = image_rotation(previous.rgb, f.rgb, s.calibration.intrinsics))
                 if (angle_between(q->a_from_b, glm::dquat(1, 0, 0, 0)) > 2 * kPi / 180)  // too small a turn says little

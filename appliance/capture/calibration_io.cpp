@@ -37,31 +37,35 @@ double number(const json& j, const char* key, const std::string& source, const s
 
 // Values the camera model cannot use inside the image, which would pass every range check and
 // make nonsense of the map (a sweep of bad inputs, 2026-12-06: vignetting a1 = -5 gave a map
-// 18x off, k1 = 50 half the coverage): a vignetting falloff that reaches 0 or grows 20-fold (every
-// radiance is divided by it), and a distortion that its undistortion cannot invert at the
-// image's corners and edges.
+// 18x off, k1 = 50 half the coverage): a vignetting falloff that reaches 0 or grows 20-fold
+// (every radiance is divided by it), and a radial distortion r (1 + k1 r^2 + k2 r^4 + k3 r^6)
+// that turns back before the image's farthest corner (two directions then share a pixel). Not
+// the round trip through `undistort`: its fixed point stops short on wide but real lenses (k1 =
+// -0.4, k2 = 0.2 at a 90-degree field), whose radial curve rises all the way.
 void check_usable_in_the_image(const CameraCalibration& c, const std::string& source) {
     const Intrinsics& k = c.intrinsics;
-    const double w = k.width, h = k.height;
-    for (const double fu : {0.0, 0.5, 1.0})
-        for (const double fv : {0.0, 0.5, 1.0}) {
-            const double u = fu * w, v = fv * h;
+    const double right = k.width - 1, bottom = k.height - 1;
+    double corner = 0;  // the farthest pixel's distorted radius, normalised
+    for (const double u : {0.0, 0.5 * right, right})
+        for (const double v : {0.0, 0.5 * bottom, bottom}) {
             const double falloff = c.vignetting.at(k, u, v);
             if (!(falloff >= 0.05 && falloff <= 20))
                 bad(source, "vignetting", "the falloff is " + std::to_string(falloff) + " at pixel (" +
                                               std::to_string(int(u)) + ", " + std::to_string(int(v)) +
                                               "); it must stay within 0.05 to 20 over the image");
-            const double xd = (u - k.cx) / k.fx, yd = (v - k.cy) / k.fy;
-            double x = 0, y = 0, xr = 0, yr = 0;
-            undistort(k, xd, yd, x, y);
-            distort(k, x, y, xr, yr);
-            const double off_px = std::hypot((xr - xd) * k.fx, (yr - yd) * k.fy);
-            if (!(off_px < 0.5))
-                bad(source, "intrinsics.k1/k2/k3/p1/p2",
-                    "the distortion cannot be undone at pixel (" + std::to_string(int(u)) + ", " +
-                        std::to_string(int(v)) + ") (" + (std::isfinite(off_px) ? std::to_string(off_px) : "no") +
-                        " pixels back from the round trip); too strong for a camera lens");
+            corner = std::max(corner, std::hypot((u - k.cx) / k.fx, (v - k.cy) / k.fy));
         }
+    constexpr double kStep = 1e-3, kLongest = 50;
+    double r = 0;
+    for (double reached = 0; reached < corner; r += kStep) {
+        const double r2 = r * r;
+        const double slope = 1 + r2 * (3 * k.k1 + r2 * (5 * k.k2 + r2 * 7 * k.k3));
+        if (!(slope > 0) || r > kLongest)
+            bad(source, "intrinsics.k1/k2/k3",
+                "the radial distortion turns back at radius " + std::to_string(r) + " before the image's corner (" +
+                    std::to_string(corner) + "): two directions would share a pixel");
+        reached = r * (1 + r2 * (k.k1 + r2 * (k.k2 + r2 * k.k3)));
+    }
 }
 
 }  // namespace
@@ -192,7 +196,12 @@ void save_calibration(const std::filesystem::path& path, const CameraCalibration
     write_text_atomically(path, calibration_to_json(calibration));
 }
 
+void check_calibration_usable(const CameraCalibration& calibration, const std::string& source) {
+    check_usable_in_the_image(calibration, source);
+}
+
 void save_state_calibration(const std::filesystem::path& state_dir, const CameraCalibration& calibration) {
+    check_usable_in_the_image(calibration, (state_dir / kStateCalibrationName).string());
     state::save_item(state_dir, kStateCalibrationName, {state::text_file(kStateCalibrationName, calibration_to_json(calibration))});
 }
 

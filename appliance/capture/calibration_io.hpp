@@ -17,6 +17,12 @@ std::string calibration_to_json(const CameraCalibration& calibration);
 // Throws InputError "FILE: key 'k': reason" (the file name is `source`).
 CameraCalibration calibration_from_json(const std::string& text, const std::string& source);
 
+// Throws InputError naming `source` and the key where a calibration would not load again: a
+// vignetting falloff outside 0.05-20 in the image, a radial distortion that turns back before its
+// farthest corner. For a calibration about to be put in force (glint calibrate, the menu's
+// wizards), so that the kiosk is never left with one it cannot start on.
+void check_calibration_usable(const CameraCalibration& calibration, const std::string& source);
+
 // Writes `path` atomically; when `path` is a state item (docs/state.md: the state directory's
 // calibration.json saved by save_state_calibration) it saves a new checksummed version of it.
 void save_calibration(const std::filesystem::path& path, const CameraCalibration& calibration);

@@ -275,9 +275,12 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
     if (!live_stream && o.orientations == OrientationInput::Sensors) {
         // Frames after the recording's last orientation: a recording cut short (a power loss)
         // leaves them without an orientation, which alone would read as frames it could not place.
+        // Beyond a second only: a live recording's last sample lags its last frame by the
+        // sensor's latency.
         const std::int64_t offset_ns = std::llround(session.calibration.time_offset_s * 1e9);
+        constexpr std::int64_t kMarginNs = 1'000'000'000;
         for (const FrameRecord& r : session.frames)
-            if (r.t_ns + offset_ns > sensors.last_ns) ++summary.frames_after_sensor_end;
+            if (r.t_ns + offset_ns > sensors.last_ns + kMarginNs) ++summary.frames_after_sensor_end;
         if (summary.frames_after_sensor_end > 0)
             summary.sensor_end_before_last_frame_s =
                 double(session.frames.back().t_ns + offset_ns - sensors.last_ns) * 1e-9;

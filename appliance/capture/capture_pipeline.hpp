@@ -110,7 +110,7 @@ struct GroundTruthError {
 struct CaptureSummary {
     int frames_used = 0;
     int frames_without_orientation = 0;
-    // Of those, the frames after the sensor recording's last orientation, and how long before
+    // Of those, the frames more than a second after the sensor recording's last orientation, and how long before
     // the last frame it ends (seconds): a recording cut short (0 without a recording).
     int frames_after_sensor_end = 0;
     double sensor_end_before_last_frame_s = 0;

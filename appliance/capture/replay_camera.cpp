@@ -28,6 +28,7 @@ std::optional<CameraFrame> ReplayCamera::next_frame(std::chrono::milliseconds ti
     }
     try {
         CameraFrame f = load_frame(session_, r);
+        check_frame_size(session_, r, f);
         ++next_;
         ++health_.frames;
         if (next_ >= 2 && r.index != session_.frames[next_ - 2].index + 1) health_.dropped += r.index - session_.frames[next_ - 2].index - 1;

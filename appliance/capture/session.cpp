@@ -166,12 +166,6 @@ CameraFrame load_frame(const Session& session, const FrameRecord& r) {
     const fs::path p = session.dir / r.file;
     cv::Mat bgr = cv::imread(p.string(), cv::IMREAD_COLOR);
     if (bgr.empty()) throw InputError(p.string() + ": missing or not a readable image");
-    // Every reader indexes a frame by the calibration's size (a smaller frame read past its end).
-    const Intrinsics& k = session.calibration.intrinsics;
-    if (bgr.cols != k.width || bgr.rows != k.height)
-        throw InputError(p.string() + ": the image is " + std::to_string(bgr.cols) + "x" + std::to_string(bgr.rows) +
-                         ", the session's calibration (" + (session.dir / "calibration.json").string() + ") is for " +
-                         std::to_string(k.width) + "x" + std::to_string(k.height));
     CameraFrame f;
     cv::cvtColor(bgr, f.rgb, cv::COLOR_BGR2RGB);
     f.t_ns = r.t_ns;
@@ -180,6 +174,15 @@ CameraFrame load_frame(const Session& session, const FrameRecord& r) {
     f.digital_gain = r.digital_gain;
     f.sequence = r.index;
     return f;
+}
+
+void check_frame_size(const Session& session, const FrameRecord& record, const CameraFrame& frame) {
+    const Intrinsics& k = session.calibration.intrinsics;
+    if (frame.rgb.cols != k.width || frame.rgb.rows != k.height)
+        throw InputError((session.dir / record.file).string() + ": the image is " + std::to_string(frame.rgb.cols) + "x" +
+                         std::to_string(frame.rgb.rows) + ", the session's calibration (" +
+                         (session.dir / "calibration.json").string() + ") is for " + std::to_string(k.width) + "x" +
+                         std::to_string(k.height));
 }
 
 std::vector<TruthPose> load_truth_poses(const Session& session) {

@@ -52,6 +52,11 @@ struct Session {
 Session open_session(const std::filesystem::path& dir);
 // Loads one frame's image (PNG or JPEG); throws InputError naming the file.
 CameraFrame load_frame(const Session& session, const FrameRecord& record);
+// Throws InputError naming the frame's file and calibration.json unless `frame` is the size of the
+// session's calibration: for readers that index frames by it (a smaller frame read past its end).
+// Not in load_frame: an intrinsics or response calibration of a new camera mode reads frames of
+// another size than the calibration in force.
+void check_frame_size(const Session& session, const FrameRecord& record, const CameraFrame& frame);
 // truth/camera.csv and truth/env.exr of a simulated session.
 std::vector<TruthPose> load_truth_poses(const Session& session);
 std::filesystem::path truth_env_path(const Session& session);

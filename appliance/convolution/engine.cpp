@@ -540,11 +540,18 @@ void deliver_output(MapResult& r, double tau, const PlannerModel& model, int thr
     // Where kMaxOutputHeight stops the whole grid short of the tolerance itself (the map would
     // be refused), tiles may go on to kMaxTiledHeight rows: 3000x1500's n = 1e5 sums on the
     // input's grid, and 2x finer is 3000 rows (2.8 % RMS predicted, refused, before).
-    const auto over_tolerance = [&](int f) { return p.predicted_error + e.finer(f).rms > tau; };
+    // Only where the lookups are most of the miss (a method's own error, e.g. a low --sh-order,
+    // is not mended by finer tiles), and not for a lobe that may take the lobe lookup instead
+    // (exact; what such a map did before).
+    const bool capped = factor * 2 <= model.max_refinement && p.sum_size.height * factor * 2 > kMaxOutputHeight &&
+                        !lobe_lookup_possible;
+    const auto over_tolerance = [&](int f) {
+        const double lookups = e.finer(f).rms;
+        return p.predicted_error + lookups > tau && lookups >= p.predicted_error;
+    };
     int tile_factor = factor;
-    if (fine_tiles)
+    if (fine_tiles && capped)
         while (over_tolerance(tile_factor) && tile_factor * 2 <= model.max_refinement &&
-               p.sum_size.height * tile_factor * 2 > kMaxOutputHeight &&
                p.sum_size.height * tile_factor * 2 <= kMaxTiledHeight)
             tile_factor *= 2;
     if (tile_factor > 1 && fine_tiles) {
@@ -576,7 +583,7 @@ void deliver_output(MapResult& r, double tau, const PlannerModel& model, int thr
                 if (f > model.max_tile_refinement) return false;
                 const bool worst = tiles_worst.between > model.output_worst_share * tau &&
                                    p.sum_size.height * f <= kMaxOutputHeight;
-                const bool over = p.predicted_error > tau && p.lookup_error >= 0.5 * p.predicted_error &&
+                const bool over = capped && p.predicted_error > tau && p.lookup_error >= 0.5 * p.predicted_error &&
                                   p.sum_size.height * f <= kMaxTiledHeight;
                 return worst || over;
             };

@@ -525,6 +525,10 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
             } catch (const std::exception& e) {
                 on_transition(flow.failure(t_s, "message.capture_failed", e.what()));
             }
+            // Gone now: failed in the pass that pressed the button, the job would outlive the
+            // reset on leaving for ATTRACT below (this pass began in ATTRACT), and every later
+            // visit would rethrow its error.
+            capture_job.reset();
         }
         if (flow.state() == KioskState::Capture && capture_job) {
             live = capture_job->live();

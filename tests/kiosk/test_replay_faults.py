@@ -2,10 +2,11 @@
 """glint replay when the capture or the recording fails (found by a sweep of damaged inputs,
 2026-12-06):
 
-1. The camera switches to another size mid-scan (--inject-fault camera-mode): the capture cannot
-   use such frames, and the kiosk says so at once (CAPTURE -> ATTRACT with the capture's error),
-   not after the visitor has scanned on for nothing until the scan's end. The replay goes on and
-   ends with 0.
+1. The camera switches to another size as the scan starts (--inject-fault camera-mode over the
+   button press at 3 s): the capture cannot use such frames, and the kiosk says so at once
+   (CAPTURE -> ATTRACT with the capture's error), not after the visitor has scanned on for nothing
+   until the scan's end. The next visit (the recording's press at 73 s) gets a capture of its own,
+   not the failed one's error again. The replay ends with 0.
 2. A replay into the directory of an earlier one that fails (a frame of the recording is missing)
    exits 2 naming the file, and leaves none of the earlier run's summary.json, frame log or
    captured map behind for a script to read as this run's.
@@ -25,16 +26,20 @@ shutil.rmtree(work, ignore_errors=True)
 os.makedirs(work)
 check = Checks()
 
-# 1. Frames at half the calibration's size from 10 s into the replay (the scan starts at 3 s).
+# 1. Frames at half the calibration's size from 2.5 to 5 s (the button is pressed at 3 s).
 out = os.path.join(work, "mode")
-r = subprocess.run([glint, "replay", session, "--out", out, "--inject-fault", "camera-mode:10:11"],
+r = subprocess.run([glint, "replay", session, "--out", out, "--inject-fault", "camera-mode:2.5:5"],
                    capture_output=True, text=True, timeout=scaled(900))
 print(r.stderr[-3000:])
 check(r.returncode == 0, f"the replay rode the fault out and ended with 0 (got {r.returncode})")
 failed = re.search(r"state CAPTURE -> ATTRACT at ([0-9.]+) s: frame [0-9]+ is [0-9]+x[0-9]+, the calibration is for", r.stderr)
 check(failed is not None, "the capture's error ended the scan, naming the frame and the sizes")
 if failed:
-    check(float(failed.group(1)) < 12.0, f"at once after the fault at 10 s (at {failed.group(1)} s)")
+    check(float(failed.group(1)) < 5.5, f"at once, as the scan began at 3 s (at {failed.group(1)} s)")
+check(r.stderr.count("ATTRACT -> CAPTURE") >= 2, "a later press started another visit")
+check(len(re.findall(r"CAPTURE -> ATTRACT at [0-9.]+ s: frame", r.stderr)) == 1,
+      "the later visit did not fail with the first one's error")
+check("CAPTURE -> PROCESSING" in r.stderr, "the later visit's capture went on to PROCESSING")
 
 # 2. An earlier replay's outputs, then a replay of a copy whose sixth frame is missing.
 damaged = os.path.join(work, "session")
