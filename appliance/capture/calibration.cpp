@@ -72,7 +72,7 @@ VignettingResult calibrate_vignetting(const Session& s, const CameraCalibration&
     VignettingResult out;
     for (const FrameRecord& r : s.frames) {
         const CameraFrame f = load_frame(s, r);
-        if (f.rgb.cols != k.width || f.rgb.rows != k.height)
+        if (!f.is(k.width, k.height))
             throw InputError(s.dir.string() + ": frame " + r.file + " is not the calibration's " + std::to_string(k.width) +
                              "x" + std::to_string(k.height));
         const double t = r.exposure_s * r.analogue_gain * r.digital_gain;

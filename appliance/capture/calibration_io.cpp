@@ -35,6 +35,8 @@ double number(const json& j, const char* key, const std::string& source, const s
     return d;
 }
 
+}  // namespace
+
 // Values the camera model cannot use inside the image, which would pass every range check and
 // make nonsense of the map (a sweep of bad inputs, 2026-12-06: vignetting a1 = -5 gave a map
 // 18x off, k1 = 50 half the coverage): a vignetting falloff that reaches 0 or grows 20-fold
@@ -42,7 +44,7 @@ double number(const json& j, const char* key, const std::string& source, const s
 // that turns back before the image's farthest corner (two directions then share a pixel). Not
 // the round trip through `undistort`: its fixed point stops short on wide but real lenses (k1 =
 // -0.4, k2 = 0.2 at a 90-degree field), whose radial curve rises all the way.
-void check_usable_in_the_image(const CameraCalibration& c, const std::string& source) {
+void check_calibration_usable(const CameraCalibration& c, const std::string& source) {
     const Intrinsics& k = c.intrinsics;
     const double right = k.width - 1, bottom = k.height - 1;
     double corner = 0;  // the farthest pixel's distorted radius, normalised
@@ -67,8 +69,6 @@ void check_usable_in_the_image(const CameraCalibration& c, const std::string& so
         reached = r * (1 + r2 * (k.k1 + r2 * (k.k2 + r2 * k.k3)));
     }
 }
-
-}  // namespace
 
 std::string calibration_to_json(const CameraCalibration& c) {
     const Intrinsics& k = c.intrinsics;
@@ -130,7 +130,7 @@ CameraCalibration calibration_from_json(const std::string& text, const std::stri
     const json& v = member(j, "vignetting", source, "");
     c.vignetting = {number(v, "a1", source, "vignetting"), number(v, "a2", source, "vignetting"),
                     number(v, "a3", source, "vignetting")};
-    check_usable_in_the_image(c, source);
+    check_calibration_usable(c, source);
     const json& r = member(j, "response", source, "");
     const json& inv = member(r, "inverse", source, "response");
     if (!inv.is_array() || inv.size() != 256) bad(source, "response.inverse", "must hold 256 numbers");
@@ -196,12 +196,8 @@ void save_calibration(const std::filesystem::path& path, const CameraCalibration
     write_text_atomically(path, calibration_to_json(calibration));
 }
 
-void check_calibration_usable(const CameraCalibration& calibration, const std::string& source) {
-    check_usable_in_the_image(calibration, source);
-}
-
 void save_state_calibration(const std::filesystem::path& state_dir, const CameraCalibration& calibration) {
-    check_usable_in_the_image(calibration, (state_dir / kStateCalibrationName).string());
+    check_calibration_usable(calibration, (state_dir / kStateCalibrationName).string());
     state::save_item(state_dir, kStateCalibrationName, {state::text_file(kStateCalibrationName, calibration_to_json(calibration))});
 }
 

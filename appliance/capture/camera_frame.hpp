@@ -16,6 +16,9 @@ struct CameraFrame {
     std::uint64_t sequence = 0;     // frame counter of the source; a gap means dropped frames
 
     double total_gain() const { return analogue_gain * digital_gain; }
+    // 8-bit RGB of width x height (a calibration's size): what every reader that indexes a frame
+    // by its calibration needs.
+    bool is(int width, int height) const { return rgb.type() == CV_8UC3 && rgb.cols == width && rgb.rows == height; }
 };
 
 }  // namespace glint::capture

@@ -369,7 +369,7 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
     std::vector<glm::dvec3> pixel_rays;
     const double focal_px = std::max(cal.intrinsics.fx, cal.intrinsics.fy);
     for_each_frame(camera, [&](std::size_t place, const CameraFrame& f) {
-        if (f.rgb.type() != CV_8UC3 || f.rgb.cols != cal.intrinsics.width || f.rgb.rows != cal.intrinsics.height)
+        if (!f.is(cal.intrinsics.width, cal.intrinsics.height))
             throw InputError("frame " + std::to_string(f.sequence) + " is " + std::to_string(f.rgb.cols) + "x" +
                              std::to_string(f.rgb.rows) + ", the calibration is for " +
                              std::to_string(cal.intrinsics.width) + "x" + std::to_string(cal.intrinsics.height) +

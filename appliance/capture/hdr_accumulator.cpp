@@ -80,7 +80,7 @@ int HdrAccumulator::auto_downscale(const Intrinsics& k, int map_width) {
 std::vector<float> HdrAccumulator::filtered_planes(const CameraFrame& frame, const CameraCalibration& cal, int s,
                                                    int& out_width, int& out_height) {
     const Intrinsics& k = cal.intrinsics;
-    if (frame.rgb.type() != CV_8UC3 || frame.rgb.cols != k.width || frame.rgb.rows != k.height)
+    if (!frame.is(k.width, k.height))
         throw InputError("frame " + std::to_string(frame.sequence) + " is " + std::to_string(frame.rgb.cols) + "x" +
                          std::to_string(frame.rgb.rows) + " 8-bit RGB expected " + std::to_string(k.width) + "x" +
                          std::to_string(k.height) + " (the calibration's size)");

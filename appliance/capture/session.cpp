@@ -178,7 +178,7 @@ CameraFrame load_frame(const Session& session, const FrameRecord& r) {
 
 void check_frame_size(const Session& session, const FrameRecord& record, const CameraFrame& frame) {
     const Intrinsics& k = session.calibration.intrinsics;
-    if (frame.rgb.cols != k.width || frame.rgb.rows != k.height)
+    if (!frame.is(k.width, k.height))
         throw InputError((session.dir / record.file).string() + ": the image is " + std::to_string(frame.rgb.cols) + "x" +
                          std::to_string(frame.rgb.rows) + ", the session's calibration (" +
                          (session.dir / "calibration.json").string() + ") is for " + std::to_string(k.width) + "x" +

@@ -236,6 +236,12 @@ double relative_error(double error, double value, double floor_value) {
     return floor > 0 ? error / floor : 0.0;
 }
 
+// The largest error of a bilinear lookup over a texel's cell, for a quadratic with the second
+// differences of its four neighbours (estimate_lookup_error's worst, one value at a time).
+double bilinear_worst_at(double value, double left, double right, double above, double below) {
+    return (std::abs(left - 2.0 * value + right) + std::abs(above - 2.0 * value + below)) / 8.0;
+}
+
 // x / floor where floor > 0, else 0 (a texel of a map that is 0 everywhere).
 Lanes ratio(Lanes x, Lanes floor) { return floor > 0.0 ? x / (floor > 0.0 ? floor : 1.0) : Lanes{}; }
 
@@ -626,9 +632,9 @@ double spot_lookup_worst(const HdrImage& input, double n, Size grid, int spots, 
             for (int x = 1; x + 1 < cols; ++x)
                 for (int c = 0; c < 3; ++c) {
                     const double value = at(y, x, c);
-                    const double a = at(y, x - 1, c) - 2.0 * value + at(y, x + 1, c);
-                    const double b = at(y - 1, x, c) - 2.0 * value + at(y + 1, x, c);
-                    largest = std::max(largest, relative_error((std::abs(a) + std::abs(b)) / 8.0, value, floor_value));
+                    const double error =
+                        bilinear_worst_at(value, at(y, x - 1, c), at(y, x + 1, c), at(y - 1, x, c), at(y + 1, x, c));
+                    largest = std::max(largest, relative_error(error, value, floor_value));
                 }
         worst[std::size_t(s)] = largest;
     });
@@ -673,9 +679,7 @@ TileLookupWorst tile_lookup_worst(const HdrImage& base, const FineTiles& tiles, 
                 const float* below = tiles.blocks.row(k * side + v + 1);
                 for (int q = 3; q < 3 * (side - 1); ++q) {
                     const double value = row[q];
-                    const double a = double(row[q - 3]) - 2 * value + row[q + 3];
-                    const double b = double(above[q]) - 2 * value + below[q];
-                    add(worst.between, (std::abs(a) + std::abs(b)) / 8.0, value);
+                    add(worst.between, bilinear_worst_at(value, row[q - 3], row[q + 3], above[q], below[q]), value);
                 }
             }
         }

@@ -422,6 +422,14 @@ void detail::check_common_options(const SimulateOptions& o) {
     check_replaceable(o.out, o.overwrite);
 }
 
+void detail::check_session_length(const firmware::sim::Trajectory& camera, const std::string& where) {
+    if (camera.end_us() == 0) throw InputError(where + "the trajectory must last longer than 0 s");
+    const double seconds = double(camera.end_us()) * 1e-6;
+    if (seconds > kMaxSessionS)
+        throw InputError(where + "the trajectory lasts " + std::to_string(std::llround(seconds)) +
+                         " s; a simulated session lasts at most " + std::to_string(int(kMaxSessionS)) + " s");
+}
+
 std::int64_t detail::appliance_time_ns(const SimulateOptions& o, std::uint64_t camera_us) {
     return std::int64_t(host_us_of_board(o, kLeadUs + camera_us)) * 1000;
 }
@@ -430,10 +438,8 @@ capture::CameraCalibration detail::true_camera(const SimulateOptions& o) { retur
 
 SimulateSummary detail::write_planned_session(const SimulateOptions& o, const HdrImage& env, const SessionPlan& plan,
                                               const std::function<void(long long, long long)>& progress) {
-    if (!plan.camera || plan.camera->end_us() == 0) throw InputError("the trajectory must last longer than 0 s");
-    if (double(plan.camera->end_us()) * 1e-6 > kMaxSessionS)
-        throw InputError("the trajectory lasts " + std::to_string(std::llround(double(plan.camera->end_us()) * 1e-6)) +
-                         " s; a simulated session lasts at most " + std::to_string(int(kMaxSessionS)) + " s");
+    if (!plan.camera) throw InputError("the trajectory must last longer than 0 s");
+    check_session_length(*plan.camera, "");
     for (std::size_t i = 0; i < plan.segments.size(); ++i) {
         const SessionSegment& s = plan.segments[i];
         if (!(s.fps > 0 && s.fps <= 120)) throw InputError("a segment's frame rate must be in (0, 120] fps");
@@ -478,10 +484,7 @@ SimulateSummary simulate_session(const SimulateOptions& o, const std::function<v
             throw InputError(std::string("--trajectory: ") + e.what());  // names the file and line
         }
     }();
-    if (camera.end_us() == 0) throw InputError(o.trajectory + ": the trajectory must last longer than 0 s");
-    if (double(camera.end_us()) * 1e-6 > detail::kMaxSessionS)
-        throw InputError(o.trajectory + ": the trajectory lasts " + std::to_string(std::llround(double(camera.end_us()) * 1e-6)) +
-                         " s; a simulated session lasts at most " + std::to_string(int(detail::kMaxSessionS)) + " s");
+    detail::check_session_length(camera, o.trajectory + ": ");  // before the map's load
 
     // The map after the trajectory: a bad file is told before a long load.
     LoadedExr loaded = load_exr(o.env);

@@ -62,6 +62,9 @@ capture::CameraCalibration true_camera(const SimulateOptions& o);
 // The longest session written: the sensor board's path is kept at 200 Hz for the whole of it (a
 // trajectory of 1e9 s asked for 10 GB before the first frame).
 inline constexpr double kMaxSessionS = 3600;
+// Throws InputError, `where` first (a trajectory file's name and ": ", or nothing), unless the
+// trajectory lasts more than 0 s and at most kMaxSessionS.
+void check_session_length(const firmware::sim::Trajectory& camera, const std::string& where);
 
 // Writes the session of `plan` to o.out (into OUT.partial, renamed at the end). `o` gives the
 // camera, the sensor board, the clocks, the frame format and the threads; o.fps, o.trajectory
