@@ -40,10 +40,15 @@ void calibrate_vignetting(const capture::Session& s, capture::CameraCalibration&
 
 void calibrate_alignment(const capture::Session& s, capture::CameraCalibration& cal, const std::string& file) {
     const capture::AlignmentResult r = capture::calibrate_alignment(s);
+    // Before anything is written: a mounting the motion could not pin down keeps the one in force.
+    capture::check_alignment_usable(r, s.dir.string());
     cal.sensor_from_camera = r.sensor_from_camera;
     cal.time_offset_s = r.time_offset_s;
     std::printf("alignment from %d frame pairs: time offset %.4f s, median residual %.3f degrees -> %s\n", r.pairs,
                 r.time_offset_s, r.residual_deg, file.c_str());
+    std::printf("the motion pins the mounting down to %.3f degrees (noise alone, one standard deviation) about its "
+                "least-turned axis (camera %+.2f %+.2f %+.2f)\n",
+                r.mounting_sd_deg, r.weakest_axis.x, r.weakest_axis.y, r.weakest_axis.z);
     if (s.has_truth) {
         const capture::CameraCalibration truth = capture::truth_calibration(s);
         std::printf("mounting against the session's truth: %.3f degrees\n",
@@ -77,7 +82,9 @@ constexpr StepSpec kSteps[] = {
     {"alignment",
      "Camera-to-sensor rotation and time offset from rotation-only motion (best: glint simulate --trajectory "
      "alignment, turns about all three axes): image rotations between consecutive frames against the sensor's",
-     "Session of the calibration motion (or a scan) with its sensor recording", calibrate_alignment},
+     "Session of the calibration motion (or a scan over rows at several pitches) with its sensor recording; a "
+     "motion that leaves the mounting loose about some axis is refused and nothing is written",
+     calibrate_alignment},
     {"intrinsics",
      "Focal lengths, principal point and distortion from views of a ChArUco board (7x5 squares of 4 cm, 3 cm "
      "markers, DICT_5X5_100), with the RMS reprojection error",

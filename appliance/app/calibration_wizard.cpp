@@ -584,6 +584,8 @@ void CalibrationWizard::compute(std::uint64_t run) {
         case CalibrationKind::Alignment:
         case CalibrationKind::TimeOffset: {
             const capture::AlignmentResult r = capture::calibrate_alignment(s, orientations);
+            // The time offset alone needs no turn about every axis; the mounting does.
+            if (kind == CalibrationKind::Alignment) capture::check_alignment_usable(r, "alignment");
             next.time_offset_s = r.time_offset_s;
             if (kind == CalibrationKind::Alignment) next.sensor_from_camera = r.sensor_from_camera;
             const double moved = angle_between(r.sensor_from_camera, current.sensor_from_camera) * 180 / kPi;

@@ -36,11 +36,19 @@ struct VignettingResult {
 // by least squares. Throws InputError when too few usable pixels remain.
 VignettingResult calibrate_vignetting(const Session& flat_field, const CameraCalibration& calibration);
 
+// An alignment is not put in force when the motion leaves the mounting's standard deviation about
+// some axis above this (degrees): the mounting's target, 0.3 degrees.
+inline constexpr double kMaxMountingSdDeg = 0.3;
+
 struct AlignmentResult {
     glm::dquat sensor_from_camera{1, 0, 0, 0};  // the mounting
     double time_offset_s = 0;     // camera time + offset = sensor time of the same instant
     int pairs = 0;                // frame pairs whose image rotation was measured
     double residual_deg = 0;      // median angle between image and (aligned) sensor relative rotations
+    // The mounting's standard deviation about the axis the motion pinned down least, from the
+    // pairs' turns and residuals (degrees), and that axis in the camera's frame.
+    double mounting_sd_deg = 0;
+    glm::dvec3 weakest_axis{0, 0, 1};
 };
 
 // The camera-sensor alignment from a capture with rotation-only motion (a scan): the relative
@@ -49,12 +57,18 @@ struct AlignmentResult {
 // rotation over the same interval; the mounting is the rotation that best maps the sensor's
 // rotation axes onto the camera's (weighted by angle, Kabsch), and the time offset the one, on a
 // 1 ms grid within +-`max_offset_s`, with the smallest residual. Needs the session's sensor
-// stream. Throws InputError when fewer than 10 pairs could be measured.
+// stream. Throws InputError when fewer than 10 pairs could be measured. A single-axis scan gives
+// the offset but leaves the mounting about the scan axis loose: see mounting_sd_deg.
 AlignmentResult calibrate_alignment(const Session& capture, double max_offset_s = 0.05);
 // The same from orientations at hand (the maintenance menu's wizard keeps them as they arrive;
 // a session's sensors.glrec holds only a serial link's bytes). Time order; `capture`'s sensor
 // recording is not read.
 AlignmentResult calibrate_alignment(const Session& capture, const std::vector<SensorOrientation>& orientations,
                                     double max_offset_s = 0.05);
+
+// Throws InputError, `where` first, naming the axis and how loose the mounting is there, when the
+// motion did not pin it down to kMaxMountingSdDeg: `glint calibrate alignment` and the wizard
+// then write nothing and keep the calibration in force.
+void check_alignment_usable(const AlignmentResult& result, const std::string& where);
 
 }  // namespace glint::capture

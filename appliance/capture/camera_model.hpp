@@ -37,8 +37,9 @@ struct Intrinsics {
 
 // OpenCV's distortion of normalised coordinates (x, y) -> (xd, yd).
 void distort(const Intrinsics& k, double x, double y, double& xd, double& yd);
-// The inverse, by fixed-point iteration (as cv::undistortPoints); converges for the mild
-// distortion of camera lenses inside the image.
+// The inverse: the fixed-point iteration of cv::undistortPoints, finished by Newton's steps where
+// it has not converged (the corners of wide lenses). Inside the image of a usable calibration
+// (check_calibration_usable: the radial curve does not turn back) the solution is unique.
 void undistort(const Intrinsics& k, double xd, double yd, double& x, double& y);
 
 // Pixel of a camera-frame direction, or nullopt when it is behind the camera (Z >= 0) or

@@ -74,7 +74,11 @@ HdrAccumulator::Band& HdrAccumulator::band_for(double t) {
 int HdrAccumulator::auto_downscale(const Intrinsics& k, int map_width) {
     // Pixels per map texel at the image centre, rounded down: never blur more than one texel.
     const double per_texel = kTwoPi / map_width * std::min(k.fx, k.fy);
-    return std::max(1, int(std::floor(per_texel)));
+    // At most half the frame's shorter side, so that the filtered frame keeps 2x2 cells to read
+    // between: an 8x4 map of 160x90 frames asked for cells of 89 pixels and failed ("frame too
+    // small for a downscale of 89"), where a coarse map is only coarse.
+    const int most = std::max(1, std::min(k.width, k.height) / 2);
+    return std::clamp(int(std::floor(per_texel)), 1, most);
 }
 
 std::vector<float> HdrAccumulator::filtered_planes(const CameraFrame& frame, const CameraCalibration& cal, int s,

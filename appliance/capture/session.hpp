@@ -24,6 +24,15 @@ namespace glint::capture {
 
 inline constexpr int kSessionVersion = 1;
 
+// What frames.csv may say of a frame: exposures from 1 ps to 100 s, gains from 1/16 to 4096 (an
+// analogue gain of 16 and a digital one of 256 at most on the sensors libcamera drives). Outside
+// them the file is damaged. The lower bound is far below any real sensor's (tens of us) because
+// the simulator without --sensor-limits brackets down to 1/64^4 of its exposure, about 1e-10 s.
+inline constexpr double kMinFrameExposureS = 1e-12;
+inline constexpr double kMaxFrameExposureS = 100;
+inline constexpr double kMinFrameGain = 1.0 / 16;
+inline constexpr double kMaxFrameGain = 4096;
+
 struct FrameRecord {
     std::uint64_t index = 0;
     std::int64_t t_ns = 0;  // appliance CLOCK_MONOTONIC at mid-exposure
@@ -48,7 +57,8 @@ struct Session {
 };
 
 // Reads session.json, calibration.json and frames.csv. Throws InputError naming the file (and
-// line or key) for anything missing or malformed; frames must have increasing times.
+// line or key) for anything missing or malformed; frames must have increasing times and indices,
+// and exposures and gains a camera can have.
 Session open_session(const std::filesystem::path& dir);
 // Loads one frame's image (PNG or JPEG); throws InputError naming the file.
 CameraFrame load_frame(const Session& session, const FrameRecord& record);

@@ -8,11 +8,14 @@
 // Writes tests/bench/results/capture.md.
 //
 //   glint_bench_capture [--out FILE] [--seeds 1,2] [--maps NAME,...] [--no-stress] [--quick] [--bracket-fill]
-//                       [--no-top-ups] [--keep]
+//                       [--no-top-ups] [--keep] [--validation]
 //   --maps: which of courtyard, studio, sunset and the stress maps (dim_1e+02 ...) to run in the
 //   seeds table; --quick: only that table (no variants, calibrations or alignment); --no-top-ups:
 //   the exposure controller without top-up frames (top_up_below 0; default 1/8); --keep: leave the seeds table's
-//   sessions, captured maps and orientations in $TMPDIR/glint-bench-capture for replays.
+//   sessions, captured maps and orientations in $TMPDIR/glint-bench-capture for replays;
+//   --validation: the seeds table also for the five other maps of blender-data (city, forest,
+//   interior, night, sunrise), which no constant was ever tuned on: a check on maps the project
+//   has not seen, as the new user tried it.
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -231,6 +234,7 @@ int main(int argc, char** argv) {
     bool bracket_fill = false;  // the experimental fill (CaptureOptions::bracket_fill) in every capture
     bool keep = false;          // leave the seeds table's sessions and maps for replays
     bool top_ups = true;        // the exposure controller's top-up frames (its default)
+    bool validation = false;    // the five other blender-data maps in the seeds table
     for (int i = 1; i < argc; ++i) {
         const std::string a = argv[i];
         if (a == "--out" && i + 1 < argc) out = argv[++i];
@@ -243,9 +247,10 @@ int main(int argc, char** argv) {
         else if (a == "--bracket-fill") bracket_fill = true;
         else if (a == "--no-top-ups") top_ups = false;
         else if (a == "--keep") keep = true;
+        else if (a == "--validation") validation = true;
         else {
             std::fprintf(stderr, "usage: glint_bench_capture [--out FILE] [--seeds 1,2] [--maps NAME,...] [--no-stress] [--quick] "
-                                 "[--bracket-fill] [--no-top-ups] [--keep]\n");
+                                 "[--bracket-fill] [--no-top-ups] [--keep] [--validation]\n");
             return 2;
         }
     }
@@ -271,6 +276,9 @@ int main(int argc, char** argv) {
            << (bracket_fill ? "**With the experimental bracket fill** (`--bracket-fill`, docs/capture.md; not the "
                               "default; the GPU column without it).\n\n"
                             : "")
+           << (validation ? "**With the five other maps of blender-data** (`--validation`: city, forest, interior, night, "
+                            "sunrise), which no constant was ever tuned on.\n\n"
+                          : "")
            << (top_ups ? ""
                          : "**Without the exposure controller's top-up frames** (`--no-top-ups`: top_up_below 0, "
                            "docs/capture.md; not the default).\n\n")
@@ -433,6 +441,9 @@ int main(int argc, char** argv) {
     // Every map of the set for every seed, through the default capture.
     std::vector<std::pair<std::string, fs::path>> set;
     for (const char* name : {"courtyard", "studio", "sunset"}) set.emplace_back(name, kWorlds + "/" + name + ".exr");
+    if (validation)
+        for (const char* name : {"city", "forest", "interior", "night", "sunrise"})
+            set.emplace_back(name, kWorlds + "/" + name + ".exr");
     const fs::path stress_dir = work / "stress";
     if (stress) {
         fs::create_directories(stress_dir);

@@ -262,6 +262,31 @@ TEST(HdrAccumulation, AClippedTexelGetsNoEstimateFromThatFrame) {
     EXPECT_EQ(acc.samples()[std::size_t(int(side.y)) * 256 + std::size_t(int(side.x))], 1u);
 }
 
+TEST(HdrAccumulation, AMapCoarserThanTheFrameIsOnlyCoarse) {
+    // An 8x4 map texel spans 89 pixels of a 160x90 frame: the filter's cells were that wide and
+    // the frame had no 2x2 of them to read between ("frame too small for a downscale of 89").
+    // The cells stop at half the frame's shorter side, and the smooth sky still comes out.
+    const HdrImage env = smooth_env(64, 32, 1.0, {0, 0, -1}, 0.2);
+    SensorModel sensor;
+    sensor.noise = false;
+    const CameraCalibration cal = test_camera(sensor);
+    EXPECT_EQ(HdrAccumulator::auto_downscale(cal.intrinsics, 8), 45);
+    EXPECT_EQ(HdrAccumulator::auto_downscale(cal.intrinsics, 1024), 1);  // unchanged where a texel is a pixel or less
+    CameraSimulator sim(env, cal, sensor);
+    HdrAccumulator acc(8, 4);
+    for (int k = 0; k < 8; ++k) {
+        const glm::dquat look = camera_look(45.0 * k, 20);
+        const FrameContribution c = acc.add_frame(sim.render(look, 0), cal, look);
+        EXPECT_EQ(c.downscale, 45);
+    }
+    const HdrImage map = acc.radiance();
+    for (int i = 0; i < 8; ++i) {
+        const Rgb got = map.at(i, 1), want = env.at(i * 8 + 4, 12);
+        EXPECT_GT(got.g, 0.5 * want.g) << "column " << i;
+        EXPECT_LT(got.g, 2.0 * want.g) << "column " << i;
+    }
+}
+
 TEST(HdrAccumulation, ADarkReadStandsForTheMeanOfTheReadNoiseItClipped) {
     // Code 0 holds every read whose signal plus read noise fell at or below zero. With the
     // calibration's read noise sigma it is linearised as the mean of a zero signal's noise below

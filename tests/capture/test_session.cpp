@@ -322,6 +322,25 @@ TEST_F(SessionTest, DamagedSessionsAreRefusedBeforeTheWorkNamingTheFile) {
         EXPECT_NE(std::string(e.what()).find("frames.csv:"), std::string::npos) << e.what();
         EXPECT_NE(std::string(e.what()).find("no gap over an hour"), std::string::npos) << e.what();
     }
+    // A frame index repeated (compared with its neighbour's true pose) and exposures and gains no
+    // camera has (1e300 s made a map of zeros and a motion blur of 1e300 pixels).
+    const auto with_second_line = [&](const std::string& fields, const std::string& expected) {
+        std::ofstream f(session / "frames.csv", std::ios::trunc);
+        f << frames_csv_header() << "\n" << frames_csv_line(s.frames[0]) << "\n" << fields << "," << s.frames[1].file << "\n";
+        f.close();
+        try {
+            open_session(session);
+            ADD_FAILURE() << "no error for " << fields;
+        } catch (const InputError& e) {
+            EXPECT_NE(std::string(e.what()).find("frames.csv:3: " + expected), std::string::npos) << e.what();
+        }
+    };
+    const std::string t1 = std::to_string(s.frames[1].t_ns), i1 = std::to_string(s.frames[1].index);
+    with_second_line(std::to_string(s.frames[0].index) + "," + t1 + ",0.01,1,1", "frame indices must increase");
+    with_second_line(i1 + "," + t1 + ",1e300,1,1", "exposure 1e+300 s is outside");
+    with_second_line(i1 + "," + t1 + ",1e-300,1,1", "exposure 1e-300 s is outside");
+    with_second_line(i1 + "," + t1 + ",0.01,1e9,1", "gain 1e+09 is outside");
+    with_second_line(i1 + "," + t1 + ",0.01,1,0.001", "gain 0.001 is outside");
     // A trajectory of 1e9 s (its sensor path at 200 Hz asked for 10 GB).
     std::ofstream(dir_ / "long.csv") << "0,1,0,0,0\n1000000000,1,0,0,0\n";
     o.trajectory = (dir_ / "long.csv").string();
@@ -461,6 +480,10 @@ TEST_F(SessionTest, AlignmentFromAScanComesCloserThanNoCalibration) {
     EXPECT_GT(r.pairs, 100);
     EXPECT_LT(off, 1.5);
     EXPECT_NEAR(r.time_offset_s * 1e3, -20.0, kTimeOffsetToleranceMs);
+    // A scan over rows at several pitches turns about two axes, enough to pin the mounting down.
+    std::printf("alignment from a scan: the mounting pinned to %.3f degrees about (%+.2f %+.2f %+.2f)\n",
+                r.mounting_sd_deg, r.weakest_axis.x, r.weakest_axis.y, r.weakest_axis.z);
+    EXPECT_NO_THROW(check_alignment_usable(r, "scan"));
 }
 
 TEST_F(SessionTest, AlignmentRecoversAPositiveTimeOffset) {
@@ -502,6 +525,40 @@ TEST_F(SessionTest, AlignmentFromTheThreeAxisMotionFindsMountingAndOffset) {
     EXPECT_GE(r.pairs, 20);  // 30 measured: small frames find features on fewer pairs
     EXPECT_LT(off, kThreeAxisMountingToleranceDeg);
     EXPECT_NEAR(r.time_offset_s * 1e3, 17.3, kThreeAxisTimeOffsetToleranceMs);
+    std::printf("three-axis motion: the mounting pinned to %.3f degrees about its least-turned axis\n", r.mounting_sd_deg);
+    EXPECT_NO_THROW(check_alignment_usable(r, "three axes"));
+}
+
+// The calibration motion cut off after its first turns (the technician stopped, a recording
+// lost): the image and sensor turns still agree (a median residual under 0.1 degrees), but about
+// the axis they never turned away from the mounting is anything. It was written 13.6 degrees off.
+TEST_F(SessionTest, AnAlignmentMotionCutShortIsNotPutInForce) {
+    SimulateOptions o = small_session();
+    o.env = std::string(GLINT_BLENDER_WORLDS) + "/courtyard.exr";
+    o.trajectory = "alignment";
+    o.width = 160;
+    o.height = 90;
+    o.fps = 4;
+    o.mount_yaw_deg = -3.0;
+    o.mount_pitch_deg = 2.5;
+    o.mount_roll_deg = 4.0;
+    simulate_session(o);
+    // Only the frames of the first sweep (about one axis).
+    const fs::path session = dir_ / "session";
+    Session s = open_session(session);
+    const std::vector<TruthPose> truth = load_truth_poses(s);
+    ASSERT_EQ(truth.size(), s.frames.size());
+    std::size_t keep = 1;
+    while (keep < truth.size() && angle_between(truth[keep].world_from_camera, truth[0].world_from_camera) < kPi / 2 &&
+           keep < s.frames.size() / 3)
+        ++keep;
+    s.frames.resize(keep);
+    const AlignmentResult r = calibrate_alignment(s);
+    std::printf("alignment motion cut to %zu frames: %d pairs, residual %.3f degrees, mounting pinned to %.2f "
+                "degrees about (%+.2f %+.2f %+.2f)\n",
+                keep, r.pairs, r.residual_deg, r.mounting_sd_deg, r.weakest_axis.x, r.weakest_axis.y, r.weakest_axis.z);
+    EXPECT_GT(r.mounting_sd_deg, kMaxMountingSdDeg);
+    EXPECT_THROW(check_alignment_usable(r, "cut"), InputError);
 }
 
 TEST_F(SessionTest, IntrinsicsFromChArUcoViewsMatchTheTrueCamera) {

@@ -88,21 +88,17 @@ run simulate --env "$WORLD" --trajectory "$work/scan.csv" --out "$work/scan" --f
 [[ $rc -eq 0 ]] || fail "simulate scan: exit $rc: $(cat "$work/stderr")"
 frames=$(($(wc -l <"$work/scan/frames.csv") - 1))
 
-# calibrate alignment: runs, writes the mounting and offset, reports against the truth. Its
-# accuracy on single-axis scans is a known limit (docs/capture.md: degrees off), so the bound is
-# loose: it catches a broken command, not a weak estimate.
+# calibrate alignment on a short scan (yaw with a small pitch wobble): the turns about the vertical
+# leave the mounting about it loose (0.37 degrees, one standard deviation), so the calibration is
+# refused naming that axis, and nothing is written (docs/capture.md "Alignment", step 6).
+cal_before=$(sha256sum <"$work/cal.json")
 run calibrate alignment --session "$work/scan" --calibration "$work/cal.json"
-[[ $rc -eq 0 ]] || fail "calibrate alignment: exit $rc: $(cat "$work/stderr")"
-off=$(number_after "mounting against the session's truth:")
-below "$off" 15 || fail "calibrate alignment: mounting $off degrees off the truth"
-python3 - "$work/cal.json" <<'PY' || fail "calibrate alignment: cal.json lacks the mounting or the offset"
-import json, sys
-c = json.load(open(sys.argv[1]))
-q = c["sensor_from_camera"]  # w, x, y, z
-assert len(q) == 4 and abs(sum(v * v for v in q) - 1) < 1e-9, q
-assert q != [1, 0, 0, 0] and isinstance(c["time_offset_s"], float), c
-PY
-pass "calibrate alignment writes the mounting and time offset ($off degrees off on a short scan)"
+[[ $rc -eq 2 ]] || fail "calibrate alignment on a one-axis scan: exit $rc, expected 2: $(cat "$work/stdout" "$work/stderr")"
+grep -q "scan: the motion turned too little about the camera's axis" "$work/stderr" ||
+    fail "calibrate alignment on a one-axis scan: no reason given: $(cat "$work/stderr")"
+grep -q "turn the camera about all three axes" "$work/stderr" || fail "calibrate alignment: no advice: $(cat "$work/stderr")"
+[[ $(sha256sum <"$work/cal.json") == "$cal_before" ]] || fail "calibrate alignment on a one-axis scan changed $work/cal.json"
+pass "calibrate alignment refuses a one-axis scan, naming the loose axis, and leaves the calibration as it was"
 
 # The three-axis calibration motion (simulate --trajectory alignment, small frames): calibrate
 # alignment finds a 5-degree mounting and a -15 ms offset. Measured at 160x90: 0.06 degrees and
