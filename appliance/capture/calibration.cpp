@@ -552,8 +552,10 @@ AlignmentResult calibrate_alignment(const Session& s, const std::vector<SensorOr
         cv::Matx33d vectors;
         cv::eigen(info, values, vectors);  // descending
         // A residual vector's components' sigma from its length's median (a 3D Gaussian's length
-        // has its median at 1.538 sigma).
-        const double sigma = best.residual_deg * kPi / 180 / 1.538;
+        // has its median at 1.538 sigma), at least 0.01 degrees (a twentieth of a pixel at 320
+        // pixels over 70 degrees: what the image rotations resolve), so that a noiseless session
+        // turning about one axis is still caught.
+        const double sigma = std::max(best.residual_deg / 1.538, 0.01) * kPi / 180;
         const double weakest = values(2);
         best.mounting_sd_deg = weakest > 0 ? sigma / std::sqrt(weakest) * 180 / kPi : 1e9;
         best.weakest_axis = glm::dvec3(vectors(2, 0), vectors(2, 1), vectors(2, 2));

@@ -42,6 +42,11 @@ namespace glint::capture {
 // this time (its bracket: one readout apart, at most four), read at the same texel.
 inline constexpr std::int64_t kBracketSpanNs = 100'000'000;
 
+// A cell is bright enough for the footprint reads (not only 8x its dimmest neighbour) when one of
+// its pixels could be this many read-noise standard deviations above zero (footprint_zone's noise
+// floor): in a dark 320x180 frame about 5 pixels' brightest channel draws that much.
+inline constexpr double kZoneNoiseSigmas = 4.0;
+
 struct AccumulationSettings {
     int downscale = 0;            // box filter factor s; 0: about one map texel per pixel
     double min_weight = 0.02;     // a frame counts as a sample of a texel when its W reaches this
@@ -130,7 +135,11 @@ public:
     // footprint (footprint_read): a source smaller than a pixel then keeps its energy wherever it
     // falls between texel centres (docs/capture.md "Accumulation": with a point read 61-144 %, with
     // a box in the image's axes a spread of 14 % per frame, with the footprint 1 %).
-    static std::vector<std::uint8_t> footprint_zone(const std::vector<float>& planes, int width, int height);
+    // With a noise floor (relative exposure), only cells above it count as bright (clipped ones
+    // always do): accumulation_planes passes kZoneNoiseSigmas x the calibration's read noise over
+    // the cell's s x s pixels, so that the noise of a dark frame is no bright feature.
+    static std::vector<std::uint8_t> footprint_zone(const std::vector<float>& planes, int width, int height,
+                                                    double noise_floor = 0);
     // In the zone, each cell's weights W raised to the largest within 2 cells (not clipped ones):
     // one weight per frame over a compact source (hdr_accumulator.cpp says why).
     static void zone_weights(std::vector<float>& planes, int width, int height, const std::vector<std::uint8_t>& zone);

@@ -37,14 +37,14 @@ std::vector<std::string> split_csv(const std::string& line) {
     return out;
 }
 
-// Lines of a CSV file after its header, which must equal `header`.
-// A number as an error message shows it: short, and exact enough to find in the file.
+// A number as an error message shows it (frames_csv_line writes exposures with %.9g).
 std::string csv_number(double v) {
     char buf[32];
-    std::snprintf(buf, sizeof buf, "%.6g", v);
+    std::snprintf(buf, sizeof buf, "%.9g", v);
     return buf;
 }
 
+// Lines of a CSV file after its header, which must equal `header`.
 std::vector<std::pair<int, std::vector<std::string>>> read_csv(const fs::path& p, const std::string& header,
                                                                std::size_t columns, const char* what) {
     std::ifstream in(p);

@@ -24,11 +24,12 @@ namespace glint::capture {
 
 inline constexpr int kSessionVersion = 1;
 
-// What frames.csv may say of a frame: exposures from 1 ps to 100 s, gains from 1/16 to 4096 (an
+// What frames.csv may say of a frame: exposures from 1 fs to 100 s, gains from 1/16 to 4096 (an
 // analogue gain of 16 and a digital one of 256 at most on the sensors libcamera drives). Outside
 // them the file is damaged. The lower bound is far below any real sensor's (tens of us) because
-// the simulator without --sensor-limits brackets down to 1/64^4 of its exposure, about 1e-10 s.
-inline constexpr double kMinFrameExposureS = 1e-12;
+// the simulator without --sensor-limits brackets down to 1/64^4 of its exposure: from its
+// shortest auto-exposure, 1e-4 s, that is 6e-12 s.
+inline constexpr double kMinFrameExposureS = 1e-15;
 inline constexpr double kMaxFrameExposureS = 100;
 inline constexpr double kMinFrameGain = 1.0 / 16;
 inline constexpr double kMaxFrameGain = 4096;

@@ -474,6 +474,16 @@ SimulateSummary simulate_session(const SimulateOptions& o, const std::function<v
     }
     if (!(o.guided_speed_deg_s >= 5 && o.guided_speed_deg_s <= 180)) throw InputError("--guided-speed must be 5..180 deg/s");
     if (o.bracket > 0 && !(o.bracket_first_exposure_s > 0)) throw InputError("--bracket-first must be positive");
+    // What frames.csv may hold (session.hpp), checked before anything is written: --bracket 21
+    // from the default 1e-4 s went past 100 s, and the session would not have opened.
+    if (o.bracket > 0 && (o.bracket_first_exposure_s < capture::kMinFrameExposureS ||
+                          o.bracket_first_exposure_s * std::pow(2.0, o.bracket - 1) > capture::kMaxFrameExposureS)) {
+        char range[160];
+        std::snprintf(range, sizeof range, "--bracket %d from --bracket-first %g s reaches %g s; a frame's exposure must be %g to %g s",
+                      o.bracket, o.bracket_first_exposure_s, o.bracket_first_exposure_s * std::pow(2.0, o.bracket - 1),
+                      capture::kMinFrameExposureS, capture::kMaxFrameExposureS);
+        throw InputError(range);
+    }
     detail::check_common_options(o);
     const firmware::sim::Trajectory camera = [&] {
         if (o.trajectory == "guided") return firmware::sim::Trajectory(guided_camera_trajectory(o.guided_speed_deg_s));

@@ -322,6 +322,18 @@ TEST(HdrAccumulation, DarkCellsBelowZeroAreNoBrightFeature) {
     EXPECT_EQ(zone[4 * std::size_t(pw) + 6], 1);
     EXPECT_EQ(zone[4 * std::size_t(pw) + 8], 1);
     EXPECT_EQ(zone[4 * std::size_t(pw) + 1], 0);
+    // A bracket's short frame: the room is read noise about zero, draws of 1.5 sigma (sigma
+    // 0.002) beside code-0 cells. Each is 8x its dimmest neighbour, so without a noise floor all
+    // of the frame was "bright"; above 4 sigma only the source is.
+    for (std::size_t k = 0; k < std::size_t(pw) * ph; ++k)
+        if ((k + k / std::size_t(pw)) % 2) planes[k * HdrAccumulator::kPlaneFloats] = 0.003f;
+    zone = HdrAccumulator::footprint_zone(planes, pw, ph);
+    EXPECT_GT(std::count(zone.begin(), zone.end(), 1), pw * ph * 9 / 10);
+    zone = HdrAccumulator::footprint_zone(planes, pw, ph, kZoneNoiseSigmas * 0.002);
+    EXPECT_EQ(zone[4 * std::size_t(pw) + 6], 1);
+    EXPECT_EQ(zone[4 * std::size_t(pw) + 8], 1);
+    EXPECT_EQ(zone[4 * std::size_t(pw) + 1], 0);
+    EXPECT_EQ(std::count(zone.begin(), zone.end(), 1), 25);  // the source and 2 cells round it
 }
 
 TEST(HdrAccumulation, NoisyAutoExposedFramesAverageDown) {

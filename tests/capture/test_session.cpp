@@ -503,8 +503,9 @@ TEST_F(SessionTest, AlignmentRecoversAPositiveTimeOffset) {
 // The calibration motion (`--trajectory alignment`: sweeps about yaw, pitch and roll in turn) at
 // small frames: with turns about all three axes every axis of the mounting is observable, and
 // the joint refinement finds the offset between the 1 ms grid's steps.
-TEST_F(SessionTest, AlignmentFromTheThreeAxisMotionFindsMountingAndOffset) {
-    SimulateOptions o = small_session();
+// The calibration motion of courtyard at 160x90, 4 fps, the sensor mounted -3 / 2.5 / 4 degrees
+// (yaw / pitch / roll; the roll is about the optical axis: what a yaw scan could not see).
+SimulateOptions three_axis_motion(SimulateOptions o) {
     o.env = std::string(GLINT_BLENDER_WORLDS) + "/courtyard.exr";
     o.trajectory = "alignment";
     o.width = 160;
@@ -512,7 +513,12 @@ TEST_F(SessionTest, AlignmentFromTheThreeAxisMotionFindsMountingAndOffset) {
     o.fps = 4;
     o.mount_yaw_deg = -3.0;
     o.mount_pitch_deg = 2.5;
-    o.mount_roll_deg = 4.0;  // about the optical axis: what a yaw scan could not see
+    o.mount_roll_deg = 4.0;
+    return o;
+}
+
+TEST_F(SessionTest, AlignmentFromTheThreeAxisMotionFindsMountingAndOffset) {
+    SimulateOptions o = three_axis_motion(small_session());
     o.time_offset_s = 0.0173;
     simulate_session(o);
     const Session s = open_session(dir_ / "session");
@@ -533,16 +539,7 @@ TEST_F(SessionTest, AlignmentFromTheThreeAxisMotionFindsMountingAndOffset) {
 // lost): the image and sensor turns still agree (a median residual under 0.1 degrees), but about
 // the axis they never turned away from the mounting is anything. It was written 13.6 degrees off.
 TEST_F(SessionTest, AnAlignmentMotionCutShortIsNotPutInForce) {
-    SimulateOptions o = small_session();
-    o.env = std::string(GLINT_BLENDER_WORLDS) + "/courtyard.exr";
-    o.trajectory = "alignment";
-    o.width = 160;
-    o.height = 90;
-    o.fps = 4;
-    o.mount_yaw_deg = -3.0;
-    o.mount_pitch_deg = 2.5;
-    o.mount_roll_deg = 4.0;
-    simulate_session(o);
+    simulate_session(three_axis_motion(small_session()));
     // Only the frames of the first sweep (about one axis).
     const fs::path session = dir_ / "session";
     Session s = open_session(session);
