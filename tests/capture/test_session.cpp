@@ -412,6 +412,17 @@ TEST_F(SessionTest, AResponseNeedsARealBracket) {
     o.bracket = 3;  // 4x: too narrow
     simulate_session(o);
     EXPECT_THROW(calibrate_response(open_session(dir_ / "session")), InputError);
+    // A bracket whose longest frame frames.csv may not hold (over 100 s) is refused before any
+    // file is written: the session would not have opened.
+    o.bracket = 25;
+    o.out = dir_ / "too-long";
+    try {
+        simulate_session(o);
+        ADD_FAILURE() << "no error for a bracket reaching 1677 s";
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("--bracket 25 from --bracket-first"), std::string::npos) << e.what();
+    }
+    EXPECT_FALSE(fs::exists(dir_ / "too-long"));
 }
 
 TEST_F(SessionTest, VignettingFromAFlatFieldFindsTheTrueFalloff) {
