@@ -192,9 +192,10 @@ std::vector<std::uint8_t> HdrAccumulator::footprint_zone(const std::vector<float
                                                          double noise_floor) {
     // Compact bright features, where point reads alias energy: cells 8 times brighter (brightest
     // channel) than the dimmest of their 3x3 neighbours and above `noise_floor`, or clipped, and
-    // every cell within 2 of one. Elsewhere texels keep their point reads and the frame its detail: averaging whole
-    // frames over the texels' footprints cost drift correction a third of its corrected frames
-    // on studio (100 -> 63 of 154, measured with a box filter of the same width).
+    // every cell within 2 of one. Elsewhere texels keep their point reads and the frame its
+    // detail: averaging whole frames over the texels' footprints cost drift correction a third of
+    // its corrected frames on studio (100 -> 63 of 154, measured with a box filter of the same
+    // width).
     const auto xmax = [&](int u, int v) {
         const float* c = planes.data() + (std::size_t(v) * std::size_t(pw) + std::size_t(u)) * kPlaneFloats;
         // At least 0: a dark cell's unbiased code 0 reads below zero, and 8x a negative minimum
