@@ -333,6 +333,12 @@ AlignmentResult calibrate_alignment(const Session& s, double max_offset_s) {
     return calibrate_alignment(s, load_sensor_orientations(s), max_offset_s);
 }
 
+// A pair whose residual is over 3x the median (and over 0.5 degrees) is an outlier (a wrong
+// homography): the refinement leaves it out, and so does the mounting's information.
+static double outlier_cutoff_rad(double median_residual_rad) {
+    return std::max(3 * median_residual_rad, 0.5 * kPi / 180);
+}
+
 AlignmentResult calibrate_alignment(const Session& s, const std::vector<SensorOrientation>& orientations,
                                     double max_offset_s) {
     if (orientations.size() < 2) throw InputError(s.dir.string() + ": an alignment needs the sensor's orientations");
@@ -441,7 +447,7 @@ AlignmentResult calibrate_alignment(const Session& s, const std::vector<SensorOr
                 if (const auto r = residual(p, x, off_ns)) angles.push_back(glm::length(*r));
             if (angles.size() < 10) break;
             std::nth_element(angles.begin(), angles.begin() + std::ptrdiff_t(angles.size() / 2), angles.end());
-            const double cutoff = std::max(3 * angles[angles.size() / 2], 0.5 * kPi / 180);
+            const double cutoff = outlier_cutoff_rad(angles[angles.size() / 2]);
             // Normal equations from a numerical Jacobian (4 parameters: d of the mounting, offset).
             cv::Matx44d JtJ = cv::Matx44d::zeros();
             cv::Vec4d Jtr(0, 0, 0, 0);
@@ -539,7 +545,7 @@ AlignmentResult calibrate_alignment(const Session& s, const std::vector<SensorOr
     // round but never away from, almost none. A motion about too few axes (a recording cut off
     // after the first turns) gave a median residual of 0.09 degrees and a mounting 13.6 degrees off.
     {
-        const double cutoff = std::max(3 * best.residual_deg, 0.5) * kPi / 180;
+        const double cutoff = outlier_cutoff_rad(best.residual_deg * kPi / 180);
         cv::Matx33d info = cv::Matx33d::zeros();
         for (const Pair& p : pairs) {
             const auto r = residual(p, x, off_ns);
