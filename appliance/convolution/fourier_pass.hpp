@@ -29,8 +29,10 @@ public:
     // Whether the pass sums an output of this width from a level of this size: power-of-two
     // widths, the output's no wider than the level's (one column class: LobeSummer::classes()
     // is 1), and a level of at most kMaxLevelTexels (its spectra take twice the memory of its
-    // float planes: 50 MB at 2048x1024, 800 MB at 8192x4096).
-    static constexpr long long kMaxLevelTexels = 2048LL * 1024LL;
+    // float planes: 200 MB at 4096x2048, 800 MB at 8192x4096). 4096x2048 is what an 8192x4096
+    // input's n = 20480 reads: there the peak grew from 605 to 751 MiB (the target is 1 GiB) and
+    // the map took 1.12-1.15 s instead of 1.30-1.39 s (docs/convolution.md).
+    static constexpr long long kMaxLevelTexels = 4096LL * 2048LL;
     static bool applies(int level_width, int level_height, int out_width);
     // Whether the cone uses it: it applies and the output has at least half the level's columns.
     // Its spectra cost three transforms per level row whatever the output, and its sums about

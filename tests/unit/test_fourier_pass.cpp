@@ -170,7 +170,8 @@ TEST(FourierPass, AppliesToPowerOfTwoWidthsNoWiderThanTheLevel) {
     EXPECT_TRUE(FourierFirstPass::applies(128, 64, 32));
     EXPECT_TRUE(FourierFirstPass::applies(128, 64, 128));
     EXPECT_TRUE(FourierFirstPass::applies(2048, 1024, 512));
-    EXPECT_FALSE(FourierFirstPass::applies(4096, 2048, 512));  // its spectra would take 200 MB
+    EXPECT_TRUE(FourierFirstPass::applies(4096, 2048, 2048));   // an 8192x4096 input's n = 20480: 200 MB of spectra
+    EXPECT_FALSE(FourierFirstPass::applies(8192, 4096, 4096));  // its spectra would take 800 MB
     // The cone uses it from half the level's columns up.
     EXPECT_TRUE(FourierFirstPass::pays_off(1024, 512, 512));
     EXPECT_TRUE(FourierFirstPass::pays_off(128, 64, 128));
