@@ -437,9 +437,40 @@ AlignmentResult calibrate_alignment(const Session& s, const std::vector<SensorOr
         if (used) *used = n;
         return c;
     };
+    // Normal equations J^T J and J^T r of the residuals within `cutoff` at (xq, o), from a
+    // numerical Jacobian of 4 parameters: d of the mounting (xq exp(d), radians) and the offset
+    // (ms). The refinement steps with them; at the end they are the information about the
+    // mounting and the offset together.
+    const double dt_scale = 1e6;  // the offset's parameter in ms
+    const auto normal_equations = [&](const glm::dquat& xq, double o, double cutoff, cv::Matx44d& JtJ, cv::Vec4d& Jtr) {
+        JtJ = cv::Matx44d::zeros();
+        Jtr = cv::Vec4d(0, 0, 0, 0);
+        const double h = 1e-5, h_ms = 0.25;
+        for (const Pair& p : pairs) {
+            const auto r0 = residual(p, xq, o);
+            if (!r0 || glm::length(*r0) > cutoff) continue;
+            glm::dvec3 J[4];
+            bool ok = true;
+            for (int k = 0; k < 4 && ok; ++k) {
+                glm::dvec3 dv(0);
+                double dt = 0;
+                if (k < 3) dv[k] = h;
+                else dt = h_ms * dt_scale;
+                const glm::dquat xp = k < 3 ? unit_rotation(xq * rotation_from_vector(dv)) : xq;
+                const glm::dquat xm = k < 3 ? unit_rotation(xq * rotation_from_vector(-dv)) : xq;
+                const auto rp = residual(p, xp, o + dt), rm = residual(p, xm, o - dt);
+                if (!rp || !rm) ok = false;
+                else J[k] = (*rp - *rm) / (2 * (k < 3 ? h : h_ms));
+            }
+            if (!ok) continue;
+            for (int a = 0; a < 4; ++a) {
+                Jtr[a] += glm::dot(J[a], *r0);
+                for (int b = 0; b < 4; ++b) JtJ(a, b) += glm::dot(J[a], J[b]);
+            }
+        }
+    };
     const auto refine = [&] {
         double lambda = 1e-3;
-        const double dt_scale = 1e6;  // the offset's parameter in ms
         for (int round = 0; round < 30; ++round) {
             // The outlier cutoff at the current estimate.
             std::vector<double> angles;
@@ -449,31 +480,9 @@ AlignmentResult calibrate_alignment(const Session& s, const std::vector<SensorOr
             std::nth_element(angles.begin(), angles.begin() + std::ptrdiff_t(angles.size() / 2), angles.end());
             const double cutoff = outlier_cutoff_rad(angles[angles.size() / 2]);
             // Normal equations from a numerical Jacobian (4 parameters: d of the mounting, offset).
-            cv::Matx44d JtJ = cv::Matx44d::zeros();
-            cv::Vec4d Jtr(0, 0, 0, 0);
-            const double h = 1e-5, h_ms = 0.25;
-            for (const Pair& p : pairs) {
-                const auto r0 = residual(p, x, off_ns);
-                if (!r0 || glm::length(*r0) > cutoff) continue;
-                glm::dvec3 J[4];
-                bool ok = true;
-                for (int k = 0; k < 4 && ok; ++k) {
-                    glm::dvec3 dv(0);
-                    double dt = 0;
-                    if (k < 3) dv[k] = h;
-                    else dt = h_ms * dt_scale;
-                    const glm::dquat xp = k < 3 ? unit_rotation(x * rotation_from_vector(dv)) : x;
-                    const glm::dquat xm = k < 3 ? unit_rotation(x * rotation_from_vector(-dv)) : x;
-                    const auto rp = residual(p, xp, off_ns + dt), rm = residual(p, xm, off_ns - dt);
-                    if (!rp || !rm) ok = false;
-                    else J[k] = (*rp - *rm) / (2 * (k < 3 ? h : h_ms));
-                }
-                if (!ok) continue;
-                for (int a = 0; a < 4; ++a) {
-                    Jtr[a] += glm::dot(J[a], *r0);
-                    for (int b = 0; b < 4; ++b) JtJ(a, b) += glm::dot(J[a], J[b]);
-                }
-            }
+            cv::Matx44d JtJ;
+            cv::Vec4d Jtr;
+            normal_equations(x, off_ns, cutoff, JtJ, Jtr);
             const double before = cost_of(x, off_ns, cutoff, nullptr);
             bool improved = false;
             for (int tries = 0; tries < 8 && !improved; ++tries) {
@@ -540,20 +549,23 @@ AlignmentResult calibrate_alignment(const Session& s, const std::vector<SensorOr
         best.pairs = int(angles.size());
     }
     // How well the motion pins the mounting down. Turning the mounting by a small d moves a pair's
-    // residual by d x c (c the pair's rotation vector in the camera), so the information about
-    // the mounting is sum (|c|^2 I - c c^T) / sigma^2: about an axis the pairs turned round and
-    // round but never away from, almost none. A motion about too few axes (a recording cut off
-    // after the first turns) gave a median residual of 0.09 degrees and a mounting 13.6 degrees off.
+    // residual by about d x c (c the pair's rotation vector in the camera), so the information
+    // about the mounting is about sum (|c|^2 I - c c^T) / sigma^2: about an axis the pairs turned
+    // round and round but never away from, almost none. A motion about too few axes (a recording
+    // cut off after the first turns) gave a median residual of 0.09 degrees and a mounting 13.6
+    // degrees off. The information is the refinement's own (the numerical Jacobian of the
+    // mounting and the offset at the estimate), and the offset is marginalised out (the Schur
+    // complement of its entry): a turn of the mounting that a shift of the offset could take up
+    // is not counted as pinned down.
     {
         const double cutoff = outlier_cutoff_rad(best.residual_deg * kPi / 180);
-        cv::Matx33d info = cv::Matx33d::zeros();
-        for (const Pair& p : pairs) {
-            const auto r = residual(p, x, off_ns);
-            if (!r || glm::length(*r) > cutoff) continue;
-            const glm::dvec3 c = rotation_vector(p.camera_a_from_b);
-            for (int a = 0; a < 3; ++a)
-                for (int b = 0; b < 3; ++b) info(a, b) += (a == b ? glm::dot(c, c) : 0.0) - c[a] * c[b];
-        }
+        cv::Matx44d JtJ;
+        cv::Vec4d Jtr;
+        normal_equations(x, off_ns, cutoff, JtJ, Jtr);
+        cv::Matx33d info;
+        for (int r = 0; r < 3; ++r)
+            for (int c = 0; c < 3; ++c)
+                info(r, c) = JtJ(r, c) - (JtJ(3, 3) > 0 ? JtJ(r, 3) * JtJ(3, c) / JtJ(3, 3) : 0.0);
         cv::Matx31d values;
         cv::Matx33d vectors;
         cv::eigen(info, values, vectors);  // descending

@@ -38,7 +38,7 @@ VignettingResult calibrate_vignetting(const Session& flat_field, const CameraCal
 
 // An alignment is not put in force when the motion leaves the mounting's standard deviation about
 // some axis above this (degrees), as large as the mounting's target. The standard deviation is
-// the noise's alone, at the offset found: the benchmark's errors are 2-5x it (a bias of the image
+// the noise's alone, with the time offset marginalised: the benchmark's errors are 2-5x it (a bias of the image
 // rotations), so passing says the motion was usable, not that the mounting is within 0.3 degrees.
 inline constexpr double kMaxMountingSdDeg = 0.3;
 
