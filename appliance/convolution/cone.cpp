@@ -90,11 +90,44 @@ double cone_cut_cos(double energy, double n) {
     return energy > 0 ? std::pow(std::min(1.0, energy), 1.0 / (n + 1.0)) : 0.0;
 }
 
+HdrImage cone_convolve_in_bands(const PreparedLevel& level, const std::vector<BrightTexel>& bright, double n,
+                                Size out, const ConeSettings& settings, int threads, const RowProgress& progress,
+                                ConeStats* stats, int band_rows) {
+    // Each band is a call of its own into the one map: the first pass's sums, the bright terms
+    // and the widened texels' sums (24 + 24 + up to 24 bytes a texel, in double) then take memory
+    // for one band, not the grid. A lobe one or two texels wide on an 8192x4096 input peaked at
+    // 4.1 GB unbanded, 2.2 GB banded (docs/convolution.md). Each band's bounds use its own
+    // smallest output (the bright terms' cut, the cap radius), which is what they bound: every
+    // texel's error stays within its own share of the tolerance.
+    if (band_rows < 1) throw RuntimeError("internal: bands of the cone need at least one row");
+    HdrImage result(out.width, out.height, HdrImage::Unwritten{});  // every texel is written by a band
+    const TexelSink sink = [&result](int row, int col, const float* rgb) {
+        std::copy_n(rgb, 3, result.row(row) + 3 * col);
+    };
+    ConeStats total;
+    for (int first = 0; first < out.height; first += band_rows) {
+        std::vector<int> band;
+        for (int row = first; row < std::min(out.height, first + band_rows); ++row) band.push_back(row);
+        ConeStats part;
+        cone_convolve(level, bright, n, out, settings, threads, progress, &part, band, nullptr, nullptr, &sink);
+        total.refined_texels += part.refined_texels;
+        total.cutoff_energy = part.cutoff_energy;
+        total.fourier_first_pass = part.fourier_first_pass;
+    }
+    if (stats) *stats = total;
+    return result;
+}
+
 HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel>& bright,
                        double n, Size out, const ConeSettings& given_settings, int threads,
                        const RowProgress& progress, ConeStats* stats, const std::vector<int>& only_rows,
                        ConeSumsBackend* backend, const std::vector<LobeSummer::ColumnRuns>* only_columns,
                        const TexelSink* into) {
+    // A large grid on the CPU is summed in bands of rows (cone_convolve_in_bands).
+    if (only_rows.empty() && !backend && !only_columns && !into &&
+        static_cast<long long>(out.width) * out.height > kConeBandTexels)
+        return cone_convolve_in_bands(level, bright, n, out, given_settings, threads, progress, stats,
+                                      std::max(1, int(kConeBandTexels / out.width)));
     // The output rows computed: all, or only_rows (the others stay 0), and in each the
     // columns of only_columns (or all).
     std::vector<int> rows = only_rows;

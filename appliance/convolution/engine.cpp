@@ -119,6 +119,12 @@ public:
     // merged columns) and its pyramid level are freed (a 4096x2048 level with its layouts
     // for two output widths is ~500 MB).
     // coarser_read: a map still to run reads a coarser level (built from this one if not yet).
+    // Level k's layouts built on demand (PreparedLevel::release_layouts), if the level is built.
+    void release_cone_layouts(int k) {
+        LevelSlot& slot = level_slot(k);
+        const std::lock_guard lock(slot.build);
+        if (slot.level) slot.level->release_layouts();
+    }
     void release_cone_level(int k, bool coarser_read) {
         LevelSlot& slot = level_slot(k);
         const std::lock_guard lock(slot.build);
@@ -859,6 +865,14 @@ std::vector<MapResult> convolve_map(const HdrImage& env, HdrImage* consumable, c
             progress(r.plan.sum_size.height);
         else if (!batched[k])
             r.image = sum_on(r, r.plan.sum_size, map_threads, progress);
+        if (!batched[k] && !lobe_at_once) {
+            // The grid is summed: a level no other map will read keeps only its planes through the
+            // delivery (whose few finer texels lay out the rows they read again). The phase
+            // layouts of a 8192x4096 level are two copies of it, 768 MiB.
+            const std::lock_guard lock(level_readers_mutex);
+            for (int level : mine)
+                if (level_readers[level] == 1) shared.release_cone_layouts(level);
+        }
         const bool split = r.plan.method == Method::Cone || (r.plan.method == Method::Sh && r.plan.bright_split);
         // Texels of a finer grid, summed by the plan's cone (an SH plan's is the one for the rows
         // its bound fails).

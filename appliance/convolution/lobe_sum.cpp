@@ -248,6 +248,19 @@ void PreparedLevel::ensure_rows(const std::vector<char>& rows) const {
     for (int j : missing) built_[std::size_t(j)] = 1;
 }
 
+void PreparedLevel::release_layouts() const {
+    {
+        const std::lock_guard lock(phases_mutex_);
+        phases_.clear();
+    }
+    {
+        const std::lock_guard lock(merged_mutex_);
+        merged_.clear();
+    }
+    const std::lock_guard lock(spectra_mutex_);
+    spectra_.reset();
+}
+
 const PreparedLevel& PreparedLevel::merged_columns(int m) const {
     return merged_columns(m, std::vector<char>(std::size_t(height_), 1));
 }

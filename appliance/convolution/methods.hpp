@@ -223,6 +223,15 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
                        ConeSumsBackend* backend = nullptr,
                        const std::vector<LobeSummer::ColumnRuns>* only_columns = nullptr,
                        const TexelSink* into = nullptr);
+// Grids of more output texels than this are summed by cone_convolve (all rows asked, no backend,
+// no sink) in bands of rows of about this many texels.
+inline constexpr long long kConeBandTexels = 4LL << 20;
+// The cone's map of every row, summed band_rows rows at a time (each band a cone_convolve of its
+// rows into the one map): memory for the sums of one band. Each band's bounds take its own
+// smallest output, so the result may differ from one call's within the tolerance.
+HdrImage cone_convolve_in_bands(const PreparedLevel& level, const std::vector<BrightTexel>& bright, double shininess,
+                                Size out, const ConeSettings& settings, int threads, const RowProgress& progress,
+                                ConeStats* stats, int band_rows);
 
 struct ShCoefficients;
 class ShLegendre;

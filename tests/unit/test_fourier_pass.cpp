@@ -148,6 +148,78 @@ TEST(FourierPass, ConeWithAndWithoutItAgree) {
     }
 }
 
+// A grid summed in bands of rows (what cone_convolve does past kConeBandTexels) against one call
+// over every row, on a rough map with suns (bright texels scattered exactly): each band's bounds
+// take its own smallest output, so the maps may differ, within the per-texel bound of each; the
+// texels summed again are counted over the bands; the Fourier and the direct first pass both.
+TEST(FourierPass, ConeSummedInBandsAgreesWithOneCall) {
+    HdrImage image = rough_map(256, 128, 21);
+    for (const auto& [i, j] : {std::pair{40, 60}, std::pair{200, 20}, std::pair{128, 110}})
+        image.set(i, j, {2e5f, 1.5e5f, 1e5f});
+    const BrightSplit split = split_bright(image, 64.0, 1024, 2);
+    ASSERT_GE(split.texels.size(), 3u);
+    const PreparedLevel level(split.remainder, 2);
+    const Size out{128, 64};
+    for (const bool fourier : {true, false})
+        for (double n : {300.0, 3000.0}) {
+            ConeSettings settings;
+            settings.cutoff_energy = 1e-3;
+            settings.texel_tolerance = 5e-3;
+            settings.bright_tolerance = 5e-3;
+            settings.fourier_first_pass = fourier;
+            ConeStats whole_stats, band_stats;
+            const HdrImage whole = cone_convolve(level, split.texels, n, out, settings, 2, nullptr, &whole_stats);
+            std::atomic<long long> rows_done{0};
+            const HdrImage banded = cone_convolve_in_bands(level, split.texels, n, out, settings, 2,
+                                                           [&](long long r) { rows_done += r; }, &band_stats, 7);
+            EXPECT_EQ(rows_done.load(), out.height) << "every row's progress once, over the bands";
+            EXPECT_EQ(band_stats.fourier_first_pass, whole_stats.fourier_first_pass);
+            EXPECT_GT(band_stats.refined_texels, 0) << "no texel summed again: the bands' bounds are not tested";
+            double mean = 0;
+            for (float v : whole.data()) mean += v;
+            mean /= double(whole.data().size());
+            double worst = 0;
+            for (std::size_t k = 0; k < whole.data().size(); ++k) {
+                const double a = whole.data()[k], b = banded.data()[k];
+                ASSERT_TRUE(std::isfinite(b) && b >= 0) << k;
+                worst = std::max(worst, std::abs(a - b) / std::max({a, b, mean}));
+            }
+            EXPECT_LT(worst, 2 * settings.texel_tolerance) << n << (fourier ? " fourier" : " direct");
+        }
+    EXPECT_THROW(cone_convolve_in_bands(level, split.texels, 300, out, ConeSettings{}, 1, nullptr, nullptr, 0),
+                 RuntimeError);
+}
+
+// A level's layouts freed (the engine does so when a map that was the level's last reader has
+// summed its grid) are made again when read: the same sums as before, for the direct first pass
+// (phase layouts, merged polar columns) and the Fourier one (row spectra).
+TEST(FourierPass, ReleasedLayoutsAreMadeAgainTheSame) {
+    const HdrImage image = rough_map(256, 128, 5);
+    const PreparedLevel level(image, 2);
+    const int out_w = 128, out_h = 64;
+    std::vector<int> rows;
+    for (int r = 0; r < out_h; ++r) rows.push_back(r);
+    const double c0 = cone_cut_cos(1e-3, 2000);
+    const auto sums_of = [&](bool fourier) {
+        const LobeSummer summer(level, out_w, out_h, 2000, Accumulation::Double, 0.05);
+        LobeSums sums = summer.make_sums(&rows);
+        if (fourier) {
+            FourierFirstPass(summer, out_w, 2).run(rows, c0, sums, nullptr);
+        } else {
+            summer.lay_out();
+            for (int r : rows) summer.sum_row(r, c0, sums);
+        }
+        return std::vector<double>(sums.num.begin(), sums.num.end());
+    };
+    for (const bool fourier : {false, true}) {
+        const std::vector<double> before = sums_of(fourier);
+        level.release_layouts();
+        const std::vector<double> after = sums_of(fourier);
+        EXPECT_EQ(before, after) << (fourier ? "fourier" : "direct");
+        level.release_layouts();  // nothing built: nothing to free
+    }
+}
+
 INSTANTIATE_TEST_SUITE_P(
     Shapes, FourierPass,
     ::testing::Values(Case{128, 64, 128, 300, 1e-3, 0}, Case{128, 64, 64, 300, 1e-3, 0},
