@@ -593,6 +593,10 @@ double pole_clamp_worst(const HdrImage& map, double floor_value) {
     return worst;
 }
 
+// The spots' exact sums leave out texels under e^-20 of the largest (2e-9: far below the
+// percent the worst lookup is compared with), 1.8x fewer than the lobe lookup's e^-36.
+constexpr double kSpotSpan = 20.0;
+
 double spot_lookup_worst(const HdrImage& input, double n, Size grid, int spots, int threads) {
     const int w = input.width(), h = input.height();
     if (input.empty() || grid.width < 3 || grid.height < 3 || spots <= 0) return 0;
@@ -618,7 +622,7 @@ double spot_lookup_worst(const HdrImage& input, double n, Size grid, int spots, 
         for (int y = 0; y < rows; ++y)
             for (int x = 0; x < cols; ++x) {
                 const int col = ((c0 + x) % grid.width + grid.width) % grid.width;
-                const Rgb e = sample_lobe(input, texel_direction(col, r0 + y, grid.width, grid.height), n);
+                const Rgb e = sample_lobe(input, texel_direction(col, r0 + y, grid.width, grid.height), n, kSpotSpan);
                 double* into = v.data() + 3 * (std::size_t(y) * std::size_t(cols) + std::size_t(x));
                 into[0] = e.r;
                 into[1] = e.g;

@@ -68,7 +68,7 @@ Rgb sample_bilinear(const HdrImage& image, const glm::dvec3& d) {
     return {v[0], v[1], v[2]};
 }
 
-Rgb sample_lobe(const HdrImage& image, const glm::dvec3& d_in, double n) {
+Rgb sample_lobe(const HdrImage& image, const glm::dvec3& d_in, double n, double span) {
     const int w = image.width();
     const int h = image.height();
     const glm::dvec3 d = glm::normalize(d_in);
@@ -90,7 +90,7 @@ Rgb sample_lobe(const HdrImage& image, const glm::dvec3& d_in, double n) {
     if (i0 < 0) i0 += w;
     const int j0 = std::clamp(int(std::floor(t.y)), 0, h - 1);
     const double h0 = hav(row_theta(j0, h), std::sin(row_theta(j0, h)), column_phi(i0, w));
-    const double reach = std::min(1.0, h0 + kLobeLookupSpan / (2.0 * n));
+    const double reach = std::min(1.0, h0 + span / (2.0 * n));
     const double max_dtheta = 2.0 * std::asin(std::sqrt(reach));
     const int j_lo = std::max(0, int(std::floor((theta_r - max_dtheta) / kPi * h - 0.5)));
     const int j_hi = std::min(h - 1, int(std::ceil((theta_r + max_dtheta) / kPi * h - 0.5)));

@@ -54,8 +54,10 @@ Rgb sample_bilinear(const HdrImage& image, const glm::dvec3& d);
 // angle between the direction and each texel centre, so no candidate is missed across the seam
 // or a pole. `shininess` must be finite and > 0. In double; the renderer's GLSL
 // (shaders/render_lookup.glsl, equirect_lobe) is the same in float.
+// A smaller `span` leaves out texels up to exp(-span) of it (an estimate that needs no more:
+// spot_lookup_worst takes 20).
 inline constexpr double kLobeLookupSpan = 36.0;  // e^-36 = 2.3e-16: below double rounding
-Rgb sample_lobe(const HdrImage& image, const glm::dvec3& d, double shininess);
+Rgb sample_lobe(const HdrImage& image, const glm::dvec3& d, double shininess, double span = kLobeLookupSpan);
 
 // How a renderer reads a map between its texel centres (report.json's "lookup").
 enum class MapLookup { Bilinear, Lobe };
