@@ -867,8 +867,11 @@ std::vector<MapResult> convolve_map(const HdrImage& env, HdrImage* consumable, c
             r.image = sum_on(r, r.plan.sum_size, map_threads, progress);
         if (!batched[k] && !lobe_at_once) {
             // The grid is summed: a level no other map will read keeps only its planes through the
-            // delivery (whose few finer texels lay out the rows they read again). The phase
-            // layouts of a 8192x4096 level are two copies of it, 768 MiB.
+            // delivery, whose lookup estimates and tiles then have that memory (the phase layouts
+            // of an 8192x4096 level are two copies of it, 768 MiB). A finer grid's texels summed
+            // later (patches, a grid summed again) lay the level out for their grid, as they did
+            // before; where their layout is the one freed (a grid as wide as the level or wider,
+            // whose finer grids share its column phases) it is made again whole: time, not peak.
             const std::lock_guard lock(level_readers_mutex);
             for (int level : mine)
                 if (level_readers[level] == 1) shared.release_cone_layouts(level);

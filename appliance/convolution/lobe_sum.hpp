@@ -128,9 +128,9 @@ public:
     // rows its readers flag) if they are not made yet; nothing for a level made from an image.
     void make_rows(int first, int count) const;
     // Frees what was built on demand (phase layouts, merged versions, row spectra): they are
-    // made again, for the rows then asked, if read later. Only while nothing reads them (no
-    // LobeSummer or Fourier pass of this level alive): the engine calls it when a map that was
-    // the level's last reader has summed its grid, before the map's few finer texels, so that a
+    // made again if read later (a LobeSummer lays out every row of each merge factor it reads).
+    // Only while nothing reads them (no LobeSummer or Fourier pass of this level alive): the
+    // engine calls it when a map that was the level's last reader has summed its grid, so that a
     // narrow lobe's large grid does not keep two copies of the level through its delivery.
     void release_layouts() const;
 

@@ -177,7 +177,9 @@ double cone_cut_cos(double energy, double shininess);
 // texels computed are written into it and an empty image is returned.
 // Where the cone's sums are computed: the CPU (the default, LobeSummer) or
 // the GPU engine (gpu/). The cone's logic around them (bright cut-offs, the
-// per-texel bound, widening, normalisation) is the same for both.
+// per-texel bound, widening, normalisation) is the same for both, except that the CPU sums a
+// grid over kConeBandTexels in bands of rows (cone_convolve_in_bands), whose bounds take each
+// band's own smallest output: there the two may differ within the tolerance.
 class ConeSumsBackend {
 public:
     virtual ~ConeSumsBackend() = default;
