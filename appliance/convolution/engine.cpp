@@ -510,6 +510,9 @@ void deliver_output(MapResult& r, double tau, const PlannerModel& model, int thr
             if (2 * near.texels > static_cast<long long>(next.width) * next.height) return give_up();
             patch = intersect(near, fine_tile_texels(tp, p.sum_size));
         }
+        // Read no more: freed before the tiles and their exact texels take memory (24 bytes a
+        // texel of the sum grid, 675 MiB at 7680x3840).
+        without_texels = TexelLookupErrors{};
         std::optional<BrightLobes> lobes;
         if (split) lobes.emplace(*bright, n, finer, floor_value, LobeOp::AddClamped);
         r.fine = make_fine_tiles(r.image, tp, threads, &r.clamped_texels, lobes ? &*lobes : nullptr);
