@@ -115,16 +115,16 @@ public:
         if (!slot.level) slot.level = std::make_unique<PreparedLevel>(cone_pyramid().level(k), threads_);
         return *slot.level;
     }
-    // No map still to run reads level k of the remainder: its layouts (planes, phase copies,
-    // merged columns) and its pyramid level are freed (a 4096x2048 level with its layouts
-    // for two output widths is ~500 MB).
-    // coarser_read: a map still to run reads a coarser level (built from this one if not yet).
     // Level k's layouts built on demand (PreparedLevel::release_layouts), if the level is built.
     void release_cone_layouts(int k) {
         LevelSlot& slot = level_slot(k);
         const std::lock_guard lock(slot.build);
         if (slot.level) slot.level->release_layouts();
     }
+    // No map still to run reads level k of the remainder: its layouts (planes, phase copies,
+    // merged columns) and its pyramid level are freed (a 4096x2048 level with its layouts
+    // for two output widths is ~500 MB).
+    // coarser_read: a map still to run reads a coarser level (built from this one if not yet).
     void release_cone_level(int k, bool coarser_read) {
         LevelSlot& slot = level_slot(k);
         const std::lock_guard lock(slot.build);

@@ -99,8 +99,8 @@ Rgb sample_lobe(const HdrImage& image, const glm::dvec3& d_in, double n, double 
         const float* value;
     };
     // log(1 - x) for the taps' x = 2 hav <= 2 reach: for a narrow lobe x stays under 0.05, where
-    // 13 terms of its series reach double rounding (0.05^14 / 14 < 1e-19) at a third of log1p's
-    // cost; wider reaches take log1p.
+    // 13 terms of its series reach double rounding (the first left out, x^14 / 14, is under 1e-18
+    // of x there) at a third of log1p's cost; wider reaches take log1p.
     const bool series = 2.0 * reach < 0.05;
     const auto log1p_minus = [series](double x) {
         if (!series) return std::log1p(-x);
