@@ -261,6 +261,20 @@ void PreparedLevel::release_layouts() const {
     spectra_.reset();
 }
 
+std::size_t PreparedLevel::layouts_held() const {
+    std::size_t held = 0;
+    {
+        const std::lock_guard lock(phases_mutex_);
+        held += phases_.size();
+    }
+    {
+        const std::lock_guard lock(merged_mutex_);
+        held += merged_.size();
+    }
+    const std::lock_guard lock(spectra_mutex_);
+    return held + (spectra_ ? 1 : 0);
+}
+
 const PreparedLevel& PreparedLevel::merged_columns(int m) const {
     return merged_columns(m, std::vector<char>(std::size_t(height_), 1));
 }

@@ -133,6 +133,8 @@ public:
     // engine calls it when a map that was the level's last reader has summed its grid, so that a
     // narrow lobe's large grid does not keep two copies of the level through its delivery.
     void release_layouts() const;
+    // How many of those are held now: phase layouts, merged versions, and the row spectra (0 or 1).
+    std::size_t layouts_held() const;
 
 private:
     int width_, height_, threads_;

@@ -228,11 +228,16 @@ TEST(FourierPass, ReleasedLayoutsAreMadeAgainTheSame) {
     };
     for (const bool fourier : {false, true}) {
         const std::vector<double> before = sums_of(fourier);
+        // The direct pass holds a phase layout and a merged version, the Fourier one its spectra.
+        EXPECT_GE(level.layouts_held(), fourier ? 1u : 2u) << (fourier ? "fourier" : "direct");
         level.release_layouts();
+        EXPECT_EQ(level.layouts_held(), 0u) << "nothing freed";
         const std::vector<double> after = sums_of(fourier);
         EXPECT_EQ(before, after) << (fourier ? "fourier" : "direct");
-        level.release_layouts();  // nothing built: nothing to free
+        level.release_layouts();
     }
+    level.release_layouts();  // nothing built: nothing to free
+    EXPECT_EQ(level.layouts_held(), 0u);
 }
 
 INSTANTIATE_TEST_SUITE_P(
