@@ -4,8 +4,10 @@
 
 #include <algorithm>
 #include <cstring>
+#include <exception>
 #include <functional>
 #include <initializer_list>
+#include <new>
 
 #include <glm/gtc/matrix_transform.hpp>
 #include <glm/gtc/quaternion.hpp>
@@ -144,8 +146,19 @@ Mesh load_gltf(const std::filesystem::path& path) {
     std::string err, warn;
     const std::string file = path.string();
     const bool binary = path.extension() == ".glb";
-    const bool ok = binary ? loader.LoadBinaryFromFile(&model, &err, &warn, file)
-                           : loader.LoadASCIIFromFile(&model, &err, &warn, file);
+    bool ok = false;
+    try {
+        ok = binary ? loader.LoadBinaryFromFile(&model, &err, &warn, file)
+                    : loader.LoadASCIIFromFile(&model, &err, &warn, file);
+    } catch (const std::bad_alloc&) {
+        throw;
+    } catch (const std::exception& e) {
+        // TinyGLTF reports most damage in `err`, but some it meets through the standard library:
+        // a binary file whose buffer says 0 bytes beside a BIN chunk threw std::out_of_range
+        // from inside the loader (the glTF fuzzer, 2026-12-06). A damaged file either way.
+        err = e.what();
+        ok = false;
+    }
     if (!ok) {
         while (!err.empty() && (err.back() == '\n' || err.back() == '\r')) err.pop_back();
         for (char& c : err)

@@ -630,6 +630,29 @@ TEST(RenderMesh, GltfTrianglesAreReadWithTheirNodeTransform) {
         EXPECT_NE(e_escape.find("outside the model's folder"), std::string::npos) << e_escape;
         EXPECT_EQ(render::load_gltf(write_file(sub, "beside.gltf", edited(data_uri, "inside.bin"))).triangle_count(), 4u);
     }
+    // A binary glTF whose buffer says 0 bytes beside a BIN chunk: TinyGLTF throws
+    // std::out_of_range from inside its loader (the glTF fuzzer's finding of 2026-12-06,
+    // corpus/gltf/crash-empty-buffer-with-bin.glb); that is a damaged file, refused naming it.
+    {
+        std::string json = edited(R"("byteLength": 72, "uri": "data:application/octet-stream;base64,)" + base64(bytes) + "\"",
+                                  R"("byteLength": 0)");
+        while (json.size() % 4 != 0) json += ' ';
+        std::vector<unsigned char> bin = bytes;
+        while (bin.size() % 4 != 0) bin.push_back(0);
+        const auto u32 = [](std::string& out, std::uint32_t v) {
+            for (int k = 0; k < 4; ++k) out += char((v >> (8 * k)) & 0xff);
+        };
+        std::string glb = "glTF";
+        u32(glb, 2);
+        u32(glb, std::uint32_t(12 + 8 + json.size() + 8 + bin.size()));
+        u32(glb, std::uint32_t(json.size()));
+        glb += "JSON" + json;
+        u32(glb, std::uint32_t(bin.size()));
+        glb += std::string("BIN\0", 4);
+        glb.append(bin.begin(), bin.end());
+        const std::string e_glb = error_of([&] { render::load_gltf(write_file(dir, "empty_buffer.glb", glb)); });
+        EXPECT_NE(e_glb.find("empty_buffer.glb: not a readable glTF 2.0 file"), std::string::npos) << e_glb;
+    }
     // A scale of 0 flattens the mesh: its normals, computed from the faces, stay finite.
     const render::Mesh m_flat =
         render::load_gltf(write_file(dir, "flat.gltf", edited("\"scale\": [2, 2, 2]", "\"scale\": [0, 1, 1]")));
