@@ -140,6 +140,10 @@ public:
     // the cell's s x s pixels, so that the noise of a dark frame is no bright feature.
     static std::vector<std::uint8_t> footprint_zone(const std::vector<float>& planes, int width, int height,
                                                     double noise_floor = 0);
+    // Both zones in one pass: bit 0 the zone without a floor (what zone_weights takes: nonzero),
+    // bit 1 the zone with `noise_floor` (footprint_zone's).
+    static std::vector<std::uint8_t> footprint_zone_marks(const std::vector<float>& planes, int width, int height,
+                                                          double noise_floor);
     // In the zone, each cell's weights W raised to the largest within 2 cells (not clipped ones):
     // one weight per frame over a compact source (hdr_accumulator.cpp says why).
     static void zone_weights(std::vector<float>& planes, int width, int height, const std::vector<std::uint8_t>& zone);
