@@ -37,6 +37,20 @@ HdrImage rough_map(int width, int height, unsigned seed) {
     return image;
 }
 
+// The largest difference of two maps' values, relative to the larger, floored at a's mean value
+// (as the error metric does).
+double worst_apart(const HdrImage& a, const HdrImage& b) {
+    double mean = 0;
+    for (float v : a.data()) mean += v;
+    mean /= double(a.data().size());
+    double worst = 0;
+    for (std::size_t k = 0; k < a.data().size(); ++k) {
+        const double x = a.data()[k], y = b.data()[k];
+        worst = std::max(worst, std::abs(x - y) / std::max({x, y, mean}));
+    }
+    return worst;
+}
+
 struct Case {
     int width, height, out_width;
     double shininess, cut_energy, merged_arc;
@@ -136,16 +150,8 @@ TEST(FourierPass, ConeWithAndWithoutItAgree) {
         EXPECT_EQ(off_stats.cutoff_energy, 1e-3);
         EXPECT_LE(on_stats.refined_texels, off_stats.refined_texels);
         // Both within the per-texel bound of the exact sums at this level, so within twice it of
-        // each other (relative to the larger, floored at the map's mean as the error metric does).
-        double mean = 0;
-        for (float v : on.data()) mean += v;
-        mean /= double(on.data().size());
-        double worst = 0;
-        for (std::size_t k = 0; k < on.data().size(); ++k) {
-            const double a = on.data()[k], b = off.data()[k];
-            worst = std::max(worst, std::abs(a - b) / std::max({a, b, mean}));
-        }
-        EXPECT_LT(worst, 2 * settings.texel_tolerance) << n;
+        // each other.
+        EXPECT_LT(worst_apart(on, off), 2 * settings.texel_tolerance) << n;
     }
 }
 
@@ -164,18 +170,6 @@ TEST(FourierPass, ConeSummedInBandsAgreesWithOneCall) {
     const PreparedLevel level(split.remainder, 2);
     const Size out{128, 64};
     const PreparedLevel full(image, 2);
-    // Relative to the larger value, floored at the map's mean (as the error metric does).
-    const auto worst_apart = [](const HdrImage& a, const HdrImage& b) {
-        double mean = 0;
-        for (float v : a.data()) mean += v;
-        mean /= double(a.data().size());
-        double worst = 0;
-        for (std::size_t k = 0; k < a.data().size(); ++k) {
-            const double x = a.data()[k], y = b.data()[k];
-            worst = std::max(worst, std::abs(x - y) / std::max({x, y, mean}));
-        }
-        return worst;
-    };
     for (const bool fourier : {true, false})
         for (double n : {300.0, 3000.0}) {
             ConeSettings settings;
