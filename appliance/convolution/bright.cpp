@@ -360,7 +360,8 @@ BrightScatter::BrightScatter(const std::vector<BrightTexel>& input, double n, Si
     // Groups: texels of one polar angle whose centres sit at the same phase between output
     // columns (a bright region of an input whose width divides the output's, row by row).
     std::map<std::pair<double, long long>, std::size_t> group_of;
-    for (std::size_t k = 0; k < bright.size() && n != 1.0; ++k) {  // n = 1 uses the clusters below
+    const bool clustered = n == 1.0 || n == 0.0;
+    for (std::size_t k = 0; k < bright.size() && !clustered; ++k) {  // n = 1 and 0 use the clusters below
         if (first_row_[k] > last_row_[k]) continue;
         const double centre = (bright[k].phi + kPi) / kTwoPi * out.width - 0.5;
         const double whole = std::floor(centre + 1e-10);
@@ -378,7 +379,10 @@ BrightScatter::BrightScatter(const std::vector<BrightTexel>& input, double n, Si
     // (add_linear_row). The cell balances a cluster's own cost (a pass over the columns where it
     // is linear) against its members' terms left in the band around its horizon and peak, whose
     // width grows with the cell: about 3 degrees for texels packed at 1024x512's spacing.
-    if (n == 1.0) {
+    // For n = 0 every member in front weighs 1, so a cluster wholly in front adds its energy: the
+    // 16384 bright texels of a 4096x2048 photograph took 0.43 s added one by one over a
+    // hemisphere (2026-12-07).
+    if (clustered) {
         constexpr double kClusterCell = 0.05;
         std::map<std::pair<int, int>, std::size_t> cluster_of;
         for (std::size_t k = 0; k < bright.size(); ++k) {
@@ -418,6 +422,7 @@ BrightScatter::BrightScatter(const std::vector<BrightTexel>& input, double n, Si
                     c.u[ch] += u * l[ch];
                     c.v[ch] += v * l[ch];
                     c.w[ch] += w * l[ch];
+                    c.e[ch] += l[ch];
                     c.ml[ch].push_back(l[ch]);
                 }
                 c.mu.push_back(u);
@@ -654,6 +659,7 @@ void BrightScatter::add_linear_row(int row, double ct, double st, const double* 
                                    double* nb_row, const LobeSummer::ColumnRuns* columns, int first_column) const {
     const int ow = out_.width;
     const double cap = ratio_cap_;
+    const bool step = n_ == 0.0;
     // A run of physical columns [lo, hi) cut to the asked ones (all, without `columns`).
     const auto for_asked = [&](int lo, int hi, const auto& f) {
         if (!columns) {
@@ -699,6 +705,13 @@ void BrightScatter::add_linear_row(int row, double ct, double st, const double* 
         }
         for (const auto& [lo, hi] : linear)
             for_asked(lo, hi, [&](int a, int b) {
+                if (step) {  // n = 0: every member in front weighs 1
+                    for (int i = a; i < b; ++i) {
+                        double* o = nb_row + 3 * std::size_t(i - first_column);
+                        for (int ch = 0; ch < 3; ++ch) o[ch] += c.e[ch];
+                    }
+                    return;
+                }
                 for (int i = a; i < b; ++i) {
                     const double cm = cmax_row[classes == 1 ? 0 : i % classes];
                     const double u = st * cos_phi_[std::size_t(i)] / cm, v = st * sin_phi_[std::size_t(i)] / cm,
@@ -743,7 +756,7 @@ void BrightScatter::add_linear_row(int row, double ct, double st, const double* 
                         for (std::size_t m = 0; m < padded; m += Cluster::kMemberLanes) {
                             const Lanes cosine = x * load(c.mu.data() + m) + y * load(c.mv.data() + m) +
                                                  ct * load(c.mw.data() + m);
-                            const Lanes q = cosine / cm;
+                            const Lanes q = step ? Lanes{} + 1.0 : cosine / cm;
                             const Lanes w = cosine >= load(c.cut.data() + m) ? (q < cap ? q : cap) : Lanes{};
                             for (int ch = 0; ch < 3; ++ch) sum[ch] += w * load(c.ml[ch].data() + m);
                         }

@@ -128,12 +128,13 @@ private:
         int first, count;
         int shift;
     };
-    // For n = 1: bright texels of one cell of the sphere, with their centre, angular radius and
-    // the sums of L dOmega times (sin theta cos phi, sin theta sin phi, cos theta) per channel.
+    // For n = 1 and n = 0: bright texels of one cell of the sphere, with their centre, angular
+    // radius, the sums of L dOmega times (sin theta cos phi, sin theta sin phi, cos theta) per
+    // channel (n = 1) and of L dOmega (n = 0: every weight in front is 1).
     struct Cluster {
         std::vector<std::size_t> members;
         double cos_theta = 1, sin_theta = 0, phi = 0, radius = 0;
-        double u[3] = {0, 0, 0}, v[3] = {0, 0, 0}, w[3] = {0, 0, 0};
+        double u[3] = {0, 0, 0}, v[3] = {0, 0, 0}, w[3] = {0, 0, 0}, e[3] = {0, 0, 0};
         int first_row = 0, last_row = -1;
         // Per member: its direction's parts, L dOmega per channel (ml[channel][m]) and its cut
         // (cosine >= cut[m]); padded to whole vectors of kMemberLanes by members of no weight
@@ -143,7 +144,8 @@ private:
         double reach_cos = 2;  // the cosine of the cone around the centre holding every member's cut
     };
     std::vector<Cluster> clusters_;
-    // add_row for n = 1: each cluster's sum where it is linear, its members' terms elsewhere.
+    // add_row for n = 1 and n = 0: each cluster's sum where every member is in front (linear in
+    // the direction for n = 1, constant for n = 0), its members' terms elsewhere.
     void add_linear_row(int row, double ct, double st, const double* cmax_row, int classes, double* nb_row,
                         const LobeSummer::ColumnRuns* columns, int first_column) const;
     // A run of a row's weights staged for the power n and the sums (add_row).

@@ -152,12 +152,13 @@ double peak_rss_mib() {
     return double(usage.ru_maxrss) / 1024.0;  // kilobytes on Linux
 }
 
-int run_photo(Size size, int judge) {
+int run_photo(Size size, int judge, bool fine_tiles) {
     std::vector<MapRequest> maps{MapRequest::make_irradiance()};
     for (double n : {1.0, 10.0, 20.0, 40.0, 80.0, 160.0, 320.0, 640.0, 1280.0, 5120.0, 20480.0})
         maps.push_back(MapRequest::make_phong(n, std::to_string(int(n))));
     Options o;
     o.threads = 2;
+    o.fine_tiles = fine_tiles;  // as glint convolve delivers them
     auto made = std::chrono::steady_clock::now();
     HdrImage env = make_photo_like(size);
     const double make_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - made).count();
@@ -240,7 +241,7 @@ int main(int argc, char** argv) {
         std::printf("wrote %s (%s)\n", write_to.c_str(), to_string(*photo).c_str());
         return 0;
     }
-    if (photo) return run_photo(*photo, judge);
+    if (photo) return run_photo(*photo, judge, fine_tiles);
     const struct {
         Kind kind;
         const char* name;
