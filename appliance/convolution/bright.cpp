@@ -306,7 +306,7 @@ std::vector<BrightTexel> merge_bright_cells(const std::vector<BrightTexel>& brig
 }
 
 BrightScatter::BrightScatter(const std::vector<BrightTexel>& input, double n, Size out, double floor_value,
-                             double tolerance, double cmax_floor)
+                             double tolerance, double cmax_floor, bool float_sums)
     // Merged cells may err by half the tolerance of their own terms plus half the tolerance of
     // floor_value (in weight units: times lobe_den). The weights are the lobe's own over the
     // sums' scale, (r.w / cmax)^n, unclamped: the bound holds for them as for max(0, r.w)^n, and
@@ -317,7 +317,8 @@ BrightScatter::BrightScatter(const std::vector<BrightTexel>& input, double n, Si
                                  0.5 * tolerance * std::max(0.0, floor_value) * kTwoPi / (n + 1.0))),
       n_(n),
       ratio_cap_(n > 0 ? std::exp(80.0 / n) : 1.0),
-      out_(out) {
+      out_(out),
+      float_sums_(float_sums) {
     const std::vector<BrightTexel>& bright = bright_;
     // A bright term may be dropped where it is below its texel's share of the budget times the
     // smallest output (and so of every output), the shares being the texels' peaks over the
@@ -457,6 +458,48 @@ bool BrightScatter::may_reach_row(int row) const {
     return false;
 }
 
+namespace {
+
+// One plane per channel of a row's bright terms (BrightScatter::add_row), in T.
+template <typename T>
+struct TermPlanes {
+    std::vector<T> planes;
+    int width = 0;
+    void resize(int w) {
+        width = w;
+        planes.resize(3 * std::size_t(w));
+    }
+    void zero(int lo, int hi) {
+        for (int c = 0; c < 3; ++c) std::fill(planes.begin() + c * width + lo, planes.begin() + c * width + hi, T(0));
+    }
+    // A run of weights w on columns [first, first + count), times the texel's channels.
+    void add(const T* __restrict w, int first, int count, const BrightTexel& b) {
+        T* __restrict pr = planes.data() + first;
+        T* __restrict pg = pr + width;
+        T* __restrict pb = pg + width;
+        const T br = T(b.r), bg = T(b.g), bb = T(b.b);
+        for (int t = 0; t < count; ++t) {
+            pr[t] += w[t] * br;
+            pg[t] += w[t] * bg;
+            pb[t] += w[t] * bb;
+        }
+    }
+    // Columns [lo, hi) added into an interleaved row that starts at column first_column.
+    void into(double* row, int first_column, int lo, int hi) const {
+        const T* pr = planes.data();
+        const T* pg = pr + width;
+        const T* pb = pg + width;
+        for (int i = lo; i < hi; ++i) {
+            double* o = row + 3 * std::size_t(i - first_column);
+            o[0] += double(pr[i]);
+            o[1] += double(pg[i]);
+            o[2] += double(pb[i]);
+        }
+    }
+};
+
+}  // namespace
+
 void BrightScatter::add_row(int row, const double* cmax_row, int classes, double* nb_row,
                             const LobeSummer::ColumnRuns* columns, int first_column) const {
     const int ow = out_.width;
@@ -478,16 +521,22 @@ void BrightScatter::add_row(int row, const double* cmax_row, int classes, double
     // vectors (interleaved, the loop spent most of its time permuting lanes: 42 % of a 4096x2048
     // photograph's whole set, 2026-12-07). The planes are zeroed only over the hull of the
     // columns reached [hull_lo, hull_hi), and added into nb_row at the end, so each texel sums
-    // the same terms in the same order as before.
-    thread_local std::vector<double> planes;
+    // the same terms in the same order as before. With float_sums_ the planes and the weights
+    // (after the power, in double) are floats: twice the lanes and half the bytes stored.
+    thread_local TermPlanes<double> wide;
+    thread_local TermPlanes<float> narrow;
+    thread_local std::vector<float> weights32;
     weights.resize(kBatch + std::size_t(ow));
-    planes.resize(3 * std::size_t(ow));
-    double* const plane_r = planes.data();
-    double* const plane_g = plane_r + ow;
-    double* const plane_b = plane_g + ow;
+    if (float_sums_)
+        narrow.resize(ow);
+    else
+        wide.resize(ow);
     int hull_lo = 0, hull_hi = 0;
     const auto zero_columns = [&](int lo, int hi) {
-        for (double* plane : {plane_r, plane_g, plane_b}) std::fill(plane + lo, plane + hi, 0.0);
+        if (float_sums_)
+            narrow.zero(lo, hi);
+        else
+            wide.zero(lo, hi);
     };
     const auto reach_columns = [&](int lo, int hi) {
         if (hull_lo >= hull_hi) {
@@ -503,31 +552,27 @@ void BrightScatter::add_row(int row, const double* cmax_row, int classes, double
     std::size_t filled = 0;
     const auto flush = [&] {
         raise_to_power(weights.data(), int(filled), n_);
+        if (float_sums_) {
+            weights32.resize(filled);
+            for (std::size_t k = 0; k < filled; ++k) weights32[k] = float(weights[k]);
+        }
         for (const Staged& r : staged) {
             const BrightTexel& b = bright_[r.texel];
-            const double* w = weights.data() + r.offset;
             reach_columns(r.first, r.first + r.count);
-            double* pr = plane_r + r.first;
-            double* pg = plane_g + r.first;
-            double* pb = plane_b + r.first;
-            const double br = b.r, bg = b.g, bb = b.b;
-            for (int t = 0; t < r.count; ++t) {
-                pr[t] += w[t] * br;
-                pg[t] += w[t] * bg;
-                pb[t] += w[t] * bb;
-            }
+            if (float_sums_)
+                narrow.add(weights32.data() + r.offset, r.first, r.count, b);
+            else
+                wide.add(weights.data() + r.offset, r.first, r.count, b);
         }
         staged.clear();
         filled = 0;
     };
     // The planes' columns [lo, hi) into nb_row.
     const auto add_planes = [&](int lo, int hi) {
-        for (int i = lo; i < hi; ++i) {
-            double* o = nb_row + 3 * std::size_t(i - first_column);
-            o[0] += plane_r[i];
-            o[1] += plane_g[i];
-            o[2] += plane_b[i];
-        }
+        if (float_sums_)
+            narrow.into(nb_row, first_column, lo, hi);
+        else
+            wide.into(nb_row, first_column, lo, hi);
     };
     // One member's physical run [lo, hi), whose weights start at position pos of a staged span
     // (positions past the end of a whole-row span continue at its start).

@@ -81,8 +81,10 @@ std::vector<BrightTexel> merge_bright_cells(const std::vector<BrightTexel>& brig
 // of bright texels (a lamp at 8K) need far fewer terms.
 class BrightScatter {
 public:
+    // float_sums: the terms summed in float (each weight rounded to float after its power, in
+    // double): for weights up to 1 (cmax_floor 1, BrightLobes), whose sums go into float maps.
     BrightScatter(const std::vector<BrightTexel>& bright, double shininess, Size out, double floor_value,
-                  double tolerance, double cmax_floor = 0.999);
+                  double tolerance, double cmax_floor = 0.999, bool float_sums = false);
     // Adds the terms of output row `row` to nb_row (3 per texel); cmax_row holds
     // `classes` values (column i is class i % classes), ones for sums
     // normalised to the largest weight 1. Thread-safe across rows. With `columns`, only the
@@ -104,6 +106,7 @@ private:
     double n_;
     double ratio_cap_;  // the largest r.w / cmax raised to n: e^(80 / n) (1 for n = 0)
     Size out_;
+    bool float_sums_ = false;
     std::vector<double> min_cos_, cos_phi_, sin_phi_;
     // Per bright texel: sin(theta_b), and the output rows its cut-off cone can reach (with a
     // row of margin; the exact test is made per row), so a row skips the others cheaply.
