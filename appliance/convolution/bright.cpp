@@ -452,10 +452,21 @@ BrightScatter::BrightScatter(const std::vector<BrightTexel>& input, double n, Si
     }
 }
 
-bool BrightScatter::may_reach_row(int row) const {
-    for (std::size_t k = 0; k < bright_.size(); ++k)
-        if (row >= first_row_[k] && row <= last_row_[k]) return true;
-    return false;
+std::vector<char> BrightScatter::rows_reached() const {
+    // +1 where a texel's rows start, -1 past their end; the running sum counts the texels.
+    std::vector<int> starts(std::size_t(out_.height) + 1, 0);
+    for (std::size_t k = 0; k < bright_.size(); ++k) {
+        if (first_row_[k] > last_row_[k]) continue;
+        ++starts[std::size_t(first_row_[k])];
+        --starts[std::size_t(last_row_[k]) + 1];
+    }
+    std::vector<char> reached(std::size_t(out_.height), 0);
+    int count = 0;
+    for (int j = 0; j < out_.height; ++j) {
+        count += starts[std::size_t(j)];
+        reached[std::size_t(j)] = count > 0;
+    }
+    return reached;
 }
 
 namespace {

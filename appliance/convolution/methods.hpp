@@ -97,9 +97,10 @@ public:
     const std::vector<double>& min_cos() const { return min_cos_; }
     double shininess() const { return n_; }
     Size grid() const { return out_; }
-    // Whether some bright texel's cut-off cone may reach output row `row` (false: add_row adds
-    // nothing there).
-    bool may_reach_row(int row) const;
+    // Per output row, whether some bright texel's cut-off cone may reach it (0: add_row adds
+    // nothing there). One pass over the texels' row ranges (a loop over every texel per row
+    // took 1.7 % of a 4096x2048 photograph's set: 16384 texels, 4096 rows of fine tiles).
+    std::vector<char> rows_reached() const;
 
 private:
     std::vector<BrightTexel> bright_;  // the input's, with cells merged (merge_bright_cells)

@@ -1014,9 +1014,7 @@ BrightLobes::BrightLobes(const std::vector<BrightTexel>& bright, double n, Size 
     : scatter_(bright, n, out, floor_value, 1e-3, 1.0, true),
       norm_((op == LobeOp::Subtract ? -1.0 : 1.0) * (n + 1.0) / kTwoPi),
       op_(op),
-      reached_(std::size_t(out.height), 0) {
-    for (int j = 0; j < out.height; ++j) reached_[std::size_t(j)] = scatter_.may_reach_row(j);
-}
+      reached_(scatter_.rows_reached()) {}
 
 void BrightLobes::apply_row(int row, float* dst) const {
     if (!reached_[std::size_t(row)]) return;
