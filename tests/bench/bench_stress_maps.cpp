@@ -194,6 +194,7 @@ int main(int argc, char** argv) {
     bool fine_tiles = true;
     std::optional<Size> photo;
     int judge = 256;
+    bool judge_given = false;
     std::string write_to;
     for (int i = 1; i < argc; ++i) {
         const std::string a = argv[i];
@@ -209,10 +210,12 @@ int main(int argc, char** argv) {
             const std::string v = argv[++i];
             if (a == "--judge") {
                 judge = std::atoi(v.c_str());
+                judge_given = true;
                 continue;
             }
             int w = 0, h = 0;
-            if (std::sscanf(v.c_str(), "%dx%d", &w, &h) != 2 || w < 8 || h < 4) {
+            char rest = 0;
+            if (std::sscanf(v.c_str(), "%dx%d%c", &w, &h, &rest) != 2 || w < 8 || h < 4) {
                 std::fprintf(stderr, "glint_bench_stress_maps: --photo takes WxH (at least 8x4), not '%s'\n", v.c_str());
                 return 2;
             }
@@ -234,6 +237,10 @@ int main(int argc, char** argv) {
                     "RMS +- its standard error, worst). Maps that need a finer grid get it in fine tiles, as glint\n"
                     "convolve delivers them, and are read through the tiles; --whole-grids: the whole finer grid.\n");
         return 0;
+    }
+    if (!photo && (!write_to.empty() || judge_given)) {
+        std::fprintf(stderr, "glint_bench_stress_maps: --write and --judge go with --photo WxH (--help)\n");
+        return 2;
     }
     keep_freed_memory();
     if (photo && !write_to.empty()) {
