@@ -1,9 +1,11 @@
-// `glint calibrate response|vignetting|alignment|intrinsics --session DIR --calibration FILE`:
+// `glint calibrate response|vignetting|noise|alignment|intrinsics --session DIR --calibration FILE`:
 // one camera calibration from recorded frames, written into the calibration file (created from
 // the session's calibration.json when absent). On a simulated session, the result is also
 // compared with the session's truth (appliance/capture; docs/capture.md).
+#include <algorithm>
 #include <cstdio>
 #include <memory>
+#include <vector>
 
 #include "appliance/app/commands.hpp"
 #include "appliance/capture/calibration.hpp"
@@ -36,6 +38,28 @@ void calibrate_vignetting(const capture::Session& s, capture::CameraCalibration&
     cal.vignetting = r.vignetting;
     std::printf("vignetting from %d frames, %lld pixels: a1 %.5f a2 %.5f a3 %.5f, fit RMS %.5f -> %s\n", r.frames,
                 r.pixels, r.vignetting.a1, r.vignetting.a2, r.vignetting.a3, r.fit_rms, file.c_str());
+}
+
+void calibrate_noise(const capture::Session& s, capture::CameraCalibration& cal, const std::string& file) {
+    const capture::NoiseResult r = capture::calibrate_noise(s, cal);
+    cal.noise_full_well_electrons = r.full_well_electrons;
+    cal.noise_read = r.read_noise;
+    std::printf("noise from %d frame pairs, %lld pixel channels in %d exposure bins: full well %.0f electrons, read "
+                "noise %.5f (relative exposure), fit RMS %.1f %% -> %s\n",
+                r.pairs, r.samples, r.bins, r.full_well_electrons, r.read_noise, 100 * r.fit_rms, file.c_str());
+    if (s.has_truth && capture::truth_calibration(s).noise_full_well_electrons > 0) {
+        // The truth in this calibration's units: its response may be scaled otherwise (a
+        // calibrated response puts code 254 at 1), X here = scale x X there.
+        const capture::CameraCalibration truth = capture::truth_calibration(s);
+        std::vector<double> ratios;
+        for (int z = 64; z <= 200; ++z)
+            ratios.push_back(cal.response.inverse[std::size_t(z)] / truth.response.inverse[std::size_t(z)]);
+        std::nth_element(ratios.begin(), ratios.begin() + std::ptrdiff_t(ratios.size() / 2), ratios.end());
+        const double scale = ratios[ratios.size() / 2];
+        std::printf("against the session's truth: full well %+.1f %%, read noise %+.1f %%\n",
+                    100 * (r.full_well_electrons / (truth.noise_full_well_electrons / scale) - 1),
+                    100 * (r.read_noise / (truth.noise_read * scale) - 1));
+    }
 }
 
 void calibrate_alignment(const capture::Session& s, capture::CameraCalibration& cal, const std::string& file) {
@@ -79,6 +103,10 @@ constexpr StepSpec kSteps[] = {
     {"vignetting",
      "Vignetting from flat-field frames (a uniformly lit view filling the frame), using the calibration's response",
      "Session holding the flat-field frames", calibrate_vignetting},
+    {"noise",
+     "The sensor's noise model (full well, read noise) from an exposure bracket of a still view, using the "
+     "calibration's response: consecutive frames compared pixel by pixel",
+     "Session holding the bracket (e.g. glint simulate --bracket 12; calibrate its response first)", calibrate_noise},
     {"alignment",
      "Camera-to-sensor rotation and time offset from rotation-only motion (best: glint simulate --trajectory "
      "alignment, turns about all three axes): image rotations between consecutive frames against the sensor's",

@@ -47,6 +47,15 @@ Command add_simulate_command(CLI::App& app) {
         ->check(CLI::IsMember({"none", "default", "high"}))
         ->capture_default_str();
     cmd->add_flag("--no-camera-noise", a->no_camera_noise, "Render without shot and read noise");
+    cmd->add_option("--camera-full-well", a->o.camera_full_well_electrons,
+                    "Camera sensor's photo-electrons at relative exposure 1 and gain 1 (shot noise; a smaller full "
+                    "well also reads the same light brighter)")
+        ->check(CLI::Range(100.0, 1e7))
+        ->capture_default_str();
+    cmd->add_option("--camera-read-noise", a->o.camera_read_noise,
+                    "Camera sensor's read noise, standard deviation in relative exposure")
+        ->check(CLI::Range(0.0, 0.1))
+        ->capture_default_str();
     cmd->add_option("--mount", a->mount, "Sensor mounting error yaw,pitch,roll in degrees (sensor_from_camera)")
         ->capture_default_str();
     cmd->add_option("--clock-drift-ppm", a->o.clock_drift_ppm, "Board clock rate error against the appliance clock")

@@ -36,6 +36,29 @@ struct VignettingResult {
 // by least squares. Throws InputError when too few usable pixels remain.
 VignettingResult calibrate_vignetting(const Session& flat_field, const CameraCalibration& calibration);
 
+struct NoiseResult {
+    double full_well_electrons = 0;  // photo-electrons at relative exposure 1 and gain 1
+    double read_noise = 0;           // standard deviation in relative exposure
+    int pairs = 0;                   // consecutive frames compared
+    long long samples = 0;           // pixel channels used
+    int bins = 0;                    // exposure bins fitted
+    double fit_rms = 0;              // RMS relative residual of the bins' variances
+};
+
+// The sensor's noise model (CameraCalibration::noise_*) from an exposure bracket of a still
+// view (glint simulate --bracket N): consecutive frames see the same light, so in relative
+// exposure X (the calibration's inverse response) the later frame reads rho times the earlier,
+// rho = the ratio of their exposure x gain. The difference d = X' - rho X of a pixel channel read
+// in both (codes 2..249) then has variance
+//   (1/full_well) (rho X g' + rho^2 X g) + read^2 (1 + rho^2) + quantisation,
+// the quantisation being each code's bin width squared over 12. The variance is taken per
+// exposure bin about the bin's own mean difference (a response slightly off shifts the mean,
+// not the spread), and full_well and read are fitted by weighted least squares over the bins.
+// Throws InputError when the session holds fewer than two frames a factor 1.2-8 apart, too few
+// pixels are read in both frames of a pair, or the bins' variances do not follow the model (no
+// shot noise, or a fit RMS over 50 %: a noiseless recording, a moving view, a response far off).
+NoiseResult calibrate_noise(const Session& bracket, const CameraCalibration& calibration);
+
 // An alignment is not put in force when the motion leaves the mounting's standard deviation about
 // some axis above this (degrees), as large as the mounting's target. The standard deviation is
 // the noise's alone, with the time offset marginalised: the benchmark's errors are 2-5x it (a bias of the image

@@ -119,7 +119,7 @@ struct CameraCalibration {
     // The sensor's noise in relative exposure X (docs/render.md, "Matching the camera"): shot noise
     // of X x full_well_electrons / gain photo-electrons and a read noise of standard deviation
     // noise_read, i.e. variance X gain / full_well + read^2. Used to give virtual pixels the
-    // video's noise; a sensor's datasheet gives both (`glint calibrate` does not measure them).
+    // video's noise; a sensor's datasheet gives both, or `glint calibrate noise` fits them to a bracket.
     // 0: unknown. Stored as calibration.json's "noise": {"full_well_electrons", "read_noise"}.
     double noise_full_well_electrons = 0;
     double noise_read = 0;

@@ -172,6 +172,8 @@ SimulateSummary write_session(const SimulateOptions& o, const HdrImage& env, con
     SensorModel sensor;
     sensor.noise = o.camera_noise;
     sensor.motion_blur = o.motion_blur;
+    sensor.full_well_electrons = o.camera_full_well_electrons;
+    sensor.read_noise = o.camera_read_noise;
     const CameraCalibration truth = true_camera(o, sensor);
 
     // The sensor board rides on the camera: world_from_sensor = world_from_camera * camera_from_sensor,

@@ -33,6 +33,11 @@ struct SimulateOptions {
     std::string imu = "raw";         // "raw" (MPU-6050 + QMC5883L, Mahony on the board) or "bno055"
     std::string sensor_noise = "default";  // "none", "default", "high" (firmware simulator presets)
     bool camera_noise = true;
+    // The camera sensor's noise (SensorModel): photo-electrons at relative exposure 1 and gain 1,
+    // and the read noise's standard deviation in relative exposure. A smaller full well also makes
+    // the same light brighter (relative exposure is electrons over the full well).
+    double camera_full_well_electrons = 6000;
+    double camera_read_noise = 0.002;
     double mount_yaw_deg = 2.0, mount_pitch_deg = -1.5, mount_roll_deg = 0.5;  // sensor_from_camera
     double clock_drift_ppm = 40;     // board clock rate against the appliance clock
     // The camera-sensor time offset (CameraCalibration::time_offset_s: camera timestamp + offset =
