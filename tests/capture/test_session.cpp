@@ -456,6 +456,12 @@ TEST_F(SessionTest, NoiseCalibrationFromABracketFindsTheSensorsModel) {
     simulate_session(o);
     const Session quiet = open_session(o.out);
     EXPECT_THROW(calibrate_noise(quiet, quiet.calibration), InputError);
+    // Nor is a scan a bracket: its view moves, and its exposures follow the scene.
+    SimulateOptions scan = small_session();
+    scan.out = dir_ / "scan";
+    simulate_session(scan);
+    const Session moving = open_session(scan.out);
+    EXPECT_THROW(calibrate_noise(moving, moving.calibration), InputError);
 }
 
 TEST_F(SessionTest, VignettingFromAFlatFieldFindsTheTrueFalloff) {
