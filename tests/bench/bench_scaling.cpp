@@ -1043,10 +1043,8 @@ int main(int argc, char** argv) {
             for (const Target& t : targets) md << ' ' << size_str(reference_source({w, w / 2}, t)) << " |";
             md << '\n';
         }
-        struct rusage self {};
-        getrusage(RUSAGE_SELF, &self);
         md << "\nPeak RSS of the benchmark program itself (inputs, references, comparisons): "
-           << fmt("%.0f MiB", double(self.ru_maxrss) / 1024.0) << ".\n";
+           << fmt("%.0f MiB", glint::bench::peak_rss_mib()) << ".\n";
 
         // ---- plot ----
         const fs::path dat = cfg.cache / ("scaling_plot" + cfg.suffix() + ".dat");

@@ -7,8 +7,6 @@
 // texels, a sun, lamps, a window), not upsampled from a smaller one as the scaling benchmark's
 // inputs are: issue 13's whole set at the planner's sizes, its time, the process's peak memory,
 // and each map judged off-grid (--judge K directions, 0 for none).
-#include <sys/resource.h>
-
 #include <algorithm>
 #include <chrono>
 #include <cmath>
@@ -24,6 +22,7 @@
 #include "appliance/core/exr_io.hpp"
 #include "appliance/core/memory.hpp"
 #include "appliance/core/parallel.hpp"
+#include "bench_util.hpp"
 
 using namespace glint;
 using namespace glint::convolution;
@@ -146,34 +145,30 @@ HdrImage make_photo_like(Size size) {
     return m;
 }
 
-double peak_rss_mib() {
-    rusage usage{};
-    getrusage(RUSAGE_SELF, &usage);
-    return double(usage.ru_maxrss) / 1024.0;  // kilobytes on Linux
+// " + K tiles Fx" for a map delivered with fine tiles, else "".
+std::string tiles_note(const MapResult& r) {
+    return r.fine.empty() ? "" : " + " + std::to_string(r.fine.count()) + " tiles " + std::to_string(r.fine.factor) + "x";
 }
 
 int run_photo(Size size, int judge, bool fine_tiles) {
     std::vector<MapRequest> maps{MapRequest::make_irradiance()};
-    for (double n : {1.0, 10.0, 20.0, 40.0, 80.0, 160.0, 320.0, 640.0, 1280.0, 5120.0, 20480.0})
-        maps.push_back(MapRequest::make_phong(n, std::to_string(int(n))));
+    for (double n : bench::whole_set_shininess()) maps.push_back(MapRequest::make_phong(n, std::to_string(int(n))));
     Options o;
     o.threads = 2;
     o.fine_tiles = fine_tiles;  // as glint convolve delivers them
     auto made = std::chrono::steady_clock::now();
     HdrImage env = make_photo_like(size);
     const double make_s = std::chrono::duration<double>(std::chrono::steady_clock::now() - made).count();
-    const double before = peak_rss_mib();
+    const double before = bench::peak_rss_mib();
     const auto start = std::chrono::steady_clock::now();
     const std::vector<MapResult> results = convolve(std::move(env), maps, o);  // handed over, as glint convolve does
     const double seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
     std::printf("photo-like %s (made in %.1f s): whole set %.2f s, peak RSS %.0f MiB (%.0f MiB before convolve)\n",
-                to_string(size).c_str(), make_s, seconds, peak_rss_mib(), before);
+                to_string(size).c_str(), make_s, seconds, bench::peak_rss_mib(), before);
     const HdrImage judge_env = judge > 0 ? make_photo_like(size) : HdrImage();
     for (const MapResult& r : results) {
-        const std::string tiles =
-            r.fine.empty() ? "" : " + " + std::to_string(r.fine.count()) + " tiles " + std::to_string(r.fine.factor) + "x";
         std::printf("  %-11s %-10s%-16s %-6s %6.3f s  predicted %.4f", r.request.label.c_str(),
-                    to_string(r.plan.output_size).c_str(), tiles.c_str(), to_string(r.plan.method).c_str(), r.seconds,
+                    to_string(r.plan.output_size).c_str(), tiles_note(r).c_str(), to_string(r.plan.method).c_str(), r.seconds,
                     r.plan.predicted_error);
         if (judge > 0) {
             const OffGridError e =
@@ -272,10 +267,8 @@ int main(int argc, char** argv) {
         for (const MapResult& r : results) {
             const OffGridError e =
                 measure_offgrid_error(env, r.image, r.request.shininess, 1024, 5, 2, r.plan.lookup, &r.fine);
-            const std::string tiles =
-                r.fine.empty() ? "" : " + " + std::to_string(r.fine.count()) + " tiles " + std::to_string(r.fine.factor) + "x";
             std::printf("  %-11s %-9s%-14s predicted %.4f  off-grid %.2e +- %.1e  worst %.2e%s\n",
-                        r.request.label.c_str(), to_string(r.plan.output_size).c_str(), tiles.c_str(),
+                        r.request.label.c_str(), to_string(r.plan.output_size).c_str(), tiles_note(r).c_str(),
                         r.plan.predicted_error, e.weighted_relative_rms, e.rms_standard_error, e.worst_texel,
                         r.plan.predicted_error > o.tolerance ? "  over" : "");
         }

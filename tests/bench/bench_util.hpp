@@ -1,6 +1,7 @@
 // Small helpers shared by the benchmarks' reports.
 #pragma once
 
+#include <sys/resource.h>
 #include <unistd.h>
 
 #include <cstdio>
@@ -23,6 +24,13 @@ inline std::string machine_description() {
             break;
         }
     return model + ", " + std::to_string(sysconf(_SC_NPROCESSORS_ONLN)) + " cores";
+}
+
+// This process's peak resident memory so far, MiB (getrusage's ru_maxrss is in KiB on Linux).
+inline double peak_rss_mib() {
+    rusage usage{};
+    getrusage(RUSAGE_SELF, &usage);
+    return double(usage.ru_maxrss) / 1024.0;
 }
 
 // printf-style formatting of one number.
