@@ -2,10 +2,8 @@
 // one camera calibration from recorded frames, written into the calibration file (created from
 // the session's calibration.json when absent). On a simulated session, the result is also
 // compared with the session's truth (appliance/capture; docs/capture.md).
-#include <algorithm>
 #include <cstdio>
 #include <memory>
-#include <vector>
 
 #include "appliance/app/commands.hpp"
 #include "appliance/capture/calibration.hpp"
@@ -48,17 +46,10 @@ void calibrate_noise(const capture::Session& s, capture::CameraCalibration& cal,
                 "noise %.5f (relative exposure), fit RMS %.1f %% -> %s\n",
                 r.pairs, r.samples, r.bins, r.full_well_electrons, r.read_noise, 100 * r.fit_rms, file.c_str());
     if (s.has_truth && capture::truth_calibration(s).noise_full_well_electrons > 0) {
-        // The truth in this calibration's units: its response may be scaled otherwise (a
-        // calibrated response puts code 254 at 1), X here = scale x X there.
-        const capture::CameraCalibration truth = capture::truth_calibration(s);
-        std::vector<double> ratios;
-        for (int z = 64; z <= 200; ++z)
-            ratios.push_back(cal.response.inverse[std::size_t(z)] / truth.response.inverse[std::size_t(z)]);
-        std::nth_element(ratios.begin(), ratios.begin() + std::ptrdiff_t(ratios.size() / 2), ratios.end());
-        const double scale = ratios[ratios.size() / 2];
-        std::printf("against the session's truth: full well %+.1f %%, read noise %+.1f %%\n",
-                    100 * (r.full_well_electrons / (truth.noise_full_well_electrons / scale) - 1),
-                    100 * (r.read_noise / (truth.noise_read * scale) - 1));
+        const capture::NoiseError e =
+            capture::noise_error_against_truth(r.full_well_electrons, r.read_noise, cal.response, capture::truth_calibration(s));
+        std::printf("against the session's truth: full well %+.1f %%, read noise %+.1f %%\n", 100 * e.full_well,
+                    100 * e.read_noise);
     }
 }
 

@@ -3,6 +3,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include "appliance/capture/calibration_io.hpp"
 #include "appliance/core/equirect.hpp"
@@ -29,6 +30,17 @@ double response_error_against_truth(const Response& estimate, const Response& tr
         worst = std::max(worst, std::abs(est / tru - 1));
     }
     return worst;
+}
+
+NoiseError noise_error_against_truth(double full_well_electrons, double read_noise, const Response& response,
+                                     const CameraCalibration& truth) {
+    std::vector<double> ratios;
+    for (int z = 64; z <= 200; ++z)
+        ratios.push_back(response.inverse[std::size_t(z)] / truth.response.inverse[std::size_t(z)]);
+    std::nth_element(ratios.begin(), ratios.begin() + std::ptrdiff_t(ratios.size() / 2), ratios.end());
+    const double scale = ratios[ratios.size() / 2];
+    return {full_well_electrons / (truth.noise_full_well_electrons / scale) - 1,
+            read_noise / (truth.noise_read * scale) - 1};
 }
 
 double mounting_error_deg(const glm::dquat& estimate, const glm::dquat& truth) {
