@@ -537,18 +537,17 @@ void BrightScatter::add_row(int row, const double* cmax_row, int classes, double
     thread_local TermPlanes<double> wide;
     thread_local TermPlanes<float> narrow;
     thread_local std::vector<float> weights32;
-    weights.resize(kBatch + std::size_t(ow));
-    if (float_sums_)
-        narrow.resize(ow);
-    else
-        wide.resize(ow);
-    int hull_lo = 0, hull_hi = 0;
-    const auto zero_columns = [&](int lo, int hi) {
+    // The planes of this scatter's type, for f(planes).
+    const auto on_planes = [&](const auto& f) {
         if (float_sums_)
-            narrow.zero(lo, hi);
+            f(narrow);
         else
-            wide.zero(lo, hi);
+            f(wide);
     };
+    weights.resize(kBatch + std::size_t(ow));
+    on_planes([&](auto& p) { p.resize(ow); });
+    int hull_lo = 0, hull_hi = 0;
+    const auto zero_columns = [&](int lo, int hi) { on_planes([&](auto& p) { p.zero(lo, hi); }); };
     const auto reach_columns = [&](int lo, int hi) {
         if (hull_lo >= hull_hi) {
             zero_columns(lo, hi);
@@ -568,23 +567,17 @@ void BrightScatter::add_row(int row, const double* cmax_row, int classes, double
             for (std::size_t k = 0; k < filled; ++k) weights32[k] = float(weights[k]);
         }
         for (const Staged& r : staged) {
-            const BrightTexel& b = bright_[r.texel];
             reach_columns(r.first, r.first + r.count);
             if (float_sums_)
-                narrow.add(weights32.data() + r.offset, r.first, r.count, b);
+                narrow.add(weights32.data() + r.offset, r.first, r.count, bright_[r.texel]);
             else
-                wide.add(weights.data() + r.offset, r.first, r.count, b);
+                wide.add(weights.data() + r.offset, r.first, r.count, bright_[r.texel]);
         }
         staged.clear();
         filled = 0;
     };
     // The planes' columns [lo, hi) into nb_row.
-    const auto add_planes = [&](int lo, int hi) {
-        if (float_sums_)
-            narrow.into(nb_row, first_column, lo, hi);
-        else
-            wide.into(nb_row, first_column, lo, hi);
-    };
+    const auto add_planes = [&](int lo, int hi) { on_planes([&](const auto& p) { p.into(nb_row, first_column, lo, hi); }); };
     // One member's physical run [lo, hi), whose weights start at position pos of a staged span
     // (positions past the end of a whole-row span continue at its start).
     const auto read_run = [&](std::size_t k, int lo, int hi, int pos, int span, std::size_t base) {
