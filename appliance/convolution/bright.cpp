@@ -36,11 +36,15 @@ void cone_columns(double phi_c, double q, int ow, int& first, int& count) {
 
 }  // namespace
 
-BrightSplit split_bright(HdrImage image, double contrast, int max_count, int threads) {
-    // The remainder is the map itself with its bright texels zeroed: no copy when the caller
-    // hands the map over.
+namespace {
+
+// split_bright's work: `source` (when not null) is copied into remainder, row j by the thread
+// that sums row j first.
+BrightSplit split_bright_into(HdrImage remainder, const HdrImage* source, double contrast, int max_count,
+                              int threads) {
+    // The remainder is the map itself with its bright texels zeroed.
     BrightSplit split;
-    split.remainder = std::move(image);
+    split.remainder = std::move(remainder);
     const HdrImage& input = split.remainder;
     const int w = input.width();
     const int h = input.height();
@@ -53,6 +57,7 @@ BrightSplit split_bright(HdrImage image, double contrast, int max_count, int thr
     // threshold is known) the texels above it; rows in parallel, merged in order.
     std::vector<double> row_power(std::size_t(h), 0.0);
     parallel_for(h, threads, [&](int j) {
+        if (source) std::copy_n(source->row(j), 3 * std::size_t(w), split.remainder.row(j));
         row_power[std::size_t(j)] = max_channel_row_sum(input.row(j), w) * omega[std::size_t(j)];
     });
     double power = 0;
@@ -96,6 +101,18 @@ BrightSplit split_bright(HdrImage image, double contrast, int max_count, int thr
         split.remainder_power += row_power[std::size_t(j)];
     }
     return split;
+}
+
+}  // namespace
+
+BrightSplit split_bright(HdrImage&& input, double contrast, int max_count, int threads) {
+    return split_bright_into(std::move(input), nullptr, contrast, max_count, threads);
+}
+
+BrightSplit split_bright(const HdrImage& input, double contrast, int max_count, int threads) {
+    if (input.empty()) return split_bright_into(HdrImage(), nullptr, contrast, max_count, threads);
+    return split_bright_into(HdrImage(input.width(), input.height(), HdrImage::Unwritten{}), &input, contrast,
+                             max_count, threads);
 }
 
 namespace {

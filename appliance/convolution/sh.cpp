@@ -283,10 +283,12 @@ inline void accumulate(double& sum, double& comp, double v) {
 }
 
 // spectra (optional, FFT path only): the rows' spectra given, read_row never called.
+// image (optional): the same rows as read_row, from a float map; on the FFT path its rows are
+// transformed FftPlan::kBatch at a time (RealFftPlan::forward_batch, one row per vector lane).
 template <bool Compensated, typename RowSource>
 ShCoefficients project_impl(int width, int height, int order, int threads, ShQuadrature q,
                             ShAzimuthal azimuthal, const RowSource& read_row,
-                            const RowSpectrumSource* spectra = nullptr) {
+                            const RowSpectrumSource* spectra = nullptr, const HdrImage* image = nullptr) {
     check_order(order);
     check_size(width, height, "input");
     threads = resolve_threads(threads);
@@ -318,6 +320,12 @@ ShCoefficients project_impl(int width, int height, int order, int threads, ShQua
             fc[m] = c * a + s * b;
             gc[m] = s * a - c * b;
         }
+    };
+    // The row's quadrature weight and s_m.
+    const auto weigh = [&](int j, double* f) {
+        const double w = weights[std::size_t(j)];
+        for (std::size_t k = 0; k < 6; ++k)
+            for (std::size_t m = 0; m < uorder; ++m) f[k * uorder + m] *= m == 0 ? w : w * kSqrt2;
     };
     const auto fourier_sums = [&](int j, std::vector<double>& row, double* f) {
         if (!spectra) read_row(j, row.data());
@@ -369,9 +377,7 @@ ShCoefficients project_impl(int width, int height, int order, int threads, ShQua
                 }
             }
         }
-        const double w = weights[std::size_t(j)];
-        for (std::size_t k = 0; k < 6; ++k)
-            for (std::size_t m = 0; m < uorder; ++m) f[k * uorder + m] *= m == 0 ? w : w * kSqrt2;
+        weigh(j, f);
     };
 
     // Pass 2 takes the columns m in groups of kColumnGroup, so pass 1 stores its results by group: the
@@ -386,21 +392,16 @@ ShCoefficients project_impl(int width, int height, int order, int threads, ShQua
     const auto fourier = std::make_unique_for_overwrite<double[]>(groups * uheight * 6 * kColumnGroup);
     const auto diagonal = std::make_unique_for_overwrite<double[]>(groups * upairs * kColumnGroup);
     std::vector<double> xs(padded, 0.0);  // the lanes past the last pair hold 0
-    parallel_for(height, threads, [&](int j) {
+    // Row j's sums f (6 order values, overwritten after use) into fourier and diagonal.
+    const auto store_row = [&](int j, double* f) {
         const std::size_t uj = std::size_t(j);
-        // Per thread, not per row: fresh vectors cost an allocation and a zero fill each row (every
-        // value read is written first: read_row fills `row`, fourier_sums all of `f`).
-        thread_local std::vector<double> row, f;
-        if (!spectra) row.resize(uwidth * 3);
-        f.resize(6 * uorder);
-        fourier_sums(j, row, f.data());
         for (std::size_t g = 0; g < groups; ++g) {
             const std::size_t m0 = g * kColumnGroup, mn = std::min(kColumnGroup, uorder - m0);
             double* dst = fourier.get() + (g * uheight + uj) * 6 * kColumnGroup;
             // A whole group is a copy of fixed length, inlined; copy_n of a run-time count was a
             // library call per 8 values (6 per group, 180 a row at order 236).
             for (std::size_t k = 0; k < 6; ++k) {
-                const double* src = f.data() + k * uorder + m0;
+                const double* src = f + k * uorder + m0;
                 if (mn == kColumnGroup)
                     for (std::size_t i = 0; i < kColumnGroup; ++i) dst[k * kColumnGroup + i] = src[i];
                 else
@@ -410,10 +411,60 @@ ShCoefficients project_impl(int width, int height, int order, int threads, ShQua
         if (uj >= upairs) return;
         double s = 0;
         row_angles(j, height, xs[uj], s);
-        diagonal_values(diag, order, s, f.data());  // f is free again
+        diagonal_values(diag, order, s, f);  // f is free again
         for (std::size_t m = 0; m < uorder; ++m)
             diagonal[((m / kColumnGroup) * upairs + uj) * kColumnGroup + m % kColumnGroup] = f[m];
-    });
+    };
+    if (use_fft && !spectra && image) {
+        // A float map's rows kBatch at a time, each channel one batched transform: a single row's
+        // forward() was a fifth of a 128x64 n = 1280 map's time from 1024x512 (order 236).
+        constexpr std::size_t kBatch = FftPlan::kBatch;
+        const std::size_t bins = fft->plan.spectrum_size();
+        const int batches = int((uheight + kBatch - 1) / kBatch);
+        parallel_for(batches, threads, [&](int batch) {
+            // Per thread: planes of the batch's rows (one channel), their spectra (per row and
+            // channel: real parts, then imaginary parts) and one row's sums.
+            thread_local std::vector<float> planes;
+            thread_local std::vector<double> spectrum, f;
+            planes.resize(kBatch * uwidth);
+            spectrum.resize(kBatch * 6 * bins);
+            f.resize(6 * uorder);
+            const int first = batch * int(kBatch);
+            const std::size_t count = std::min(kBatch, uheight - std::size_t(first));
+            for (std::size_t ch = 0; ch < 3; ++ch) {
+                const float* x[kBatch];
+                double* re[kBatch];
+                double* im[kBatch];
+                for (std::size_t b = 0; b < count; ++b) {
+                    const float* src = image->row(first + int(b));
+                    float* plane = planes.data() + b * uwidth;
+                    for (std::size_t i = 0; i < uwidth; ++i) plane[i] = src[3 * i + ch];
+                    x[b] = plane;
+                    re[b] = spectrum.data() + (b * 6 + 2 * ch) * bins;
+                    im[b] = re[b] + bins;
+                }
+                fft->plan.forward_batch(x, re, im, count);
+            }
+            for (std::size_t b = 0; b < count; ++b) {
+                const int j = first + int(b);
+                const double* x = spectrum.data() + b * 6 * bins;
+                for (std::size_t ch = 0; ch < 3; ++ch)
+                    from_spectrum(ch, x + 2 * ch * bins, x + (2 * ch + 1) * bins, 1, f.data());
+                weigh(j, f.data());
+                store_row(j, f.data());
+            }
+        });
+    } else {
+        parallel_for(height, threads, [&](int j) {
+            // Per thread, not per row: fresh vectors cost an allocation and a zero fill each row (every
+            // value read is written first: read_row fills `row`, fourier_sums all of `f`).
+            thread_local std::vector<double> row, f;
+            if (!spectra) row.resize(uwidth * 3);
+            f.resize(6 * uorder);
+            fourier_sums(j, row, f.data());
+            store_row(j, f.data());
+        });
+    }
 
     // Pass 2, per m (disjoint coefficients): c_lm = sum_j \bar P_lm(x_j) F_j[m]. With the mirror rows
     // folded (see row_pairs) this is sum over pairs p of \bar P_lm(x_p) (F_p[m] +- F_H-1-p[m]), + for even
@@ -833,8 +884,10 @@ ShCoefficients sh_project(const HdrImage& env, int order, int threads, ShQuadrat
             for (std::size_t ch = 0; ch < 3; ++ch) out[ch * width + i] = double(src[3 * i + ch]);
     };
     if (summation == ShSummation::Plain)
-        return project_impl<false>(env.width(), env.height(), order, threads, q, ShAzimuthal::Automatic, read_row);
-    return project_impl<true>(env.width(), env.height(), order, threads, q, ShAzimuthal::Automatic, read_row);
+        return project_impl<false>(env.width(), env.height(), order, threads, q, ShAzimuthal::Automatic, read_row,
+                                   nullptr, &env);
+    return project_impl<true>(env.width(), env.height(), order, threads, q, ShAzimuthal::Automatic, read_row,
+                              nullptr, &env);
 }
 
 ShCoefficients sh_project_spectra(int width, int height, int order, int threads, const RowSpectrumSource& spectrum_of_row,
