@@ -25,7 +25,8 @@ using CalibrationStep = void (*)(const capture::Session& s, capture::CameraCalib
 void calibrate_response(const capture::Session& s, capture::CameraCalibration& cal, const std::string& file) {
     const capture::ResponseResult r = capture::calibrate_response(s);
     cal.response = r.response;
-    std::printf("response from %d frames spanning %.0fx in exposure -> %s\n", r.frames, r.exposure_span, file.c_str());
+    std::printf("response from %d frames spanning %.0fx in exposure, %s -> %s\n", r.frames, r.exposure_span,
+                capture::response_coverage(r).c_str(), file.c_str());
     if (s.has_truth)
         std::printf("against the session's truth: worst relative error %.2f %% over codes 64..250\n",
                     100 * capture::response_error_against_truth(r.response, capture::truth_calibration(s).response));

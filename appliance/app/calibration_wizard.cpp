@@ -87,6 +87,21 @@ std::string format(const char* fmt, auto... args) {
     return buf;
 }
 
+// The response run's second step: the sensor's noise model from the same bracket, read through
+// the new curve (`next`, which it updates). A bracket that shows no shot noise or does not fit the
+// model keeps the model in force, and the text says why; the new curve is kept either way.
+std::string noise_step(const capture::Session& bracket, capture::CameraCalibration& next) {
+    try {
+        const capture::NoiseResult r = capture::calibrate_noise(bracket, next);
+        next.noise_full_well_electrons = r.full_well_electrons;
+        next.noise_read = r.read_noise;
+        return format("noise: full well %.0f electrons, read noise %.5f (fit RMS %.1f %% over %d frame pairs)",
+                      r.full_well_electrons, r.read_noise, 100 * r.fit_rms, r.pairs);
+    } catch (const InputError& e) {
+        return std::string("noise model kept (") + e.what() + ")";
+    }
+}
+
 }  // namespace
 
 double bracket_consistency(const std::vector<cv::Mat>& frames, const std::vector<double>& exposures,
@@ -567,8 +582,10 @@ void CalibrationWizard::compute(std::uint64_t run) {
             const double now = bracket_consistency(frames, exposures, r.response.inverse);
             const double before = bracket_consistency(frames, exposures, current.response.inverse);
             text = format("%d exposures over %.0fx; neighbouring exposures agree within %.1f %% (median; %.1f %% with "
-                          "the curve in force)",
-                          r.frames, r.exposure_span, 100 * now, 100 * before);
+                          "the curve in force); ",
+                          r.frames, r.exposure_span, 100 * now, 100 * before) +
+                   capture::response_coverage(r);
+            text += "; " + noise_step(s, next);
             break;
         }
         case CalibrationKind::Vignetting: {

@@ -11,7 +11,10 @@
 //   response             an exposure bracket of a still view (the wizard sets the exposures; a
 //                        replay takes the recorded ones); the error is how far the bracket's
 //                        frames, linearised with the new curve and divided by their exposures,
-//                        disagree (median over the pixels seen well in two neighbouring frames)
+//                        disagree (median over the pixels seen well in two neighbouring frames);
+//                        then the sensor's noise model (full well, read noise) from the same
+//                        bracket through the new curve, kept as it was when the bracket shows no
+//                        shot noise or does not fit the model (the result says which)
 //   vignetting           flat-field frames (an evenly lit white surface filling the view, or a
 //                        diffuser over the lens); the error is the fit's RMS
 //   alignment            the three-axis motion: turns about the camera's vertical axis, its

@@ -1,7 +1,9 @@
 #include "appliance/capture/calibration.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cmath>
+#include <cstdint>
 #include <cstdio>
 #include <optional>
 
@@ -15,11 +17,187 @@
 
 namespace glint::capture {
 
+namespace {
+
+// Refines an inverse response g (any scale) on a still bracket, where Robertson's estimate of
+// g(z), the mean exposure of the reads of code z, is biased by the sensor's noise: at a code whose
+// exposure is near the read noise, most reads of it come from darker pixels that noise pushed up
+// (41 % at code 64 on a noisy bracket; docs/capture.md, "Calibration"). Instead each pixel
+// channel's radiance E is measured from its well-exposed reads (codes kWellLow..kWellHigh, where
+// noise is small beside the exposure), so that every one of its reads has a known exposure
+// X = E t. The code a known exposure reads is the noise-free code plus symmetric noise, and a
+// median commutes with the monotone curve and with the clamping at 0 and 255, so the median code
+// over the reads of one narrow bin of X is the curve's own code there. Those medians (with
+// codes spread uniformly over their rounding interval, so that the noise's dithering makes them
+// finer than one code) are made non-decreasing, and g(z) is where they reach z. Repeated a few
+// times, as E then comes from the refined curve.
+constexpr int kWellLow = 96, kWellHigh = 250;
+constexpr int kExposureBins = 1024;
+constexpr long long kMinReadsPerBin = 64;
+constexpr int kRefinements = 3;
+constexpr double kSmoothing = 0.15;
+
+// The codes whose exposure refine_response measured (both ends included); 0..-1: none.
+struct MeasuredCodes {
+    int low = 0, high = -1;
+};
+
+std::array<double, 256> refine_response(const std::vector<cv::Mat>& frames, const std::vector<double>& times,
+                                        std::array<double, 256> g, MeasuredCodes& range) {
+    const std::size_t nf = frames.size();
+    const std::size_t units = frames.front().total() * 3;  // pixel channels
+    std::vector<const std::uint8_t*> code(nf);
+    for (std::size_t f = 0; f < nf; ++f) code[f] = frames[f].ptr<std::uint8_t>(0);
+    std::vector<double> log_t(nf);
+    for (std::size_t f = 0; f < nf; ++f) log_t[f] = std::log(times[f]);
+    std::vector<double> log_e(units);
+    for (int pass = 0; pass < kRefinements; ++pass) {
+        // Each unit's radiance: least squares of g(z) = E t over its well-exposed reads, weighted
+        // as Robertson's (code_weight), so that reads near either end count least.
+        double lo = INFINITY, hi = -INFINITY;
+        for (std::size_t u = 0; u < units; ++u) {
+            double num = 0, den = 0;
+            for (std::size_t f = 0; f < nf; ++f) {
+                const int z = code[f][u];
+                if (z < kWellLow || z > kWellHigh) continue;
+                const double w = code_weight(z);
+                num += w * times[f] * g[std::size_t(z)];
+                den += w * times[f] * times[f];
+            }
+            log_e[u] = num > 0 && den > 0 ? std::log(num / den) : NAN;
+            if (std::isnan(log_e[u])) continue;
+            for (std::size_t f = 0; f < nf; ++f) {
+                lo = std::min(lo, log_e[u] + log_t[f]);
+                hi = std::max(hi, log_e[u] + log_t[f]);
+            }
+        }
+        if (!(hi > lo)) return g;
+        // Every read of every measured unit (0 and 255 too: they place the median) into a
+        // histogram of codes per bin of log X.
+        const double width = (hi - lo) / kExposureBins;
+        std::vector<std::uint32_t> histogram(std::size_t(kExposureBins) * 256, 0);
+        for (std::size_t u = 0; u < units; ++u) {
+            if (std::isnan(log_e[u])) continue;
+            for (std::size_t f = 0; f < nf; ++f) {
+                const int b = std::min(kExposureBins - 1, int((log_e[u] + log_t[f] - lo) / width));
+                ++histogram[std::size_t(b) * 256 + code[f][u]];
+            }
+        }
+        // Per bin its fractional median code; bins mostly clipped at either end say nothing.
+        std::vector<double> xs, medians, counts;
+        for (int b = 0; b < kExposureBins; ++b) {
+            const std::uint32_t* h = histogram.data() + std::size_t(b) * 256;
+            long long n = 0;
+            for (int z = 0; z < 256; ++z) n += h[z];
+            if (n < kMinReadsPerBin) continue;
+            const double half = 0.5 * double(n);
+            double below = 0;
+            int z = 0;
+            while (z < 255 && below + h[z] < half) below += h[z++];
+            const double m = double(z) - 0.5 + (half - below) / std::max<double>(1, h[z]);
+            if (m < 0.5 || m > 254.5) continue;
+            xs.push_back(lo + (b + 0.5) * width);
+            medians.push_back(m);
+            counts.push_back(double(n));
+        }
+        if (xs.size() < 16) return g;
+        // Smoothed by local linear fits in log X (tricube weights times the reads, half-width
+        // kSmoothing): a bin's median scatters by the noise where the exposure is near the read
+        // noise, and by whole codes without noise, which left the curve 3-6 % off code to code.
+        std::vector<double> smooth(medians.size());
+        const double h = kSmoothing;
+        std::size_t a0 = 0;
+        for (std::size_t k = 0; k < medians.size(); ++k) {
+            while (xs[a0] < xs[k] - h) ++a0;
+            double sw = 0, sx = 0, sy = 0, sxx = 0, sxy = 0;
+            for (std::size_t j = a0; j < medians.size() && xs[j] <= xs[k] + h; ++j) {
+                const double d = (xs[j] - xs[k]) / h;
+                const double t = 1 - std::abs(d) * d * d;
+                const double w = counts[j] * t * t * t;
+                sw += w;
+                sx += w * (xs[j] - xs[k]);
+                sy += w * medians[j];
+                sxx += w * (xs[j] - xs[k]) * (xs[j] - xs[k]);
+                sxy += w * (xs[j] - xs[k]) * medians[j];
+            }
+            const double det = sw * sxx - sx * sx;
+            smooth[k] = det > 1e-12 * sw * sw ? (sy * sxx - sx * sxy) / det : sy / sw;
+        }
+        // Non-decreasing in X (pool adjacent violators, weighted by the reads).
+        std::vector<double> value, weight;
+        std::vector<std::size_t> size;
+        for (std::size_t k = 0; k < medians.size(); ++k) {
+            value.push_back(smooth[k]);
+            weight.push_back(counts[k]);
+            size.push_back(1);
+            while (value.size() > 1 && value[value.size() - 2] > value.back()) {
+                const std::size_t a = value.size() - 2;
+                value[a] = (value[a] * weight[a] + value.back() * weight.back()) / (weight[a] + weight.back());
+                weight[a] += weight.back();
+                size[a] += size.back();
+                value.pop_back();
+                weight.pop_back();
+                size.pop_back();
+            }
+        }
+        std::vector<double> fitted;
+        for (std::size_t k = 0; k < value.size(); ++k) fitted.insert(fitted.end(), size[k], value[k]);
+        // g(z): the log X where the medians reach z, between the bins either side; beyond the
+        // measured codes, the log-log slope of the last 16 codes measured carries on.
+        std::array<double, 256> next{};
+        std::array<bool, 256> measured{};
+        std::size_t k = 0;
+        for (int z = 1; z < 256; ++z) {
+            while (k + 1 < fitted.size() && fitted[k + 1] < z) ++k;
+            if (k + 1 >= fitted.size() || fitted[k] >= z || fitted[k + 1] < z) continue;
+            const double span = fitted[k + 1] - fitted[k];
+            const double a = span > 0 ? (z - fitted[k]) / span : 0.5;
+            next[std::size_t(z)] = std::exp(xs[k] + a * (xs[k + 1] - xs[k]));
+            measured[std::size_t(z)] = true;
+        }
+        int first = 256, last = -1;
+        for (int z = 1; z < 256; ++z)
+            if (measured[std::size_t(z)]) {
+                first = std::min(first, z);
+                last = z;
+            }
+        if (last - first < 32) return g;
+        for (int z = first + 1; z < last; ++z)
+            if (!measured[std::size_t(z)]) {  // a code no pair of bins brackets: between its neighbours
+                int b = z + 1;
+                while (!measured[std::size_t(b)]) ++b;
+                next[std::size_t(z)] = std::sqrt(next[std::size_t(z - 1)] * next[std::size_t(b)]);
+            }
+        const auto slope = [&](int a, int b) {  // d log g / d log z between codes a < b
+            return std::clamp(std::log(next[std::size_t(b)] / next[std::size_t(a)]) / std::log(double(b) / a), 0.5, 8.0);
+        };
+        // Below the measured codes the curve carries on as a power of the code (its log-log slope
+        // over the 16 lowest measured codes); Robertson's own values there are the noise's bias.
+        const double low = slope(first, first + 16);
+        for (int z = 1; z < first; ++z) next[std::size_t(z)] = next[std::size_t(first)] * std::pow(double(z) / first, low);
+        // Above them it keeps the shape of the curve it started from: a bracket that never
+        // exposed a pixel well into the shoulder says nothing of it, and a power law there (no
+        // shoulder) was 45 % off at code 250 on such a bracket of studio.
+        for (int z = last + 1; z < 256; ++z) {
+            const double ratio = g[std::size_t(z - 1)] > 0 ? g[std::size_t(z)] / g[std::size_t(z - 1)] : 1.0;
+            next[std::size_t(z)] = next[std::size_t(z - 1)] * std::max(ratio, 1.0 + 1e-6);
+        }
+        next[0] = 0;
+        g = next;
+        range.low = first;
+        range.high = last;
+    }
+    return g;
+}
+
+}  // namespace
+
 ResponseResult calibrate_response(const Session& s) {
     if (s.frames.size() < 3)
         throw InputError(s.dir.string() + ": a response calibration needs a bracket of at least 3 frames");
     std::vector<cv::Mat> images;
     std::vector<float> times;
+    std::vector<double> exposures;
     double shortest = 1e30, longest = 0;
     for (const FrameRecord& r : s.frames) {
         const CameraFrame f = load_frame(s, r);
@@ -33,6 +211,7 @@ ResponseResult calibrate_response(const Session& s) {
         images.push_back(bgr);
         const double t = r.exposure_s * r.analogue_gain * r.digital_gain;
         times.push_back(float(t));
+        exposures.push_back(t);
         shortest = std::min(shortest, t);
         longest = std::max(longest, t);
     }
@@ -49,6 +228,8 @@ ResponseResult calibrate_response(const Session& s) {
         const cv::Vec3f v = response.at<cv::Vec3f>(z, 0);
         mean[std::size_t(z)] = (double(v[0]) + double(v[1]) + double(v[2])) / 3;
     }
+    MeasuredCodes measured;
+    mean = refine_response(images, exposures, mean, measured);
     // Robertson's curve is defined up to a scale: code 254 (just below clipping) is exposure 1.
     const double scale = mean[254] > 0 ? 1.0 / mean[254] : 1.0;
     double previous = 0;
@@ -60,12 +241,30 @@ ResponseResult calibrate_response(const Session& s) {
         out.response.inverse[std::size_t(z)] = v;
         previous = v;
     }
+    out.measured_low = measured.low;
+    out.measured_high = measured.high;
     out.response.gamma = 0;  // a table only
     out.response.shoulder = 0;
     return out;
 }
 
+std::string response_coverage(const ResponseResult& r) {
+    if (r.measured_high < r.measured_low)
+        return "the bracket measured no code well (Robertson's curve alone): a still view with bright and dark parts, "
+               "over at least 100x in exposure";
+    std::string text = "codes " + std::to_string(r.measured_low) + ".." + std::to_string(r.measured_high) + " measured";
+    // The capture weighs codes by code_weight, small below 32 and above 250.
+    if (r.measured_low > 32)
+        text += "; below " + std::to_string(r.measured_low) +
+                " extrapolated (no pixel read that dark at a known exposure: start the bracket shorter)";
+    if (r.measured_high < 250)
+        text += "; above " + std::to_string(r.measured_high) +
+                " extrapolated (no pixel read that bright at a known exposure: end the bracket longer)";
+    return text;
+}
+
 NoiseResult calibrate_noise(const Session& s, const CameraCalibration& cal) {
+    constexpr double kTopShare = 0.8;
     // Frames in order of exposure x gain.
     std::vector<const FrameRecord*> frames;
     for (const FrameRecord& r : s.frames) frames.push_back(&r);
@@ -106,6 +305,11 @@ NoiseResult calibrate_noise(const Session& s, const CameraCalibration& cal) {
                         const double x0 = inv[std::size_t(z0)], x1 = inv[std::size_t(z1)];
                         const double x = 0.5 * (x0 + x1 / rho);  // the earlier frame's exposure
                         if (!(x > 1e-4)) continue;
+                        // Near the top the later read is cut at code 249 and spreads less than
+                        // the noise: one such bin, of a tiny variance and so a huge weight, turned
+                        // a fit's full well negative. Its expected exposure stays below 0.8 of
+                        // code 249's.
+                        if (rho * x > kTopShare * inv[249]) continue;
                         const int k = int(std::floor(4.0 * std::log2(x / 1e-4)));
                         if (k < 0 || k >= kBins) continue;
                         Bin& bin = bins[std::size_t(k)];

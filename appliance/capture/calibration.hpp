@@ -3,6 +3,7 @@
 // stores the result in the camera's calibration file (calibration_io.hpp).
 #pragma once
 
+#include <string>
 #include <vector>
 
 #include "appliance/capture/camera_model.hpp"
@@ -15,13 +16,22 @@ struct ResponseResult {
     Response response;   // the inverse response table, scaled so that code 254 is exposure 1
     int frames = 0;
     double exposure_span = 0;  // longest / shortest exposure of the bracket
+    // The codes whose exposure the bracket measured; outside them the table is extrapolated
+    // (measured_high < measured_low: none, the table is Robertson's alone).
+    int measured_low = 0, measured_high = -1;
 };
 
-// The inverse response curve from an exposure bracket of a still view (OpenCV's
-// CalibrateRobertson, the three channels averaged: the table is shared by the channels).
-// Throws InputError when the session is no usable bracket (fewer than 3 frames, exposures not
-// spread over at least 8x).
+// The inverse response curve from an exposure bracket of a still view: OpenCV's
+// CalibrateRobertson (the three channels averaged: the table is shared by the channels), then
+// refined against the sensor's noise, which biases Robertson's low codes: each pixel channel's
+// radiance from its well-exposed reads, and the curve from the median code read at each known
+// exposure (docs/capture.md, "Calibration"). Throws InputError when the session is no usable
+// bracket (fewer than 3 frames, exposures not spread over at least 8x).
 ResponseResult calibrate_response(const Session& bracket);
+
+// What a response result measured, for the technician: "codes A..B measured", and where the
+// curve is extrapolated over codes the capture weighs (32..250), what the bracket lacked.
+std::string response_coverage(const ResponseResult& r);
 
 struct VignettingResult {
     Vignetting vignetting;

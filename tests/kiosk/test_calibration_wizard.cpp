@@ -12,6 +12,7 @@
 
 #include "appliance/app/calibration_wizard.hpp"
 #include "appliance/capture/calibration_io.hpp"
+#include "appliance/capture/calibration_truth.hpp"
 #include "appliance/capture/capture_pipeline.hpp"
 #include "appliance/capture/session.hpp"
 #include "appliance/core/exr_io.hpp"
@@ -172,6 +173,48 @@ TEST_F(WizardTest, ResponseAsksForTheBracketAndFindsTheTrueCurve) {
     for (int z = 64; z <= 250; ++z)
         worst = std::max(worst, std::abs((r.inverse[std::size_t(z)] / r.inverse[128]) / (t.inverse[std::size_t(z)] / t.inverse[128]) - 1));
     EXPECT_LT(worst, 0.05);
+    // A noiseless bracket shows no shot noise: the noise model in force is kept, and the result
+    // says so beside the new curve.
+    EXPECT_NE(v.result.find("noise model kept"), std::string::npos) << v.result;
+    EXPECT_EQ(wizard.result()->noise_full_well_electrons, s.calibration.noise_full_well_electrons);
+    EXPECT_EQ(wizard.result()->noise_read, s.calibration.noise_read);
+}
+
+TEST_F(WizardTest, ResponseRunAlsoFindsTheSensorsNoiseFromItsBracket) {
+    // A noisy bracket, long enough for the curve (16 exposures from 20 us; a short one leaves the
+    // curve tens of per cent off, and the noise model with it: docs/capture.md, "Calibration").
+    sim::SimulateOptions o = options();
+    o.width = 240;
+    o.height = 135;
+    o.bracket = 16;
+    o.bracket_first_exposure_s = 2e-5;
+    sim::simulate_session(o);
+    const capture::Session s = capture::open_session(o.out);
+    WizardSettings ws = settings();
+    ws.bracket_frames = 16;
+    capture::CameraCalibration in_force = s.calibration;
+    in_force.noise_full_well_electrons = 0;  // no model yet
+    in_force.noise_read = 0;
+    CalibrationWizard wizard(ws, in_force, log_line);
+    wizard.start(CalibrationKind::Response, "noisy");
+    play(wizard, s);
+    const WizardView v = wizard.view();
+    ASSERT_FALSE(v.running) << v.step;
+    ASSERT_TRUE(v.can_apply) << v.result;
+    std::printf("response wizard, noisy bracket: %s\n", v.result.c_str());
+    EXPECT_NE(v.result.find("noise: full well"), std::string::npos) << v.result;
+    const std::optional<capture::CameraCalibration> result = wizard.result();
+    ASSERT_TRUE(result);
+    const capture::CameraCalibration& r = *result;
+    ASSERT_GT(r.noise_full_well_electrons, 0);
+    ASSERT_GT(r.noise_read, 0);
+    // Against the truth on the truth's response scale (the fitted curve's scale is its own).
+    const capture::NoiseError e = capture::noise_error_against_truth(r.noise_full_well_electrons, r.noise_read,
+                                                                      r.response, capture::truth_calibration(s));
+    std::printf("noise against the truth: full well %+.1f %%, read noise %+.1f %%\n", 100 * e.full_well,
+                100 * e.read_noise);
+    EXPECT_LT(std::abs(e.full_well), 0.1);
+    EXPECT_LT(std::abs(e.read_noise), 0.1);
 }
 
 TEST_F(WizardTest, BracketConsistencyIsSmallWithTheTrueCurveAndLargeWithAWrongOne) {
