@@ -73,6 +73,19 @@ void calibrate_alignment(const capture::Session& s, capture::CameraCalibration& 
     }
 }
 
+void calibrate_readout(const capture::Session& s, capture::CameraCalibration& cal, const std::string& file) {
+    const capture::ReadoutResult r = capture::calibrate_readout(s);
+    cal.readout_s = r.readout_s;
+    std::printf("readout from %d frame pairs: %.2f ms (standard deviation %.2f ms; was %.2f ms) -> %s\n", r.pairs,
+                r.readout_s * 1e3, r.sd_s * 1e3, s.calibration.readout_s * 1e3, file.c_str());
+    std::printf("at that readout: time offset %.4f s, median residual %.3f degrees (the mounting is not written: "
+                "glint calibrate alignment)\n",
+                r.alignment.time_offset_s, r.alignment.residual_deg);
+    if (s.has_truth)
+        std::printf("readout against the session's truth: %.2f ms\n",
+                    (r.readout_s - capture::truth_calibration(s).readout_s) * 1e3);
+}
+
 void calibrate_intrinsics(const capture::Session& s, capture::CameraCalibration& cal, const std::string& file) {
     const capture::IntrinsicsResult r = capture::calibrate_intrinsics(s, {});
     cal.intrinsics = r.intrinsics;
@@ -105,6 +118,12 @@ constexpr StepSpec kSteps[] = {
      "Session of the calibration motion (or a scan over rows at several pitches) with its sensor recording; a "
      "motion that leaves the mounting loose about some axis is refused and nothing is written",
      calibrate_alignment},
+    {"readout",
+     "The rolling shutter's readout time (top row to bottom row) from a motion with its sensor recording: the "
+     "alignment solved at readouts of 0-50 ms, the one whose frame pairs fit the sensor's turns best",
+     "Session of the calibration motion (glint simulate --trajectory alignment: its pitch and roll sweeps show the "
+     "readout) with its sensor recording; a motion that does not show it is refused and nothing is written",
+     calibrate_readout},
     {"intrinsics",
      "Focal lengths, principal point and distortion from views of a ChArUco board (7x5 squares of 4 cm, 3 cm "
      "markers, DICT_5X5_100), with the RMS reprojection error",

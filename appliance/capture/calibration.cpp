@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <memory>
 #include <optional>
 
 #include <opencv2/imgproc.hpp>
@@ -671,18 +672,28 @@ static double outlier_cutoff_rad(double median_residual_rad) {
     return std::max(3 * median_residual_rad, 0.5 * kPi / 180);
 }
 
-AlignmentResult calibrate_alignment(const Session& s, const std::vector<SensorOrientation>& orientations,
-                                    double max_offset_s) {
+namespace {
+
+// An image rotation between consecutive frames, with their times.
+struct AlignmentPair {
+    std::int64_t ta, tb;
+    glm::dquat camera_a_from_b;
+    ImageRotation seen;  // the correspondences, for the rolling shutter's row times
+};
+
+// What an alignment is solved from: the sensor's orientations and the frames' image rotations.
+struct AlignmentInputs {
+    std::unique_ptr<host::OrientationHistory> history;
+    std::vector<AlignmentPair> pairs;
+};
+
+AlignmentInputs measure_alignment(const Session& s, const std::vector<SensorOrientation>& orientations) {
     if (orientations.size() < 2) throw InputError(s.dir.string() + ": an alignment needs the sensor's orientations");
-    host::OrientationHistory history(orientations.size() + 1, 100'000'000, 0);
-    for (const SensorOrientation& x : orientations) history.push({x.t_ns, x.world_from_sensor, 0});
+    AlignmentInputs in;
+    in.history = std::make_unique<host::OrientationHistory>(orientations.size() + 1, 100'000'000, 0);
+    for (const SensorOrientation& x : orientations) in.history->push({x.t_ns, x.world_from_sensor, 0});
     // Image rotations between consecutive frames.
-    struct Pair {
-        std::int64_t ta, tb;
-        glm::dquat camera_a_from_b;
-        ImageRotation seen;  // the correspondences, for the rolling shutter's row times
-    };
-    std::vector<Pair> pairs;
+    std::vector<AlignmentPair>& pairs = in.pairs;
     CameraFrame previous;
     bool have_previous = false;
     for (const FrameRecord& r : s.frames) {
@@ -699,6 +710,16 @@ AlignmentResult calibrate_alignment(const Session& s, const std::vector<SensorOr
     if (pairs.size() < 10)
         throw InputError(s.dir.string() + ": only " + std::to_string(pairs.size()) +
                          " frame pairs with a measurable turn; the alignment needs a scan");
+    return in;
+}
+
+// The alignment from measured pairs, the rows read out over readout_s (0: a global shutter).
+// trimmed_cost (optional): the sum of the squared residual angles (rad^2) of the best 80 % of
+// the pairs at the solution, and trimmed_count their number: what calibrate_readout compares.
+AlignmentResult solve_alignment(const Session& s, const host::OrientationHistory& history,
+                                std::vector<AlignmentPair> pairs, double readout_s, double max_offset_s,
+                                double* trimmed_cost = nullptr, int* trimmed_count = nullptr) {
+    using Pair = AlignmentPair;
     // The sensor's relative rotation over a pair at a time offset (ns), or nothing outside the stream.
     const auto sensor_rel_at = [&](const Pair& p, double off_ns) -> std::optional<glm::dquat> {
         const auto qa = history.at(p.ta + std::int64_t(std::llround(off_ns))).world_from_sensor;
@@ -845,7 +866,8 @@ AlignmentResult calibrate_alignment(const Session& s, const std::vector<SensorOr
     //    rays are turned to their frame's mid time with the camera's angular velocity (the
     //    sensor's, through the mounting and offset found so far: r_mid = exp(w dt_row) r) and the
     //    rotation fitted again, then the refinement runs again; twice, as the mounting moves.
-    const CameraCalibration& cal = s.calibration;
+    CameraCalibration cal = s.calibration;
+    cal.readout_s = readout_s;
     if (cal.readout_s > 0) {
         const auto camera_rate = [&](std::int64_t t_ns, const glm::dquat& xq, double o) -> std::optional<glm::dvec3> {
             const std::int64_t h = 10'000'000;  // +-10 ms: a few sensor samples, the turn nearly steady
@@ -910,7 +932,80 @@ AlignmentResult calibrate_alignment(const Session& s, const std::vector<SensorOr
         best.mounting_sd_deg = weakest > 0 ? sigma / std::sqrt(weakest) * 180 / kPi : 1e9;
         best.weakest_axis = glm::dvec3(vectors(2, 0), vectors(2, 1), vectors(2, 2));
     }
+    if (trimmed_cost) {
+        std::vector<double> squares;
+        for (const Pair& p : pairs)
+            if (const auto r = residual(p, x, off_ns)) squares.push_back(glm::dot(*r, *r));
+        std::sort(squares.begin(), squares.end());
+        squares.resize(squares.size() * 4 / 5);
+        *trimmed_cost = 0;
+        for (double q : squares) *trimmed_cost += q;
+        if (trimmed_count) *trimmed_count = int(squares.size());
+    }
     return best;
+}
+
+}  // namespace
+
+AlignmentResult calibrate_alignment(const Session& s, const std::vector<SensorOrientation>& orientations,
+                                    double max_offset_s) {
+    AlignmentInputs in = measure_alignment(s, orientations);
+    return solve_alignment(s, *in.history, std::move(in.pairs), s.calibration.readout_s, max_offset_s);
+}
+
+ReadoutResult calibrate_readout(const Session& s, double max_readout_s, double max_offset_s) {
+    if (s.sensors.empty()) throw InputError(s.dir.string() + ": a readout calibration needs the session's sensor recording");
+    return calibrate_readout(s, load_sensor_orientations(s), max_readout_s, max_offset_s);
+}
+
+ReadoutResult calibrate_readout(const Session& s, const std::vector<SensorOrientation>& orientations,
+                                double max_readout_s, double max_offset_s) {
+    if (!(max_readout_s > 0) || !(max_readout_s <= 1))
+        throw InputError("the longest readout to search must be in (0, 1] s, not " + std::to_string(max_readout_s));
+    const AlignmentInputs in = measure_alignment(s, orientations);
+    struct Sample {
+        double readout_s, cost;
+        int count;
+    };
+    const auto solve_at = [&](double readout) {
+        Sample x{readout, 0, 0};
+        solve_alignment(s, *in.history, in.pairs, readout, max_offset_s, &x.cost, &x.count);
+        return x;
+    };
+    // The grid, then a parabola through the best point and its neighbours (the ends: the
+    // neighbour inside and the next one).
+    std::vector<Sample> grid;
+    const int steps = std::max(4, int(std::ceil(max_readout_s / kReadoutGridS)));
+    for (int k = 0; k <= steps; ++k) grid.push_back(solve_at(max_readout_s * k / steps));
+    std::size_t best = 0;
+    for (std::size_t k = 1; k < grid.size(); ++k)
+        if (grid[k].cost < grid[best].cost) best = k;
+    const std::size_t mid = std::clamp<std::size_t>(best, 1, grid.size() - 2);
+    const Sample &a = grid[mid - 1], &b = grid[mid], &c = grid[mid + 1];
+    const double h = b.readout_s - a.readout_s;
+    // S(r) = S_b + g (r - r_b) + q (r - r_b)^2 through the three.
+    const double g = (c.cost - a.cost) / (2 * h), q = (c.cost - 2 * b.cost + a.cost) / (2 * h * h);
+    double readout = grid[best].readout_s;
+    if (q > 0) readout = std::clamp(b.readout_s - g / (2 * q), std::max(0.0, a.readout_s), c.readout_s);
+    ReadoutResult out;
+    double cost = 0;
+    int count = 0;
+    out.alignment = solve_alignment(s, *in.history, in.pairs, readout, max_offset_s, &cost, &count);
+    out.readout_s = readout;
+    // S = S_min + q (r - r*)^2 with S the sum of 3 count squared components of variance
+    // sigma^2 = S_min / (3 count): the readout's variance is sigma^2 / q.
+    const double sigma2 = count > 0 ? cost / (3.0 * count) : INFINITY;
+    out.sd_s = q > 0 ? std::sqrt(sigma2 / q) : INFINITY;
+    out.pairs = count;
+    if (!(out.sd_s <= kMaxReadoutSdS)) {
+        char buf[320];
+        std::snprintf(buf, sizeof buf,
+                      ": the motion does not show the rolling shutter's readout (best %.1f ms, standard deviation "
+                      "%.1f ms, at most %.1f): turn the camera up and down (pitch) and about its lens, at speed",
+                      1e3 * readout, 1e3 * out.sd_s, 1e3 * kMaxReadoutSdS);
+        throw InputError(s.dir.string() + buf);
+    }
+    return out;
 }
 
 void check_alignment_usable(const AlignmentResult& r, const std::string& where) {

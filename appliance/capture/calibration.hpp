@@ -101,6 +101,25 @@ AlignmentResult calibrate_alignment(const Session& capture, double max_offset_s 
 AlignmentResult calibrate_alignment(const Session& capture, const std::vector<SensorOrientation>& orientations,
                                     double max_offset_s = 0.05);
 
+// The rolling shutter's readout time (calibration readout_s) from a motion with its sensor
+// recording: the alignment (above) solved with the rows read out over each readout on a grid of
+// kReadoutGridS steps from 0 to max_readout_s, and the readout whose pairs fit the sensor best
+// (the sum of squared residuals of the best 80 % of the pairs), refined by a parabola through its
+// neighbours. A wrong readout shears and scales each frame's rays against the sensor's turn
+// (docs/capture.md, "Readout"). Throws InputError when the motion does not show it: a standard
+// deviation from the parabola's curvature over kMaxReadoutSdS.
+inline constexpr double kReadoutGridS = 0.0025;
+inline constexpr double kMaxReadoutSdS = 0.002;
+struct ReadoutResult {
+    double readout_s = 0;
+    double sd_s = 0;            // its standard deviation, from the fit's curvature and residuals
+    int pairs = 0;              // pairs in the fit (the best 80 %)
+    AlignmentResult alignment;  // mounting and time offset at that readout
+};
+ReadoutResult calibrate_readout(const Session& capture, double max_readout_s = 0.05, double max_offset_s = 0.05);
+ReadoutResult calibrate_readout(const Session& capture, const std::vector<SensorOrientation>& orientations,
+                                double max_readout_s = 0.05, double max_offset_s = 0.05);
+
 // Throws InputError, `where` first, naming the axis and how loose the mounting is there, when the
 // motion did not pin it down to kMaxMountingSdDeg: `glint calibrate alignment` and the wizard
 // then write nothing and keep the calibration in force.

@@ -299,7 +299,7 @@ pass "capture --engine gpu agrees with the CPU engine ($rms)"
 
 # --help for every command and subcommand: exit 0, a usage line naming it, on stdout only.
 for cmd in convolve compare sensors simulate capture cameras calibrate "calibrate response" \
-    "calibrate vignetting" "calibrate alignment" "calibrate intrinsics"; do
+    "calibrate vignetting" "calibrate noise" "calibrate alignment" "calibrate readout" "calibrate intrinsics"; do
     # shellcheck disable=SC2086
     run $cmd --help
     [[ $rc -eq 0 ]] || fail "glint $cmd --help: exit code $rc, want 0"
