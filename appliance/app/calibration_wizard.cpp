@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <optional>
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -600,7 +601,23 @@ void CalibrationWizard::compute(std::uint64_t run) {
         }
         case CalibrationKind::Alignment:
         case CalibrationKind::TimeOffset: {
-            const capture::AlignmentResult r = capture::calibrate_alignment(s, orientations);
+            // The three-axis motion shows the rolling shutter's readout too (its pitch and roll
+            // sweeps): measured with the mounting, or kept, with the reason, where the motion does
+            // not show it. The turns about the vertical alone (time offset) do not.
+            std::string readout_text;
+            std::optional<capture::AlignmentResult> solved;
+            if (kind == CalibrationKind::Alignment) {
+                try {
+                    const capture::ReadoutResult rr = capture::calibrate_readout(s, orientations);
+                    next.readout_s = rr.readout_s;
+                    solved = rr.alignment;
+                    readout_text = format("; readout %.1f ms (standard deviation %.1f ms; was %.1f ms)", rr.readout_s * 1e3,
+                                          rr.sd_s * 1e3, current.readout_s * 1e3);
+                } catch (const InputError& e) {
+                    readout_text = std::string("; readout kept (") + e.what() + ")";
+                }
+            }
+            const capture::AlignmentResult r = solved ? *solved : capture::calibrate_alignment(s, orientations);
             // The time offset alone needs no turn about every axis; the mounting does.
             if (kind == CalibrationKind::Alignment) capture::check_alignment_usable(r, "alignment");
             next.time_offset_s = r.time_offset_s;
@@ -609,7 +626,8 @@ void CalibrationWizard::compute(std::uint64_t run) {
             text = kind == CalibrationKind::Alignment
                        ? format("median residual %.2f degrees over %d frame pairs; time offset %.1f ms; the mounting "
                                 "moved %.2f degrees from the calibration in force",
-                                r.residual_deg, r.pairs, r.time_offset_s * 1e3, moved)
+                                r.residual_deg, r.pairs, r.time_offset_s * 1e3, moved) +
+                             readout_text
                        : format("time offset %.1f ms (was %.1f ms); median residual %.2f degrees over %d frame pairs",
                                 r.time_offset_s * 1e3, current.time_offset_s * 1e3, r.residual_deg, r.pairs);
             break;

@@ -19,7 +19,9 @@
 //                        diffuser over the lens); the error is the fit's RMS
 //   alignment            the three-axis motion: turns about the camera's vertical axis, its
 //                        horizontal axis and its lens axis, each until the bar is full; the
-//                        error is the median angle between image and sensor rotations
+//                        error is the median angle between image and sensor rotations; the
+//                        rolling shutter's readout is measured from the same motion (kept, with
+//                        the reason, when the motion does not show it)
 //   time offset          turns about the vertical axis only; keeps the mounting, sets the offset
 //
 // Threads: feed(), exposure_request() and view() are called on the frame thread and are cheap;

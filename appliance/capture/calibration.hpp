@@ -109,7 +109,7 @@ AlignmentResult calibrate_alignment(const Session& capture, const std::vector<Se
 // (docs/capture.md, "Readout"). Throws InputError when the motion does not show it: a standard
 // deviation from the parabola's curvature over kMaxReadoutSdS.
 inline constexpr double kReadoutGridS = 0.0025;
-inline constexpr double kMaxReadoutSdS = 0.002;
+inline constexpr double kMaxReadoutSdS = 0.003;
 struct ReadoutResult {
     double readout_s = 0;
     double sd_s = 0;            // its standard deviation, from the fit's curvature and residuals

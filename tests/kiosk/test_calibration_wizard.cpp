@@ -297,7 +297,9 @@ TEST_F(WizardTest, AlignmentFollowsTheThreeAxisMotionAndFindsTheMounting) {
     o.time_offset_s = 0.0173;
     sim::simulate_session(o);
     const capture::Session s = capture::open_session(o.out);
-    CalibrationWizard wizard(settings(), s.calibration, log_line);
+    capture::CameraCalibration in_force = s.calibration;
+    in_force.readout_s = 0.010;  // hand-entered, off the simulator's 20 ms
+    CalibrationWizard wizard(settings(), in_force, log_line);
     wizard.start(CalibrationKind::Alignment, "a");
     play(wizard, s);
     const WizardView v = wizard.view();
@@ -309,6 +311,9 @@ TEST_F(WizardTest, AlignmentFollowsTheThreeAxisMotionAndFindsTheMounting) {
     // The tolerances of `glint calibrate alignment` on this motion (test_session.cpp).
     EXPECT_LT(angle_between(r.sensor_from_camera, truth.sensor_from_camera) * 180 / kPi, 0.5);
     EXPECT_NEAR(r.time_offset_s * 1e3, 17.3, 3.0);
+    // The readout from the same motion (`glint calibrate readout`'s tolerance, test_session.cpp).
+    EXPECT_NE(v.result.find("readout"), std::string::npos) << v.result;
+    EXPECT_NEAR(r.readout_s * 1e3, truth.readout_s * 1e3, 4.0);
 }
 
 TEST_F(WizardTest, TurnsCountOnlyAboutTheAxisTheyAreAbout) {
