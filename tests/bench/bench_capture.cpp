@@ -8,14 +8,16 @@
 // Writes tests/bench/results/capture.md.
 //
 //   glint_bench_capture [--out FILE] [--seeds 1,2] [--maps NAME,...] [--no-stress] [--quick] [--bracket-fill]
-//                       [--no-top-ups] [--keep] [--validation]
+//                       [--no-top-ups] [--keep] [--validation] [--calibrations-only]
 //   --maps: which of courtyard, studio, sunset and the stress maps (dim_1e+02 ...) to run in the
 //   seeds table; --quick: only that table (no variants, calibrations or alignment); --no-top-ups:
 //   the exposure controller without top-up frames (top_up_below 0; default 1/8); --keep: leave the seeds table's
 //   sessions, captured maps and orientations in $TMPDIR/glint-bench-capture for replays;
 //   --validation: the seeds table also for the five other maps of blender-data (city, forest,
 //   interior, night, sunrise), which no constant was ever tuned on: a check on maps the project
-//   has not seen, as the new user tried it.
+//   has not seen, as the new user tried it. --calibrations-only: only the calibrations'
+//   and the alignment's tables (a few minutes; run_capture_bench.sh --calibrations-only --out
+//   tests/bench/results/capture_calibrations.md).
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -31,12 +33,14 @@
 
 #include "appliance/capture/calibration.hpp"
 #include "appliance/capture/calibration_io.hpp"
+#include "appliance/capture/calibration_truth.hpp"
 #include "appliance/capture/capture_pipeline.hpp"
 #include "appliance/capture/charuco.hpp"
 #include "appliance/capture/replay_camera.hpp"
 #include "appliance/capture/session.hpp"
 #include "appliance/convolution/convolution.hpp"
 #include "appliance/core/atomic_file.hpp"
+#include "appliance/core/errors.hpp"
 #include "appliance/core/equirect.hpp"
 #include "appliance/core/error_metrics.hpp"
 #include "appliance/core/exr_io.hpp"
@@ -143,11 +147,13 @@ void calibrations_table(const fs::path& work, std::ostream& md_out) {
     const Session bs = open_session(b.out);
     const ResponseResult resp = calibrate_response(bs);
     const CameraCalibration truth_cal = load_calibration(b.out / "truth" / "calibration.json");
-    double resp_worst = 0;
-    for (int z = 100; z <= 250; ++z)
-        resp_worst = std::max(resp_worst, std::abs((resp.response.inverse[std::size_t(z)] / resp.response.inverse[128]) /
-                                                       (truth_cal.response.inverse[std::size_t(z)] / truth_cal.response.inverse[128]) -
-                                                   1));
+    const double resp_worst = response_error_against_truth(resp.response, truth_cal.response);
+    // The noise model from the same bracket, through the calibrated curve.
+    CameraCalibration calibrated = bs.calibration;
+    calibrated.response = resp.response;
+    const NoiseResult noise = calibrate_noise(bs, calibrated);
+    const NoiseError noise_err =
+        noise_error_against_truth(noise.full_well_electrons, noise.read_noise, resp.response, truth_cal);
     HdrImage flat(64, 32);
     for (int j = 0; j < 32; ++j)
         for (int i = 0; i < 64; ++i) flat.set(i, j, {0.5f, 0.5f, 0.5f});
@@ -175,8 +181,10 @@ void calibrations_table(const fs::path& work, std::ostream& md_out) {
     const Intrinsics ti = load_calibration(c.out / "truth" / "calibration.json").intrinsics;
 
     md_out << "\n## Calibrations against the simulator's truth\n\n| calibration | result |\n|---|---|\n"
-       << "| response (18-frame bracket, noise) | worst " << bench::fmt("%.1f", 100 * resp_worst)
-       << " % over codes 100..250 (ratios to code 128) |\n"
+       << "| response (18-frame bracket from 3 us, noise) | worst " << bench::fmt("%.1f", 100 * resp_worst)
+       << " % over codes 64..250 (ratios to code 128); " << response_coverage(resp) << " |\n"
+       << "| noise (the same bracket, through that response) | full well " << bench::fmt("%+.1f", 100 * noise_err.full_well)
+       << " %, read noise " << bench::fmt("%+.1f", 100 * noise_err.read_noise) << " % |\n"
        << "| vignetting (9 flat-field frames) | V(r) within " << bench::fmt("%.4f", vig_worst) << " |\n"
        << "| intrinsics (24 ChArUco views, 640x360) | RMS reprojection " << bench::fmt("%.3f", intr.rms_px) << " px; fx "
        << bench::fmt("%.2f", intr.intrinsics.fx) << " (true " << bench::fmt("%.2f", ti.fx) << "), cx "
@@ -198,8 +206,9 @@ void alignment_table(const fs::path& work, std::ostream& md_out) {
                           {4, "studio", -2, 3, 3.5, -8}};
     md_out << "\n## Three-axis alignment calibration\n\n`glint simulate --trajectory alignment` (320x180, 4 fps, raw "
               "IMU, the simulator's defaults otherwise) then `glint calibrate alignment`. Targets: mounting within 0.3 "
-              "deg, time offset within 2 ms.\n\n| seed | map | mounting (yaw, pitch, roll) | true offset | pairs | "
-              "median residual | mounting error | offset error |\n|---|---|---|---|---|---|---|---|\n";
+              "deg, time offset within 2 ms. Then `glint calibrate readout` on the same session (the simulator's "
+              "20 ms readout; the search does not read it).\n\n| seed | map | mounting (yaw, pitch, roll) | true offset | pairs | "
+              "median residual | mounting error | offset error | readout error (sd) |\n|---|---|---|---|---|---|---|---|---|\n";
     for (const Case& c : cases) {
         std::fprintf(stderr, "bench: alignment seed %llu\n", static_cast<unsigned long long>(c.seed));
         SimulateOptions so;
@@ -215,11 +224,19 @@ void alignment_table(const fs::path& work, std::ostream& md_out) {
         simulate_session(so);
         const AlignmentResult al = calibrate_alignment(open_session(so.out));
         const CameraCalibration truth = load_calibration(so.out / "truth" / "calibration.json");
+        std::string readout = "refused";
+        try {
+            const ReadoutResult ro = calibrate_readout(open_session(so.out));
+            readout = bench::fmt("%+.2f ms", (ro.readout_s - truth.readout_s) * 1e3) + " (" +
+                      bench::fmt("%.2f ms", ro.sd_s * 1e3) + ")";
+        } catch (const InputError& e) {
+            std::fprintf(stderr, "bench: readout seed %llu: %s\n", static_cast<unsigned long long>(c.seed), e.what());
+        }
         const double mount_err = angle_between(al.sensor_from_camera, truth.sensor_from_camera) * 180 / kPi;
         md_out << "| " << c.seed << " | " << c.map << " | " << bench::fmt("%g", c.yaw) << ", " << bench::fmt("%g", c.pitch)
                << ", " << bench::fmt("%g", c.roll) << " | " << bench::fmt("%+g ms", c.offset_ms) << " | " << al.pairs
                << " | " << bench::fmt("%.3f deg", al.residual_deg) << " | " << bench::fmt("%.3f deg", mount_err) << " | "
-               << bench::fmt("%+.2f ms", (al.time_offset_s - truth.time_offset_s) * 1e3) << " |\n";
+               << bench::fmt("%+.2f ms", (al.time_offset_s - truth.time_offset_s) * 1e3) << " | " << readout << " |\n";
         fs::remove_all(so.out);
     }
 }
@@ -235,6 +252,7 @@ int main(int argc, char** argv) {
     bool keep = false;          // leave the seeds table's sessions and maps for replays
     bool top_ups = true;        // the exposure controller's top-up frames (its default)
     bool validation = false;    // the five other blender-data maps in the seeds table
+    bool calibrations_only = false;  // only the calibrations and the alignment (no captures)
     for (int i = 1; i < argc; ++i) {
         const std::string a = argv[i];
         if (a == "--out" && i + 1 < argc) out = argv[++i];
@@ -248,9 +266,10 @@ int main(int argc, char** argv) {
         else if (a == "--no-top-ups") top_ups = false;
         else if (a == "--keep") keep = true;
         else if (a == "--validation") validation = true;
+        else if (a == "--calibrations-only") calibrations_only = true;
         else {
             std::fprintf(stderr, "usage: glint_bench_capture [--out FILE] [--seeds 1,2] [--maps NAME,...] [--no-stress] [--quick] "
-                                 "[--bracket-fill] [--no-top-ups] [--keep] [--validation]\n");
+                                 "[--bracket-fill] [--no-top-ups] [--keep] [--validation] [--calibrations-only]\n");
             return 2;
         }
     }
@@ -271,6 +290,15 @@ int main(int argc, char** argv) {
         char date[64];
         std::strftime(date, sizeof date, "%Y-%m-%d %H:%M UTC", std::gmtime(&now));
         std::ostringstream md;
+        if (calibrations_only) {
+            md << "# Capture calibrations against the simulator's truth\n\n"
+               << (progress.empty() ? "" : "**Partial run** (" + progress + ").\n\n")
+               << "Generated by `tests/bench/run_capture_bench.sh --calibrations-only` on " << date << ", "
+               << bench::machine_description() << ", 2 threads.\n"
+               << calibration_text << alignment_text;
+            write_text_atomically(out, md.str());
+            return;
+        }
         md << "# Capture: accuracy and speed\n\n" << (progress.empty() ? "" : "**Partial run** (" + progress + ").\n\n") << "Generated by `tests/bench/run_capture_bench.sh` on " << date << ", "
            << bench::machine_description() << ", 2 threads.\n\n"
            << (bracket_fill ? "**With the experimental bracket fill** (`--bracket-fill`, docs/capture.md; not the "
@@ -378,6 +406,17 @@ int main(int argc, char** argv) {
     const gl::GlContext gpu(display);
     // Default captures made by the first part, reused by the seeds table: "map/seed" -> summary.
     std::map<std::string, CaptureSummary> made;
+    if (calibrations_only) {
+        std::ostringstream c, al;
+        calibrations_table(work, c);
+        calibration_text = c.str();
+        write_report("calibrations done; alignment to come (--calibrations-only)");
+        alignment_table(work, al);
+        alignment_text = al.str();
+        write_report("");
+        fs::remove_all(work);
+        return 0;
+    }
     for (const char* name : {"courtyard", "studio", "sunset"}) {
         if (quick) break;
         std::fprintf(stderr, "bench: %s\n", name);
