@@ -120,7 +120,7 @@ constexpr StepSpec kSteps[] = {
      calibrate_alignment},
     {"readout",
      "The rolling shutter's readout time (top row to bottom row) from a motion with its sensor recording: the "
-     "alignment solved at readouts of 0-50 ms, the one whose frame pairs fit the sensor's turns best",
+     "alignment solved at readouts from 0 ms (up to 200 ms), the one whose frame pairs fit the sensor's turns best",
      "Session of the calibration motion (glint simulate --trajectory alignment: its pitch and roll sweeps show the "
      "readout) with its sensor recording; a motion that does not show it is refused and nothing is written",
      calibrate_readout},

@@ -607,14 +607,16 @@ void CalibrationWizard::compute(std::uint64_t run) {
             std::string readout_text;
             std::optional<capture::AlignmentResult> solved;
             if (kind == CalibrationKind::Alignment) {
-                try {
-                    const capture::ReadoutResult rr = capture::calibrate_readout(s, orientations);
-                    next.readout_s = rr.readout_s;
-                    solved = rr.alignment;
-                    readout_text = format("; readout %.1f ms (standard deviation %.1f ms; was %.1f ms)", rr.readout_s * 1e3,
-                                          rr.sd_s * 1e3, current.readout_s * 1e3);
-                } catch (const InputError& e) {
-                    readout_text = std::string("; readout kept (") + e.what() + ")";
+                const capture::AlignmentAndReadout both = capture::calibrate_alignment_and_readout(s, orientations);
+                solved = both.alignment;
+                if (both.readout) {
+                    next.readout_s = both.readout->readout_s;
+                    readout_text = format("; readout %.1f ms (standard deviation %.1f ms; was %.1f ms)",
+                                          both.readout->readout_s * 1e3, both.readout->sd_s * 1e3,
+                                          current.readout_s * 1e3);
+                } else {
+                    readout_text = "; readout kept at " + format("%.1f ms", current.readout_s * 1e3) + " (" +
+                                   both.readout_refused + ")";
                 }
             }
             const capture::AlignmentResult r = solved ? *solved : capture::calibrate_alignment(s, orientations);

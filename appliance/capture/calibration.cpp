@@ -7,6 +7,7 @@
 #include <cstdio>
 #include <memory>
 #include <optional>
+#include <string>
 
 #include <opencv2/imgproc.hpp>
 #include <opencv2/calib3d.hpp>
@@ -37,6 +38,18 @@ constexpr int kExposureBins = 1024;
 constexpr long long kMinReadsPerBin = 64;
 constexpr int kRefinements = 3;
 constexpr double kSmoothing = 0.15;
+
+void fill_missing_codes(std::array<double, 256>& g) {
+    const auto usable = [](double v) { return std::isfinite(v) && v > 0; };
+    for (int z = 0; z < 256; ++z) {
+        if (usable(g[std::size_t(z)])) continue;
+        int a = z - 1, b = z + 1;
+        while (a >= 0 && !usable(g[std::size_t(a)])) --a;
+        while (b < 256 && !usable(g[std::size_t(b)])) ++b;
+        const double lo = a >= 0 ? g[std::size_t(a)] : 0.0, hi = b < 256 ? g[std::size_t(b)] : 0.0;
+        g[std::size_t(z)] = a >= 0 && b < 256 ? std::sqrt(lo * hi) : a >= 0 ? lo : hi;  // 0: no code usable
+    }
+}
 
 // The codes whose exposure refine_response measured (both ends included); 0..-1: none.
 struct MeasuredCodes {
@@ -143,8 +156,8 @@ std::array<double, 256> refine_response(const std::vector<cv::Mat>& frames, cons
         }
         std::vector<double> fitted;
         for (std::size_t k = 0; k < value.size(); ++k) fitted.insert(fitted.end(), size[k], value[k]);
-        // g(z): the log X where the medians reach z, between the bins either side; beyond the
-        // measured codes, the log-log slope of the last 16 codes measured carries on.
+        // g(z): the log X where the medians reach z, between the bins either side (outside the
+        // measured codes: below).
         std::array<double, 256> next{};
         std::array<bool, 256> measured{};
         std::size_t k = 0;
@@ -181,7 +194,7 @@ std::array<double, 256> refine_response(const std::vector<cv::Mat>& frames, cons
         // shoulder) was 45 % off at code 250 on such a bracket of studio.
         for (int z = last + 1; z < 256; ++z) {
             const double ratio = g[std::size_t(z - 1)] > 0 ? g[std::size_t(z)] / g[std::size_t(z - 1)] : 1.0;
-            next[std::size_t(z)] = next[std::size_t(z - 1)] * std::max(ratio, 1.0 + 1e-6);
+            next[std::size_t(z)] = next[std::size_t(z - 1)] * (std::isfinite(ratio) ? std::max(ratio, 1.0 + 1e-6) : 1.0 + 1e-6);
         }
         next[0] = 0;
         g = next;
@@ -229,10 +242,15 @@ ResponseResult calibrate_response(const Session& s) {
         const cv::Vec3f v = response.at<cv::Vec3f>(z, 0);
         mean[std::size_t(z)] = (double(v[0]) + double(v[1]) + double(v[2])) / 3;
     }
+    // A code that never occurs in a channel is NaN in Robertson's curve (its count is 0): a
+    // camera's tone curve or digital gain can skip codes. Such codes take the geometric mean of
+    // their nearest finite neighbours (or the one there is), so that neither the refinement's
+    // extrapolation nor the scale below carries a NaN through the table.
+    fill_missing_codes(mean);
     MeasuredCodes measured;
     mean = refine_response(images, exposures, mean, measured);
     // Robertson's curve is defined up to a scale: code 254 (just below clipping) is exposure 1.
-    const double scale = mean[254] > 0 ? 1.0 / mean[254] : 1.0;
+    const double scale = std::isfinite(mean[254]) && mean[254] > 0 ? 1.0 / mean[254] : 1.0;
     double previous = 0;
     for (int z = 0; z < 256; ++z) {
         // Strictly increasing, as the table must be: the ends are where the weights are smallest
@@ -953,6 +971,86 @@ AlignmentResult calibrate_alignment(const Session& s, const std::vector<SensorOr
     return solve_alignment(s, *in.history, std::move(in.pairs), s.calibration.readout_s, max_offset_s);
 }
 
+namespace {
+
+// The mean of the lowest 80 % of chi-square values of 3 degrees of freedom over their mean: the
+// trimmed cost's residuals spread this much less than all of them.
+constexpr double kTrimmedChi2Ratio = 0.6735;
+// The grid is searched in spans of this much, a span more while the best readout is the last
+// searched, up to the longest asked for.
+constexpr double kReadoutSpanS = 0.05;
+
+struct ReadoutFit {
+    ReadoutResult result;
+    bool shown = false;  // the motion shows the readout; else `why` says what it lacked
+    std::string why;
+};
+
+ReadoutFit fit_readout(const Session& s, const AlignmentInputs& in, double max_readout_s, double max_offset_s) {
+    struct Sample {
+        double readout_s, mean;  // the trimmed residuals' mean square (rad^2): counts may differ
+    };
+    const auto solve_at = [&](double readout) {
+        double cost = 0;
+        int count = 0;
+        solve_alignment(s, *in.history, in.pairs, readout, max_offset_s, &cost, &count);
+        return Sample{readout, count > 0 ? cost / count : INFINITY};
+    };
+    std::vector<Sample> grid;
+    std::size_t best = 0;
+    double searched = 0;
+    while (searched < max_readout_s * (1 - 1e-9) && (grid.empty() || best + 1 == grid.size())) {
+        const double upto = std::min(max_readout_s, searched + kReadoutSpanS);
+        const int steps = std::max(1, int(std::ceil((upto - searched) / kReadoutGridS - 1e-9)));
+        for (int k = grid.empty() ? 0 : 1; k <= steps; ++k) grid.push_back(solve_at(searched + (upto - searched) * k / steps));
+        searched = upto;
+        for (std::size_t k = 1; k < grid.size(); ++k)
+            if (grid[k].mean < grid[best].mean) best = k;
+    }
+    ReadoutFit fit;
+    char buf[240];
+    if (grid.size() < 3) {
+        fit.why = ": too few readouts searched";
+        return fit;
+    }
+    if (best + 1 == grid.size()) {  // still falling at the longest readout searched
+        std::snprintf(buf, sizeof buf, ": the readout is %.0f ms or longer, the longest searched", 1e3 * searched);
+        fit.why = buf;
+        return fit;
+    }
+    // A parabola through the best point and its neighbours (at 0: the next two).
+    const std::size_t mid = std::max<std::size_t>(best, 1);
+    const Sample &a = grid[mid - 1], &b = grid[mid], &c = grid[mid + 1];
+    const double h = b.readout_s - a.readout_s;
+    // m(r) = m_b + g (r - r_b) + q (r - r_b)^2 through the three.
+    const double g = (c.mean - a.mean) / (2 * h), q = (c.mean - 2 * b.mean + a.mean) / (2 * h * h);
+    const double readout = q > 0 ? std::clamp(b.readout_s - g / (2 * q), a.readout_s, c.readout_s) : grid[best].readout_s;
+    double cost = 0;
+    int count = 0;
+    fit.result.alignment = solve_alignment(s, *in.history, in.pairs, readout, max_offset_s, &cost, &count);
+    fit.result.readout_s = readout;
+    fit.result.pairs = count;
+    // The sum S = count m of 3 count squared components, each of variance sigma^2 (the trimmed
+    // mean square, corrected for the trimming, over 3): S = S_min + count q (r - r*)^2, so the
+    // readout's variance is sigma^2 / (count q).
+    const double sigma2 = count > 0 ? cost / count / (3.0 * kTrimmedChi2Ratio) : INFINITY;
+    fit.result.sd_s = q > 0 && count > 0 ? std::sqrt(sigma2 / (count * q)) : INFINITY;
+    fit.shown = fit.result.sd_s <= kMaxReadoutSdS;
+    if (!fit.shown) {
+        std::snprintf(buf, sizeof buf, ": the motion does not show the rolling shutter's readout (best %.1f ms, standard "
+                      "deviation %.1f ms, at most %.1f)", 1e3 * readout, 1e3 * fit.result.sd_s, 1e3 * kMaxReadoutSdS);
+        fit.why = buf;
+    }
+    return fit;
+}
+
+void check_readout_span(double max_readout_s) {
+    if (!(max_readout_s > 0) || !(max_readout_s <= 1))
+        throw InputError("the longest readout to search must be in (0, 1] s, not " + std::to_string(max_readout_s));
+}
+
+}  // namespace
+
 ReadoutResult calibrate_readout(const Session& s, double max_readout_s, double max_offset_s) {
     if (s.sensors.empty()) throw InputError(s.dir.string() + ": a readout calibration needs the session's sensor recording");
     return calibrate_readout(s, load_sensor_orientations(s), max_readout_s, max_offset_s);
@@ -960,50 +1058,28 @@ ReadoutResult calibrate_readout(const Session& s, double max_readout_s, double m
 
 ReadoutResult calibrate_readout(const Session& s, const std::vector<SensorOrientation>& orientations,
                                 double max_readout_s, double max_offset_s) {
-    if (!(max_readout_s > 0) || !(max_readout_s <= 1))
-        throw InputError("the longest readout to search must be in (0, 1] s, not " + std::to_string(max_readout_s));
+    check_readout_span(max_readout_s);
+    const ReadoutFit fit = fit_readout(s, measure_alignment(s, orientations), max_readout_s, max_offset_s);
+    if (!fit.shown)
+        throw InputError(s.dir.string() + fit.why +
+                         ": turn the camera up and down (pitch) and about its lens, at speed");
+    return fit.result;
+}
+
+AlignmentAndReadout calibrate_alignment_and_readout(const Session& s,
+                                                    const std::vector<SensorOrientation>& orientations,
+                                                    double max_readout_s, double max_offset_s) {
+    check_readout_span(max_readout_s);
     const AlignmentInputs in = measure_alignment(s, orientations);
-    struct Sample {
-        double readout_s, cost;
-        int count;
-    };
-    const auto solve_at = [&](double readout) {
-        Sample x{readout, 0, 0};
-        solve_alignment(s, *in.history, in.pairs, readout, max_offset_s, &x.cost, &x.count);
-        return x;
-    };
-    // The grid, then a parabola through the best point and its neighbours (the ends: the
-    // neighbour inside and the next one).
-    std::vector<Sample> grid;
-    const int steps = std::max(4, int(std::ceil(max_readout_s / kReadoutGridS)));
-    for (int k = 0; k <= steps; ++k) grid.push_back(solve_at(max_readout_s * k / steps));
-    std::size_t best = 0;
-    for (std::size_t k = 1; k < grid.size(); ++k)
-        if (grid[k].cost < grid[best].cost) best = k;
-    const std::size_t mid = std::clamp<std::size_t>(best, 1, grid.size() - 2);
-    const Sample &a = grid[mid - 1], &b = grid[mid], &c = grid[mid + 1];
-    const double h = b.readout_s - a.readout_s;
-    // S(r) = S_b + g (r - r_b) + q (r - r_b)^2 through the three.
-    const double g = (c.cost - a.cost) / (2 * h), q = (c.cost - 2 * b.cost + a.cost) / (2 * h * h);
-    double readout = grid[best].readout_s;
-    if (q > 0) readout = std::clamp(b.readout_s - g / (2 * q), std::max(0.0, a.readout_s), c.readout_s);
-    ReadoutResult out;
-    double cost = 0;
-    int count = 0;
-    out.alignment = solve_alignment(s, *in.history, in.pairs, readout, max_offset_s, &cost, &count);
-    out.readout_s = readout;
-    // S = S_min + q (r - r*)^2 with S the sum of 3 count squared components of variance
-    // sigma^2 = S_min / (3 count): the readout's variance is sigma^2 / q.
-    const double sigma2 = count > 0 ? cost / (3.0 * count) : INFINITY;
-    out.sd_s = q > 0 ? std::sqrt(sigma2 / q) : INFINITY;
-    out.pairs = count;
-    if (!(out.sd_s <= kMaxReadoutSdS)) {
-        char buf[320];
-        std::snprintf(buf, sizeof buf,
-                      ": the motion does not show the rolling shutter's readout (best %.1f ms, standard deviation "
-                      "%.1f ms, at most %.1f): turn the camera up and down (pitch) and about its lens, at speed",
-                      1e3 * readout, 1e3 * out.sd_s, 1e3 * kMaxReadoutSdS);
-        throw InputError(s.dir.string() + buf);
+    ReadoutFit fit = fit_readout(s, in, max_readout_s, max_offset_s);
+    AlignmentAndReadout out;
+    if (fit.shown) {
+        out.alignment = fit.result.alignment;
+        out.readout = fit.result;
+    } else {
+        // The pairs measured once: the alignment at the readout in force.
+        out.alignment = solve_alignment(s, *in.history, in.pairs, s.calibration.readout_s, max_offset_s);
+        out.readout_refused = fit.why.substr(2);  // without the leading ": "
     }
     return out;
 }

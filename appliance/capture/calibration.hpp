@@ -3,6 +3,7 @@
 // stores the result in the camera's calibration file (calibration_io.hpp).
 #pragma once
 
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -103,11 +104,12 @@ AlignmentResult calibrate_alignment(const Session& capture, const std::vector<Se
 
 // The rolling shutter's readout time (calibration readout_s) from a motion with its sensor
 // recording: the alignment (above) solved with the rows read out over each readout on a grid of
-// kReadoutGridS steps from 0 to max_readout_s, and the readout whose pairs fit the sensor best
-// (the sum of squared residuals of the best 80 % of the pairs), refined by a parabola through its
-// neighbours. A wrong readout shears and scales each frame's rays against the sensor's turn
-// (docs/capture.md, "Readout"). Throws InputError when the motion does not show it: a standard
-// deviation from the parabola's curvature over kMaxReadoutSdS.
+// kReadoutGridS steps from 0 (in spans of 50 ms, a span more while the best is the last searched,
+// up to max_readout_s), and the readout whose pairs fit the sensor best (the mean square residual
+// of the best 80 % of the pairs), refined by a parabola through its neighbours. A wrong readout
+// shears and scales each frame's rays against the sensor's turn (docs/capture.md, "Readout").
+// Throws InputError when the motion does not show it (a standard deviation from the parabola's
+// curvature over kMaxReadoutSdS), or the best readout is the longest searched.
 inline constexpr double kReadoutGridS = 0.0025;
 inline constexpr double kMaxReadoutSdS = 0.003;
 struct ReadoutResult {
@@ -116,9 +118,21 @@ struct ReadoutResult {
     int pairs = 0;              // pairs in the fit (the best 80 %)
     AlignmentResult alignment;  // mounting and time offset at that readout
 };
-ReadoutResult calibrate_readout(const Session& capture, double max_readout_s = 0.05, double max_offset_s = 0.05);
+ReadoutResult calibrate_readout(const Session& capture, double max_readout_s = 0.2, double max_offset_s = 0.05);
 ReadoutResult calibrate_readout(const Session& capture, const std::vector<SensorOrientation>& orientations,
-                                double max_readout_s = 0.05, double max_offset_s = 0.05);
+                                double max_readout_s = 0.2, double max_offset_s = 0.05);
+
+// The alignment and, where the motion shows it, the readout, from one measurement of the frame
+// pairs (the wizard's alignment run): the alignment at the measured readout, or at the
+// calibration's with the reason the readout was not measured.
+struct AlignmentAndReadout {
+    AlignmentResult alignment;
+    std::optional<ReadoutResult> readout;
+    std::string readout_refused;  // why not, when readout is empty
+};
+AlignmentAndReadout calibrate_alignment_and_readout(const Session& capture,
+                                                    const std::vector<SensorOrientation>& orientations,
+                                                    double max_readout_s = 0.2, double max_offset_s = 0.05);
 
 // Throws InputError, `where` first, naming the axis and how loose the mounting is there, when the
 // motion did not pin it down to kMaxMountingSdDeg: `glint calibrate alignment` and the wizard

@@ -465,6 +465,42 @@ TEST_F(SessionTest, ResponseCalibrationIsNotBiasedBySensorNoise) {
     EXPECT_NE(response_coverage(r).find("end the bracket longer"), std::string::npos) << response_coverage(r);
 }
 
+// A code that never occurs in a channel (a camera's tone curve or digital gain can skip codes)
+// is NaN in Robertson's curve; the table must stay finite and scaled (a NaN above the measured
+// codes once left code 254 at 45.7 instead of 1, and the noise fit through it 98 % off).
+TEST_F(SessionTest, ACodeTheCameraNeverWritesLeavesTheResponseFiniteAndScaled) {
+    SimulateOptions o = small_session();
+    o.env = std::string(GLINT_BLENDER_WORLDS) + "/courtyard.exr";
+    o.width = 160;
+    o.height = 90;
+    o.bracket = 5;  // codes 34..252 measured: the codes above come from Robertson's curve
+    o.out = dir_ / "gap";
+    simulate_session(o);
+    Session s = open_session(o.out);
+    int changed = 0;
+    for (const FrameRecord& r : s.frames) {
+        cv::Mat bgr = cv::imread((s.dir / r.file).string(), cv::IMREAD_COLOR);
+        ASSERT_FALSE(bgr.empty());
+        for (int v = 0; v < bgr.rows; ++v)
+            for (cv::Vec3b& p : cv::Mat_<cv::Vec3b>(bgr.row(v)))
+                if (p[2] == 253) {  // red: code 253 never written
+                    p[2] = 252;
+                    ++changed;
+                }
+        ASSERT_TRUE(cv::imwrite((s.dir / r.file).string(), bgr));
+    }
+    ASSERT_GT(changed, 0);
+    s = open_session(o.out);
+    const ResponseResult r = calibrate_response(s);
+    for (int z = 0; z < 256; ++z) ASSERT_TRUE(std::isfinite(r.response.inverse[std::size_t(z)])) << z;
+    EXPECT_NEAR(r.response.inverse[254], 1.0, 1e-12);
+    for (int z = 1; z < 256; ++z) EXPECT_GT(r.response.inverse[std::size_t(z)], r.response.inverse[std::size_t(z - 1)]);
+    const double error = response_error_against_truth(r.response, truth_calibration(s).response);
+    std::printf("response with code 253 never written in red: worst %.2f %% over codes 64..250; %s\n", 100 * error,
+                response_coverage(r).c_str());
+    EXPECT_LT(error, 0.05);
+}
+
 TEST_F(SessionTest, AResponseNeedsARealBracket) {
     SimulateOptions o = small_session();
     o.bracket = 3;  // 4x: too narrow
