@@ -135,7 +135,7 @@ struct Row {
 };
 
 
-// The response, vignetting and intrinsics calibrations against the simulator's truth, as a table.
+// The response, noise, vignetting and intrinsics calibrations against the simulator's truth, as a table.
 void calibrations_table(const fs::path& work, std::ostream& md_out) {
     std::fprintf(stderr, "bench: calibrations\n");
     SimulateOptions b;
@@ -406,14 +406,18 @@ int main(int argc, char** argv) {
     const gl::GlContext gpu(display);
     // Default captures made by the first part, reused by the seeds table: "map/seed" -> summary.
     std::map<std::string, CaptureSummary> made;
-    if (calibrations_only) {
+    // Parts 2 and 3: the calibrations, then the alignment; `after` says what follows them.
+    const auto calibrations_and_alignment = [&](const std::string& after) {
         std::ostringstream c, al;
         calibrations_table(work, c);
         calibration_text = c.str();
-        write_report("calibrations done; alignment to come (--calibrations-only)");
+        write_report("calibrations done; alignment" + (after.empty() ? std::string() : " and " + after) + " to come");
         alignment_table(work, al);
         alignment_text = al.str();
-        write_report("");
+        write_report(after.empty() ? "" : after + " to come");
+    };
+    if (calibrations_only) {
+        calibrations_and_alignment("");
         fs::remove_all(work);
         return 0;
     }
@@ -466,16 +470,7 @@ int main(int argc, char** argv) {
         write_report("the three maps: " + std::to_string(rows.size()) + " of 3");
     }
 
-    if (!quick) {
-        std::fprintf(stderr, "bench: calibrations\n");
-        std::ostringstream c, al;
-        calibrations_table(work, c);
-        calibration_text = c.str();
-        write_report("calibrations done; alignment and every map and seed to come");
-        alignment_table(work, al);
-        alignment_text = al.str();
-        write_report("every map and seed to come");
-    }
+    if (!quick) calibrations_and_alignment("every map and seed");
 
     // Every map of the set for every seed, through the default capture.
     std::vector<std::pair<std::string, fs::path>> set;
