@@ -135,9 +135,10 @@ private:
         int first, count;
         int shift;
     };
-    // For n = 1 and n = 0: bright texels of one cell of the sphere, with their centre, angular
-    // radius, the sums of L dOmega times (sin theta cos phi, sin theta sin phi, cos theta) per
-    // channel (n = 1) and of L dOmega (n = 0: every weight in front is 1).
+    // For n < 2 (no cells merged there): bright texels of one cell of the sphere, with their
+    // centre, angular radius, the sums of L dOmega times (sin theta cos phi, sin theta sin phi,
+    // cos theta) per channel (n = 1), of L dOmega (n = 0: every weight in front is 1; and the
+    // Taylor series' E for other n), and their moments about the centre (other n).
     struct Cluster {
         std::vector<std::size_t> members;
         double cos_theta = 1, sin_theta = 0, phi = 0, radius = 0;
@@ -149,10 +150,18 @@ private:
         static constexpr std::size_t kMemberLanes = 8;
         std::vector<double> mu, mv, mw, ml[3], cut;
         double reach_cos = 2;  // the cosine of the cone around the centre holding every member's cut
+        // Fractional n (0 < n < 2, not 1): the centre as a unit (u, v, w), the members' first and
+        // second moments about it per channel (m1: u v w; m2: uu uv uw vv vw ww, of L dOmega), and
+        // the centre's cosine from which the Taylor series holds (> 1: nowhere).
+        double centre[3] = {0, 0, 1};
+        double m1[3][3] = {}, m2[3][6] = {};
+        double taylor_cos = 2;
     };
     std::vector<Cluster> clusters_;
-    // add_row for n = 1 and n = 0: each cluster's sum where every member is in front (linear in
-    // the direction for n = 1, constant for n = 0), its members' terms elsewhere.
+    double taylor_kappa_ = 0;  // fractional n: radius / centre's cosine below which the series holds
+    // add_row for n < 2: each cluster's sum where every member is in front (linear in the
+    // direction for n = 1, constant for n = 0) or, for other n, where its Taylor series holds;
+    // its members' terms elsewhere.
     void add_linear_row(int row, double ct, double st, const double* cmax_row, int classes, double* nb_row,
                         const LobeSummer::ColumnRuns* columns, int first_column) const;
     // A run of a row's weights staged for the power n and the sums (add_row).

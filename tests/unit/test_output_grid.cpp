@@ -615,7 +615,8 @@ TEST(OutputGrid, GroupedBrightTexelsSumAsEachOnItsOwn) {
 }
 
 // For n = 1 a cluster of bright texels wholly in front of a texel adds one dot product instead
-// of its members' terms (BrightScatter's clusters), and for n = 0 its energy: against the plain
+// of its members' terms (BrightScatter's clusters), for n = 0 its energy, and for other n below 2
+// a Taylor series about its centre (within 1e-5; without its second-order term 9x that): against the plain
 // sum of every term, with clusters at the seam, around the pole and in the open, cmax below 1
 // (weights c/cmax above 1 near the texels, unclamped), one and four column classes and asked
 // columns.
@@ -632,7 +633,7 @@ TEST(OutputGrid, BrightClustersForIrradianceMatchThePlainSum) {
     for (int i = 0; i < in_w; i += 37) add(i, 1, 30.0);                    // around the pole
     add(100, 200, 400.0);                                                  // a lone sun below
     const std::vector<double> one_class{1.0}, four_classes{0.9993, 0.9981, 0.9998, 0.9989};
-    for (const double n : {1.0, 0.0})
+    for (const double n : {1.0, 0.0, 0.5, 1.5, 0.1})
     for (const Size out : {Size{128, 64}, Size{96, 48}, Size{512, 256}}) {
         const LobeSummer::ColumnRuns columns{{0, 5}, {40, 60}, {out.width - 6, out.width}};
         const BrightScatter scatter(bright, n, out, 1.0, 1e-6);
@@ -652,11 +653,16 @@ TEST(OutputGrid, BrightClustersForIrradianceMatchThePlainSum) {
                         double want[3] = {0, 0, 0}, edge[3] = {0, 0, 0};
                         for (const BrightTexel& b : bright) {
                             const double c = glm::dot(d, glm::dvec3(b.x, b.y, b.z));
-                            const double w = c > 0 ? (n == 0 ? 1.0 : c / cm) : 0.0;  // unclamped, as the cone's
+                            const double w = c > 0 ? (n == 0 ? 1.0 : std::pow(c / cm, n)) : 0.0;  // unclamped, as the cone's
                             want[0] += w * b.r, want[1] += w * b.g, want[2] += w * b.b;
                             // n = 0 steps at the horizon: a texel within rounding of it (these
-                            // grids put some exactly 90 degrees apart) may be on either side.
-                            if (n == 0 && std::abs(c) < 1e-12) edge[0] += b.r, edge[1] += b.g, edge[2] += b.b;
+                            // grids put some exactly 90 degrees apart) may be on either side. So
+                            // for n < 1 a weight (c / cm)^n rises steeply from it: a cosine of 1e-17
+                            // against -1e-17 weighs 0.02 at n = 0.1.
+                            if (n < 1 && std::abs(c) < 1e-12) {
+                                const double e = n == 0 ? 1.0 : std::pow(1e-12 / cm, n);
+                                edge[0] += e * b.r, edge[1] += e * b.g, edge[2] += e * b.b;
+                            }
                         }
                         for (int ch = 0; ch < 3; ++ch) {
                             const double g = got[std::size_t(3 * i + ch)];
@@ -667,8 +673,10 @@ TEST(OutputGrid, BrightClustersForIrradianceMatchThePlainSum) {
                             largest = std::max(largest, want[ch]);
                             // Terms below 1e-6 of the floor (1 here) times the lobe's sum may be
                             // dropped: at most one such term per bright texel.
+                            // Other n: the clusters' Taylor series within 1e-5 of their sums.
+                            const double series = n == 0 || n == 1 ? 1e-9 : 1e-5;
                             worst = std::max(worst, std::abs(g - want[ch]) /
-                                                        (1e-9 * want[ch] + 1e-6 * kPi * double(bright.size()) + edge[ch]));
+                                                        (series * want[ch] + 1e-6 * kPi * double(bright.size()) + edge[ch]));
                         }
                     }
                 }
