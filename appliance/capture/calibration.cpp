@@ -175,13 +175,9 @@ std::array<double, 256> refine_response(const std::vector<cv::Mat>& frames, cons
                 first = std::min(first, z);
                 last = z;
             }
+        // The medians are non-decreasing and interpolated between neighbouring bins, so every
+        // code from first to last is reached: the measured codes are one run.
         if (last - first < 32) return g;
-        for (int z = first + 1; z < last; ++z)
-            if (!measured[std::size_t(z)]) {  // a code no pair of bins brackets: between its neighbours
-                int b = z + 1;
-                while (!measured[std::size_t(b)]) ++b;
-                next[std::size_t(z)] = std::sqrt(next[std::size_t(z - 1)] * next[std::size_t(b)]);
-            }
         const auto slope = [&](int a, int b) {  // d log g / d log z between codes a < b
             return std::clamp(std::log(next[std::size_t(b)] / next[std::size_t(a)]) / std::log(double(b) / a), 0.5, 8.0);
         };
