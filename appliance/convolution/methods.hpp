@@ -150,11 +150,12 @@ private:
         static constexpr std::size_t kMemberLanes = 8;
         std::vector<double> mu, mv, mw, ml[3], cut;
         double reach_cos = 2;  // the cosine of the cone around the centre holding every member's cut
-        // Fractional n (0 < n < 2, not 1): the centre as a unit (u, v, w), the members' first and
-        // second moments about it per channel (m1: u v w; m2: uu uv uw vv vw ww, of L dOmega), and
-        // the centre's cosine from which the Taylor series holds (> 1: nowhere).
+        // Fractional n (0 < n < 2, not 1): the centre as a unit (u, v, w), the members' first,
+        // second and third moments about it per channel (m1: u v w; m2: uu uv uw vv vw ww; m3: uuu
+        // uuv uuw uvv uvw uww vvv vvw vww www, of L dOmega), and the centre's cosine from which the
+        // Taylor series holds (> 1: nowhere).
         double centre[3] = {0, 0, 1};
-        double m1[3][3] = {}, m2[3][6] = {};
+        double m1[3][3] = {}, m2[3][6] = {}, m3[3][10] = {};
         double taylor_cos = 2;
     };
     std::vector<Cluster> clusters_;

@@ -616,7 +616,7 @@ TEST(OutputGrid, GroupedBrightTexelsSumAsEachOnItsOwn) {
 
 // For n = 1 a cluster of bright texels wholly in front of a texel adds one dot product instead
 // of its members' terms (BrightScatter's clusters), for n = 0 its energy, and for other n below 2
-// a Taylor series about its centre (within 1e-5; without its second-order term 9x that): against the plain
+// a Taylor series about its centre (within 1e-5; without its third-order term 1.9x that): against the plain
 // sum of every term, with clusters at the seam, around the pole and in the open, cmax below 1
 // (weights c/cmax above 1 near the texels, unclamped), one and four column classes and asked
 // columns.
@@ -632,6 +632,12 @@ TEST(OutputGrid, BrightClustersForIrradianceMatchThePlainSum) {
         for (int i : {508, 509, 510, 511, 0, 1, 2}) add(i, j, 80.0 + j);   // a window over the seam
     for (int i = 0; i < in_w; i += 37) add(i, 1, 30.0);                    // around the pole
     add(100, 200, 400.0);                                                  // a lone sun below
+    // Off the grid, lopsided members within a cluster's cell: odd moments about its centre, which
+    // a symmetric cell's cancel (the third-order term of the Taylor series for n < 2).
+    // Bright enough that the term stands out of the allowance for dropped terms.
+    for (const auto& [dt, dp, value] : {std::tuple{0.0, 0.0, 4e6}, std::tuple{0.011, 0.0, 3e5},
+                                        std::tuple{0.011, 0.006, 9e6}, std::tuple{0.003, 0.013, 1e6}})
+        bright.push_back(bright_texel(1.905 + dt, -1.19 + dp, {0.9f, 1.0f, 0.6f}, value));  // one cell
     const std::vector<double> one_class{1.0}, four_classes{0.9993, 0.9981, 0.9998, 0.9989};
     for (const double n : {1.0, 0.0, 0.5, 1.5, 0.1})
     for (const Size out : {Size{128, 64}, Size{96, 48}, Size{512, 256}}) {
