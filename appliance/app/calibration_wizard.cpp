@@ -3,7 +3,6 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
-#include <optional>
 
 #include <opencv2/imgcodecs.hpp>
 #include <opencv2/imgproc.hpp>
@@ -605,10 +604,10 @@ void CalibrationWizard::compute(std::uint64_t run) {
             // sweeps): measured with the mounting, or kept, with the reason, where the motion does
             // not show it. The turns about the vertical alone (time offset) do not.
             std::string readout_text;
-            std::optional<capture::AlignmentResult> solved;
+            const capture::AlignmentAndReadout both =
+                kind == CalibrationKind::Alignment ? capture::calibrate_alignment_and_readout(s, orientations)
+                                                   : capture::AlignmentAndReadout{capture::calibrate_alignment(s, orientations), std::nullopt, {}};
             if (kind == CalibrationKind::Alignment) {
-                const capture::AlignmentAndReadout both = capture::calibrate_alignment_and_readout(s, orientations);
-                solved = both.alignment;
                 if (both.readout) {
                     next.readout_s = both.readout->readout_s;
                     readout_text = format("; readout %.1f ms (standard deviation %.1f ms; was %.1f ms)",
@@ -619,7 +618,7 @@ void CalibrationWizard::compute(std::uint64_t run) {
                                    both.readout_refused + ")";
                 }
             }
-            const capture::AlignmentResult r = solved ? *solved : capture::calibrate_alignment(s, orientations);
+            const capture::AlignmentResult& r = both.alignment;
             // The time offset alone needs no turn about every axis; the mounting does.
             if (kind == CalibrationKind::Alignment) capture::check_alignment_usable(r, "alignment");
             next.time_offset_s = r.time_offset_s;
