@@ -18,6 +18,7 @@
 #include <cstddef>
 #include <cstdlib>
 #include <cstring>
+#include <limits>
 #include <mutex>
 #include <string>
 
@@ -149,6 +150,33 @@ PreparedLevel::RowSpectra& PreparedLevel::row_spectra() const {
 
 const double* PreparedLevel::row_spectrum(int j) const { return row_spectra().row(*this, j); }
 
+// What one output row reads: its level rows grouped by the version of the level they are read
+// from (the level, or one with merged columns near a pole), each with its kernel's spectrum as
+// cosine-table rows and weights (a symmetric kernel) or its own transform.
+struct FourierRowPlan {
+    struct Item {
+        const double* spectra = nullptr;
+        int jk = 0;                     // the level row
+        int first_pair = 0, pairs = 0;  // symmetric: column pairs in pair_weight / pair_row
+        // Else: where its H (planar, 2 bins of its group's version) starts in kernels. An
+        // offset, not an index: the versions' bins differ, and an index times this group's
+        // bins pointed a row next to a pole at another version's H (merged columns near a
+        // pole read through their own transform before the level's rows: 20 % off).
+        std::ptrdiff_t kernel = -1;
+    };
+    struct Group {
+        const PreparedLevel* level = nullptr;
+        PreparedLevel::RowSpectra* spectra = nullptr;
+        long long two_centre = 0;  // 2 (base + frac): output column 0's centre, doubled
+        std::vector<Item> items;   // ascending level rows
+    };
+    std::vector<Group> groups;
+    std::vector<double> pair_weight;
+    std::vector<const double*> pair_row;
+    std::vector<double> kernels;
+    double den = 0, cmax = 1;
+};
+
 struct FourierFirstPass::Impl {
     Impl(const LobeSummer& s, int w, int t) : summer(s), out_w(w), threads(t), out_plan(std::size_t(w)) {}
 
@@ -156,7 +184,14 @@ struct FourierFirstPass::Impl {
     int out_w, threads;
     RealFftPlan out_plan;
 
-    void sum_row(int row, double c0, LobeSums& sums) const;
+    void plan_row(int row, double c0, FourierRowPlan& plan) const;
+    // Whether `mirror` (the output row mirrored about the equator) reads the level rows of
+    // `plan` mirrored, each from the same version with the same kernel (to 1e-12 of its
+    // largest weight), so that one kernel spectrum serves both rows.
+    bool mirrored(const FourierRowPlan& plan, const FourierRowPlan& mirror) const;
+    // Sums output row `row` (and `mirror_row` from `mirror`, when given: the kernels' spectra
+    // from `plan`, computed once for both) into `sums`.
+    void sum(int row, const FourierRowPlan& plan, int mirror_row, const FourierRowPlan* mirror, LobeSums& sums) const;
 };
 
 bool FourierFirstPass::applies(int level_width, int level_height, int out_width) {
@@ -178,69 +213,47 @@ FourierFirstPass::FourierFirstPass(const LobeSummer& summer, int out_width, int 
 
 FourierFirstPass::~FourierFirstPass() = default;
 
-void FourierFirstPass::Impl::sum_row(int row, double c0, LobeSums& sums) const {
-    // The level rows this output row reads, grouped by the version of the level they are read
-    // from (the level, or one with merged columns near a pole).
-    struct Item {
-        const double* spectra;
-        int first_pair = 0, pairs = 0;  // direct: column pairs in pair_weight / pair_row
-        // Else: where its H (planar, 2 bins of its group's version) starts in kernels. An
-        // offset, not an index: the versions' bins differ, and an index times this group's
-        // bins pointed a row next to a pole at another version's H (merged columns near a
-        // pole read through their own transform before the level's rows: 20 % off).
-        std::ptrdiff_t kernel = -1;
-    };
-    struct Group {
-        const PreparedLevel* level = nullptr;
-        PreparedLevel::RowSpectra* spectra = nullptr;
-        long long two_centre = 0;  // 2 (base + frac): output column 0's centre, doubled
-        std::vector<Item> items;
-    };
-    std::vector<Group> groups;
-    std::vector<double> pair_weight;
-    std::vector<const double*> pair_row;
-    std::vector<double> kernels, kernel;
-    std::vector<Complex> kernel_spectrum;
+void FourierFirstPass::Impl::plan_row(int row, double c0, FourierRowPlan& plan) const {
+    using Item = FourierRowPlan::Item;
+    using Group = FourierRowPlan::Group;
     std::vector<double> w(std::size_t(summer.level().width()) + 2);  // up to a whole row of the level
-
-    // Whole stored rows (run()'s contract): the row's texels are consecutive from its column 0.
-    if (!sums.stored(row) || sums.first_column(row) != 0 || sums.end_column(row) != out_w)
-        throw RuntimeError("internal: the Fourier first pass writes whole stored rows of sums");
+    std::vector<double> kernel;
+    std::vector<Complex> kernel_spectrum;
     const LobeSummer::RowWindow win = summer.window(row, 0, c0);
-    double den = 0;
+    plan.cmax = win.cmax;
     for (int jk = win.first; jk <= win.last; ++jk) {
         const LobeSummer::RowTerms t = summer.row_terms(row, 0, win, jk, w.data());
         if (t.count <= 0) continue;
         double wsum = 0;
         for (int d = 0; d < t.count; ++d) wsum += w[std::size_t(d)];
         if (wsum == 0) continue;
-        den += t.omega * wsum;
+        plan.den += t.omega * wsum;
 
         // One column class: output centres sit on a column or halfway between two.
         const long long two_frac = std::llround(2.0 * t.frac);
         if ((two_frac != 0 && two_frac != 1) || 2.0 * t.frac != double(two_frac))
             throw RuntimeError("internal: the Fourier first pass needs output centres on or halfway between columns");
         Group* group = nullptr;
-        for (Group& g : groups)
+        for (Group& g : plan.groups)
             if (g.level == t.level) group = &g;
         if (!group) {
-            groups.push_back({t.level, &t.level->row_spectra(), 2LL * t.base + two_frac, {}});
-            group = &groups.back();
+            plan.groups.push_back({t.level, &t.level->row_spectra(), 2LL * t.base + two_frac, {}});
+            group = &plan.groups.back();
         }
         PreparedLevel::RowSpectra& v = *group->spectra;
         const std::size_t bins = std::size_t(v.bins);
-        Item item{v.row(*t.level, jk)};
+        Item item{v.row(*t.level, jk), jk};
         if (2LL * t.first + t.count - 1 == two_frac && t.count <= kDirectMaxColumns) {
             // Symmetric about the centre: H(m) = sum over column pairs (p, -p) of their weights
             // times cos(2 pi m p / W), j = 2 |p| indexing the table (the middle column alone).
-            item.first_pair = int(pair_weight.size());
+            item.first_pair = int(plan.pair_weight.size());
             const int half = (t.count + 1) / 2;
             for (int d = 0; d < half; ++d) {
                 const int mirror = t.count - 1 - d;
-                pair_weight.push_back(t.omega *
-                                      (mirror == d ? w[std::size_t(d)] : w[std::size_t(d)] + w[std::size_t(mirror)]));
+                plan.pair_weight.push_back(t.omega *
+                                           (mirror == d ? w[std::size_t(d)] : w[std::size_t(d)] + w[std::size_t(mirror)]));
                 const long long j = std::llabs(2LL * (t.first + d) - two_frac);
-                pair_row.push_back(v.cos_table.data() + std::size_t(j) * bins);
+                plan.pair_row.push_back(v.cos_table.data() + std::size_t(j) * bins);
             }
             item.pairs = half;
         } else {
@@ -255,9 +268,9 @@ void FourierFirstPass::Impl::sum_row(int row, double c0, LobeSums& sums) const {
             }
             kernel_spectrum.resize(bins);
             v.plan.forward(kernel.data(), kernel_spectrum.data());
-            item.kernel = std::ptrdiff_t(kernels.size());
-            kernels.resize(kernels.size() + 2 * bins);
-            double* h = kernels.data() + item.kernel;
+            item.kernel = std::ptrdiff_t(plan.kernels.size());
+            plan.kernels.resize(plan.kernels.size() + 2 * bins);
+            double* h = plan.kernels.data() + item.kernel;
             for (std::size_t m = 0; m < bins; ++m) {
                 const Complex hm = t.omega * std::conj(v.turns[m * std::size_t(two_frac)] * kernel_spectrum[m]);
                 h[m] = hm.real();
@@ -266,93 +279,188 @@ void FourierFirstPass::Impl::sum_row(int row, double c0, LobeSums& sums) const {
         }
         group->items.push_back(item);
     }
+}
 
-    // Per group, A(m) = sum over its rows of omega H(m) F(m), bins in blocks held in registers
-    // while every row is added; then the bins folded modulo out_w (the centre's phase applied)
-    // into one spectrum per channel, and one inverse transform each.
+bool FourierFirstPass::Impl::mirrored(const FourierRowPlan& plan, const FourierRowPlan& mirror) const {
+    // Of the kernel's largest weight (or spectrum value): mirrored weights are equal but for the
+    // rounding of their cosines (a few ulps), which the power n multiplies.
+    const double same = 1e-12 + 8.0 * summer.shininess() * std::numeric_limits<double>::epsilon();
+    if (plan.groups.size() != mirror.groups.size()) return false;
+    const int last_row = summer.level().height() - 1;
+    for (std::size_t g = 0; g < plan.groups.size(); ++g) {
+        const FourierRowPlan::Group& a = plan.groups[g];
+        const FourierRowPlan::Group* b = nullptr;
+        for (const FourierRowPlan::Group& candidate : mirror.groups)
+            if (candidate.level == a.level) b = &candidate;
+        if (!b || b->items.size() != a.items.size() || b->two_centre != a.two_centre) return false;
+        const std::size_t count = a.items.size(), bins = std::size_t(a.spectra->bins);
+        for (std::size_t k = 0; k < count; ++k) {
+            const FourierRowPlan::Item& x = a.items[k];
+            const FourierRowPlan::Item& y = b->items[count - 1 - k];  // ascending rows, mirrored
+            if (y.jk != last_row - x.jk || (x.kernel < 0) != (y.kernel < 0)) return false;
+            if (x.kernel < 0) {
+                if (x.pairs != y.pairs) return false;
+                double largest = 0;
+                for (int p = 0; p < x.pairs; ++p)
+                    largest = std::max(largest, std::abs(plan.pair_weight[std::size_t(x.first_pair + p)]));
+                for (int p = 0; p < x.pairs; ++p) {
+                    const std::size_t i = std::size_t(x.first_pair + p), j = std::size_t(y.first_pair + p);
+                    if (plan.pair_row[i] != mirror.pair_row[j] ||
+                        std::abs(plan.pair_weight[i] - mirror.pair_weight[j]) > same * largest)
+                        return false;
+                }
+            } else {
+                const double* hx = plan.kernels.data() + x.kernel;
+                const double* hy = mirror.kernels.data() + y.kernel;
+                double largest = 0;
+                for (std::size_t m = 0; m < 2 * bins; ++m) largest = std::max(largest, std::abs(hx[m]));
+                for (std::size_t m = 0; m < 2 * bins; ++m)
+                    if (std::abs(hx[m] - hy[m]) > same * largest) return false;
+            }
+        }
+    }
+    return true;
+}
+
+namespace {
+
+// A(m) = sum over the group's rows of omega H(m) F(m) for one output row (Rows = 1) or for it
+// and its mirror (Rows = 2, the mirror's rows in reverse order, the same H), bins in blocks
+// held in registers while every row is added. a[r]: channel c's real parts at 2 c bins,
+// imaginary parts after.
+template <int Rows>
+void accumulate_group(const FourierRowPlan& plan, const FourierRowPlan::Group& g,
+                      const FourierRowPlan::Group* mirror, double* const* a) {
+    // kBlocks blocks of bins per pass for two rows too (24 accumulators; the compiler keeps
+    // most in registers): one block for two rows, with four chains for H, was 4 % slower than
+    // the one-row pass (2026-12-07, n = 5120 at 512x256), its loads twice as many streams of
+    // half the length.
+    constexpr std::size_t kRowBlocks = kBlocks;
+    constexpr std::size_t kStep = kLanes * kRowBlocks;
+    // Independent chains of multiply-adds for H: one would wait on the previous result (~4
+    // cycles) at every pair.
+    constexpr int kChains = 2;
+    const std::size_t bins = std::size_t(g.spectra->bins);
+    const std::size_t count = g.items.size();
+    const auto spectra_of = [&](std::size_t k, int r) {
+        return r == 0 ? g.items[k].spectra : mirror->items[count - 1 - k].spectra;
+    };
+    std::size_t m0 = 0;
+    for (; m0 + kStep <= bins; m0 += kStep) {
+        DoubleBlock acc[Rows][3][2][kRowBlocks] = {};
+        for (std::size_t k = 0; k < count; ++k) {
+            const FourierRowPlan::Item& item = g.items[k];
+            DoubleBlock hr[kRowBlocks] = {}, hi[kRowBlocks] = {};
+            bool complex_h = false;
+            if (item.kernel < 0) {
+                DoubleBlock chain[kChains][kRowBlocks] = {};
+                const int end = item.first_pair + item.pairs;
+                int p = item.first_pair;
+                for (; p + kChains <= end; p += kChains)
+                    for (int c = 0; c < kChains; ++c) {
+                        const double wp = plan.pair_weight[std::size_t(p + c)];
+                        const double* row = plan.pair_row[std::size_t(p + c)] + m0;
+                        for (std::size_t b = 0; b < kRowBlocks; ++b) chain[c][b] += wp * load(row + b * kLanes);
+                    }
+                for (; p < end; ++p) {
+                    const double wp = plan.pair_weight[std::size_t(p)];
+                    const double* row = plan.pair_row[std::size_t(p)] + m0;
+                    for (std::size_t b = 0; b < kRowBlocks; ++b) chain[0][b] += wp * load(row + b * kLanes);
+                }
+                for (std::size_t b = 0; b < kRowBlocks; ++b) {
+                    hr[b] = chain[0][b];
+                    for (int c = 1; c < kChains; ++c) hr[b] += chain[c][b];
+                }
+            } else {
+                const double* h = plan.kernels.data() + item.kernel + m0;
+                for (std::size_t b = 0; b < kRowBlocks; ++b) {
+                    hr[b] = load(h + b * kLanes);
+                    hi[b] = load(h + bins + b * kLanes);
+                }
+                complex_h = true;
+            }
+            for (int r = 0; r < Rows; ++r) {
+                const double* spectra = spectra_of(k, r);
+                for (int c = 0; c < 3; ++c) {
+                    const double* fr = spectra + 2 * std::size_t(c) * bins + m0;
+                    const double* fi = fr + bins;
+                    for (std::size_t b = 0; b < kRowBlocks; ++b) {
+                        const DoubleBlock re = load(fr + b * kLanes), im = load(fi + b * kLanes);
+                        acc[r][c][0][b] += hr[b] * re;
+                        acc[r][c][1][b] += hr[b] * im;
+                        if (complex_h) {
+                            acc[r][c][0][b] -= hi[b] * im;
+                            acc[r][c][1][b] += hi[b] * re;
+                        }
+                    }
+                }
+            }
+        }
+        for (int r = 0; r < Rows; ++r)
+            for (int c = 0; c < 3; ++c)
+                for (std::size_t b = 0; b < kRowBlocks; ++b) {
+                    store(a[r] + 2 * std::size_t(c) * bins + m0 + b * kLanes, acc[r][c][0][b]);
+                    store(a[r] + (2 * std::size_t(c) + 1) * bins + m0 + b * kLanes, acc[r][c][1][b]);
+                }
+    }
+    for (std::size_t m = m0; m < bins; ++m) {  // the last bins (W/2 + 1 is odd)
+        double acc[Rows][3][2] = {};
+        for (std::size_t k = 0; k < count; ++k) {
+            const FourierRowPlan::Item& item = g.items[k];
+            double hr = 0, hi = 0;
+            if (item.kernel < 0) {
+                for (int p = item.first_pair; p < item.first_pair + item.pairs; ++p)
+                    hr += plan.pair_weight[std::size_t(p)] * plan.pair_row[std::size_t(p)][m];
+            } else {
+                hr = plan.kernels[std::size_t(item.kernel) + m];
+                hi = plan.kernels[std::size_t(item.kernel) + bins + m];
+            }
+            for (int r = 0; r < Rows; ++r) {
+                const double* spectra = spectra_of(k, r);
+                for (int c = 0; c < 3; ++c) {
+                    const double re = spectra[2 * std::size_t(c) * bins + m];
+                    const double im = spectra[(2 * std::size_t(c) + 1) * bins + m];
+                    acc[r][c][0] += hr * re - hi * im;
+                    acc[r][c][1] += hr * im + hi * re;
+                }
+            }
+        }
+        for (int r = 0; r < Rows; ++r)
+            for (int c = 0; c < 3; ++c) {
+                a[r][2 * std::size_t(c) * bins + m] = acc[r][c][0];
+                a[r][(2 * std::size_t(c) + 1) * bins + m] = acc[r][c][1];
+            }
+    }
+}
+
+}  // namespace
+
+void FourierFirstPass::Impl::sum(int row, const FourierRowPlan& plan, int mirror_row, const FourierRowPlan* mirror,
+                                 LobeSums& sums) const {
+    const int rows = mirror ? 2 : 1;
+    const int out_rows[2] = {row, mirror_row};
+    // Whole stored rows (run()'s contract): the row's texels are consecutive from its column 0.
+    for (int r = 0; r < rows; ++r)
+        if (!sums.stored(out_rows[r]) || sums.first_column(out_rows[r]) != 0 || sums.end_column(out_rows[r]) != out_w)
+            throw RuntimeError("internal: the Fourier first pass writes whole stored rows of sums");
+
+    // Per group, A(m) (accumulate_group); then the bins folded modulo out_w (the centre's phase
+    // applied) into one spectrum per channel, and one inverse transform each.
     const int out_bins = out_w / 2 + 1;
-    std::vector<Complex> folded(3 * std::size_t(out_bins));
-    std::vector<double> a;
-    for (const Group& g : groups) {
+    std::vector<Complex> folded(std::size_t(rows) * 3 * std::size_t(out_bins));
+    std::vector<double> a_values;
+    for (const FourierRowPlan::Group& g : plan.groups) {
         const PreparedLevel::RowSpectra& v = *g.spectra;
         const std::size_t bins = std::size_t(v.bins);
-        a.resize(6 * bins);  // channel c: real parts at 2 c bins, imaginary parts after
-        std::size_t m0 = 0;
-        for (; m0 + kBins <= bins; m0 += kBins) {
-            DoubleBlock acc[3][2][kBlocks] = {};
-            for (const Item& item : g.items) {
-                DoubleBlock hr[kBlocks] = {}, hi[kBlocks] = {};
-                bool complex_h = false;
-                if (item.kernel < 0) {
-                    // Two chains of multiply-adds per block: one would wait on the previous
-                    // multiply-add's result (~4 cycles) at every pair.
-                    DoubleBlock hr2[kBlocks] = {};
-                    const int end = item.first_pair + item.pairs;
-                    int p = item.first_pair;
-                    for (; p + 1 < end; p += 2) {
-                        const double wp = pair_weight[std::size_t(p)], wp2 = pair_weight[std::size_t(p) + 1];
-                        const double* c = pair_row[std::size_t(p)] + m0;
-                        const double* c2 = pair_row[std::size_t(p) + 1] + m0;
-                        for (std::size_t b = 0; b < kBlocks; ++b) {
-                            hr[b] += wp * load(c + b * kLanes);
-                            hr2[b] += wp2 * load(c2 + b * kLanes);
-                        }
-                    }
-                    if (p < end) {
-                        const double* c = pair_row[std::size_t(p)] + m0;
-                        for (std::size_t b = 0; b < kBlocks; ++b) hr[b] += pair_weight[std::size_t(p)] * load(c + b * kLanes);
-                    }
-                    for (std::size_t b = 0; b < kBlocks; ++b) hr[b] += hr2[b];
-                } else {
-                    const double* h = kernels.data() + item.kernel + m0;
-                    for (std::size_t b = 0; b < kBlocks; ++b) {
-                        hr[b] = load(h + b * kLanes);
-                        hi[b] = load(h + bins + b * kLanes);
-                    }
-                    complex_h = true;
-                }
-                for (int c = 0; c < 3; ++c) {
-                    const double* fr = item.spectra + 2 * std::size_t(c) * bins + m0;
-                    const double* fi = fr + bins;
-                    for (std::size_t b = 0; b < kBlocks; ++b) {
-                        const DoubleBlock re = load(fr + b * kLanes), im = load(fi + b * kLanes);
-                        acc[c][0][b] += hr[b] * re;
-                        acc[c][1][b] += hr[b] * im;
-                        if (complex_h) {
-                            acc[c][0][b] -= hi[b] * im;
-                            acc[c][1][b] += hi[b] * re;
-                        }
-                    }
-                }
-            }
-            for (int c = 0; c < 3; ++c)
-                for (std::size_t b = 0; b < kBlocks; ++b) {
-                    store(a.data() + 2 * std::size_t(c) * bins + m0 + b * kLanes, acc[c][0][b]);
-                    store(a.data() + (2 * std::size_t(c) + 1) * bins + m0 + b * kLanes, acc[c][1][b]);
-                }
-        }
-        for (std::size_t m = m0; m < bins; ++m) {  // the last bins (W/2 + 1 is odd)
-            double acc[3][2] = {};
-            for (const Item& item : g.items) {
-                double hr = 0, hi = 0;
-                if (item.kernel < 0) {
-                    for (int p = item.first_pair; p < item.first_pair + item.pairs; ++p)
-                        hr += pair_weight[std::size_t(p)] * pair_row[std::size_t(p)][m];
-                } else {
-                    hr = kernels[std::size_t(item.kernel) + m];
-                    hi = kernels[std::size_t(item.kernel) + bins + m];
-                }
-                for (int c = 0; c < 3; ++c) {
-                    const double re = item.spectra[2 * std::size_t(c) * bins + m];
-                    const double im = item.spectra[(2 * std::size_t(c) + 1) * bins + m];
-                    acc[c][0] += hr * re - hi * im;
-                    acc[c][1] += hr * im + hi * re;
-                }
-            }
-            for (int c = 0; c < 3; ++c) {
-                a[2 * std::size_t(c) * bins + m] = acc[c][0];
-                a[(2 * std::size_t(c) + 1) * bins + m] = acc[c][1];
-            }
+        a_values.resize(std::size_t(rows) * 6 * bins);
+        double* a[2] = {a_values.data(), a_values.data() + 6 * bins};
+        if (mirror) {
+            const FourierRowPlan::Group* mg = nullptr;
+            for (const FourierRowPlan::Group& candidate : mirror->groups)
+                if (candidate.level == g.level) mg = &candidate;
+            accumulate_group<2>(plan, g, mg, a);
+        } else {
+            accumulate_group<1>(plan, g, nullptr, a);
         }
 
         // Y(m) = A(m) e^{i pi m (2 c_0) / W} / W for m <= W/2, and Y(W - m) = conj(Y(m))
@@ -371,13 +479,14 @@ void FourierFirstPass::Impl::sum_row(int row, double c0, LobeSums& sums) const {
             const std::size_t fold = std::size_t(out_w) - 1;
             const std::size_t low = m & fold;
             const std::size_t high = (std::size_t(v.width) - m) & fold;
-            for (int c = 0; c < 3; ++c) {
-                const Complex y = Complex(a[2 * std::size_t(c) * bins + m], a[(2 * std::size_t(c) + 1) * bins + m]) * phase;
-                Complex* z = folded.data() + std::size_t(c) * std::size_t(out_bins);
-                if (low < std::size_t(out_bins)) z[low] += y;
-                // W - m is another bin unless m is 0 or W/2; it holds conj(y).
-                if (m != 0 && m != bins - 1 && high < std::size_t(out_bins)) z[high] += std::conj(y);
-            }
+            for (int r = 0; r < rows; ++r)
+                for (int c = 0; c < 3; ++c) {
+                    const Complex y = Complex(a[r][2 * std::size_t(c) * bins + m], a[r][(2 * std::size_t(c) + 1) * bins + m]) * phase;
+                    Complex* z = folded.data() + (std::size_t(r) * 3 + std::size_t(c)) * std::size_t(out_bins);
+                    if (low < std::size_t(out_bins)) z[low] += y;
+                    // W - m is another bin unless m is 0 or W/2; it holds conj(y).
+                    if (m != 0 && m != bins - 1 && high < std::size_t(out_bins)) z[high] += std::conj(y);
+                }
         }
     }
     // The transforms round to ~1e-16 of the row's largest sums (times a few log2 W), where the
@@ -388,31 +497,66 @@ void FourierFirstPass::Impl::sum_row(int row, double c0, LobeSums& sums) const {
     // Per channel: each has its own transforms.
     constexpr double kNoise = 1e-12;
     std::vector<double> values(3 * static_cast<std::size_t>(out_w));  // channel c at c out_w
-    const Complex* spectra[3];
-    double* channel[3];
-    for (int c = 0; c < 3; ++c) {
-        spectra[c] = folded.data() + std::size_t(c) * std::size_t(out_bins);
-        channel[c] = values.data() + std::size_t(c) * std::size_t(out_w);
-    }
-    out_plan.inverse_batch(spectra, channel, 3);  // the three channels in vector lanes
-    double* out = sums.num.data() + sums.texel(row, 0) * 3;
-    for (int c = 0; c < 3; ++c) {
-        const double largest = largest_magnitude(channel[c], std::size_t(out_w));
-        for (int q = 0; q < out_w; ++q) {
-            const double x = channel[c][q];
-            out[3 * std::size_t(q) + std::size_t(c)] = std::abs(x) <= kNoise * largest ? 0.0 : x;
+    for (int r = 0; r < rows; ++r) {
+        const Complex* spectra[3];
+        double* channel[3];
+        for (int c = 0; c < 3; ++c) {
+            spectra[c] = folded.data() + (std::size_t(r) * 3 + std::size_t(c)) * std::size_t(out_bins);
+            channel[c] = values.data() + std::size_t(c) * std::size_t(out_w);
         }
+        out_plan.inverse_batch(spectra, channel, 3);  // the three channels in vector lanes
+        double* out = sums.num.data() + sums.texel(out_rows[r], 0) * 3;
+        for (int c = 0; c < 3; ++c) {
+            const double largest = largest_magnitude(channel[c], std::size_t(out_w));
+            for (int q = 0; q < out_w; ++q) {
+                const double x = channel[c][q];
+                out[3 * std::size_t(q) + std::size_t(c)] = std::abs(x) <= kNoise * largest ? 0.0 : x;
+            }
+        }
+        const FourierRowPlan& p = r == 0 ? plan : *mirror;
+        sums.den[std::size_t(out_rows[r])] = p.den;
+        sums.cmax[std::size_t(out_rows[r])] = p.cmax;
     }
-    sums.den[std::size_t(row)] = den;
-    sums.cmax[std::size_t(row)] = win.cmax;
 }
 
-void FourierFirstPass::run(const std::vector<int>& rows, double c0, LobeSums& sums,
-                           const RowProgress& progress) const {
-    parallel_for(int(rows.size()), impl_->threads, [&](int k) {
-        impl_->sum_row(rows[std::size_t(k)], c0, sums);
-        if (progress) progress(1);
+int FourierFirstPass::run(const std::vector<int>& rows, double c0, LobeSums& sums, const RowProgress& progress) const {
+    // Output rows mirrored about the equator read the level's rows mirrored with the same
+    // weights (a Phong weight depends on the two rows' cosines through their product), so a
+    // row and its mirror, when both are asked, take one pass: the kernels' spectra, two thirds
+    // of the pass's multiply-adds, serve both (where merged polar columns or rounding make the
+    // two rows' terms differ, each is summed on its own).
+    const int out_h = impl_->summer.out_height();
+    std::vector<char> asked(std::size_t(out_h), 0);
+    for (int r : rows) asked[std::size_t(r)] = 1;
+    std::vector<std::pair<int, int>> tasks;  // (row, its mirror or -1)
+    for (int r : rows) {
+        const int m = out_h - 1 - r;
+        if (m > r && asked[std::size_t(m)])
+            tasks.emplace_back(r, m);
+        else if (!(m < r && asked[std::size_t(m)]))
+            tasks.emplace_back(r, -1);
+    }
+    std::atomic<int> shared{0};
+    parallel_for(int(tasks.size()), impl_->threads, [&](int k) {
+        const auto [row, mirror_row] = tasks[std::size_t(k)];
+        FourierRowPlan plan;
+        impl_->plan_row(row, c0, plan);
+        if (mirror_row < 0) {
+            impl_->sum(row, plan, -1, nullptr, sums);
+        } else {
+            FourierRowPlan mirror;
+            impl_->plan_row(mirror_row, c0, mirror);
+            if (impl_->mirrored(plan, mirror)) {
+                impl_->sum(row, plan, mirror_row, &mirror, sums);
+                shared += 2;
+            } else {
+                impl_->sum(row, plan, -1, nullptr, sums);
+                impl_->sum(mirror_row, mirror, -1, nullptr, sums);
+            }
+        }
+        if (progress) progress(mirror_row < 0 ? 1 : 2);
     });
+    return shared.load();
 }
 
 }  // namespace glint::convolution

@@ -54,8 +54,9 @@ public:
     FourierFirstPass& operator=(const FourierFirstPass&) = delete;
 
     // Writes whole rows `rows` of sums (made by summer.make_sums(&rows)) with cut-off c0, as
-    // summer.sum_row(row, c0, sums) would (to rounding).
-    void run(const std::vector<int>& rows, double c0, LobeSums& sums, const RowProgress& progress) const;
+    // summer.sum_row(row, c0, sums) would (to rounding). Returns how many of them were summed in
+    // pairs mirrored about the equator (one set of kernel spectra for both rows).
+    int run(const std::vector<int>& rows, double c0, LobeSums& sums, const RowProgress& progress) const;
 
 private:
     struct Impl;

@@ -260,6 +260,7 @@ public:
     double underflow_cos(double cmax_value) const;
 
     int classes() const { return classes_; }
+    int out_height() const { return out_h_; }
     double shininess() const { return n_; }
     // Per level row, the merge factor it is read with (polar_merge_factors; 1: the level).
     const std::vector<int>& merge_factors() const { return merge_factors_; }

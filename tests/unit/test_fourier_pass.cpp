@@ -10,6 +10,7 @@
 #include <algorithm>
 #include <atomic>
 #include <cmath>
+#include <limits>
 #include <random>
 #include <string>
 #include <vector>
@@ -54,16 +55,24 @@ double worst_apart(const HdrImage& a, const HdrImage& b) {
 struct Case {
     int width, height, out_width;
     double shininess, cut_energy, merged_arc;
+    // Merged polar columns only where the level is smooth (polar_merge_factors), on a map whose
+    // northern half is one colour: its polar rows merge and their southern mirrors do not.
+    bool smooth_north = false;
 };
+
 
 class FourierPass : public ::testing::TestWithParam<Case> {};
 
 TEST_P(FourierPass, SumsWhatSumRowSums) {
     const Case c = GetParam();
-    const HdrImage image = rough_map(c.width, c.height, unsigned(c.width * 7 + c.out_width));
+    HdrImage image = rough_map(c.width, c.height, unsigned(c.width * 7 + c.out_width));
+    if (c.smooth_north)
+        for (int j = 0; j < c.height / 2; ++j)
+            for (int i = 0; i < c.width; ++i) image.set(i, j, {2.0f, 1.0f, 0.5f});
     const PreparedLevel level(image, 2);
     const int out_h = c.out_width / 2;
-    const LobeSummer summer(level, c.out_width, out_h, c.shininess, Accumulation::Double, c.merged_arc);
+    const LobeSummer summer(level, c.out_width, out_h, c.shininess, Accumulation::Double, c.merged_arc,
+                            c.smooth_north ? 0.01 : std::numeric_limits<double>::infinity());
     ASSERT_TRUE(FourierFirstPass::applies(c.width, c.height, c.out_width));
     ASSERT_EQ(summer.classes(), 1);
     const double c0 = cone_cut_cos(c.cut_energy, c.shininess);
@@ -77,8 +86,17 @@ TEST_P(FourierPass, SumsWhatSumRowSums) {
     for (int r : rows) summer.sum_row(r, c0, direct);
     LobeSums fourier = summer.make_sums(&rows);
     std::atomic<int> progress{0};
-    FourierFirstPass(summer, c.out_width, 2).run(rows, c0, fourier, [&](long long k) { progress += int(k); });
+    const int paired =
+        FourierFirstPass(summer, c.out_width, 2).run(rows, c0, fourier, [&](long long k) { progress += int(k); });
     EXPECT_EQ(progress.load(), int(rows.size()));
+    // A row and its mirror share their kernels' spectra unless they read different versions of
+    // the level (merged columns where one side is rough): then each is summed on its own.
+    if (c.smooth_north) {
+        EXPECT_GT(paired, 0);
+        EXPECT_LT(paired, int(rows.size())) << "no row summed on its own: the fallback is not tested";
+    } else {
+        EXPECT_EQ(paired, int(rows.size()));
+    }
 
     double worst = 0;
     long long zeros = 0;
@@ -247,7 +265,10 @@ INSTANTIATE_TEST_SUITE_P(
                       // Only the pole rows merged: a row near a pole reads the merged version's
                       // whole-row kernel, then the level's; the second's H was looked up at an
                       // index scaled by the wrong version's bins (20 % off before 2026-12-06).
-                      Case{512, 256, 256, 20, 1e-3, 5e-4}));
+                      Case{512, 256, 256, 20, 1e-3, 5e-4},
+                      // Polar rows merged in the smooth north, not in the rough south: those
+                      // mirrored rows are summed each on its own, the rest in pairs.
+                      Case{256, 128, 128, 2000, 1e-3, 0.05, true}));
 
 TEST(FourierPass, AppliesToPowerOfTwoWidthsNoWiderThanTheLevel) {
     EXPECT_FALSE(FourierFirstPass::applies(96, 48, 64));    // not a power of two
