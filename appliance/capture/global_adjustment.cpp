@@ -149,13 +149,20 @@ AdjustmentResult adjust_orientations(const std::vector<double>& t_s, const std::
     AdjustmentResult out;
     out.orientations = initial;
     if (n == 0) return out;
-    const int unknowns = 3 * n + 3;  // a rotation vector per frame, then the drift rate
+    // The drift rate b = sum_k beta_k u_k over its axes u_k: the vertical alone, or all three.
+    std::vector<glm::dvec3> drift_axes;
+    if (settings.drift_heading_only)
+        drift_axes = {glm::dvec3(0, 1, 0)};
+    else
+        drift_axes = {glm::dvec3(1, 0, 0), glm::dvec3(0, 1, 0), glm::dvec3(0, 0, 1)};
+    const int axes = int(drift_axes.size());
+    const int unknowns = 3 * n + axes;  // a rotation vector per frame, then the drift rate
     std::vector<glm::dquat>& R = out.orientations;
     glm::dvec3 b(0);
     const double w_sensor = 1.0 / std::pow(settings.sensor_sigma_deg * kPi / 180.0, 2);
     std::vector<double> pair_weight(pairs.size(), 1.0);  // Huber reweighting of the pairs
     // The normal equations are block-sparse: a 3x3 block per frame, per pair and per close frame
-    // pair, and the drift rate's three rows and columns against every frame. A sparse Cholesky
+    // pair, and the drift rate's rows and columns (one per axis) against every frame. A sparse Cholesky
     // (LDL^T, fill-reducing ordering) solves them in about linear time where a dense one grows
     // with the cube of the frame count.
     std::vector<Eigen::Triplet<double>> triplets;
@@ -222,26 +229,32 @@ AdjustmentResult adjust_orientations(const std::vector<double>& t_s, const std::
             add_relative(i, i - 1, s_rel, glm::dmat3(1.0 / (sigma * sigma)), 1.0);
         }
         // The sensor's absolute orientation with the drift line: e = log(R_f S_f^-1) - b t_f.
+        // J = [I at x_f, -t u_k at beta_k] (the axes u_k are orthonormal).
         double sensor_ss = 0;
-        glm::dmat3 hbb(0);
-        glm::dvec3 gb(0);
+        double hbb = 0;  // sum of w t^2: each axis's diagonal
+        double gb[3] = {0, 0, 0};
         for (int f = 0; f < n; ++f) {
             const double t = t_s[std::size_t(f)];
             const glm::dvec3 e0 = rotation_vector(R[std::size_t(f)] * glm::conjugate(sensor[std::size_t(f)])) - b * t;
             sensor_ss += glm::dot(e0, e0);
             for (int p = 0; p < 3; ++p) {
-                // J = [I at x_f, -t I at b].
                 triplets.emplace_back(3 * f + p, 3 * f + p, w_sensor);
-                triplets.emplace_back(3 * f + p, 3 * n + p, -w_sensor * t);
-                triplets.emplace_back(3 * n + p, 3 * f + p, -w_sensor * t);
-                hbb[p][p] += w_sensor * t * t;
                 g[3 * f + p] += w_sensor * e0[p];
-                gb[p] -= w_sensor * t * e0[p];
             }
+            for (int k = 0; k < axes; ++k) {
+                const glm::dvec3& u = drift_axes[std::size_t(k)];
+                for (int p = 0; p < 3; ++p) {
+                    if (u[p] == 0) continue;
+                    triplets.emplace_back(3 * f + p, 3 * n + k, -w_sensor * t * u[p]);
+                    triplets.emplace_back(3 * n + k, 3 * f + p, -w_sensor * t * u[p]);
+                }
+                gb[k] -= w_sensor * t * glm::dot(u, e0);
+            }
+            hbb += w_sensor * t * t;
         }
-        for (int p = 0; p < 3; ++p) {
-            triplets.emplace_back(3 * n + p, 3 * n + p, hbb[p][p] + 1e-9);  // a session shorter than an instant
-            g[3 * n + p] += gb[p];
+        for (int k = 0; k < axes; ++k) {
+            triplets.emplace_back(3 * n + k, 3 * n + k, hbb + 1e-9);  // a session shorter than an instant
+            g[3 * n + k] += gb[k];
         }
         out.sensor_rms_deg = deg(std::sqrt(sensor_ss / n));
         H.setFromTriplets(triplets.begin(), triplets.end());  // duplicates are summed
@@ -258,7 +271,7 @@ AdjustmentResult adjust_orientations(const std::vector<double>& t_s, const std::
             R[std::size_t(f)] = unit_rotation(rotation_from_vector(x) * R[std::size_t(f)]);
             largest = std::max(largest, glm::length(x));
         }
-        b += glm::dvec3(step[3 * n], step[3 * n + 1], step[3 * n + 2]);
+        for (int k = 0; k < axes; ++k) b += step[3 * n + k] * drift_axes[std::size_t(k)];
         if (largest < 1e-7) break;
     }
     out.drift_rate_rad_per_s = b;

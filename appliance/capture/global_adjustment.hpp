@@ -15,6 +15,7 @@
 //   sum over pairs  e_ij^T L_ij e_ij,     e_ij = log(R_i C_ij^-1 R_j^-1)   (C_ij = R_j^-1 R_i measured)
 // + sum over close frames |log(R_i (S_j^-1 S_i)^-1 R_j^-1)|^2 / sigma_rel(dt)^2
 // + sum over frames |log(R_f S_f^-1) - b t_f|^2 / sigma_sensor^2
+// (b about the world's vertical, heading, unless AdjustmentSettings says otherwise)
 // Frame-to-mosaic alignment (drift_correction.hpp) cannot do this: the mosaic inherits the drift
 // of the frames that painted it, a warp the mosaic is consistent with.
 #pragma once
@@ -80,6 +81,13 @@ struct AdjustmentSettings {
     bool pair_cauchy = false;
     // Reweight from the first iteration (a warm start); otherwise the first takes every pair whole.
     bool robust_from_start = false;
+    // The drift line b t_f about the world's vertical only (b = beta (0, 1, 0)): the board's
+    // fusion holds tilt to gravity, so a tilt error is a transient or noise, not a drift, and
+    // only heading drifts (a gyro bias about the vertical that no accelerometer sees). A free
+    // three-axis rate turns the fusion's start-up transient (its first seconds a few tenths of a
+    // degree off in tilt) into a tilt drift plus a constant tilt of the whole map: 0.13 degrees
+    // on forest, both seeds (docs/capture.md, "Global adjustment"). false: a rate about any axis.
+    bool drift_heading_only = true;
 };
 
 struct AdjustmentResult {
