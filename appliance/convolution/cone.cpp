@@ -105,9 +105,17 @@ HdrImage cone_convolve_in_bands(const PreparedLevel& level, const std::vector<Br
         std::copy_n(rgb, 3, result.row(row) + 3 * col);
     };
     ConeStats total;
-    for (int first = 0; first < out.height; first += band_rows) {
-        std::vector<int> band;
-        for (int row = first; row < std::min(out.height, first + band_rows); ++row) band.push_back(row);
+    // A band is a run of northern rows and their mirrors about the equator, so that the Fourier
+    // first pass can sum each row with its mirror (fourier_pass.cpp): half the band's rows from
+    // each hemisphere (at least one; the middle row of an odd height is its own mirror).
+    const int half = std::max(1, band_rows / 2);
+    const int north_end = (out.height + 1) / 2;
+    for (int first = 0; first < north_end; first += half) {
+        const int last = std::min(north_end, first + half);
+        std::vector<int> band;  // ascending
+        for (int row = first; row < last; ++row) band.push_back(row);
+        for (int row = last - 1; row >= first; --row)
+            if (out.height - 1 - row != row) band.push_back(out.height - 1 - row);
         ConeStats part;
         cone_convolve(level, bright, n, out, settings, threads, progress, &part, band, nullptr, nullptr, &sink);
         total.refined_texels += part.refined_texels;

@@ -248,8 +248,10 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
 // no sink) in bands of rows of about this many texels.
 inline constexpr long long kConeBandTexels = 4LL << 20;
 // The cone's map of every row, summed band_rows rows at a time (each band a cone_convolve of its
-// rows into the one map): memory for the sums of one band. Each band's bounds take its own
-// smallest output, so the result may differ from one call's within the tolerance.
+// rows into the one map): memory for the sums of one band. A band is band_rows / 2 northern rows
+// (at least one) and their mirrors about the equator, which the Fourier first pass sums in pairs.
+// Each band's bounds take its own smallest output, so the result may differ from one call's
+// within the tolerance.
 HdrImage cone_convolve_in_bands(const PreparedLevel& level, const std::vector<BrightTexel>& bright, double shininess,
                                 Size out, const ConeSettings& settings, int threads, const RowProgress& progress,
                                 ConeStats* stats, int band_rows);

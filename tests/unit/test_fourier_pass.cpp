@@ -177,7 +177,7 @@ TEST(FourierPass, ConeWithAndWithoutItAgree) {
 // over every row and against the exact sums, on a rough map with suns (bright texels scattered
 // exactly): each band's bounds take its own smallest output, so the maps may differ, but each
 // stays within its per-texel bound of exact; on this map the two differ by at most 7e-4 even
-// with bands of one row (1.5e-7 with bands of 7), so a band that lost its bounds shows. The
+// with the smallest bands (a row and its mirror), so a band that lost its bounds shows. The
 // texels summed again are counted over the bands; the Fourier and the direct first pass both.
 TEST(FourierPass, ConeSummedInBandsAgreesWithOneCall) {
     HdrImage image = rough_map(256, 128, 21);
