@@ -172,6 +172,12 @@ struct FourierRowPlan {
     };
     std::vector<Group> groups;
     std::vector<double> pair_weight;
+    // The index of the group reading `level` (one per version), or groups.size().
+    std::size_t group_index(const PreparedLevel* level) const {
+        std::size_t k = 0;
+        while (k < groups.size() && groups[k].level != level) ++k;
+        return k;
+    }
     std::vector<const double*> pair_row;
     std::vector<double> kernels;
     double den = 0, cmax = 1;
@@ -233,14 +239,10 @@ void FourierFirstPass::Impl::plan_row(int row, double c0, FourierRowPlan& plan) 
         const long long two_frac = std::llround(2.0 * t.frac);
         if ((two_frac != 0 && two_frac != 1) || 2.0 * t.frac != double(two_frac))
             throw RuntimeError("internal: the Fourier first pass needs output centres on or halfway between columns");
-        Group* group = nullptr;
-        for (Group& g : plan.groups)
-            if (g.level == t.level) group = &g;
-        if (!group) {
-            plan.groups.push_back({t.level, &t.level->row_spectra(), 2LL * t.base + two_frac, {}});
-            group = &plan.groups.back();
-        }
-        PreparedLevel::RowSpectra& v = *group->spectra;
+        const std::size_t g = plan.group_index(t.level);
+        if (g == plan.groups.size()) plan.groups.push_back({t.level, &t.level->row_spectra(), 2LL * t.base + two_frac, {}});
+        Group& group = plan.groups[g];
+        PreparedLevel::RowSpectra& v = *group.spectra;
         const std::size_t bins = std::size_t(v.bins);
         Item item{v.row(*t.level, jk), jk};
         if (2LL * t.first + t.count - 1 == two_frac && t.count <= kDirectMaxColumns) {
@@ -277,7 +279,7 @@ void FourierFirstPass::Impl::plan_row(int row, double c0, FourierRowPlan& plan) 
                 h[bins + m] = hm.imag();
             }
         }
-        group->items.push_back(item);
+        group.items.push_back(item);
     }
 }
 
@@ -289,14 +291,14 @@ bool FourierFirstPass::Impl::mirrored(const FourierRowPlan& plan, const FourierR
     const int last_row = summer.level().height() - 1;
     for (std::size_t g = 0; g < plan.groups.size(); ++g) {
         const FourierRowPlan::Group& a = plan.groups[g];
-        const FourierRowPlan::Group* b = nullptr;
-        for (const FourierRowPlan::Group& candidate : mirror.groups)
-            if (candidate.level == a.level) b = &candidate;
-        if (!b || b->items.size() != a.items.size() || b->two_centre != a.two_centre) return false;
+        const std::size_t k_b = mirror.group_index(a.level);
+        if (k_b == mirror.groups.size()) return false;
+        const FourierRowPlan::Group& b = mirror.groups[k_b];
+        if (b.items.size() != a.items.size() || b.two_centre != a.two_centre) return false;
         const std::size_t count = a.items.size(), bins = std::size_t(a.spectra->bins);
         for (std::size_t k = 0; k < count; ++k) {
             const FourierRowPlan::Item& x = a.items[k];
-            const FourierRowPlan::Item& y = b->items[count - 1 - k];  // ascending rows, mirrored
+            const FourierRowPlan::Item& y = b.items[count - 1 - k];  // ascending rows, mirrored
             if (y.jk != last_row - x.jk || (x.kernel < 0) != (y.kernel < 0)) return false;
             if (x.kernel < 0) {
                 if (x.pairs != y.pairs) return false;
@@ -455,10 +457,7 @@ void FourierFirstPass::Impl::sum(int row, const FourierRowPlan& plan, int mirror
         a_values.resize(std::size_t(rows) * 6 * bins);
         double* a[2] = {a_values.data(), a_values.data() + 6 * bins};
         if (mirror) {
-            const FourierRowPlan::Group* mg = nullptr;
-            for (const FourierRowPlan::Group& candidate : mirror->groups)
-                if (candidate.level == g.level) mg = &candidate;
-            accumulate_group<2>(plan, g, mg, a);
+            accumulate_group<2>(plan, g, &mirror->groups[mirror->group_index(g.level)], a);  // matched by mirrored()
         } else {
             accumulate_group<1>(plan, g, nullptr, a);
         }
