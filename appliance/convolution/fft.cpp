@@ -153,32 +153,154 @@ inline void transpose8(Lanes v[8]) {
 
 }  // namespace
 
-void FftPlan::forward_batch_reversed(double* re, double* im) const {
-    constexpr std::size_t B = kBatch;
-    const std::size_t n = n_;
-    // The radix-2 stages of transform(), each twiddle applied to all lanes; the first two stages are
-    // radix-2 here too (twiddles 1 and -i, exact, so the sums are transform()'s).
-    for (std::size_t h = 1; h < n; h *= 2) {
-        const double* wr = twiddle_re_.data() + h;
-        const double* wi = twiddle_im_.data() + h;
-        for (std::size_t start = 0; start < n; start += 2 * h)
-            for (std::size_t k = 0; k < h; ++k) {
-                double* ar_p = re + (start + k) * B;
-                double* ai_p = im + (start + k) * B;
-                double* br_p = re + (start + h + k) * B;
-                double* bi_p = im + (start + h + k) * B;
-                const double c = wr[k], s = wi[k];
-                const Lanes br = load_lanes(br_p), bi = load_lanes(bi_p);
-                const Lanes tr = br * c - bi * s;
-                const Lanes ti = br * s + bi * c;
-                const Lanes ar = load_lanes(ar_p), ai = load_lanes(ai_p);
-                store_lanes(br_p, ar - tr);
-                store_lanes(bi_p, ai - ti);
-                store_lanes(ar_p, ar + tr);
-                store_lanes(ai_p, ai + ti);
-            }
+namespace {
+
+// kBatch doubles (one zmm register) serve full batches; four (one ymm) serve the three channels of
+// a row, where eight lanes would spend five of them on zeros (and a 512-bit operation costs two
+// 256-bit ones on some cores, Zen 4 among them).
+// (Spelled out per width: GCC drops a vector_size that depends on a template parameter.)
+template <std::size_t B>
+struct VectorOf;
+template <>
+struct VectorOf<4> {
+    using type = double __attribute__((vector_size(4 * sizeof(double))));
+};
+template <>
+struct VectorOf<8> {
+    using type = double __attribute__((vector_size(8 * sizeof(double))));
+};
+template <std::size_t B>
+using LanesOf = typename VectorOf<B>::type;
+
+template <std::size_t B>
+inline LanesOf<B> load_b(const double* p) {
+    LanesOf<B> v;
+    std::memcpy(&v, p, sizeof v);
+    return v;
+}
+template <std::size_t B>
+inline void store_b(double* p, LanesOf<B> v) {
+    std::memcpy(p, &v, sizeof v);
+}
+
+// One complex value per lane.
+template <std::size_t B>
+struct ComplexLanes {
+    LanesOf<B> re, im;
+};
+
+template <std::size_t B>
+inline ComplexLanes<B> load_value(const double* re, const double* im, std::size_t i) {
+    return {load_b<B>(re + i * B), load_b<B>(im + i * B)};
+}
+template <std::size_t B>
+inline void store_value(double* re, double* im, std::size_t i, ComplexLanes<B> v) {
+    store_b<B>(re + i * B, v.re);
+    store_b<B>(im + i * B, v.im);
+}
+
+// One radix-2 butterfly in registers: (a, b) <- (a + w b, a - w b), w = c + i s.
+template <std::size_t B>
+inline void butterfly(ComplexLanes<B>& a, ComplexLanes<B>& b, double c, double s) {
+    const LanesOf<B> tr = b.re * c - b.im * s;
+    const LanesOf<B> ti = b.re * s + b.im * c;
+    b = {a.re - tr, a.im - ti};
+    a = {a.re + tr, a.im + ti};
+}
+
+// Rows v[0..3] of a 4 x 4 block become its columns.
+inline void transpose4(LanesOf<4> v[4]) {
+    const LanesOf<4> s0 = __builtin_shufflevector(v[0], v[1], 0, 4, 2, 6);
+    const LanesOf<4> s1 = __builtin_shufflevector(v[0], v[1], 1, 5, 3, 7);
+    const LanesOf<4> s2 = __builtin_shufflevector(v[2], v[3], 0, 4, 2, 6);
+    const LanesOf<4> s3 = __builtin_shufflevector(v[2], v[3], 1, 5, 3, 7);
+    v[0] = __builtin_shufflevector(s0, s2, 0, 1, 4, 5);
+    v[1] = __builtin_shufflevector(s1, s3, 0, 1, 4, 5);
+    v[2] = __builtin_shufflevector(s0, s2, 2, 3, 6, 7);
+    v[3] = __builtin_shufflevector(s1, s3, 2, 3, 6, 7);
+}
+
+template <std::size_t B>
+inline void transpose(LanesOf<B> v[B]) {
+    if constexpr (B == 4)
+        transpose4(v);
+    else
+        transpose8(v);
+}
+
+// B complex values stored as (re, im) pairs at p, split into their real and imaginary parts.
+template <std::size_t B>
+inline void split_complex(const double* p, LanesOf<B>& re, LanesOf<B>& im) {
+    const LanesOf<B> a = load_b<B>(p), b = load_b<B>(p + B);
+    if constexpr (B == 4) {
+        re = __builtin_shufflevector(a, b, 0, 2, 4, 6);
+        im = __builtin_shufflevector(a, b, 1, 3, 5, 7);
+    } else {
+        re = __builtin_shufflevector(a, b, 0, 2, 4, 6, 8, 10, 12, 14);
+        im = __builtin_shufflevector(a, b, 1, 3, 5, 7, 9, 11, 13, 15);
     }
 }
+
+// The inverse: re and im interleaved into 2 B values at p (re[0], im[0], re[1], ...).
+template <std::size_t B>
+inline void join_complex(double* p, LanesOf<B> re, LanesOf<B> im) {
+    if constexpr (B == 4) {
+        store_b<B>(p, __builtin_shufflevector(re, im, 0, 4, 1, 5));
+        store_b<B>(p + B, __builtin_shufflevector(re, im, 2, 6, 3, 7));
+    } else {
+        store_b<B>(p, __builtin_shufflevector(re, im, 0, 8, 1, 9, 2, 10, 3, 11));
+        store_b<B>(p + B, __builtin_shufflevector(re, im, 4, 12, 5, 13, 6, 14, 7, 15));
+    }
+}
+
+}  // namespace
+
+template <std::size_t B>
+void FftPlan::forward_lanes_reversed(double* re, double* im) const {
+    static_assert(B == 4 || B == 8, "four or eight lanes");
+    const std::size_t n = n_;
+    // The radix-2 stages of transform(), each twiddle applied to all lanes, taken two stages per
+    // pass over the data: stages h and 2h touch the same four values (k, k + h, k + 2h, k + 3h of
+    // a block of 4h), so each value is loaded and stored once for both. Every value goes through
+    // exactly the radix-2 operations, in their order, so the sums are those of one stage per pass
+    // (and transform()'s: its fused first two stages multiply by exactly 1 and -i here).
+    std::size_t h = 1;
+    for (; 4 * h <= n; h *= 4) {
+        const double* w1r = twiddle_re_.data() + h;
+        const double* w1i = twiddle_im_.data() + h;
+        const double* w2r = twiddle_re_.data() + 2 * h;
+        const double* w2i = twiddle_im_.data() + 2 * h;
+        for (std::size_t start = 0; start < n; start += 4 * h)
+            for (std::size_t k = 0; k < h; ++k) {
+                const std::size_t p0 = start + k, p1 = p0 + h, p2 = p0 + 2 * h, p3 = p0 + 3 * h;
+                ComplexLanes<B> v0 = load_value<B>(re, im, p0), v1 = load_value<B>(re, im, p1);
+                ComplexLanes<B> v2 = load_value<B>(re, im, p2), v3 = load_value<B>(re, im, p3);
+                butterfly<B>(v0, v1, w1r[k], w1i[k]);
+                butterfly<B>(v2, v3, w1r[k], w1i[k]);
+                butterfly<B>(v0, v2, w2r[k], w2i[k]);
+                butterfly<B>(v1, v3, w2r[h + k], w2i[h + k]);
+                store_value<B>(re, im, p0, v0);
+                store_value<B>(re, im, p1, v1);
+                store_value<B>(re, im, p2, v2);
+                store_value<B>(re, im, p3, v3);
+            }
+    }
+    if (2 * h <= n) {  // an odd number of stages: the last alone
+        const double* wr = twiddle_re_.data() + h;
+        const double* wi = twiddle_im_.data() + h;
+        for (std::size_t k = 0; k < h; ++k) {
+            ComplexLanes<B> a = load_value<B>(re, im, k), b = load_value<B>(re, im, k + h);
+            butterfly<B>(a, b, wr[k], wi[k]);
+            store_value<B>(re, im, k, a);
+            store_value<B>(re, im, k + h, b);
+        }
+    }
+}
+
+template void FftPlan::forward_lanes_reversed<4>(double*, double*) const;
+template void FftPlan::forward_lanes_reversed<8>(double*, double*) const;
+
+void FftPlan::forward_batch_reversed(double* re, double* im) const { forward_lanes_reversed<kBatch>(re, im); }
 
 RealFftPlan::RealFftPlan(std::size_t n) : n_(checked_length(n)), half_(n_ > 1 ? n_ / 2 : 1) {
     const std::size_t count = n_ / 4 + 1;
@@ -319,55 +441,97 @@ void RealFftPlan::inverse_batch(const std::complex<double>* const* spectra, doub
         for (std::size_t b = 0; b < count; ++b) x[b][0] = spectra[b][0].real();
         return;
     }
+    if (count <= 4)
+        inverse_lanes<4>(spectra, x, count);
+    else
+        inverse_lanes<B>(spectra, x, count);
+}
+
+template <std::size_t B>
+void RealFftPlan::inverse_lanes(const std::complex<double>* const* spectra, double* const* x,
+                                std::size_t count) const {
+    using V = LanesOf<B>;
     const std::size_t h = n_ / 2;
-    // Value k of every spectrum (lanes past count 0).
-    const auto lanes_at = [&](std::size_t k, Lanes& re, Lanes& im) {
-        double lr[B] = {}, li[B] = {};
-        for (std::size_t b = 0; b < count; ++b) {
-            lr[b] = spectra[b][k].real();
-            li[b] = spectra[b][k].imag();
+    // The spectra turned into lane-interleaved arrays (value k of spectrum b at k * B + b; lanes
+    // past count 0), B values of each at a time through a B x B transpose, so that the packing
+    // below reads whole vectors. std::complex<double> is two doubles, real part first.
+    thread_local std::vector<double> in_re, in_im;
+    in_re.resize((h + 1) * B);
+    in_im.resize((h + 1) * B);
+    std::size_t k0 = 0;
+    for (; k0 + B <= h + 1; k0 += B) {
+        V vr[B], vi[B];
+        for (std::size_t b = 0; b < B; ++b) {
+            if (b < count) {
+                split_complex<B>(reinterpret_cast<const double*>(spectra[b] + k0), vr[b], vi[b]);
+            } else {
+                vr[b] = V{};
+                vi[b] = V{};
+            }
         }
-        re = load_lanes(lr);
-        im = load_lanes(li);
+        transpose<B>(vr);
+        transpose<B>(vi);
+        for (std::size_t t = 0; t < B; ++t) {
+            store_b<B>(in_re.data() + (k0 + t) * B, vr[t]);
+            store_b<B>(in_im.data() + (k0 + t) * B, vi[t]);
+        }
+    }
+    for (std::size_t k = k0; k <= h; ++k)
+        for (std::size_t b = 0; b < B; ++b) {
+            in_re[k * B + b] = b < count ? spectra[b][k].real() : 0.0;
+            in_im[k * B + b] = b < count ? spectra[b][k].imag() : 0.0;
+        }
+    const auto lanes_at = [&](std::size_t k, V& re, V& im) {
+        re = load_b<B>(in_re.data() + k * B);
+        im = load_b<B>(in_im.data() + k * B);
     };
     // inverse()'s packing into Z of length h, lane by lane; stored conjugated and in bit-reversed
     // order, since the inverse transform is the conjugate of the forward one of the conjugate.
     thread_local std::vector<double> zr, zi;
     zr.resize(h * B);
     zi.resize(h * B);
-    const auto put = [&](std::size_t k, Lanes vr, Lanes vi) {
+    const auto put = [&](std::size_t k, V vr, V vi) {
         const std::size_t r = half_.reversed(k) * B;
-        store_lanes(zr.data() + r, vr);
-        store_lanes(zi.data() + r, -vi);
+        store_b<B>(zr.data() + r, vr);
+        store_b<B>(zi.data() + r, -vi);
     };
     {
-        Lanes a0r, a0i, ahr, ahi;
+        V a0r, a0i, ahr, ahi;
         lanes_at(0, a0r, a0i);
         lanes_at(h, ahr, ahi);
         put(0, a0r + ahr, a0r - ahr);
     }
     for (std::size_t k = 1; 2 * k <= h; ++k) {
         const std::size_t q = h - k;
-        Lanes ar, ai, br, bi;
+        V ar, ai, br, bi;
         lanes_at(k, ar, ai);
         lanes_at(q, br, bi);
         bi = -bi;
-        const Lanes sr = ar + br, si = ai + bi, dr = ar - br, di = ai - bi;
+        const V sr = ar + br, si = ai + bi, dr = ar - br, di = ai - bi;
         const double wr = w_re_[k], wi = w_im_[k];
-        const Lanes u = dr * wr + di * wi, v = di * wr - dr * wi;  // D conj(w^k) = u + i v
+        const V u = dr * wr + di * wi, v = di * wr - dr * wi;  // D conj(w^k) = u + i v
         put(k, sr - v, si + u);
         put(q, sr + v, u - si);  // for k = q (k = h/2) this one stands, as in inverse()
     }
-    half_.forward_batch_reversed(zr.data(), zi.data());
-    for (std::size_t j = 0; j < h; ++j) {
-        double lr[B], li[B];
-        store_lanes(lr, load_lanes(zr.data() + j * B));
-        store_lanes(li, -load_lanes(zi.data() + j * B));
-        for (std::size_t b = 0; b < count; ++b) {
-            x[b][2 * j] = lr[b];
-            x[b][2 * j + 1] = li[b];
+    half_.forward_lanes_reversed<B>(zr.data(), zi.data());
+    // Out of the lanes: x_{2j} + i x_{2j+1} is the conjugate of Z's value j; B values of j at a
+    // time turned B x B, each signal's written as 2 B consecutive doubles.
+    std::size_t j0 = 0;
+    for (; j0 + B <= h; j0 += B) {
+        V vr[B], vi[B];
+        for (std::size_t t = 0; t < B; ++t) {
+            vr[t] = load_b<B>(zr.data() + (j0 + t) * B);
+            vi[t] = -load_b<B>(zi.data() + (j0 + t) * B);
         }
+        transpose<B>(vr);
+        transpose<B>(vi);
+        for (std::size_t b = 0; b < count; ++b) join_complex<B>(x[b] + 2 * j0, vr[b], vi[b]);
     }
+    for (std::size_t j = j0; j < h; ++j)
+        for (std::size_t b = 0; b < count; ++b) {
+            x[b][2 * j] = zr[j * B + b];
+            x[b][2 * j + 1] = -zi[j * B + b];
+        }
 }
 
 void RealFftPlan::inverse(std::complex<double>* spectrum, double* x) const {

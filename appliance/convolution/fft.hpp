@@ -11,7 +11,7 @@ namespace glint::convolution {
 // True for 1, 2, 4, 8, ...: the lengths FftPlan and RealFftPlan accept.
 bool is_fft_length(std::size_t n);
 
-// Iterative radix-2 transform of one length; the plan holds the twiddles and the bit-reversal permutation,
+// Iterative radix-2 transform of one length (the batched form takes two stages per pass); the plan holds the twiddles and the bit-reversal permutation,
 // so one plan serves any number of transforms, from any number of threads at once (it is not modified).
 // Neither direction is scaled: inverse(forward(x)) = n x.
 class FftPlan {
@@ -32,6 +32,9 @@ public:
     // stages multiply by exactly 1 and -i here), so each lane's result is forward()'s to rounding.
     static constexpr std::size_t kBatch = 8;
     void forward_batch_reversed(double* re, double* im) const;
+    // The same with B = 4 or 8 lanes (re and im hold n * B doubles each); defined for those two.
+    template <std::size_t B>
+    void forward_lanes_reversed(double* re, double* im) const;
     // The bit-reversed position of index i < size().
     std::size_t reversed(std::size_t i) const { return reversed_[i]; }
 
@@ -73,6 +76,9 @@ private:
     std::size_t n_;
     FftPlan half_;                      // length max(n/2, 1)
     std::vector<double> w_re_, w_im_;   // e^(-2 pi i k / n) for k in [0, n/4]
+    // inverse_batch() in vectors of B lanes (4 for up to four spectra, else 8); n > 1.
+    template <std::size_t B>
+    void inverse_lanes(const std::complex<double>* const* spectra, double* const* x, std::size_t count) const;
 };
 
 }  // namespace glint::convolution

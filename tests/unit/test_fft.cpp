@@ -166,15 +166,16 @@ TEST(Fft, RealBatchMatchesOneByOne) {
 }
 
 // The batched real inverse (one spectrum per vector lane) against inverse() of each spectrum,
-// for every length from 1 to 4096 and 1, 3 and 8 spectra (the imaginary parts of bins 0 and
-// n/2, which inverse() ignores, random too); the spectra are left as they were.
+// for every length from 1 to 4096 and 1, 3, 4, 5 and 8 spectra (four lanes up to four spectra,
+// eight above; the imaginary parts of bins 0 and n/2, which inverse() ignores, random too); the
+// spectra are left as they were.
 TEST(Fft, RealInverseBatchMatchesOneByOne) {
     std::mt19937 rng(29);
     std::uniform_real_distribution<double> u(-1.0, 1.0);
     for (std::size_t n = 1; n <= 4096; n *= 2) {
         const RealFftPlan plan(n);
         const std::size_t bins = plan.spectrum_size();
-        for (std::size_t count : {std::size_t(1), std::size_t(3), FftPlan::kBatch}) {
+        for (std::size_t count : {std::size_t(1), std::size_t(3), std::size_t(4), std::size_t(5), FftPlan::kBatch}) {
             std::vector<std::vector<Complex>> spectra(count, std::vector<Complex>(bins));
             for (auto& s : spectra)
                 for (Complex& c : s) c = {u(rng), u(rng)};
