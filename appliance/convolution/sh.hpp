@@ -109,6 +109,8 @@ ShCoefficients sh_project(std::span<const double> rgb, int width, int height, in
 //   X_c[k] = sum_i L_c,i e^(-2 pi i i k / W),  k in [0, W/2],
 // per channel c its W/2 + 1 real parts, then its imaginary parts (6 (W/2 + 1) values). The width
 // must be a power of two (InputError otherwise); the sums are those of the FFT path of sh_project.
+// Rows are read in aligned runs of FftPlan::kBatch, each run by one thread (a source may make a
+// run's spectra together).
 using RowSpectrumSource = std::function<const double*(int row)>;
 ShCoefficients sh_project_spectra(int width, int height, int order, int threads, const RowSpectrumSource& spectrum_of_row,
                                   ShQuadrature q = ShQuadrature::TexelSolidAngle,
