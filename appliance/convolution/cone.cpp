@@ -350,10 +350,16 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
             for (int col = first; col < last; ++col) {
                 values(row, col, nb, v);
                 const float rgb[3] = {float(std::max(0.0, v[0])), float(std::max(0.0, v[1])), float(std::max(0.0, v[2]))};
-                if (into)
+                if (into) {
                     (*into)(row, col, rgb);
-                else
-                    std::copy_n(rgb, 3, o + 3 * col);
+                } else {
+                    // Written out: GCC 12 made std::copy_n of these 12 bytes a call to memmove
+                    // per texel (1.3 % of the reference-size set's time).
+                    float* dst = o + 3 * col;
+                    dst[0] = rgb[0];
+                    dst[1] = rgb[1];
+                    dst[2] = rgb[2];
+                }
             }
     });
     return result;
