@@ -800,9 +800,23 @@ void BrightScatter::add_linear_row(int row, double ct, double st, const double* 
         // there each weight is cosine / cmax (unclamped, and far below ratio_cap_ for n = 1), and
         // the members' sum is the dot product of the texel's direction with their
         // radiance-weighted directions. As column ranges around the centre's column cc:
-        // |i - cc| <= h_hi, one column of margin at each end (the boundaries come from acos).
+        // |i - cc| <= h_hi, the ends then settled column by column (below).
         linear.clear();
         const double ac = st * c.sin_theta, bc = ct * c.cos_theta;
+        // The cosine of the angle from output column i of this row to the centre.
+        const auto centre_cos = [&](long long unwrapped) {
+            const std::size_t i = std::size_t(column_modulo(unwrapped, ow));
+            return st * (cos_phi_[i] * c.centre[0] + sin_phi_[i] * c.centre[1]) + ct * c.centre[2];
+        };
+        // The run [lo, hi] (inclusive, unwrapped, shorter than the row, holding every column
+        // whose centre_cos is at least `limit`, which form one arc) cut to those columns: a
+        // column of margin from acos costs every member's term at a 64-128 column grid's
+        // 3-6 degree columns (8.7 band columns per cluster and row on studio's irradiance map,
+        // margins included).
+        const auto settle = [&](long long& lo, long long& hi, double limit) {
+            while (lo <= hi && centre_cos(lo) < limit) ++lo;
+            while (hi >= lo && centre_cos(hi) < limit) --hi;
+        };
         // Fractional n: where the centre's cosine is at least taylor_cos (the Taylor series).
         if (c.radius < kPi / 2 && (!fractional || c.taylor_cos < 1.0)) {
             const double s_out = fractional ? c.taylor_cos : std::sin(c.radius);
@@ -811,11 +825,20 @@ void BrightScatter::add_linear_row(int row, double ct, double st, const double* 
                 q_out = (s_out - bc) / ac;
             else
                 q_out = bc >= s_out ? -2.0 : 2.0;
-            if (q_out <= 1.0) {
+            if (q_out <= -1.0) {
+                linear.emplace_back(0, ow);  // the whole row
+            } else if (q_out <= 1.0) {
                 const double cc = (c.phi + kPi) / kTwoPi * ow - 0.5;
-                const double h_hi = std::min(std::acos(std::max(-1.0, q_out)) / kTwoPi * ow, ow / 2.0 - 1.0);
-                // Inclusive, unwrapped.
-                const long long lo = std::llround(std::ceil(cc - h_hi)) + 1, hi = std::llround(std::floor(cc + h_hi)) - 1;
+                const double h_hi = std::min(std::acos(q_out) / kTwoPi * ow, ow / 2.0 - 1.0);
+                // Inclusive, unwrapped: a column of margin at each end, then settled where the
+                // run is shorter than the row (else the margins stand inside it).
+                long long lo = std::llround(std::ceil(cc - h_hi)) - 1, hi = std::llround(std::floor(cc + h_hi)) + 1;
+                if (hi - lo + 1 < ow) {
+                    settle(lo, hi, s_out);
+                } else {
+                    lo += 2;
+                    hi -= 2;
+                }
                 if (hi >= lo) {
                     const int start = column_modulo(lo, ow);
                     const int end = start + int(hi - lo + 1);
@@ -872,6 +895,13 @@ void BrightScatter::add_linear_row(int row, double ct, double st, const double* 
         if (cq > 1.0) continue;
         int first = 0, count = ow;
         cone_columns(c.phi, cq, ow, first, count);
+        if (count < ow) {  // its margins settled too: no member reaches past reach_cos
+            long long lo = first, hi = (long long)first + count - 1;
+            settle(lo, hi, c.reach_cos);
+            if (hi < lo) continue;
+            first = int(lo);
+            count = int(hi - lo + 1);
+        }
         first = column_modulo(first, ow);
         const int runs[2][2] = {{first, std::min(ow, first + count)}, {0, std::max(0, first + count - ow)}};
         const std::size_t padded = c.mu.size();  // members and their padding, whole vectors
