@@ -20,7 +20,7 @@ namespace glint::app {
 Command add_capture_command(CLI::App& app) {
     struct Args {
         capture::CaptureOptions o;
-        std::string session, out, size = "1024x512", orientations = "sensors";
+        std::string session, out, size = "1024x512", orientations = "sensors", calibration_refinement = "stale";
         EngineChoice engine = EngineChoice::Auto;
         bool no_drift = false;
         bool no_adjust = false;
@@ -45,6 +45,13 @@ Command add_capture_command(CLI::App& app) {
                     "Run the global adjustment after the scan instead of during it, in this many rounds (frame "
                     "pairs aligned again from each solution, then solved): the mode before the adjustment ran "
                     "with the scan, kept for comparison");
+    cmd->add_option("--calibration-refinement", a->calibration_refinement,
+                    "After the scan, the camera-sensor mounting and time offset are refined with it: stale (keep "
+                    "that solution when it turns the frames more than the staleness limit, and warn), always, or "
+                    "off (measured and reported, not kept). Only with the global adjustment during the scan (not "
+                    "with --adjustment-rounds, --no-global-adjustment or --no-drift-correction)")
+        ->check(CLI::IsMember({"stale", "always", "off"}))
+        ->capture_default_str();
     cmd->add_option("--drift-log", a->o.drift_log,
                     "Write every frame's drift estimate (CSV: index, time, overlapping points, estimate and its "
                     "standard deviation in degrees, residual before and after, applied; on a simulated session also "
@@ -89,6 +96,11 @@ Command add_capture_command(CLI::App& app) {
                 a->o.rolling_shutter = !a->no_rolling_shutter;
                 a->o.global_adjustment = !a->no_adjust;
                 a->o.online_adjustment = cmd->count("--adjustment-rounds") == 0;
+                a->o.calibration_refinement = a->calibration_refinement == "always"
+                                                  ? capture::CaptureOptions::CalibrationRefinement::Always
+                                              : a->calibration_refinement == "off"
+                                                  ? capture::CaptureOptions::CalibrationRefinement::Off
+                                                  : capture::CaptureOptions::CalibrationRefinement::Stale;
                 // The session's frames come from a camera source made by the factory; the
                 // simulator's kind is registered here, where the binary's backends are chosen.
                 capture::CameraBackends backends = capture::capture_camera_backends();
@@ -130,6 +142,26 @@ Command add_capture_command(CLI::App& app) {
                                                        : (std::to_string(a->o.adjustment_rounds) + " rounds after the scan").c_str(),
                                 r.adjust_pairs, r.adjust_pairs_tried, r.adjust_pair_rms_deg, r.adjust_sensor_rms_deg,
                                 r.adjust_drift_deg_per_min, r.adjust_seconds);
+                if (a->o.drift_correction && a->o.global_adjustment && a->o.online_adjustment) {
+                    const glm::dvec3& axis = r.calibration_mounting_axis;
+                    const std::string calibration = (std::filesystem::path(a->session) / "calibration.json").string();
+                    std::printf("camera-sensor calibration against the scan: mounting %.3f degrees about (%.2f, %.2f, "
+                                "%.2f) (camera frame), time offset %+.2f ms, turning the frames %.3f degrees RMS "
+                                "(against %s; %s)\n",
+                                r.calibration_mounting_deg, axis.x, axis.y, axis.z, r.calibration_time_offset_ms,
+                                r.calibration_turn_deg, calibration.c_str(),
+                                r.calibration_refined ? "the map is made with the scan's values" : "the map keeps it");
+                    if (r.calibration_stale)
+                        std::fprintf(stderr,
+                                     "warning: %s looks stale: the scan turns its frames %.2f degrees RMS from it "
+                                     "(mounting %.2f degrees, time offset %+.1f ms; the limit is %.1f degrees). %s "
+                                     "Run `glint calibrate alignment` on a new alignment session.\n",
+                                     calibration.c_str(), r.calibration_turn_deg, r.calibration_mounting_deg,
+                                     r.calibration_time_offset_ms, capture::kStaleMountingDeg,
+                                     r.calibration_refined
+                                         ? "This map was made with the scan's own values; the live preview was not."
+                                         : "This map was made with it (--calibration-refinement off).");
+                }
                 // A source clipped even at the sensor's shortest exposure is in the map by an
                 // estimate, never a measurement: said so, with what is certain.
                 for (const capture::EstimatedSource& source : r.estimated_sources)

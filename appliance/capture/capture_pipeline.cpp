@@ -269,6 +269,7 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
         std::int64_t t_ns;
         glm::dquat sensor, live;
         glm::dvec3 angular_velocity;  // what the accumulation turns the rows by (0: none)
+        glm::dvec3 camera_rate;       // the camera's angular velocity (camera frame, rad/s; 0: unknown)
     };
     std::vector<UsedFrame> used;
     CaptureSummary summary;
@@ -381,9 +382,10 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
                     for (int u = 0; u < cal.intrinsics.width; ++u) pixel_rays.push_back(pixel_ray(cal.intrinsics, u, v));
         }
         std::optional<glm::dquat> q = orientation_of(f);
-        glm::dvec3 w(0);
+        glm::dvec3 w(0), rate(0);  // rate: the camera's turn, for the adjustment's time offset
         if (q) {
             w = angular_velocity_of(f);
+            rate = w;
             // The blur the frame's exposure must hold: how far the view turned while it was open.
             blur_px.push_back(glm::length(w) * f.exposure_s * focal_px);
         }
@@ -436,7 +438,7 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
             const auto t_acc = std::chrono::steady_clock::now();
             summary.drift_seconds += std::chrono::duration<double>(t_acc - t_drift).count();
             acc.add_frame(f, cal, *q, w);
-            used.push_back({place, f.sequence, f.t_ns, sensor_q, *q, w});
+            used.push_back({place, f.sequence, f.t_ns, sensor_q, *q, w, rate});
             if (acc.gpu) glFinish();  // the draw's time, not just its submission
             const auto t_online = std::chrono::steady_clock::now();
             summary.accumulate_seconds += std::chrono::duration<double>(t_online - t_acc).count();
@@ -446,7 +448,7 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
                 kept.push_back({f.rgb.clone(), f.t_ns, f.exposure_s, f.analogue_gain, f.digital_gain, f.sequence});
                 kept_w.push_back(w);
                 online_adjustment.add_frame(make_alignment_view(aligned, cal), double(f.t_ns - *first_t_ns) * 1e-9, sensor_q,
-                                            *q);
+                                            *q, rate);
                 online_adjustment.solve();
                 online_adjustment.realign(o.realign_per_frame, o.realign_deg);
                 const auto t_map = std::chrono::steady_clock::now();
@@ -516,6 +518,15 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
         med = e[e.size() / 2];
         max = e.back();
     };
+    // The calibration's refinement as the adjustment found it.
+    const auto report_calibration = [&](const AdjustmentResult& r) {
+        const double angle = glm::length(r.mounting_rad);
+        summary.calibration_mounting_deg = angle * 180.0 / kPi;
+        summary.calibration_mounting_axis = angle > 0 ? r.mounting_rad / angle : glm::dvec3(0);
+        summary.calibration_time_offset_ms = r.time_offset_s * 1e3;
+        summary.calibration_turn_deg = r.calibration_turn_deg;
+        summary.calibration_stale = r.calibration_turn_deg > kStaleMountingDeg;
+    };
     std::vector<glm::dquat> final_q;
     for (const UsedFrame& u : used) final_q.push_back(u.live);
     std::unique_ptr<Engine> adjusted;  // the map made again from the adjusted orientations
@@ -538,6 +549,37 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
         summary.adjust_pair_rms_deg = r.pair_rms_deg;
         summary.adjust_sensor_rms_deg = r.sensor_rms_deg;
         summary.adjust_drift_deg_per_min = glm::length(r.drift_rate_rad_per_s) * 180.0 / kPi * 60.0;
+        // The camera-sensor calibration checked against the scan: a solve with it refined, kept
+        // only when calibration.json is stale (then the whole map is made again below).
+        {
+            const AdjustmentResult refined = online_adjustment.refined_solution();
+            report_calibration(refined);
+            const bool keep = o.calibration_refinement == CaptureOptions::CalibrationRefinement::Always ||
+                              (o.calibration_refinement == CaptureOptions::CalibrationRefinement::Stale &&
+                               summary.calibration_stale);
+            summary.calibration_refined = keep;
+            if (keep) {
+                // The pairs were aligned from orientations the stale calibration put degrees off,
+                // and keep part of that start: aligned again from the refined solution, and solved
+                // with the refinement, until none moves (mounting about 3 degrees off, courtyard:
+                // 2.4 degrees after 60 s with the refined solve alone, 0.09 so).
+                online_adjustment.adopt(refined);
+                online_adjustment.refine_calibration_from_now();
+                for (int pass = 0; pass < 4; ++pass, ++passes) {
+                    if (online_adjustment.realign(-1, o.realign_deg) == 0) break;
+                    online_adjustment.solve();
+                }
+                const bool stale = summary.calibration_stale;
+                const AdjustmentResult& adopted = online_adjustment.result();
+                report_calibration(adopted);
+                summary.calibration_stale = stale || summary.calibration_stale;
+                final_q = online_adjustment.orientations();
+                summary.adjust_sensor_rms_deg = adopted.sensor_rms_deg;
+                summary.adjust_pair_rms_deg = adopted.pair_rms_deg;
+                summary.adjust_pairs = adopted.pairs_used;
+                summary.adjust_drift_deg_per_min = glm::length(adopted.drift_rate_rad_per_s) * 180.0 / kPi * 60.0;
+            }
+        }
         summary.adjust_alignments = online_adjustment.alignments();
         summary.adjust_seconds = since(t_adjust);
         char text[160];
@@ -548,7 +590,7 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
         const auto count_progress = [&](std::size_t) {
             if (progress) progress(++done, total);
         };
-        if (o.keep_map && rolling.engine) {
+        if (o.keep_map && rolling.engine && !summary.calibration_refined) {
             // A rebuild under way is finished when little of it is left; then the held-back tail
             // with the final solution. The map's orientations are what its frames were accumulated
             // with, a little off the final solution where it moved after they were.
@@ -571,9 +613,17 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
             final_q = rolling.q;
             adjusted = std::move(rolling.engine);
         } else {
+            // Every frame again (no kept map, or the calibration's refinement moved them all):
+            // the kept maps' memory first.
+            rolling = {};
+            rebuilding = {};
             KeptMap all{make_engine(), {}};
             all.extend(kept, kept_w, cal, final_q, kept.size(), count_progress);
             adjusted = std::move(all.engine);
+            summary.map_final_frames = int(kept.size());
+            summary.map_rebuilds = rebuilds;
+            std::optional<double> median_unused, max_unused;
+            errors(final_q, median_unused, max_unused, summary.adjusted_after_60s_max_deg);
         }
         summary.final_accumulate_seconds = since(t_final);
     } else if (adjust) {
@@ -583,6 +633,7 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
         std::vector<AlignmentView> views(used.size());
         std::vector<double> t_s;
         std::vector<glm::dquat> sensor_q;
+        std::vector<glm::dvec3> rates;
         std::size_t next = 0;
         for_each_frame(camera, [&](std::size_t place, const CameraFrame& f) {
             if (next == used.size() || used[next].place != place) return;
@@ -591,14 +642,18 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
                 !pixel_rays.empty() && w != glm::dvec3(0) ? deskew_rolling_shutter(f, cal, pixel_rays, w, threads) : f, cal);
             t_s.push_back(double(used[next].t_ns - t_first) * 1e-9);
             sensor_q.push_back(used[next].sensor);
+            rates.push_back(used[next].camera_rate);
             ++next;
             if (progress) progress(++done, total);
         });
         summary.adjust_views_seconds = since(t_adjust);
-        const ScanAdjustment sa = adjust_scan(views, t_s, sensor_q, final_q, o.adjustment_rounds, threads, [&] {
-            for (std::size_t i = 0; i < used.size(); ++i)
-                if (progress) progress(++done, total);
-        });
+        const ScanAdjustment sa = adjust_scan(
+            views, t_s, sensor_q, final_q, o.adjustment_rounds, threads,
+            [&] {
+                for (std::size_t i = 0; i < used.size(); ++i)
+                    if (progress) progress(++done, total);
+            },
+            {}, {}, rates);
         final_q = sa.result.orientations;
         summary.adjust_pairs_tried = sa.pairs_tried;
         summary.adjust_pairs = sa.result.pairs_used;

@@ -54,6 +54,12 @@ struct CaptureOptions {
     // realign_per_frame per frame; after the last frame final_realign_passes more such steps
     // (a solve, at most realign_per_frame pairs aligned again), then a solve.
     bool online_adjustment = true;
+    // After the scan (online adjustment only) the camera-sensor calibration is refined with it
+    // (AdjustmentSettings::refine_calibration); that solution is kept when the refinement turns
+    // the frames by more than kStaleMountingDeg (Stale), always (Always), or never (Off: it is
+    // still measured and reported).
+    enum class CalibrationRefinement { Stale, Always, Off };
+    CalibrationRefinement calibration_refinement = CalibrationRefinement::Stale;
     int realign_per_frame = 24;
     double realign_deg = 0.01;
     int final_realign_passes = 1;
@@ -107,6 +113,17 @@ struct GroundTruthError {
     double covered_fraction_compared = 0;
 };
 
+// A refinement of the camera-sensor calibration that turns the frames by more than this (RMS,
+// AdjustmentResult::calibration_turn_deg) says calibration.json is stale: `glint capture` then
+// keeps the refined solution, warns and names `glint calibrate alignment`. Above what it turns a
+// right calibration's scan by, mostly the board's fusion lag read as a time offset: 0.14-0.23
+// degrees with the raw IMU (3.4 ms) and 0.33 with the BNO055 (8 ms) on 13 courtyard and sunset
+// sessions of other speeds, rates, drifts and noise; a solution refined that little was as often
+// worse as better (docs/capture.md "Global adjustment").
+// (A limit on the turn of the mounting and the time offset together: at one speed of turn the
+// scan cannot tell them apart.)
+inline constexpr double kStaleMountingDeg = 0.4;
+
 struct CaptureSummary {
     int frames_used = 0;
     int frames_without_orientation = 0;
@@ -131,6 +148,14 @@ struct CaptureSummary {
     // the solve, the drift rate found, wall time (alignment and solve, not the final map).
     int adjust_pairs_tried = 0, adjust_pairs = 0;
     double adjust_pair_rms_deg = 0, adjust_sensor_rms_deg = 0, adjust_drift_deg_per_min = 0, adjust_seconds = 0;
+    // The camera-sensor calibration as the adjustment refined it against calibration.json
+    // (AdjustmentSettings::refine_calibration): the mounting's rotation (degrees), the time
+    // offset's change (ms) and the RMS turn of the frames they make (degrees);
+    // calibration_stale: that turn beyond kStaleMountingDeg.
+    double calibration_mounting_deg = 0, calibration_time_offset_ms = 0, calibration_turn_deg = 0;
+    glm::dvec3 calibration_mounting_axis{0};  // camera frame, unit (0 when no refinement)
+    bool calibration_stale = false;
+    bool calibration_refined = false;  // the map was made with the refined solution
     // Wall times after the last frame of the scan: the alignment views, the final accumulation,
     // and from the last frame to the finished map (radiance merged and filled) and to it saved;
     // adjust_profile: the adjustment's own breakdown (pair selection, alignment, solve).

@@ -143,9 +143,12 @@ std::optional<PairMeasurement> align_pair(const AlignmentView& a, const glm::dqu
 
 AdjustmentResult adjust_orientations(const std::vector<double>& t_s, const std::vector<glm::dquat>& sensor,
                                      const std::vector<glm::dquat>& initial, const std::vector<PairMeasurement>& pairs,
-                                     const AdjustmentSettings& settings) {
+                                     const AdjustmentSettings& settings, const std::vector<glm::dvec3>& camera_rates) {
     const int n = int(initial.size());
     if (int(t_s.size()) != n || int(sensor.size()) != n) throw InputError("adjust_orientations: inputs of different lengths");
+    if (!camera_rates.empty() && int(camera_rates.size()) != n)
+        throw InputError("adjust_orientations: camera rates for " + std::to_string(camera_rates.size()) + " of " +
+                         std::to_string(n) + " frames");
     AdjustmentResult out;
     out.orientations = initial;
     if (n == 0) return out;
@@ -156,9 +159,18 @@ AdjustmentResult adjust_orientations(const std::vector<double>& t_s, const std::
     else
         drift_axes = {glm::dvec3(1, 0, 0), glm::dvec3(0, 1, 0), glm::dvec3(0, 0, 1)};
     const int axes = int(drift_axes.size());
-    const int unknowns = 3 * n + axes;  // a rotation vector per frame, then the drift rate
+    // The calibration's refinement: the mounting's rotation (3) and, with the rates, the time
+    // offset (1), after the drift rate.
+    const bool refine = settings.refine_calibration;
+    const bool refine_time = refine && !camera_rates.empty();
+    const int mount0 = 3 * n + axes, time0 = mount0 + (refine ? 3 : 0);
+    const int unknowns = time0 + (refine_time ? 1 : 0);  // a rotation vector per frame, the drift rate, then these
     std::vector<glm::dquat>& R = out.orientations;
     glm::dvec3 b(0);
+    glm::dvec3 delta(0);  // the mounting's refinement, camera frame, rad
+    double tau = 0;       // the time offset's, s
+    const double w_mount = 1.0 / std::pow(settings.mounting_prior_deg * kPi / 180.0, 2);
+    const double w_time = 1.0 / std::pow(settings.time_offset_prior_ms * 1e-3, 2);
     const double w_sensor = 1.0 / std::pow(settings.sensor_sigma_deg * kPi / 180.0, 2);
     std::vector<double> pair_weight(pairs.size(), 1.0);  // Huber reweighting of the pairs
     // The normal equations are block-sparse: a 3x3 block per frame, per pair and per close frame
@@ -166,7 +178,7 @@ AdjustmentResult adjust_orientations(const std::vector<double>& t_s, const std::
     // (LDL^T, fill-reducing ordering) solves them in about linear time where a dense one grows
     // with the cube of the frame count.
     std::vector<Eigen::Triplet<double>> triplets;
-    triplets.reserve(pairs.size() * 36 + std::size_t(n) * 60 + 16);
+    triplets.reserve(pairs.size() * 36 + std::size_t(n) * 72 + 64);
     Eigen::VectorXd g(unknowns);
     Eigen::SparseMatrix<double> H(unknowns, unknowns);
     Eigen::SimplicialLDLT<Eigen::SparseMatrix<double>> solver;
@@ -220,22 +232,40 @@ AdjustmentResult adjust_orientations(const std::vector<double>& t_s, const std::
         }
         out.pair_rms_deg = pairs.empty() ? 0 : deg(std::sqrt(pair_ss / double(pairs.size())));
         // The sensor's relative rotation (in the camera's frame: what the gyros measure) between
-        // frames close in time.
+        // frames close in time. With the calibration refined, between the sensor's orientations
+        // as the current refinement corrects them (held for this step: the mounting turns a
+        // relative rotation's axis, which a stale one tilts against the images' by its error).
+        const auto corrected_sensor = [&](int f) {
+            if (!refine) return sensor[std::size_t(f)];
+            const glm::dvec3 rate = refine_time ? camera_rates[std::size_t(f)] : glm::dvec3(0);
+            return unit_rotation(sensor[std::size_t(f)] * rotation_from_vector(delta + rate * tau));
+        };
         for (int i = 1; i < n; ++i) {
             const double dt = std::abs(t_s[std::size_t(i)] - t_s[std::size_t(i - 1)]);
             if (dt > settings.relative_max_dt_s) continue;
             const double sigma = (settings.relative_sigma_deg + settings.relative_sigma_deg_per_s * dt) * kPi / 180.0;
-            const glm::dquat s_rel = unit_rotation(glm::conjugate(sensor[std::size_t(i - 1)]) * sensor[std::size_t(i)]);
+            const glm::dquat s_rel = unit_rotation(glm::conjugate(corrected_sensor(i - 1)) * corrected_sensor(i));
             add_relative(i, i - 1, s_rel, glm::dmat3(1.0 / (sigma * sigma)), 1.0);
         }
-        // The sensor's absolute orientation with the drift line: e = log(R_f S_f^-1) - b t_f.
-        // J = [I at x_f, -t u_k at beta_k] (the axes u_k are orthonormal).
+        // The sensor's absolute orientation with the drift line and the calibration's refinement:
+        // e = log(R_f exp(-u_f) S_f^-1) - b t_f, u_f = delta + w_f tau (camera frame). With
+        // R_f exp(-u) = exp(-A_f u) R_f (A_f = R_f's matrix, camera to world), J = [I at x_f,
+        // -t u_k at beta_k (the axes u_k are orthonormal), -A_f at delta, -A_f w_f at tau].
         double sensor_ss = 0;
         double hbb = 0;  // sum of w t^2: each axis's diagonal
         double gb[3] = {0, 0, 0};
+        glm::dmat3 h_mb(0);         // delta against beta_k: column k
+        glm::dvec3 h_tb(0);         // tau against beta_k
+        glm::dvec3 h_mt(0);         // delta against tau
+        double h_tt = 0;            // tau against itself
+        glm::dvec3 g_m(0);
+        double g_t = 0;
         for (int f = 0; f < n; ++f) {
             const double t = t_s[std::size_t(f)];
-            const glm::dvec3 e0 = rotation_vector(R[std::size_t(f)] * glm::conjugate(sensor[std::size_t(f)])) - b * t;
+            const glm::dvec3 rate = refine_time ? camera_rates[std::size_t(f)] : glm::dvec3(0);
+            const glm::dvec3 u_f = delta + rate * tau;
+            const glm::dquat model = refine ? sensor[std::size_t(f)] * rotation_from_vector(u_f) : sensor[std::size_t(f)];
+            const glm::dvec3 e0 = rotation_vector(R[std::size_t(f)] * glm::conjugate(model)) - b * t;
             sensor_ss += glm::dot(e0, e0);
             for (int p = 0; p < 3; ++p) {
                 triplets.emplace_back(3 * f + p, 3 * f + p, w_sensor);
@@ -251,10 +281,54 @@ AdjustmentResult adjust_orientations(const std::vector<double>& t_s, const std::
                 gb[k] -= w_sensor * t * glm::dot(u, e0);
             }
             hbb += w_sensor * t * t;
+            if (!refine) continue;
+            const glm::dmat3 A = glm::mat3_cast(R[std::size_t(f)]);
+            const glm::dmat3 At = glm::transpose(A);
+            // x_f against delta: -w A (and its transpose); delta's own block sums w A^T A = w I.
+            add_block(3 * f, mount0, -w_sensor * A);
+            add_block(mount0, 3 * f, -w_sensor * At);
+            const glm::dvec3 Ate = At * e0;
+            g_m -= w_sensor * Ate;
+            for (int k = 0; k < axes; ++k) h_mb[k] += w_sensor * t * (At * drift_axes[std::size_t(k)]);
+            if (refine_time) {
+                const glm::dvec3 a_w = A * rate;  // the rate in the world frame
+                for (int p = 0; p < 3; ++p) {
+                    triplets.emplace_back(3 * f + p, time0, -w_sensor * a_w[p]);
+                    triplets.emplace_back(time0, 3 * f + p, -w_sensor * a_w[p]);
+                }
+                h_mt += w_sensor * rate;  // A^T A w = w
+                h_tt += w_sensor * glm::dot(rate, rate);
+                g_t -= w_sensor * glm::dot(a_w, e0);
+                for (int k = 0; k < axes; ++k) h_tb[k] += w_sensor * t * glm::dot(a_w, drift_axes[std::size_t(k)]);
+            }
         }
         for (int k = 0; k < axes; ++k) {
             triplets.emplace_back(3 * n + k, 3 * n + k, hbb + 1e-9);  // a session shorter than an instant
             g[3 * n + k] += gb[k];
+        }
+        if (refine) {
+            // Their own blocks, the priors about the calibration (delta = 0, tau = 0), and their
+            // products with the drift rate.
+            add_block(mount0, mount0, glm::dmat3(w_sensor * n + w_mount));
+            for (int p = 0; p < 3; ++p) {
+                g[mount0 + p] += g_m[p] + w_mount * delta[p];
+                for (int k = 0; k < axes; ++k) {
+                    triplets.emplace_back(mount0 + p, 3 * n + k, h_mb[k][p]);
+                    triplets.emplace_back(3 * n + k, mount0 + p, h_mb[k][p]);
+                }
+            }
+            if (refine_time) {
+                triplets.emplace_back(time0, time0, h_tt + w_time);
+                g[time0] += g_t + w_time * tau;
+                for (int p = 0; p < 3; ++p) {
+                    triplets.emplace_back(mount0 + p, time0, h_mt[p]);
+                    triplets.emplace_back(time0, mount0 + p, h_mt[p]);
+                }
+                for (int k = 0; k < axes; ++k) {
+                    triplets.emplace_back(time0, 3 * n + k, h_tb[k]);
+                    triplets.emplace_back(3 * n + k, time0, h_tb[k]);
+                }
+            }
         }
         out.sensor_rms_deg = deg(std::sqrt(sensor_ss / n));
         H.setFromTriplets(triplets.begin(), triplets.end());  // duplicates are summed
@@ -272,9 +346,28 @@ AdjustmentResult adjust_orientations(const std::vector<double>& t_s, const std::
             largest = std::max(largest, glm::length(x));
         }
         for (int k = 0; k < axes; ++k) b += step[3 * n + k] * drift_axes[std::size_t(k)];
+        if (refine) {
+            const glm::dvec3 d_delta(step[mount0], step[mount0 + 1], step[mount0 + 2]);
+            delta += d_delta;
+            largest = std::max(largest, glm::length(d_delta));
+        }
+        if (refine_time) {
+            tau += step[time0];
+            largest = std::max(largest, std::abs(step[time0]));  // the same 1e-7, in seconds
+        }
         if (largest < 1e-7) break;
     }
     out.drift_rate_rad_per_s = b;
+    out.mounting_rad = delta;
+    out.time_offset_s = tau;
+    if (refine) {
+        double ss = 0;
+        for (int f = 0; f < n; ++f) {
+            const glm::dvec3 u = delta + (refine_time ? camera_rates[std::size_t(f)] : glm::dvec3(0)) * tau;
+            ss += glm::dot(u, u);
+        }
+        out.calibration_turn_deg = deg(std::sqrt(ss / n));
+    }
     out.pairs_used = int(pairs.size());
     return out;
 }
@@ -312,7 +405,7 @@ ScanAdjustment adjust_scan(const std::vector<AlignmentView>& views, const std::v
                            const std::vector<glm::dquat>& sensor, std::vector<glm::dquat> initial, int rounds,
                            int threads,
                            const std::function<void()>& round_done, const PairSettings& pair_settings,
-                           const AdjustmentSettings& settings) {
+                           const AdjustmentSettings& settings, const std::vector<glm::dvec3>& camera_rates) {
     auto clock = std::chrono::steady_clock::now();
     const auto lap = [&] {
         const auto now = std::chrono::steady_clock::now();
@@ -351,7 +444,7 @@ ScanAdjustment adjust_scan(const std::vector<AlignmentView>& views, const std::v
         for (const auto& m : measured)
             if (m) pairs.push_back(*m);
         const double align_s = lap();
-        out.result = adjust_orientations(t_s, sensor, out.result.orientations, pairs, settings);
+        out.result = adjust_orientations(t_s, sensor, out.result.orientations, pairs, settings, camera_rates);
         std::snprintf(text, sizeof text, ", round %d align %.3f solve %.3f", round + 1, align_s, lap());
         out.profile += text;
         if (round_done) round_done();
@@ -400,11 +493,13 @@ void OnlineAdjustment::align(const std::vector<std::size_t>& which) {
     alignments_ += (long long)which.size();
 }
 
-void OnlineAdjustment::add_frame(AlignmentView view, double t_s, const glm::dquat& sensor, const glm::dquat& live) {
+void OnlineAdjustment::add_frame(AlignmentView view, double t_s, const glm::dquat& sensor, const glm::dquat& live,
+                                 const glm::dvec3& camera_rate) {
     const int f = frames();
     views_.push_back(std::move(view));
     t_s_.push_back(t_s);
     sensor_.push_back(sensor);
+    rates_.push_back(camera_rate);
     live_.push_back(live);
     // Started where the last frame's correction of its sensor orientation carries it: the
     // sensor's short-term motion is smooth, the live pass's per-frame corrections are not (a
@@ -442,9 +537,23 @@ std::vector<PairMeasurement> OnlineAdjustment::measured_pairs() const {
     return pairs;
 }
 
+AdjustmentResult OnlineAdjustment::refined_solution() const {
+    AdjustmentSettings refined = settings_;
+    refined.refine_calibration = true;
+    return adjust_orientations(t_s_, sensor_, q_, measured_pairs(), refined, rates_);
+}
+
+void OnlineAdjustment::adopt(const AdjustmentResult& result) {
+    if (result.orientations.size() != q_.size())
+        throw RuntimeError("internal: an adjustment of " + std::to_string(result.orientations.size()) + " frames for " +
+                           std::to_string(q_.size()));
+    result_ = result;
+    q_ = result_.orientations;
+}
+
 void OnlineAdjustment::solve() {
     const std::vector<PairMeasurement> pairs = measured_pairs();
-    result_ = adjust_orientations(t_s_, sensor_, q_, pairs, settings_);
+    result_ = adjust_orientations(t_s_, sensor_, q_, pairs, settings_, rates_);
     q_ = result_.orientations;
 }
 

@@ -13,9 +13,12 @@
 //     capture by definition of the appliance's world frame.
 // Unknowns: each frame's world_from_camera and the drift rate b. Cost:
 //   sum over pairs  e_ij^T L_ij e_ij,     e_ij = log(R_i C_ij^-1 R_j^-1)   (C_ij = R_j^-1 R_i measured)
-// + sum over close frames |log(R_i (S_j^-1 S_i)^-1 R_j^-1)|^2 / sigma_rel(dt)^2
-// + sum over frames |log(R_f S_f^-1) - b t_f|^2 / sigma_sensor^2
-// (b about the world's vertical, heading, unless AdjustmentSettings says otherwise)
+// + sum over close frames |log(R_i (S'_j^-1 S'_i)^-1 R_j^-1)|^2 / sigma_rel(dt)^2
+//   (S'_f = S_f exp(delta + w_f tau) with the refinement below, else S_f)
+// + sum over frames |log(R_f exp(-delta - w_f tau) S_f^-1) - b t_f|^2 / sigma_sensor^2
+// + |delta|^2 / sigma_mount^2 + tau^2 / sigma_tau^2
+// (b about the world's vertical, heading, unless AdjustmentSettings says otherwise; delta and tau
+// refine the camera-sensor calibration, AdjustmentSettings::refine_calibration)
 // Frame-to-mosaic alignment (drift_correction.hpp) cannot do this: the mosaic inherits the drift
 // of the frames that painted it, a warp the mosaic is consistent with.
 #pragma once
@@ -88,21 +91,49 @@ struct AdjustmentSettings {
     // degree off in tilt) into a tilt drift plus a constant tilt of the whole map: 0.13 degrees
     // on forest, both seeds (docs/capture.md, "Global adjustment"). false: a rate about any axis.
     bool drift_heading_only = true;
+    // The camera-sensor calibration refined with the scan: a small rotation delta of the
+    // mounting (camera frame) and a change tau of the time offset, so that the sensor's term
+    // reads R_f = S_f exp(delta + w_f tau) (w_f the camera's angular velocity, camera frame;
+    // tau only when the rates are given). A calibration.json gone stale (the camera knocked on its
+    // mount, a new cable's latency) otherwise leaves a rotating error the drift line cannot take:
+    // mounting about 3 degrees off gave 3.7 degrees after 60 s, a time offset 15 ms off 1.2 degrees
+    // (courtyard, 2026-12-07). Gaussian priors about the calibration keep them in place where
+    // the scan does not observe them (its first frames, a turn about one axis).
+    // Off by default: where the scan turns mostly about the camera's own vertical, the mounting's
+    // part about it trades against the map's heading, which the sensor alone fixes, and a free
+    // refinement moved a right calibration's scan by 0.25 degrees (GlobalAdjustment tests). The
+    // capture pipeline solves with it after the scan and keeps that solution only when it finds
+    // the calibration stale (capture_pipeline.hpp, kStaleMountingDeg).
+    bool refine_calibration = false;
+    double mounting_prior_deg = 2;
+    double time_offset_prior_ms = 20;
 };
 
 struct AdjustmentResult {
     std::vector<glm::dquat> orientations;
     glm::dvec3 drift_rate_rad_per_s{0};
+    // The refinement of the calibration (AdjustmentSettings::refine_calibration): the mounting's
+    // rotation vector delta (camera frame, rad; world_from_camera = sensor's x exp(delta)) and the
+    // time offset's change (s, added to CameraCalibration::time_offset_s).
+    glm::dvec3 mounting_rad{0};
+    double time_offset_s = 0;
+    // What the refinement does to the frames: the RMS over frames of |delta + w_f tau|, degrees.
+    // At one speed of turn a time offset and the mounting's yaw trade against each other, and
+    // this, not either alone, is what the scan measures.
+    double calibration_turn_deg = 0;
     int pairs_used = 0;
     double pair_rms_deg = 0;    // RMS of the pair errors after the solve
-    double sensor_rms_deg = 0;  // RMS of log(R_f S_f^-1) - b t_f after the solve
+    double sensor_rms_deg = 0;  // RMS of the sensor's absolute term (log(R_f S_f^-1) - b t_f, refined) after the solve
 };
 
 // t_s: seconds from the first frame; sensor: world_from_camera from the sensor; initial: the
-// starting point (e.g. the live pass's orientations).
+// starting point (e.g. the live pass's orientations); camera_rates (optional, empty or one per
+// frame): the camera's angular velocity at each frame, camera frame, rad/s, for the time offset's
+// refinement.
 AdjustmentResult adjust_orientations(const std::vector<double>& t_s, const std::vector<glm::dquat>& sensor,
                                      const std::vector<glm::dquat>& initial, const std::vector<PairMeasurement>& pairs,
-                                     const AdjustmentSettings& settings = {});
+                                     const AdjustmentSettings& settings = {},
+                                     const std::vector<glm::dvec3>& camera_rates = {});
 
 // Candidate pairs of a scan, from the frames' orientations: for each frame that has enough valid
 // samples, the two frames before it within half the field of view, and up to four frames more
@@ -126,7 +157,7 @@ ScanAdjustment adjust_scan(const std::vector<AlignmentView>& views, const std::v
                            const std::vector<glm::dquat>& sensor, std::vector<glm::dquat> initial, int rounds,
                            int threads,
                            const std::function<void()>& round_done = {}, const PairSettings& pair_settings = {},
-                           const AdjustmentSettings& settings = {});
+                           const AdjustmentSettings& settings = {}, const std::vector<glm::dvec3>& camera_rates = {});
 
 // The same adjustment while the scan runs (docs/capture.md "Global adjustment"): each frame's
 // candidate pairs are aligned as it arrives, from the current solution; after each frame the
@@ -143,7 +174,10 @@ public:
     // world_from_camera and the live pass's. Its candidate pairs (chosen by the live
     // orientations) are aligned from the current solution, the frame itself started from its
     // live orientation carried by the last frame's correction.
-    void add_frame(AlignmentView view, double t_s, const glm::dquat& sensor, const glm::dquat& live);
+    // camera_rate: the camera's angular velocity (camera frame, rad/s) for the time offset's
+    // refinement (AdjustmentSettings::refine_calibration).
+    void add_frame(AlignmentView view, double t_s, const glm::dquat& sensor, const glm::dquat& live,
+                   const glm::dvec3& camera_rate = glm::dvec3(0));
     // Aligns again, most moved first, up to max_pairs (all when negative) candidate pairs whose
     // starting relative rotation moved more than min_change_deg since they were last aligned.
     // Returns how many it aligned.
@@ -156,6 +190,12 @@ public:
     long long alignments() const { return alignments_; }  // align_pair calls so far
     const std::vector<glm::dquat>& orientations() const { return q_; }
     const AdjustmentResult& result() const { return result_; }
+    // A solve from the current solution with the camera-sensor calibration refined
+    // (AdjustmentSettings::refine_calibration), not kept: adopt() keeps it.
+    AdjustmentResult refined_solution() const;
+    void adopt(const AdjustmentResult& result);
+    // From now on every solve refines the calibration (after a refined solution was adopted).
+    void refine_calibration_from_now() { settings_.refine_calibration = true; }
     // The pairs measured (the ones the last alignment trusted).
     std::vector<PairMeasurement> measured_pairs() const;
     // The largest starting change of a pair since it was last aligned, degrees.
@@ -176,6 +216,7 @@ private:
     std::vector<AlignmentView> views_;
     std::vector<double> t_s_;
     std::vector<glm::dquat> sensor_, live_, q_;
+    std::vector<glm::dvec3> rates_;
     std::vector<Pair> pairs_;
     AdjustmentResult result_;
     long long alignments_ = 0;

@@ -10,6 +10,7 @@
 #include <sstream>
 
 #include "appliance/capture/global_adjustment.hpp"
+#include "appliance/capture/capture_pipeline.hpp"
 #include "appliance/capture/hdr_accumulator.hpp"
 #include "appliance/capture/session.hpp"
 #include "appliance/core/equirect.hpp"
@@ -121,21 +122,32 @@ TEST(GlobalAdjustment, APairOnSmoothTextureIsNotAlignedToTheNoise) {
 struct Scan {
     std::vector<double> t;
     std::vector<glm::dquat> truth, sensor;
+    std::vector<glm::dvec3> rates;  // the camera's angular velocity, camera frame, rad/s
     std::vector<PairMeasurement> pairs;
     std::vector<bool> bracket;
 };
 
 // tilt_transient_deg: the fusion's start-up error about world X, decaying with a 2 s time
 // constant (the board's filter converging on gravity after power-up).
-Scan make_scan(double tilt_transient_deg = 0) {
+// mount_error (camera frame, rad) and time_shift_s: a calibration gone stale, the sensor's
+// orientation of each frame being the true one of time_shift_s earlier turned by -mount_error
+// (the truth is the sensor's x exp(mount_error) a time_shift_s later).
+// tilt_amplitude: of the slow tilt about X (rad); speed_wobble: of the yaw's (0.6 rad/s) change,
+// rad/s (a turn at one speed cannot tell a time offset from the mounting's yaw).
+Scan make_scan(double tilt_transient_deg = 0, glm::dvec3 mount_error = glm::dvec3(0), double time_shift_s = 0,
+               double tilt_amplitude = 0.4, double speed_wobble = 0) {
     Scan s;
     std::mt19937 rng(11);
     std::normal_distribution<double> fusion(0.0, 0.2 * kDeg), pair_noise(0.0, 0.02 * kDeg);
+    const auto truth_at = [&](double time) {
+        const double yaw = 0.6 * time + speed_wobble / 0.7 * std::sin(0.7 * time);
+        return unit_rotation(glm::angleAxis(yaw, glm::dvec3(0, 1, 0)) *
+                             glm::angleAxis(tilt_amplitude * std::sin(0.05 * time), glm::dvec3(1, 0, 0)));
+    };
     for (int k = 0; k < 180; ++k) {
         const double t = k / 3.0;
         const auto add = [&](double time, bool bracket) {
-            const glm::dquat truth = unit_rotation(glm::angleAxis(0.6 * time, glm::dvec3(0, 1, 0)) *
-                                                   glm::angleAxis(0.4 * std::sin(0.05 * time), glm::dvec3(1, 0, 0)));
+            const glm::dquat truth = truth_at(time);
             const double n[3] = {fusion(rng), fusion(rng), fusion(rng)};
             // A bracket frame 2 ms later carries its parent's fusion error.
             static double last[3];
@@ -145,7 +157,9 @@ Scan make_scan(double tilt_transient_deg = 0) {
             const glm::dquat err = rotation_from_vector({e[0] + transient, -time / 60.0 * kDeg + e[1], e[2]});
             s.t.push_back(time);
             s.truth.push_back(truth);
-            s.sensor.push_back(unit_rotation(err * truth));
+            s.sensor.push_back(unit_rotation(err * truth_at(time - time_shift_s) * rotation_from_vector(-mount_error)));
+            const double h = 1e-4;
+            s.rates.push_back(rotation_vector(glm::conjugate(truth_at(time - h)) * truth_at(time + h)) / (2 * h));
             s.bracket.push_back(bracket);
         };
         add(t, false);
@@ -213,6 +227,40 @@ TEST(GlobalAdjustment, AStartUpTiltTransientIsNotTakenForADrift) {
     EXPECT_EQ(heading.drift_rate_rad_per_s.z, 0.0);
     EXPECT_LT(std::abs(mean_tilt_deg(heading)), 0.03);
     EXPECT_GT(std::abs(mean_tilt_deg(any)), 2 * std::abs(mean_tilt_deg(heading)));
+}
+
+// A stale camera-sensor calibration (the mounting 2.5 degrees off, the time offset 15 ms) leaves
+// a rotating error that no drift line takes; refining the calibration with the scan takes it
+// out and finds both (a scan whose speed changes: at one speed a time offset is a yaw of the
+// mounting). Without the refinement the same scan is degrees off. On a right calibration the
+// refinement turns the frames by little (the pipeline's staleness test, kStaleMountingDeg, is
+// on that turn).
+TEST(GlobalAdjustment, RefiningTheCalibrationTakesOutAStaleMountingAndTimeOffset) {
+    const glm::dvec3 mount = glm::dvec3(1.2, -1.8, 1.3) * kDeg;  // 2.5 degrees
+    const double shift = 0.015;
+    const Scan s = make_scan(0, mount, shift, 1.0, 0.3);
+    AdjustmentSettings refine;
+    refine.refine_calibration = true;
+    const AdjustmentResult plain = adjust_orientations(s.t, s.sensor, s.sensor, s.pairs);
+    const AdjustmentResult refined = adjust_orientations(s.t, s.sensor, s.sensor, s.pairs, refine, s.rates);
+    const auto worst = [&](const AdjustmentResult& r) {
+        double w = 0;
+        for (std::size_t i = 0; i < s.truth.size(); ++i) w = std::max(w, angle_between(r.orientations[i], s.truth[i]) / kDeg);
+        return w;
+    };
+    EXPECT_GT(worst(plain), 1.0);
+    EXPECT_LT(worst(refined), 0.15);
+    EXPECT_LT(glm::length(refined.mounting_rad - mount) / kDeg, 0.15);
+    EXPECT_NEAR(refined.time_offset_s * 1e3, shift * 1e3, 2.0);
+    EXPECT_GT(refined.calibration_turn_deg, 2.0);
+    EXPECT_EQ(plain.calibration_turn_deg, 0.0);
+
+    // The same scan with a right calibration: the refinement turns the frames by little.
+    const Scan right = make_scan(0, glm::dvec3(0), 0, 1.0, 0.3);
+    const AdjustmentResult r = adjust_orientations(right.t, right.sensor, right.sensor, right.pairs, refine, right.rates);
+    EXPECT_LT(r.calibration_turn_deg, kStaleMountingDeg / 2);
+    EXPECT_THROW(adjust_orientations(right.t, right.sensor, right.sensor, right.pairs, refine, {glm::dvec3(0)}),
+                 InputError);
 }
 
 TEST(GlobalAdjustment, WithoutPairsTheSensorStands) {

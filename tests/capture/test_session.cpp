@@ -15,6 +15,7 @@
 #include "appliance/capture/replay_camera.hpp"
 #include "appliance/capture/session.hpp"
 #include "appliance/core/errors.hpp"
+#include "appliance/core/rotation.hpp"
 #include "appliance/core/exr_io.hpp"
 #include "appliance/sim/session_simulator.hpp"
 #include "firmware_bridge/recording/reader.hpp"
@@ -209,6 +210,48 @@ TEST_F(SessionTest, DriftCorrectionBringsTheCameraCloserToTheTruth) {
     ASSERT_TRUE(corrected.live_orientation_error_max_deg && corrected.orientation_error_max_deg);
     EXPECT_LT(*corrected.orientation_error_max_deg, *corrected.live_orientation_error_max_deg);
     EXPECT_LE(*corrected.orientation_error_median_deg, *corrected.live_orientation_error_median_deg + 0.02);
+}
+
+// A calibration.json gone stale: the camera was knocked on its mount (3 degrees) and the sensor's
+// latency changed (12 ms) since the calibration. The scan's own refinement finds it, keeps that
+// solution and says so; without it the frames stay degrees off.
+TEST_F(SessionTest, AStaleCalibrationIsFoundAndTheScanCorrectsIt) {
+    SimulateOptions o = small_session();
+    o.env = std::string(GLINT_BLENDER_WORLDS) + "/studio.exr";
+    o.width = 160;
+    o.height = 90;
+    o.heading_drift_deg_per_min = 1.0;
+    o.fps = 3;
+    simulate_session(o);
+    const fs::path calibration = dir_ / "session" / "calibration.json";
+    CameraCalibration stale = load_calibration(calibration);
+    const glm::dquat knocked = rotation_from_vector(glm::dvec3(1.5, -2.0, 1.2) * (kPi / 180));  // 2.8 degrees
+    stale.sensor_from_camera = unit_rotation(stale.sensor_from_camera * knocked);
+    stale.time_offset_s -= 0.012;
+    save_calibration(calibration, stale);
+
+    CaptureOptions c = capture_options(dir_ / "session", dir_ / "kept.exr", 512, 256, OrientationInput::Sensors);
+    c.drift_correction = true;
+    c.calibration_refinement = CaptureOptions::CalibrationRefinement::Off;
+    const CaptureSummary kept = capture_session(c);
+    c.out = dir_ / "refined.exr";
+    c.calibration_refinement = CaptureOptions::CalibrationRefinement::Stale;
+    const CaptureSummary refined = capture_session(c);
+    ASSERT_TRUE(kept.orientation_error_median_deg && refined.orientation_error_median_deg);
+    std::printf("stale calibration: refinement turns the frames %.3f degrees RMS (mounting %.3f degrees, time "
+                "offset %+.2f ms); orientation error median %.3f -> %.3f, max %.3f -> %.3f degrees\n",
+                refined.calibration_turn_deg, refined.calibration_mounting_deg, refined.calibration_time_offset_ms,
+                *kept.orientation_error_median_deg, *refined.orientation_error_median_deg,
+                kept.orientation_error_max_deg.value_or(-1), refined.orientation_error_max_deg.value_or(-1));
+    // Found either way (Off still measures it); kept only by Stale.
+    EXPECT_TRUE(kept.calibration_stale);
+    EXPECT_FALSE(kept.calibration_refined);
+    EXPECT_TRUE(refined.calibration_stale);
+    EXPECT_TRUE(refined.calibration_refined);
+    EXPECT_GT(refined.calibration_turn_deg, 1.0);
+    EXPECT_GT(*kept.orientation_error_median_deg, 1.0);
+    EXPECT_LT(*refined.orientation_error_median_deg, 0.4);
+    EXPECT_LT(*refined.orientation_error_median_deg, *kept.orientation_error_median_deg / 3);
 }
 
 TEST_F(SessionTest, RefusesToReplaceASessionWithoutForce) {
