@@ -81,6 +81,18 @@ protected:
         o.threads = 2;
         return o;
     }
+    // A real room (blender-data's studio) scanned with the raw IMU's Mahony fusion plus a heading
+    // drift of 1 deg/min (the capture benchmark's condition), 160x90 frames at 3 fps: 15 degrees
+    // between frames at the scan's 45 deg/s, so most of a frame overlaps the last.
+    SimulateOptions studio_scan() const {
+        SimulateOptions o = small_session();
+        o.env = std::string(GLINT_BLENDER_WORLDS) + "/studio.exr";
+        o.width = 160;
+        o.height = 90;
+        o.heading_drift_deg_per_min = 1.0;
+        o.fps = 3;
+        return o;
+    }
     fs::path dir_;
 };
 
@@ -160,16 +172,8 @@ TEST_F(SessionTest, CaptureAppliesTheCalibratedTimeOffset) {
 }
 
 TEST_F(SessionTest, DriftCorrectionBringsTheCameraCloserToTheTruth) {
-    // A real room (blender-data's studio), seen through the raw IMU's Mahony fusion plus a heading
-    // drift of 1 deg/min (the capture benchmark's condition), which the overlapping frames of the
-    // scan can correct.
-    SimulateOptions o = small_session();
-    o.env = std::string(GLINT_BLENDER_WORLDS) + "/studio.exr";
-    o.width = 160;
-    o.height = 90;
-    o.heading_drift_deg_per_min = 1.0;
-    o.fps = 3;  // 15 degrees between frames at the scan's 45 deg/s: most of a frame overlaps the last
-    simulate_session(o);
+    // The heading drift of studio_scan(), which the overlapping frames of the scan can correct.
+    simulate_session(studio_scan());
     CaptureOptions c = capture_options(dir_ / "session", dir_ / "plain.exr", 512, 256, OrientationInput::Sensors);
     const CaptureSummary plain = capture_session(c);
     c.out = dir_ / "corrected.exr";
@@ -216,13 +220,7 @@ TEST_F(SessionTest, DriftCorrectionBringsTheCameraCloserToTheTruth) {
 // latency changed (12 ms) since the calibration. The scan's own refinement finds it, keeps that
 // solution and says so; without it the frames stay degrees off.
 TEST_F(SessionTest, AStaleCalibrationIsFoundAndTheScanCorrectsIt) {
-    SimulateOptions o = small_session();
-    o.env = std::string(GLINT_BLENDER_WORLDS) + "/studio.exr";
-    o.width = 160;
-    o.height = 90;
-    o.heading_drift_deg_per_min = 1.0;
-    o.fps = 3;
-    simulate_session(o);
+    simulate_session(studio_scan());
     const fs::path calibration = dir_ / "session" / "calibration.json";
     CameraCalibration stale = load_calibration(calibration);
     const glm::dquat knocked = rotation_from_vector(glm::dvec3(1.5, -2.0, 1.2) * (kPi / 180));  // 2.8 degrees
