@@ -268,9 +268,10 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
         std::uint64_t sequence;  // the frame's index in the session
         std::int64_t t_ns;
         glm::dquat sensor, live;
-        glm::dvec3 angular_velocity;  // what the accumulation turns the rows by (0: none)
-        glm::dvec3 camera_rate;       // the camera's angular velocity (camera frame, rad/s; 0: unknown)
+        glm::dvec3 camera_rate;  // the camera's angular velocity (camera frame, rad/s; 0: unknown)
     };
+    // What the accumulation turns a frame's rows by (0: none, without the rolling shutter).
+    const auto row_turn = [&](const UsedFrame& u) { return o.rolling_shutter ? u.camera_rate : glm::dvec3(0); };
     std::vector<UsedFrame> used;
     CaptureSummary summary;
     if (!live_stream && o.orientations == OrientationInput::Sensors) {
@@ -438,7 +439,7 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
             const auto t_acc = std::chrono::steady_clock::now();
             summary.drift_seconds += std::chrono::duration<double>(t_acc - t_drift).count();
             acc.add_frame(f, cal, *q, w);
-            used.push_back({place, f.sequence, f.t_ns, sensor_q, *q, w, rate});
+            used.push_back({place, f.sequence, f.t_ns, sensor_q, *q, rate});
             if (acc.gpu) glFinish();  // the draw's time, not just its submission
             const auto t_online = std::chrono::steady_clock::now();
             summary.accumulate_seconds += std::chrono::duration<double>(t_online - t_acc).count();
@@ -525,7 +526,8 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
         summary.calibration_mounting_axis = angle > 0 ? r.mounting_rad / angle : glm::dvec3(0);
         summary.calibration_time_offset_ms = r.time_offset_s * 1e3;
         summary.calibration_turn_deg = r.calibration_turn_deg;
-        summary.calibration_stale = r.calibration_turn_deg > kStaleMountingDeg;
+        // Stale once any refined solve turned the frames past the limit.
+        summary.calibration_stale = summary.calibration_stale || r.calibration_turn_deg > kStaleMountingDeg;
     };
     std::vector<glm::dquat> final_q;
     for (const UsedFrame& u : used) final_q.push_back(u.live);
@@ -538,10 +540,15 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
         const auto t_adjust = std::chrono::steady_clock::now();
         online_adjustment.solve();
         int passes = 0;
-        for (; passes < o.final_realign_passes; ++passes) {
-            if (online_adjustment.realign(o.realign_per_frame, o.realign_deg) == 0) break;
-            online_adjustment.solve();
-        }
+        // Up to max_passes of: the pairs moved more than realign_deg aligned again (at most
+        // per_pass; all when negative), then a solve; stops when none moved.
+        const auto realign_and_solve = [&](int max_passes, int per_pass) {
+            for (int pass = 0; pass < max_passes; ++pass, ++passes) {
+                if (online_adjustment.realign(per_pass, o.realign_deg) == 0) break;
+                online_adjustment.solve();
+            }
+        };
+        realign_and_solve(o.final_realign_passes, o.realign_per_frame);
         final_q = online_adjustment.orientations();
         const AdjustmentResult& r = online_adjustment.result();
         summary.adjust_pairs_tried = online_adjustment.pairs_tried();
@@ -565,14 +572,9 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
                 // 2.4 degrees after 60 s with the refined solve alone, 0.09 so).
                 online_adjustment.adopt(refined);
                 online_adjustment.refine_calibration_from_now();
-                for (int pass = 0; pass < 4; ++pass, ++passes) {
-                    if (online_adjustment.realign(-1, o.realign_deg) == 0) break;
-                    online_adjustment.solve();
-                }
-                const bool stale = summary.calibration_stale;
+                realign_and_solve(4, -1);
                 const AdjustmentResult& adopted = online_adjustment.result();
                 report_calibration(adopted);
-                summary.calibration_stale = stale || summary.calibration_stale;
                 final_q = online_adjustment.orientations();
                 summary.adjust_sensor_rms_deg = adopted.sensor_rms_deg;
                 summary.adjust_pair_rms_deg = adopted.pair_rms_deg;
@@ -633,27 +635,22 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
         std::vector<AlignmentView> views(used.size());
         std::vector<double> t_s;
         std::vector<glm::dquat> sensor_q;
-        std::vector<glm::dvec3> rates;
         std::size_t next = 0;
         for_each_frame(camera, [&](std::size_t place, const CameraFrame& f) {
             if (next == used.size() || used[next].place != place) return;
-            const glm::dvec3& w = used[next].angular_velocity;
+            const glm::dvec3 w = row_turn(used[next]);
             views[next] = make_alignment_view(
                 !pixel_rays.empty() && w != glm::dvec3(0) ? deskew_rolling_shutter(f, cal, pixel_rays, w, threads) : f, cal);
             t_s.push_back(double(used[next].t_ns - t_first) * 1e-9);
             sensor_q.push_back(used[next].sensor);
-            rates.push_back(used[next].camera_rate);
             ++next;
             if (progress) progress(++done, total);
         });
         summary.adjust_views_seconds = since(t_adjust);
-        const ScanAdjustment sa = adjust_scan(
-            views, t_s, sensor_q, final_q, o.adjustment_rounds, threads,
-            [&] {
-                for (std::size_t i = 0; i < used.size(); ++i)
-                    if (progress) progress(++done, total);
-            },
-            {}, {}, rates);
+        const ScanAdjustment sa = adjust_scan(views, t_s, sensor_q, final_q, o.adjustment_rounds, threads, [&] {
+            for (std::size_t i = 0; i < used.size(); ++i)
+                if (progress) progress(++done, total);
+        });
         final_q = sa.result.orientations;
         summary.adjust_pairs_tried = sa.pairs_tried;
         summary.adjust_pairs = sa.result.pairs_used;
@@ -667,7 +664,7 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
         next = 0;
         for_each_frame(camera, [&](std::size_t place, const CameraFrame& f) {
             if (next == used.size() || used[next].place != place) return;
-            adjusted->add_frame(f, cal, final_q[next], used[next].angular_velocity);
+            adjusted->add_frame(f, cal, final_q[next], row_turn(used[next]));
             ++next;
             if (progress) progress(++done, total);
         });

@@ -171,6 +171,14 @@ AdjustmentResult adjust_orientations(const std::vector<double>& t_s, const std::
     double tau = 0;       // the time offset's, s
     const double w_mount = 1.0 / std::pow(settings.mounting_prior_deg * kPi / 180.0, 2);
     const double w_time = 1.0 / std::pow(settings.time_offset_prior_ms * 1e-3, 2);
+    // Frame f's camera rate (0 without the time offset's refinement), its refinement u_f =
+    // delta + w_f tau (camera frame) and the sensor's orientation it corrects: S_f exp(u_f).
+    const auto rate_of = [&](int f) { return refine_time ? camera_rates[std::size_t(f)] : glm::dvec3(0); };
+    const auto refinement_of = [&](int f) { return delta + rate_of(f) * tau; };
+    const auto corrected_sensor = [&](int f) {
+        return refine ? unit_rotation(sensor[std::size_t(f)] * rotation_from_vector(refinement_of(f)))
+                      : sensor[std::size_t(f)];
+    };
     const double w_sensor = 1.0 / std::pow(settings.sensor_sigma_deg * kPi / 180.0, 2);
     std::vector<double> pair_weight(pairs.size(), 1.0);  // Huber reweighting of the pairs
     // The normal equations are block-sparse: a 3x3 block per frame, per pair and per close frame
@@ -235,11 +243,6 @@ AdjustmentResult adjust_orientations(const std::vector<double>& t_s, const std::
         // frames close in time. With the calibration refined, between the sensor's orientations
         // as the current refinement corrects them (held for this step: the mounting turns a
         // relative rotation's axis, which a stale one tilts against the images' by its error).
-        const auto corrected_sensor = [&](int f) {
-            if (!refine) return sensor[std::size_t(f)];
-            const glm::dvec3 rate = refine_time ? camera_rates[std::size_t(f)] : glm::dvec3(0);
-            return unit_rotation(sensor[std::size_t(f)] * rotation_from_vector(delta + rate * tau));
-        };
         for (int i = 1; i < n; ++i) {
             const double dt = std::abs(t_s[std::size_t(i)] - t_s[std::size_t(i - 1)]);
             if (dt > settings.relative_max_dt_s) continue;
@@ -262,10 +265,8 @@ AdjustmentResult adjust_orientations(const std::vector<double>& t_s, const std::
         double g_t = 0;
         for (int f = 0; f < n; ++f) {
             const double t = t_s[std::size_t(f)];
-            const glm::dvec3 rate = refine_time ? camera_rates[std::size_t(f)] : glm::dvec3(0);
-            const glm::dvec3 u_f = delta + rate * tau;
-            const glm::dquat model = refine ? sensor[std::size_t(f)] * rotation_from_vector(u_f) : sensor[std::size_t(f)];
-            const glm::dvec3 e0 = rotation_vector(R[std::size_t(f)] * glm::conjugate(model)) - b * t;
+            const glm::dvec3 rate = rate_of(f);
+            const glm::dvec3 e0 = rotation_vector(R[std::size_t(f)] * glm::conjugate(corrected_sensor(f))) - b * t;
             sensor_ss += glm::dot(e0, e0);
             for (int p = 0; p < 3; ++p) {
                 triplets.emplace_back(3 * f + p, 3 * f + p, w_sensor);
@@ -362,10 +363,7 @@ AdjustmentResult adjust_orientations(const std::vector<double>& t_s, const std::
     out.time_offset_s = tau;
     if (refine) {
         double ss = 0;
-        for (int f = 0; f < n; ++f) {
-            const glm::dvec3 u = delta + (refine_time ? camera_rates[std::size_t(f)] : glm::dvec3(0)) * tau;
-            ss += glm::dot(u, u);
-        }
+        for (int f = 0; f < n; ++f) ss += glm::dot(refinement_of(f), refinement_of(f));
         out.calibration_turn_deg = deg(std::sqrt(ss / n));
     }
     out.pairs_used = int(pairs.size());
@@ -405,7 +403,7 @@ ScanAdjustment adjust_scan(const std::vector<AlignmentView>& views, const std::v
                            const std::vector<glm::dquat>& sensor, std::vector<glm::dquat> initial, int rounds,
                            int threads,
                            const std::function<void()>& round_done, const PairSettings& pair_settings,
-                           const AdjustmentSettings& settings, const std::vector<glm::dvec3>& camera_rates) {
+                           const AdjustmentSettings& settings) {
     auto clock = std::chrono::steady_clock::now();
     const auto lap = [&] {
         const auto now = std::chrono::steady_clock::now();
@@ -444,7 +442,7 @@ ScanAdjustment adjust_scan(const std::vector<AlignmentView>& views, const std::v
         for (const auto& m : measured)
             if (m) pairs.push_back(*m);
         const double align_s = lap();
-        out.result = adjust_orientations(t_s, sensor, out.result.orientations, pairs, settings, camera_rates);
+        out.result = adjust_orientations(t_s, sensor, out.result.orientations, pairs, settings);
         std::snprintf(text, sizeof text, ", round %d align %.3f solve %.3f", round + 1, align_s, lap());
         out.profile += text;
         if (round_done) round_done();

@@ -157,7 +157,7 @@ ScanAdjustment adjust_scan(const std::vector<AlignmentView>& views, const std::v
                            const std::vector<glm::dquat>& sensor, std::vector<glm::dquat> initial, int rounds,
                            int threads,
                            const std::function<void()>& round_done = {}, const PairSettings& pair_settings = {},
-                           const AdjustmentSettings& settings = {}, const std::vector<glm::dvec3>& camera_rates = {});
+                           const AdjustmentSettings& settings = {});
 
 // The same adjustment while the scan runs (docs/capture.md "Global adjustment"): each frame's
 // candidate pairs are aligned as it arrives, from the current solution; after each frame the

@@ -121,43 +121,10 @@ void FftPlan::transform(std::complex<double>* data, bool inverse) const {
 
 namespace {
 
-// FftPlan::kBatch doubles as one value the compiler keeps in registers (GCC/Clang vector extension).
-using Lanes = double __attribute__((vector_size(FftPlan::kBatch * sizeof(double))));
-
-inline Lanes load_lanes(const double* p) {
-    Lanes v;
-    std::memcpy(&v, p, sizeof v);
-    return v;
-}
-inline void store_lanes(double* p, Lanes v) { std::memcpy(p, &v, sizeof v); }
-
-static_assert(FftPlan::kBatch == 8, "transpose8 moves 8 x 8 blocks");
-
-// Rows v[0..7] of an 8 x 8 block become its columns: v[t][b] <- v[b][t]. Three stages of
-// shuffles that swap ever larger sub-blocks, instead of 64 scalar loads and stores.
-inline void transpose8(Lanes v[8]) {
-    Lanes s[8], u[8];
-    for (int i = 0; i < 8; i += 2) {
-        s[i] = __builtin_shufflevector(v[i], v[i + 1], 0, 8, 2, 10, 4, 12, 6, 14);
-        s[i + 1] = __builtin_shufflevector(v[i], v[i + 1], 1, 9, 3, 11, 5, 13, 7, 15);
-    }
-    for (int i : {0, 1, 4, 5}) {
-        u[i] = __builtin_shufflevector(s[i], s[i + 2], 0, 1, 8, 9, 4, 5, 12, 13);
-        u[i + 2] = __builtin_shufflevector(s[i], s[i + 2], 2, 3, 10, 11, 6, 7, 14, 15);
-    }
-    for (int i = 0; i < 4; ++i) {
-        v[i] = __builtin_shufflevector(u[i], u[i + 4], 0, 1, 2, 3, 8, 9, 10, 11);
-        v[i + 4] = __builtin_shufflevector(u[i], u[i + 4], 4, 5, 6, 7, 12, 13, 14, 15);
-    }
-}
-
-}  // namespace
-
-namespace {
-
-// kBatch doubles (one zmm register) serve full batches; four (one ymm) serve the three channels of
-// a row, where eight lanes would spend five of them on zeros (and a 512-bit operation costs two
-// 256-bit ones on some cores, Zen 4 among them).
+// B doubles as one value the compiler keeps in registers (GCC/Clang vector extension). kBatch
+// (one zmm register) serve full batches; four (one ymm) serve the three channels of a row, where
+// eight lanes would spend five of them on zeros (and a 512-bit operation costs two 256-bit ones
+// on some cores, Zen 4 among them).
 // (Spelled out per width: GCC drops a vector_size that depends on a template parameter.)
 template <std::size_t B>
 struct VectorOf;
@@ -181,6 +148,28 @@ inline LanesOf<B> load_b(const double* p) {
 template <std::size_t B>
 inline void store_b(double* p, LanesOf<B> v) {
     std::memcpy(p, &v, sizeof v);
+}
+
+using Lanes = LanesOf<FftPlan::kBatch>;
+
+static_assert(FftPlan::kBatch == 8, "transpose8 moves 8 x 8 blocks");
+
+// Rows v[0..7] of an 8 x 8 block become its columns: v[t][b] <- v[b][t]. Three stages of
+// shuffles that swap ever larger sub-blocks, instead of 64 scalar loads and stores.
+inline void transpose8(Lanes v[8]) {
+    Lanes s[8], u[8];
+    for (int i = 0; i < 8; i += 2) {
+        s[i] = __builtin_shufflevector(v[i], v[i + 1], 0, 8, 2, 10, 4, 12, 6, 14);
+        s[i + 1] = __builtin_shufflevector(v[i], v[i + 1], 1, 9, 3, 11, 5, 13, 7, 15);
+    }
+    for (int i : {0, 1, 4, 5}) {
+        u[i] = __builtin_shufflevector(s[i], s[i + 2], 0, 1, 8, 9, 4, 5, 12, 13);
+        u[i + 2] = __builtin_shufflevector(s[i], s[i + 2], 2, 3, 10, 11, 6, 7, 14, 15);
+    }
+    for (int i = 0; i < 4; ++i) {
+        v[i] = __builtin_shufflevector(u[i], u[i + 4], 0, 1, 2, 3, 8, 9, 10, 11);
+        v[i + 4] = __builtin_shufflevector(u[i], u[i + 4], 4, 5, 6, 7, 12, 13, 14, 15);
+    }
 }
 
 // One complex value per lane.
@@ -374,8 +363,8 @@ void RealFftPlan::forward_batch(const float* const* x, double* const* re, double
         transpose8(odd);
         for (std::size_t t = 0; t < B; ++t) {
             const std::size_t r = half_.reversed(j0 + t) * B;
-            store_lanes(zr.data() + r, even[t]);
-            store_lanes(zi.data() + r, odd[t]);
+            store_b<B>(zr.data() + r, even[t]);
+            store_b<B>(zi.data() + r, odd[t]);
         }
     }
     for (std::size_t j = j0; j < h; ++j) {  // lengths below 2 B
@@ -392,19 +381,19 @@ void RealFftPlan::forward_batch(const float* const* x, double* const* re, double
     xr.resize((h + 1) * B);
     xi.resize((h + 1) * B);
     const auto put = [&](std::size_t k, Lanes vr, Lanes vi) {
-        store_lanes(xr.data() + k * B, vr);
-        store_lanes(xi.data() + k * B, vi);
+        store_b<B>(xr.data() + k * B, vr);
+        store_b<B>(xi.data() + k * B, vi);
     };
     {
-        const Lanes z0r = load_lanes(zr.data()), z0i = load_lanes(zi.data());
+        const Lanes z0r = load_b<B>(zr.data()), z0i = load_b<B>(zi.data());
         const Lanes zero = {};
         put(0, z0r + z0i, zero);
         put(h, z0r - z0i, zero);
     }
     for (std::size_t k = 1; 2 * k <= h; ++k) {
         const std::size_t q = h - k;
-        const Lanes pr = load_lanes(zr.data() + k * B), pi = load_lanes(zi.data() + k * B);
-        const Lanes qr = load_lanes(zr.data() + q * B), qi = -load_lanes(zi.data() + q * B);
+        const Lanes pr = load_b<B>(zr.data() + k * B), pi = load_b<B>(zi.data() + k * B);
+        const Lanes qr = load_b<B>(zr.data() + q * B), qi = -load_b<B>(zi.data() + q * B);
         const Lanes er = 0.5 * (pr + qr), ei = 0.5 * (pi + qi);
         const Lanes orr = 0.5 * (pi - qi), oi = -0.5 * (pr - qr);
         const double wr = w_re_[k], wi = w_im_[k];
@@ -416,14 +405,14 @@ void RealFftPlan::forward_batch(const float* const* x, double* const* re, double
     for (; k0 + B <= h + 1; k0 += B) {
         Lanes vr[B], vi[B];
         for (std::size_t t = 0; t < B; ++t) {
-            vr[t] = load_lanes(xr.data() + (k0 + t) * B);
-            vi[t] = load_lanes(xi.data() + (k0 + t) * B);
+            vr[t] = load_b<B>(xr.data() + (k0 + t) * B);
+            vi[t] = load_b<B>(xi.data() + (k0 + t) * B);
         }
         transpose8(vr);
         transpose8(vi);
         for (std::size_t b = 0; b < count; ++b) {
-            store_lanes(re[b] + k0, vr[b]);
-            store_lanes(im[b] + k0, vi[b]);
+            store_b<B>(re[b] + k0, vr[b]);
+            store_b<B>(im[b] + k0, vi[b]);
         }
     }
     for (std::size_t k = k0; k <= h; ++k)

@@ -454,29 +454,23 @@ ShCoefficients project_impl(int width, int height, int order, int threads, ShQua
                 store_row(j, f.data());
             }
         });
-    } else if (spectra) {
-        // Rows in runs of FftPlan::kBatch, aligned: the Fourier pass's source transforms a run's
-        // rows together when one of them is first read (PreparedLevel::row_spectrum), so with a
-        // thread per row the other thread waited for every run's transforms (3.4 ms of a 4.9 ms
-        // pass idle, studio's order-236 projection of 1024x512).
-        constexpr int kRun = int(FftPlan::kBatch);
-        parallel_for((height + kRun - 1) / kRun, threads, [&](int run) {
-            thread_local std::vector<double> unused, f;
-            f.resize(6 * uorder);
-            for (int j = run * kRun; j < std::min(height, (run + 1) * kRun); ++j) {
-                fourier_sums(j, unused, f.data());
-                store_row(j, f.data());
-            }
-        });
     } else {
-        parallel_for(height, threads, [&](int j) {
+        // From given spectra, rows in aligned runs of FftPlan::kBatch: the Fourier pass's source
+        // transforms a run's rows together when one of them is first read
+        // (PreparedLevel::row_spectrum), so with a thread per row the other thread waited for every
+        // run's transforms (3.4 ms of a 4.9 ms pass idle, studio's order-236 projection of
+        // 1024x512). From read rows, one row per task.
+        const int run = spectra ? int(FftPlan::kBatch) : 1;
+        parallel_for((height + run - 1) / run, threads, [&](int r) {
             // Per thread, not per row: fresh vectors cost an allocation and a zero fill each row (every
             // value read is written first: read_row fills `row`, fourier_sums all of `f`).
             thread_local std::vector<double> row, f;
             if (!spectra) row.resize(uwidth * 3);
             f.resize(6 * uorder);
-            fourier_sums(j, row, f.data());
-            store_row(j, f.data());
+            for (int j = r * run; j < std::min(height, (r + 1) * run); ++j) {
+                fourier_sums(j, row, f.data());
+                store_row(j, f.data());
+            }
         });
     }
 
