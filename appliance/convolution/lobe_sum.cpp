@@ -142,10 +142,12 @@ double widest_merged_arc(int level_width, int level_height, int out_width, doubl
 
 namespace {
 
-// Row j's roughness for groups of m columns (polar_merge_factors): over the groups and
-// channels, the largest sum |L - group mean| / (sum L + m mean).
-double row_roughness(const PreparedLevel& level, int j, int m, double mean) {
-    double rough = 0;
+// Whether row j's groups of m columns are smooth enough to merge: over the groups and
+// channels, the largest roughness sum |L - group mean| / (sum L + m mean), times `arc_scale`,
+// at most max_arc_roughness. Stops at the first group over it: the search for a row's factor
+// ends with a failing test, which used to read the whole row.
+bool row_smooth_enough(const PreparedLevel& level, int j, int m, double mean, double arc_scale,
+                       double max_arc_roughness) {
     for (int c = 0; c < 3; ++c) {
         const float* row = level.plane(j, c);
         for (int g = 0; g < level.width(); g += m) {
@@ -153,10 +155,10 @@ double row_roughness(const PreparedLevel& level, int j, int m, double mean) {
             for (int k = g; k < g + m; ++k) sum += row[k];
             for (int k = g; k < g + m; ++k) spread += std::abs(row[k] - sum / m);
             const double base = sum + m * mean;
-            if (base > 0) rough = std::max(rough, spread / base);
+            if (base > 0 && arc_scale * (spread / base) > max_arc_roughness) return false;  // NaN: skipped, as max() did
         }
     }
-    return rough;
+    return true;
 }
 
 }  // namespace
@@ -170,7 +172,7 @@ std::vector<int> polar_merge_factors(const PreparedLevel& level, int out_width, 
         const double arc = column_arc(j, w, h);
         const int most = polar_merge_factor(j, w, h, out_width, max_arc);
         int& m = factor[std::size_t(j)];
-        while (2 * m <= most && 2 * m * arc * row_roughness(level, j, 2 * m, mean) <= max_arc_roughness) m *= 2;
+        while (2 * m <= most && row_smooth_enough(level, j, 2 * m, mean, 2 * m * arc, max_arc_roughness)) m *= 2;
     }
     return factor;
 }
