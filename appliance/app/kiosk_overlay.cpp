@@ -98,6 +98,8 @@ struct OverlayState {
             status.button_pressed = model.devices.button_pressed;
             status.key_switch_on = model.devices.key_switch_on;
             status.lamp = lamp_test.value_or(model.devices.lamp);
+            status.alignment_check = model.devices.alignment_check;
+            status.alignment_stale = model.devices.alignment_stale;
             if (context.log_tail) status.log_lines = context.log_tail->lines();
             status.cpu_temperature = ui::temperature_text(ui::cpu_temperature_c());
             status.free_disk = ui::bytes_text(ui::free_disk_bytes(context.config.state.dir));

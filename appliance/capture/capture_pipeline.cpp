@@ -526,6 +526,7 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
         summary.calibration_mounting_axis = angle > 0 ? r.mounting_rad / angle : glm::dvec3(0);
         summary.calibration_time_offset_ms = r.time_offset_s * 1e3;
         summary.calibration_turn_deg = r.calibration_turn_deg;
+        summary.calibration_checked = true;
         // Stale once any refined solve turned the frames past the limit.
         summary.calibration_stale = summary.calibration_stale || r.calibration_turn_deg > kStaleMountingDeg;
     };
@@ -725,6 +726,23 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
         write_text_atomically(o.orientations_out, csv);
     }
     return summary;
+}
+
+std::string calibration_check_text(const CaptureSummary& c) {
+    if (!c.calibration_checked) return "n/a";
+    char text[320];
+    if (!c.calibration_stale) {
+        std::snprintf(text, sizeof text, "ok: the last scan turned its frames %.2f\xC2\xB0 from the calibration (limit %.1f\xC2\xB0)",
+                      c.calibration_turn_deg, kStaleMountingDeg);
+        return text;
+    }
+    std::snprintf(text, sizeof text,
+                  "stale: the last scan turned its frames %.2f\xC2\xB0 from the calibration (mounting %.2f\xC2\xB0, time offset "
+                  "%+.1f ms; limit %.1f\xC2\xB0). %s Run the sensor-camera alignment calibration.",
+                  c.calibration_turn_deg, c.calibration_mounting_deg, c.calibration_time_offset_ms, kStaleMountingDeg,
+                  c.calibration_refined ? "Its map used the scan's own values; the live view did not."
+                                        : "Its map was made with the calibration as it is.");
+    return text;
 }
 
 }  // namespace glint::capture

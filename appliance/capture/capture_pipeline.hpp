@@ -156,6 +156,7 @@ struct CaptureSummary {
     glm::dvec3 calibration_mounting_axis{0};  // camera frame, unit (0 when no refinement)
     bool calibration_stale = false;
     bool calibration_refined = false;  // the map was made with the refined solution
+    bool calibration_checked = false;  // a refined solve ran (online adjustment): the figures above hold
     // Wall times after the last frame of the scan: the alignment views, the final accumulation,
     // and from the last frame to the finished map (radiance merged and filled) and to it saved;
     // adjust_profile: the adjustment's own breakdown (pair selection, alignment, solve).
@@ -192,6 +193,12 @@ struct CaptureSummary {
     std::optional<double> orientation_error_after_60s_max_deg;
     double drift_median_deg = 0, drift_residual_before = 0, drift_residual_after = 0;
 };
+
+// The scan's check of the camera-sensor calibration in one line, as the kiosk logs it and its
+// maintenance menu shows it: "n/a" when no refined solve ran; "ok: ..." within
+// kStaleMountingDeg; "stale: ..." with the figures and what to do (a new alignment calibration:
+// only that mends the live view).
+std::string calibration_check_text(const CaptureSummary& summary);
 
 std::filesystem::path coverage_path_for(const std::filesystem::path& env_out);
 

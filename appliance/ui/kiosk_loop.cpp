@@ -234,6 +234,10 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
     // The visitor's scene.
     std::unique_ptr<CaptureJob> capture_job;
     std::optional<capture::CaptureSummary> capture_summary;
+    // The last scan's check of the camera-sensor calibration, for the status page (it outlives
+    // the visit: a knocked camera stays knocked).
+    std::string alignment_text = "n/a";
+    bool alignment_stale = false;
     std::future<NewScene> scene_job;
     std::vector<std::future<NewScene>> abandoned_scenes;  // a timed-out visit's job, left to finish
     std::shared_ptr<const HdrImage> env;  // this visit's room (shared with the background jobs)
@@ -548,6 +552,12 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
             scene_requested = true;
             try {
                 capture_summary = capture_job->take();
+                if (capture_summary->calibration_checked) {
+                    alignment_text = capture::calibration_check_text(*capture_summary);
+                    alignment_stale = capture_summary->calibration_stale;
+                    log(std::string(alignment_stale ? "capture: warning: " : "capture: ") + "sensor-camera calibration " +
+                        alignment_text);
+                }
                 // The map read back, its preview and the coarse maps on a worker: the frames go on.
                 scene_job = std::async(std::launch::async, [maps_dir = o.maps_dir, replayed = source.replayed(), &log, &materials, threads] {
                     const WallClock::time_point t0 = WallClock::now();
@@ -646,6 +656,8 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
         model.devices.button_pressed = button_pressed;
         model.devices.key_switch_on = key_switch_on;
         model.devices.lamp = lamp;
+        model.devices.alignment_check = alignment_text;
+        model.devices.alignment_stale = alignment_stale;
         {
             const SourceHealth health = source.health();
             model.devices.sensor_health = devices.sensor_lost() ? "no orientation (" + health.sensor + ")" : health.sensor;
@@ -868,6 +880,11 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
         summary["capture"] = {{"frames_used", capture_summary->frames_used},
                               {"last_frame_to_map_s", capture_summary->last_frame_to_map_seconds},
                               {"last_frame_to_saved_s", capture_summary->last_frame_to_saved_seconds},
+                              {"calibration_turn_deg", capture_summary->calibration_checked
+                                                           ? json(capture_summary->calibration_turn_deg)
+                                                           : json()},
+                              {"calibration_stale", capture_summary->calibration_stale},
+                              {"calibration_refined", capture_summary->calibration_refined},
                               {"guided_complete_after_s", capture_summary->guided_complete_after_s
                                                               ? json(*capture_summary->guided_complete_after_s)
                                                               : json()}};

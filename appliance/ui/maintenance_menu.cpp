@@ -72,7 +72,9 @@ void status_row(const std::string& name, const std::string& value, ImU32 colour 
     ImGui::TextUnformatted(name.c_str());
     ImGui::TableSetColumnIndex(1);
     ImGui::PushStyleColor(ImGuiCol_Text, colour);
+    ImGui::PushTextWrapPos(0.0f);  // within the column: a stale calibration's advice is a sentence
     ImGui::TextUnformatted(value.c_str());
+    ImGui::PopTextWrapPos();
     ImGui::PopStyleColor();
 }
 
@@ -330,6 +332,8 @@ void MaintenanceMenu::draw_status(const MaintenanceStatus& st, const Strings& s)
     status_row(s.get("menu.status.uptime"), st.uptime);
     status_row(s.get("menu.status.state_store"), st.state_store,
                !st.state_store_ok ? kErrorColour : st.state_store_warn ? kWarnColour : kGoodColour);
+    status_row(s.get("menu.status.alignment"), st.alignment_check,
+               st.alignment_stale ? kWarnColour : st.alignment_check == "n/a" ? IM_COL32_WHITE : kGoodColour);
     ImGui::EndTable();
 }
 

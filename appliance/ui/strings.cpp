@@ -101,6 +101,7 @@ const std::vector<std::string>& ui_string_keys() {
             "menu.status.sensor", "menu.status.sensor_rate", "menu.status.camera_fps", "menu.status.exposure",
             "menu.status.gain", "menu.status.display", "menu.status.renderer", "menu.status.cpu_temp",
             "menu.status.free_disk", "menu.status.uptime", "menu.status.state", "menu.status.state_store",
+            "menu.status.alignment",
             "menu.calib.camera", "menu.calib.response", "menu.calib.vignetting", "menu.calib.alignment",
             "menu.calib.time_offset", "menu.calib.start", "menu.calib.cancel", "menu.calib.step", "menu.calib.result",
             "menu.calib.idle", "menu.calib.apply", "menu.calib.busy",

@@ -250,6 +250,28 @@ TEST_F(SessionTest, AStaleCalibrationIsFoundAndTheScanCorrectsIt) {
     EXPECT_GT(*kept.orientation_error_median_deg, 1.0);
     EXPECT_LT(*refined.orientation_error_median_deg, 0.4);
     EXPECT_LT(*refined.orientation_error_median_deg, *kept.orientation_error_median_deg / 3);
+    // What the kiosk logs and its maintenance menu shows: stale, with what to do, and which
+    // calibration the map was made with.
+    const std::string kept_text = calibration_check_text(kept), refined_text = calibration_check_text(refined);
+    EXPECT_EQ(refined_text.rfind("stale: ", 0), 0u) << refined_text;
+    EXPECT_NE(refined_text.find("Run the sensor-camera alignment calibration."), std::string::npos) << refined_text;
+    EXPECT_NE(refined_text.find("Its map used the scan's own values"), std::string::npos) << refined_text;
+    EXPECT_NE(kept_text.find("Its map was made with the calibration as it is."), std::string::npos) << kept_text;
+}
+
+// The check's line when it was within the limit, and when no refined solve ran (no drift
+// correction, or the rounds mode): nothing is claimed.
+TEST(CalibrationCheck, TextSaysOkWithinTheLimitAndNothingWhenNotChecked) {
+    CaptureSummary s;
+    EXPECT_EQ(calibration_check_text(s), "n/a");
+    s.calibration_turn_deg = 3.0;  // figures without a check are not shown
+    EXPECT_EQ(calibration_check_text(s), "n/a");
+    s.calibration_checked = true;
+    s.calibration_turn_deg = 0.18;
+    const std::string ok = calibration_check_text(s);
+    EXPECT_EQ(ok.rfind("ok: ", 0), 0u) << ok;
+    EXPECT_NE(ok.find("0.18"), std::string::npos) << ok;
+    EXPECT_EQ(ok.find("Run the"), std::string::npos) << ok;
 }
 
 TEST_F(SessionTest, RefusesToReplaceASessionWithoutForce) {

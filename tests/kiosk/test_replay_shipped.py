@@ -54,6 +54,13 @@ d = s["devices"]
 check(d["camera_losses"] == 0 and d["sensor_losses"] == 0 and d["frames_out_of_order"] == 0 and d["scan_paused_s"] == 0,
       f"a recorded session has no device faults: {d}")
 check(s["scan_end_to_lit_s"] is not None, f"the object was lit after the scan ({s['scan_end_to_lit_s']} s)")
+# The scan checks the camera-sensor calibration; the shipped session's is right (its mounting is
+# the simulator's truth), so it is measured and not called stale, and the log says so.
+cap = s.get("capture", {})
+turn = cap.get("calibration_turn_deg")
+check(turn is not None and turn < 0.4 and cap.get("calibration_stale") is False,
+      f"the calibration check ran and found it right: turn {turn} deg, stale {cap.get('calibration_stale')}")
+check("sensor-camera calibration ok: " in r.stderr, "the log has the calibration check's line")
 frames = os.listdir(os.path.join(out, "frames"))
 for state in ["ATTRACT", "CAPTURE", "PROCESSING", "AR"]:
     check(any(f"_{state}_" in name for name in frames), f"a PNG frame of {state}")

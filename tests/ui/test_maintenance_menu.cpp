@@ -23,6 +23,7 @@ namespace {
 const Rgb kWhite{255, 255, 255};
 const Rgb kError{255, 120, 90};
 const Rgb kGood{80, 210, 120};
+const Rgb kWarn{255, 200, 0};
 
 std::vector<InputEvent> press(std::initializer_list<const char*> keys) {
     std::vector<InputEvent> events;
@@ -155,6 +156,17 @@ TEST_F(MenuTest, StatusPageShowsTheValues) {
     status.sensor_health = "no samples for 2.1 s";
     const MenuRun bad = run(menu, status, {});
     EXPECT_GT(count(bad.image, kError, kWidth / 4, 0, kWidth, kHeight / 2, 2), 20);
+    // The last scan's check of the camera-sensor calibration: none before a scan, amber when the
+    // scan found it stale (its advice wrapped in the column).
+    status = sample_status();
+    status.display_degraded = false;  // the other amber row
+    EXPECT_EQ(count(run(menu, status, {}).image, kWarn, kWidth / 4, 0, kWidth, kHeight, 2), 0);
+    status.alignment_stale = true;
+    status.alignment_check = "stale: the last scan turned its frames 2.98\xC2\xB0 from the calibration (mounting 2.94\xC2\xB0, time "
+                             "offset +18.4 ms; limit 0.4\xC2\xB0). Its map used the scan's own values; the live view "
+                             "did not. Run the sensor-camera alignment calibration.";
+    const MenuRun stale = run(menu, status, {}, 2, "menu_status_alignment_stale");
+    EXPECT_GT(count(stale.image, kWarn, kWidth / 4, 0, kWidth, kHeight, 2), 200);
 }
 
 TEST_F(MenuTest, CalibrationButtonsAreReachedByTheKeyboard) {
