@@ -88,13 +88,14 @@ public:
                 events_.push_back({host_ns, "button", pressed ? "press" : "release"});
             });
         if (!record_dir.empty()) {
-            if (sensor_spec.kind != host::SourceKind::Serial)
-                throw InputError("--record: the sensor stream is recorded from a serial source only (sensor.source is " +
+            if (sensor_spec.kind == host::SourceKind::Replay)
+                throw InputError("--record: the sensor is a replay, a recording already (sensor.source is " +
                                  cfg.sensor.source + ")");
             recorder_ = std::make_unique<SessionRecorder>(record_dir, calibration_, sensor_spec, clock_);
             recorder_->attach(*sensor_);
         }
         sensor_->set_sample_callback([this](const host::OrientationSample& s) {
+            if (recorder_) recorder_->sample(s);  // I2C and Modbus sources: their samples are the record
             const std::lock_guard lock(mutex_);
             history_.push(s);
             samples_.push_back({s.t_ns, s.world_from_sensor});

@@ -17,6 +17,7 @@
 #include "firmware_bridge/host/replay_source.hpp"
 #include "firmware_bridge/host/serial_source.hpp"
 #include "firmware_bridge/host/source_spec.hpp"
+#include "firmware_bridge/host/sample_recording.hpp"
 #include "firmware_bridge/recording/recorder.hpp"
 
 namespace glint::app {
@@ -65,7 +66,10 @@ Command add_sensors_command(CLI::App& app) {
                     "serial:PATH[:BAUD] | i2c:/dev/i2c-N[:ADDR] | modbus-tcp:HOST:PORT | modbus-rtu:PATH[:BAUD] | "
                     "replay:FILE")
         ->required();
-    cmd->add_option("--record", a->record, "Record the raw stream and the decoded messages to FILE (serial sources)");
+    cmd->add_option("--record", a->record,
+                    "Record the sensor to FILE: a serial board's raw stream and decoded messages, or the samples an "
+                    "I2C or Modbus source publishes (they have no byte stream); glint sensors --source replay:FILE "
+                    "plays either");
     cmd->add_flag("--print-csv", a->csv,
                   "Print samples as CSV: a header row, then t_ns,w,x,y,z (sensor-to-world quaternion, conventions' frame); "
                   "without it, "
@@ -83,9 +87,9 @@ Command add_sensors_command(CLI::App& app) {
                 } catch (const host::SourceError& e) {
                     throw InputError(std::string("--source: ") + e.what());
                 }
-                if (!a->record.empty() && spec.kind != host::SourceKind::Serial)
-                    throw InputError("--record works with serial sources only (a replay is already a recording; the "
-                                     "I2C and Modbus drivers have no byte stream to record)");
+                const std::optional<recording::RecorderOptions> record_options = host::recording_options_for(spec);
+                if (!a->record.empty() && !record_options)
+                    throw InputError("--record: a replay is already a recording (" + a->source + ")");
                 host::SourceOptions options;
                 options.latency_offset_ns = std::int64_t(a->latency_ms * 1e6);
                 recording::SteadyClock clock;
@@ -96,14 +100,17 @@ Command add_sensors_command(CLI::App& app) {
                     throw InputError(e.what());
                 }
                 std::unique_ptr<recording::Recorder> recorder;
+                std::unique_ptr<host::SampleRecorder> sample_recorder;  // sources without a byte stream
                 if (!a->record.empty()) {
                     try {
-                        recorder = std::make_unique<recording::Recorder>(
-                            a->record, recording::serial_board_recording(spec.path, std::uint32_t(spec.baud)), clock);
+                        recorder = std::make_unique<recording::Recorder>(a->record, *record_options, clock);
                     } catch (const std::exception& e) {
                         throw InputError(std::string("--record: ") + e.what());
                     }
-                    static_cast<host::SerialSource&>(*source).set_recorder(recorder.get());
+                    if (spec.kind == host::SourceKind::Serial)
+                        static_cast<host::SerialSource&>(*source).set_recorder(recorder.get());
+                    else
+                        sample_recorder = std::make_unique<host::SampleRecorder>(*recorder, options.latency_offset_ns);
                 }
                 const bool replay = spec.kind == host::SourceKind::Replay;
                 std::mutex mutex;
@@ -117,6 +124,7 @@ Command add_sensors_command(CLI::App& app) {
                         done = true;
                         return;
                     }
+                    if (sample_recorder) sample_recorder->record(s);
                     pending.push_back(s);
                 });
                 const StopRequest stop;  // Ctrl-C ends the loop below; the recording is closed properly

@@ -1,8 +1,9 @@
 // `glint run --record DIR`: the live kiosk's inputs written as a session that `glint replay` reads
 // (docs/capture.md "Session directory", "Kiosk sessions"): session.json and calibration.json at
 // once, then as they come the camera frames (JPEG, quality 90: a 320x180 frame in ~15 kB) with
-// frames.csv, the sensor board's byte stream (sensors.glrec, serial sources: the recorder of
-// firmware_bridge/recording, synced every second) and the button events (events.csv). Lines are
+// frames.csv, the sensor (sensors.glrec, synced every second: a serial board's byte stream by the
+// recorder of firmware_bridge/recording; an I2C or Modbus source's published samples, which have
+// no byte stream, by host::SampleRecorder) and the button events (events.csv). Lines are
 // flushed as written; a power cut loses at most the last second, and the reader skips a torn
 // last record.
 #pragma once
@@ -16,6 +17,7 @@
 #include "appliance/capture/camera_frame.hpp"
 #include "appliance/capture/camera_model.hpp"
 #include "appliance/capture/kiosk_session.hpp"
+#include "firmware_bridge/host/sample_recording.hpp"
 #include "firmware_bridge/host/source_spec.hpp"
 #include "firmware_bridge/recording/recorder.hpp"
 
@@ -23,8 +25,9 @@ namespace glint::app {
 
 class SessionRecorder {
 public:
-    // DIR must not exist (a recording is never written over). The sensor stream is recorded for a
-    // serial source only (the others have no byte stream): then attach() before it starts.
+    // DIR must not exist (a recording is never written over). The sensor is recorded from any live
+    // source (a replay is not recorded again): attach() before it starts, and for a source
+    // without a byte stream pass each published sample to sample().
     SessionRecorder(const std::filesystem::path& dir, const capture::CameraCalibration& calibration,
                     const host::SourceSpec& sensor, recording::Clock& clock);
     ~SessionRecorder();
@@ -32,6 +35,9 @@ public:
     SessionRecorder& operator=(const SessionRecorder&) = delete;
 
     void attach(host::OrientationSource& source);  // the serial source's bytes into sensors.glrec
+    // A sample the attached source published (its sample callback): recorded when the source
+    // has no byte stream (I2C, Modbus), ignored otherwise (its bytes are recorded).
+    void sample(const host::OrientationSample& sample);
     void frame(const capture::CameraFrame& frame);
     void event(const capture::SessionEvent& event);
     // Closes every file; returns "" or what failed (the recording stays readable up to there).
@@ -41,6 +47,9 @@ public:
 private:
     std::filesystem::path dir_;
     std::unique_ptr<recording::Recorder> sensors_;
+    std::unique_ptr<host::SampleRecorder> samples_;  // sources without a byte stream
+    std::mutex samples_mutex_;
+    bool serial_ = false;
     std::FILE* frames_csv_ = nullptr;
     std::FILE* events_csv_ = nullptr;
     std::uint64_t frames_ = 0;

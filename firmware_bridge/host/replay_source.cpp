@@ -2,6 +2,8 @@
 
 #include <variant>
 
+#include "firmware_bridge/host/sample_recording.hpp"
+
 namespace glint::host {
 
 namespace detail {
@@ -53,6 +55,10 @@ std::vector<recording::ReadIssue> ReplaySource::file_issues() const {
 void ReplaySource::replay() {
     set_state(LinkState::Connecting);
     reader_->rewind();
+    // A file of a source without a byte stream (I2C, Modbus) holds its published samples as
+    // decoded messages: those are replayed as they are (sample_recording.hpp). A serial board's
+    // decoded messages repeat its raw bytes, which are decoded again instead.
+    const bool decoded_only = !recording::transport_has_byte_stream(reader_->header().transport);
     BoardStream stream([this](const OrientationSample& s) { publish(s); });
     stream.set_message_sink(message_sink_);
     bool aligned = false;
@@ -66,6 +72,14 @@ void ReplaySource::replay() {
                 aligned = true;
             }
             replay_clock.sleep_until_us(*t);  // pacing: recorded speed, or instant on the virtual clock
+        }
+        if (decoded_only) {
+            const auto* decoded = std::get_if<recording::DecodedMessageRecord>(&record->body);
+            if (decoded && decoded->message.type == protocol::MessageType::Orientation)
+                publish(sample_from_decoded(decoded->host_time_us, decoded->message.orientation));
+            else if (std::holds_alternative<recording::StreamRestartRecord>(record->body))
+                edit_health([](LinkHealth& h) { ++h.reconnects; });
+            continue;
         }
         if (const auto* raw = std::get_if<recording::RawBytesRecord>(&record->body)) {
             if (raw->direction != recording::Direction::Received) continue;

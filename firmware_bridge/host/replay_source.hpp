@@ -1,6 +1,8 @@
 // A recorded sensor file (firmware_bridge/recording) as an orientation source: the recorded raw
 // bytes go through the same decode path as the live serial driver (board_stream.hpp), so a
-// replay exercises the real parsing, clock mapping and health code byte for byte.
+// replay exercises the real parsing, clock mapping and health code byte for byte. A file of a
+// source without a byte stream (I2C, Modbus: FORMAT.md 3.2) holds the samples its driver
+// published, and those are published again (sample_recording.hpp).
 //
 // Time: samples keep the recorded appliance times (the clock of the session they came from), so
 // they line up with that session's camera frames. The replay is paced on its own clock, shifted

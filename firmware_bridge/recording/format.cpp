@@ -239,6 +239,10 @@ const char* transport_name(Transport transport) {
     return "unknown";
 }
 
+bool transport_has_byte_stream(Transport transport) {
+    return transport != Transport::I2c && transport != Transport::Modbus && transport != Transport::Gpio;
+}
+
 std::optional<Transport> transport_from_name(const std::string& name) {
     for (std::uint8_t v = 0; v <= static_cast<std::uint8_t>(Transport::Simulator); ++v) {
         const auto t = static_cast<Transport>(v);

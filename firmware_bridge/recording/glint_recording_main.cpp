@@ -147,10 +147,16 @@ int run_verify(const std::string& path, bool allow_torn_tail) {
     }
     for (const std::string& m : report.mismatches) std::printf("mismatch: %s\n", m.c_str());
     if (report.mismatches_not_shown) std::printf("... and %" PRIu64 " more mismatches\n", report.mismatches_not_shown);
-    std::printf("%s: %" PRIu64 " records, %zu issue(s); %" PRIu64 " decoded messages recorded, %" PRIu64
-                " replayed, %" PRIu64 " equal\n",
-                path.c_str(), report.playback.records, report.issues.size(), report.recorded_messages,
-                report.replayed_messages, report.matching_messages);
+    if (report.decoded_only)
+        std::printf("%s: %" PRIu64 " records, %zu issue(s); %" PRIu64
+                    " decoded messages recorded (%s: no byte stream, nothing to replay them against)\n",
+                    path.c_str(), report.playback.records, report.issues.size(), report.recorded_messages,
+                    transport_name(reader.header().transport));
+    else
+        std::printf("%s: %" PRIu64 " records, %zu issue(s); %" PRIu64 " decoded messages recorded, %" PRIu64
+                    " replayed, %" PRIu64 " equal\n",
+                    path.c_str(), report.playback.records, report.issues.size(), report.recorded_messages,
+                    report.replayed_messages, report.matching_messages);
     const bool ok = fatal_issues == 0 && report.replay_matches();
     std::printf("%s\n", ok ? "OK" : "FAILED");
     return ok ? 0 : 1;

@@ -54,6 +54,17 @@ inline RecorderOptions serial_board_recording(const std::string& device, std::ui
     return o;
 }
 
+// The options of a source without a byte stream (an I2C BNO055, a Modbus pan/tilt head): its
+// transport and device in the header, and each published sample kept as a decoded Orientation
+// message (host::record_sample), which is what a replay of such a file publishes.
+inline RecorderOptions decoded_sample_recording(Transport transport, const std::string& device) {
+    RecorderOptions o;
+    o.header.transport = transport;
+    o.header.device = device;
+    o.header.decoded_types = {static_cast<std::uint8_t>(protocol::MessageType::Orientation)};
+    return o;
+}
+
 class Recorder {
 public:
     // Creates `path` and writes and syncs the header. Throws RecordingError naming the path.

@@ -12,7 +12,10 @@ namespace {
 class VerifySink final : public PlaybackSink {
 public:
     VerifySink(const FileHeader& header, VerifyReport& report, std::size_t max_mismatches)
-        : types_(header.decoded_types), report_(report), max_(max_mismatches) {}
+        : types_(header.decoded_types), report_(report), max_(max_mismatches),
+          decoded_only_(!transport_has_byte_stream(header.transport)) {
+        report_.decoded_only = decoded_only_;
+    }
 
     void on_frame(std::uint64_t host_time_us, const protocol::FrameEvent& event) override {
         if (event.status != protocol::FrameStatus::Ok) return;
@@ -25,6 +28,7 @@ public:
     void on_record(const Record& record) override {
         if (const auto* m = std::get_if<DecodedMessageRecord>(&record.body)) {
             ++report_.recorded_messages;
+            if (decoded_only_) return;  // nothing to pair them with
             recorded_.push_back(*m);
             pair_up();
         }
@@ -33,6 +37,7 @@ public:
 
     // After the replay: what is left on one side has no partner on the other.
     void finish() {
+        if (decoded_only_) return;
         if (report_.recorded_messages != report_.replayed_messages)
             add_mismatch(std::to_string(report_.recorded_messages) + " messages recorded, " +
                          std::to_string(report_.replayed_messages) + " replayed");
@@ -65,6 +70,7 @@ private:
     std::deque<DecodedMessageRecord> recorded_;
     std::deque<DecodedMessageRecord> replayed_;
     std::uint64_t index_ = 0;
+    bool decoded_only_ = false;
 };
 
 }  // namespace

@@ -21,8 +21,12 @@ struct VerifyReport {
     std::vector<std::string> mismatches;    // the first few differences, one line each
     std::uint64_t mismatches_not_shown = 0; // differences beyond max_mismatches
     PlaybackResult playback;
+    // A transport without a byte stream (I2C, Modbus): its decoded records are all there is, so
+    // there is nothing to replay them against (transport_has_byte_stream).
+    bool decoded_only = false;
 
     bool replay_matches() const {
+        if (decoded_only) return mismatches.empty() && mismatches_not_shown == 0;
         return mismatches.empty() && mismatches_not_shown == 0 && recorded_messages == replayed_messages &&
                matching_messages == recorded_messages;
     }
