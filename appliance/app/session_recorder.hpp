@@ -34,7 +34,9 @@ public:
     SessionRecorder(const SessionRecorder&) = delete;
     SessionRecorder& operator=(const SessionRecorder&) = delete;
 
-    void attach(host::OrientationSource& source);  // the serial source's bytes into sensors.glrec
+    // The source whose sensor is recorded: a serial board's bytes go into sensors.glrec from its
+    // reader; for the others it sets up the recording of what sample() is given.
+    void attach(host::OrientationSource& source);
     // A sample the attached source published (its sample callback): recorded when the source
     // has no byte stream (I2C, Modbus), ignored otherwise (its bytes are recorded).
     void sample(const host::OrientationSample& sample);

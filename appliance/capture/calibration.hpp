@@ -96,9 +96,8 @@ struct AlignmentResult {
 // stream. Throws InputError when fewer than 10 pairs could be measured. A single-axis scan gives
 // the offset but leaves the mounting about the scan axis loose: see mounting_sd_deg.
 AlignmentResult calibrate_alignment(const Session& capture, double max_offset_s = 0.05);
-// The same from orientations at hand (the maintenance menu's wizard keeps them as they arrive;
-// a session's sensors.glrec holds only a serial link's bytes). Time order; `capture`'s sensor
-// recording is not read.
+// The same from orientations at hand (the maintenance menu's wizard keeps them as they arrive:
+// its sessions have no sensors.glrec). Time order; `capture`'s sensor recording is not read.
 AlignmentResult calibrate_alignment(const Session& capture, const std::vector<SensorOrientation>& orientations,
                                     double max_offset_s = 0.05);
 

@@ -84,8 +84,8 @@ std::map<std::uint64_t, glm::dquat> truth_orientations(const Session& s) {
     return out;
 }
 
-// world_from_sensor over the whole session, from its recorded sensor stream replayed through the
-// same decode path and clock mapping as the live serial driver.
+// world_from_sensor over the whole session, from its recorded sensor stream replayed as the live
+// driver published it (host::ReplaySource).
 struct SensorTrack {
     std::unique_ptr<host::OrientationHistory> history;
     std::int64_t last_ns = 0;  // the last sample's time (appliance clock)
@@ -525,7 +525,12 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
         summary.calibration_mounting_deg = angle * 180.0 / kPi;
         summary.calibration_mounting_axis = angle > 0 ? r.mounting_rad / angle : glm::dvec3(0);
         summary.calibration_time_offset_ms = r.time_offset_s * 1e3;
-        summary.calibration_turn_deg = r.calibration_turn_deg;
+        // The largest turn of the refined solves: the one that decided staleness (an adopted
+        // solve turns the frames about as far, and a smaller figure beside "stale" would read as
+        // a contradiction).
+        summary.calibration_turn_deg = summary.calibration_checked
+                                           ? std::max(summary.calibration_turn_deg, r.calibration_turn_deg)
+                                           : r.calibration_turn_deg;
         summary.calibration_checked = true;
         // Stale once any refined solve turned the frames past the limit.
         summary.calibration_stale = summary.calibration_stale || r.calibration_turn_deg > kStaleMountingDeg;

@@ -150,8 +150,8 @@ struct CaptureSummary {
     double adjust_pair_rms_deg = 0, adjust_sensor_rms_deg = 0, adjust_drift_deg_per_min = 0, adjust_seconds = 0;
     // The camera-sensor calibration as the adjustment refined it against calibration.json
     // (AdjustmentSettings::refine_calibration): the mounting's rotation (degrees), the time
-    // offset's change (ms) and the RMS turn of the frames they make (degrees);
-    // calibration_stale: that turn beyond kStaleMountingDeg.
+    // offset's change (ms) and the RMS turn of the frames they make (degrees; the largest of the
+    // refined solves); calibration_stale: that turn beyond kStaleMountingDeg.
     double calibration_mounting_deg = 0, calibration_time_offset_ms = 0, calibration_turn_deg = 0;
     glm::dvec3 calibration_mounting_axis{0};  // camera frame, unit (0 when no refinement)
     bool calibration_stale = false;
@@ -202,8 +202,9 @@ std::string calibration_check_text(const CaptureSummary& summary);
 
 std::filesystem::path coverage_path_for(const std::filesystem::path& env_out);
 
-// The orientation stream of a session's sensor recording, decoded as the serial driver would
-// decode it live (appliance clock): for the kiosk's replay, which feeds it to the tracker's
+// The orientation stream of a session's sensor recording, as the live driver published it
+// (appliance clock; a serial board's bytes decoded again, an I2C or Modbus source's samples as
+// recorded): for the kiosk's replay, which feeds it to the tracker's
 // dropout bridge and the AR view. Throws InputError naming the file.
 struct SensorOrientation {
     std::int64_t t_ns = 0;

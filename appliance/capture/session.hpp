@@ -6,7 +6,8 @@
 //   SESSION/calibration.json the camera calibration the appliance has on file (calibration_io.hpp)
 //   SESSION/frames.csv       index,t_ns,exposure_s,analogue_gain,digital_gain,file
 //   SESSION/frames/*         8-bit RGB frames: PNG (lossless), or JPEG (kiosk sessions, recordings)
-//   SESSION/sensors.glrec    the sensor board's byte stream (firmware_bridge/recording/FORMAT.md)
+//   SESSION/sensors.glrec    the sensor's recording (firmware_bridge/recording/FORMAT.md): a serial
+//                            board's byte stream, or an I2C / Modbus source's published samples
 //   SESSION/truth/           simulated sessions only: env.exr, camera.csv (index,t_ns,w,x,y,z:
 //                            true world_from_camera per frame), calibration.json (the true one)
 #pragma once

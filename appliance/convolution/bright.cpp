@@ -29,12 +29,15 @@ int column_modulo(long long i, int m) {
 
 // The columns [first, first + count) (unwrapped, one column of margin each side) of a row of
 // `ow` columns where cos(phi - phi_c) >= q, around azimuth phi_c; q <= -1: the whole row.
-// The cone's half width in output columns for q > -1 (cone_columns_of_half).
-double cone_half_columns(double q, int ow) { return std::acos(q) / kTwoPi * ow; }
+// The cone's half width as a fraction of the row, for q > -1 (cone_columns_of_half).
+double cone_half_turns(double q) { return std::acos(q) / kTwoPi; }
 
-// cone_columns with the half width already known (q > -1).
-void cone_columns_of_half(double phi_c, double half, int ow, int& first, int& count) {
+// cone_columns with the half width already known (q > -1), as a fraction of the row: times ow
+// here, in the same expressions as before it was cached, so that a compiler contracting them
+// into fused multiply-adds does so as it did.
+void cone_columns_of_half(double phi_c, double half_turns, int ow, int& first, int& count) {
     const double centre = (phi_c + kPi) / kTwoPi * ow - 0.5;  // output column units
+    const double half = half_turns * ow;
     first = int(std::floor(centre - half)) - 1;  // one column of margin: weights decide
     count = std::min(ow, int(std::ceil(centre + half)) + 1 - first + 1);
 }
@@ -45,7 +48,7 @@ void cone_columns(double phi_c, double q, int ow, int& first, int& count) {
         count = ow;
         return;
     }
-    cone_columns_of_half(phi_c, cone_half_columns(q, ow), ow, first, count);
+    cone_columns_of_half(phi_c, cone_half_turns(q), ow, first, count);
 }
 
 }  // namespace
@@ -734,7 +737,7 @@ void BrightScatter::add_row(int row, const double* cmax_row, int classes, double
         }
         if (q != last_q) {
             last_q = q;
-            last_half = cone_half_columns(q, ow);
+            last_half = cone_half_turns(q);
         }
         cone_columns_of_half(bright_[k].phi, last_half, ow, first, count);
         return true;

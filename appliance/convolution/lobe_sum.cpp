@@ -148,6 +148,9 @@ namespace {
 // ends with a failing test, which used to read the whole row.
 bool row_smooth_enough(const PreparedLevel& level, int j, int m, double mean, double arc_scale,
                        double max_arc_roughness) {
+    // A row of no group with a base reads as roughness 0 (the old max() from 0): a limit below
+    // that (negative, NaN) merges nothing.
+    if (!(arc_scale * 0.0 <= max_arc_roughness)) return false;
     for (int c = 0; c < 3; ++c) {
         const float* row = level.plane(j, c);
         for (int g = 0; g < level.width(); g += m) {

@@ -883,8 +883,12 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
                               {"calibration_turn_deg", capture_summary->calibration_checked
                                                            ? json(capture_summary->calibration_turn_deg)
                                                            : json()},
-                              {"calibration_stale", capture_summary->calibration_stale},
-                              {"calibration_refined", capture_summary->calibration_refined},
+                              {"calibration_stale", capture_summary->calibration_checked
+                                                        ? json(capture_summary->calibration_stale)
+                                                        : json()},
+                              {"calibration_refined", capture_summary->calibration_checked
+                                                          ? json(capture_summary->calibration_refined)
+                                                          : json()},
                               {"guided_complete_after_s", capture_summary->guided_complete_after_s
                                                               ? json(*capture_summary->guided_complete_after_s)
                                                               : json()}};

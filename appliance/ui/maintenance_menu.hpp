@@ -93,8 +93,8 @@ struct MaintenanceStatus {
     std::string state_store = "ok";  // the state directory: "ok", the last failed save, faulty files set aside
     bool state_store_ok = true;      // false: the last save failed (shown in red)
     bool state_store_warn = false;   // faulty files were set aside (shown in amber)
-    // The last scan's check of the camera-sensor calibration (system_status.hpp's
-    // alignment_check_text); stale: shown in amber.
+    // The last scan's check of the camera-sensor calibration (capture::calibration_check_text
+    // in capture_pipeline.hpp); stale: shown in amber.
     std::string alignment_check = "n/a";
     bool alignment_stale = false;
     // Calibrations: the wizard running (if any), its step and the last result.

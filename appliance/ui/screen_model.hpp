@@ -66,7 +66,8 @@ struct DeviceView {
     bool button_pressed = false; // the visitor's button, as its last event left it
     bool key_switch_on = false;  // the technician's key switch (GPIO)
     LampMode lamp = LampMode::Off;
-    // The last scan's check of the camera-sensor calibration (system_status.hpp), "n/a" before.
+    // The last scan's check of the camera-sensor calibration (capture::calibration_check_text),
+    // "n/a" before.
     std::string alignment_check = "n/a";
     bool alignment_stale = false;
 };

@@ -75,6 +75,7 @@ void ReplaySource::replay() {
         }
         if (decoded_only) {
             const auto* decoded = std::get_if<recording::DecodedMessageRecord>(&record->body);
+            if (decoded && message_sink_) message_sink_(std::int64_t(decoded->host_time_us) * 1000, decoded->message);
             if (decoded && decoded->message.type == protocol::MessageType::Orientation)
                 publish(sample_from_decoded(decoded->host_time_us, decoded->message.orientation));
             else if (std::holds_alternative<recording::StreamRestartRecord>(record->body))

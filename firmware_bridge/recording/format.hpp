@@ -64,7 +64,8 @@ const char* transport_name(Transport transport);
 // Whether a recording of this transport carries the sensor's byte stream (raw-bytes records a
 // replay decodes again): serial and simulated boards, and files that do not say. An I2C BNO055
 // or a Modbus head has registers, not frames: its recordings hold each published sample as a
-// decoded Orientation message alone (FORMAT.md 3.2, "Sources without a byte stream").
+// decoded Orientation message alone (FORMAT.md 3.2, "Sources without a byte stream"). GPIO
+// recordings have no byte stream either.
 bool transport_has_byte_stream(Transport transport);
 // Inverse of transport_name; nullopt for an unknown name.
 std::optional<Transport> transport_from_name(const std::string& name);

@@ -2,7 +2,8 @@
 //   glint-recording info FILE       header, record counts, time span, damage
 //   glint-recording dump FILE       one line per record
 //   glint-recording play FILE       decoded frames with receive times (--fast or --realtime)
-//   glint-recording verify FILE     CRCs, and replay == decoded records; exit 1 on a mismatch
+//   glint-recording verify FILE     CRCs, and replay == decoded records (a file without a byte
+//                                   stream: nothing to replay against); exit 1 on a mismatch
 //   glint-recording generate FILE   the deterministic synthetic session (data/sessions/)
 // Exit codes: 0 success, 1 verification failed or an I/O failure, 2 unusable input.
 #include <CLI/CLI.hpp>
