@@ -83,3 +83,27 @@ class Process:
 
     def stderr(self):
         return "".join(self.lines)
+
+
+COURTYARD_CAMERA = "simulator:/usr/share/blender/datafiles/studiolights/world/courtyard.exr"
+
+
+def write_kiosk_config(path, calibration, sensor, state_dir, camera=COURTYARD_CAMERA, extra=""):
+    """A glint.toml for `glint run` in a test: headless 320x180, the camera simulator (the courtyard
+    by default), the calibration file, the sensor source spec, no GPIO chip, the state directory,
+    and `extra` TOML appended."""
+    with open(path, "w") as f:
+        f.write(f"""[display]
+kind = "headless"
+width = 320
+height = 180
+[camera]
+source = "{camera}"
+calibration = "{calibration}"
+[sensor]
+source = "{sensor}"
+[gpio]
+chip = ""
+[state]
+dir = "{state_dir}"
+{extra}""")

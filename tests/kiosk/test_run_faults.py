@@ -26,7 +26,7 @@ import subprocess
 import sys
 import time
 
-from glint_test_util import Checks, Process, scaled
+from glint_test_util import Checks, Process, scaled, write_kiosk_config
 
 glint, sensor_sim, calibration, work = sys.argv[1:5]
 shutil.rmtree(work, ignore_errors=True)
@@ -49,21 +49,7 @@ def start_board(press):
 
 
 def write_config(path):
-    with open(path, "w") as f:
-        f.write(f"""[display]
-kind = "headless"
-width = 320
-height = 180
-[camera]
-source = "simulator:/usr/share/blender/datafiles/studiolights/world/courtyard.exr"
-calibration = "{calibration}"
-[sensor]
-source = "serial:{link}"
-[gpio]
-chip = ""
-[state]
-dir = "{work}/state"
-""")
+    write_kiosk_config(path, calibration, f"serial:{link}", f"{work}/state")
 
 
 config = os.path.join(work, "glint.toml")

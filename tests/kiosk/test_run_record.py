@@ -15,7 +15,7 @@ import subprocess
 import sys
 import time
 
-from glint_test_util import Process, scaled
+from glint_test_util import Process, scaled, write_kiosk_config
 
 glint, sensor_sim, calibration, work = sys.argv[1:5]
 shutil.rmtree(work, ignore_errors=True)
@@ -38,21 +38,7 @@ for _ in range(100):
         break
     time.sleep(0.05)
 config = os.path.join(work, "glint.toml")
-with open(config, "w") as f:
-    f.write(f"""[display]
-kind = "headless"
-width = 320
-height = 180
-[camera]
-source = "simulator:/usr/share/blender/datafiles/studiolights/world/courtyard.exr"
-calibration = "{calibration}"
-[sensor]
-source = "serial:{link}"
-[gpio]
-chip = ""
-[state]
-dir = "{work}/state"
-""")
+write_kiosk_config(config, calibration, f"serial:{link}", f"{work}/state")
 record = os.path.join(work, "recorded")
 try:
     run = Process([glint, "run", "--config", config, "--record", record])

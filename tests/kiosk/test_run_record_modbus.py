@@ -11,7 +11,7 @@ import shutil
 import subprocess
 import sys
 
-from glint_test_util import Checks, scaled
+from glint_test_util import Checks, scaled, write_kiosk_config
 
 glint, head_sim, recording_tool, calibration, work = sys.argv[1:6]
 shutil.rmtree(work, ignore_errors=True)
@@ -23,21 +23,7 @@ try:
     port = head.stdout.readline().strip()
     check(port.isdigit(), f"the head simulator serves on a port ({port!r})")
     config = os.path.join(work, "glint.toml")
-    with open(config, "w") as f:
-        f.write(f"""[display]
-kind = "headless"
-width = 320
-height = 180
-[camera]
-source = "simulator:/usr/share/blender/datafiles/studiolights/world/courtyard.exr"
-calibration = "{calibration}"
-[sensor]
-source = "modbus-tcp:127.0.0.1:{port}"
-[gpio]
-chip = ""
-[state]
-dir = "{work}/state"
-""")
+    write_kiosk_config(config, calibration, f"modbus-tcp:127.0.0.1:{port}", f"{work}/state")
     record = os.path.join(work, "recorded")
     r = subprocess.run([glint, "run", "--config", config, "--record", record, "--max-seconds", str(scaled(4))],
                        capture_output=True, text=True, timeout=scaled(120))
