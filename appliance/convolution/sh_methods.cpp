@@ -151,31 +151,63 @@ ShCoefficients with_bright_texels(const ShCoefficients& remainder, const std::ve
         std::vector<double> p(std::size_t(order) * std::size_t(order + 1) / 2);
         // Per m and channel: sum over the row's texels of E cos(m phi) and E sin(m phi).
         std::vector<double> cos_sums(m_values), sin_sums(m_values);
+        // The texels kLanes at a time, each lane's cos(m phi), sin(m phi) by its own rotation and
+        // its own sums, added up per m after the row: one texel's recurrence alone waited on its
+        // previous step (a complex multiply) at every m.
+        constexpr std::size_t kLanes = 8;
+        std::vector<double> lane_sums(2 * m_values * kLanes);  // [(m * 3 + channel) * 2 + cos/sin][lane]
         const std::size_t end = std::min(rows.size(), (std::size_t(k) + 1) * kChunk);
         for (std::size_t q = std::size_t(k) * kChunk; q < end; ++q) {
             const BrightRow& row = rows[q];
-            std::fill(cos_sums.begin(), cos_sums.end(), 0.0);
-            std::fill(sin_sums.begin(), sin_sums.end(), 0.0);
-            for (const std::size_t t : row.members) {
-                const BrightTexel& b = bright[t];
-                // phi = atan2(x, -z), as sh_basis: cos(phi) = -z / sin(theta), sin(phi) = x / sin(theta).
-                const double h = std::hypot(b.x, b.z);
-                const double cp = h > 0.0 ? -b.z / h : 1.0, sp = h > 0.0 ? b.x / h : 0.0;
-                double cm = 1.0, sm = 0.0;
+            std::fill(lane_sums.begin(), lane_sums.end(), 0.0);
+            for (std::size_t first = 0; first < row.members.size(); first += kLanes) {
+                // Lanes past the row's texels hold a texel of no light.
+                double r[kLanes] = {}, g[kLanes] = {}, bl[kLanes] = {}, cp[kLanes], sp[kLanes];
+                for (std::size_t lane = 0; lane < kLanes; ++lane) {
+                    cp[lane] = 1.0;
+                    sp[lane] = 0.0;
+                    if (first + lane >= row.members.size()) continue;
+                    const BrightTexel& b = bright[row.members[first + lane]];
+                    // phi = atan2(x, -z), as sh_basis: cos(phi) = -z / sin(theta), sin(phi) = x / sin(theta).
+                    const double h = std::hypot(b.x, b.z);
+                    cp[lane] = h > 0.0 ? -b.z / h : 1.0;
+                    sp[lane] = h > 0.0 ? b.x / h : 0.0;
+                    r[lane] = b.r;
+                    g[lane] = b.g;
+                    bl[lane] = b.b;
+                }
+                double cm[kLanes], sm[kLanes];
+                for (std::size_t lane = 0; lane < kLanes; ++lane) {
+                    cm[lane] = 1.0;
+                    sm[lane] = 0.0;
+                }
                 for (int m = 0; m < order; ++m) {
-                    double* cs = cos_sums.data() + 3 * std::size_t(m);
-                    double* ss = sin_sums.data() + 3 * std::size_t(m);
-                    cs[0] += b.r * cm;
-                    cs[1] += b.g * cm;
-                    cs[2] += b.b * cm;
-                    ss[0] += b.r * sm;
-                    ss[1] += b.g * sm;
-                    ss[2] += b.b * sm;
-                    const double c_next = cm * cp - sm * sp;
-                    sm = sm * cp + cm * sp;
-                    cm = c_next;
+                    double* o = lane_sums.data() + std::size_t(m) * 6 * kLanes;
+#pragma omp simd
+                    for (std::size_t lane = 0; lane < kLanes; ++lane) {
+                        o[0 * kLanes + lane] += r[lane] * cm[lane];
+                        o[1 * kLanes + lane] += r[lane] * sm[lane];
+                        o[2 * kLanes + lane] += g[lane] * cm[lane];
+                        o[3 * kLanes + lane] += g[lane] * sm[lane];
+                        o[4 * kLanes + lane] += bl[lane] * cm[lane];
+                        o[5 * kLanes + lane] += bl[lane] * sm[lane];
+                        const double c_next = cm[lane] * cp[lane] - sm[lane] * sp[lane];
+                        sm[lane] = sm[lane] * cp[lane] + cm[lane] * sp[lane];
+                        cm[lane] = c_next;
+                    }
                 }
             }
+            for (std::size_t m = 0; m < std::size_t(order); ++m)
+                for (std::size_t ch = 0; ch < 3; ++ch) {
+                    const double* o = lane_sums.data() + (m * 6 + 2 * ch) * kLanes;
+                    double cos_sum = 0, sin_sum = 0;
+                    for (std::size_t lane = 0; lane < kLanes; ++lane) {
+                        cos_sum += o[lane];
+                        sin_sum += o[kLanes + lane];
+                    }
+                    cos_sums[3 * m + ch] = cos_sum;
+                    sin_sums[3 * m + ch] = sin_sum;
+                }
             legendre.evaluate(row.x, row.s, p.data());
             for (int m = 0; m < order; ++m) {
                 const double* cs = cos_sums.data() + 3 * std::size_t(m);
