@@ -834,7 +834,7 @@ void BrightScatter::add_linear_row(int row, double ct, double st, const double* 
     thread_local std::vector<std::pair<int, int>> linear;  // physical runs, ascending
     thread_local std::vector<std::pair<int, int>> pieces;
     // n = 1: each cluster's linear part over its columns, gathered over the clusters and added
-    // after them (add_linear_sums): per column the clusters' (u, v, w) sums make one dot product,
+    // after them (below): per column the clusters' (u, v, w) sums make one dot product,
     // instead of one per cluster with three divisions by cmax each (half of add_linear_row's
     // time on studio's irradiance map).
     struct LinearRun {
@@ -990,8 +990,9 @@ void BrightScatter::add_linear_row(int row, double ct, double st, const double* 
         }
     }
     if (linear_runs.empty()) return;
-    // The row cut where any run starts or ends; in each segment the clusters whose runs cover it
-    // summed once (in the clusters' order), then one dot product per column.
+    // The row cut where any run starts or ends; in each segment the runs that cover it (kept as
+    // a list while sweeping the cuts, so that the many short runs of asked columns cost no more
+    // than their count) summed once, then one dot product per column.
     thread_local std::vector<int> cuts;
     cuts.clear();
     for (const LinearRun& r : linear_runs) {
@@ -1000,20 +1001,23 @@ void BrightScatter::add_linear_row(int row, double ct, double st, const double* 
     }
     std::sort(cuts.begin(), cuts.end());
     cuts.erase(std::unique(cuts.begin(), cuts.end()), cuts.end());
+    std::stable_sort(linear_runs.begin(), linear_runs.end(),
+                     [](const LinearRun& x, const LinearRun& y) { return x.lo < y.lo; });
+    thread_local std::vector<const LinearRun*> active;
+    active.clear();
+    std::size_t next_run = 0;
     for (std::size_t k = 0; k + 1 < cuts.size(); ++k) {
         const int a = cuts[k], b = cuts[k + 1];
+        std::erase_if(active, [a](const LinearRun* r) { return r->hi <= a; });
+        while (next_run < linear_runs.size() && linear_runs[next_run].lo <= a) active.push_back(&linear_runs[next_run++]);
+        if (active.empty()) continue;
         double su[3] = {0, 0, 0}, sv[3] = {0, 0, 0}, sw[3] = {0, 0, 0};
-        bool any = false;
-        for (const LinearRun& r : linear_runs) {
-            if (r.lo > a || r.hi < b) continue;
-            any = true;
+        for (const LinearRun* r : active)
             for (int ch = 0; ch < 3; ++ch) {
-                su[ch] += r.cluster->u[ch];
-                sv[ch] += r.cluster->v[ch];
-                sw[ch] += r.cluster->w[ch];
+                su[ch] += r->cluster->u[ch];
+                sv[ch] += r->cluster->v[ch];
+                sw[ch] += r->cluster->w[ch];
             }
-        }
-        if (!any) continue;
         for (int i = a; i < b; ++i) {
             const double inv_cm = 1.0 / cmax_row[classes == 1 ? 0 : i % classes];
             const double u = st * cos_phi_[std::size_t(i)] * inv_cm, v = st * sin_phi_[std::size_t(i)] * inv_cm,

@@ -234,13 +234,13 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
             for (std::size_t k = 0; k < count; ++k) v[k] = num[k] * inv + b[k] * inv_full;
         }
     };
-    thread_local std::vector<double> run_buffer;  // a run's values (3 per column)
 
     // Smallest positive value over the given output rows (parallel by row).
     const auto smallest_value = [&](const std::vector<int>& over, const UninitVector<double>& nb_now) {
         std::vector<double> row_floor(over.size(), INFINITY);
         parallel_for(int(over.size()), threads, [&](int k) {
             double f = INFINITY;
+            std::vector<double> run_buffer;  // a run's values, 3 per column
             for (const auto& [first, last] : columns_of(std::size_t(k))) {
                 run_buffer.resize(3 * std::size_t(last - first));
                 run_values(over[std::size_t(k)], first, last, nb_now, run_buffer.data());
@@ -291,31 +291,33 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
         const double target = 0.999 * settings.cutoff_energy;
         const double share = 0.9 * settings.texel_tolerance;
         for (const auto& [first, last] : columns_of(std::size_t(k))) {
-        // Every texel of this row is read before any of its flags is set below: as values().
-        run_buffer.resize(3 * std::size_t(last - first));
-        run_values(row, first, last, nb, run_buffer.data());
-        for (int i = first; i < last; ++i) {
-            const double* v = run_buffer.data() + 3 * std::size_t(i - first);
-            // The cut-off fraction this texel allows if the remainder outside the
-            // cone is at most lmax: share * E / max(lmax - E, E), least over channels.
-            const auto need_for = [&](double lmax) {
-                double need = settings.cutoff_energy;
-                for (int c = 0; c < 3; ++c) {
-                    const double e = v[c];
-                    const double spread = std::max(lmax - e, e);
-                    if (spread > 0 && share * e < need * spread) need = share * e / spread;
+            std::vector<double> run_buffer;  // the run's values, 3 per column
+            // Every texel of this run is read before its own flag is set below, and values() reads
+            // no other texel's flag: the same values as texel by texel.
+            run_buffer.resize(3 * std::size_t(last - first));
+            run_values(row, first, last, nb, run_buffer.data());
+            for (int i = first; i < last; ++i) {
+                const double* v = run_buffer.data() + 3 * std::size_t(i - first);
+                // The cut-off fraction this texel allows if the remainder outside the
+                // cone is at most lmax: share * E / max(lmax - E, E), least over channels.
+                const auto need_for = [&](double lmax) {
+                    double need = settings.cutoff_energy;
+                    for (int c = 0; c < 3; ++c) {
+                        const double e = v[c];
+                        const double spread = std::max(lmax - e, e);
+                        if (spread > 0 && share * e < need * spread) need = share * e / spread;
+                    }
+                    return need;
+                };
+                // The global maximum and the band's maximum are cheap first tests; the
+                // cap maximum a tighter one.
+                if (need_for(global_max) >= target || need_for(band_max) >= target) continue;
+                const double need = need_for(cap_max.query(band, column_phi(i, out.width)));
+                if (need < target) {
+                    widened[sums.texel(row, i)] = 1;
+                    need_row = std::min(need_row, need);
                 }
-                return need;
-            };
-            // The global maximum and the band's maximum are cheap first tests; the
-            // cap maximum a tighter one.
-            if (need_for(global_max) >= target || need_for(band_max) >= target) continue;
-            const double need = need_for(cap_max.query(band, column_phi(i, out.width)));
-            if (need < target) {
-                widened[sums.texel(row, i)] = 1;
-                need_row = std::min(need_row, need);
             }
-        }
         }
         row_need[std::size_t(row)] = need_row;
     });
@@ -373,6 +375,7 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
     parallel_for(int(rows.size()), threads, [&](int k) {
         const int row = rows[std::size_t(k)];
         float* o = into ? nullptr : result.row(row);
+        std::vector<double> run_buffer;  // a run's values, 3 per column
         for (const auto& [first, last] : columns_of(std::size_t(k))) {
             run_buffer.resize(3 * std::size_t(last - first));
             run_values(row, first, last, nb, run_buffer.data());
