@@ -142,7 +142,7 @@ Command add_capture_command(CLI::App& app) {
                                                        : (std::to_string(a->o.adjustment_rounds) + " rounds after the scan").c_str(),
                                 r.adjust_pairs, r.adjust_pairs_tried, r.adjust_pair_rms_deg, r.adjust_sensor_rms_deg,
                                 r.adjust_drift_deg_per_min, r.adjust_seconds);
-                if (a->o.drift_correction && a->o.global_adjustment && a->o.online_adjustment) {
+                if (r.calibration_checked) {
                     const glm::dvec3& axis = r.calibration_mounting_axis;
                     const std::string calibration = (std::filesystem::path(a->session) / "calibration.json").string();
                     std::printf("camera-sensor calibration against the scan: mounting %.3f degrees about (%.2f, %.2f, "

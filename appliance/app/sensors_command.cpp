@@ -15,10 +15,8 @@
 #include "appliance/app/interrupt.hpp"
 #include "appliance/core/errors.hpp"
 #include "firmware_bridge/host/replay_source.hpp"
-#include "firmware_bridge/host/serial_source.hpp"
 #include "firmware_bridge/host/source_spec.hpp"
 #include "firmware_bridge/host/sample_recording.hpp"
-#include "firmware_bridge/recording/recorder.hpp"
 
 namespace glint::app {
 namespace {
@@ -87,9 +85,6 @@ Command add_sensors_command(CLI::App& app) {
                 } catch (const host::SourceError& e) {
                     throw InputError(std::string("--source: ") + e.what());
                 }
-                const std::optional<recording::RecorderOptions> record_options = host::recording_options_for(spec);
-                if (!a->record.empty() && !record_options)
-                    throw InputError("--record: a replay is already a recording (" + a->source + ")");
                 host::SourceOptions options;
                 options.latency_offset_ns = std::int64_t(a->latency_ms * 1e6);
                 recording::SteadyClock clock;
@@ -99,18 +94,14 @@ Command add_sensors_command(CLI::App& app) {
                 } catch (const host::SourceError& e) {
                     throw InputError(e.what());
                 }
-                std::unique_ptr<recording::Recorder> recorder;
-                std::unique_ptr<host::SampleRecorder> sample_recorder;  // sources without a byte stream
+                std::unique_ptr<host::SensorRecording> recording;
                 if (!a->record.empty()) {
                     try {
-                        recorder = std::make_unique<recording::Recorder>(a->record, *record_options, clock);
+                        recording = std::make_unique<host::SensorRecording>(a->record, spec, clock);
                     } catch (const std::exception& e) {
                         throw InputError(std::string("--record: ") + e.what());
                     }
-                    if (spec.kind == host::SourceKind::Serial)
-                        static_cast<host::SerialSource&>(*source).set_recorder(recorder.get());
-                    else
-                        sample_recorder = std::make_unique<host::SampleRecorder>(*recorder, options.latency_offset_ns);
+                    recording->attach(*source);
                 }
                 const bool replay = spec.kind == host::SourceKind::Replay;
                 std::mutex mutex;
@@ -124,7 +115,7 @@ Command add_sensors_command(CLI::App& app) {
                         done = true;
                         return;
                     }
-                    if (sample_recorder) sample_recorder->record(s);
+                    if (recording) recording->sample(s);
                     pending.push_back(s);
                 });
                 const StopRequest stop;  // Ctrl-C ends the loop below; the recording is closed properly
@@ -167,7 +158,7 @@ Command add_sensors_command(CLI::App& app) {
                 std::fprintf(stderr, "%s\n", health_line(source->health()).c_str());  // before stop(): the last state
                 source->stop();
                 flush();
-                if (recorder && !recorder->close()) throw RuntimeError(recorder->error());
+                if (recording && !recording->close()) throw RuntimeError(recording->error());
                 return 0;
             }};
 }

@@ -7,7 +7,6 @@
 #include "appliance/capture/session.hpp"
 #include "appliance/core/atomic_file.hpp"
 #include "appliance/core/errors.hpp"
-#include "firmware_bridge/host/serial_source.hpp"
 #include "firmware_bridge/recording/format.hpp"
 
 namespace glint::app {
@@ -35,31 +34,25 @@ SessionRecorder::SessionRecorder(const fs::path& dir, const capture::CameraCalib
     capture::save_calibration(dir / "calibration.json", calibration);
     frames_csv_ = open_for_lines(dir / "frames.csv", capture::frames_csv_header());
     events_csv_ = open_for_lines(dir / "events.csv", capture::session_events_csv_header());
-    if (const std::optional<recording::RecorderOptions> options = host::recording_options_for(sensor)) {
+    if (host::recording_options_for(sensor)) {
         try {
-            sensors_ = std::make_unique<recording::Recorder>(dir / "sensors.glrec", *options, clock);
+            sensors_ = std::make_unique<host::SensorRecording>((dir / "sensors.glrec").string(), sensor, clock);
         } catch (const std::exception& e) {
             throw InputError(std::string("--record: ") + e.what());
         }
-        serial_ = sensor.kind == host::SourceKind::Serial;
     }
 }
 
 SessionRecorder::~SessionRecorder() { close(); }
 
 void SessionRecorder::attach(host::OrientationSource& source) {
-    if (!sensors_) return;
-    if (serial_)
-        static_cast<host::SerialSource&>(source).set_recorder(sensors_.get());
-    else
-        samples_ = std::make_unique<host::SampleRecorder>(*sensors_, source.options().latency_offset_ns);
+    if (sensors_) sensors_->attach(source);
 }
 
 void SessionRecorder::sample(const host::OrientationSample& s) {
-    // Its own lock, not the frames': a JPEG written under that one would hold up the sensor's
-    // reader thread.
-    const std::lock_guard lock(samples_mutex_);
-    if (samples_) samples_->record(s);  // the recorder keeps its own error
+    // Not under mutex_: a JPEG written under that one would hold up the sensor's reader thread
+    // (the sensor recording has a lock of its own).
+    if (sensors_) sensors_->sample(s);
 }
 
 void SessionRecorder::frame(const capture::CameraFrame& f) {
@@ -102,11 +95,6 @@ std::string SessionRecorder::close() {
         *f = nullptr;
     }
     if (sensors_ && !sensors_->close() && error_.empty()) error_ = sensors_->error();
-    {
-        const std::lock_guard samples_lock(samples_mutex_);
-        samples_.reset();
-    }
-    sensors_.reset();
     return error_;
 }
 

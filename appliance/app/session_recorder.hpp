@@ -19,7 +19,6 @@
 #include "appliance/capture/kiosk_session.hpp"
 #include "firmware_bridge/host/sample_recording.hpp"
 #include "firmware_bridge/host/source_spec.hpp"
-#include "firmware_bridge/recording/recorder.hpp"
 
 namespace glint::app {
 
@@ -48,10 +47,7 @@ public:
 
 private:
     std::filesystem::path dir_;
-    std::unique_ptr<recording::Recorder> sensors_;
-    std::unique_ptr<host::SampleRecorder> samples_;  // sources without a byte stream
-    std::mutex samples_mutex_;
-    bool serial_ = false;
+    std::unique_ptr<host::SensorRecording> sensors_;  // none for a replayed sensor
     std::FILE* frames_csv_ = nullptr;
     std::FILE* events_csv_ = nullptr;
     std::uint64_t frames_ = 0;

@@ -270,8 +270,10 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
         glm::dquat sensor, live;
         glm::dvec3 camera_rate;  // the camera's angular velocity (camera frame, rad/s; 0: unknown)
     };
-    // What the accumulation turns a frame's rows by (0: none, without the rolling shutter).
-    const auto row_turn = [&](const UsedFrame& u) { return o.rolling_shutter ? u.camera_rate : glm::dvec3(0); };
+    // What the accumulation turns a frame's rows by, from the camera's rate (0: none, without the
+    // rolling shutter).
+    const auto rows_turn = [&](const glm::dvec3& camera_rate) { return o.rolling_shutter ? camera_rate : glm::dvec3(0); };
+    const auto row_turn = [&](const UsedFrame& u) { return rows_turn(u.camera_rate); };
     std::vector<UsedFrame> used;
     CaptureSummary summary;
     if (!live_stream && o.orientations == OrientationInput::Sensors) {
@@ -383,12 +385,11 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
                     for (int u = 0; u < cal.intrinsics.width; ++u) pixel_rays.push_back(pixel_ray(cal.intrinsics, u, v));
         }
         std::optional<glm::dquat> q = orientation_of(f);
-        glm::dvec3 w(0), rate(0);  // rate: the camera's turn, for the adjustment's time offset
+        glm::dvec3 rate(0);  // the camera's turn (camera frame): the blur, the rows, the time offset
         if (q) {
-            w = angular_velocity_of(f);
-            rate = w;
+            rate = angular_velocity_of(f);
             // The blur the frame's exposure must hold: how far the view turned while it was open.
-            blur_px.push_back(glm::length(w) * f.exposure_s * focal_px);
+            blur_px.push_back(glm::length(rate) * f.exposure_s * focal_px);
         }
         if (!q) {
             ++summary.frames_without_orientation;
@@ -396,7 +397,7 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
         } else if (o.max_blur_px > 0 && blur_px.back() > o.max_blur_px) {
             ++summary.frames_blurred;
         } else {
-            if (!o.rolling_shutter) w = glm::dvec3(0);
+            const glm::dvec3 w = rows_turn(rate);
             // What the alignments see: the frame as a global shutter would have taken it.
             std::optional<CameraFrame> straight;
             if (!pixel_rays.empty() && w != glm::dvec3(0)) straight = deskew_rolling_shutter(f, cal, pixel_rays, w, threads);

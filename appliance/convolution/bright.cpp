@@ -27,8 +27,6 @@ int column_modulo(long long i, int m) {
     return int(((i % m) + m) % m);
 }
 
-// The columns [first, first + count) (unwrapped, one column of margin each side) of a row of
-// `ow` columns where cos(phi - phi_c) >= q, around azimuth phi_c; q <= -1: the whole row.
 // The cone's half width as a fraction of the row, for q > -1 (cone_columns_of_half).
 double cone_half_turns(double q) { return std::acos(q) / kTwoPi; }
 
@@ -42,6 +40,8 @@ void cone_columns_of_half(double phi_c, double half_turns, int ow, int& first, i
     count = std::min(ow, int(std::ceil(centre + half)) + 1 - first + 1);
 }
 
+// The columns [first, first + count) (unwrapped, one column of margin each side) of a row of
+// `ow` columns where cos(phi - phi_c) >= q, around azimuth phi_c; q <= -1: the whole row.
 void cone_columns(double phi_c, double q, int ow, int& first, int& count) {
     if (q <= -1.0) {
         first = 0;
@@ -731,15 +731,14 @@ void BrightScatter::add_row(int row, const double* cmax_row, int classes, double
         const double q = sa > 1e-300 ? (c_b - bq) / sa : (bq >= c_b ? -2.0 : 2.0);
         if (q > 1.0) return false;
         if (q <= -1.0) {
-            first = 0;
-            count = ow;
-            return true;
+            cone_columns(bright_[k].phi, q, ow, first, count);  // the whole row
+        } else {
+            if (q != last_q) {
+                last_q = q;
+                last_half = cone_half_turns(q);
+            }
+            cone_columns_of_half(bright_[k].phi, last_half, ow, first, count);
         }
-        if (q != last_q) {
-            last_q = q;
-            last_half = cone_half_turns(q);
-        }
-        cone_columns_of_half(bright_[k].phi, last_half, ow, first, count);
         return true;
     };
     // With `columns`: a reach [first, first + count) (unwrapped) cut to the hull of its asked

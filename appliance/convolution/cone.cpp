@@ -216,14 +216,18 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
     // class with no widened texel is one loop over the stored sums (its texels are consecutive):
     // texel by texel, the index arithmetic and the three branches of values() were most of the
     // three passes over the grid below (9 % of studio's reference-size set).
-    const auto run_values = [&](int row, int first, int last, const UninitVector<double>& nb_now, double* v) {
+    // The values are left in `buffer` (resized), and a pointer to them is returned.
+    const auto run_values = [&](int row, int first, int last, const UninitVector<double>& nb_now,
+                                std::vector<double>& buffer) -> const double* {
         const std::size_t t0 = sums.texel(row, first);
         const std::size_t count = 3 * std::size_t(last - first);
+        buffer.resize(count);
+        double* v = buffer.data();
         bool plain = sums.classes == 1;
         for (std::size_t k = 0; plain && k < count / 3; ++k) plain = widened[t0 + k] == 0;
         if (!plain) {
             for (int col = first; col < last; ++col) values(row, col, nb_now, v + 3 * std::size_t(col - first));
-            return;
+            return v;
         }
         const double inv = narrow_den.inv[std::size_t(row)], inv_full = narrow_den.inv_full[std::size_t(row)];
         const double* num = sums.num.data() + 3 * t0;
@@ -233,6 +237,7 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
             const double* b = nb_now.data() + 3 * t0;
             for (std::size_t k = 0; k < count; ++k) v[k] = num[k] * inv + b[k] * inv_full;
         }
+        return v;
     };
 
     // Smallest positive value over the given output rows (parallel by row).
@@ -240,12 +245,11 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
         std::vector<double> row_floor(over.size(), INFINITY);
         parallel_for(int(over.size()), threads, [&](int k) {
             double f = INFINITY;
-            std::vector<double> run_buffer;  // a run's values, 3 per column
+            std::vector<double> buffer;
             for (const auto& [first, last] : columns_of(std::size_t(k))) {
-                run_buffer.resize(3 * std::size_t(last - first));
-                run_values(over[std::size_t(k)], first, last, nb_now, run_buffer.data());
-                for (double x : run_buffer)
-                    if (x > 0) f = std::min(f, x);
+                const double* v = run_values(over[std::size_t(k)], first, last, nb_now, buffer);
+                for (std::size_t x = 0; x < 3 * std::size_t(last - first); ++x)
+                    if (v[x] > 0) f = std::min(f, v[x]);
             }
             row_floor[std::size_t(k)] = f;
         });
@@ -290,14 +294,13 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
         double need_row = settings.cutoff_energy;
         const double target = 0.999 * settings.cutoff_energy;
         const double share = 0.9 * settings.texel_tolerance;
+        std::vector<double> buffer;
         for (const auto& [first, last] : columns_of(std::size_t(k))) {
-            std::vector<double> run_buffer;  // the run's values, 3 per column
             // Every texel of this run is read before its own flag is set below, and values() reads
             // no other texel's flag: the same values as texel by texel.
-            run_buffer.resize(3 * std::size_t(last - first));
-            run_values(row, first, last, nb, run_buffer.data());
+            const double* run = run_values(row, first, last, nb, buffer);
             for (int i = first; i < last; ++i) {
-                const double* v = run_buffer.data() + 3 * std::size_t(i - first);
+                const double* v = run + 3 * std::size_t(i - first);
                 // The cut-off fraction this texel allows if the remainder outside the
                 // cone is at most lmax: share * E / max(lmax - E, E), least over channels.
                 const auto need_for = [&](double lmax) {
@@ -375,12 +378,11 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
     parallel_for(int(rows.size()), threads, [&](int k) {
         const int row = rows[std::size_t(k)];
         float* o = into ? nullptr : result.row(row);
-        std::vector<double> run_buffer;  // a run's values, 3 per column
+        std::vector<double> buffer;
         for (const auto& [first, last] : columns_of(std::size_t(k))) {
-            run_buffer.resize(3 * std::size_t(last - first));
-            run_values(row, first, last, nb, run_buffer.data());
+            const double* run = run_values(row, first, last, nb, buffer);
             for (int col = first; col < last; ++col) {
-                const double* v = run_buffer.data() + 3 * std::size_t(col - first);
+                const double* v = run + 3 * std::size_t(col - first);
                 const float rgb[3] = {float(std::max(0.0, v[0])), float(std::max(0.0, v[1])), float(std::max(0.0, v[2]))};
                 if (into) {
                     (*into)(row, col, rgb);

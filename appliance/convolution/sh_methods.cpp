@@ -162,10 +162,11 @@ ShCoefficients with_bright_texels(const ShCoefficients& remainder, const std::ve
             std::fill(lane_sums.begin(), lane_sums.end(), 0.0);
             for (std::size_t first = 0; first < row.members.size(); first += kLanes) {
                 // Lanes past the row's texels hold a texel of no light.
-                double r[kLanes] = {}, g[kLanes] = {}, bl[kLanes] = {}, cp[kLanes], sp[kLanes];
+                // Each lane's rotation starts at cos 0 = 1, sin 0 = 0.
+                double r[kLanes] = {}, g[kLanes] = {}, bl[kLanes] = {}, cp[kLanes], sp[kLanes] = {}, cm[kLanes],
+                       sm[kLanes] = {};
                 for (std::size_t lane = 0; lane < kLanes; ++lane) {
-                    cp[lane] = 1.0;
-                    sp[lane] = 0.0;
+                    cp[lane] = cm[lane] = 1.0;
                     if (first + lane >= row.members.size()) continue;
                     const BrightTexel& b = bright[row.members[first + lane]];
                     // phi = atan2(x, -z), as sh_basis: cos(phi) = -z / sin(theta), sin(phi) = x / sin(theta).
@@ -175,11 +176,6 @@ ShCoefficients with_bright_texels(const ShCoefficients& remainder, const std::ve
                     r[lane] = b.r;
                     g[lane] = b.g;
                     bl[lane] = b.b;
-                }
-                double cm[kLanes], sm[kLanes];
-                for (std::size_t lane = 0; lane < kLanes; ++lane) {
-                    cm[lane] = 1.0;
-                    sm[lane] = 0.0;
                 }
                 for (int m = 0; m < order; ++m) {
                     double* o = lane_sums.data() + std::size_t(m) * 6 * kLanes;

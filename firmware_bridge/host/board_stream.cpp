@@ -1,6 +1,5 @@
 #include "firmware_bridge/host/board_stream.hpp"
 
-#include "firmware_bridge/firmware/rotation.hpp"
 #include "firmware_bridge/recording/player.hpp"
 
 namespace glint::host {
@@ -24,8 +23,7 @@ void BoardStream::feed(std::int64_t host_ns, std::span<const std::uint8_t> bytes
                 clock_.observe(o.timestamp_us, host_ns);
                 OrientationSample s;
                 s.board_us = o.timestamp_us;
-                s.world_from_sensor = to_glm(firmware::Quatd{protocol::from_q30(o.w_q30), protocol::from_q30(o.x_q30),
-                                                             protocol::from_q30(o.y_q30), protocol::from_q30(o.z_q30)});
+                s.world_from_sensor = to_glm(o);
                 chunk_samples_.push_back(s);
                 break;
             }

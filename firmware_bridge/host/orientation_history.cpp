@@ -4,12 +4,18 @@
 #include <stdexcept>
 
 #include "firmware_bridge/firmware/rotation.hpp"
+#include "firmware_bridge/protocol/messages.hpp"
 
 namespace glint::host {
 
 glm::dquat to_glm(const firmware::Quatd& q) {
     const firmware::Quatd u = firmware::normalized(q);
     return {u.w, u.x, u.y, u.z};
+}
+
+glm::dquat to_glm(const protocol::Orientation& o) {
+    return to_glm(firmware::Quatd{protocol::from_q30(o.w_q30), protocol::from_q30(o.x_q30), protocol::from_q30(o.y_q30),
+                                  protocol::from_q30(o.z_q30)});
 }
 
 OrientationHistory::OrientationHistory(std::size_t capacity, std::int64_t max_gap_ns,

@@ -20,12 +20,17 @@ namespace glint::firmware {
 template <typename T>
 struct Quat;
 }  // namespace glint::firmware
+namespace glint::protocol {
+struct Orientation;
+}  // namespace glint::protocol
 
 namespace glint::host {
 
 // The one conversion of the sensor side's quaternions into the appliance's: unit, w >= 0 (a zero
 // or non-finite input gives the identity).
 glm::dquat to_glm(const firmware::Quat<double>& q);
+// The same for a protocol Orientation message's Q30 quaternion (world_from_sensor).
+glm::dquat to_glm(const protocol::Orientation& message);
 
 // One orientation of the sensor frame in the world frame of docs/conventions.md (+Y up, -Z
 // forward): v_world = world_from_sensor * v_sensor.

@@ -2,7 +2,7 @@
 
 #include <cmath>
 
-#include "firmware_bridge/firmware/rotation.hpp"
+#include "firmware_bridge/host/serial_source.hpp"
 
 namespace glint::host {
 
@@ -35,12 +35,43 @@ std::optional<recording::RecorderOptions> recording_options_for(const SourceSpec
     return std::nullopt;
 }
 
+namespace {
+recording::RecorderOptions recordable(const SourceSpec& spec) {
+    if (std::optional<recording::RecorderOptions> o = recording_options_for(spec)) return *o;
+    throw SourceError(spec.text + ": a replay is a recording already; it is not recorded again");
+}
+}  // namespace
+
+SensorRecording::SensorRecording(const std::string& path, const SourceSpec& spec, recording::Clock& clock)
+    : recorder_(path, recordable(spec), clock), serial_(spec.kind == SourceKind::Serial) {}
+
+void SensorRecording::attach(OrientationSource& source) {
+    if (serial_) {
+        static_cast<SerialSource&>(source).set_recorder(&recorder_);
+        return;
+    }
+    const std::lock_guard lock(mutex_);
+    samples_.emplace(recorder_, source.options().latency_offset_ns);
+}
+
+void SensorRecording::sample(const OrientationSample& s) {
+    const std::lock_guard lock(mutex_);
+    if (samples_) samples_->record(s);  // the recorder keeps its own error
+}
+
+bool SensorRecording::close() {
+    {
+        const std::lock_guard lock(mutex_);
+        samples_.reset();
+    }
+    return recorder_.close();
+}
+
 OrientationSample sample_from_decoded(std::uint64_t host_time_us, const protocol::Orientation& o) {
     OrientationSample s;
     s.t_ns = static_cast<std::int64_t>(host_time_us) * 1000;
     s.board_us = o.timestamp_us;
-    s.world_from_sensor = to_glm(firmware::Quatd{protocol::from_q30(o.w_q30), protocol::from_q30(o.x_q30),
-                                                 protocol::from_q30(o.y_q30), protocol::from_q30(o.z_q30)});
+    s.world_from_sensor = to_glm(o);
     return s;
 }
 

@@ -6,7 +6,9 @@
 #pragma once
 
 #include <cstdint>
+#include <mutex>
 #include <optional>
+#include <string>
 
 #include "firmware_bridge/host/orientation_history.hpp"
 #include "firmware_bridge/host/source_spec.hpp"
@@ -39,6 +41,37 @@ private:
 // (decoded_sample_recording: a SampleRecorder on its sample callback). nullopt for a replay,
 // which is a recording already.
 std::optional<recording::RecorderOptions> recording_options_for(const SourceSpec& spec);
+
+class OrientationSource;
+
+// A live source's recording, whatever its kind (`glint sensors --record`, `glint run --record`):
+// the file made with recording_options_for(spec), then attach() before the source starts and
+// sample() from its sample callback. A serial board's bytes go in from its reader; an I2C or
+// Modbus source's published samples through sample() (a SampleRecorder).
+class SensorRecording {
+public:
+    // Throws SourceError for a replay (a recording already), and what recording::Recorder throws
+    // (naming the file) when it cannot be created.
+    SensorRecording(const std::string& path, const SourceSpec& spec, recording::Clock& clock);
+    SensorRecording(const SensorRecording&) = delete;
+    SensorRecording& operator=(const SensorRecording&) = delete;
+
+    // `source` was made from the constructor's spec; a serial one must be stopped before this
+    // recording is destroyed (it writes through a pointer to it).
+    void attach(OrientationSource& source);
+    // A sample the attached source published: recorded when the source has no byte stream,
+    // ignored otherwise. Thread-safe; after close() it does nothing.
+    void sample(const OrientationSample& sample);
+    // Writes, syncs and closes the file; false on a failure (error() says which file and why).
+    bool close();
+    std::string error() const { return recorder_.error(); }
+
+private:
+    recording::Recorder recorder_;
+    bool serial_;
+    std::mutex mutex_;  // samples_ against close(): sample() runs on the source's reader thread
+    std::optional<SampleRecorder> samples_;
+};
 
 // A decoded Orientation message back as the sample it was recorded from (times in ns of the
 // appliance clock, before any latency offset).
