@@ -17,7 +17,7 @@ import sys
 
 # The Python tests' shared helpers (GLINT_TEST_TIME_SCALE).
 sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "kiosk"))
-from glint_test_util import scaled  # noqa: E402
+from glint_test_util import scaled, write_kiosk_config  # noqa: E402
 
 glint, writer, session, work = sys.argv[1:5]
 shutil.rmtree(work, ignore_errors=True)
@@ -33,21 +33,7 @@ def check(ok, what):
 
 
 config = os.path.join(work, "glint.toml")
-with open(config, "w") as f:
-    f.write(f"""[display]
-kind = "headless"
-width = 320
-height = 180
-[camera]
-source = "simulator:/usr/share/blender/datafiles/studiolights/world/courtyard.exr"
-calibration = "{session}/calibration.json"
-[sensor]
-source = "replay:{session}/sensors.glrec"
-[gpio]
-chip = ""
-[state]
-dir = "{state}"
-""")
+write_kiosk_config(config, f"{session}/calibration.json", f"replay:{session}/sensors.glrec", state)
 
 
 def run(what):

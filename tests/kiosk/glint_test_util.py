@@ -88,10 +88,10 @@ class Process:
 COURTYARD_CAMERA = "simulator:/usr/share/blender/datafiles/studiolights/world/courtyard.exr"
 
 
-def write_kiosk_config(path, calibration, sensor, state_dir, camera=COURTYARD_CAMERA, extra=""):
+def write_kiosk_config(path, calibration, sensor, state_dir, camera=COURTYARD_CAMERA, gpio='chip = ""', extra=""):
     """A glint.toml for `glint run` in a test: headless 320x180, the camera simulator (the courtyard
-    by default), the calibration file, the sensor source spec, no GPIO chip, the state directory,
-    and `extra` TOML appended."""
+    by default), the calibration file, the sensor source spec, the [gpio] table's lines (no chip by
+    default), the state directory, and `extra` TOML appended (whole tables)."""
     with open(path, "w") as f:
         f.write(f"""[display]
 kind = "headless"
@@ -103,7 +103,7 @@ calibration = "{calibration}"
 [sensor]
 source = "{sensor}"
 [gpio]
-chip = ""
+{gpio}
 [state]
 dir = "{state_dir}"
 {extra}""")

@@ -14,7 +14,7 @@ import signal
 import sys
 import time
 
-from glint_test_util import Checks, Process
+from glint_test_util import Checks, Process, write_kiosk_config
 
 glint, session, work = sys.argv[1:4]
 shutil.rmtree(work, ignore_errors=True)
@@ -24,24 +24,8 @@ check = Checks()
 fifo = os.path.join(work, "gpio")
 os.mkfifo(fifo)
 config = os.path.join(work, "glint.toml")
-with open(config, "w") as f:
-    f.write(f"""[display]
-kind = "headless"
-width = 320
-height = 180
-[camera]
-source = "simulator:/usr/share/blender/datafiles/studiolights/world/courtyard.exr"
-calibration = "{session}/calibration.json"
-[sensor]
-source = "replay:{session}/sensors.glrec"
-[gpio]
-chip = "fifo:{fifo}"
-button_line = 17
-key_switch_line = 27
-lamp_line = 22
-[state]
-dir = "{work}/state"
-""")
+write_kiosk_config(config, f"{session}/calibration.json", f"replay:{session}/sensors.glrec", f"{work}/state",
+                   gpio=f'chip = "fifo:{fifo}"\nbutton_line = 17\nkey_switch_line = 27\nlamp_line = 22')
 
 def lamp_changes():
     path = fifo + ".out"

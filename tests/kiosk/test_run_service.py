@@ -14,7 +14,7 @@ import subprocess
 import sys
 import time
 
-from glint_test_util import scaled
+from glint_test_util import scaled, write_kiosk_config
 
 glint, session, work = sys.argv[1], sys.argv[2], sys.argv[3]
 os.makedirs(work, exist_ok=True)
@@ -28,24 +28,8 @@ def check(ok, what):
 
 
 def write_config(path, ar_idle_s=45, extra=""):
-    env = "/usr/share/blender/datafiles/studiolights/world/courtyard.exr"
-    with open(path, "w") as f:
-        f.write(f"""[display]
-kind = "headless"
-width = 320
-height = 180
-[camera]
-source = "simulator:{env}"
-calibration = "{session}/calibration.json"
-[sensor]
-source = "replay:{session}/sensors.glrec"
-[gpio]
-chip = ""
-[timeouts]
-ar_idle_s = {ar_idle_s}
-[state]
-dir = "{work}/state"
-{extra}""")
+    write_kiosk_config(path, f"{session}/calibration.json", f"replay:{session}/sensors.glrec", f"{work}/state",
+                       extra=f"[timeouts]\nar_idle_s = {ar_idle_s}\n{extra}")
 
 
 config = os.path.join(work, "glint.toml")

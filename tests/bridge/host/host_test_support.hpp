@@ -11,12 +11,14 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <mutex>
 #include <stdexcept>
 #include <string>
 #include <thread>
 #include <vector>
 
 #include "firmware_bridge/firmware/rotation.hpp"
+#include "firmware_bridge/host/orientation_source.hpp"
 #include "firmware_bridge/protocol/frame.hpp"
 #include "firmware_bridge/protocol/messages.hpp"
 
@@ -97,5 +99,26 @@ bool eventually(Pred pred, std::chrono::milliseconds limit = std::chrono::millis
 }
 
 inline firmware::Quatd yaw(double rad) { return firmware::Quatd::from_axis_angle({0, 1, 0}, rad); }
+
+// The samples a source published, gathered from its reader thread.
+struct Collector {
+    std::mutex m;
+    std::vector<OrientationSample> samples;
+    void add(const OrientationSample& x) {
+        const std::lock_guard lock(m);
+        samples.push_back(x);
+    }
+    void attach(OrientationSource& s) {
+        s.set_sample_callback([this](const OrientationSample& x) { add(x); });
+    }
+    std::size_t count() {
+        const std::lock_guard lock(m);
+        return samples.size();
+    }
+    OrientationSample last() {
+        const std::lock_guard lock(m);
+        return samples.back();
+    }
+};
 
 }  // namespace glint::host::test

@@ -13,27 +13,9 @@
 namespace glint::host {
 namespace {
 
+using test::Collector;
 using test::eventually;
 constexpr double kDeg = 3.14159265358979323846 / 180.0;
-
-struct Collector {
-    std::mutex m;
-    std::vector<OrientationSample> samples;
-    void attach(OrientationSource& s) {
-        s.set_sample_callback([this](const OrientationSample& x) {
-            const std::lock_guard lock(m);
-            samples.push_back(x);
-        });
-    }
-    std::size_t count() {
-        const std::lock_guard lock(m);
-        return samples.size();
-    }
-    OrientationSample last() {
-        const std::lock_guard lock(m);
-        return samples.back();
-    }
-};
 
 TEST(ModbusHead, OrientationFollowsTheDocumentedFrame) {
     // Azimuth 90: looking east (+X); elevation 30: looking up.

@@ -19,21 +19,9 @@
 namespace glint::host {
 namespace {
 
+using test::Collector;
 using test::eventually;
 constexpr double kDeg = 3.14159265358979323846 / 180.0;
-
-struct Samples {
-    std::mutex m;
-    std::vector<OrientationSample> list;
-    void add(const OrientationSample& s) {
-        const std::lock_guard lock(m);
-        list.push_back(s);
-    }
-    std::size_t count() {
-        const std::lock_guard lock(m);
-        return list.size();
-    }
-};
 
 TEST(SampleRecording, AModbusHeadIsRecordedAndReplaysTheSamplesItPublished) {
     const std::filesystem::path dir = std::filesystem::temp_directory_path() / ("glint_sample_rec_" + std::to_string(::getpid()));
@@ -54,7 +42,7 @@ TEST(SampleRecording, AModbusHeadIsRecordedAndReplaysTheSamplesItPublished) {
     EXPECT_EQ(record_options->header.transport, recording::Transport::Modbus);
     recording::Recorder recorder(file, *record_options, clock);
     SampleRecorder sample_recorder(recorder, options.latency_offset_ns);
-    Samples live;
+    Collector live;
     source->set_sample_callback([&](const OrientationSample& s) {
         EXPECT_TRUE(sample_recorder.record(s));
         live.add(s);
@@ -69,15 +57,15 @@ TEST(SampleRecording, AModbusHeadIsRecordedAndReplaysTheSamplesItPublished) {
     ASSERT_TRUE(recorder.close()) << recorder.error();
 
     ReplaySource replay("replay:" + file, file, ReplayPacing::Fast, options);
-    Samples replayed;
-    replay.set_sample_callback([&](const OrientationSample& s) { replayed.add(s); });
+    Collector replayed;
+    replayed.attach(replay);
     replay.run_to_end();
     ASSERT_EQ(replayed.count(), live.count());
     double worst_angle = 0;
     bool turned = false;
-    for (std::size_t k = 0; k < live.list.size(); ++k) {
-        const OrientationSample& a = live.list[k];
-        const OrientationSample& b = replayed.list[k];
+    for (std::size_t k = 0; k < live.samples.size(); ++k) {
+        const OrientationSample& a = live.samples[k];
+        const OrientationSample& b = replayed.samples[k];
         EXPECT_LE(std::llabs(a.t_ns - b.t_ns), 500) << k;  // microseconds in the file, rounded
         EXPECT_EQ(a.board_us, b.board_us) << k;
         worst_angle = std::max(worst_angle, angle_between(a.world_from_sensor, b.world_from_sensor));

@@ -3,25 +3,13 @@
 # path on stdout's first line), glint reads it, records the session, stops on SIGINT; the
 # recording then replays to exactly the same CSV lines.
 # Usage: test_sensors_live_cli.sh GLINT GLINT_SENSOR_SIM GLINT_RECORDING
-set -u
 glint=$1
 sim=$2
 recording_tool=$3
-failures=0
-fail() { echo "FAIL: $*"; failures=$((failures + 1)); }
-tmp=$(mktemp -d)
-sim_pid=
-cleanup() {
-    [ -n "$sim_pid" ] && kill "$sim_pid" 2>/dev/null
-    rm -rf "$tmp"
-}
-trap cleanup EXIT
+source "$(dirname "$0")/served_cli_test.sh"
 
-mkfifo "$tmp/sim.out"
-"$sim" --port pty --trajectory tumble --duration 6 >"$tmp/sim.out" 2>"$tmp/sim.err" &
-sim_pid=$!
-exec 3<"$tmp/sim.out"
-read -r -t 5 port <&3 || fail "glint-sensor-sim printed no port"
+start_server glint-sensor-sim "$sim" --port pty --trajectory tumble --duration 6
+port=$served
 case "$port" in /dev/pts/*) ;; *) fail "first line is not a pty path: '$port'" ;; esac
 
 # Until SIGINT: it must stop cleanly (exit 0) and close the recording.
@@ -56,8 +44,5 @@ rc=$?
 [ $rc -ne 0 ] || fail "--record replaced an existing file"
 grep -q "live.glrec" "$tmp/e.txt" || fail "the refusal does not name the file: $(cat "$tmp/e.txt")"
 
-kill -INT "$sim_pid" 2>/dev/null
-wait "$sim_pid" 2>/dev/null
-sim_pid=
-if [ $failures -eq 0 ]; then echo "sensors live CLI: all checks passed"; else echo "sensors live CLI: $failures failure(s)"; fi
-[ $failures -eq 0 ]
+stop_server
+finish "sensors live CLI"

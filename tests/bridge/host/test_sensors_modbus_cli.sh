@@ -4,25 +4,13 @@
 # prints the live run's samples again (times to the microsecond the file keeps, orientations to
 # Q30).
 # Usage: test_sensors_modbus_cli.sh GLINT GLINT_TEST_MODBUS_HEAD GLINT_RECORDING
-set -u
 glint=$1
 head_sim=$2
 recording_tool=$3
-failures=0
-fail() { echo "FAIL: $*"; failures=$((failures + 1)); }
-tmp=$(mktemp -d)
-sim_pid=
-cleanup() {
-    [ -n "$sim_pid" ] && kill "$sim_pid" 2>/dev/null
-    rm -rf "$tmp"
-}
-trap cleanup EXIT
+source "$(dirname "$0")/served_cli_test.sh"
 
-mkfifo "$tmp/sim.out"
-"$head_sim" --seconds 30 >"$tmp/sim.out" 2>"$tmp/sim.err" &
-sim_pid=$!
-exec 3<"$tmp/sim.out"
-read -r -t 5 port <&3 || fail "the head simulator printed no port"
+start_server "the head simulator" "$head_sim" --seconds 30
+port=$served
 
 "$glint" sensors --source "modbus-tcp:127.0.0.1:$port" --print-csv --seconds 1.5 --latency-ms 5 \
     --record "$tmp/head.glrec" >"$tmp/live.csv" 2>"$tmp/live.err"
@@ -51,8 +39,5 @@ if not turned:
     sys.exit("the head did not move: nothing was compared")
 PY
 
-kill -INT "$sim_pid" 2>/dev/null
-wait "$sim_pid" 2>/dev/null
-sim_pid=
-if [ $failures -eq 0 ]; then echo "sensors Modbus CLI: all checks passed"; else echo "sensors Modbus CLI: $failures failure(s)"; fi
-[ $failures -eq 0 ]
+stop_server
+finish "sensors Modbus CLI"
