@@ -1,9 +1,9 @@
 // `glint run --record DIR`: the live kiosk's inputs written as a session that `glint replay` reads
 // (docs/capture.md "Session directory", "Kiosk sessions"): session.json and calibration.json at
 // once, then as they come the camera frames (JPEG, quality 90: a 320x180 frame in ~15 kB) with
-// frames.csv, the sensor (sensors.glrec, synced every second: a serial board's byte stream by the
-// recorder of firmware_bridge/recording; an I2C or Modbus source's published samples, which have
-// no byte stream, by host::SampleRecorder) and the button events (events.csv). Lines are
+// frames.csv, the sensor (sensors.glrec, host::SensorRecording, synced every second: a serial
+// board's byte stream, or an I2C or Modbus source's published samples, which have no byte stream)
+// and the button events (events.csv). Lines are
 // flushed as written; a power cut loses at most the last second, and the reader skips a torn
 // last record.
 #pragma once
