@@ -47,7 +47,9 @@ Command add_capture_command(CLI::App& app) {
                     "with the scan, kept for comparison");
     cmd->add_option("--calibration-refinement", a->calibration_refinement,
                     "After the scan, the camera-sensor mounting and time offset are refined with it: stale (keep "
-                    "that solution when it turns the frames more than the staleness limit, and warn), always, or "
+                    "that solution when it turns the frames more than the staleness limit, and warn; from 35 s into "
+                    "the scan it is also checked every 5 s, and a calibration turning the frames more than 1 "
+                    "degree is replaced there and then, so the map is rebuilt while the scan goes on), always, or "
                     "off (measured and reported, not kept). Only with the global adjustment during the scan (not "
                     "with --adjustment-rounds, --no-global-adjustment or --no-drift-correction)")
         ->check(CLI::IsMember({"stale", "always", "off"}))
@@ -151,6 +153,10 @@ Command add_capture_command(CLI::App& app) {
                                 r.calibration_mounting_deg, axis.x, axis.y, axis.z, r.calibration_time_offset_ms,
                                 r.calibration_turn_deg, calibration.c_str(),
                                 r.calibration_refined ? "the map is made with the scan's values" : "the map keeps it");
+                    if (r.calibration_refined_during_scan_s)
+                        std::printf("camera-sensor calibration found stale during the scan, %.1f s in: the scan's "
+                                    "values were used from then on\n",
+                                    *r.calibration_refined_during_scan_s);
                     if (r.calibration_stale)
                         std::fprintf(stderr,
                                      "warning: %s looks stale: the scan turns its frames %.2f degrees RMS from it "

@@ -352,6 +352,40 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
         // one unfinished at the end can be dropped.
         rolling.extend(kept, kept_w, cal, qs, settled);
     };
+    // The calibration's refinement as the adjustment found it.
+    const auto report_calibration = [&](const AdjustmentResult& r) {
+        const double angle = glm::length(r.mounting_rad);
+        summary.calibration_mounting_deg = angle * 180.0 / kPi;
+        summary.calibration_mounting_axis = angle > 0 ? r.mounting_rad / angle : glm::dvec3(0);
+        summary.calibration_time_offset_ms = r.time_offset_s * 1e3;
+        // The largest turn of the refined solves: the one that decided staleness (an adopted
+        // solve turns the frames about as far, and a smaller figure beside "stale" would read as
+        // a contradiction).
+        summary.calibration_turn_deg = summary.calibration_checked
+                                           ? std::max(summary.calibration_turn_deg, r.calibration_turn_deg)
+                                           : r.calibration_turn_deg;
+        summary.calibration_checked = true;
+        // Stale once any refined solve turned the frames past the limit.
+        summary.calibration_stale = summary.calibration_stale || r.calibration_turn_deg > kStaleMountingDeg;
+    };
+    // The calibration checked during the scan (CaptureOptions::scan_check_*): a stale one's
+    // refined solution kept at once, so that the frame loop's realignments and the kept map's
+    // rebuilds take it in while the scan goes on.
+    const bool check_during_scan = online && o.calibration_refinement == CaptureOptions::CalibrationRefinement::Stale &&
+                                   o.scan_check_from_s > 0;
+    double next_scan_check_s = o.scan_check_from_s;
+    const auto check_calibration_during_scan = [&](double t_s) {
+        if (!check_during_scan || summary.calibration_refined_during_scan_s || t_s < next_scan_check_s) return;
+        next_scan_check_s = t_s + std::max(0.0, o.scan_check_every_s);
+        const AdjustmentResult refined = online_adjustment.refined_solution();
+        if (!(refined.calibration_turn_deg > o.scan_check_stale_deg)) return;
+        report_calibration(refined);
+        online_adjustment.adopt(refined);
+        online_adjustment.refine_calibration_from_now();
+        rebuilding = {};  // its first frames have the stale orientations: the next one starts afresh
+        summary.calibration_refined = true;
+        summary.calibration_refined_during_scan_s = t_s;
+    };
     long long done = 0;
     GuidedCapture guide(o.guided, cal.intrinsics);
     DriftSettings drift_settings;
@@ -453,6 +487,7 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
                                             *q, rate);
                 online_adjustment.solve();
                 online_adjustment.realign(o.realign_per_frame, o.realign_deg);
+                check_calibration_during_scan(double(f.t_ns - *first_t_ns) * 1e-9);
                 const auto t_map = std::chrono::steady_clock::now();
                 const double spent = std::chrono::duration<double>(t_map - t_online).count();
                 summary.online_seconds += spent;
@@ -520,22 +555,6 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
         med = e[e.size() / 2];
         max = e.back();
     };
-    // The calibration's refinement as the adjustment found it.
-    const auto report_calibration = [&](const AdjustmentResult& r) {
-        const double angle = glm::length(r.mounting_rad);
-        summary.calibration_mounting_deg = angle * 180.0 / kPi;
-        summary.calibration_mounting_axis = angle > 0 ? r.mounting_rad / angle : glm::dvec3(0);
-        summary.calibration_time_offset_ms = r.time_offset_s * 1e3;
-        // The largest turn of the refined solves: the one that decided staleness (an adopted
-        // solve turns the frames about as far, and a smaller figure beside "stale" would read as
-        // a contradiction).
-        summary.calibration_turn_deg = summary.calibration_checked
-                                           ? std::max(summary.calibration_turn_deg, r.calibration_turn_deg)
-                                           : r.calibration_turn_deg;
-        summary.calibration_checked = true;
-        // Stale once any refined solve turned the frames past the limit.
-        summary.calibration_stale = summary.calibration_stale || r.calibration_turn_deg > kStaleMountingDeg;
-    };
     std::vector<glm::dquat> final_q;
     for (const UsedFrame& u : used) final_q.push_back(u.live);
     std::unique_ptr<Engine> adjusted;  // the map made again from the adjusted orientations
@@ -564,8 +583,12 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
         summary.adjust_sensor_rms_deg = r.sensor_rms_deg;
         summary.adjust_drift_deg_per_min = glm::length(r.drift_rate_rad_per_s) * 180.0 / kPi * 60.0;
         // The camera-sensor calibration checked against the scan: a solve with it refined, kept
-        // only when calibration.json is stale (then the whole map is made again below).
-        {
+        // only when calibration.json is stale (then the whole map is made again below). When the
+        // check during the scan kept it already, every solve since refined it: the last one is it.
+        const bool refined_during_scan = summary.calibration_refined_during_scan_s.has_value();
+        if (refined_during_scan) {
+            report_calibration(r);
+        } else {
             const AdjustmentResult refined = online_adjustment.refined_solution();
             report_calibration(refined);
             const bool keep = o.calibration_refinement == CaptureOptions::CalibrationRefinement::Always ||
@@ -599,19 +622,28 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
         const auto count_progress = [&](std::size_t) {
             if (progress) progress(++done, total);
         };
-        if (o.keep_map && rolling.engine && !summary.calibration_refined) {
-            // A rebuild under way is finished when little of it is left; then the held-back tail
-            // with the final solution. The map's orientations are what its frames were accumulated
-            // with, a little off the final solution where it moved after they were.
+        // A refinement kept after the scan moved every frame: no kept map serves.
+        const bool refined_after_scan = summary.calibration_refined && !refined_during_scan;
+        const auto near_final = [&](const KeptMap& m) { return m.deviation_deg(final_q) <= o.map_redo_deg; };
+        if (o.keep_map && rolling.engine && !refined_after_scan) {
+            // A rebuild under way is finished when little of it is left, or when the current map
+            // is too far off to serve (its frames accumulated before a refinement kept during the
+            // scan); then the held-back tail with the final solution. The map's orientations are
+            // what its frames were accumulated with, a little off the final solution where it
+            // moved after they were.
             if (rebuilding.engine &&
-                (rolling.deviation_deg(final_q) <= o.map_accept_deg ||
-                 rolling.q.size() >= rebuilding.q.size() + std::size_t(std::max(0, o.map_finish_max_frames))))
+                (!near_final(rebuilding) ||
+                 (near_final(rolling) &&
+                  (rolling.deviation_deg(final_q) <= o.map_accept_deg ||
+                   rolling.q.size() >= rebuilding.q.size() + std::size_t(std::max(0, o.map_finish_max_frames))))))
                 rebuilding = {};
             if (rebuilding.engine) {
                 summary.map_final_frames += int(rolling.q.size() - rebuilding.q.size());
                 rebuilding.extend(kept, kept_w, cal, final_q, rolling.q.size());
                 rolling = std::move(rebuilding);
             }
+        }
+        if (o.keep_map && rolling.engine && !refined_after_scan && near_final(rolling)) {
             summary.map_deviation_deg = rolling.deviation_deg(final_q);
             summary.map_final_frames += int(kept.size() - rolling.q.size());
             rolling.extend(kept, kept_w, cal, final_q, kept.size(), count_progress);
@@ -622,8 +654,8 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
             final_q = rolling.q;
             adjusted = std::move(rolling.engine);
         } else {
-            // Every frame again (no kept map, or the calibration's refinement moved them all):
-            // the kept maps' memory first.
+            // Every frame again (no kept map, the calibration's refinement moved them all, or the
+            // kept map is too far off): the kept maps' memory first.
             rolling = {};
             rebuilding = {};
             KeptMap all{make_engine(), {}};
@@ -734,6 +766,17 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
     return summary;
 }
 
+CameraCalibration calibration_of_scan(const CameraCalibration& file, const CaptureSummary& summary) {
+    CameraCalibration c = file;
+    if (!summary.calibration_checked || !summary.calibration_refined) return c;
+    // The refinement's delta is in the camera frame: world_from_camera = world_from_sensor x
+    // sensor_from_camera x exp(delta) (AdjustmentResult::mounting_rad).
+    const glm::dvec3 delta = summary.calibration_mounting_axis * (summary.calibration_mounting_deg * kPi / 180.0);
+    c.sensor_from_camera = unit_rotation(file.sensor_from_camera * rotation_from_vector(delta));
+    c.time_offset_s = file.time_offset_s + summary.calibration_time_offset_ms * 1e-3;
+    return c;
+}
+
 std::string calibration_check_text(const CaptureSummary& c) {
     if (!c.calibration_checked) return "n/a";
     char text[320];
@@ -746,7 +789,7 @@ std::string calibration_check_text(const CaptureSummary& c) {
                   "stale: the last scan turned its frames %.2f\xC2\xB0 from the calibration (mounting %.2f\xC2\xB0, time offset "
                   "%+.1f ms; limit %.1f\xC2\xB0). %s Run the sensor-camera alignment calibration.",
                   c.calibration_turn_deg, c.calibration_mounting_deg, c.calibration_time_offset_ms, kStaleMountingDeg,
-                  c.calibration_refined ? "Its map used the scan's own values; the live view did not."
+                  c.calibration_refined ? "Its map and AR view used the scan's own values; the live preview did not."
                                         : "Its map was made with the calibration as it is.");
     return text;
 }

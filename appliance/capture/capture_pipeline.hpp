@@ -60,6 +60,19 @@ struct CaptureOptions {
     // still measured and reported).
     enum class CalibrationRefinement { Stale, Always, Off };
     CalibrationRefinement calibration_refinement = CalibrationRefinement::Stale;
+    // The same check during the scan (Stale only): from scan_check_from_s of scan time on, every
+    // scan_check_every_s, a solve with the calibration refined; when it turns the frames more than
+    // scan_check_stale_deg the calibration is stale beyond doubt and that solution is kept there
+    // and then, so that the pairs' new alignments and the kept map's rebuild (below) run while the
+    // visitor still scans instead of after the last frame (a mounting 3 degrees off, checked after
+    // the scan: 14 s from the last frame to the map in glint capture, 8.9 s in the kiosk). A partial scan's refinement finds more than a
+    // whole one's: with right calibrations it turned the frames up to 0.65-0.83 degrees at 17-19 s
+    // and under 0.4 only from 34-36 s, with a mounting 3 degrees off 1.6-2.0 degrees by 12-17 s;
+    // hence the later start and the higher limit than kStaleMountingDeg. Smaller staleness is
+    // still found after the scan. 0 = no check during the scan.
+    double scan_check_from_s = 35;
+    double scan_check_every_s = 5;
+    double scan_check_stale_deg = 1.0;
     int realign_per_frame = 24;
     double realign_deg = 0.01;
     int final_realign_passes = 1;
@@ -68,13 +81,17 @@ struct CaptureOptions {
     // map_rebuild_per_frame frames per frame, when the solution moved one of its frames more than
     // map_rebuild_deg; after the last frame a rebuild under way is finished only when the map is
     // more than map_accept_deg off the final solution and fewer than map_finish_max_frames are
-    // left, then the tail is added. Off: every frame accumulated again after the scan.
+    // left, then the tail is added. A kept map more than map_redo_deg off the final solution (its
+    // frames accumulated before a calibration found stale during the scan, and its rebuild not
+    // finished) is not used: every frame is accumulated again. Off: every frame accumulated again
+    // after the scan.
     bool keep_map = true;
     int map_tail_frames = 12;
     double map_rebuild_deg = 0.05;
     int map_rebuild_per_frame = 6;
     double map_accept_deg = 0.1;
     int map_finish_max_frames = 12;
+    double map_redo_deg = 1.0;
     // Per-frame log of the drift estimates (CSV: index,t_s,pixels,estimate_deg,sigma_deg,
     // residual_before,residual_after,applied,error_before_deg,error_after_deg; the errors against a
     // simulated session's truth, NaN otherwise); empty = none.
@@ -157,6 +174,9 @@ struct CaptureSummary {
     bool calibration_stale = false;
     bool calibration_refined = false;  // the map was made with the refined solution
     bool calibration_checked = false;  // a refined solve ran (online adjustment): the figures above hold
+    // Seconds into the scan when the check during it found the calibration stale and the scan's
+    // own values were taken from then on (CaptureOptions::scan_check_stale_deg); nullopt: not so.
+    std::optional<double> calibration_refined_during_scan_s;
     // Wall times after the last frame of the scan: the alignment views, the final accumulation,
     // and from the last frame to the finished map (radiance merged and filled) and to it saved;
     // adjust_profile: the adjustment's own breakdown (pair selection, alignment, solve).
@@ -199,6 +219,12 @@ struct CaptureSummary {
 // kStaleMountingDeg; "stale: ..." with the figures and what to do (a new alignment calibration:
 // only that mends the live view).
 std::string calibration_check_text(const CaptureSummary& summary);
+
+// The calibration the scan's map was made with: `file` (calibration.json) with the mounting and
+// time offset the scan refined when it kept them (CaptureSummary::calibration_refined), else
+// `file` itself. What shows the map in the live camera's view (the kiosk's AR) must use the same,
+// or the map's light turns against the camera by what the scan found.
+CameraCalibration calibration_of_scan(const CameraCalibration& file, const CaptureSummary& summary);
 
 std::filesystem::path coverage_path_for(const std::filesystem::path& env_out);
 

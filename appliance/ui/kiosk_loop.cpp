@@ -222,8 +222,17 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
     const std::string board_json = source.board_json();
     const tracking::Board board(board_json.empty() ? tracking::BoardSpec{}
                                                    : tracking::board_spec_from_json(board_json, source.describe() + ": board"));
-    // The tracker's mounting is in OpenCV's camera frame.
-    tracking::Tracker tracker(board, tracking_camera(cal.intrinsics), glm::normalize(cal.sensor_from_camera * kGlFromCv));
+    // The mounting and time offset the AR view uses: calibration.json's, or those of the scan
+    // whose map is shown when it found the file stale (capture::calibration_of_scan), so that the
+    // map's light stays where the scan put it relative to the camera.
+    glm::dquat ar_sensor_from_camera = cal.sensor_from_camera;
+    double ar_time_offset_s = cal.time_offset_s;
+    // The tracker's mounting is in OpenCV's camera frame; made again when the AR's changes.
+    const auto make_tracker = [&] {
+        return std::make_unique<tracking::Tracker>(board, tracking_camera(cal.intrinsics),
+                                                   glm::normalize(ar_sensor_from_camera * kGlFromCv));
+    };
+    std::unique_ptr<tracking::Tracker> tracker = make_tracker();
 
     ImageQuad picture;
     KioskOptions::Overlay overlay = o.make_overlay ? o.make_overlay(width, height) : KioskOptions::Overlay{};
@@ -273,6 +282,7 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
     states.push_back({{"name", kiosk_state_name(KioskState::Attract)}, {"t_s", 0.0}});
     int ar_frames = 0, ar_detected = 0;
     std::vector<double> ar_rotation_error_deg;
+    std::vector<double> ar_camera_error_deg;  // see summary.json's ar_camera_orientation_error_deg
     double first_frame_s = -1;
 
     double period_s = cfg.frame.budget_ms * 1e-3;
@@ -469,7 +479,7 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
                 if (k.type == gl::InputEvent::Type::KeyDown) input.events.push_back({now_ns, "key", k.key});
         for (const capture::SensorOrientation& s : input.orientations)
             // The tracker's clock is the camera's: sensor time minus the calibrated offset.
-            tracker.add_orientation({kiosk_s(s.t_ns) - cal.time_offset_s, s.world_from_sensor});
+            tracker->add_orientation({kiosk_s(s.t_ns) - ar_time_offset_s, s.world_from_sensor});
         for (const capture::SessionEvent& e : input.events) {
             if (e.source == "button") button_pressed = e.event == "press";
             if (e.source == "key_switch" && key_switch_on != (e.event == "on")) {
@@ -558,6 +568,18 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
                     log(std::string(alignment_stale ? "capture: warning: " : "capture: ") + "sensor-camera calibration " +
                         alignment_text);
                 }
+                // The AR view takes the calibration this scan's map was made with (the file's
+                // again after a scan that kept it); the tracker starts afresh with its mounting.
+                const capture::CameraCalibration of_scan = capture::calibration_of_scan(cal, *capture_summary);
+                if (of_scan.sensor_from_camera != ar_sensor_from_camera || of_scan.time_offset_s != ar_time_offset_s) {
+                    ar_sensor_from_camera = of_scan.sensor_from_camera;
+                    ar_time_offset_s = of_scan.time_offset_s;
+                    tracker = make_tracker();
+                    last_track.reset();
+                    log(capture_summary->calibration_refined
+                            ? "capture: the AR view uses the scan's sensor-camera mounting and time offset"
+                            : "capture: the AR view uses calibration.json's sensor-camera mounting and time offset");
+                }
                 // The map read back, its preview and the coarse maps on a worker: the frames go on.
                 scene_job = std::async(std::launch::async, [maps_dir = o.maps_dir, replayed = source.replayed(), &log, &materials, threads] {
                     const WallClock::time_point t0 = WallClock::now();
@@ -643,7 +665,7 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
         model.shading_maps = have_scene ? maps.get() : nullptr;
         const std::int64_t frame_t_ns = last_frame.t_ns;
         const std::optional<glm::dquat> world_from_sensor =
-            source.world_from_sensor(frame_t_ns + std::int64_t(std::llround(cal.time_offset_s * 1e9)));
+            source.world_from_sensor(frame_t_ns + std::int64_t(std::llround(ar_time_offset_s * 1e9)));
         model.sensor_lost = devices.sensor_lost();
         model.camera_lost = devices.camera_lost();
         model.devices.camera_fps = devices.camera_fps();
@@ -663,17 +685,22 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
             model.devices.sensor_health = devices.sensor_lost() ? "no orientation (" + health.sensor + ")" : health.sensor;
             model.devices.camera_error = health.camera_error;
         }
-        const glm::dquat world_from_camera = world_from_sensor ? glm::normalize(*world_from_sensor * cal.sensor_from_camera) : glm::dquat(1, 0, 0, 0);
+        const glm::dquat world_from_camera = world_from_sensor ? glm::normalize(*world_from_sensor * ar_sensor_from_camera) : glm::dquat(1, 0, 0, 0);
         if (flow.state() == KioskState::Ar && new_picture && !last_rgb.empty()) {
             cv::Mat gray;
             cv::cvtColor(last_rgb, gray, cv::COLOR_RGB2GRAY);
             pose_before.reset();
             if (last_track && last_track->has_pose) pose_before = last_track->pose;
             pose_before_t_ns = pose_t_ns;
-            last_track = tracker.track(kiosk_s(frame_t_ns), gray);
+            last_track = tracker->track(kiosk_s(frame_t_ns), gray);
             pose_t_ns = frame_t_ns;
             if (source.in_ar_phase(frame_t_ns)) {
                 ++ar_frames;
+                // The camera's world orientation the AR view lights the object by, against a
+                // simulated session's truth: the sensor's error and the mounting's.
+                if (world_from_sensor)
+                    if (const auto truth = source.truth_camera(last_frame.sequence))
+                        ar_camera_error_deg.push_back(angle_between(world_from_camera, *truth) * 180.0 / kPi);
                 if (last_track->detected) {
                     ++ar_detected;
                     if (const auto truth = source.truth_board(last_frame.sequence))
@@ -871,6 +898,11 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
     summary["coverage"] = capture_summary ? json(capture_summary->coverage.covered_fraction) : json();
     summary["tracking_detection_rate"] = ar_frames > 0 ? json(double(ar_detected) / ar_frames) : json();
     summary["tracking_frames"] = ar_frames;
+    if (!ar_camera_error_deg.empty()) {
+        std::sort(ar_camera_error_deg.begin(), ar_camera_error_deg.end());
+        summary["ar_camera_orientation_error_deg"] = {{"median", ar_camera_error_deg[ar_camera_error_deg.size() / 2]},
+                                                      {"max", ar_camera_error_deg.back()}};
+    }
     if (!ar_rotation_error_deg.empty()) {
         std::sort(ar_rotation_error_deg.begin(), ar_rotation_error_deg.end());
         summary["tracking_rotation_error_deg"] = {{"median", ar_rotation_error_deg[ar_rotation_error_deg.size() / 2]},
@@ -889,6 +921,10 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
                               {"calibration_refined", capture_summary->calibration_checked
                                                           ? json(capture_summary->calibration_refined)
                                                           : json()},
+                              {"calibration_refined_during_scan_s",
+                               capture_summary->calibration_refined_during_scan_s
+                                   ? json(*capture_summary->calibration_refined_during_scan_s)
+                                   : json()},
                               {"guided_complete_after_s", capture_summary->guided_complete_after_s
                                                               ? json(*capture_summary->guided_complete_after_s)
                                                               : json()}};

@@ -43,6 +43,8 @@ public:
         // no orientations: a scan in it waits for the sensor and ends as a live one would.
         if (!session_.sensors.empty()) sensors_ = capture::load_sensor_orientations(session_);
         for (const capture::TruthBoardPose& p : capture::load_truth_board_poses(session_)) truth_board_[p.index] = p;
+        if (session_.has_truth)
+            for (const capture::TruthPose& p : capture::load_truth_poses(session_)) truth_camera_[p.index] = p.world_from_camera;
         response_ = render::load_camera_response(session_.dir / "calibration.json", "calibration");
         // A session without a kiosk recording (a plain scan): the visitor pressed the button at its start.
         if (!kiosk_ && events_.empty()) events_.push_back({session_.frames.front().t_ns, "button", "press"});
@@ -97,6 +99,12 @@ public:
         return it->second;
     }
 
+    std::optional<glm::dquat> truth_camera(std::uint64_t index) const override {
+        const auto it = truth_camera_.find(index);
+        if (it == truth_camera_.end()) return std::nullopt;
+        return it->second;
+    }
+
     const capture::Session& session() const { return session_; }
     double length_s() const { return double(session_.frames.back().t_ns - session_.frames.front().t_ns) * 1e-9; }
 
@@ -107,6 +115,7 @@ private:
     std::vector<capture::SessionEvent> events_;
     std::vector<capture::SensorOrientation> sensors_;
     std::map<std::uint64_t, capture::TruthBoardPose> truth_board_;
+    std::map<std::uint64_t, glm::dquat> truth_camera_;
     render::CameraResponse response_;
     std::size_t next_frame_ = 0, next_event_ = 0, next_sensor_ = 0;
 };

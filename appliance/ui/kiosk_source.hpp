@@ -73,6 +73,8 @@ public:
     virtual bool in_ar_phase(std::int64_t) const { return true; }
     // A simulated session's true board pose of a frame.
     virtual std::optional<capture::TruthBoardPose> truth_board(std::uint64_t) const { return std::nullopt; }
+    // A simulated session's true world_from_camera of a frame (truth/camera.csv).
+    virtual std::optional<glm::dquat> truth_camera(std::uint64_t) const { return std::nullopt; }
 };
 
 }  // namespace glint::ui

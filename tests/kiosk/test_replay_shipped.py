@@ -60,6 +60,9 @@ cap = s.get("capture", {})
 turn = cap.get("calibration_turn_deg")
 check(turn is not None and turn < 0.4 and cap.get("calibration_stale") is False,
       f"the calibration check ran and found it right: turn {turn} deg, stale {cap.get('calibration_stale')}")
+check(cap.get("calibration_refined") is False and "calibration_refined_during_scan_s" in cap
+      and cap["calibration_refined_during_scan_s"] is None,
+      f"neither the check during the scan nor the one after kept a refined calibration: {cap}")
 check("sensor-camera calibration ok: " in r.stderr, "the log has the calibration check's line")
 frames = os.listdir(os.path.join(out, "frames"))
 for state in ["ATTRACT", "CAPTURE", "PROCESSING", "AR"]:
