@@ -315,6 +315,9 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
     struct KeptMap {
         std::unique_ptr<Engine> engine;
         std::vector<glm::dquat> q;
+        // How many calibrations the scan had kept when this map was begun: a map begun before the
+        // last one has frames the stale calibration placed, and is never the final map.
+        int calibration_generation = 0;
         // Accumulates kept frames q.size() .. n - 1 with orientations `now` (all of them by
         // default), calling after(k) for each.
         void extend(const std::vector<CameraFrame>& frames, const std::vector<glm::dvec3>& w, const CameraCalibration& c,
@@ -335,10 +338,12 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
     };
     KeptMap rolling, rebuilding;
     int rebuilds = 0;
+    int calibration_generation = 0;  // calibrations kept during the scan
     const auto keep_map = [&](const std::vector<glm::dquat>& qs, std::size_t settled) {
-        if (!rolling.engine) rolling.engine = make_engine();
-        if (!rebuilding.engine && rolling.deviation_deg(qs) > o.map_rebuild_deg) {
-            rebuilding = {make_engine(), {}};
+        if (!rolling.engine) rolling = {make_engine(), {}, calibration_generation};
+        if (!rebuilding.engine && (rolling.calibration_generation != calibration_generation ||
+                                   rolling.deviation_deg(qs) > o.map_rebuild_deg)) {
+            rebuilding = {make_engine(), {}, calibration_generation};
             ++rebuilds;
         }
         if (rebuilding.engine) {
@@ -353,18 +358,20 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
         rolling.extend(kept, kept_w, cal, qs, settled);
     };
     // The calibration's refinement as the adjustment found it.
-    const auto report_calibration = [&](const AdjustmentResult& r) {
+    const auto set_calibration_figures = [&](const AdjustmentResult& r) {
         const double angle = glm::length(r.mounting_rad);
         summary.calibration_mounting_deg = angle * 180.0 / kPi;
         summary.calibration_mounting_axis = angle > 0 ? r.mounting_rad / angle : glm::dvec3(0);
         summary.calibration_time_offset_ms = r.time_offset_s * 1e3;
+        summary.calibration_checked = true;
+    };
+    const auto report_calibration = [&](const AdjustmentResult& r) {
+        const bool first = !summary.calibration_checked;
+        set_calibration_figures(r);
         // The largest turn of the refined solves: the one that decided staleness (an adopted
         // solve turns the frames about as far, and a smaller figure beside "stale" would read as
         // a contradiction).
-        summary.calibration_turn_deg = summary.calibration_checked
-                                           ? std::max(summary.calibration_turn_deg, r.calibration_turn_deg)
-                                           : r.calibration_turn_deg;
-        summary.calibration_checked = true;
+        summary.calibration_turn_deg = first ? r.calibration_turn_deg : std::max(summary.calibration_turn_deg, r.calibration_turn_deg);
         // Stale once any refined solve turned the frames past the limit.
         summary.calibration_stale = summary.calibration_stale || r.calibration_turn_deg > kStaleMountingDeg;
     };
@@ -382,9 +389,11 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
         report_calibration(refined);
         online_adjustment.adopt(refined);
         online_adjustment.refine_calibration_from_now();
+        ++calibration_generation;
         rebuilding = {};  // its first frames have the stale orientations: the next one starts afresh
         summary.calibration_refined = true;
         summary.calibration_refined_during_scan_s = t_s;
+        summary.calibration_turn_during_scan_deg = refined.calibration_turn_deg;
     };
     long long done = 0;
     GuidedCapture guide(o.guided, cal.intrinsics);
@@ -568,13 +577,13 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
         int passes = 0;
         // Up to max_passes of: the pairs moved more than realign_deg aligned again (at most
         // per_pass; all when negative), then a solve; stops when none moved.
-        const auto realign_and_solve = [&](int max_passes, int per_pass) {
+        const auto realign_and_solve = [&](int max_passes, int per_pass, double min_change_deg) {
             for (int pass = 0; pass < max_passes; ++pass, ++passes) {
-                if (online_adjustment.realign(per_pass, o.realign_deg) == 0) break;
+                if (online_adjustment.realign(per_pass, min_change_deg) == 0) break;
                 online_adjustment.solve();
             }
         };
-        realign_and_solve(o.final_realign_passes, o.realign_per_frame);
+        realign_and_solve(o.final_realign_passes, o.realign_per_frame, o.realign_deg);
         final_q = online_adjustment.orientations();
         const AdjustmentResult& r = online_adjustment.result();
         summary.adjust_pairs_tried = online_adjustment.pairs_tried();
@@ -587,7 +596,22 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
         // check during the scan kept it already, every solve since refined it: the last one is it.
         const bool refined_during_scan = summary.calibration_refined_during_scan_s.has_value();
         if (refined_during_scan) {
-            report_calibration(r);
+            // Pairs aligned from the stale start are aligned again in the frame loop, 24 a frame;
+            // after an adoption near the end of the scan some are left: those that moved more
+            // than a tenth of a degree are aligned again now (none, when the loop caught up).
+            realign_and_solve(4, -1, std::max(o.realign_deg, o.scan_check_realign_deg));
+            final_q = online_adjustment.orientations();
+            // The whole scan's solve decides: a partial scan's refinement finds more than a whole
+            // one's, so the figures, and staleness, are the last solve's (every solve since the
+            // adoption refined the calibration from calibration.json's values).
+            const AdjustmentResult& last = online_adjustment.result();
+            set_calibration_figures(last);
+            summary.calibration_turn_deg = last.calibration_turn_deg;
+            summary.calibration_stale = last.calibration_turn_deg > kStaleMountingDeg;
+            summary.adjust_sensor_rms_deg = last.sensor_rms_deg;
+            summary.adjust_pair_rms_deg = last.pair_rms_deg;
+            summary.adjust_pairs = last.pairs_used;
+            summary.adjust_drift_deg_per_min = glm::length(last.drift_rate_rad_per_s) * 180.0 / kPi * 60.0;
         } else {
             const AdjustmentResult refined = online_adjustment.refined_solution();
             report_calibration(refined);
@@ -602,7 +626,7 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
                 // 2.4 degrees after 60 s with the refined solve alone, 0.09 so).
                 online_adjustment.adopt(refined);
                 online_adjustment.refine_calibration_from_now();
-                realign_and_solve(4, -1);
+                realign_and_solve(4, -1, o.realign_deg);
                 const AdjustmentResult& adopted = online_adjustment.result();
                 report_calibration(adopted);
                 final_q = online_adjustment.orientations();
@@ -624,11 +648,15 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
         };
         // A refinement kept after the scan moved every frame: no kept map serves.
         const bool refined_after_scan = summary.calibration_refined && !refined_during_scan;
-        const auto near_final = [&](const KeptMap& m) { return m.deviation_deg(final_q) <= o.map_redo_deg; };
+        // A kept map serves when it was begun after the last calibration kept during the scan and
+        // its frames are within map_redo_deg of the final solution.
+        const auto near_final = [&](const KeptMap& m) {
+            return m.calibration_generation == calibration_generation && m.deviation_deg(final_q) <= o.map_redo_deg;
+        };
         if (o.keep_map && rolling.engine && !refined_after_scan) {
             // A rebuild under way is finished when little of it is left, or when the current map
-            // is too far off to serve (its frames accumulated before a refinement kept during the
-            // scan); then the held-back tail with the final solution. The map's orientations are
+            // cannot serve (begun before a refinement kept during the scan, or too far off); then
+            // the held-back tail with the final solution. The map's orientations are
             // what its frames were accumulated with, a little off the final solution where it
             // moved after they were.
             if (rebuilding.engine &&

@@ -73,6 +73,10 @@ struct CaptureOptions {
     double scan_check_from_s = 35;
     double scan_check_every_s = 5;
     double scan_check_stale_deg = 1.0;
+    // After the last frame of a scan whose calibration was kept during it, the pairs whose start
+    // moved more than this since they were aligned are aligned again (an adoption near the end
+    // leaves pairs aligned from the stale start; the frame loop catches up with the others).
+    double scan_check_realign_deg = 0.1;
     int realign_per_frame = 24;
     double realign_deg = 0.01;
     int final_realign_passes = 1;
@@ -81,10 +85,10 @@ struct CaptureOptions {
     // map_rebuild_per_frame frames per frame, when the solution moved one of its frames more than
     // map_rebuild_deg; after the last frame a rebuild under way is finished only when the map is
     // more than map_accept_deg off the final solution and fewer than map_finish_max_frames are
-    // left, then the tail is added. A kept map more than map_redo_deg off the final solution (its
-    // frames accumulated before a calibration found stale during the scan, and its rebuild not
-    // finished) is not used: every frame is accumulated again. Off: every frame accumulated again
-    // after the scan.
+    // left, then the tail is added. A map begun before a calibration kept during the scan, or
+    // whose frames are more than map_redo_deg off the final solution, is never the final map: a
+    // rebuild begun after it is finished, else every frame is accumulated again. Off: every frame
+    // accumulated again after the scan.
     bool keep_map = true;
     int map_tail_frames = 12;
     double map_rebuild_deg = 0.05;
@@ -168,15 +172,19 @@ struct CaptureSummary {
     // The camera-sensor calibration as the adjustment refined it against calibration.json
     // (AdjustmentSettings::refine_calibration): the mounting's rotation (degrees), the time
     // offset's change (ms) and the RMS turn of the frames they make (degrees; the largest of the
-    // refined solves); calibration_stale: that turn beyond kStaleMountingDeg.
+    // refined solves after the scan, or the last solve's when the check during the scan kept
+    // one); calibration_stale: that turn beyond kStaleMountingDeg.
     double calibration_mounting_deg = 0, calibration_time_offset_ms = 0, calibration_turn_deg = 0;
     glm::dvec3 calibration_mounting_axis{0};  // camera frame, unit (0 when no refinement)
     bool calibration_stale = false;
     bool calibration_refined = false;  // the map was made with the refined solution
     bool calibration_checked = false;  // a refined solve ran (online adjustment): the figures above hold
     // Seconds into the scan when the check during it found the calibration stale and the scan's
-    // own values were taken from then on (CaptureOptions::scan_check_stale_deg); nullopt: not so.
+    // own values were taken from then on (CaptureOptions::scan_check_stale_deg; nullopt: not so),
+    // and the turn that check's refined solve found (a partial scan's, larger than the whole
+    // scan's: calibration_turn_deg and calibration_stale are then the last solve's).
     std::optional<double> calibration_refined_during_scan_s;
+    double calibration_turn_during_scan_deg = 0;
     // Wall times after the last frame of the scan: the alignment views, the final accumulation,
     // and from the last frame to the finished map (radiance merged and filled) and to it saved;
     // adjust_profile: the adjustment's own breakdown (pair selection, alignment, solve).

@@ -568,18 +568,6 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
                     log(std::string(alignment_stale ? "capture: warning: " : "capture: ") + "sensor-camera calibration " +
                         alignment_text);
                 }
-                // The AR view takes the calibration this scan's map was made with (the file's
-                // again after a scan that kept it); the tracker starts afresh with its mounting.
-                const capture::CameraCalibration of_scan = capture::calibration_of_scan(cal, *capture_summary);
-                if (of_scan.sensor_from_camera != ar_sensor_from_camera || of_scan.time_offset_s != ar_time_offset_s) {
-                    ar_sensor_from_camera = of_scan.sensor_from_camera;
-                    ar_time_offset_s = of_scan.time_offset_s;
-                    tracker = make_tracker();
-                    last_track.reset();
-                    log(capture_summary->calibration_refined
-                            ? "capture: the AR view uses the scan's sensor-camera mounting and time offset"
-                            : "capture: the AR view uses calibration.json's sensor-camera mounting and time offset");
-                }
                 // The map read back, its preview and the coarse maps on a worker: the frames go on.
                 scene_job = std::async(std::launch::async, [maps_dir = o.maps_dir, replayed = source.replayed(), &log, &materials, threads] {
                     const WallClock::time_point t0 = WallClock::now();
@@ -606,6 +594,19 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
                 maps = std::make_shared<const render::ShadingMaps>(std::move(scene.maps));
                 picture.upload(scene.preview);
                 renderer.replace_maps(maps);
+                // The AR view takes the calibration this map was made with (the file's again after
+                // a scan that kept it); the tracker starts afresh with its mounting.
+                const capture::CameraCalibration of_scan =
+                    capture_summary ? capture::calibration_of_scan(cal, *capture_summary) : cal;
+                if (of_scan.sensor_from_camera != ar_sensor_from_camera || of_scan.time_offset_s != ar_time_offset_s) {
+                    ar_sensor_from_camera = of_scan.sensor_from_camera;
+                    ar_time_offset_s = of_scan.time_offset_s;
+                    tracker = make_tracker();
+                    last_track.reset();
+                    log(of_scan.sensor_from_camera != cal.sensor_from_camera || of_scan.time_offset_s != cal.time_offset_s
+                            ? "capture: the AR view uses the scan's sensor-camera mounting and time offset"
+                            : "capture: the AR view uses calibration.json's sensor-camera mounting and time offset");
+                }
                 // The final maps on the worker made at start-up (its context and programs ready).
                 live_maps.start(env, materials);
                 final_maps_due = true;

@@ -240,6 +240,12 @@ TEST_F(SessionTest, AStaleCalibrationIsFoundAndTheScanCorrectsIt) {
     c.out = dir_ / "refined.exr";
     c.calibration_refinement = CaptureOptions::CalibrationRefinement::Stale;
     const CaptureSummary refined = capture_session(c);
+    // The same found near the scan's end (it ends at about 53 s): the map begun before is not
+    // used, the rebuild begun after the adoption is finished after the last frame, and the pairs
+    // aligned from the stale start are aligned again then.
+    c.out = dir_ / "refined-late.exr";
+    c.scan_check_from_s = 50;
+    const CaptureSummary late = capture_session(c);
     // The same with the check after the scan only: every frame accumulated again after the last.
     c.out = dir_ / "refined-after.exr";
     c.scan_check_from_s = 0;
@@ -276,6 +282,17 @@ TEST_F(SessionTest, AStaleCalibrationIsFoundAndTheScanCorrectsIt) {
     EXPECT_EQ(after.map_final_frames, after.frames_used);
     ASSERT_TRUE(after.orientation_error_median_deg);
     EXPECT_LT(*refined.orientation_error_median_deg, *after.orientation_error_median_deg + 0.1);
+    std::printf("found late, at %.1f s: %d frames accumulated after the last, orientation error median %.3f, max %.3f "
+                "degrees, turn %.2f degrees (%.2f during the scan)\n",
+                late.calibration_refined_during_scan_s.value_or(-1), late.map_final_frames,
+                late.orientation_error_median_deg.value_or(-1), late.orientation_error_max_deg.value_or(-1),
+                late.calibration_turn_deg, late.calibration_turn_during_scan_deg);
+    ASSERT_TRUE(late.calibration_refined_during_scan_s.has_value() && late.orientation_error_median_deg);
+    EXPECT_GE(*late.calibration_refined_during_scan_s, 50.0);
+    EXPECT_GT(late.map_final_frames, late.frames_used / 2);
+    EXPECT_LT(*late.orientation_error_median_deg, *after.orientation_error_median_deg + 0.1);
+    EXPECT_TRUE(late.calibration_stale);
+    EXPECT_GT(late.calibration_turn_during_scan_deg, 1.0);
     // What the kiosk logs and its maintenance menu shows: stale, with what to do, and which
     // calibration the map was made with.
     const std::string kept_text = calibration_check_text(kept), refined_text = calibration_check_text(refined);
