@@ -155,7 +155,8 @@ Command add_capture_command(CLI::App& app) {
                                 r.calibration_refined ? "the map is made with the scan's values" : "the map keeps it");
                     if (r.calibration_refined_during_scan_s)
                         std::printf("camera-sensor calibration found stale during the scan, %.1f s in (the scan so "
-                                    "far turned its frames %.2f degrees RMS): the scan's values were used from then on\n",
+                                    "far turned its frames %.2f degrees RMS): the scan's values were used from then "
+                                    "on\n",
                                     *r.calibration_refined_during_scan_s, r.calibration_turn_during_scan_deg);
                     if (r.calibration_stale)
                         std::fprintf(stderr,

@@ -371,7 +371,8 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
         // The largest turn of the refined solves: the one that decided staleness (an adopted
         // solve turns the frames about as far, and a smaller figure beside "stale" would read as
         // a contradiction).
-        summary.calibration_turn_deg = first ? r.calibration_turn_deg : std::max(summary.calibration_turn_deg, r.calibration_turn_deg);
+        summary.calibration_turn_deg =
+            first ? r.calibration_turn_deg : std::max(summary.calibration_turn_deg, r.calibration_turn_deg);
         // Stale once any refined solve turned the frames past the limit.
         summary.calibration_stale = summary.calibration_stale || r.calibration_turn_deg > kStaleMountingDeg;
     };

@@ -64,12 +64,13 @@ struct CaptureOptions {
     // scan_check_every_s, a solve with the calibration refined; when it turns the frames more than
     // scan_check_stale_deg the calibration is stale beyond doubt and that solution is kept there
     // and then, so that the pairs' new alignments and the kept map's rebuild (below) run while the
-    // visitor still scans instead of after the last frame (a mounting 3 degrees off, checked after
-    // the scan: 14 s from the last frame to the map in glint capture, 8.9 s in the kiosk). A partial scan's refinement finds more than a
-    // whole one's: with right calibrations it turned the frames up to 0.65-0.83 degrees at 17-19 s
-    // and under 0.4 only from 34-36 s, with a mounting 3 degrees off 1.6-2.0 degrees by 12-17 s;
-    // hence the later start and the higher limit than kStaleMountingDeg. Smaller staleness is
-    // still found after the scan. 0 = no check during the scan.
+    // visitor still scans instead of after the last frame (a mounting 3 degrees off, checked
+    // after the scan: 14 s from the last frame to the map in glint capture, 9.6 s in the kiosk).
+    // A partial scan's refinement finds more than a whole one's: with right calibrations it
+    // turned the frames up to 0.65-0.83 degrees at 17-19 s and under 0.4 only from 34-36 s, with
+    // a mounting 3 degrees off 1.6-2.0 degrees by 12-17 s; hence the later start and the higher
+    // limit than kStaleMountingDeg. Smaller staleness is still found after the scan. 0 = no check
+    // during the scan.
     double scan_check_from_s = 35;
     double scan_check_every_s = 5;
     double scan_check_stale_deg = 1.0;

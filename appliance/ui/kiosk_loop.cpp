@@ -603,9 +603,10 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
                     ar_time_offset_s = of_scan.time_offset_s;
                     tracker = make_tracker();
                     last_track.reset();
-                    log(of_scan.sensor_from_camera != cal.sensor_from_camera || of_scan.time_offset_s != cal.time_offset_s
-                            ? "capture: the AR view uses the scan's sensor-camera mounting and time offset"
-                            : "capture: the AR view uses calibration.json's sensor-camera mounting and time offset");
+                    const bool scans = of_scan.sensor_from_camera != cal.sensor_from_camera ||
+                                       of_scan.time_offset_s != cal.time_offset_s;
+                    log(scans ? "capture: the AR view uses the scan's sensor-camera mounting and time offset"
+                              : "capture: the AR view uses calibration.json's sensor-camera mounting and time offset");
                 }
                 // The final maps on the worker made at start-up (its context and programs ready).
                 live_maps.start(env, materials);
@@ -686,7 +687,8 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
             model.devices.sensor_health = devices.sensor_lost() ? "no orientation (" + health.sensor + ")" : health.sensor;
             model.devices.camera_error = health.camera_error;
         }
-        const glm::dquat world_from_camera = world_from_sensor ? glm::normalize(*world_from_sensor * ar_sensor_from_camera) : glm::dquat(1, 0, 0, 0);
+        const glm::dquat world_from_camera =
+            world_from_sensor ? glm::normalize(*world_from_sensor * ar_sensor_from_camera) : glm::dquat(1, 0, 0, 0);
         if (flow.state() == KioskState::Ar && new_picture && !last_rgb.empty()) {
             cv::Mat gray;
             cv::cvtColor(last_rgb, gray, cv::COLOR_RGB2GRAY);

@@ -44,7 +44,8 @@ public:
         if (!session_.sensors.empty()) sensors_ = capture::load_sensor_orientations(session_);
         for (const capture::TruthBoardPose& p : capture::load_truth_board_poses(session_)) truth_board_[p.index] = p;
         if (session_.has_truth)
-            for (const capture::TruthPose& p : capture::load_truth_poses(session_)) truth_camera_[p.index] = p.world_from_camera;
+            for (const capture::TruthPose& p : capture::load_truth_poses(session_))
+                truth_camera_[p.index] = p.world_from_camera;
         response_ = render::load_camera_response(session_.dir / "calibration.json", "calibration");
         // A session without a kiosk recording (a plain scan): the visitor pressed the button at its start.
         if (!kiosk_ && events_.empty()) events_.push_back({session_.frames.front().t_ns, "button", "press"});
