@@ -386,6 +386,7 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
         if (!check_during_scan || summary.calibration_refined_during_scan_s || t_s < next_scan_check_s) return;
         next_scan_check_s = t_s + std::max(0.0, o.scan_check_every_s);
         const AdjustmentResult refined = online_adjustment.refined_solution();
+        summary.calibration_checks_during_scan.emplace_back(t_s, refined.calibration_turn_deg);
         if (!(refined.calibration_turn_deg > o.scan_check_stale_deg)) return;
         report_calibration(refined);
         online_adjustment.adopt(refined);
@@ -785,6 +786,16 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
                      summary.online_seconds, summary.online_max_frame_seconds, summary.map_seconds,
                      summary.map_max_frame_seconds, summary.map_rebuilds, summary.map_deviation_deg,
                      summary.adjusted_after_60s_max_deg.value_or(-1));
+    if (std::getenv("GLINT_CAPTURE_PROFILE") && !summary.calibration_checks_during_scan.empty()) {
+        std::string checks;
+        for (const auto& [t, turn] : summary.calibration_checks_during_scan) {
+            char item[48];
+            std::snprintf(item, sizeof item, "%s%.1f s %.2f deg", checks.empty() ? "" : ", ", t, turn);
+            checks += item;
+        }
+        std::fprintf(stderr, "profile: calibration checks during the scan (turn of the refined solve): %s\n",
+                     checks.c_str());
+    }
     if (!o.drift_log.empty()) write_text_atomically(o.drift_log, drift_log);
     if (!o.orientations_out.empty()) {
         std::string csv = camera_poses_csv_header() + "\n";

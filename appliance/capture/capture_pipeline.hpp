@@ -186,6 +186,9 @@ struct CaptureSummary {
     // scan's: calibration_turn_deg and calibration_stale are then the last solve's).
     std::optional<double> calibration_refined_during_scan_s;
     double calibration_turn_during_scan_deg = 0;
+    // Every check during the scan: seconds into the scan and the turn its refined solve found
+    // (degrees), kept or not (how near right calibrations come to the check's limit).
+    std::vector<std::pair<double, double>> calibration_checks_during_scan;
     // Wall times after the last frame of the scan: the alignment views, the final accumulation,
     // and from the last frame to the finished map (radiance merged and filled) and to it saved;
     // adjust_profile: the adjustment's own breakdown (pair selection, alignment, solve).
