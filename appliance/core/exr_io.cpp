@@ -21,6 +21,10 @@ namespace {
 // Guards against absurd headers before we allocate: 1 Gi texels is far beyond any
 // environment map the appliance will see.
 constexpr long long kMaxTexels = 1LL << 30;
+// No EXR compression holds more than this many decoded bytes per byte of file (deflate's limit is
+// about 1032, RLE's 64; real photographs compress 2-10x): a header claiming more is damaged, and
+// is refused before its image is allocated (a 469-byte RLE file claimed 67108872x4 texels, 3 GiB).
+constexpr long long kMaxCompressionRatio = 4096;
 
 }  // namespace
 
@@ -51,6 +55,15 @@ LoadedExr load_exr(const std::filesystem::path& path) {
         // without zero-filling memory for it.
         if (!file.isComplete())
             throw InputError("input " + path.string() + " is truncated (missing scanlines)");
+        long long bytes_per_texel = 0;
+        for (Imf::ChannelList::ConstIterator c = channels.begin(); c != channels.end(); ++c)
+            bytes_per_texel += c.channel().type == Imf::HALF ? 2 : 4;
+        const std::uintmax_t file_bytes = std::filesystem::file_size(path, ec);
+        if (!ec && (long double)(w * h) * (long double)bytes_per_texel >
+                       (long double)file_bytes * (long double)kMaxCompressionRatio)
+            throw InputError("input " + path.string() + " is damaged: its header claims " + std::to_string(w) + "x" +
+                             std::to_string(h) + " texels in a file of " + std::to_string(file_bytes) +
+                             " bytes, more than any EXR compression holds");
         out.image = HdrImage(int(w), int(h));
         float* base = out.image.data().data();
         // Slices address the data window from its origin; x/y strides in bytes.

@@ -1,6 +1,7 @@
 """What the tests that run glint as a process share: named checks that print ok/FAIL and decide the
 exit code, and a program's stderr read line by line on a thread, so that a test waits for the
 program's own log lines instead of for fixed times (a loaded machine starts glint slowly)."""
+import json
 import os
 import subprocess
 import sys
@@ -42,6 +43,19 @@ class Checks:
 
     def exit(self):
         sys.exit(1 if self.failures else 0)
+
+
+def run_replay(check, glint, session, out, tail=3000):
+    """`glint replay SESSION --out OUT`, its output's tails printed; checks that it exits 0 (else
+    exits 1) and returns the process and OUT/summary.json."""
+    r = subprocess.run([glint, "replay", session, "--out", out], capture_output=True, text=True,
+                       timeout=scaled(1500))
+    print(r.stdout[-tail:])
+    print(r.stderr[-tail:])
+    check(r.returncode == 0, f"glint replay exits 0 (got {r.returncode})")
+    if r.returncode != 0:
+        sys.exit(1)
+    return r, json.load(open(os.path.join(out, "summary.json")))
 
 
 class Process:

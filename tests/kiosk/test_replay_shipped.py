@@ -11,29 +11,14 @@ usage: test_replay_shipped.py GLINT SESSION OUT
 import json
 import os
 import shutil
-import subprocess
 import sys
 
-from glint_test_util import scaled
+from glint_test_util import Checks, run_replay
 
 glint, session, out = sys.argv[1:4]
 shutil.rmtree(out, ignore_errors=True)
-r = subprocess.run([glint, "replay", session, "--out", out], capture_output=True, text=True, timeout=scaled(1500))
-print(r.stdout[-3000:])
-print(r.stderr[-3000:])
-failures = []
-
-
-def check(ok, what):
-    print(("ok   " if ok else "FAIL ") + what)
-    if not ok:
-        failures.append(what)
-
-
-check(r.returncode == 0, f"glint replay exits 0 (got {r.returncode})")
-if r.returncode != 0:
-    sys.exit(1)
-s = json.load(open(os.path.join(out, "summary.json")))
+check = Checks()
+r, s = run_replay(check, glint, session, out)
 # The warm-up tracks a drawn board (docs/kiosk.md): found, or the first AR frame pays OpenCV's set-up.
 check("warm-up: the drawn board was found in" not in r.stderr, "the warm-up found the drawn board")
 names = [x["name"] for x in s["states"]]
@@ -72,4 +57,4 @@ frames = os.listdir(os.path.join(out, "frames"))
 for state in ["ATTRACT", "CAPTURE", "PROCESSING", "AR"]:
     check(any(f"_{state}_" in name for name in frames), f"a PNG frame of {state}")
 print("frame time per state (ms):", json.dumps(f["by_state"]))
-sys.exit(1 if failures else 0)
+check.exit()

@@ -16,10 +16,9 @@ import json
 import math
 import os
 import shutil
-import subprocess
 import sys
 
-from glint_test_util import scaled
+from glint_test_util import Checks, run_replay
 
 glint, session, out = sys.argv[1:4]
 shutil.rmtree(out, ignore_errors=True)
@@ -36,23 +35,8 @@ cal["sensor_from_camera"] = [rw * w - rx * x - ry * y - rz * z, rw * x + rx * w 
                              rw * y - rx * z + ry * w + rz * x, rw * z + rx * y - ry * x + rz * w]
 json.dump(cal, open(path, "w"), indent=2)
 
-r = subprocess.run([glint, "replay", stale, "--out", os.path.join(out, "replay")], capture_output=True, text=True,
-                   timeout=scaled(1500))
-print(r.stdout[-2000:])
-print(r.stderr[-3000:])
-failures = []
-
-
-def check(ok, what):
-    print(("ok   " if ok else "FAIL ") + what)
-    if not ok:
-        failures.append(what)
-
-
-check(r.returncode == 0, f"glint replay exits 0 (got {r.returncode})")
-if r.returncode != 0:
-    sys.exit(1)
-s = json.load(open(os.path.join(out, "replay", "summary.json")))
+check = Checks()
+r, s = run_replay(check, glint, stale, os.path.join(out, "replay"))
 cap = s.get("capture", {})
 print(f"scan end to lit {s['scan_end_to_lit_s']} s, capture's last frame to map {cap.get('last_frame_to_map_s')} s "
       "(not asserted)")
@@ -71,4 +55,4 @@ check(ar.get("median", 99) < 2.0, f"the AR view's camera orientation {ar.get('me
       "(median) < 2: the scan's mounting, not the file's")
 check(s["irradiance_error"] is not None and s["irradiance_error"] <= 0.05,
       f"irradiance error {s['irradiance_error']} <= 0.05")
-sys.exit(1 if failures else 0)
+check.exit()

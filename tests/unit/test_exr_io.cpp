@@ -361,6 +361,26 @@ TEST_F(ExrIo, TruncatedHugeImageIsRefusedBeforeItIsAllocated) {
     EXPECT_LT(after.ru_maxrss - before.ru_maxrss, 256 * 1024) << "KiB of peak resident size added";
 }
 
+// A complete file whose header claims far more texels than its bytes could hold under any EXR
+// compression (found with tests/fuzz's exr target: 469 bytes of RLE claiming 67108872x4 texels,
+// a 3 GiB allocation) is refused as damaged before the image is allocated.
+TEST_F(ExrIo, AHeaderClaimingMoreThanTheFileCanHoldIsRefusedBeforeItIsAllocated) {
+    const fs::path path = fs::path(GLINT_SOURCE_DIR) / "tests/fuzz/corpus/exr/oom-rle-huge-lines.exr";
+    ASSERT_LT(fs::file_size(path), 1024u);
+    rusage before{};
+    getrusage(RUSAGE_SELF, &before);
+    try {
+        load_exr(path);
+        ADD_FAILURE() << "accepted " << path;
+    } catch (const InputError& e) {
+        EXPECT_NE(std::string(e.what()).find("damaged"), std::string::npos) << e.what();
+        EXPECT_NE(std::string(e.what()).find(path.string()), std::string::npos) << e.what();
+    }
+    rusage after{};
+    getrusage(RUSAGE_SELF, &after);
+    EXPECT_LT(after.ru_maxrss - before.ru_maxrss, 256 * 1024) << "KiB of peak resident size added";
+}
+
 TEST_F(ExrIo, TruncatedHeaderIsAnInputErrorNamingIt) {
     const fs::path path = dir_ / "header_only.exr";
     save_exr(path, pattern(64, 32));
