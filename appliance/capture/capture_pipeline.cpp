@@ -357,6 +357,13 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
         // one unfinished at the end can be dropped.
         rolling.extend(kept, kept_w, cal, qs, settled);
     };
+    // The adjustment's own figures from its solve.
+    const auto report_adjustment = [&](const AdjustmentResult& r) {
+        summary.adjust_pairs = r.pairs_used;
+        summary.adjust_pair_rms_deg = r.pair_rms_deg;
+        summary.adjust_sensor_rms_deg = r.sensor_rms_deg;
+        summary.adjust_drift_deg_per_min = glm::length(r.drift_rate_rad_per_s) * 180.0 / kPi * 60.0;
+    };
     // The calibration's refinement as the adjustment found it.
     const auto set_calibration_figures = [&](const AdjustmentResult& r) {
         const double angle = glm::length(r.mounting_rad);
@@ -494,11 +501,12 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
                 // moved most aligned again: the spare time of the frame loop.
                 kept.push_back({f.rgb.clone(), f.t_ns, f.exposure_s, f.analogue_gain, f.digital_gain, f.sequence});
                 kept_w.push_back(w);
-                online_adjustment.add_frame(make_alignment_view(aligned, cal), double(f.t_ns - *first_t_ns) * 1e-9, sensor_q,
+                const double t_scan_s = double(f.t_ns - *first_t_ns) * 1e-9;
+                online_adjustment.add_frame(make_alignment_view(aligned, cal), t_scan_s, sensor_q,
                                             *q, rate);
                 online_adjustment.solve();
                 online_adjustment.realign(o.realign_per_frame, o.realign_deg);
-                check_calibration_during_scan(double(f.t_ns - *first_t_ns) * 1e-9);
+                check_calibration_during_scan(t_scan_s);
                 const auto t_map = std::chrono::steady_clock::now();
                 const double spent = std::chrono::duration<double>(t_map - t_online).count();
                 summary.online_seconds += spent;
@@ -589,10 +597,7 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
         final_q = online_adjustment.orientations();
         const AdjustmentResult& r = online_adjustment.result();
         summary.adjust_pairs_tried = online_adjustment.pairs_tried();
-        summary.adjust_pairs = r.pairs_used;
-        summary.adjust_pair_rms_deg = r.pair_rms_deg;
-        summary.adjust_sensor_rms_deg = r.sensor_rms_deg;
-        summary.adjust_drift_deg_per_min = glm::length(r.drift_rate_rad_per_s) * 180.0 / kPi * 60.0;
+        report_adjustment(r);
         // The camera-sensor calibration checked against the scan: a solve with it refined, kept
         // only when calibration.json is stale (then the whole map is made again below). When the
         // check during the scan kept it already, every solve since refined it: the last one is it.
@@ -610,10 +615,7 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
             set_calibration_figures(last);
             summary.calibration_turn_deg = last.calibration_turn_deg;
             summary.calibration_stale = last.calibration_turn_deg > kStaleMountingDeg;
-            summary.adjust_sensor_rms_deg = last.sensor_rms_deg;
-            summary.adjust_pair_rms_deg = last.pair_rms_deg;
-            summary.adjust_pairs = last.pairs_used;
-            summary.adjust_drift_deg_per_min = glm::length(last.drift_rate_rad_per_s) * 180.0 / kPi * 60.0;
+            report_adjustment(last);
         } else {
             const AdjustmentResult refined = online_adjustment.refined_solution();
             report_calibration(refined);
@@ -632,10 +634,7 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
                 const AdjustmentResult& adopted = online_adjustment.result();
                 report_calibration(adopted);
                 final_q = online_adjustment.orientations();
-                summary.adjust_sensor_rms_deg = adopted.sensor_rms_deg;
-                summary.adjust_pair_rms_deg = adopted.pair_rms_deg;
-                summary.adjust_pairs = adopted.pairs_used;
-                summary.adjust_drift_deg_per_min = glm::length(adopted.drift_rate_rad_per_s) * 180.0 / kPi * 60.0;
+                report_adjustment(adopted);
             }
         }
         summary.adjust_alignments = online_adjustment.alignments();
@@ -722,10 +721,7 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
         });
         final_q = sa.result.orientations;
         summary.adjust_pairs_tried = sa.pairs_tried;
-        summary.adjust_pairs = sa.result.pairs_used;
-        summary.adjust_pair_rms_deg = sa.result.pair_rms_deg;
-        summary.adjust_sensor_rms_deg = sa.result.sensor_rms_deg;
-        summary.adjust_drift_deg_per_min = glm::length(sa.result.drift_rate_rad_per_s) * 180.0 / kPi * 60.0;
+        report_adjustment(sa.result);
         summary.adjust_profile = sa.profile;
         summary.adjust_seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_adjust).count();
         const auto t_final = std::chrono::steady_clock::now();
