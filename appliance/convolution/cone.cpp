@@ -84,6 +84,27 @@ private:
     std::unique_ptr<FourierFirstPass> fourier_;
 };
 
+// The smallest positive entry of v[0, count), INFINITY if none. Eight independent minima:
+// one chain of dependent comparisons waited on each one before it (the smallest-value passes
+// were 5.8 % of studio's reference-size set in `perf`). The minimum of the same entries in any
+// order: the result is the same as one chain's.
+double smallest_positive(const double* v, std::size_t count) {
+    constexpr std::size_t kLanes = 8;
+    double lane[kLanes];
+    std::fill(lane, lane + kLanes, INFINITY);
+    std::size_t k = 0;
+    for (; k + kLanes <= count; k += kLanes)
+        for (std::size_t j = 0; j < kLanes; ++j) {
+            const double x = v[k + j];
+            lane[j] = x > 0 && x < lane[j] ? x : lane[j];
+        }
+    double f = INFINITY;
+    for (; k < count; ++k)
+        if (v[k] > 0 && v[k] < f) f = v[k];
+    for (double l : lane) f = std::min(f, l);
+    return f;
+}
+
 }  // namespace
 
 double cone_cut_cos(double energy, double n) {
@@ -248,8 +269,7 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
             std::vector<double> buffer;
             for (const auto& [first, last] : columns_of(std::size_t(k))) {
                 const double* v = run_values(over[std::size_t(k)], first, last, nb_now, buffer);
-                for (std::size_t x = 0; x < 3 * std::size_t(last - first); ++x)
-                    if (v[x] > 0) f = std::min(f, v[x]);
+                f = std::min(f, smallest_positive(v, 3 * std::size_t(last - first)));
             }
             row_floor[std::size_t(k)] = f;
         });
