@@ -12,12 +12,14 @@
 //   E - E' = W_out (L_out - E') / (W_in + W_out)  =>  |E - E'| <= e max(Lmax - E', E').
 #include <algorithm>
 #include <cmath>
+#include <cstring>
 #include <memory>
 
 #include "appliance/convolution/fourier_pass.hpp"
 #include "appliance/convolution/methods.hpp"
 #include "appliance/core/equirect.hpp"
 #include "appliance/core/errors.hpp"
+#include "appliance/core/lane_extrema.hpp"
 #include "appliance/core/parallel.hpp"
 
 namespace glint::convolution {
@@ -83,27 +85,6 @@ private:
     const std::vector<LobeSummer::ColumnRuns>* columns_;
     std::unique_ptr<FourierFirstPass> fourier_;
 };
-
-// The smallest positive entry of v[0, count), INFINITY if none. Eight independent minima:
-// one chain of dependent comparisons waited on each one before it (the smallest-value passes
-// were 5.8 % of studio's reference-size set in `perf`). The minimum of the same entries in any
-// order: the result is the same as one chain's.
-double smallest_positive(const double* v, std::size_t count) {
-    constexpr std::size_t kLanes = 8;
-    double lane[kLanes];
-    std::fill(lane, lane + kLanes, INFINITY);
-    std::size_t k = 0;
-    for (; k + kLanes <= count; k += kLanes)
-        for (std::size_t j = 0; j < kLanes; ++j) {
-            const double x = v[k + j];
-            lane[j] = x > 0 && x < lane[j] ? x : lane[j];
-        }
-    double f = INFINITY;
-    for (; k < count; ++k)
-        if (v[k] > 0 && v[k] < f) f = v[k];
-    for (double l : lane) f = std::min(f, l);
-    return f;
-}
 
 }  // namespace
 
@@ -244,8 +225,8 @@ HdrImage cone_convolve(const PreparedLevel& level, const std::vector<BrightTexel
         const std::size_t count = 3 * std::size_t(last - first);
         buffer.resize(count);
         double* v = buffer.data();
-        bool plain = sums.classes == 1;
-        for (std::size_t k = 0; plain && k < count / 3; ++k) plain = widened[t0 + k] == 0;
+        // widened holds 0 or 1: memchr tests many flags at once (the loop here tested one a cycle).
+        const bool plain = sums.classes == 1 && std::memchr(widened.data() + t0, 1, count / 3) == nullptr;
         if (!plain) {
             for (int col = first; col < last; ++col) values(row, col, nb_now, v + 3 * std::size_t(col - first));
             return v;
