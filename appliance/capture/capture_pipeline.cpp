@@ -394,7 +394,8 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
         next_scan_check_s = t_s + std::max(0.0, o.scan_check_every_s);
         const AdjustmentResult refined = online_adjustment.refined_solution();
         summary.calibration_checks_during_scan.emplace_back(t_s, refined.calibration_turn_deg);
-        if (!(refined.calibration_turn_deg > o.scan_check_stale_deg)) return;
+        const double limit_deg = t_s >= o.scan_check_late_from_s ? o.scan_check_late_stale_deg : o.scan_check_stale_deg;
+        if (!(refined.calibration_turn_deg > limit_deg)) return;
         report_calibration(refined);
         online_adjustment.adopt(refined);
         online_adjustment.refine_calibration_from_now();

@@ -69,11 +69,18 @@ struct CaptureOptions {
     // A partial scan's refinement finds more than a whole one's: with right calibrations it
     // turned the frames up to 0.65-0.83 degrees at 17-19 s and under 0.4 only from 34-36 s, with
     // a mounting 3 degrees off 1.6-2.0 degrees by 12-17 s; hence the later start and the higher
-    // limit than kStaleMountingDeg. Smaller staleness is still found after the scan. 0 = no check
-    // during the scan.
+    // limit than kStaleMountingDeg. 0 = no check during the scan.
+    // From scan_check_late_from_s the limit is scan_check_late_stale_deg: a partial scan's turn
+    // shrinks as the scan goes on. Over 42 sessions with right calibrations (the quick capture
+    // benchmark, 2026-12-07) the largest partial turn was 0.51 degrees at 35 s, 0.38 at 40 s and
+    // 0.33 at 45 s; on the kiosk session with its mounting 0.5 degrees off, or its time offset 25 ms
+    // off, it was 0.69-0.72 at 40 s, so those are now found at 40 s instead of after the scan
+    // (10-13 s from the last frame to the map). Smaller staleness is still found after the scan.
     double scan_check_from_s = 35;
     double scan_check_every_s = 5;
     double scan_check_stale_deg = 1.0;
+    double scan_check_late_from_s = 40;
+    double scan_check_late_stale_deg = 0.6;
     // After the last frame of a scan whose calibration was kept during it, the pairs whose start
     // moved more than this since they were aligned are aligned again (an adoption near the end
     // leaves pairs aligned from the stale start; the frame loop catches up with the others).

@@ -320,6 +320,39 @@ TEST_F(SessionTest, AStaleCalibrationIsFoundAndTheScanCorrectsIt) {
     EXPECT_NE(kept_text.find("Its map was made with the calibration as it is."), std::string::npos) << kept_text;
 }
 
+// A calibration less stale (the mounting 0.6 degrees off): a partial scan's turn is not past the
+// first limit at 35 s, but past the later, lower one (CaptureOptions::scan_check_late_*), so it is
+// still found during the scan and the visitor does not wait for every frame again.
+TEST_F(SessionTest, AModeratelyStaleCalibrationIsFoundLaterInTheScan) {
+    simulate_session(studio_scan());
+    const fs::path calibration = dir_ / "session" / "calibration.json";
+    CameraCalibration stale = load_calibration(calibration);
+    const glm::dvec3 axis = glm::normalize(glm::dvec3(1.5, -2.0, 1.2));
+    stale.sensor_from_camera = unit_rotation(stale.sensor_from_camera * rotation_from_vector(axis * (0.6 * kPi / 180)));
+    save_calibration(calibration, stale);
+    CaptureOptions c = capture_options(dir_ / "session", dir_ / "refined.exr", 512, 256, OrientationInput::Sensors);
+    c.drift_correction = true;
+    const CaptureSummary refined = capture_session(c);
+    std::string checks;
+    for (const auto& [t, turn] : refined.calibration_checks_during_scan)
+        checks += std::to_string(t) + " s: " + std::to_string(turn) + " deg; ";
+    std::printf("0.6 degrees stale: checks during the scan %s found at %.1f s, %d of %d frames accumulated after the "
+                "last, whole scan's turn %.3f degrees, orientation error median %.3f degrees\n",
+                checks.c_str(), refined.calibration_refined_during_scan_s.value_or(-1), refined.map_final_frames,
+                refined.frames_used, refined.calibration_turn_deg, refined.orientation_error_median_deg.value_or(-1));
+    const CaptureOptions defaults;
+    ASSERT_FALSE(refined.calibration_checks_during_scan.empty());
+    // The first check is under the first limit: this is the later limit's case.
+    EXPECT_LT(refined.calibration_checks_during_scan.front().second, defaults.scan_check_stale_deg);
+    ASSERT_TRUE(refined.calibration_refined_during_scan_s.has_value()) << checks;
+    EXPECT_GE(*refined.calibration_refined_during_scan_s, defaults.scan_check_late_from_s);
+    EXPECT_GT(refined.calibration_turn_during_scan_deg, defaults.scan_check_late_stale_deg);
+    EXPECT_TRUE(refined.calibration_stale);
+    EXPECT_LT(refined.map_final_frames, refined.frames_used / 2);
+    ASSERT_TRUE(refined.orientation_error_median_deg.has_value());
+    EXPECT_LT(*refined.orientation_error_median_deg, 0.4);
+}
+
 // The check's line when it was within the limit, and when no refined solve ran (no drift
 // correction, or the rounds mode): nothing is claimed.
 TEST(CalibrationCheck, TextSaysOkWithinTheLimitAndNothingWhenNotChecked) {
