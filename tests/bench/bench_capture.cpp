@@ -106,6 +106,7 @@ struct SeedRun {
     double irr = 0, n160 = 0, last_to_map = 0;
     double calibration_turn = 0;    // the scan's refinement of the camera-sensor calibration, deg RMS
     bool calibration_refined = false;  // ... kept (found stale)
+    double calibration_mounting = 0, calibration_time_offset_ms = 0;  // the refinement's parts
     std::vector<std::pair<double, double>> calibration_checks;  // during the scan: (s, turn deg)
     std::optional<double> after_60s;
     std::vector<bench::LightSource> sources;
@@ -371,7 +372,8 @@ int main(int argc, char** argv) {
               "The calibration column: how far the scan's own refinement of the camera-sensor calibration turns the "
               "frames (RMS), and whether the map kept it (calibration.json found stale, over "
            << bench::fmt("%.1f", kStaleMountingDeg)
-           << " deg; every session here has a right one).\n\n"
+           << " deg; every session here has a right one); in brackets its parts, the mounting's turn and the time "
+              "offset against calibration.json's.\n\n"
               "| map | seed | frames used | irradiance | n = 160 | orientation error after 60 s (max) | last frame to map | "
               "sources within 2 % | worst source | estimated | calibration |\n|---|---|---|---|---|---|---|---|---|---|---|\n";
         for (const SeedRun& r : runs) {
@@ -386,7 +388,9 @@ int main(int argc, char** argv) {
                << (r.after_60s ? bench::fmt("%.3f deg", *r.after_60s) : std::string("-")) << " | "
                << bench::fmt("%.2f s", r.last_to_map) << " | " << within << " of " << r.source_error.size() << " | "
                << (r.source_error.empty() ? std::string("-") : bench::fmt("%+.1f %%", 100 * worst)) << " | " << r.estimated
-               << " | " << bench::fmt("%.2f deg", r.calibration_turn) << (r.calibration_refined ? ", kept" : "") << " |\n";
+               << " | " << bench::fmt("%.2f deg", r.calibration_turn)
+               << bench::fmt(" (%.2f deg, ", r.calibration_mounting) << bench::fmt("%+.1f ms)", r.calibration_time_offset_ms)
+               << (r.calibration_refined ? ", kept" : "") << " |\n";
         }
         md << "\nTargets: irradiance within 2 %, n = 160 within 5 %, every source's energy within 2 %, orientation error "
               "after 60 s under 0.4 deg (0.5 with a margin of 0.1), last frame to map at most 1 s.\n\n";
@@ -557,6 +561,8 @@ int main(int argc, char** argv) {
             r.last_to_map = cs.last_frame_to_map_seconds;
             r.calibration_turn = cs.calibration_turn_deg;
             r.calibration_refined = cs.calibration_refined;
+            r.calibration_mounting = cs.calibration_mounting_deg;
+            r.calibration_time_offset_ms = cs.calibration_time_offset_ms;
             r.calibration_checks = cs.calibration_checks_during_scan;
             r.estimated = int(cs.estimated_sources.size());
             const HdrImage got = load_exr(map_path).image;

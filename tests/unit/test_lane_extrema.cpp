@@ -2,6 +2,7 @@
 // replaced: every length around the lane count, NaN, infinities, negatives and zeros.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <random>
