@@ -69,8 +69,9 @@ struct CaptureOptions {
     // A partial scan's refinement finds more than a whole one's: with right calibrations it
     // turned the frames up to 0.65-0.83 degrees at 17-19 s and under 0.4 only from 34-36 s, with
     // a mounting 3 degrees off 1.6-2.0 degrees by 12-17 s; hence the later start and the higher
-    // limit than kStaleMountingDeg. 0 = no check during the scan.
-    // From scan_check_late_from_s the limit is scan_check_late_stale_deg: a partial scan's turn
+    // limit than kStaleMountingDeg. scan_check_from_s = 0: no check during the scan.
+    // From scan_check_late_from_s the limit is scan_check_late_stale_deg (equal limits, or a
+    // late start past the scan's end, leave one limit): a partial scan's turn
     // shrinks as the scan goes on. Over 42 sessions with right calibrations (the quick capture
     // benchmark, 2026-12-07) the largest partial turn was 0.51 degrees at 35 s, 0.38 at 40 s and
     // 0.33 at 45 s; on the kiosk session with its mounting 0.5 degrees off, or its time offset 25 ms
@@ -188,9 +189,10 @@ struct CaptureSummary {
     bool calibration_refined = false;  // the map was made with the refined solution
     bool calibration_checked = false;  // a refined solve ran (online adjustment): the figures above hold
     // Seconds into the scan when the check during it found the calibration stale and the scan's
-    // own values were taken from then on (CaptureOptions::scan_check_stale_deg; nullopt: not so),
-    // and the turn that check's refined solve found (a partial scan's, larger than the whole
-    // scan's: calibration_turn_deg and calibration_stale are then the last solve's).
+    // own values were taken from then on (CaptureOptions::scan_check_stale_deg, and from
+    // scan_check_late_from_s scan_check_late_stale_deg; nullopt: not so), and the turn that
+    // check's refined solve found (a partial scan's, larger than the whole scan's:
+    // calibration_turn_deg and calibration_stale are then the last solve's).
     std::optional<double> calibration_refined_during_scan_s;
     double calibration_turn_during_scan_deg = 0;
     // Every check during the scan: seconds into the scan and the turn its refined solve found

@@ -5,7 +5,7 @@
 // the comparison's latency (about 4 cycles) for the one before it, and the compiler may not
 // split the chain by itself. Eight lanes let it run eight at once (or in one vector register).
 // The extremum of the same entries in any order is the same value: results are identical to
-// the single chain's.
+// the single chain's over the same entries (NaN included).
 #include <algorithm>
 #include <cmath>
 #include <cstddef>
