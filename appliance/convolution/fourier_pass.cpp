@@ -25,6 +25,7 @@
 #include "appliance/convolution/fft.hpp"
 #include "appliance/core/equirect.hpp"
 #include "appliance/core/errors.hpp"
+#include "appliance/core/lane_extrema.hpp"
 #include "appliance/core/parallel.hpp"
 
 namespace glint::convolution {
@@ -55,21 +56,6 @@ inline DoubleBlock load(const double* p) {
 inline void store(double* p, DoubleBlock v) { std::memcpy(p, &v, sizeof v); }
 
 bool power_of_two(int n) { return n > 0 && is_fft_length(std::size_t(n)); }
-
-// max |x[i]|, kLanes at a time (a plain std::max loop stays scalar without -ffast-math).
-double largest_magnitude(const double* x, std::size_t count) {
-    DoubleBlock block = {};
-    std::size_t i = 0;
-    for (; i + kLanes <= count; i += kLanes) {
-        const DoubleBlock v = load(x + i);
-        const DoubleBlock a = v < 0.0 ? -v : v;
-        block = a > block ? a : block;
-    }
-    double largest = 0;
-    for (std::size_t lane = 0; lane < kLanes; ++lane) largest = std::max(largest, block[lane]);
-    for (; i < count; ++i) largest = std::max(largest, std::abs(x[i]));
-    return largest;
-}
 
 }  // namespace
 
@@ -302,9 +288,8 @@ bool FourierFirstPass::Impl::mirrored(const FourierRowPlan& plan, const FourierR
             if (y.jk != last_row - x.jk || (x.kernel < 0) != (y.kernel < 0)) return false;
             if (x.kernel < 0) {
                 if (x.pairs != y.pairs) return false;
-                double largest = 0;
-                for (int p = 0; p < x.pairs; ++p)
-                    largest = std::max(largest, std::abs(plan.pair_weight[std::size_t(x.first_pair + p)]));
+                const double largest =
+                    largest_magnitude(plan.pair_weight.data() + x.first_pair, std::size_t(x.pairs));
                 for (int p = 0; p < x.pairs; ++p) {
                     const std::size_t i = std::size_t(x.first_pair + p), j = std::size_t(y.first_pair + p);
                     if (plan.pair_row[i] != mirror.pair_row[j] ||
@@ -314,8 +299,7 @@ bool FourierFirstPass::Impl::mirrored(const FourierRowPlan& plan, const FourierR
             } else {
                 const double* hx = plan.kernels.data() + x.kernel;
                 const double* hy = mirror.kernels.data() + y.kernel;
-                double largest = 0;
-                for (std::size_t m = 0; m < 2 * bins; ++m) largest = std::max(largest, std::abs(hx[m]));
+                const double largest = largest_magnitude(hx, 2 * bins);
                 for (std::size_t m = 0; m < 2 * bins; ++m)
                     if (std::abs(hx[m] - hy[m]) > same * largest) return false;
             }

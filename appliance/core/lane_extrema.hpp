@@ -26,6 +26,22 @@ inline float largest_or_zero(const float* v, std::size_t count) {
     return m;
 }
 
+// The largest |v[i]| of v[0, count), or 0 if none is larger. NaN entries are passed over.
+inline double largest_magnitude(const double* v, std::size_t count) {
+    constexpr std::size_t kLanes = 8;
+    double lane[kLanes] = {};
+    std::size_t k = 0;
+    for (; k + kLanes <= count; k += kLanes)
+        for (std::size_t j = 0; j < kLanes; ++j) {
+            const double a = std::abs(v[k + j]);
+            lane[j] = a > lane[j] ? a : lane[j];
+        }
+    double m = 0.0;
+    for (; k < count; ++k) m = std::abs(v[k]) > m ? std::abs(v[k]) : m;
+    for (double l : lane) m = std::max(m, l);
+    return m;
+}
+
 // The smallest positive entry of v[0, count), or INFINITY if none. NaN entries are passed over.
 inline double smallest_positive(const double* v, std::size_t count) {
     constexpr std::size_t kLanes = 8;

@@ -395,13 +395,14 @@ int main(int argc, char** argv) {
         md << "\nTargets: irradiance within 2 %, n = 160 within 5 %, every source's energy within 2 %, orientation error "
               "after 60 s under 0.4 deg (0.5 with a margin of 0.1), last frame to map at most 1 s.\n\n";
         // How near the right calibrations come to the check during the scan's limit.
+        const capture::CaptureOptions defaults;
         double largest = 0, largest_late = 0;  // over every check, and from the later limit on
         std::string largest_at, largest_late_at;
         md << "### The calibration check during the scan\n\nThe turn of each check's refined solve (seconds into "
               "the scan: degrees; the check keeps the scan's values above "
-           << bench::fmt("%.1f", capture::CaptureOptions{}.scan_check_stale_deg) << " deg, from "
-           << bench::fmt("%.0f", capture::CaptureOptions{}.scan_check_late_from_s) << " s above "
-           << bench::fmt("%.1f", capture::CaptureOptions{}.scan_check_late_stale_deg)
+           << bench::fmt("%.1f", defaults.scan_check_stale_deg) << " deg, from "
+           << bench::fmt("%.0f", defaults.scan_check_late_from_s) << " s above "
+           << bench::fmt("%.1f", defaults.scan_check_late_stale_deg)
            << " deg; every calibration here is right).\n\n| map | seed | checks |\n|---|---|---|\n";
         for (const SeedRun& r : runs) {
             md << "| " << r.map << " | " << r.seed << " | ";
@@ -410,13 +411,13 @@ int main(int argc, char** argv) {
                 md << (k ? ", " : "") << bench::fmt("%.0f s: ", t) << bench::fmt("%.2f", turn);
                 const std::string at = r.map + " seed " + std::to_string(r.seed) + bench::fmt(" at %.0f s", t);
                 if (turn > largest) largest = turn, largest_at = at;
-                if (t >= capture::CaptureOptions{}.scan_check_late_from_s && turn > largest_late)
+                if (t >= defaults.scan_check_late_from_s && turn > largest_late)
                     largest_late = turn, largest_late_at = at;
             }
             md << " |\n";
         }
         md << "\nLargest: " << bench::fmt("%.2f deg", largest) << (largest_at.empty() ? "" : " (" + largest_at + ")")
-           << "; from " << bench::fmt("%.0f s", capture::CaptureOptions{}.scan_check_late_from_s) << ": "
+           << "; from " << bench::fmt("%.0f s", defaults.scan_check_late_from_s) << ": "
            << bench::fmt("%.2f deg", largest_late) << (largest_late_at.empty() ? "" : " (" + largest_late_at + ")")
            << ".\n\n"
               "### Energy of each source (captured / true - 1)\n\n| map | source | solid angle | peak |";

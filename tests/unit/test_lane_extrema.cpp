@@ -1,5 +1,5 @@
 // The extrema in lanes (lane_extrema.hpp) against one running comparison, the form they
-// replaced: every length around the lane count, NaN, infinities, negatives and zeros.
+// replaced (and fourier_pass.cpp's largest magnitude): every length around the lane count, NaN, infinities, negatives and zeros.
 #include <gtest/gtest.h>
 
 #include <algorithm>
@@ -16,6 +16,12 @@ namespace {
 float chain_largest_or_zero(const std::vector<float>& v, std::size_t count) {
     float m = 0.0f;
     for (std::size_t k = 0; k < count; ++k) m = std::max(m, v[k]);
+    return m;
+}
+
+double chain_largest_magnitude(const std::vector<double>& v, std::size_t count) {
+    double m = 0;
+    for (std::size_t k = 0; k < count; ++k) m = std::max(m, std::abs(v[k]));
     return m;
 }
 
@@ -46,6 +52,7 @@ TEST(LaneExtrema, EqualTheSingleChainOnEveryLengthAndSpecialValue) {
                 f[k] = float(d[k]);
             }
             ASSERT_EQ(largest_or_zero(f.data(), count), chain_largest_or_zero(f, count)) << count;
+            ASSERT_EQ(largest_magnitude(d.data(), count), chain_largest_magnitude(d, count)) << count;
             const double expect = chain_smallest_positive(d, count);
             ASSERT_EQ(smallest_positive(d.data(), count), expect) << count;
         }
@@ -61,6 +68,8 @@ TEST(LaneExtrema, FindTheExtremumWhereverItSits) {
             d[at] = 0.5;
             EXPECT_EQ(largest_or_zero(f.data(), count), 9.0f) << count << " " << at;
             EXPECT_EQ(smallest_positive(d.data(), count), 0.5) << count << " " << at;
+            d[at] = -7.0;
+            EXPECT_EQ(largest_magnitude(d.data(), count), 7.0) << count << " " << at;
         }
     EXPECT_EQ(largest_or_zero(nullptr, 0), 0.0f);
     EXPECT_EQ(smallest_positive(nullptr, 0), INFINITY);
