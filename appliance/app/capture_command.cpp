@@ -161,10 +161,11 @@ Command add_capture_command(CLI::App& app) {
                     if (r.calibration_stale)
                         std::fprintf(stderr,
                                      "warning: %s looks stale: the scan turns its frames %.2f degrees RMS from it "
-                                     "(mounting %.2f degrees, time offset %+.1f ms; the limit is %.1f degrees). %s "
-                                     "Run `glint calibrate alignment` on a new alignment session.\n",
+                                     "(mounting %.2f degrees, time offset %+.1f ms; the limits are %.1f degrees and "
+                                     "%.0f ms). %s Run `glint calibrate alignment` on a new alignment session.\n",
                                      calibration.c_str(), r.calibration_turn_deg, r.calibration_mounting_deg,
                                      r.calibration_time_offset_ms, capture::kStaleMountingDeg,
+                                     capture::kStaleTimeOffsetMs,
                                      r.calibration_refined
                                          ? "This map was made with the scan's own values; the live preview was not."
                                          : "This map was made with it (--calibration-refinement off).");

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 #include <cstdio>
 #include <chrono>
 #include <cstdlib>
@@ -381,7 +382,9 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
         summary.calibration_turn_deg =
             first ? r.calibration_turn_deg : std::max(summary.calibration_turn_deg, r.calibration_turn_deg);
         // Stale once any refined solve turned the frames past the limit.
-        summary.calibration_stale = summary.calibration_stale || r.calibration_turn_deg > kStaleMountingDeg;
+        summary.calibration_stale =
+            summary.calibration_stale || calibration_turn_or_offset_stale(r.calibration_turn_deg, r.time_offset_s * 1e3,
+                                                                          kStaleMountingDeg, kStaleTimeOffsetMs);
     };
     // The calibration checked during the scan (CaptureOptions::scan_check_*): a stale one's
     // refined solution kept at once, so that the frame loop's realignments and the kept map's
@@ -393,9 +396,14 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
         if (!check_during_scan || summary.calibration_refined_during_scan_s || t_s < next_scan_check_s) return;
         next_scan_check_s = t_s + std::max(0.0, o.scan_check_every_s);
         const AdjustmentResult refined = online_adjustment.refined_solution();
-        summary.calibration_checks_during_scan.emplace_back(t_s, refined.calibration_turn_deg);
-        const double limit_deg = t_s >= o.scan_check_late_from_s ? o.scan_check_late_stale_deg : o.scan_check_stale_deg;
-        if (!(refined.calibration_turn_deg > limit_deg)) return;
+        summary.calibration_checks_during_scan.push_back({t_s, refined.calibration_turn_deg, refined.time_offset_s * 1e3});
+        const bool late = t_s >= o.scan_check_late_from_s;
+        const double limit_deg = late ? o.scan_check_late_stale_deg : o.scan_check_stale_deg;
+        // No time offset limit before the later limit's start: not measured there on right calibrations.
+        const double limit_ms = late ? o.scan_check_late_stale_offset_ms : std::numeric_limits<double>::infinity();
+        if (!calibration_turn_or_offset_stale(refined.calibration_turn_deg, refined.time_offset_s * 1e3, limit_deg,
+                                              limit_ms))
+            return;
         report_calibration(refined);
         online_adjustment.adopt(refined);
         online_adjustment.refine_calibration_from_now();
@@ -615,7 +623,8 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
             const AdjustmentResult& last = online_adjustment.result();
             set_calibration_figures(last);
             summary.calibration_turn_deg = last.calibration_turn_deg;
-            summary.calibration_stale = last.calibration_turn_deg > kStaleMountingDeg;
+            summary.calibration_stale = calibration_turn_or_offset_stale(
+                last.calibration_turn_deg, last.time_offset_s * 1e3, kStaleMountingDeg, kStaleTimeOffsetMs);
             report_adjustment(last);
         } else {
             const AdjustmentResult refined = online_adjustment.refined_solution();
@@ -785,12 +794,13 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
                      summary.adjusted_after_60s_max_deg.value_or(-1));
     if (std::getenv("GLINT_CAPTURE_PROFILE") && !summary.calibration_checks_during_scan.empty()) {
         std::string checks;
-        for (const auto& [t, turn] : summary.calibration_checks_during_scan) {
-            char item[48];
-            std::snprintf(item, sizeof item, "%s%.1f s %.2f deg", checks.empty() ? "" : ", ", t, turn);
+        for (const CaptureSummary::CalibrationCheck& c : summary.calibration_checks_during_scan) {
+            char item[64];
+            std::snprintf(item, sizeof item, "%s%.1f s %.2f deg %+.1f ms", checks.empty() ? "" : ", ", c.t_s,
+                          c.turn_deg, c.time_offset_ms);
             checks += item;
         }
-        std::fprintf(stderr, "profile: calibration checks during the scan (turn of the refined solve): %s\n",
+        std::fprintf(stderr, "profile: calibration checks during the scan (turn and time offset of the refined solve): %s\n",
                      checks.c_str());
     }
     if (!o.drift_log.empty()) write_text_atomically(o.drift_log, drift_log);
@@ -801,6 +811,11 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
         write_text_atomically(o.orientations_out, csv);
     }
     return summary;
+}
+
+bool calibration_turn_or_offset_stale(double turn_deg, double time_offset_ms, double turn_limit_deg,
+                                      double offset_limit_ms) {
+    return turn_deg > turn_limit_deg || std::abs(time_offset_ms) > offset_limit_ms;
 }
 
 CameraCalibration calibration_of_scan(const CameraCalibration& file, const CaptureSummary& summary) {
@@ -818,14 +833,17 @@ std::string calibration_check_text(const CaptureSummary& c) {
     if (!c.calibration_checked) return "n/a";
     char text[320];
     if (!c.calibration_stale) {
-        std::snprintf(text, sizeof text, "ok: the last scan turned its frames %.2f\xC2\xB0 from the calibration (limit %.1f\xC2\xB0)",
-                      c.calibration_turn_deg, kStaleMountingDeg);
+        std::snprintf(text, sizeof text,
+                      "ok: the last scan turned its frames %.2f\xC2\xB0 from the calibration, time offset %+.1f ms "
+                      "(limits %.1f\xC2\xB0, %.0f ms)",
+                      c.calibration_turn_deg, c.calibration_time_offset_ms, kStaleMountingDeg, kStaleTimeOffsetMs);
         return text;
     }
     std::snprintf(text, sizeof text,
                   "stale: the last scan turned its frames %.2f\xC2\xB0 from the calibration (mounting %.2f\xC2\xB0, time offset "
-                  "%+.1f ms; limit %.1f\xC2\xB0). %s Run the sensor-camera alignment calibration.",
+                  "%+.1f ms; limits %.1f\xC2\xB0, %.0f ms). %s Run the sensor-camera alignment calibration.",
                   c.calibration_turn_deg, c.calibration_mounting_deg, c.calibration_time_offset_ms, kStaleMountingDeg,
+                  kStaleTimeOffsetMs,
                   c.calibration_refined ? "Its map and AR view used the scan's own values; the live preview did not."
                                         : "Its map was made with the calibration as it is.");
     return text;

@@ -82,6 +82,9 @@ struct CaptureOptions {
     double scan_check_stale_deg = 1.0;
     double scan_check_late_from_s = 40;
     double scan_check_late_stale_deg = 0.6;
+    // From scan_check_late_from_s also a time offset's change beyond this (ms; after the scan
+    // kStaleTimeOffsetMs, which says why): a turn's RMS hides a time offset more than a mounting.
+    double scan_check_late_stale_offset_ms = 7.0;
     // After the last frame of a scan whose calibration was kept during it, the pairs whose start
     // moved more than this since they were aligned are aligned again (an adoption near the end
     // leaves pairs aligned from the stale start; the frame loop catches up with the others).
@@ -151,8 +154,22 @@ struct GroundTruthError {
 // sessions of other speeds, rates, drifts and noise; a solution refined that little was as often
 // worse as better (docs/capture.md "Global adjustment").
 // (A limit on the turn of the mounting and the time offset together: at one speed of turn the
-// scan cannot tell them apart.)
+// scan cannot tell them apart. The guided scan's changes of speed do, well enough for the limit on
+// the time offset below: a BNO055's lag read as +8.1 ms with 0.006 degrees of mounting.)
 inline constexpr double kStaleMountingDeg = 0.4;
+// ... or that moves the time offset by more than this. A time offset off turns the fast frames
+// most, and they are what blur the map, while the turn above is an RMS over every frame: on the
+// shipped kiosk session a time offset 15 ms off (read as -11.4 ms against the fusion's own
+// +3.5) turned the frames 0.398 degrees and was not found, its map 0.137 weighted relative RMS
+// against the truth where the scan's values give 0.074 (docs/capture.md, "A limit on the time
+// offset"). Right calibrations of the raw IMU read +2.3 to +4.8 ms (the board's fusion lags its
+// gyros); a BNO055 whose calibration.json lacks the chip's 100 Hz hold reads +8.1 to +8.2 ms and
+// is found stale, as it should be: `glint calibrate alignment` on that board measures the lag.
+inline constexpr double kStaleTimeOffsetMs = 7.0;
+// A refinement finds the calibration stale: its turn of the frames beyond turn_limit_deg, or its
+// time offset's change beyond offset_limit_ms (either sign).
+bool calibration_turn_or_offset_stale(double turn_deg, double time_offset_ms, double turn_limit_deg,
+                                      double offset_limit_ms);
 
 struct CaptureSummary {
     int frames_used = 0;
@@ -182,7 +199,8 @@ struct CaptureSummary {
     // (AdjustmentSettings::refine_calibration): the mounting's rotation (degrees), the time
     // offset's change (ms) and the RMS turn of the frames they make (degrees; the largest of the
     // refined solves after the scan, or the last solve's when the check during the scan kept
-    // one); calibration_stale: that turn beyond kStaleMountingDeg.
+    // one); calibration_stale: that turn beyond kStaleMountingDeg, or the time offset's change
+    // beyond kStaleTimeOffsetMs.
     double calibration_mounting_deg = 0, calibration_time_offset_ms = 0, calibration_turn_deg = 0;
     glm::dvec3 calibration_mounting_axis{0};  // camera frame, unit (0 when no refinement)
     bool calibration_stale = false;
@@ -195,9 +213,14 @@ struct CaptureSummary {
     // calibration_turn_deg and calibration_stale are then the last solve's).
     std::optional<double> calibration_refined_during_scan_s;
     double calibration_turn_during_scan_deg = 0;
-    // Every check during the scan: seconds into the scan and the turn its refined solve found
-    // (degrees), kept or not (how near right calibrations come to the check's limit).
-    std::vector<std::pair<double, double>> calibration_checks_during_scan;
+    // Every check during the scan, kept or not (how near right calibrations come to the check's
+    // limits).
+    struct CalibrationCheck {
+        double t_s = 0;             // seconds into the scan
+        double turn_deg = 0;        // the refined solve's turn of the frames (RMS)
+        double time_offset_ms = 0;  // its time offset's change
+    };
+    std::vector<CalibrationCheck> calibration_checks_during_scan;
     // Wall times after the last frame of the scan: the alignment views, the final accumulation,
     // and from the last frame to the finished map (radiance merged and filled) and to it saved;
     // adjust_profile: the adjustment's own breakdown (pair selection, alignment, solve).
@@ -237,8 +260,8 @@ struct CaptureSummary {
 
 // The scan's check of the camera-sensor calibration in one line, as the kiosk logs it and its
 // maintenance menu shows it: "n/a" when no refined solve ran; "ok: ..." within
-// kStaleMountingDeg; "stale: ..." with the figures and what to do (a new alignment calibration:
-// only that mends the live view).
+// kStaleMountingDeg and kStaleTimeOffsetMs; "stale: ..." with the figures and what to do (a new
+// alignment calibration: only that mends the live view).
 std::string calibration_check_text(const CaptureSummary& summary);
 
 // The calibration the scan's map was made with: `file` (calibration.json) with the mounting and

@@ -9,6 +9,7 @@
 //
 //   glint_bench_capture [--out FILE] [--seeds 1,2] [--maps NAME,...] [--no-stress] [--quick] [--bracket-fill]
 //                       [--no-top-ups] [--keep] [--validation] [--calibrations-only]
+//                       [--calibration-refinement stale|always|off]
 //   --maps: which of courtyard, studio, sunset and the stress maps (dim_1e+02 ...) to run in the
 //   seeds table; --quick: only that table (no variants, calibrations or alignment); --no-top-ups:
 //   the exposure controller without top-up frames (top_up_below 0; default 1/8); --keep: leave the seeds table's
@@ -17,7 +18,8 @@
 //   interior, night, sunrise), which no constant was ever tuned on: a check on maps the project
 //   has not seen, as the new user tried it. --calibrations-only: only the calibrations'
 //   and the alignment's tables (a few minutes; run_capture_bench.sh --calibrations-only --out
-//   tests/bench/results/capture_calibrations.md).
+//   tests/bench/results/capture_calibrations.md). --calibration-refinement: when the captures keep
+//   the scan's own refinement of the camera-sensor calibration (default stale, as glint capture).
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -107,7 +109,7 @@ struct SeedRun {
     double calibration_turn = 0;    // the scan's refinement of the camera-sensor calibration, deg RMS
     bool calibration_refined = false;  // ... kept (found stale)
     double calibration_mounting = 0, calibration_time_offset_ms = 0;  // the refinement's parts
-    std::vector<std::pair<double, double>> calibration_checks;  // during the scan: (s, turn deg)
+    std::vector<capture::CaptureSummary::CalibrationCheck> calibration_checks;  // during the scan
     std::optional<double> after_60s;
     std::vector<bench::LightSource> sources;
     std::vector<double> source_error;  // captured energy / true - 1, per source
@@ -257,6 +259,9 @@ int main(int argc, char** argv) {
     bool top_ups = true;        // the exposure controller's top-up frames (its default)
     bool validation = false;    // the five other blender-data maps in the seeds table
     bool calibrations_only = false;  // only the calibrations and the alignment (no captures)
+    // When the scan's own refinement of the camera-sensor calibration is kept (the capture's
+    // --calibration-refinement; every session here has a right calibration.json).
+    CaptureOptions::CalibrationRefinement refinement = CaptureOptions::CalibrationRefinement::Stale;
     for (int i = 1; i < argc; ++i) {
         const std::string a = argv[i];
         if (a == "--out" && i + 1 < argc) out = argv[++i];
@@ -271,9 +276,21 @@ int main(int argc, char** argv) {
         else if (a == "--keep") keep = true;
         else if (a == "--validation") validation = true;
         else if (a == "--calibrations-only") calibrations_only = true;
+        else if (a == "--calibration-refinement" && i + 1 < argc) {
+            const std::string v = argv[++i];
+            if (v == "stale") refinement = CaptureOptions::CalibrationRefinement::Stale;
+            else if (v == "always") refinement = CaptureOptions::CalibrationRefinement::Always;
+            else if (v == "off") refinement = CaptureOptions::CalibrationRefinement::Off;
+            else {
+                std::fprintf(stderr, "glint_bench_capture: --calibration-refinement is stale, always or off, not '%s'\n",
+                             v.c_str());
+                return 2;
+            }
+        }
         else {
             std::fprintf(stderr, "usage: glint_bench_capture [--out FILE] [--seeds 1,2] [--maps NAME,...] [--no-stress] [--quick] "
-                                 "[--bracket-fill] [--no-top-ups] [--keep] [--validation] [--calibrations-only]\n");
+                                 "[--bracket-fill] [--no-top-ups] [--keep] [--validation] [--calibrations-only] "
+                                 "[--calibration-refinement stale|always|off]\n");
             return 2;
         }
     }
@@ -308,6 +325,13 @@ int main(int argc, char** argv) {
            << (bracket_fill ? "**With the experimental bracket fill** (`--bracket-fill`, docs/capture.md; not the "
                               "default; the GPU column without it).\n\n"
                             : "")
+           << (refinement == CaptureOptions::CalibrationRefinement::Always
+                   ? "**The scan's refinement of the calibration kept on every session** (`--calibration-refinement "
+                     "always`; not the default).\n\n"
+                   : refinement == CaptureOptions::CalibrationRefinement::Off
+                         ? "**The scan's refinement of the calibration never kept** (`--calibration-refinement off`; "
+                           "not the default).\n\n"
+                         : "")
            << (validation ? "**With the five other maps of blender-data** (`--validation`: city, forest, interior, night, "
                             "sunrise), which no constant was ever tuned on.\n\n"
                           : "")
@@ -371,8 +395,9 @@ int main(int argc, char** argv) {
               "most energy).\n\n"
               "The calibration column: how far the scan's own refinement of the camera-sensor calibration turns the "
               "frames (RMS), and whether the map kept it (calibration.json found stale, over "
-           << bench::fmt("%.1f", kStaleMountingDeg)
-           << " deg; every session here has a right one); in brackets its parts, the mounting's turn and the time "
+           << bench::fmt("%.1f", kStaleMountingDeg) << " deg or a time offset's change over "
+           << bench::fmt("%.0f", kStaleTimeOffsetMs)
+           << " ms; every session here has a right one); in brackets its parts, the mounting's turn and the time "
               "offset against calibration.json's.\n\n"
               "| map | seed | frames used | irradiance | n = 160 | orientation error after 60 s (max) | last frame to map | "
               "sources within 2 % | worst source | estimated | calibration |\n|---|---|---|---|---|---|---|---|---|---|---|\n";
@@ -397,29 +422,35 @@ int main(int argc, char** argv) {
         // How near the right calibrations come to the check during the scan's limit.
         const capture::CaptureOptions defaults;
         double largest = 0, largest_late = 0;  // over every check, and from the later limit on
-        std::string largest_at, largest_late_at;
-        md << "### The calibration check during the scan\n\nThe turn of each check's refined solve (seconds into "
-              "the scan: degrees; the check keeps the scan's values above "
+        double largest_offset_late = 0;         // the largest time offset's change from the later limit on, ms
+        std::string largest_at, largest_late_at, largest_offset_late_at;
+        md << "### The calibration check during the scan\n\nThe turn of each check's refined solve and its time offset's change (seconds into "
+              "the scan: degrees (ms); the check keeps the scan's values above "
            << bench::fmt("%.1f", defaults.scan_check_stale_deg) << " deg, from "
            << bench::fmt("%.0f", defaults.scan_check_late_from_s) << " s above "
-           << bench::fmt("%.1f", defaults.scan_check_late_stale_deg)
-           << " deg; every calibration here is right).\n\n| map | seed | checks |\n|---|---|---|\n";
+           << bench::fmt("%.1f", defaults.scan_check_late_stale_deg) << " deg or a time offset's change above "
+           << bench::fmt("%.0f", defaults.scan_check_late_stale_offset_ms)
+           << " ms; every calibration here is right).\n\n| map | seed | checks |\n|---|---|---|\n";
         for (const SeedRun& r : runs) {
             md << "| " << r.map << " | " << r.seed << " | ";
             for (std::size_t k = 0; k < r.calibration_checks.size(); ++k) {
-                const auto& [t, turn] = r.calibration_checks[k];
-                md << (k ? ", " : "") << bench::fmt("%.0f s: ", t) << bench::fmt("%.2f", turn);
+                const auto& [t, turn, offset_ms] = r.calibration_checks[k];
+                md << (k ? ", " : "") << bench::fmt("%.0f s: ", t) << bench::fmt("%.2f", turn)
+                   << bench::fmt(" (%+.1f ms)", offset_ms);
                 const std::string at = r.map + " seed " + std::to_string(r.seed) + bench::fmt(" at %.0f s", t);
                 if (turn > largest) largest = turn, largest_at = at;
                 if (t >= defaults.scan_check_late_from_s && turn > largest_late)
                     largest_late = turn, largest_late_at = at;
+                if (t >= defaults.scan_check_late_from_s && std::abs(offset_ms) > std::abs(largest_offset_late))
+                    largest_offset_late = offset_ms, largest_offset_late_at = at;
             }
             md << " |\n";
         }
         md << "\nLargest: " << bench::fmt("%.2f deg", largest) << (largest_at.empty() ? "" : " (" + largest_at + ")")
            << "; from " << bench::fmt("%.0f s", defaults.scan_check_late_from_s) << ": "
            << bench::fmt("%.2f deg", largest_late) << (largest_late_at.empty() ? "" : " (" + largest_late_at + ")")
-           << ".\n\n"
+           << "; the largest time offset's change from then on: " << bench::fmt("%+.1f ms", largest_offset_late)
+           << (largest_offset_late_at.empty() ? "" : " (" + largest_offset_late_at + ")") << ".\n\n"
               "### Energy of each source (captured / true - 1)\n\n| map | source | solid angle | peak |";
         for (const std::uint64_t seed : seeds) md << " seed " << seed << " |";
         md << "\n|---|---|---|---|";
@@ -469,6 +500,7 @@ int main(int argc, char** argv) {
         r.duration = sim.duration_s;
         CaptureOptions co;
         co.bracket_fill = bracket_fill;
+        co.calibration_refinement = refinement;
         co.session = so.out;
         co.threads = 2;
         host::VirtualClock clock;
@@ -548,6 +580,7 @@ int main(int argc, char** argv) {
                 simulate_session(so);
                 CaptureOptions co;
                 co.bracket_fill = bracket_fill;
+                co.calibration_refinement = refinement;
                 co.session = so.out;
                 co.out = map_path;
                 co.threads = 2;

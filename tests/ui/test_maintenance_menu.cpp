@@ -163,7 +163,7 @@ TEST_F(MenuTest, StatusPageShowsTheValues) {
     EXPECT_EQ(count(run(menu, status, {}).image, kWarn, kWidth / 4, 0, kWidth, kHeight, 2), 0);
     status.alignment_stale = true;
     status.alignment_check = "stale: the last scan turned its frames 2.98\xC2\xB0 from the calibration (mounting 2.94\xC2\xB0, time "
-                             "offset +18.4 ms; limit 0.4\xC2\xB0). Its map used the scan's own values; the live view "
+                             "offset +18.4 ms; limits 0.4\xC2\xB0, 7 ms). Its map used the scan's own values; the live view "
                              "did not. Run the sensor-camera alignment calibration.";
     const MenuRun stale = run(menu, status, {}, 2, "menu_status_alignment_stale");
     EXPECT_GT(count(stale.image, kWarn, kWidth / 4, 0, kWidth, kHeight, 2), 200);
