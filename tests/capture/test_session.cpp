@@ -95,6 +95,18 @@ protected:
         o.fps = 3;
         return o;
     }
+    // The session captured at 512x256 from its sensors with drift correction, twice: the scan's
+    // refinement of calibration.json off (kept.exr), then at its default, stale (refined.exr).
+    // `c` is left as the second capture's options, for variants of it.
+    std::pair<CaptureSummary, CaptureSummary> capture_kept_and_refined(CaptureOptions& c) const {
+        c = capture_options(dir_ / "session", dir_ / "kept.exr", 512, 256, OrientationInput::Sensors);
+        c.drift_correction = true;
+        c.calibration_refinement = CaptureOptions::CalibrationRefinement::Off;
+        CaptureSummary kept = capture_session(c);
+        c.out = dir_ / "refined.exr";
+        c.calibration_refinement = CaptureOptions::CalibrationRefinement::Stale;
+        return {std::move(kept), capture_session(c)};
+    }
     fs::path dir_;
 };
 
@@ -235,13 +247,8 @@ TEST_F(SessionTest, AStaleCalibrationIsFoundAndTheScanCorrectsIt) {
     stale.time_offset_s -= 0.012;
     save_calibration(calibration, stale);
 
-    CaptureOptions c = capture_options(dir_ / "session", dir_ / "kept.exr", 512, 256, OrientationInput::Sensors);
-    c.drift_correction = true;
-    c.calibration_refinement = CaptureOptions::CalibrationRefinement::Off;
-    const CaptureSummary kept = capture_session(c);
-    c.out = dir_ / "refined.exr";
-    c.calibration_refinement = CaptureOptions::CalibrationRefinement::Stale;
-    const CaptureSummary refined = capture_session(c);
+    CaptureOptions c;
+    const auto [kept, refined] = capture_kept_and_refined(c);
     // The same found near the scan's end (it ends at about 53 s): the map begun before is not
     // used, the rebuild begun after the adoption is finished after the last frame, and the pairs
     // aligned from the stale start are aligned again then.
@@ -370,13 +377,8 @@ TEST_F(SessionTest, ATimeOffsetOffIsFoundByItselfDuringTheScan) {
     CameraCalibration stale = right;
     stale.time_offset_s += 0.013;
     save_calibration(calibration, stale);
-    CaptureOptions c = capture_options(dir_ / "session", dir_ / "kept.exr", 512, 256, OrientationInput::Sensors);
-    c.drift_correction = true;
-    c.calibration_refinement = CaptureOptions::CalibrationRefinement::Off;
-    const CaptureSummary kept = capture_session(c);
-    c.out = dir_ / "refined.exr";
-    c.calibration_refinement = CaptureOptions::CalibrationRefinement::Stale;
-    const CaptureSummary refined = capture_session(c);
+    CaptureOptions c;
+    const auto [kept, refined] = capture_kept_and_refined(c);
     std::string checks;
     for (const CaptureSummary::CalibrationCheck& check : refined.calibration_checks_during_scan)
         checks += std::to_string(check.t_s) + " s: " + std::to_string(check.turn_deg) + " deg " +
