@@ -3,6 +3,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <memory>
+#include <string>
 
 #include "appliance/app/commands.hpp"
 #include "appliance/app/cli_util.hpp"
@@ -45,13 +46,26 @@ Command add_capture_command(CLI::App& app) {
                     "Run the global adjustment after the scan instead of during it, in this many rounds (frame "
                     "pairs aligned again from each solution, then solved): the mode before the adjustment ran "
                     "with the scan, kept for comparison");
+    // The limits in the help come from the code's own (capture_pipeline.hpp).
+    const auto number = [](double v) {
+        char text[32];
+        std::snprintf(text, sizeof text, "%g", v);
+        return std::string(text);
+    };
+    const capture::CaptureOptions defaults;
     cmd->add_option("--calibration-refinement", a->calibration_refinement,
                     "After the scan, the camera-sensor mounting and time offset are refined with it: stale (keep "
-                    "that solution when it turns the frames more than the staleness limit, and warn; from 35 s into "
-                    "the scan it is also checked every 5 s, and a calibration turning the frames more than 1 "
-                    "degree is replaced there and then, so the map is rebuilt while the scan goes on), always, or "
-                    "off (measured and reported, not kept). Only with the global adjustment during the scan (not "
-                    "with --adjustment-rounds, --no-global-adjustment or --no-drift-correction)")
+                    "that solution when it turns the frames more than " + number(capture::kStaleMountingDeg) +
+                        " degrees RMS or moves the time offset more than " + number(capture::kStaleTimeOffsetMs) +
+                        " ms, and warn; from " + number(defaults.scan_check_from_s) +
+                        " s into the scan it is also checked every " + number(defaults.scan_check_every_s) +
+                        " s, and a calibration turning the frames more than " + number(defaults.scan_check_stale_deg) +
+                        " degrees, from " + number(defaults.scan_check_late_from_s) + " s more than " +
+                        number(defaults.scan_check_late_stale_deg) + " degrees or its time offset more than " +
+                        number(defaults.scan_check_late_stale_offset_ms) +
+                        " ms, is replaced there and then, so the map is rebuilt while the scan goes on), always, "
+                        "or off (measured and reported, not kept). Only with the global adjustment during the scan "
+                        "(not with --adjustment-rounds, --no-global-adjustment or --no-drift-correction)")
         ->check(CLI::IsMember({"stale", "always", "off"}))
         ->capture_default_str();
     cmd->add_option("--drift-log", a->o.drift_log,

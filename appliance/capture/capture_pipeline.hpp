@@ -56,8 +56,9 @@ struct CaptureOptions {
     bool online_adjustment = true;
     // After the scan (online adjustment only) the camera-sensor calibration is refined with it
     // (AdjustmentSettings::refine_calibration); that solution is kept when the refinement turns
-    // the frames by more than kStaleMountingDeg (Stale), always (Always), or never (Off: it is
-    // still measured and reported).
+    // the frames by more than kStaleMountingDeg or moves the time offset by more than
+    // kStaleTimeOffsetMs (Stale), always (Always), or never (Off: it is still measured and
+    // reported).
     enum class CalibrationRefinement { Stale, Always, Off };
     CalibrationRefinement calibration_refinement = CalibrationRefinement::Stale;
     // The same check during the scan (Stale only): from scan_check_from_s of scan time on, every
@@ -70,8 +71,10 @@ struct CaptureOptions {
     // turned the frames up to 0.65-0.83 degrees at 17-19 s and under 0.4 only from 34-36 s, with
     // a mounting 3 degrees off 1.6-2.0 degrees by 12-17 s; hence the later start and the higher
     // limit than kStaleMountingDeg. scan_check_from_s = 0: no check during the scan.
-    // From scan_check_late_from_s the limit is scan_check_late_stale_deg (equal limits, or a
-    // late start past the scan's end, leave one limit): a partial scan's turn
+    // From scan_check_late_from_s the limit is scan_check_late_stale_deg, and the time offset's
+    // limit scan_check_late_stale_offset_ms applies (equal limits leave one turn limit; a late
+    // start past the scan's end leaves the first limit alone, and no time offset limit during
+    // the scan): a partial scan's turn
     // shrinks as the scan goes on. Over 42 sessions with right calibrations (the quick capture
     // benchmark, 2026-12-07) the largest partial turn was 0.51 degrees at 35 s, 0.38 at 40 s and
     // 0.33 at 45 s; on the kiosk session with its mounting 0.5 degrees off, or its time offset 25 ms
@@ -161,13 +164,15 @@ inline constexpr double kStaleMountingDeg = 0.4;
 // most, and they are what blur the map, while the turn above is an RMS over every frame: on the
 // shipped kiosk session a time offset 15 ms off (read as -11.4 ms against the fusion's own
 // +3.5) turned the frames 0.398 degrees and was not found, its map 0.137 weighted relative RMS
-// against the truth where the scan's values give 0.074 (docs/capture.md, "A limit on the time
-// offset"). Right calibrations of the raw IMU read +2.3 to +4.8 ms (the board's fusion lags its
-// gyros); a BNO055 whose calibration.json lacks the chip's 100 Hz hold reads +8.1 to +8.2 ms and
-// is found stale, as it should be: `glint calibrate alignment` on that board measures the lag.
+// against the truth where the scan's values give 0.0746 (docs/capture.md, "A limit on the time
+// offset"). Right calibrations of the raw IMU (42 sessions of the quick capture benchmark) read
+// +2.3 to +3.9 ms over the whole scan and up to +5.6 ms in the partial scans from 40 s (the
+// board's fusion lags its gyros); a BNO055 whose calibration.json lacks the lag of the chip's
+// fusion output (held 10 ms, 100 Hz) reads +8.1 to +8.2 ms and is found stale, as it should be:
+// `glint calibrate alignment` on that board measures the lag.
 inline constexpr double kStaleTimeOffsetMs = 7.0;
 // A refinement finds the calibration stale: its turn of the frames beyond turn_limit_deg, or its
-// time offset's change beyond offset_limit_ms (either sign).
+// time offset's change beyond offset_limit_ms (either sign). A NaN or infinite figure is none.
 bool calibration_turn_or_offset_stale(double turn_deg, double time_offset_ms, double turn_limit_deg,
                                       double offset_limit_ms);
 
@@ -200,7 +205,9 @@ struct CaptureSummary {
     // offset's change (ms) and the RMS turn of the frames they make (degrees; the largest of the
     // refined solves after the scan, or the last solve's when the check during the scan kept
     // one); calibration_stale: that turn beyond kStaleMountingDeg, or the time offset's change
-    // beyond kStaleTimeOffsetMs.
+    // beyond kStaleTimeOffsetMs, in any refined solve after the scan. The mounting and time offset
+    // are the last solve's, which the map used (calibration_of_scan reads them), so an adopted
+    // solve's offset can sit just under the limit that an earlier solve passed.
     double calibration_mounting_deg = 0, calibration_time_offset_ms = 0, calibration_turn_deg = 0;
     glm::dvec3 calibration_mounting_axis{0};  // camera frame, unit (0 when no refinement)
     bool calibration_stale = false;
@@ -208,7 +215,8 @@ struct CaptureSummary {
     bool calibration_checked = false;  // a refined solve ran (online adjustment): the figures above hold
     // Seconds into the scan when the check during it found the calibration stale and the scan's
     // own values were taken from then on (CaptureOptions::scan_check_stale_deg, and from
-    // scan_check_late_from_s scan_check_late_stale_deg; nullopt: not so), and the turn that
+    // scan_check_late_from_s scan_check_late_stale_deg or scan_check_late_stale_offset_ms;
+    // nullopt: not so), and the turn that
     // check's refined solve found (a partial scan's, larger than the whole scan's:
     // calibration_turn_deg and calibration_stale are then the last solve's).
     std::optional<double> calibration_refined_during_scan_s;

@@ -103,7 +103,7 @@ struct AdjustmentSettings {
     // part about it trades against the map's heading, which the sensor alone fixes, and a free
     // refinement moved a right calibration's scan by 0.25 degrees (GlobalAdjustment tests). The
     // capture pipeline solves with it after the scan and keeps that solution only when it finds
-    // the calibration stale (capture_pipeline.hpp, kStaleMountingDeg).
+    // the calibration stale (capture_pipeline.hpp, kStaleMountingDeg and kStaleTimeOffsetMs).
     bool refine_calibration = false;
     double mounting_prior_deg = 2;
     double time_offset_prior_ms = 20;

@@ -918,6 +918,9 @@ KioskResult run_kiosk(KioskSource& source, const KioskOptions& o, const std::fun
                               {"calibration_turn_deg", capture_summary->calibration_checked
                                                            ? json(capture_summary->calibration_turn_deg)
                                                            : json()},
+                              {"calibration_time_offset_ms", capture_summary->calibration_checked
+                                                                 ? json(capture_summary->calibration_time_offset_ms)
+                                                                 : json()},
                               {"calibration_stale", capture_summary->calibration_checked
                                                         ? json(capture_summary->calibration_stale)
                                                         : json()},

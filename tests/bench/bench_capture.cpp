@@ -107,7 +107,8 @@ struct SeedRun {
     int frames = 0;
     double irr = 0, n160 = 0, last_to_map = 0;
     double calibration_turn = 0;    // the scan's refinement of the camera-sensor calibration, deg RMS
-    bool calibration_refined = false;  // ... kept (found stale)
+    bool calibration_refined = false;  // ... kept (found stale, or --calibration-refinement always)
+    bool calibration_stale = false;    // ... found stale (whether kept or not)
     double calibration_mounting = 0, calibration_time_offset_ms = 0;  // the refinement's parts
     std::vector<capture::CaptureSummary::CalibrationCheck> calibration_checks;  // during the scan
     std::optional<double> after_60s;
@@ -394,11 +395,14 @@ int main(int argc, char** argv) {
               "mean radiance, at most 0.05 sr, apart from every other such region by the 1.5 degrees, the eight with the "
               "most energy).\n\n"
               "The calibration column: how far the scan's own refinement of the camera-sensor calibration turns the "
-              "frames (RMS), and whether the map kept it (calibration.json found stale, over "
+              "frames (RMS), whether it found calibration.json stale (over "
            << bench::fmt("%.1f", kStaleMountingDeg) << " deg or a time offset's change over "
            << bench::fmt("%.0f", kStaleTimeOffsetMs)
-           << " ms; every session here has a right one); in brackets its parts, the mounting's turn and the time "
-              "offset against calibration.json's.\n\n"
+           << " ms; every session here has a right one) and whether the map kept it ("
+           << (refinement == CaptureOptions::CalibrationRefinement::Always ? "always, `--calibration-refinement always`"
+               : refinement == CaptureOptions::CalibrationRefinement::Off  ? "never, `--calibration-refinement off`"
+                                                                           : "when stale")
+           << "); in brackets its parts, the mounting's turn and the time offset against calibration.json's.\n\n"
               "| map | seed | frames used | irradiance | n = 160 | orientation error after 60 s (max) | last frame to map | "
               "sources within 2 % | worst source | estimated | calibration |\n|---|---|---|---|---|---|---|---|---|---|---|\n";
         for (const SeedRun& r : runs) {
@@ -415,7 +419,7 @@ int main(int argc, char** argv) {
                << (r.source_error.empty() ? std::string("-") : bench::fmt("%+.1f %%", 100 * worst)) << " | " << r.estimated
                << " | " << bench::fmt("%.2f deg", r.calibration_turn)
                << bench::fmt(" (%.2f deg, ", r.calibration_mounting) << bench::fmt("%+.1f ms)", r.calibration_time_offset_ms)
-               << (r.calibration_refined ? ", kept" : "") << " |\n";
+               << (r.calibration_stale ? ", stale" : "") << (r.calibration_refined ? ", kept" : "") << " |\n";
         }
         md << "\nTargets: irradiance within 2 %, n = 160 within 5 %, every source's energy within 2 %, orientation error "
               "after 60 s under 0.4 deg (0.5 with a margin of 0.1), last frame to map at most 1 s.\n\n";
@@ -424,34 +428,39 @@ int main(int argc, char** argv) {
         double largest = 0, largest_late = 0;  // over every check, and from the later limit on
         double largest_offset_late = 0;         // the largest time offset's change from the later limit on, ms
         std::string largest_at, largest_late_at, largest_offset_late_at;
-        md << "### The calibration check during the scan\n\nThe turn of each check's refined solve and its time offset's change (seconds into "
-              "the scan: degrees (ms); the check keeps the scan's values above "
-           << bench::fmt("%.1f", defaults.scan_check_stale_deg) << " deg, from "
-           << bench::fmt("%.0f", defaults.scan_check_late_from_s) << " s above "
-           << bench::fmt("%.1f", defaults.scan_check_late_stale_deg) << " deg or a time offset's change above "
-           << bench::fmt("%.0f", defaults.scan_check_late_stale_offset_ms)
-           << " ms; every calibration here is right).\n\n| map | seed | checks |\n|---|---|---|\n";
-        for (const SeedRun& r : runs) {
-            md << "| " << r.map << " | " << r.seed << " | ";
-            for (std::size_t k = 0; k < r.calibration_checks.size(); ++k) {
-                const auto& [t, turn, offset_ms] = r.calibration_checks[k];
-                md << (k ? ", " : "") << bench::fmt("%.0f s: ", t) << bench::fmt("%.2f", turn)
-                   << bench::fmt(" (%+.1f ms)", offset_ms);
-                const std::string at = r.map + " seed " + std::to_string(r.seed) + bench::fmt(" at %.0f s", t);
-                if (turn > largest) largest = turn, largest_at = at;
-                if (t >= defaults.scan_check_late_from_s && turn > largest_late)
-                    largest_late = turn, largest_late_at = at;
-                if (t >= defaults.scan_check_late_from_s && std::abs(offset_ms) > std::abs(largest_offset_late))
-                    largest_offset_late = offset_ms, largest_offset_late_at = at;
+        if (refinement == CaptureOptions::CalibrationRefinement::Stale) {
+            md << "### The calibration check during the scan\n\nThe turn of each check's refined solve and its time offset's change (seconds into "
+                  "the scan: degrees (ms); the check keeps the scan's values above "
+               << bench::fmt("%.1f", defaults.scan_check_stale_deg) << " deg, from "
+               << bench::fmt("%.0f", defaults.scan_check_late_from_s) << " s above "
+               << bench::fmt("%.1f", defaults.scan_check_late_stale_deg) << " deg or a time offset's change above "
+               << bench::fmt("%.0f", defaults.scan_check_late_stale_offset_ms)
+               << " ms; every calibration here is right).\n\n| map | seed | checks |\n|---|---|---|\n";
+            for (const SeedRun& r : runs) {
+                md << "| " << r.map << " | " << r.seed << " | ";
+                for (std::size_t k = 0; k < r.calibration_checks.size(); ++k) {
+                    const auto& [t, turn, offset_ms] = r.calibration_checks[k];
+                    md << (k ? ", " : "") << bench::fmt("%.0f s: ", t) << bench::fmt("%.2f", turn)
+                       << bench::fmt(" (%+.1f ms)", offset_ms);
+                    const std::string at = r.map + " seed " + std::to_string(r.seed) + bench::fmt(" at %.0f s", t);
+                    if (turn > largest) largest = turn, largest_at = at;
+                    if (t >= defaults.scan_check_late_from_s && turn > largest_late)
+                        largest_late = turn, largest_late_at = at;
+                    if (t >= defaults.scan_check_late_from_s && std::abs(offset_ms) > std::abs(largest_offset_late))
+                        largest_offset_late = offset_ms, largest_offset_late_at = at;
+                }
+                md << " |\n";
             }
-            md << " |\n";
+            md << "\nLargest: " << bench::fmt("%.2f deg", largest) << (largest_at.empty() ? "" : " (" + largest_at + ")")
+               << "; from " << bench::fmt("%.0f s", defaults.scan_check_late_from_s) << ": "
+               << bench::fmt("%.2f deg", largest_late) << (largest_late_at.empty() ? "" : " (" + largest_late_at + ")")
+               << "; the largest time offset's change from then on: " << bench::fmt("%+.1f ms", largest_offset_late)
+               << (largest_offset_late_at.empty() ? "" : " (" + largest_offset_late_at + ")") << ".\n\n";
+        } else {
+            md << "### The calibration check during the scan\n\nNot run: the scan checks the calibration only with "
+                  "`--calibration-refinement stale`.\n\n";
         }
-        md << "\nLargest: " << bench::fmt("%.2f deg", largest) << (largest_at.empty() ? "" : " (" + largest_at + ")")
-           << "; from " << bench::fmt("%.0f s", defaults.scan_check_late_from_s) << ": "
-           << bench::fmt("%.2f deg", largest_late) << (largest_late_at.empty() ? "" : " (" + largest_late_at + ")")
-           << "; the largest time offset's change from then on: " << bench::fmt("%+.1f ms", largest_offset_late)
-           << (largest_offset_late_at.empty() ? "" : " (" + largest_offset_late_at + ")") << ".\n\n"
-              "### Energy of each source (captured / true - 1)\n\n| map | source | solid angle | peak |";
+        md << "### Energy of each source (captured / true - 1)\n\n| map | source | solid angle | peak |";
         for (const std::uint64_t seed : seeds) md << " seed " << seed << " |";
         md << "\n|---|---|---|---|";
         for (std::size_t k = 0; k < seeds.size(); ++k) md << "---|";
@@ -595,6 +604,7 @@ int main(int argc, char** argv) {
             r.last_to_map = cs.last_frame_to_map_seconds;
             r.calibration_turn = cs.calibration_turn_deg;
             r.calibration_refined = cs.calibration_refined;
+            r.calibration_stale = cs.calibration_stale;
             r.calibration_mounting = cs.calibration_mounting_deg;
             r.calibration_time_offset_ms = cs.calibration_time_offset_ms;
             r.calibration_checks = cs.calibration_checks_during_scan;

@@ -368,8 +368,9 @@ TEST_F(SessionTest, AModeratelyStaleCalibrationIsFoundLaterInTheScan) {
 // was 0.137 off the truth against 0.074 with the scan's values. The limit on the time offset's
 // change (kStaleTimeOffsetMs, and from scan_check_late_from_s during the scan) finds it. Here
 // (studio, 160x90 frames, 13 ms) the partial scans' turns stay under the later turn limit, so
-// without it the calibration would be found after the scan only (measured 2026-12-07: 0.46
-// degrees and -8.8 ms at 40.7 s, the map 0.0354 against 0.0442 with calibration.json).
+// without it the calibration would be found after the scan only, by the whole scan's turn
+// (measured 2026-12-07: 0.46 degrees and -8.8 ms at 40.7 s, the whole scan 0.50 degrees; the map
+// 0.0354 against 0.0442 with calibration.json).
 TEST_F(SessionTest, ATimeOffsetOffIsFoundByItselfDuringTheScan) {
     simulate_session(studio_scan());
     const fs::path calibration = dir_ / "session" / "calibration.json";
@@ -395,8 +396,14 @@ TEST_F(SessionTest, ATimeOffsetOffIsFoundByItselfDuringTheScan) {
     EXPECT_FALSE(kept.calibration_refined);
     ASSERT_TRUE(refined.calibration_refined_during_scan_s.has_value()) << checks;
     EXPECT_GE(*refined.calibration_refined_during_scan_s, defaults.scan_check_late_from_s);
-    // Found by the time offset: the turn that kept it was under the later turn limit.
+    // Found by the time offset: the turn that kept it was under the later turn limit, and the
+    // first check, before the time offset's limit applies, read it over that limit already.
     EXPECT_LT(refined.calibration_turn_during_scan_deg, defaults.scan_check_late_stale_deg);
+    EXPECT_LT(refined.calibration_checks_during_scan.front().t_s, defaults.scan_check_late_from_s);
+    EXPECT_GT(std::abs(refined.calibration_checks_during_scan.front().time_offset_ms),
+              defaults.scan_check_late_stale_offset_ms);
+    EXPECT_GT(std::abs(refined.calibration_checks_during_scan.back().time_offset_ms),
+              defaults.scan_check_late_stale_offset_ms);
     EXPECT_TRUE(refined.calibration_stale);
     EXPECT_LT(refined.map_final_frames, refined.frames_used / 2);
     // The map made with the scan's values is nearer the truth, and its time offset nearer the
@@ -415,9 +422,11 @@ TEST(CalibrationCheck, TextSaysOkWithinTheLimitAndNothingWhenNotChecked) {
     EXPECT_EQ(calibration_check_text(s), "n/a");
     s.calibration_checked = true;
     s.calibration_turn_deg = 0.18;
+    s.calibration_time_offset_ms = 3.5;
     const std::string ok = calibration_check_text(s);
     EXPECT_EQ(ok.rfind("ok: ", 0), 0u) << ok;
     EXPECT_NE(ok.find("0.18"), std::string::npos) << ok;
+    EXPECT_NE(ok.find("+3.5 ms"), std::string::npos) << ok;  // the figure the second limit reads
     EXPECT_EQ(ok.find("Run the"), std::string::npos) << ok;
 }
 
@@ -432,8 +441,11 @@ TEST(CalibrationCheck, EitherTheTurnOrTheTimeOffsetMakesItStale) {
     EXPECT_TRUE(calibration_turn_or_offset_stale(0.1, -11.4, 0.4, 7.0));
     // No time offset limit: the turn alone.
     EXPECT_FALSE(calibration_turn_or_offset_stale(0.3, 50.0, 0.4, std::numeric_limits<double>::infinity()));
-    // A refinement that failed to a NaN is not a finding.
+    // A refinement that failed to a NaN is not a finding, even where the other figure passes.
     EXPECT_FALSE(calibration_turn_or_offset_stale(std::nan(""), std::nan(""), 0.4, 7.0));
+    EXPECT_FALSE(calibration_turn_or_offset_stale(std::nan(""), 10.0, 0.4, 7.0));
+    EXPECT_FALSE(calibration_turn_or_offset_stale(2.0, std::nan(""), 0.4, 7.0));
+    EXPECT_FALSE(calibration_turn_or_offset_stale(std::numeric_limits<double>::infinity(), 0.0, 0.4, 7.0));
 }
 
 // The scan's refinement is a turn in the camera frame, after the mounting: world_from_camera =
