@@ -373,6 +373,11 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
         summary.calibration_time_offset_ms = r.time_offset_s * 1e3;
         summary.calibration_checked = true;
     };
+    // The limits of a whole scan's refined solve (the check during the scan has its own).
+    const auto stale_after_the_scan = [](const AdjustmentResult& r) {
+        return calibration_turn_or_offset_stale(r.calibration_turn_deg, r.time_offset_s * 1e3, kStaleMountingDeg,
+                                                kStaleTimeOffsetMs);
+    };
     const auto report_calibration = [&](const AdjustmentResult& r) {
         const bool first = !summary.calibration_checked;
         set_calibration_figures(r);
@@ -382,9 +387,7 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
         summary.calibration_turn_deg =
             first ? r.calibration_turn_deg : std::max(summary.calibration_turn_deg, r.calibration_turn_deg);
         // Stale once any refined solve turned the frames past the limit.
-        summary.calibration_stale =
-            summary.calibration_stale || calibration_turn_or_offset_stale(r.calibration_turn_deg, r.time_offset_s * 1e3,
-                                                                          kStaleMountingDeg, kStaleTimeOffsetMs);
+        summary.calibration_stale = summary.calibration_stale || stale_after_the_scan(r);
     };
     // The calibration checked during the scan (CaptureOptions::scan_check_*): a stale one's
     // refined solution kept at once, so that the frame loop's realignments and the kept map's
@@ -624,8 +627,7 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
             const AdjustmentResult& last = online_adjustment.result();
             set_calibration_figures(last);
             summary.calibration_turn_deg = last.calibration_turn_deg;
-            summary.calibration_stale = calibration_turn_or_offset_stale(
-                last.calibration_turn_deg, last.time_offset_s * 1e3, kStaleMountingDeg, kStaleTimeOffsetMs);
+            summary.calibration_stale = stale_after_the_scan(last);
             report_adjustment(last);
         } else {
             const AdjustmentResult refined = online_adjustment.refined_solution();
