@@ -12,6 +12,7 @@
 #include "appliance/convolution/lobe_sum.hpp"
 #include "appliance/convolution/methods.hpp"
 #include "appliance/core/equirect.hpp"
+#include "appliance/core/lane_extrema.hpp"
 #include "appliance/core/parallel.hpp"
 
 namespace glint::convolution {
@@ -72,10 +73,14 @@ BrightSplit split_bright_into(HdrImage remainder, const HdrImage* source, double
     };
     // Per row: the largest channel's power, and (in a second pass, once the
     // threshold is known) the texels above it; rows in parallel, merged in order.
+    // The row's largest value too (in cache with the sum): a row whose largest is under the
+    // threshold holds no candidate, and most rows are passed over in the second pass.
     std::vector<double> row_power(std::size_t(h), 0.0);
+    std::vector<float> row_max(std::size_t(h), 0.0f);
     parallel_for(h, threads, [&](int j) {
         if (source) std::copy_n(source->row(j), 3 * std::size_t(w), split.remainder.row(j));
         row_power[std::size_t(j)] = max_channel_row_sum(input.row(j), w) * omega[std::size_t(j)];
+        row_max[std::size_t(j)] = largest_or_zero(input.row(j), 3 * std::size_t(w));
     });
     double power = 0;
     for (double p : row_power) power += p;
@@ -87,6 +92,8 @@ BrightSplit split_bright_into(HdrImage remainder, const HdrImage* source, double
     parallel_for(h, threads, [&](int j) {
         const float* row = input.row(j);
         if (!(mean > 0) || max_count <= 0) return;
+        // No texel's largest channel exceeds the row's largest (NaN is never a candidate).
+        if (double(row_max[std::size_t(j)]) <= split.threshold) return;
         for (int i = 0; i < w; ++i) {
             const float v = std::max({row[3 * i], row[3 * i + 1], row[3 * i + 2]});
             if (double(v) > split.threshold) row_candidates[std::size_t(j)].push_back({v, i, j});

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstring>
 #include <numeric>
+#include <string>
 
 #include "appliance/core/equirect.hpp"
 #include "appliance/core/lane_extrema.hpp"
@@ -21,17 +22,39 @@ constexpr double kLogSmallestNormal = -708.39;
 }  // namespace
 
 double max_channel_row_sum(const float* rgb, int width) {
-    // Four partial sums: one chain of dependent double additions would cost
-    // its latency (~4 cycles) per texel.
-    double s[4] = {0, 0, 0, 0};
+    // Eight partial sums, texel i + k in lane k: one chain of dependent double additions would
+    // cost its latency (~4 cycles) per texel. Eight texels are 24 floats, loaded as three
+    // vectors and shuffled into their red, green and blue (the compiler does not vectorise
+    // loads three apart by itself).
+    using Floats = float __attribute__((vector_size(8 * sizeof(float))));
+    using Doubles = double __attribute__((vector_size(8 * sizeof(double))));
+    using Indices = int __attribute__((vector_size(8 * sizeof(int))));
+    constexpr int kLanes = 8;
+    Doubles lanes = {};
     int i = 0;
-    for (; i + 4 <= width; i += 4)
-        for (int k = 0; k < 4; ++k) {
-            const float* t = rgb + 3 * (i + k);
-            s[k] += double(std::max({t[0], t[1], t[2]}));
-        }
-    for (; i < width; ++i) s[0] += double(std::max({rgb[3 * i], rgb[3 * i + 1], rgb[3 * i + 2]}));
-    return (s[0] + s[1]) + (s[2] + s[3]);
+    for (; i + kLanes <= width; i += kLanes) {
+        Floats a, b, c;
+        const float* t = rgb + 3 * i;
+        std::memcpy(&a, t, sizeof a);
+        std::memcpy(&b, t + 8, sizeof b);
+        std::memcpy(&c, t + 16, sizeof c);
+        // From a and b the first texels' channels, then the last ones' from c (indices of the
+        // second operand count from 8).
+        const Floats r = __builtin_shuffle(__builtin_shuffle(a, b, Indices{0, 3, 6, 9, 12, 15, 0, 0}), c,
+                                           Indices{0, 1, 2, 3, 4, 5, 10, 13});
+        const Floats g = __builtin_shuffle(__builtin_shuffle(a, b, Indices{1, 4, 7, 10, 13, 0, 0, 0}), c,
+                                           Indices{0, 1, 2, 3, 4, 8, 11, 14});
+        const Floats bl = __builtin_shuffle(__builtin_shuffle(a, b, Indices{2, 5, 8, 11, 14, 0, 0, 0}), c,
+                                            Indices{0, 1, 2, 3, 4, 9, 12, 15});
+        // std::max(std::max(r, g), b) lane by lane: (x < y) ? y : x.
+        const Floats rg = r < g ? g : r;
+        const Floats m = rg < bl ? bl : rg;
+        lanes += __builtin_convertvector(m, Doubles);
+    }
+    double lane[kLanes];
+    std::memcpy(lane, &lanes, sizeof lane);
+    for (; i < width; ++i) lane[0] += double(std::max(std::max(rgb[3 * i], rgb[3 * i + 1]), rgb[3 * i + 2]));
+    return ((lane[0] + lane[1]) + (lane[2] + lane[3])) + ((lane[4] + lane[5]) + (lane[6] + lane[7]));
 }
 
 double max_channel_power(const HdrImage& image) {
@@ -144,24 +167,52 @@ double widest_merged_arc(int level_width, int level_height, int out_width, doubl
 
 namespace {
 
+// Whether one channel's row of `width` values has no group of M columns rougher than allowed
+// (row_smooth_enough). The groups are tested in blocks without an exit inside, so that the
+// compiler can test a vector of groups at once; each group's figures are those of a loop over
+// it alone (the same sums in the same order).
+template <int M>
+bool channel_groups_smooth(const float* row, int width, double mean, double arc_scale, double max_arc_roughness) {
+    constexpr int kBlock = 64 * M;  // columns tested between exits
+    for (int start = 0; start < width; start += kBlock) {
+        const int end = std::min(width, start + kBlock);
+        bool rough = false;
+        for (int g = start; g < end; g += M) {
+            double sum = 0, spread = 0;
+            for (int k = 0; k < M; ++k) sum += row[g + k];
+            for (int k = 0; k < M; ++k) spread += std::abs(row[g + k] - sum / M);
+            const double base = sum + M * mean;
+            // Both tests evaluated (no branch): NaN fails either, skipped as max() did.
+            rough |= (base > 0) & (arc_scale * (spread / base) > max_arc_roughness);
+        }
+        if (rough) return false;
+    }
+    return true;
+}
+
 // Whether row j's groups of m columns are smooth enough to merge: over the groups and
 // channels, the largest roughness sum |L - group mean| / (sum L + m mean), times `arc_scale`,
-// at most max_arc_roughness. Stops at the first group over it: the search for a row's factor
-// ends with a failing test, which used to read the whole row.
+// at most max_arc_roughness. Stops at the first block of groups with one over it: the search
+// for a row's factor ends with a failing test, which used to read the whole row.
 bool row_smooth_enough(const PreparedLevel& level, int j, int m, double mean, double arc_scale,
                        double max_arc_roughness) {
     // A row of no group with a base reads as roughness 0 (the old max() from 0): a limit below
     // that (negative, NaN) merges nothing.
     if (!(arc_scale * 0.0 <= max_arc_roughness)) return false;
+    const int w = level.width();  // a multiple of m (polar_merge_factor)
     for (int c = 0; c < 3; ++c) {
         const float* row = level.plane(j, c);
-        for (int g = 0; g < level.width(); g += m) {
-            double sum = 0, spread = 0;
-            for (int k = g; k < g + m; ++k) sum += row[k];
-            for (int k = g; k < g + m; ++k) spread += std::abs(row[k] - sum / m);
-            const double base = sum + m * mean;
-            if (base > 0 && arc_scale * (spread / base) > max_arc_roughness) return false;  // NaN: skipped, as max() did
+        bool smooth = false;
+        switch (m) {
+            case 2: smooth = channel_groups_smooth<2>(row, w, mean, arc_scale, max_arc_roughness); break;
+            case 4: smooth = channel_groups_smooth<4>(row, w, mean, arc_scale, max_arc_roughness); break;
+            case 8: smooth = channel_groups_smooth<8>(row, w, mean, arc_scale, max_arc_roughness); break;
+            case 16: smooth = channel_groups_smooth<16>(row, w, mean, arc_scale, max_arc_roughness); break;
+            case 32: smooth = channel_groups_smooth<32>(row, w, mean, arc_scale, max_arc_roughness); break;
+            case 64: smooth = channel_groups_smooth<64>(row, w, mean, arc_scale, max_arc_roughness); break;
+            default: throw RuntimeError("internal: columns merged in groups of " + std::to_string(m));
         }
+        if (!smooth) return false;
     }
     return true;
 }

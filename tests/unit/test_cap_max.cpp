@@ -5,6 +5,7 @@
 #include <cmath>
 #include <cstdio>
 #include <random>
+#include <vector>
 
 #include "appliance/convolution/lobe_sum.hpp"
 #include "appliance/core/equirect.hpp"
@@ -90,6 +91,77 @@ TEST(CapMax, QueryIsTheValueOfATexelNearTheCap) {
                 farthest, radius, below_global);
     EXPECT_GE(pole_caps, 64);  // both kinds of cap are exercised
     EXPECT_GE(below_global, 400);
+}
+
+// max_channel_row_sum reads eight texels at a time in shuffled vectors: each texel's largest
+// channel counts once, whichever channel it is, at every width (the last texels one by one).
+TEST(LevelSums, MaxChannelRowSumCountsEachTexelsLargestChannel) {
+    std::mt19937 rng(11);
+    std::uniform_real_distribution<float> value(0.0f, 1.0f);
+    for (int width = 1; width <= 41; ++width) {
+        std::vector<float> rgb(3 * std::size_t(width));
+        double expected = 0;
+        for (int i = 0; i < width; ++i) {
+            // The largest channel placed in turn: red, green, blue.
+            const int top = (i * 7 + width) % 3;
+            for (int c = 0; c < 3; ++c) rgb[3 * std::size_t(i) + std::size_t(c)] = value(rng);
+            rgb[3 * std::size_t(i) + std::size_t(top)] = 2.0f + float(i);
+            expected += 2.0 + i;
+        }
+        EXPECT_NEAR(max_channel_row_sum(rgb.data(), width), expected, 1e-12 * expected) << "width " << width;
+    }
+}
+
+// The merge factors' smoothness test, read a block of groups at a time, decides as the rule
+// group by group does (written out here) on rough and smooth rows and at every limit.
+TEST(LevelSums, PolarMergeFactorsFollowTheGroupRule) {
+    const auto rule = [](const PreparedLevel& level, int out_width, double max_arc, double limit) {
+        const int w = level.width(), h = level.height();
+        const double mean = level.power() / (4.0 * kPi);
+        std::vector<int> factor(std::size_t(h), 1);
+        for (int j = 0; j < h; ++j) {
+            const double edge = std::clamp(kPi / 2, j * kPi / h, (j + 1) * kPi / h);
+            const double arc = std::sin(edge) * kTwoPi / w;
+            const int most = polar_merge_factor(j, w, h, out_width, max_arc);
+            for (int m = 2; m <= most; m *= 2) {
+                bool smooth = true;
+                for (int c = 0; c < 3 && smooth; ++c)
+                    for (int g = 0; g < w && smooth; g += m) {
+                        double sum = 0, spread = 0;
+                        for (int k = g; k < g + m; ++k) sum += level.plane(j, c)[k];
+                        for (int k = g; k < g + m; ++k) spread += std::abs(level.plane(j, c)[k] - sum / m);
+                        const double base = sum + m * mean;
+                        if (base > 0 && m * arc * (spread / base) > limit) smooth = false;
+                    }
+                if (!smooth) break;
+                factor[std::size_t(j)] = m;
+            }
+        }
+        return factor;
+    };
+    // Rough rows: lognormal noise; smooth ones: a gentle gradient with a few rough texels.
+    HdrImage smooth(256, 128);
+    for (int j = 0; j < 128; ++j)
+        for (int i = 0; i < 256; ++i) {
+            const float v = 1.0f + 0.001f * float(i % 64) + ((i * 31 + j * 17) % 97 == 0 ? 0.5f : 0.0f);
+            smooth.set(i, j, {v, v * 0.9f, v * 1.1f});
+        }
+    int merged = 0, limits = 0;
+    for (const HdrImage* img : {&smooth}) {
+        const PreparedLevel level(*img, 1);
+        const HdrImage noise = random_map(256, 128, 9);
+        const PreparedLevel rough(noise, 1);
+        for (double limit : {0.0, 1e-6, 1e-4, 1e-3, 1e-2, 0.1, 1.0}) {
+            for (const PreparedLevel* l : {&level, &rough}) {
+                const std::vector<int> got = polar_merge_factors(*l, 64, 0.2, limit);
+                EXPECT_EQ(got, rule(*l, 64, 0.2, limit)) << "limit " << limit;
+                for (int f : got) merged += f > 1;
+            }
+            ++limits;
+        }
+    }
+    std::printf("[  report  ] merge factors: %d merged rows over %d limits\n", merged, limits);
+    EXPECT_GT(merged, 20);  // the rule merges somewhere, so that its decisions are compared
 }
 
 }  // namespace
