@@ -219,11 +219,14 @@ SimulateSummary write_session(const SimulateOptions& o, const HdrImage& env, con
         sim_board.start();
         const std::uint64_t end_board = kLeadUs + camera.end_us() + 500'000;
         while (board_clock.now_us() < end_board) {
-            sim_board.step();
+            sim_board.poll();
+            const std::uint64_t sent_board_us = board_clock.now_us();  // the pass's end: its bytes leave
+            sim_board.idle();
             std::vector<std::uint8_t> bytes = uart.take();
             if (bytes.empty()) continue;
-            // Delivered after the line time of the bytes at 921600 bit/s plus 0.3 ms of USB latency.
-            const std::uint64_t t = host_us(board_clock.now_us()) + 300 + bytes.size() * 10'000'000 / 921600 / 1000;
+            // Delivered after the line time of the bytes (10 bits each at 921600 bit/s, 10.9 us)
+            // plus 0.3 ms of USB latency.
+            const std::uint64_t t = host_us(sent_board_us) + 300 + bytes.size() * 10'000'000 / 921'600;
             record_clock.sleep_until_us(t);
             recorder.on_bytes(t, bytes);
             decoder.feed_all(bytes, [&](const protocol::FrameEvent& e) {

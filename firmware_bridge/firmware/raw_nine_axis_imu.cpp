@@ -146,6 +146,7 @@ ImuStatus RawNineAxisImu::poll(std::uint64_t now_us, ImuReading& reading) {
 
     // Magnetometer: only in Ndof; a missing one is re-probed once a second.
     bool mag_fault = false;
+    bool mag_fresh = false;  // a new field sample this poll
     if (mode_ == protocol::FusionMode::Ndof) {
         if (!mag_running_ && now_us >= mag_retry_at_us_) {
             mag_running_ = start_mag();
@@ -164,12 +165,13 @@ ImuStatus RawNineAxisImu::poll(std::uint64_t now_us, ImuReading& reading) {
             } else if ((m[6] & qmc5883l::kStatusOverflow) != 0) {
                 have_mag_ = false;  // field beyond +-8 gauss: a magnet on the board, not the earth
             } else if ((m[6] & qmc5883l::kStatusDrdy) != 0) {
-                // 100 Hz output data rate: between new samples the previous one is fused again.
+                // 100 Hz output data rate: a new sample every other poll at 200 Hz, fused once.
                 const Vec3f chip{int16_le(&m[0]) / qmc5883l::kLsbPerUt,
                                  int16_le(&m[2]) / qmc5883l::kLsbPerUt,
                                  int16_le(&m[4]) / qmc5883l::kLsbPerUt};
                 last_mag_ut_ = config_.mag_mounting.to_sensor(chip);
                 have_mag_ = true;
+                mag_fresh = true;
             }
         }
     }
@@ -184,8 +186,16 @@ ImuStatus RawNineAxisImu::poll(std::uint64_t now_us, ImuReading& reading) {
     const bool wait_for_mag = mode_ == protocol::FusionMode::Ndof && mag_running_ && !have_mag_ &&
                               !filter_.initialised();
     if (mode_ != protocol::FusionMode::Off && !wait_for_mag) {
-        filter_.update(gyro, accel, use_mag ? &last_mag_ut_ : nullptr, dt_s);
+        // The field only when the chip has a new sample: fused again, the previous one (5 ms old
+        // at every other poll) held the heading 2.5 ms behind the tilt in a steady turn (the
+        // filter weights each sample by the time since the last, mahony_filter.hpp).
+        const bool pass_mag = use_mag && (mag_fresh || !filter_.initialised());
+        filter_.update(gyro, accel, pass_mag ? &last_mag_ut_ : nullptr, dt_s);
+        // The field's verdict stands until the next sample is judged (the status would flip
+        // at every poll between samples otherwise, and each change is sent at once).
+        if (pass_mag) mag_trusted_ = filter_.mag_used();
     }
+    if (!use_mag) mag_trusted_ = false;
     have_last_sample_ = true;
     last_sample_us_ = now_us;
 
@@ -203,7 +213,7 @@ ImuStatus RawNineAxisImu::poll(std::uint64_t now_us, ImuReading& reading) {
         reading.has_orientation = true;
         reading.world_from_sensor = filter_.orientation();
     }
-    reading.calibration = calibration(now_us, filter_.accel_used(), filter_.mag_used());
+    reading.calibration = calibration(now_us, filter_.accel_used(), mag_trusted_);
     return mag_fault ? ImuStatus::Degraded : ImuStatus::Ok;
 }
 

@@ -62,6 +62,7 @@ private:
     bool mag_running_ = false;
     std::uint64_t mag_retry_at_us_ = 0;
     bool have_mag_ = false;
+    bool mag_trusted_ = false;  // the last field sample fused was plausible (mahony_filter.hpp)
     Vec3f last_mag_ut_;
     bool have_last_sample_ = false;
     std::uint64_t last_sample_us_ = 0;

@@ -46,9 +46,14 @@ public:
     void start() { firmware_->start(); }
     // One main-loop pass, then idle until the firmware's next deadline.
     void step() {
-        firmware_->poll();
-        clock_.wait_until_us(firmware_->next_wake_us());
+        poll();
+        idle();
     }
+    // The two halves of step(): what the pass sent leaves the board at the clock's time
+    // between them, not after the idle (a recorder that stamped it after idle() put every
+    // message one poll period late).
+    void poll() { firmware_->poll(); }
+    void idle() { clock_.wait_until_us(firmware_->next_wake_us()); }
     // Steps until the board clock reaches `end_us`.
     void run_until(std::uint64_t end_us) {
         while (clock_.now_us() < end_us) step();

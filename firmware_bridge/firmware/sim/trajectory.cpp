@@ -207,9 +207,17 @@ MotionState Trajectory::at(std::uint64_t time_us) const {
     const double t = static_cast<double>(time_us - a.time_us) * 1e-6 / span_s;
     state.world_from_sensor = slerp(a.world_from_sensor, b.world_from_sensor, t);
     // Slerp turns at a constant rate about a fixed axis in the sensor frame: the rotation
-    // a* b expressed in a's frame, divided by the segment's duration.
-    state.angular_rate_rad_s = (1.0 / span_s) * log_map(a.world_from_sensor.conj() *
-                                                        same_hemisphere(b.world_from_sensor, a.world_from_sensor));
+    // a* b expressed in a's frame, divided by the segment's duration. At a sample's own time
+    // the rate is that of the segment ending there: a gyro's reading is an average over the
+    // moments before it (its low-pass filter), never after, and a board that samples on the
+    // trajectory's grid integrates each reading over the interval before it. The segment
+    // after it made such a board's orientation one sample early (2.5-5 ms, 2026-12-08).
+    const std::size_t from = time_us == a.time_us && lo > 0 ? lo - 1 : lo;
+    const TrajectorySample& ra = samples_[from];
+    const TrajectorySample& rb = samples_[from + 1];
+    const double rate_span_s = static_cast<double>(rb.time_us - ra.time_us) * 1e-6;
+    state.angular_rate_rad_s = (1.0 / rate_span_s) * log_map(ra.world_from_sensor.conj() *
+                                                             same_hemisphere(rb.world_from_sensor, ra.world_from_sensor));
     return state;
 }
 

@@ -135,5 +135,18 @@ TEST(Trajectory, AngularRateIntegratesToTheMotion) {
     EXPECT_LT(test::angle_deg(q, t.at(10'000'000).world_from_sensor), 0.05);
 }
 
+
+// At a sample's own time the rate is the segment's that ends there (a gyro's reading averages the
+// moments before it): a board sampling on the grid integrates each reading over the interval
+// before it, which must be the interval the reading describes.
+TEST(Trajectory, RateAtASampleIsTheSegmentEndingThere) {
+    const Trajectory t = Trajectory::parse("format ypr_deg\n0,0,0,0\n1000000,10,0,0\n2000000,40,0,0\n", "r.csv");
+    EXPECT_NEAR(t.at(0).angular_rate_rad_s.y, 10 * kDeg, 1e-9);          // the first segment
+    EXPECT_NEAR(t.at(500'000).angular_rate_rad_s.y, 10 * kDeg, 1e-9);
+    EXPECT_NEAR(t.at(1'000'000).angular_rate_rad_s.y, 10 * kDeg, 1e-9);  // the segment ending there
+    EXPECT_NEAR(t.at(1'000'001).angular_rate_rad_s.y, 30 * kDeg, 1e-6);
+    EXPECT_NEAR(t.at(2'000'000).angular_rate_rad_s.y, 0, 1e-9);          // held after the end
+}
+
 }  // namespace
 }  // namespace glint::firmware::sim
