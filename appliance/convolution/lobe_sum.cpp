@@ -28,7 +28,6 @@ double max_channel_row_sum(const float* rgb, int width) {
     // loads three apart by itself).
     using Floats = float __attribute__((vector_size(8 * sizeof(float))));
     using Doubles = double __attribute__((vector_size(8 * sizeof(double))));
-    using Indices = int __attribute__((vector_size(8 * sizeof(int))));
     constexpr int kLanes = 8;
     Doubles lanes = {};
     int i = 0;
@@ -40,12 +39,12 @@ double max_channel_row_sum(const float* rgb, int width) {
         std::memcpy(&c, t + 16, sizeof c);
         // From a and b the first texels' channels, then the last ones' from c (indices of the
         // second operand count from 8).
-        const Floats r = __builtin_shuffle(__builtin_shuffle(a, b, Indices{0, 3, 6, 9, 12, 15, 0, 0}), c,
-                                           Indices{0, 1, 2, 3, 4, 5, 10, 13});
-        const Floats g = __builtin_shuffle(__builtin_shuffle(a, b, Indices{1, 4, 7, 10, 13, 0, 0, 0}), c,
-                                           Indices{0, 1, 2, 3, 4, 8, 11, 14});
-        const Floats bl = __builtin_shuffle(__builtin_shuffle(a, b, Indices{2, 5, 8, 11, 14, 0, 0, 0}), c,
-                                            Indices{0, 1, 2, 3, 4, 9, 12, 15});
+        const Floats r = __builtin_shufflevector(__builtin_shufflevector(a, b, 0, 3, 6, 9, 12, 15, 0, 0), c,
+                                                 0, 1, 2, 3, 4, 5, 10, 13);
+        const Floats g = __builtin_shufflevector(__builtin_shufflevector(a, b, 1, 4, 7, 10, 13, 0, 0, 0), c,
+                                                 0, 1, 2, 3, 4, 8, 11, 14);
+        const Floats bl = __builtin_shufflevector(__builtin_shufflevector(a, b, 2, 5, 8, 11, 14, 0, 0, 0), c,
+                                                  0, 1, 2, 3, 4, 9, 12, 15);
         // std::max(std::max(r, g), b) lane by lane: (x < y) ? y : x.
         const Floats rg = r < g ? g : r;
         const Floats m = rg < bl ? bl : rg;
@@ -168,24 +167,40 @@ double widest_merged_arc(int level_width, int level_height, int out_width, doubl
 namespace {
 
 // Whether one channel's row of `width` values has no group of M columns rougher than allowed
-// (row_smooth_enough). The groups are tested in blocks without an exit inside, so that the
-// compiler can test a vector of groups at once; each group's figures are those of a loop over
-// it alone (the same sums in the same order).
+// (row_smooth_enough). Eight groups are tested at once without an exit inside; each group's
+// figures are those of a loop over it alone (the same sums in the same order).
 template <int M>
 bool channel_groups_smooth(const float* row, int width, double mean, double arc_scale, double max_arc_roughness) {
-    constexpr int kBlock = 64 * M;  // columns tested between exits
-    for (int start = 0; start < width; start += kBlock) {
-        const int end = std::min(width, start + kBlock);
-        bool rough = false;
-        for (int g = start; g < end; g += M) {
-            double sum = 0, spread = 0;
-            for (int k = 0; k < M; ++k) sum += row[g + k];
-            for (int k = 0; k < M; ++k) spread += std::abs(row[g + k] - sum / M);
-            const double base = sum + M * mean;
-            // Both tests evaluated (no branch): NaN fails either, skipped as max() did.
-            rough |= (base > 0) & (arc_scale * (spread / base) > max_arc_roughness);
+    // Eight groups side by side, group j's column k at row[g + j M + k]: each lane sums its own
+    // group in the rule's order, and the lanes fill one vector register.
+    constexpr int kGroups = 8;
+    constexpr int kBlock = kGroups * M;
+    using Doubles = double __attribute__((vector_size(kGroups * sizeof(double))));
+    const auto column = [row](int g, int k) {  // column k of the eight groups from column g
+        return Doubles{row[g + k],         row[g + M + k],     row[g + 2 * M + k], row[g + 3 * M + k],
+                       row[g + 4 * M + k], row[g + 5 * M + k], row[g + 6 * M + k], row[g + 7 * M + k]};
+    };
+    int g = 0;
+    for (; g + kBlock <= width; g += kBlock) {
+        Doubles sum = {}, spread = {};
+        for (int k = 0; k < M; ++k) sum += column(g, k);
+        const Doubles group_mean = sum / double(M);
+        for (int k = 0; k < M; ++k) {
+            const Doubles d = column(g, k) - group_mean;
+            spread += d < 0 ? -d : d;  // std::abs, NaN kept
         }
-        if (rough) return false;
+        const Doubles base = sum + double(M) * mean;
+        // Both tests in every lane: NaN fails either, skipped as max() did.
+        const auto rough = (base > 0) & (arc_scale * (spread / base) > max_arc_roughness);
+        for (int j = 0; j < kGroups; ++j)
+            if (rough[j]) return false;
+    }
+    for (; g < width; g += M) {  // rows narrower than eight groups, or their last groups
+        double sum = 0, spread = 0;
+        for (int k = 0; k < M; ++k) sum += row[g + k];
+        for (int k = 0; k < M; ++k) spread += std::abs(row[g + k] - sum / M);
+        const double base = sum + M * mean;
+        if (base > 0 && arc_scale * (spread / base) > max_arc_roughness) return false;
     }
     return true;
 }
