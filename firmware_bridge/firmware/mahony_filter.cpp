@@ -85,12 +85,13 @@ bool MahonyFilter::mag_plausible(Vec3f mag, Vec3f up_sensor, float dt_s) {
 }
 
 void MahonyFilter::update(Vec3f gyro_rad_s, Vec3f accel, const Vec3f* mag, float dt_s) {
-    accel_used_ = mag_used_ = false;
+    accel_used_ = mag_used_ = integrated_ = false;
     if (!initialised_) {
         initialise(accel, mag);
         return;
     }
-    if (!(dt_s > 0.0f) || dt_s > 0.1f) return;
+    if (!(dt_s >= 1e-6f) || dt_s > 0.1f) return;  // the field's weight gap / dt stays finite
+    integrated_ = true;
     // Time since the field last corrected the heading, up to kMaxMagGapS (see below).
     mag_gap_s_ = std::fmin(mag_gap_s_ + dt_s, kMaxMagGapS);
 
@@ -124,7 +125,11 @@ void MahonyFilter::update(Vec3f gyro_rad_s, Vec3f accel, const Vec3f* mag, float
             // A field sample is passed once, when the chip has a new one (its rate may be below
             // the gyro's): it corrects for the time since the last one, so that the heading's
             // time constant does not depend on the magnetometer's rate.
-            error += (mag_gap_s_ / dt_s) * heading_error;
+            // The gap's correction kp gap e at most half the error: after a long gap (a
+            // disturbance, a restart) a large kp would otherwise overshoot the heading.
+            const float gain = gains_.kp * gains_.mag_weight;
+            const float gap = gain > 0.0f ? std::fmin(mag_gap_s_, 0.5f / gain) : mag_gap_s_;
+            error += (std::fmax(gap, dt_s) / dt_s) * heading_error;
             error_measured += heading_error;
             mag_gap_s_ = 0.0f;
             mag_used_ = true;

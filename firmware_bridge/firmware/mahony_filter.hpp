@@ -20,8 +20,9 @@
 //     its horizontal part h is compared with north n = (0, 0, -1), and the error h x n (a vertical
 //     vector, |.| = sin of the heading error) is rotated back to the sensor frame.
 // A field sample is passed once, when the chip has a new one, and its heading term is weighted
-// by the time since the last one (at most 50 ms), so that a magnetometer slower than the gyro
-// keeps the heading's time constant and is not fused again while it ages.
+// by the time since the last one (at most 50 ms, and at most what corrects half the heading error
+// at once, kP gap <= 1/2), so that a magnetometer slower than the gyro keeps the heading's time
+// constant and is not fused again while it ages.
 // Samples whose accelerometer norm is far from g (the board is being accelerated) or whose field
 // norm or dip angle is far from the reference learned at start (a magnet, a steel door) are
 // left out of the correction, so the gyro carries the estimate through them. The bias is only
@@ -66,7 +67,7 @@ public:
     // One step. gyro in rad/s, accel in m/s^2 (any scale works, only directions and the ratio to
     // g are used), mag in any unit (nullptr: no magnetometer this step, e.g. Imu mode), all in
     // the sensor frame; dt_s the time since the previous step in seconds (0 < dt_s <= 0.1,
-    // anything else only re-initialises the step and is not integrated).
+    // anything else, or under 1 us, only re-initialises the step and is not integrated).
     void update(Vec3f gyro_rad_s, Vec3f accel, const Vec3f* mag, float dt_s);
 
     bool initialised() const { return initialised_; }
@@ -74,6 +75,8 @@ public:
     Quatf orientation() const { return q_; }
     Vec3f gyro_bias_rad_s() const { return bias_; }
     // Whether the last update used the accelerometer / magnetometer correction.
+    // Whether the last update() integrated a step (not an initialisation or a rejected dt).
+    bool integrated() const { return integrated_; }
     bool accel_used() const { return accel_used_; }
     bool mag_used() const { return mag_used_; }
 
@@ -91,6 +94,7 @@ private:
     float mag_reference_dip_sin_ = 0;  // sin of the dip: component along up / |m| (negative north)
     bool accel_used_ = false;
     bool mag_used_ = false;
+    bool integrated_ = false;
     // Seconds since the field last corrected the heading (a sample stands for at most
     // kMaxMagGapS: after a disturbance the first plausible one is not weighted by the gap).
     static constexpr float kMaxMagGapS = 0.05f;

@@ -31,8 +31,11 @@ bool RawNineAxisImu::set_mode(protocol::FusionMode mode) {
     }
     if (mode != mode_) {
         mode_ = mode;
-        // Imu mode defines heading by the start attitude, Ndof by north: start the estimate again.
+        // Imu mode defines heading by the start attitude, Ndof by north: start the estimate again,
+        // from a new field sample (the last one may be minutes old).
         filter_.reset();
+        have_mag_ = false;
+        mag_trusted_ = false;
     }
     return true;
 }
@@ -164,6 +167,13 @@ ImuStatus RawNineAxisImu::poll(std::uint64_t now_us, ImuReading& reading) {
                 mag_fault = true;
             } else if ((m[6] & qmc5883l::kStatusOverflow) != 0) {
                 have_mag_ = false;  // field beyond +-8 gauss: a magnet on the board, not the earth
+            } else if ((m[6] & qmc5883l::kStatusDrdy) == 0 && have_mag_ &&
+                       now_us - last_fresh_mag_us_ > config_.mag_silent_us) {
+                // Reads succeed but no sample comes: restarted like a chip that failed.
+                mag_running_ = false;
+                have_mag_ = false;
+                mag_retry_at_us_ = now_us;
+                mag_fault = true;
             } else if ((m[6] & qmc5883l::kStatusDrdy) != 0) {
                 // 100 Hz output data rate: a new sample every other poll at 200 Hz, fused once.
                 const Vec3f chip{int16_le(&m[0]) / qmc5883l::kLsbPerUt,
@@ -172,6 +182,7 @@ ImuStatus RawNineAxisImu::poll(std::uint64_t now_us, ImuReading& reading) {
                 last_mag_ut_ = config_.mag_mounting.to_sensor(chip);
                 have_mag_ = true;
                 mag_fresh = true;
+                last_fresh_mag_us_ = now_us;
             }
         }
     }
@@ -193,7 +204,7 @@ ImuStatus RawNineAxisImu::poll(std::uint64_t now_us, ImuReading& reading) {
         filter_.update(gyro, accel, pass_mag ? &last_mag_ut_ : nullptr, dt_s);
         // The field's verdict stands until the next sample is judged (the status would flip
         // at every poll between samples otherwise, and each change is sent at once).
-        if (pass_mag) mag_trusted_ = filter_.mag_used();
+        if (pass_mag && filter_.integrated()) mag_trusted_ = filter_.mag_used();
     }
     if (!use_mag) mag_trusted_ = false;
     have_last_sample_ = true;

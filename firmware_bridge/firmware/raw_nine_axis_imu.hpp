@@ -28,6 +28,9 @@ struct RawNineAxisConfig {
     MahonyGains gains;
     std::uint32_t probe_retry_us = 100'000;
     std::uint32_t mag_retry_us = 1'000'000;
+    // No new field sample for this long (10 of the chip's 100 Hz periods) while its reads succeed:
+    // the chip stopped converting (a brown-out leaves it in standby); it is restarted.
+    std::uint32_t mag_silent_us = 100'000;
 };
 
 class RawNineAxisImu final : public ImuSource {
@@ -63,6 +66,7 @@ private:
     std::uint64_t mag_retry_at_us_ = 0;
     bool have_mag_ = false;
     bool mag_trusted_ = false;  // the last field sample fused was plausible (mahony_filter.hpp)
+    std::uint64_t last_fresh_mag_us_ = 0;  // when the chip last had a new sample
     Vec3f last_mag_ut_;
     bool have_last_sample_ = false;
     std::uint64_t last_sample_us_ = 0;

@@ -139,28 +139,40 @@ TEST(LevelSums, PolarMergeFactorsFollowTheGroupRule) {
         }
         return factor;
     };
-    // Rough rows: lognormal noise; smooth ones: a gentle gradient with a few rough texels.
-    HdrImage smooth(256, 128);
-    for (int j = 0; j < 128; ++j)
-        for (int i = 0; i < 256; ++i) {
-            const float v = 1.0f + 0.001f * float(i % 64) + ((i * 31 + j * 17) % 97 == 0 ? 0.5f : 0.0f);
-            smooth.set(i, j, {v, v * 0.9f, v * 1.1f});
-        }
+    // Rough rows: lognormal noise; smooth ones: a gentle gradient with a few rough texels and
+    // negative zeros. Widths and output widths that reach every group size (M up to 64 at
+    // 512 / 1) and a width that leaves groups after the last block of eight (96 / 3: M = 8,
+    // one block and four groups); a level holding a NaN decides as the rule does too.
+    const auto smooth_map = [](int w, int h) {
+        HdrImage img(w, h);
+        for (int j = 0; j < h; ++j)
+            for (int i = 0; i < w; ++i) {
+                const float v = 1.0f + 0.001f * float(i % 64) + ((i * 31 + j * 17) % 97 == 0 ? 0.5f : 0.0f);
+                img.set(i, j, {v, v * 0.9f, (i + j) % 13 == 0 ? -0.0f : v * 1.1f});
+            }
+        return img;
+    };
+    struct Case {
+        int w, h, out_width;
+    };
     int merged = 0, limits = 0;
-    for (const HdrImage* img : {&smooth}) {
-        const PreparedLevel level(*img, 1);
-        const HdrImage noise = random_map(256, 128, 9);
-        const PreparedLevel rough(noise, 1);
+    for (const Case c : {Case{256, 128, 64}, Case{512, 256, 1}, Case{96, 48, 3}}) {
+        const HdrImage smooth = smooth_map(c.w, c.h);
+        HdrImage with_nan = smooth_map(c.w, c.h);
+        with_nan.set(c.w / 2, 1, {std::nanf(""), 1.0f, 1.0f});
+        const HdrImage noise = random_map(c.w, c.h, 9);
+        const PreparedLevel levels[3] = {PreparedLevel(smooth, 1), PreparedLevel(noise, 1), PreparedLevel(with_nan, 1)};
         for (double limit : {0.0, 1e-6, 1e-4, 1e-3, 1e-2, 0.1, 1.0}) {
-            for (const PreparedLevel* l : {&level, &rough}) {
-                const std::vector<int> got = polar_merge_factors(*l, 64, 0.2, limit);
-                EXPECT_EQ(got, rule(*l, 64, 0.2, limit)) << "limit " << limit;
+            for (const PreparedLevel& l : levels) {
+                const std::vector<int> got = polar_merge_factors(l, c.out_width, 0.2, limit);
+                EXPECT_EQ(got, rule(l, c.out_width, 0.2, limit)) << c.w << "x" << c.h << " to " << c.out_width
+                                                                 << " columns, limit " << limit;
                 for (int f : got) merged += f > 1;
             }
             ++limits;
         }
     }
-    std::printf("[  report  ] merge factors: %d merged rows over %d limits\n", merged, limits);
+    std::printf("[  report  ] merge factors: %d merged rows over %d limits and three grids\n", merged, limits);
     EXPECT_GT(merged, 20);  // the rule merges somewhere, so that its decisions are compared
 }
 

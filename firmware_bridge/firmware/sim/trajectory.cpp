@@ -189,6 +189,8 @@ Trajectory Trajectory::builtin(const std::string& name) {
 }
 
 MotionState Trajectory::at(std::uint64_t time_us) const {
+    // A looping trajectory's period boundary after the first is the end of its last segment.
+    const bool period_end = loop_ && time_us > 0 && time_us % samples_.back().time_us == 0;
     if (loop_) time_us %= samples_.back().time_us;
     MotionState state;
     if (time_us >= samples_.back().time_us || samples_.size() == 1) {
@@ -212,7 +214,7 @@ MotionState Trajectory::at(std::uint64_t time_us) const {
     // moments before it (its low-pass filter), never after, and a board that samples on the
     // trajectory's grid integrates each reading over the interval before it. The segment
     // after it made such a board's orientation one sample early (2.5-5 ms, 2026-12-08).
-    const std::size_t from = time_us == a.time_us && lo > 0 ? lo - 1 : lo;
+    const std::size_t from = time_us == a.time_us && lo > 0 ? lo - 1 : (period_end ? samples_.size() - 2 : lo);
     const TrajectorySample& ra = samples_[from];
     const TrajectorySample& rb = samples_[from + 1];
     const double rate_span_s = static_cast<double>(rb.time_us - ra.time_us) * 1e-6;

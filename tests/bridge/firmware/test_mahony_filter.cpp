@@ -171,6 +171,32 @@ TEST(MahonyFilter, FollowsASteadyTurnWithoutLeadOrLag) {
     EXPECT_LT(best_rms, 0.02);
 }
 
+// A field sample at every other step corrects the heading as fast as one at every step: each is
+// weighted by the time since the last. Unweighted, the heading error after 1 s would be
+// e^-0.5 / e^-1 = 1.65 times the every-step one.
+TEST(MahonyFilter, ASlowerMagnetometerKeepsTheHeadingsTimeConstant) {
+    const Trajectory trajectory = Trajectory::builtin("static");
+    double error_after_1s[2] = {0, 0};
+    for (int every = 1; every <= 2; ++every) {
+        ImuPhysics physics(trajectory, SensorErrors::none(), 1);
+        MahonyFilter filter;
+        filter.set_orientation(quat_cast<float>(trajectory.at(0).world_from_sensor *
+                                                Quatd::from_axis_angle({0, 1, 0}, 20 * kDeg)));
+        for (std::uint64_t t = kStepUs; t <= 1'000'000; t += kStepUs) {
+            const sim::SensorReadings r = physics.read(t);
+            const Vec3f mag = vec_cast<float>(r.mag_ut);
+            const bool fresh = (t / kStepUs) % std::uint64_t(every) == 0;
+            filter.update(vec_cast<float>(r.gyro_rad_s), vec_cast<float>(r.accel_m_s2), fresh ? &mag : nullptr,
+                          static_cast<float>(kStepUs) * 1e-6f);
+            error_after_1s[every - 1] = angle_deg(quat_cast<double>(filter.orientation()), r.truth.world_from_sensor);
+        }
+    }
+    std::printf("[  report  ] heading 20 deg off, after 1 s: field every step %.2f deg, every other step %.2f deg\n",
+                error_after_1s[0], error_after_1s[1]);
+    EXPECT_LT(error_after_1s[0], 12.0);  // it converges at all
+    EXPECT_NEAR(error_after_1s[1] / error_after_1s[0], 1.0, 0.1);
+}
+
 TEST(MahonyFilter, AxisRemapIsARotation) {
     AxisRemap remap;
     remap.source[0] = 1;  // sensor x = chip y

@@ -118,6 +118,39 @@ TEST(RawImu, RunsOnWithoutAFailedMagnetometerAndTakesItBack) {
                         rig.trajectory.at(rig.clock.now_us()).world_from_sensor), 1.0);
 }
 
+// A magnetometer that answers but stops converting (a brown-out leaves the QMC5883L in standby)
+// is found within the silence limit (100 ms), reported, and restarted; meanwhile its last sample
+// is neither fused nor reported as a fresh reading for long.
+TEST(RawImu, ASilentMagnetometerIsRestarted) {
+    RawRig rig(sim::Trajectory::builtin("static"), sim::SensorErrors{});
+    ImuReading reading;
+    bool put_in_standby = false, mag_back = false;
+    int degraded = 0;
+    std::uint64_t first_fault_us = 0;
+    while (rig.clock.now_us() < 4'000'000) {
+        if (!put_in_standby && rig.clock.now_us() >= 2'000'000) {
+            ASSERT_EQ(rig.qmc.write_reg(qmc5883l::kRegControl1, 0x00, rig.clock.now_us()), I2cStatus::Ok);
+            put_in_standby = true;
+        }
+        const ImuStatus s = rig.step(reading);
+        if (s == ImuStatus::Degraded) {
+            ++degraded;
+            if (first_fault_us == 0) first_fault_us = rig.clock.now_us();
+            EXPECT_EQ(rig.driver.last_fault_sensors(), protocol::capability::kMag);
+        }
+        if (rig.clock.now_us() > 2'500'000) mag_back = mag_back || (reading.raw_valid & 0x04) != 0;
+    }
+    EXPECT_GE(degraded, 1);
+    EXPECT_GE(first_fault_us, 2'100'000u);  // not before the silence limit
+    EXPECT_LE(first_fault_us, 2'150'000u);
+    EXPECT_TRUE(mag_back);  // restarted: continuous mode again
+    std::uint8_t control = 0;
+    ASSERT_EQ(rig.bus.read_regs(qmc5883l::kAddress, qmc5883l::kRegControl1, {&control, 1}), I2cStatus::Ok);
+    EXPECT_EQ(control, qmc5883l::kControl1Continuous100Hz8G);
+    EXPECT_LT(angle_deg(quat_cast<double>(reading.world_from_sensor),
+                        rig.trajectory.at(rig.clock.now_us()).world_from_sensor), 1.0);
+}
+
 TEST(RawImu, GyroAccelNacksAreReadFailuresThenRecovered) {
     RawRig rig(sim::Trajectory::builtin("static"), sim::SensorErrors{});
     rig.bus.add_nack_window(mpu6050::kAddress, 1'000'000, 1'500'000);
