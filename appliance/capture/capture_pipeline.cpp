@@ -403,7 +403,8 @@ CaptureSummary run_capture(const CaptureOptions& o, CameraSource& camera, const 
         const bool late = t_s >= o.scan_check_late_from_s;
         const double limit_deg = late ? o.scan_check_late_stale_deg : o.scan_check_stale_deg;
         // No time offset limit before the later limit's start: right calibrations read up to +6.6 ms
-        // at 35 s (the quick capture benchmark), too near 7.
+        // at 35 s in the quick capture benchmark of 2026-12-07 (+4.7 ms since the sensor path's
+        // timing was fixed, 2026-12-08), too near 7.
         const double limit_ms = late ? o.scan_check_late_stale_offset_ms : std::numeric_limits<double>::infinity();
         if (!calibration_turn_or_offset_stale(refined.calibration_turn_deg, refined.time_offset_s * 1e3, limit_deg,
                                               limit_ms))

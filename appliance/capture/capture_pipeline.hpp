@@ -165,11 +165,12 @@ inline constexpr double kStaleMountingDeg = 0.4;
 // shipped kiosk session a time offset 15 ms off (read as -11.4 ms against the fusion's own
 // +3.5) turned the frames 0.398 degrees and was not found, its map 0.137 weighted relative RMS
 // against the truth where the scan's values give 0.0746 (docs/capture.md, "A limit on the time
-// offset"). Right calibrations of the raw IMU (42 sessions of the quick capture benchmark) read
-// +2.3 to +3.9 ms over the whole scan and up to +5.6 ms in the partial scans from 40 s (the
-// board's fusion lags its gyros); a BNO055 whose calibration.json lacks the lag of the chip's
-// fusion output (held 10 ms, 100 Hz) reads +8.1 to +8.2 ms and is found stale, as it should be:
-// `glint calibrate alignment` on that board measures the lag.
+// offset"). Right calibrations of the raw IMU (42 sessions of the quick capture benchmark,
+// 2026-12-08, with the sensor path in time) read +0.5 to +2.1 ms over the whole scan and up to
+// +3.6 ms in the partial scans from 40 s (+2.3 to +3.9 and +5.6 before that day: docs/capture.md,
+// "Where the raw IMU's lag came from"); a BNO055 whose calibration.json lacks the lag of the
+// chip's fusion output (held 10 ms, 100 Hz) reads +3.5 ms, which `glint calibrate alignment` on
+// that board measures into the file.
 inline constexpr double kStaleTimeOffsetMs = 7.0;
 // A refinement finds the calibration stale: its turn of the frames beyond turn_limit_deg, or its
 // time offset's change beyond offset_limit_ms (either sign). A NaN or infinite figure is none.

@@ -104,10 +104,9 @@ void MahonyFilter::update(Vec3f gyro_rad_s, Vec3f accel, const Vec3f* mag, float
     const float rate_norm = norm(rate);
     if (rate_norm > 0.0f) predicted = normalized(q_ * Quatf::from_axis_angle((1.0f / rate_norm) * rate, rate_norm * dt_s));
 
+    // The correction as applied (error: the heading's term weighted by the time its sample
+    // stands for) and as measured (error_measured: the bias's anti-windup test).
     Vec3f error{};
-    // The corrections as measured (the bias's anti-windup test) and as applied (the heading's
-    // weighted by the time its sample stands for).
-    Vec3f error_measured{};
     const Vec3f up_sensor = predicted.rotate_inverse(kWorldUp);  // predicted direction of +g reaction
     const float accel_norm = norm(accel);
     if (std::fabs(accel_norm - limits_.gravity_m_s2) <=
@@ -115,7 +114,7 @@ void MahonyFilter::update(Vec3f gyro_rad_s, Vec3f accel, const Vec3f* mag, float
         error += cross((1.0f / accel_norm) * accel, up_sensor);
         accel_used_ = true;
     }
-    error_measured = error;
+    Vec3f error_measured = error;
     if (mag != nullptr && mag_plausible(*mag, normalized_or_zero(accel), mag_gap_s_)) {
         const Vec3f field_world = predicted.rotate(*mag);
         const Vec3f horizontal = normalized_or_zero(Vec3f{field_world.x, 0.0f, field_world.z});
@@ -124,9 +123,8 @@ void MahonyFilter::update(Vec3f gyro_rad_s, Vec3f accel, const Vec3f* mag, float
             const Vec3f heading_error = gains_.mag_weight * predicted.rotate_inverse(heading_error_world);
             // A field sample is passed once, when the chip has a new one (its rate may be below
             // the gyro's): it corrects for the time since the last one, so that the heading's
-            // time constant does not depend on the magnetometer's rate.
-            // The gap's correction kp gap e at most half the error: after a long gap (a
-            // disturbance, a restart) a large kp would otherwise overshoot the heading.
+            // time constant does not depend on the magnetometer's rate; kp gap e at most half the
+            // error, or after a long gap (a disturbance, a restart) a large kp overshoots.
             const float gain = gains_.kp * gains_.mag_weight;
             const float gap = gain > 0.0f ? std::fmin(mag_gap_s_, 0.5f / gain) : mag_gap_s_;
             error += (std::fmax(gap, dt_s) / dt_s) * heading_error;

@@ -423,13 +423,14 @@ int main(int argc, char** argv) {
         }
         md << "\nTargets: irradiance within 2 %, n = 160 within 5 %, every source's energy within 2 %, orientation error "
               "after 60 s under 0.4 deg (0.5 with a margin of 0.1), last frame to map at most 1 s.\n\n";
+        md << "### The calibration check during the scan\n\n";
         if (refinement == CaptureOptions::CalibrationRefinement::Stale) {
             // How near the right calibrations come to the check during the scan's limits.
             const capture::CaptureOptions defaults;
             double largest = 0, largest_late = 0;  // over every check, and from the later limit on
             double largest_offset_late = 0;         // the largest time offset's change from the later limit on, ms
             std::string largest_at, largest_late_at, largest_offset_late_at;
-            md << "### The calibration check during the scan\n\nThe turn of each check's refined solve and its time offset's change (seconds into "
+            md << "The turn of each check's refined solve and its time offset's change (seconds into "
                   "the scan: degrees (ms); the check keeps the scan's values above "
                << bench::fmt("%.1f", defaults.scan_check_stale_deg) << " deg, from "
                << bench::fmt("%.0f", defaults.scan_check_late_from_s) << " s above "
@@ -457,8 +458,7 @@ int main(int argc, char** argv) {
                << "; the largest time offset's change from then on: " << bench::fmt("%+.1f ms", largest_offset_late)
                << (largest_offset_late_at.empty() ? "" : " (" + largest_offset_late_at + ")") << ".\n\n";
         } else {
-            md << "### The calibration check during the scan\n\nNot run: the scan checks the calibration only with "
-                  "`--calibration-refinement stale`.\n\n";
+            md << "Not run: the scan checks the calibration only with `--calibration-refinement stale`.\n\n";
         }
         md << "### Energy of each source (captured / true - 1)\n\n| map | source | solid angle | peak |";
         for (const std::uint64_t seed : seeds) md << " seed " << seed << " |";

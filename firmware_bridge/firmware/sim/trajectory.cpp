@@ -214,7 +214,9 @@ MotionState Trajectory::at(std::uint64_t time_us) const {
     // moments before it (its low-pass filter), never after, and a board that samples on the
     // trajectory's grid integrates each reading over the interval before it. The segment
     // after it made such a board's orientation one sample early (2.5-5 ms, 2026-12-08).
-    const std::size_t from = time_us == a.time_us && lo > 0 ? lo - 1 : (period_end ? samples_.size() - 2 : lo);
+    std::size_t from = lo;  // the segment holding the time
+    if (time_us == a.time_us && lo > 0) from = lo - 1;
+    if (period_end) from = samples_.size() - 2;
     const TrajectorySample& ra = samples_[from];
     const TrajectorySample& rb = samples_[from + 1];
     const double rate_span_s = static_cast<double>(rb.time_us - ra.time_us) * 1e-6;
